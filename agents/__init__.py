@@ -1,0 +1,1 @@
+"""Agents: classical controllers and stable-baselines3 training (needs the `agents` extra)."""

@@ -1,0 +1,1 @@
+"""Benchmarks: speed against anchors measured in the same run."""

@@ -1,0 +1,1 @@
+"""Vehicle models: parameters and numba kernels (pure physics, no gymnasium)."""
