@@ -1,4 +1,4 @@
-"""Surrogate models: one per file under the common :class:`~surrogates.models.base.SurrogateModel`."""
+"""Surrogate models: one per file under the common base class ``SurrogateModel``."""
 
 from __future__ import annotations
 

@@ -46,7 +46,8 @@ def as_outputs(V: Any, n: int, name: str = "V") -> np.ndarray:
     if V.shape != (n,):
         raise ValueError(f"{name} must have shape ({n},), got {V.shape}")
     if not np.all(np.isfinite(V)):
-        raise ValueError(f"{name} has non-finite values at rows {np.nonzero(~np.isfinite(V))[0][:5]}")
+        rows = np.nonzero(~np.isfinite(V))[0][:5].tolist()
+        raise ValueError(f"{name} has non-finite values at rows {rows}")
     return V
 
 
@@ -87,7 +88,9 @@ class SurrogateModel:
         self._check_fitted()
         U = as_inputs(U)
         if U.shape[1] != self.n_features_in_:
-            raise ValueError(f"U has {U.shape[1]} columns, the model was fitted on {self.n_features_in_}")
+            raise ValueError(
+                f"U has {U.shape[1]} columns, the model was fitted on {self.n_features_in_}"
+            )
         Uc = np.clip(U, self.lower_, self.upper_)
         outside = np.any(Uc != U, axis=1)
         n_out = int(outside.sum())

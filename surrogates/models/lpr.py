@@ -1,0 +1,332 @@
+"""Legendre polynomial regression (LPR), paper section 3.3, eq. (5)–(7).
+
+Each input ``u_j`` is mapped onto ``t_j = 2 (u_j − lower_j) / (upper_j − lower_j) − 1 ∈ [−1, 1]``
+over the training box and the output is modelled as a linear combination of Legendre terms
+``Π_j P_{e_tj}(t_j)``, one row ``e_t`` of :attr:`LegendreRegression.exponents_` per term.
+
+Decoupled (additive) form, the default (paper eq. 5)::
+
+    v ≈ c_0 + Σ_j Σ_{k=1..n_j} c_{j,k} P_k(t_j)
+
+Eq. (5) writes one constant term per input (``α_0 p_0(u_1)`` and ``β_0 p_0(u_2)``); since
+``p_0 ≡ 1`` those columns of the design matrix (6) are identical and the system is singular, so a
+single constant column ``c_0`` is kept here. With ``interactions=True`` every tensor term of total
+degree ≤ ``degree`` is used instead.
+
+The paper solves the normal equations (7) ``PᵀP α = PᵀV``; that squares the condition number, so
+here the columns of ``P`` are scaled to unit 2-norm and the least-squares problem is solved by an
+SVD-based solver (:func:`numpy.linalg.lstsq`). ``cond_`` is the condition number of the scaled
+design matrix.
+
+The module-level numba kernels :func:`lpr_eval`, :func:`lpr_eval_batch` and
+:func:`lpr_is_outside` evaluate a fitted model from the plain arrays of
+:meth:`LegendreRegression.kernel_arrays`, for use inside compiled vehicle models.
+"""
+
+from __future__ import annotations
+
+import itertools
+from numbers import Integral
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit
+
+from surrogates.models.base import SurrogateModel
+
+#: extrapolation policy → integer mode understood by the numba kernels
+EXTRAPOLATION_MODES = {"linear": 0, "clip": 1, "raise": 2}
+
+
+class LegendreRegression(SurrogateModel):
+    """Least-squares Legendre polynomial regression on the training box.
+
+    Parameters
+    ----------
+    degree
+        Polynomial degree: one int for every input, or a tuple ``(n_1, n_2, ...)`` with one
+        degree per input (additive form only).
+    interactions
+        ``False``: decoupled additive form (paper eq. 5). ``True``: all tensor terms
+        ``Π_j P_{e_j}(t_j)`` with ``Σ_j e_j ≤ degree`` (needs an int ``degree``).
+    extrapolation
+        ``"linear"``, ``"clip"`` or ``"raise"``; see :mod:`surrogates.models.base`.
+
+    Attributes
+    ----------
+    coef_ : ndarray (T,)
+        Coefficient of each term, in the output's units, for the mapped inputs ``t``.
+    exponents_ : ndarray of int (T, d)
+        Legendre degree of each input in each term; row 0 is the constant term.
+    n_terms_ : int
+        Number of terms ``T``.
+    cond_ : float
+        2-norm condition number of the column-scaled design matrix.
+    """
+
+    kind: ClassVar[str] = "lpr"
+
+    def __init__(
+        self,
+        degree: int | tuple[int, ...] = 5,
+        interactions: bool = False,
+        extrapolation: str = "linear",
+    ) -> None:
+        super().__init__(extrapolation=extrapolation)
+        self.degree = _check_degree(degree)
+        if not isinstance(interactions, (bool, np.bool_)):
+            raise ValueError(f"interactions must be True or False, got {interactions!r}")
+        if interactions and isinstance(self.degree, tuple):
+            raise ValueError(
+                f"degree must be a single int when interactions=True (total degree), "
+                f"got {self.degree!r}"
+            )
+        self.interactions = bool(interactions)
+
+    # ------------------------------------------------------------------ fitting
+    def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
+        n, d = U.shape
+        E = self._make_exponents(d)
+        T = E.shape[0]
+        if n < T:
+            raise ValueError(
+                f"U has {n} samples but degree={self.degree!r} "
+                f"(interactions={self.interactions}) needs at least {T} (one per term)"
+            )
+        A = _design(self._map(U), E)
+        norms = np.linalg.norm(A, axis=0)
+        coef_scaled, _, rank, s = np.linalg.lstsq(A / norms, V, rcond=None)
+        if rank < T:
+            raise ValueError(
+                f"degree={self.degree!r} is too high for the data: the design matrix has rank "
+                f"{rank} < {T} terms (too few distinct values in some column of U)"
+            )
+        self.coef_ = coef_scaled / norms
+        self.exponents_ = E
+        self.n_terms_ = T
+        self.cond_ = float(s[0] / s[-1])
+
+    def _make_exponents(self, d: int) -> np.ndarray:
+        """Exponent table (T, d) for ``d`` inputs; row 0 is the constant term."""
+        if self.interactions:
+            rows = [
+                e
+                for total in range(self.degree + 1)
+                for e in itertools.product(range(total + 1), repeat=d)
+                if sum(e) == total
+            ]
+            return np.array(rows, dtype=np.int64)[:, ::-1].copy()
+        degrees = self.degree if isinstance(self.degree, tuple) else (self.degree,) * d
+        if len(degrees) != d:
+            raise ValueError(f"degree has {len(degrees)} entries but U has {d} columns")
+        rows = [np.zeros(d, dtype=np.int64)]
+        for j, n_j in enumerate(degrees):
+            for k in range(1, n_j + 1):
+                e = np.zeros(d, dtype=np.int64)
+                e[j] = k
+                rows.append(e)
+        return np.array(rows, dtype=np.int64)
+
+    # --------------------------------------------------------------- evaluation
+    def _map(self, U: np.ndarray) -> np.ndarray:
+        """Inputs (n, d) → mapped variables ``t`` in [−1, 1] on the training box."""
+        return 2.0 * (U - self.lower_) / (self.upper_ - self.lower_) - 1.0
+
+    def _predict_inside(self, U: np.ndarray) -> np.ndarray:
+        return _design(self._map(U), self.exponents_) @ self.coef_
+
+    def _gradient_inside(self, U: np.ndarray) -> np.ndarray:
+        """Analytic gradient (n, d) in output units per input unit."""
+        E = self.exponents_
+        d = E.shape[1]
+        P, dP = _legendre_table(self._map(U), int(E.max()), derivative=True)
+        cols = np.arange(d)[None, :]
+        F = P[:, cols, E]  # (n, T, d): P_{e_tj}(t_j)
+        D = dP[:, cols, E]
+        dt_du = 2.0 / (self.upper_ - self.lower_)
+        G = np.empty_like(U)
+        for j in range(d):
+            Fj = F.copy()
+            Fj[:, :, j] = D[:, :, j]
+            G[:, j] = (np.prod(Fj, axis=2) @ self.coef_) * dt_du[j]
+        return G
+
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+        """Plain arrays for the numba kernels :func:`lpr_eval` / :func:`lpr_eval_batch`.
+
+        Returns
+        -------
+        exponents : int64 (T, d)
+        coef : float64 (T,)
+            Coefficients of the terms in the mapped variables ``t``.
+        lower, upper : float64 (d,)
+            Training box in input units.
+        mode : int
+            0 linear extrapolation, 1 clip, 2 raise (kernels treat 2 like 0).
+        """
+        self._check_fitted()
+        return (
+            np.ascontiguousarray(self.exponents_, dtype=np.int64),
+            np.ascontiguousarray(self.coef_, dtype=np.float64).copy(),
+            np.ascontiguousarray(self.lower_, dtype=np.float64).copy(),
+            np.ascontiguousarray(self.upper_, dtype=np.float64).copy(),
+            EXTRAPOLATION_MODES[self.extrapolation],
+        )
+
+    # -------------------------------------------------------------- persistence
+    def _state(self) -> dict[str, Any]:
+        return {"coef": self.coef_, "exponents": self.exponents_, "cond": self.cond_}
+
+    def _set_state(self, d: dict[str, Any]) -> None:
+        for key in ("coef", "exponents", "cond"):
+            if key not in d:
+                raise ValueError(f"LPR state is missing the field {key!r}")
+        coef = np.asarray(d["coef"], dtype=np.float64)
+        E = np.asarray(d["exponents"], dtype=np.int64)
+        if coef.ndim != 1 or E.shape != (coef.size, self.n_features_in_):
+            raise ValueError(
+                f"LPR state field 'exponents' has shape {E.shape}, expected "
+                f"({coef.size}, {self.n_features_in_}) to match 'coef' and the domain"
+            )
+        self.coef_ = coef
+        self.exponents_ = E
+        self.n_terms_ = coef.size
+        self.cond_ = float(d["cond"])
+
+
+# ---------------------------------------------------------------------- helpers
+def _check_degree(degree: Any) -> int | tuple[int, ...]:
+    """Validate ``degree`` (non-negative int or tuple of them)."""
+
+    def ok(x: Any) -> bool:
+        return isinstance(x, Integral) and not isinstance(x, (bool, np.bool_)) and x >= 0
+
+    if ok(degree):
+        return int(degree)
+    if isinstance(degree, (tuple, list)) and len(degree) > 0 and all(ok(x) for x in degree):
+        return tuple(int(x) for x in degree)
+    raise ValueError(
+        f"degree must be a non-negative int or a tuple of them (one per input), got {degree!r}"
+    )
+
+
+def _legendre_table(
+    t: np.ndarray, nmax: int, derivative: bool = False
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """``P_k(t)`` (and ``P_k'(t)``) for k = 0..nmax, shape ``t.shape + (nmax + 1,)``.
+
+    Bonnet recurrence ``(k+1) P_{k+1} = (2k+1) t P_k − k P_{k−1}``;
+    derivative ``P'_{k+1} = P'_{k−1} + (2k+1) P_k``.
+    """
+    P = np.empty(t.shape + (nmax + 1,))
+    P[..., 0] = 1.0
+    if nmax >= 1:
+        P[..., 1] = t
+    for k in range(1, nmax):
+        P[..., k + 1] = ((2 * k + 1) * t * P[..., k] - k * P[..., k - 1]) / (k + 1)
+    if not derivative:
+        return P, None
+    dP = np.empty_like(P)
+    dP[..., 0] = 0.0
+    if nmax >= 1:
+        dP[..., 1] = 1.0
+    for k in range(1, nmax):
+        dP[..., k + 1] = dP[..., k - 1] + (2 * k + 1) * P[..., k]
+    return P, dP
+
+
+def _design(t: np.ndarray, E: np.ndarray) -> np.ndarray:
+    """Design matrix (n, T): column ``t`` is ``Π_j P_{E[t, j]}(t_j)``."""
+    P, _ = _legendre_table(t, int(E.max()))
+    return np.prod(P[:, np.arange(E.shape[1])[None, :], E], axis=2)
+
+
+# ----------------------------------------------------------------- numba kernels
+@njit(cache=True)
+def lpr_is_outside(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:
+    """True if the point ``u`` (d,) lies outside the box ``[lower, upper]``."""
+    for j in range(u.shape[0]):
+        if u[j] < lower[j] or u[j] > upper[j]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def lpr_eval(
+    u: np.ndarray,
+    exponents: np.ndarray,
+    coef: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    mode: int,
+) -> float:
+    """Evaluate a fitted LPR model at one point ``u`` (d,) in input units.
+
+    Outside the box the value at the clipped point is used; for ``mode`` 0 or 2 it is
+    extended linearly with the gradient there (``mode`` 1: clip only). Arrays as returned by
+    :meth:`LegendreRegression.kernel_arrays`.
+    """
+    d = u.shape[0]
+    T = exponents.shape[0]
+    nmax = 0
+    for i in range(T):
+        for j in range(d):
+            if exponents[i, j] > nmax:
+                nmax = exponents[i, j]
+    P = np.empty((d, nmax + 1))
+    t = np.empty(d)
+    outside = False
+    for j in range(d):
+        uc = min(max(u[j], lower[j]), upper[j])
+        if uc != u[j]:
+            outside = True
+        t[j] = 2.0 * (uc - lower[j]) / (upper[j] - lower[j]) - 1.0
+        P[j, 0] = 1.0
+        if nmax >= 1:
+            P[j, 1] = t[j]
+        for k in range(1, nmax):
+            P[j, k + 1] = ((2 * k + 1) * t[j] * P[j, k] - k * P[j, k - 1]) / (k + 1)
+    value = 0.0
+    for i in range(T):
+        term = coef[i]
+        for j in range(d):
+            term *= P[j, exponents[i, j]]
+        value += term
+    if not outside or mode == 1:
+        return value
+    dP = np.zeros(nmax + 1)
+    for j in range(d):
+        uc = min(max(u[j], lower[j]), upper[j])
+        if uc == u[j]:
+            continue
+        # P'_k(t_j) by P'_{k+1} = P'_{k-1} + (2k+1) P_k, then the chain rule dt/du
+        if nmax >= 1:
+            dP[1] = 1.0
+        for k in range(1, nmax):
+            dP[k + 1] = dP[k - 1] + (2 * k + 1) * P[j, k]
+        g = 0.0
+        for i in range(T):
+            term = coef[i] * dP[exponents[i, j]]
+            for m in range(d):
+                if m != j:
+                    term *= P[m, exponents[i, m]]
+            g += term
+        value += g * 2.0 / (upper[j] - lower[j]) * (u[j] - uc)
+    return value
+
+
+@njit(cache=True)
+def lpr_eval_batch(
+    U: np.ndarray,
+    exponents: np.ndarray,
+    coef: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    mode: int,
+) -> np.ndarray:
+    """:func:`lpr_eval` for each row of ``U`` (n, d) → (n,)."""
+    n = U.shape[0]
+    out = np.empty(n)
+    for r in range(n):
+        out[r] = lpr_eval(U[r], exponents, coef, lower, upper, mode)
+    return out

@@ -1,0 +1,172 @@
+"""Model and degree selection (paper section 3.4): out-of-bag error or k-fold cross-validation.
+
+Both return a :class:`SelectionResult` holding the whole score table, not just the winner.
+The score that decides is the RMS error on the held-out samples (units of the output);
+the table also carries eq. 8/9 errors.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from surrogates.metrics import average_absolute_error, rms_normalised_error
+from surrogates.models import SurrogateModel, model_class
+from surrogates.models.base import as_inputs, as_outputs
+
+Factory = Callable[[Any], SurrogateModel]
+Progress = Callable[[int, int], None] | None
+
+
+@dataclass
+class SelectionResult:
+    """Scores of every candidate; ``best`` is the candidate with the lowest ``rms``."""
+
+    method: str
+    table: list[dict[str, Any]] = field(default_factory=list)
+    best: Any = None
+
+    def format(self) -> str:
+        """The score table as aligned text."""
+        lines = [f"{'candidate':>12} {'rms':>12} {'mae (eq.9)':>12} {'rel. rms':>10}"]
+        for row in self.table:
+            mark = "  <- best" if row["candidate"] == self.best else ""
+            lines.append(
+                f"{candidate_label(row['candidate']):>12} {row['rms']:12.4g} {row['mae']:12.4g} "
+                f"{row['nrms']:10.3g}{mark}"
+            )
+        return "\n".join(lines)
+
+
+def default_candidates(kind: str, n_inputs: int, max_degree: int = 10) -> list[Any]:
+    """Candidates searched by default.
+
+    LPR: every per-input degree tuple up to ``max_degree`` for d ≤ 2 (cheap: one lstsq each),
+    equal degrees 1..max_degree otherwise. Kriging: the two correlation kernels.
+    """
+    if kind == "lpr":
+        if n_inputs <= 2:
+            return list(itertools.product(range(1, max_degree + 1), repeat=n_inputs))
+        return list(range(1, max_degree + 1))
+    if kind == "kriging":
+        return ["gaussian", "matern52"]
+    raise ValueError(f"unknown model kind {kind!r}")
+
+
+def factory_for(kind: str, **params: Any) -> Factory:
+    """Candidate → model factory; the candidate is LPR's ``degree`` or Kriging's ``kernel``."""
+    cls = model_class(kind)
+    key = "degree" if kind == "lpr" else "kernel"
+
+    def make(candidate: Any) -> SurrogateModel:
+        return cls(**{key: candidate, **params})
+
+    return make
+
+
+def _score(model: SurrogateModel, U: np.ndarray, V: np.ndarray) -> dict[str, float]:
+    pred = model.predict(U)
+    return {
+        "rms": float(np.sqrt(np.mean((pred - V) ** 2))),
+        "mae": average_absolute_error(pred, V),
+        "nrms": rms_normalised_error(pred, V),
+    }
+
+
+def _fits(make: Factory, cand: Any, U: np.ndarray, V: np.ndarray) -> SurrogateModel | None:
+    """Fit a candidate; ``None`` when it cannot be fitted (e.g. more terms than samples)."""
+    try:
+        return make(cand).fit(U, V)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+
+
+def _finish(method: str, table: list[dict[str, Any]]) -> SelectionResult:
+    finite = [r for r in table if np.isfinite(r["rms"])]
+    if not finite:
+        raise ValueError("no candidate could be fitted: too few samples for every candidate")
+    best = min(finite, key=lambda r: r["rms"])["candidate"]
+    return SelectionResult(method=method, table=table, best=best)
+
+
+def select_oob(
+    make: Factory,
+    candidates: Iterable[Any],
+    U_train: Any,
+    V_train: Any,
+    U_oob: Any,
+    V_oob: Any,
+    progress: Progress = None,
+) -> SelectionResult:
+    """Fit each candidate on the training samples and score it on the out-of-bag samples."""
+    U_train = as_inputs(U_train, "U_train")
+    V_train = as_outputs(V_train, U_train.shape[0], "V_train")
+    U_oob = as_inputs(U_oob, "U_oob")
+    V_oob = as_outputs(V_oob, U_oob.shape[0], "V_oob")
+    cands = list(candidates)
+    table = []
+    for i, cand in enumerate(cands):
+        model = _fits(make, cand, U_train, V_train)
+        nan = {"rms": np.nan, "mae": np.nan, "nrms": np.nan}
+        table.append({"candidate": cand, **(_score(model, U_oob, V_oob) if model else nan)})
+        if progress:
+            progress(i + 1, len(cands))
+    return _finish("oob", table)
+
+
+def kfold_indices(n: int, k: int = 10, seed: int | None = 0) -> list[np.ndarray]:
+    """Split ``range(n)`` into ``k`` shuffled folds of near-equal size (seeded)."""
+    if not 2 <= k <= n:
+        raise ValueError(f"k must be between 2 and the number of samples ({n}), got {k}")
+    perm = np.random.default_rng(seed).permutation(n)
+    return [np.sort(f) for f in np.array_split(perm, k)]
+
+
+def select_kfold(
+    make: Factory,
+    candidates: Iterable[Any],
+    U: Any,
+    V: Any,
+    k: int = 10,
+    seed: int | None = 0,
+    progress: Progress = None,
+) -> SelectionResult:
+    """k-fold cross-validation: each candidate's score is pooled over the k held-out folds."""
+    U = as_inputs(U)
+    V = as_outputs(V, U.shape[0])
+    folds = kfold_indices(U.shape[0], k, seed)
+    cands = list(candidates)
+    table = []
+    for i, cand in enumerate(cands):
+        pred = np.empty_like(V)
+        ok = True
+        for fold in folds:
+            train = np.setdiff1d(np.arange(U.shape[0]), fold, assume_unique=True)
+            model = _fits(make, cand, U[train], V[train])
+            if model is None:
+                ok = False
+                break
+            pred[fold] = model.predict(U[fold])
+        if ok:
+            row = {
+                "rms": float(np.sqrt(np.mean((pred - V) ** 2))),
+                "mae": average_absolute_error(pred, V),
+                "nrms": rms_normalised_error(pred, V),
+            }
+        else:
+            row = {"rms": np.nan, "mae": np.nan, "nrms": np.nan}
+        table.append({"candidate": cand, **row})
+        if progress:
+            progress(i + 1, len(cands))
+    return _finish("kfold", table)
+
+
+def candidate_label(cand: Any) -> str:
+    """Short text of a candidate, e.g. ``(3, 5)`` → ``"3,5"``."""
+    if isinstance(cand, Sequence) and not isinstance(cand, str):
+        return ",".join(str(c) for c in cand)
+    return str(cand)

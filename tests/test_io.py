@@ -1,0 +1,75 @@
+import json
+
+import numpy as np
+import pytest
+
+from surrogates import LegendreRegression, io
+
+
+@pytest.fixture
+def fitted():
+    rng = np.random.default_rng(1)
+    U = rng.uniform(-1, 1, size=(60, 2)) * [0.03, 0.2]
+    V = 4e5 * U[:, 0] + 3e4 * U[:, 1] ** 3 + 8e4 * U[:, 1]
+    return LegendreRegression(degree=(2, 3)).fit(U, V), U
+
+
+def test_round_trip_identical(tmp_path, fitted):
+    model, U = fitted
+    path = io.save(model, tmp_path / "m.json", inputs=["dz", "dv"], output="F", units={"F": "N"})
+    back = io.load(path)
+    Uq = np.vstack([U, U * 1.5])  # inside and outside the training box
+    np.testing.assert_array_equal(back.predict(Uq), model.predict(Uq))
+    assert back.features_["inputs"] == ["dz", "dv"] and back.features_["units"] == {"F": "N"}
+
+
+@pytest.mark.parametrize(
+    "mutate, message",
+    [
+        (lambda d: d.update(schema_version=99), "schema_version 99"),
+        (lambda d: d.pop("schema_version"), "schema_version"),
+        (lambda d: d.update(format="pickle"), "format"),
+        (lambda d: d["model"].pop("state"), "state"),
+        (lambda d: d["model"].update(kind="nn"), "unknown model kind"),
+        (lambda d: d.pop("model"), "'model'"),
+    ],
+)
+def test_bad_documents_raise_clear_errors(tmp_path, fitted, mutate, message):
+    doc = io.model_to_document(fitted[0])
+    mutate(doc)
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=message):
+        io.load(path)
+
+
+def test_corrupt_json(tmp_path):
+    path = tmp_path / "c.json"
+    path.write_text('{"schema_version": 1, "model": ')
+    with pytest.raises(ValueError, match="not valid JSON"):
+        io.load(path)
+
+
+def test_read_csv(tmp_path):
+    path = tmp_path / "d.csv"
+    path.write_text("t,du,F\n0,0.1,5\n0.02,0.2,6\n")
+    cols = io.read_csv(path, columns=["du", "F"])
+    np.testing.assert_array_equal(cols["du"], [0.1, 0.2])
+    np.testing.assert_array_equal(cols["F"], [5.0, 6.0])
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("t,du\n0,1\n", "missing column"),
+        ("t,du,F\n0,1,nan\n", "column 'F' line 2"),
+        ("t,du,F\n0,1,x\n", "'x' is not a number"),
+        ("t,du,F\n0,1,2\n1,2\n", "line 3 has 2 fields"),
+        ("t,du,F\n", "no data rows"),
+    ],
+)
+def test_read_csv_errors(tmp_path, text, message):
+    path = tmp_path / "d.csv"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=message):
+        io.read_csv(path, columns=["du", "F"])
