@@ -1,0 +1,380 @@
+"""American (FRA) track irregularity spectra and random track inputs.
+
+The class table (``railgym/configs/track/fra.yaml``) is converted to SI once, when first loaded.
+Conventions: Ω is the spatial angular frequency in rad/m, PSDs are one-sided in m²/(rad/m),
+bands are given as wavelength intervals in m. Random profiles are harmonic sums with
+deterministic amplitudes and uniform random phases,
+
+    z(x) = Σ_k √(2·G(Ω_k)·ΔΩ)·cos(Ω_k·x + φ_k),  φ_k ~ U(0, 2π),
+
+evaluated on a uniform grid by one inverse real FFT (Ω_k = k·ΔΩ, ΔΩ = 2π/(N·Δx)); slopes come
+from the same harmonics, multiplied by iΩ_k, not from finite differences.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib.resources import files
+from pathlib import Path
+from typing import Any, Literal, NamedTuple
+
+import numpy as np
+import yaml
+
+__all__ = [
+    "TrackClassParameters",
+    "TrackInput",
+    "class_parameters",
+    "class_speed",
+    "fra_profile",
+    "fra_profile_with_slope",
+    "fra_psd",
+    "load_fra_table",
+    "track_time_input",
+]
+
+Kind = Literal["vertical", "alignment", "crosslevel"]
+KINDS: tuple[str, ...] = ("vertical", "alignment", "crosslevel")
+
+#: Units the YAML table must state, and the factor converting each to SI.
+_UNITS: dict[str, tuple[str, float]] = {
+    "A_v": ("cm^2*rad/m", 1e-4),
+    "A_a": ("cm^2*rad/m", 1e-4),
+    "Omega_s": ("rad/m", 1.0),
+    "Omega_c": ("rad/m", 1.0),
+    "max_speed": ("km/h", 1.0 / 3.6),
+}
+
+#: The synthesis period N·Δx is at least this many longest wavelengths, so the lowest harmonic
+#: index is >= 64 and the band-edge quantisation of the variance stays below about 1 %.
+_MIN_PERIODS = 64
+
+
+@dataclass(frozen=True)
+class TrackClassParameters:
+    """FRA spectrum parameters of one track class, in SI units.
+
+    Attributes
+    ----------
+    track_class : FRA class number (1-6).
+    k : dimensionless spectrum constant (0.25).
+    a_v, a_a : roughness constants of profile and alignment, m²·rad/m.
+    omega_s, omega_c : cut-off spatial frequencies, rad/m.
+    max_speed : maximum passenger speed, m/s.
+    verified : False where the values come from secondary sources only (classes 1, 2).
+    """
+
+    track_class: int
+    k: float
+    a_v: float
+    a_a: float
+    omega_s: float
+    omega_c: float
+    max_speed: float
+    verified: bool
+
+
+class TrackInput(NamedTuple):
+    """Track input sampled in time at t_k = k·dt (float64 arrays; unpacks as ``t, z, zdot``).
+
+    Attributes
+    ----------
+    t : times, s.
+    z : irregularity under the vehicle, m.
+    zdot : its time derivative v·dz/dx, m/s.
+    """
+
+    t: np.ndarray
+    z: np.ndarray
+    zdot: np.ndarray
+
+
+def _positive_number(value: Any, field: str) -> float:
+    """Return ``value`` as a float if it is a finite positive real number, else raise."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{field} must be a finite positive number, got {value!r}")
+    out = float(value)
+    if not (math.isfinite(out) and out > 0.0):
+        raise ValueError(f"{field} must be a finite positive number, got {value!r}")
+    return out
+
+
+def _parse_table(data: Any) -> dict[int, TrackClassParameters]:
+    """Validate a loaded FRA table mapping and convert it to SI."""
+    if not isinstance(data, Mapping):
+        raise ValueError("FRA table must be a mapping with keys k, units, classes")
+    k = _positive_number(data.get("k"), "k")
+    units = data.get("units")
+    if not isinstance(units, Mapping):
+        raise ValueError("units must be a mapping of field -> unit string")
+    for name, (unit, _) in _UNITS.items():
+        if units.get(name) != unit:
+            raise ValueError(f"units.{name} must be {unit!r}, got {units.get(name)!r}")
+    classes = data.get("classes")
+    if not isinstance(classes, Mapping) or not classes:
+        raise ValueError("classes must be a non-empty mapping of class number -> parameters")
+    table: dict[int, TrackClassParameters] = {}
+    for key, row in classes.items():
+        if isinstance(key, bool) or not isinstance(key, int):
+            raise ValueError(f"classes key must be an integer track class, got {key!r}")
+        if not isinstance(row, Mapping):
+            raise ValueError(f"classes.{key} must be a mapping of parameters")
+        si = {}
+        for name, (_, factor) in _UNITS.items():
+            if name not in row:
+                raise ValueError(f"classes.{key}.{name} is missing")
+            si[name] = _positive_number(row[name], f"classes.{key}.{name}") * factor
+        verified = row.get("verified", False)
+        if not isinstance(verified, bool):
+            raise ValueError(f"classes.{key}.verified must be true or false, got {verified!r}")
+        table[key] = TrackClassParameters(
+            track_class=key,
+            k=k,
+            a_v=si["A_v"],
+            a_a=si["A_a"],
+            omega_s=si["Omega_s"],
+            omega_c=si["Omega_c"],
+            max_speed=si["max_speed"],
+            verified=verified,
+        )
+    return table
+
+
+@lru_cache(maxsize=1)
+def _packaged_table() -> dict[int, TrackClassParameters]:
+    text = files("railgym").joinpath("configs", "track", "fra.yaml").read_text(encoding="utf-8")
+    return _parse_table(yaml.safe_load(text))
+
+
+def load_fra_table(path: str | Path | None = None) -> dict[int, TrackClassParameters]:
+    """Load and validate an FRA class table, converting it to SI.
+
+    Parameters
+    ----------
+    path : YAML file in the format of ``railgym/configs/track/fra.yaml``; None loads the
+        packaged table (cached).
+
+    Returns
+    -------
+    Mapping track class -> :class:`TrackClassParameters`.
+    """
+    if path is None:
+        return dict(_packaged_table())
+    return _parse_table(yaml.safe_load(Path(path).read_text(encoding="utf-8")))
+
+
+def class_parameters(track_class: int) -> TrackClassParameters:
+    """SI parameters of FRA ``track_class`` (an integer 1-6)."""
+    table = _packaged_table()
+    if (
+        isinstance(track_class, bool)
+        or not isinstance(track_class, int | np.integer)
+        or int(track_class) not in table
+    ):
+        raise ValueError(f"track_class must be one of {sorted(table)}, got {track_class!r}")
+    return table[int(track_class)]
+
+
+def class_speed(track_class: int) -> float:
+    """Default (maximum passenger) speed of FRA ``track_class``, m/s."""
+    return class_parameters(track_class).max_speed
+
+
+def _check_kind(kind: str) -> None:
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+
+
+def _psd(omega: np.ndarray, p: TrackClassParameters, kind: str) -> np.ndarray:
+    """One-sided PSD in m²/(rad/m) at positive Ω (rad/m); no validation."""
+    w2 = omega * omega
+    wc2 = p.omega_c * p.omega_c
+    if kind == "crosslevel":
+        return 4.0 * p.k * p.a_v * wc2 / ((w2 + wc2) * (w2 + p.omega_s * p.omega_s))
+    a = p.a_v if kind == "vertical" else p.a_a
+    return p.k * a * wc2 / (w2 * (w2 + wc2))
+
+
+def fra_psd(omega: Any, track_class: int, kind: Kind = "vertical") -> np.ndarray | float:
+    """One-sided FRA irregularity PSD.
+
+    Parameters
+    ----------
+    omega : spatial angular frequency Ω, rad/m (scalar or array, finite and > 0).
+    track_class : FRA class 1-6.
+    kind : "vertical" (profile), "alignment" or "crosslevel".
+
+    Returns
+    -------
+    PSD in m²/(rad/m), same shape as ``omega`` (a float for scalar input).
+    """
+    p = class_parameters(track_class)
+    _check_kind(kind)
+    w = np.asarray(omega, dtype=np.float64)
+    if not np.all(np.isfinite(w) & (w > 0.0)):
+        raise ValueError("omega must be finite and > 0 rad/m")
+    out = _psd(w, p, kind)
+    return float(out) if out.ndim == 0 else out
+
+
+def _check_band(band: Any) -> tuple[float, float]:
+    try:
+        lo, hi = band
+    except (TypeError, ValueError):
+        raise ValueError(f"band must be a (min, max) wavelength pair in m, got {band!r}") from None
+    lo = _positive_number(lo, "band")
+    hi = _positive_number(hi, "band")
+    if not lo < hi:
+        raise ValueError(f"band must satisfy min < max wavelength, got {band!r}")
+    return lo, hi
+
+
+def _synthesise(
+    p: TrackClassParameters,
+    kind: str,
+    band: tuple[float, float],
+    dx: float,
+    n_needed: int,
+    rng: np.random.Generator,
+    shift: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Harmonic sum and its slope on x_j = j·dx, j = 0..N-1 (N >= n_needed, power of two).
+
+    With ``shift`` > 0 (m) returns the mean of the profile at x and x + shift, done exactly as a
+    per-harmonic phase factor (1 + exp(iΩ_k·shift))/2.
+    """
+    n_min = max(n_needed, math.ceil(_MIN_PERIODS * band[1] / dx))
+    n_fft = 1 << (n_min - 1).bit_length()
+    period = n_fft * dx
+    d_omega = 2.0 * math.pi / period
+    k_lo = math.ceil(period / band[1] - 1e-9)
+    k_hi = math.floor(period / band[0] + 1e-9)
+    kk = np.arange(k_lo, k_hi + 1)
+    omega = kk * d_omega
+    amp = np.sqrt(2.0 * _psd(omega, p, kind) * d_omega)
+    phase = rng.uniform(0.0, 2.0 * math.pi, size=kk.size)
+    coef = np.zeros(n_fft // 2 + 1, dtype=np.complex128)
+    coef[kk] = 0.5 * n_fft * amp * np.exp(1j * phase)
+    if shift > 0.0:
+        coef[kk] *= 0.5 * (1.0 + np.exp(1j * omega * shift))
+    z = np.fft.irfft(coef, n=n_fft)
+    coef[kk] *= 1j * omega
+    dzdx = np.fft.irfft(coef, n=n_fft)
+    return z, dzdx
+
+
+def fra_profile_with_slope(
+    track_class: int,
+    length: float,
+    dx: float,
+    seed: int | np.random.Generator | None,
+    band: tuple[float, float] = (1.0, 100.0),
+    *,
+    kind: Kind = "vertical",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Random FRA irregularity profile with its exact (spectral) slope.
+
+    Parameters
+    ----------
+    track_class : FRA class 1-6.
+    length : profile length, m.
+    dx : sample spacing, m; must be below half the shortest wavelength.
+    seed : seed or generator for the random phases (``np.random.default_rng(seed)``).
+    band : (min, max) wavelength band, m.
+    kind : "vertical", "alignment" or "crosslevel".
+
+    Returns
+    -------
+    x : positions j·dx from 0 to at most ``length``, m.
+    z : irregularity, m.
+    dzdx : slope dz/dx, dimensionless.
+
+    Notes
+    -----
+    The profile is the start of one period of a harmonic sum whose period N·dx is the next power
+    of two of samples covering both ``length`` and 64 longest wavelengths.
+    """
+    p = class_parameters(track_class)
+    _check_kind(kind)
+    length = _positive_number(length, "length")
+    dx = _positive_number(dx, "dx")
+    lo, hi = _check_band(band)
+    if not dx < 0.5 * lo:
+        raise ValueError(f"dx must be below half the shortest wavelength {lo} m, got {dx}")
+    if not dx <= length:
+        raise ValueError(f"length must be at least dx, got {length}")
+    n = math.floor(length / dx + 1e-9) + 1
+    z, dzdx = _synthesise(p, kind, (lo, hi), dx, n, np.random.default_rng(seed))
+    return np.arange(n) * dx, z[:n].copy(), dzdx[:n].copy()
+
+
+def fra_profile(
+    track_class: int,
+    length: float,
+    dx: float,
+    seed: int | np.random.Generator | None,
+    band: tuple[float, float] = (1.0, 100.0),
+    *,
+    kind: Kind = "vertical",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Random FRA irregularity profile ``(x, z)`` in m; see :func:`fra_profile_with_slope`."""
+    x, z, _ = fra_profile_with_slope(track_class, length, dx, seed, band, kind=kind)
+    return x, z
+
+
+def track_time_input(
+    track_class: int,
+    speed: float,
+    duration: float,
+    dt: float,
+    seed: int | np.random.Generator | None,
+    band: tuple[float, float] = (1.0, 100.0),
+    wheelbase: float | None = None,
+    *,
+    kind: Kind = "vertical",
+) -> TrackInput:
+    """Track irregularity seen by a vehicle running at constant speed.
+
+    Parameters
+    ----------
+    track_class : FRA class 1-6.
+    speed : running speed v, m/s.
+    duration : simulated time, s; the grid is t_k = k·dt, k = 0..floor(duration/dt).
+    dt : sample interval, s.
+    seed : seed or generator for the random phases.
+    band : (min, max) wavelength band, m.
+    wheelbase : if given (m), the input is the mean of the leading wheel (at v·t + wheelbase)
+        and the trailing wheel (at v·t), applied exactly per harmonic.
+    kind : "vertical", "alignment" or "crosslevel".
+
+    Returns
+    -------
+    TrackInput ``(t, z, zdot)``: z in m at x = v·t, zdot = v·dz/dx in m/s.
+
+    Notes
+    -----
+    The samples are exact values of the harmonic sum: where v·dt exceeds half the shortest
+    wavelength the sum is evaluated on a finer internal grid (dt/m) and every m-th value kept,
+    so nothing is interpolated (the sampled signal then aliases, as a measured one would).
+    """
+    p = class_parameters(track_class)
+    _check_kind(kind)
+    speed = _positive_number(speed, "speed")
+    duration = _positive_number(duration, "duration")
+    dt = _positive_number(dt, "dt")
+    lo, hi = _check_band(band)
+    if not dt <= duration:
+        raise ValueError(f"duration must be at least dt, got {duration}")
+    shift = 0.0 if wheelbase is None else _positive_number(wheelbase, "wheelbase")
+    n_steps = math.floor(duration / dt + 1e-9)
+    step = speed * dt
+    sub = math.floor(2.0 * step / lo) + 1  # internal samples per time step, keeps dx < lo/2
+    dx = step / sub
+    n_needed = n_steps * sub + 1 + math.ceil(shift / dx)
+    z, dzdx = _synthesise(p, kind, (lo, hi), dx, n_needed, np.random.default_rng(seed), shift)
+    last = n_steps * sub + 1
+    t = np.arange(n_steps + 1) * dt
+    return TrackInput(t, z[:last:sub].copy(), speed * dzdx[:last:sub])
