@@ -1,0 +1,3 @@
+from surrogates.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,171 @@
+"""The whole pipeline in one call: sample → select degree/kernel → fit → score.
+
+``build(U, V)`` picks ``m`` space-filling training samples (section 3.2), chooses the
+model's degree (LPR) or kernel (Kriging) by out-of-bag error or k-fold cross-validation
+(section 3.4), refits the winner on the training samples and reports the paper's indices.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from surrogates.metrics import paper_error, rms_normalised_error, timer
+from surrogates.models import SurrogateModel
+from surrogates.models.base import as_inputs, as_outputs
+from surrogates.sampling import select
+from surrogates.selection import (
+    SelectionResult,
+    candidate_label,
+    default_candidates,
+    factory_for,
+    select_kfold,
+    select_oob,
+)
+
+
+@dataclass
+class BuildReport:
+    """What :func:`build` did and how good the result is.
+
+    Attributes
+    ----------
+    kind, sampling, selection : the choices made.
+    chosen : the winning degree (LPR) or kernel (Kriging).
+    scores : the selection score table (one row per candidate).
+    training_time_s : T_t, wall time of sampling + selection + final fit, s.
+    fit_time_s : wall time of the final fit alone, s.
+    oob_error, oob_error_kind : eq. 8 or eq. 9 error on the out-of-bag samples (paper's rule).
+    oob_nrms : RMS error on the out-of-bag samples / RMS of their outputs.
+    domain : training box (lower, upper) per input.
+    train_idx, oob_idx : indices of the training and out-of-bag samples.
+    """
+
+    kind: str
+    sampling: str
+    selection: str
+    m: int
+    n: int
+    chosen: Any
+    scores: SelectionResult
+    training_time_s: float
+    fit_time_s: float
+    oob_error: float
+    oob_error_kind: str
+    oob_nrms: float
+    domain: tuple[list[float], list[float]]
+    train_idx: np.ndarray = field(repr=False)
+    oob_idx: np.ndarray = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (without the index arrays)."""
+        return {
+            "kind": self.kind,
+            "sampling": self.sampling,
+            "selection": self.selection,
+            "m": self.m,
+            "n": self.n,
+            "chosen": candidate_label(self.chosen),
+            "training_time_s": self.training_time_s,
+            "fit_time_s": self.fit_time_s,
+            "oob_error": self.oob_error,
+            "oob_error_kind": self.oob_error_kind,
+            "oob_nrms": self.oob_nrms,
+            "domain": {"lower": self.domain[0], "upper": self.domain[1]},
+        }
+
+    def format(self) -> str:
+        """Human-readable summary followed by the score table."""
+        err = "eq. 8 relative" if self.oob_error_kind == "relative" else "eq. 9 absolute"
+        head = [
+            f"model: {self.kind}   chosen: {candidate_label(self.chosen)}   "
+            f"samples: {self.m} of {self.n} ({self.sampling})   selection: {self.selection}",
+            f"T_t = {self.training_time_s:.4f} s (final fit {self.fit_time_s * 1e3:.3f} ms)",
+            f"OOB error ({err}) = {self.oob_error:.4g}   OOB relative RMS = {self.oob_nrms:.3g}",
+        ]
+        return "\n".join(head) + "\n" + self.scores.format()
+
+
+def build(
+    U: Any,
+    V: Any,
+    kind: str = "lpr",
+    m: int = 101,
+    sampling: str = "ga",
+    selection: str = "oob",
+    seed: int | None = 0,
+    candidates: Sequence[Any] | None = None,
+    k: int = 10,
+    extrapolation: str = "linear",
+    progress: Callable[[str, int, int], None] | None = None,
+    **model_params: Any,
+) -> tuple[SurrogateModel, BuildReport]:
+    """Build a surrogate element from data.
+
+    Parameters
+    ----------
+    U, V : inputs (n, d) and outputs (n,).
+    kind : ``"lpr"`` (Legendre polynomial regression) or ``"kriging"``.
+    m : number of training samples picked by ``sampling`` (``"ga"``, ``"greedy"``, ``"random"``);
+        the other n − m points are the out-of-bag test samples.
+    selection : ``"oob"`` (score on the out-of-bag samples) or ``"kfold"`` (k-fold CV on the
+        training samples).
+    seed : seed of the sampling and the fold split.
+    candidates : degrees (LPR) or kernels (Kriging) to choose from; default
+        :func:`~surrogates.selection.default_candidates`.
+    progress : optional ``callback(stage, i, total)`` (stage ``"sampling"`` or ``"selection"``).
+    model_params : further hyperparameters of the model class.
+
+    Returns
+    -------
+    (model, report) : the fitted model and a :class:`BuildReport`.
+    """
+    U = as_inputs(U)
+    V = as_outputs(V, U.shape[0])
+    n = U.shape[0]
+    if selection not in ("oob", "kfold"):
+        raise ValueError(f"selection must be 'oob' or 'kfold', got {selection!r}")
+    if selection == "oob" and m >= n:
+        raise ValueError(f"m = {m} leaves no out-of-bag samples out of n = {n}: use m < n")
+    cands = list(candidates) if candidates is not None else default_candidates(kind, U.shape[1])
+    make = factory_for(kind, extrapolation=extrapolation, **model_params)
+
+    def stage(name: str) -> Callable[[int, int], None] | None:
+        return (lambda i, total: progress(name, i, total)) if progress else None
+
+    with timer() as t_total:
+        train_idx, oob_idx = select(U, m, method=sampling, seed=seed, progress=stage("sampling"))
+        Ut, Vt = U[train_idx], V[train_idx]
+        if selection == "oob":
+            result = select_oob(make, cands, Ut, Vt, U[oob_idx], V[oob_idx], stage("selection"))
+        else:
+            result = select_kfold(make, cands, Ut, Vt, k=k, seed=seed, progress=stage("selection"))
+        with timer() as t_fit:
+            model = make(result.best).fit(Ut, Vt)
+    if oob_idx.size:
+        pred = model.predict(U[oob_idx])
+        err, err_kind = paper_error(pred, V[oob_idx])
+        nrms = rms_normalised_error(pred, V[oob_idx])
+    else:
+        err, err_kind, nrms = float("nan"), "absolute", float("nan")
+    report = BuildReport(
+        kind=kind,
+        sampling=sampling,
+        selection=selection,
+        m=int(m),
+        n=n,
+        chosen=result.best,
+        scores=result,
+        training_time_s=t_total["seconds"],
+        fit_time_s=t_fit["seconds"],
+        oob_error=err,
+        oob_error_kind=err_kind,
+        oob_nrms=nrms,
+        domain=(model.lower_.tolist(), model.upper_.tolist()),
+        train_idx=train_idx,
+        oob_idx=oob_idx,
+    )
+    return model, report
