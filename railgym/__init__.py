@@ -1,3 +1,11 @@
-"""railgym — Gymnasium environments for railway vehicle dynamics with surrogate elements."""
+"""railgym — Gymnasium environments for railway vehicle dynamics with surrogate elements.
+
+Importing the package registers the environments: ``gym.make("railgym/VerticalSuspension-v0")``.
+The physics (:mod:`railgym.track`, :mod:`railgym.vehicles`) does not use gymnasium.
+"""
+
+from railgym.registration import register_envs
 
 __version__ = "0.1.0"
+
+register_envs()
