@@ -1,0 +1,135 @@
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import railgym  # noqa: F401  (registers the environments)
+from railgym.envs.vertical import VerticalSuspensionEnv
+
+ENV_ID = "railgym/VerticalSuspension-v0"
+
+
+def _rollout(env, seed, actions):
+    obs, _ = env.reset(seed=seed)
+    out = [obs]
+    for a in actions:
+        obs, r, term, trunc, info = env.step(a)
+        out.append(np.concatenate([obs, [r, info["carbody_acc"]]]))
+        if term or trunc:
+            break
+    return out
+
+
+@pytest.mark.parametrize("backend", ["surrogate", "reference", "linear"])
+def test_checkers_pass(backend):
+    check_env(VerticalSuspensionEnv(backend=backend, duration=1.0), skip_render_check=True)
+    from stable_baselines3.common.env_checker import check_env as sb3_check
+
+    sb3_check(VerticalSuspensionEnv(backend=backend, duration=1.0), warn=False)
+
+
+def test_same_seed_same_episode_other_seed_differs():
+    env = gym.make(ENV_ID, duration=2.0)
+    acts = [np.array([0.3 * np.sin(0.1 * k)], np.float32) for k in range(200)]
+    a = _rollout(env, 7, acts)
+    b = _rollout(env, 7, acts)
+    c = _rollout(env, 8, acts)
+    np.testing.assert_array_equal(np.array(a[1:]), np.array(b[1:]))
+    assert not np.allclose(np.array(a[1:]), np.array(c[1:]))
+
+
+def test_vector_env_equals_single_envs_with_autoreset():
+    n, duration = 3, 0.5  # 50 steps per episode: the run crosses one autoreset
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point",
+                        duration=duration, sensor_noise=0.05)  # fmt: skip
+    singles = [VerticalSuspensionEnv(duration=duration, sensor_noise=0.05) for _ in range(n)]
+    obs_v, _ = venv.reset(seed=11)
+    obs_s = [e.reset(seed=11 + i)[0] for i, e in enumerate(singles)]
+    np.testing.assert_array_equal(obs_v, np.stack(obs_s))
+    rng = np.random.default_rng(0)
+    done = np.zeros(n, bool)
+    for _ in range(80):
+        act = rng.uniform(-1, 1, (n, 1)).astype(np.float32)
+        obs_v, rew_v, term_v, trunc_v, info_v = venv.step(act)
+        for i, e in enumerate(singles):
+            if done[i]:  # next-step autoreset of the vector env
+                o, _ = e.reset()
+                r, te, tr = 0.0, False, False
+            else:
+                o, r, te, tr, info = e.step(act[i])
+                assert info["carbody_acc"] == info_v["carbody_acc"][i]
+            np.testing.assert_array_equal(obs_v[i], o)
+            assert rew_v[i] == pytest.approx(r, abs=0) and term_v[i] == te and trunc_v[i] == tr
+            done[i] = te or tr
+    assert venv.unwrapped.sim.steps.max() < 50  # an autoreset happened
+
+
+def test_bad_actions_raise_and_large_actions_are_clipped():
+    env = VerticalSuspensionEnv(duration=1.0)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="finite"):
+        env.step(np.array([np.nan], np.float32))
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros(2, np.float32))
+    a = _rollout(env, 3, [np.array([5.0])] * 20)
+    b = _rollout(env, 3, [np.array([1.0])] * 20)
+    np.testing.assert_array_equal(np.array(a[1:]), np.array(b[1:]))
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"backend": "simpack"}, "backend"),
+        ({"control_dt": 0.0105}, "control_dt"),
+        ({"track_class": 9}, "track_class"),
+        ({"speed": -3.0}, "speed"),
+        ({"observation": "pixels"}, "observation"),
+        ({"reward_weights": {"comfort": 1.0}}, "reward_weights"),
+        ({"f_max": float("nan")}, "f_max"),
+    ],
+)
+def test_bad_arguments_name_the_field(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        VerticalSuspensionEnv(**kwargs)
+
+
+def test_reset_options_change_track_class_and_roughness():
+    env = VerticalSuspensionEnv(backend="linear", duration=5.0)
+    rms = {}
+    for tc in (3, 6):
+        env.reset(seed=1, options={"track_class": tc, "speed": 30.0})
+        assert env.track_class == tc
+        for _ in range(500):
+            *_, info = env.step(np.zeros(1, np.float32))
+        rms[tc] = info["rms_carbody_acc"]
+    assert rms[3] > 2 * rms[6]  # class 3 is far rougher than class 6 at the same speed
+
+
+def test_passive_reward_is_of_order_one_and_info_keys():
+    env = VerticalSuspensionEnv(backend="reference")
+    env.reset(seed=0)
+    total, n = 0.0, 0
+    while True:
+        _, r, term, trunc, info = env.step(np.zeros(1, np.float32))
+        total, n = total + r, n + 1
+        if term or trunc:
+            break
+    assert trunc and not term and n == 2000 and info["time"] == pytest.approx(20.0)
+    assert -3.0 < total / n < -0.3
+    assert {"carbody_acc", "out_of_domain", "bump_stop_contacts", "time"} <= set(info)
+
+
+def test_divergence_terminates_without_nan():
+    env = VerticalSuspensionEnv(backend="linear", duration=1.0)
+    env.reset(seed=0)
+    env.unwrapped.sim.state[0, 0] = 1e6  # beyond the divergence guard
+    obs, r, term, trunc, info = env.step(np.zeros(1, np.float32))
+    assert term and info["diverged"] and np.all(np.isfinite(obs)) and np.isfinite(r)
+
+
+def test_rgb_array_render():
+    env = VerticalSuspensionEnv(render_mode="rgb_array", duration=1.0)
+    env.reset(seed=0)
+    env.step(np.ones(1, np.float32))
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
