@@ -48,9 +48,12 @@ _UNITS: dict[str, tuple[str, float]] = {
     "max_speed": ("km/h", 1.0 / 3.6),
 }
 
-#: The synthesis period N·Δx is at least this many longest wavelengths, so the lowest harmonic
-#: index is >= 64 and the band-edge quantisation of the variance stays below about 1 %.
-_MIN_PERIODS = 64
+#: The synthesis period N·Δx is at least this many longest wavelengths (lowest harmonic index
+#: >= 4). Each harmonic carries the PSD integrated over its frequency bin (clipped to the band),
+#: so the variance equals the band integral for any period.
+_MIN_PERIODS = 4
+#: Gauss–Legendre nodes and weights on [−1/2, 1/2] for the per-bin PSD integral
+_GL_X, _GL_W = (0.5 * a for a in np.polynomial.legendre.leggauss(5))
 
 
 @dataclass(frozen=True)
@@ -232,6 +235,17 @@ def _check_band(band: Any) -> tuple[float, float]:
     return lo, hi
 
 
+def _bin_power(
+    omega: np.ndarray, d_omega: float, p: TrackClassParameters, kind: str, band: tuple[float, float]
+) -> np.ndarray:
+    """∫ G dΩ over each bin [Ω_k − ΔΩ/2, Ω_k + ΔΩ/2] clipped to the wavelength band, m²."""
+    lo = np.maximum(omega - 0.5 * d_omega, 2.0 * math.pi / band[1])
+    hi = np.minimum(omega + 0.5 * d_omega, 2.0 * math.pi / band[0])
+    width = np.maximum(hi - lo, 0.0)
+    nodes = 0.5 * (lo + hi)[:, None] + width[:, None] * _GL_X[None, :]
+    return width * (_psd(nodes, p, kind) @ _GL_W)
+
+
 def _synthesise(
     p: TrackClassParameters,
     kind: str,
@@ -254,7 +268,7 @@ def _synthesise(
     k_hi = math.floor(period / band[0] + 1e-9)
     kk = np.arange(k_lo, k_hi + 1)
     omega = kk * d_omega
-    amp = np.sqrt(2.0 * _psd(omega, p, kind) * d_omega)
+    amp = np.sqrt(2.0 * _bin_power(omega, d_omega, p, kind, band))
     phase = rng.uniform(0.0, 2.0 * math.pi, size=kk.size)
     coef = np.zeros(n_fft // 2 + 1, dtype=np.complex128)
     coef[kk] = 0.5 * n_fft * amp * np.exp(1j * phase)
@@ -295,7 +309,8 @@ def fra_profile_with_slope(
     Notes
     -----
     The profile is the start of one period of a harmonic sum whose period N·dx is the next power
-    of two of samples covering both ``length`` and 64 longest wavelengths.
+    of two of samples covering both ``length`` and 4 longest wavelengths; each harmonic's
+    amplitude carries the PSD integrated over its frequency bin.
     """
     p = class_parameters(track_class)
     _check_kind(kind)
