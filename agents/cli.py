@@ -1,0 +1,142 @@
+"""The ``railgym`` command: ``railgym demo [--out DIR]``.
+
+``demo`` is the main job of the quickstart: build the surrogate element from the reference
+model (paper stages 1–3), run one episode each on the surrogate and the reference backend
+with a skyhook controller on the same track (stage 4), print the paper's indices and write
+plots.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.controllers import Passive, Skyhook
+from railgym.comfort import sperling_wz, weighted_rms
+from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.vehicles.collect import build_vertical_surrogate
+from surrogates.metrics import average_absolute_error
+
+
+def run_episode(env: VerticalSuspensionEnv, controller: Any, seed: int) -> dict[str, Any]:
+    """One episode; returns the carbody record (x2, v2, a2 at control rate) and the totals."""
+    obs, info = env.reset(seed=seed)
+    sim = env.sim
+    rec: dict[str, list[float]] = {"t": [], "x2": [], "v2": [], "a2": [], "force": []}
+    t0 = time.perf_counter()
+    while True:
+        action, _ = controller.predict(obs, deterministic=True)
+        obs, _, term, trunc, info = env.step(action)
+        values = (info["time"], sim.state[0, 2], sim.state[0, 3], info["carbody_acc"],
+                  info["actuator_force"])  # fmt: skip
+        for key, val in zip(rec, values, strict=True):
+            rec[key].append(float(val))
+        if term or trunc:
+            break
+    out: dict[str, Any] = {k: np.asarray(v) for k, v in rec.items()}
+    out.update(wall_s=time.perf_counter() - t0, info=info)
+    return out
+
+
+def _indices(run: dict[str, Any], fs: float) -> dict[str, float]:
+    return {
+        "rms_acc": float(np.sqrt(np.mean(run["a2"] ** 2))),
+        "a_w": weighted_rms(run["a2"], fs, discard=2.0, lowpass=False),
+        "wz": sperling_wz(run["a2"], fs),
+        "contacts": run["info"]["bump_stop_contacts"],
+        "ood": run["info"]["out_of_domain"],
+        "wall_s": run["wall_s"],
+    }
+
+
+def demo(out: Path, seed: int = 0) -> int:
+    """Build the surrogate, compare surrogate and reference under skyhook, write plots."""
+    out.mkdir(parents=True, exist_ok=True)
+    print("1-3. collect (dynamic reference, FRA class 5, 144 km/h, 20 s at 50 Hz), sample, fit")
+    model, report, data = build_vertical_surrogate(m=101)
+    print(report.format().split("\n   candidate")[0])
+    runs: dict[tuple[str, str], dict[str, Any]] = {}
+    for backend in ("surrogate", "reference"):
+        env = VerticalSuspensionEnv(backend=backend, surrogate=model)
+        for name, ctrl in (("passive", Passive(env)), ("skyhook", Skyhook(env))):
+            runs[backend, name] = run_episode(env, ctrl, seed)
+    fs = 1.0 / env.cfg.control_dt
+    print(f"\n4. one 20 s episode per model and controller on the same track (seed {seed})")
+    head = f"{'model':<10} {'controller':<9} {'RMS ẍ2':>8} {'a_w (Wk)':>9} {'Sperling':>8} "
+    print(head + f"{'contacts':>8} {'out-dom':>8} {'wall s':>7}")
+    for (backend, name), run in runs.items():
+        ix = _indices(run, fs)
+        print(f"{backend:<10} {name:<9} {ix['rms_acc']:8.3f} {ix['a_w']:9.3f} {ix['wz']:8.2f} "
+              f"{ix['contacts']:8d} {ix['ood']:8d} {ix['wall_s']:7.3f}")  # fmt: skip
+    print("\nsurrogate vs reference, eq. 9 average absolute error of the carbody (paper table 5)")
+    print(f"{'controller':<9} {'disp. (m)':>10} {'vel. (m/s)':>11} {'acc. (m/s²)':>12}")
+    for name in ("passive", "skyhook"):
+        s, r = runs["surrogate", name], runs["reference", name]
+        errs = [average_absolute_error(s[k], r[k]) for k in ("x2", "v2", "a2")]
+        print(f"{name:<9} {errs[0]:10.3g} {errs[1]:11.3g} {errs[2]:12.3g}")
+    print("paper (LPR, M = 101, Simpack source; not directly comparable): "
+          "2.44e-06 m, 2.38e-05 m/s, 5.67e-04 m/s²")  # fmt: skip
+    _plots(out, model, report, data, runs)
+    print(f"\nplots written to {out}/")
+    return 0
+
+
+def _plots(out: Path, model: Any, report: Any, data: dict, runs: dict) -> None:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib is not installed (pip install 'railgym[plot]'): no plots")
+        return
+    U, V = data["U"], data["V"]
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    ax[0].plot(U[:, 0] * 1e3, U[:, 1], ".", ms=3, color="tab:blue", label=f"all data ({len(U)})")
+    tr = report.train_idx
+    ax[0].plot(U[tr, 0] * 1e3, U[tr, 1], "o", ms=5, color="tab:red", label=f"training ({len(tr)})")
+    ax[0].set(xlabel="x1 − x2 (mm)", ylabel="ẋ1 − ẋ2 (m/s)", title="Samples (paper fig. 7)")
+    ax[0].legend()
+    oob = report.oob_idx
+    ax[1].plot(V[oob] / 1e3, model.predict(U[oob]) / 1e3, ".", ms=3)
+    lim = [V.min() / 1e3, V.max() / 1e3]
+    ax[1].plot(lim, lim, "k-", lw=0.8)
+    ax[1].set(xlabel="reference m2·ẍ2 (kN)", ylabel="surrogate (kN)",
+              title=f"Out-of-bag prediction, rel. RMS {report.oob_nrms:.3f} (fig. 8)")  # fmt: skip
+    fig.tight_layout()
+    fig.savefig(out / "samples_and_oob.png", dpi=110)
+    plt.close(fig)
+    fig, ax = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
+    for i, name in enumerate(("passive", "skyhook")):
+        s, r = runs["surrogate", name], runs["reference", name]
+        ax[i].plot(r["t"], r["a2"], lw=0.8, label="reference")
+        ax[i].plot(s["t"], s["a2"], lw=0.8, ls="--", label="surrogate")
+        ax[i].set(ylabel="ẍ2 (m/s²)", title=f"Carbody acceleration, {name} (paper fig. 9)")
+        ax[i].legend(loc="upper right")
+    ax[1].set_xlabel("t (s)")
+    fig.tight_layout()
+    fig.savefig(out / "carbody_acceleration.png", dpi=110)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``railgym`` command."""
+    parser = argparse.ArgumentParser(prog="railgym", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    d = sub.add_parser("demo", help="build a surrogate, run surrogate vs reference, plot")
+    d.add_argument("--out", type=Path, default=Path("railgym-demo"), help="plot folder")
+    d.add_argument("--seed", type=int, default=0, help="track seed of the episodes")
+    args = parser.parse_args(argv)
+    if args.command == "demo":
+        return demo(args.out, args.seed)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
