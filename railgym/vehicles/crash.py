@@ -66,6 +66,14 @@ Paper eq. (4): one mass per car (plus the obstacle, if any); the wall element's 
 
 A wall element never pulls (``f ≥ 0``) in either variant. LPR degrees are chosen by 10-fold
 cross-validation (:func:`surrogates.selection.select_kfold`).
+
+Batch stepping (:func:`crash_batch_model`)
+------------------------------------------
+For the gymnasium env: either model of a scenario advanced sample by sample for many trains
+in one compiled call, with a controllable absorber in every zone: a force scale per zone
+multiplies its loading envelope (surrogate: its element force) up to the absorber stroke
+(:func:`absorber_zone_force`). With all scales 1 it reproduces :func:`simulate_reference` and
+:func:`simulate_surrogate` step for step.
 """
 
 from __future__ import annotations
@@ -75,7 +83,7 @@ import time
 from dataclasses import dataclass, field, replace
 from importlib.resources import files
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import yaml
@@ -539,10 +547,23 @@ def zone_force(
     Elastic trial ``k_u (d − dp)``: no force in a gap, elastic below the envelope, and on the
     envelope the force follows it while the permanent set moves to ``d − f_env / k_u``.
     """
+    return absorber_zone_force(d, dp, s, f, n, amp, lam, ku, math.inf, 1.0)
+
+
+@njit(cache=True)
+def absorber_zone_force(
+    d: float, dp: float, s: np.ndarray, f: np.ndarray, n: int, amp: float, lam: float, ku: float,
+    absorber: float, scale: float,
+) -> tuple[float, float]:  # fmt: skip
+    """:func:`zone_force` with a controllable absorber: the loading envelope up to the absorber
+    stroke ``absorber`` (m) is multiplied by ``scale``; beyond it (the carbody structure) and
+    the unloading stiffness are unchanged."""
     trial = ku * (d - dp)
     if trial <= 0.0:
         return 0.0, dp
     env = _envelope(d, s, f, n, amp, lam)
+    if d <= absorber:
+        env *= scale
     if trial >= env:
         return env, d - env / ku
     return trial, dp
@@ -570,6 +591,7 @@ class _Chain:
     t_ku: np.ndarray
     t_kt: np.ndarray
     t_slack: np.ndarray
+    t_abs: np.ndarray  # absorber stroke of each type, m
     body_start: np.ndarray
     body_end: np.ndarray
     body_names: list[str]
@@ -687,6 +709,7 @@ def _build_chain(sc: CrashScenario) -> _Chain:
         t_ku=np.array([z.unloading_stiffness for z in types]),
         t_kt=t_kt,
         t_slack=t_slack,
+        t_abs=np.array([z.absorber_stroke for z in types]),
         body_start=np.array([bodies[n][0] for n in names], dtype=np.int64),
         body_end=np.array([bodies[n][1] for n in names], dtype=np.int64),
         body_names=names,
@@ -700,10 +723,13 @@ def _build_chain(sc: CrashScenario) -> _Chain:
 @njit(cache=True)
 def _chain_forces(
     x, v, dp, m, mu, g, veps, link_k, link_c, elem_zone, zone_type, zone_cc,
-    zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack,
+    zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack, t_abs, scale,
     F, fz, fzel, fd, ff, dz,
 ):  # fmt: skip
     """Nodal forces ``F`` at state (x, v); updates the permanent sets ``dp`` in place.
+
+    ``scale`` (per zone instance) multiplies each zone's envelope up to its type's absorber
+    stroke ``t_abs`` (:func:`absorber_zone_force`).
 
     Also returns per zone instance: conservative force ``fz`` (zone + coupler spring), its
     elastic energy ``fzel``, crush ``dz``; per element: damping force ``fd``; per node: friction
@@ -720,7 +746,8 @@ def _chain_forces(
         d = x[bk] - (x[fr] if fr >= 0 else 0.0)
         rate = v[bk] - (v[fr] if fr >= 0 else 0.0)
         dz[z] = d
-        f, dp[z] = zone_force(d, dp[z], t_s[t], t_f[t], t_n[t], t_amp[t], t_lam[t], t_ku[t])
+        f, dp[z] = absorber_zone_force(d, dp[z], t_s[t], t_f[t], t_n[t], t_amp[t], t_lam[t],
+                                       t_ku[t], t_abs[t], scale[z])
         el = 0.5 * f * f / t_ku[t]
         damp = 0.0
         if f == 0.0 and t_kt[t] > 0.0 and d < dp[z] - t_slack[t]:
@@ -748,7 +775,7 @@ def _chain_forces(
 @njit(cache=True)
 def _reference_kernel(
     m, v0, mu, g, veps, link_k, link_c, elem_zone, zone_type, zone_cc, zone_front,
-    zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack, body_start, body_end,
+    zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack, t_abs, body_start, body_end,
     dt, n_sub, n_samples, stop, v_stop, f_stop,
 ):  # fmt: skip
     """Velocity-Verlet integration of the chain; samples every ``n_sub`` steps."""
@@ -765,6 +792,7 @@ def _reference_kernel(
     fd = np.zeros(max(N - 1, 1))
     ff = np.zeros(N)
     dz = np.zeros(nz)
+    scale = np.ones(nz)
     fz_o = np.zeros(nz)
     fd_o = np.zeros(max(N - 1, 1))
     ff_o = np.zeros(N)
@@ -783,7 +811,7 @@ def _reference_kernel(
 
     _chain_forces(x, v, dp, m, mu, g, veps, link_k, link_c, elem_zone, zone_type, zone_cc,
                   zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack,
-                  F, fz, fzel, fd, ff, dz)  # fmt: skip
+                  t_abs, scale, F, fz, fzel, fd, ff, dz)  # fmt: skip
     a = F / m
     n_out = 0
     for k in range(n_samples):
@@ -798,7 +826,8 @@ def _reference_kernel(
                 vp[:] = v + a * dt
                 _chain_forces(x, vp, dp, m, mu, g, veps, link_k, link_c, elem_zone, zone_type,
                               zone_cc, zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam,
-                              t_ku, t_kt, t_slack, F, fz, fzel, fd, ff, dz)  # fmt: skip
+                              t_ku, t_kt, t_slack, t_abs, scale, F, fz, fzel, fd, ff,
+                              dz)  # fmt: skip
                 a_new = F / m
                 v += 0.5 * (a + a_new) * dt
                 a = a_new
@@ -974,7 +1003,8 @@ def simulate_reference(
     xb, vb, ab, dz, fz, dpz, e, pl, n = _reference_kernel(
         ch.m, ch.v0, ch.mu, sc.gravity, V_EPS, ch.link_k, ch.link_c, ch.elem_zone, ch.zone_type,
         ch.zone_cc, ch.zone_front, ch.zone_back, ch.t_s, ch.t_f,
-        ch.t_n, ch.t_amp, ch.t_lam, ch.t_ku, ch.t_kt, ch.t_slack, ch.body_start, ch.body_end,
+        ch.t_n, ch.t_amp, ch.t_lam, ch.t_ku, ch.t_kt, ch.t_slack, ch.t_abs, ch.body_start,
+        ch.body_end,
         dt, n_sub, n_samples, stop_when_over, v_stop, f_stop,
     )  # fmt: skip
     wall = time.perf_counter() - t0
@@ -1236,28 +1266,31 @@ def _permanent_set_history(
 
 
 @njit(cache=True)
-def _element_force(u, rate, up, ty, types, lpr, ubuf):  # fmt: skip
+def _element_force(u, rate, up, ty, types, lpr, ubuf, scale):  # fmt: skip
     """Force (N, compression positive) and new permanent set of one surrogate element.
 
-    ``types`` = (variant, loading model, unloading model, k_u, k_t, slack, unilateral) per
-    element type; ``lpr`` = (exponents, coef, lower, upper, mode, force range) per LPR model.
+    ``types`` = (variant, loading model, unloading model, k_u, k_t, slack, unilateral,
+    absorber stroke) per element type; ``lpr`` = (exponents, coef, lower, upper, mode, force
+    range) per LPR model. ``scale`` multiplies the LPR force for ``u`` up to the absorber stroke
+    (controllable absorber, as :func:`absorber_zone_force`).
     """
-    variant, i_load, i_unload, ku, kt, slack, unilateral = types
+    variant, i_load, i_unload, ku, kt, slack, unilateral, absorber = types
     E, C, LO, UP, MODE, FR = lpr
     if unilateral[ty] and u <= 0.0:
         return 0.0, up
     ubuf[0] = u
+    s = scale if u <= absorber[ty] else 1.0
     if variant[ty] == 0:
         k = i_load[ty] if rate >= 0.0 else i_unload[ty]
         f = lpr_eval(ubuf, E[k], C[k], LO[k], UP[k], MODE[k])
-        f = min(max(f, FR[k, 0]), FR[k, 1])
+        f = s * min(max(f, FR[k, 0]), FR[k, 1])
         if unilateral[ty] and f < 0.0:
             f = 0.0
         return f, up
     trial = ku[ty] * (u - up)
     if trial > 0.0:
         k = i_load[ty]
-        env = min(lpr_eval(ubuf, E[k], C[k], LO[k], UP[k], MODE[k]), FR[k, 1])
+        env = s * min(lpr_eval(ubuf, E[k], C[k], LO[k], UP[k], MODE[k]), FR[k, 1])
         if env <= 0.0:
             return 0.0, up
         if trial >= env:
@@ -1269,8 +1302,10 @@ def _element_force(u, rate, up, ty, types, lpr, ubuf):  # fmt: skip
 
 
 @njit(cache=True)
-def _surrogate_forces(x, v, up, m, mu, g, veps, elements, types, lpr, ubuf, F, fel, uel):
-    """Body forces ``F`` (N); element forces ``fel`` and features ``uel``; updates ``up``."""
+def _surrogate_forces(x, v, up, m, mu, g, veps, elements, types, lpr, ubuf, scale, F, fel, uel):
+    """Body forces ``F`` (N); element forces ``fel`` and features ``uel``; updates ``up``.
+
+    ``scale`` (per element) is the absorber force scale of :func:`_element_force`."""
     el_front, el_back, el_type = elements
     for i in range(m.shape[0]):
         F[i] = -mu[i] * m[i] * g * math.tanh(v[i] / veps)
@@ -1279,7 +1314,7 @@ def _surrogate_forces(x, v, up, m, mu, g, veps, elements, types, lpr, ubuf, F, f
         bk = el_back[e]
         u = x[bk] - (x[fr] if fr >= 0 else 0.0)
         rate = v[bk] - (v[fr] if fr >= 0 else 0.0)
-        f, up[e] = _element_force(u, rate, up[e], el_type[e], types, lpr, ubuf)
+        f, up[e] = _element_force(u, rate, up[e], el_type[e], types, lpr, ubuf, scale[e])
         fel[e] = f
         uel[e] = u
         if fr >= 0:
@@ -1302,13 +1337,14 @@ def _surrogate_kernel(m, mu, v0, g, veps, elements, types, lpr, dt, n_sub, n_sam
     fel = np.zeros(ne)
     uel = np.zeros(ne)
     ubuf = np.zeros(1)
+    scale = np.ones(ne)
     out_x = np.zeros((n_samples, nb))
     out_v = np.zeros((n_samples, nb))
     out_a = np.zeros((n_samples, nb))
     out_u = np.zeros((n_samples, ne))
     out_f = np.zeros((n_samples, ne))
     out_up = np.zeros((n_samples, ne))
-    _surrogate_forces(x, v, up, m, mu, g, veps, elements, types, lpr, ubuf, F, fel, uel)
+    _surrogate_forces(x, v, up, m, mu, g, veps, elements, types, lpr, ubuf, scale, F, fel, uel)
     a = F / m
     n_out = 0
     for k in range(n_samples):
@@ -1316,8 +1352,8 @@ def _surrogate_kernel(m, mu, v0, g, veps, elements, types, lpr, dt, n_sub, n_sam
             for _ in range(n_sub):
                 x += v * dt + 0.5 * a * dt * dt
                 vp[:] = v + a * dt
-                _surrogate_forces(x, vp, up, m, mu, g, veps, elements, types, lpr, ubuf, F, fel,
-                                  uel)  # fmt: skip
+                _surrogate_forces(x, vp, up, m, mu, g, veps, elements, types, lpr, ubuf, scale,
+                                  F, fel, uel)  # fmt: skip
                 a_new = F / m
                 v += 0.5 * (a + a_new) * dt
                 a = a_new
@@ -1360,6 +1396,73 @@ def _pack_models(models: list[Any], ranges: list[tuple[float, float]]) -> tuple[
     return E, C, LO, UP, MODE, np.array(ranges, dtype=np.float64).reshape(len(arrays), 2)
 
 
+@dataclass
+class _System:
+    """Kernel arrays of the surrogate model of one scenario (paper eq. 4)."""
+
+    m: np.ndarray  # body masses: cars front to back, then the obstacle if any, kg
+    mu: np.ndarray
+    v0: np.ndarray  # initial velocities, m/s
+    body_names: list[str]
+    zone_names: list[str]
+    elements: tuple[np.ndarray, np.ndarray, np.ndarray]  # front body (−1 = wall), back, type
+    types: tuple[np.ndarray, ...]
+    lpr: tuple[np.ndarray, ...]
+
+
+def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
+    """Bodies, elements and packed LPR models of ``surrogate`` on scenario ``sc``."""
+    for key in ("wall", "interface"):
+        if key not in surrogate.elements and (key == "wall" or sc.n_cars > 1):
+            raise ValueError(f"surrogate has no {key!r} element")
+    masses = list(sc.car_masses)
+    mu = [sc.friction] * sc.n_cars
+    v0 = [sc.speed] * sc.n_cars
+    names = ["lead"] + [f"car{k + 1}" for k in range(1, sc.n_cars)]
+    wall_front = -1
+    if sc.obstacle is not None:
+        masses.append(sc.obstacle.mass)
+        mu.append(sc.obstacle.friction)
+        v0.append(0.0)
+        names.append("obstacle")
+        wall_front = sc.n_cars
+    el_front = np.array([wall_front] + list(range(sc.n_cars - 1)), dtype=np.int64)
+    el_back = np.arange(sc.n_cars, dtype=np.int64)
+    el_type = np.array([0] + [1] * (sc.n_cars - 1), dtype=np.int64)
+    el_names = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
+    types = [surrogate.elements["wall"], surrogate.elements.get("interface")]
+    types = [ty for ty in types if ty is not None]
+    models, ranges, load_idx, unload_idx = [], [], [], []
+    for ty in types:
+        load_idx.append(len(models))
+        models.append(ty.loading)
+        ranges.append(ty.force_range["loading"])
+        unload_idx.append(len(models) if ty.unloading is not None else load_idx[-1])
+        if ty.unloading is not None:
+            models.append(ty.unloading)
+            ranges.append(ty.force_range["unloading"])
+    type_arrays = (
+        np.array([VARIANTS.index(ty.variant) for ty in types], dtype=np.int64),
+        np.array(load_idx, dtype=np.int64),
+        np.array(unload_idx, dtype=np.int64),
+        np.array([ty.unloading_stiffness for ty in types]),
+        np.array([ty.tension_stiffness for ty in types]),
+        np.array([ty.slack for ty in types]),
+        np.array([ty.unilateral for ty in types]),
+        np.array([sc.wall.absorber_stroke, sc.interface.absorber_stroke][: len(types)]),
+    )
+    return _System(
+        m=np.array(masses),
+        mu=np.array(mu),
+        v0=np.array(v0),
+        body_names=names,
+        zone_names=el_names,
+        elements=(el_front, el_back, el_type),
+        types=type_arrays,
+        lpr=_pack_models(models, ranges),
+    )
+
+
 def simulate_surrogate(
     scenario: CrashScenario | str,
     surrogate: CrashSurrogate,
@@ -1396,66 +1499,27 @@ def simulate_surrogate(
     _check_run(duration, sample_dt)
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
-    for key in ("wall", "interface"):
-        if key not in surrogate.elements and (key == "wall" or sc.n_cars > 1):
-            raise ValueError(f"surrogate has no {key!r} element")
     dt, n_sub = _steps(sample_dt, dt)
-    masses = list(sc.car_masses)
-    mu = [sc.friction] * sc.n_cars
-    v0 = [sc.speed] * sc.n_cars
-    names = ["lead"] + [f"car{k + 1}" for k in range(1, sc.n_cars)]
-    wall_front = -1
-    if sc.obstacle is not None:
-        masses.append(sc.obstacle.mass)
-        mu.append(sc.obstacle.friction)
-        v0.append(0.0)
-        names.append("obstacle")
-        wall_front = sc.n_cars
-    el_front = np.array([wall_front] + list(range(sc.n_cars - 1)), dtype=np.int64)
-    el_back = np.arange(sc.n_cars, dtype=np.int64)
-    el_type = np.array([0] + [1] * (sc.n_cars - 1), dtype=np.int64)
-    el_names = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
-    types = [surrogate.elements["wall"], surrogate.elements.get("interface")]
-    types = [ty for ty in types if ty is not None]
-    models, ranges, load_idx, unload_idx = [], [], [], []
-    for ty in types:
-        load_idx.append(len(models))
-        models.append(ty.loading)
-        ranges.append(ty.force_range["loading"])
-        unload_idx.append(len(models) if ty.unloading is not None else load_idx[-1])
-        if ty.unloading is not None:
-            models.append(ty.unloading)
-            ranges.append(ty.force_range["unloading"])
-    type_arrays = (
-        np.array([VARIANTS.index(ty.variant) for ty in types], dtype=np.int64),
-        np.array(load_idx, dtype=np.int64),
-        np.array(unload_idx, dtype=np.int64),
-        np.array([ty.unloading_stiffness for ty in types]),
-        np.array([ty.tension_stiffness for ty in types]),
-        np.array([ty.slack for ty in types]),
-        np.array([ty.unilateral for ty in types]),
-    )
+    sy = _surrogate_system(sc, surrogate)
     n_samples = int(round(duration / sample_dt)) + 1
     t0 = time.perf_counter()
     xo, vo, ao, uo, fo, upo, n = _surrogate_kernel(
-        np.array(masses), np.array(mu), np.array(v0), sc.gravity, V_EPS,
-        (el_front, el_back, el_type), type_arrays, _pack_models(models, ranges),
+        sy.m, sy.mu, sy.v0, sc.gravity, V_EPS, sy.elements, sy.types, sy.lpr,
         dt, n_sub, n_samples, stop_when_over, v_stop, f_stop,
     )  # fmt: skip
     wall = time.perf_counter() - t0
-    m_arr = np.array(masses)
     return CrashResult(
         t=np.arange(n) * sample_dt,
         x=xo[:n],
         v=vo[:n],
         a=ao[:n],
-        body_names=names,
-        zone_names=el_names,
+        body_names=sy.body_names,
+        zone_names=sy.zone_names,
         crush=uo[:n],
         force=fo[:n],
         permanent_set=upo[:n],
         energy={},
-        initial_kinetic_energy=float(0.5 * np.sum(m_arr * np.array(v0) ** 2)),
+        initial_kinetic_energy=float(0.5 * np.sum(sy.m * sy.v0**2)),
         dt=dt,
         wall_time=wall,
         scenario=sc,
@@ -1479,3 +1543,316 @@ def crash_errors(prediction: CrashResult, truth: CrashResult) -> dict[str, np.nd
         diff = getattr(prediction, key)[:n, :cars] - getattr(truth, key)[:n, :cars]
         out[key] = np.mean(np.abs(diff), axis=0)
     return out
+
+
+# ======================================================== batch stepping (gymnasium envs)
+#: models of :func:`crash_batch_model`
+BATCH_BACKENDS = ("reference", "surrogate")
+
+
+class BatchOutputs(NamedTuple):
+    """What the batch kernels report after each call, one row per simulation.
+
+    Attributes
+    ----------
+    x, v, a : (n, bodies) centre-of-mass displacement (m), velocity (m/s) and acceleration
+        (m/s²) of each body (cars front to back, then the obstacle if any).
+    crush : (n, zones) crush of each zone (surrogate: element feature ``u``), m.
+    force : (n, zones) zone force, compression positive (coupler damping included), N.
+    rate : (n, zones) closing rate of each zone, m/s.
+    work : (n, zones) net work done on each zone since the start, J.
+    dissipated : (n, 2) friction work and carbody/coupler damping work since the start, J.
+    stored : (n,) kinetic energy plus elastic carbody energy, J.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    crush: np.ndarray
+    force: np.ndarray
+    rate: np.ndarray
+    work: np.ndarray
+    dissipated: np.ndarray
+    stored: np.ndarray
+
+
+@njit(cache=True)
+def _healthy(x, v, a, limit):  # fmt: skip
+    """True if every entry is finite and |x|, |v| ≤ ``limit``."""
+    for j in range(x.shape[0]):
+        if not (abs(x[j]) <= limit and abs(v[j]) <= limit and math.isfinite(a[j])):
+            return False
+    return True
+
+
+@njit(cache=True)
+def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, limit, div):
+    """Advance every ``active`` reference simulation by ``n_sub`` velocity-Verlet steps.
+
+    Parameters
+    ----------
+    state : (x, v, a, dp, fz, fd, ff) node and zone arrays from
+        :meth:`CrashBatchModel.new_state`, updated in place.
+    out : :class:`BatchOutputs`; ``crush``, ``work`` and ``dissipated`` are also read back.
+    params : static arrays of :attr:`CrashBatchModel.params`.
+    scale : (n, zones) absorber force scale of each zone (:func:`absorber_zone_force`).
+    active : (n,) which simulations to advance.
+    init : evaluate the forces at the current state instead of stepping (after a reset).
+    dt, n_sub : integration step (s) and number of steps.
+    limit : a simulation whose |x| (m) or |v| (m/s) exceeds ``limit`` or that becomes
+        non-finite keeps its state from before the call and gets ``div[i] = True``.
+    """
+    x, v, a, dp, fz, fd, ff = state
+    (m, mu, g, veps, link_k, link_c, elem_zone, zone_type, zone_cc, zone_front, zone_back,
+     t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack, t_abs, body_start,
+     body_end) = params  # fmt: skip
+    N = m.shape[0]
+    nz = zone_type.shape[0]
+    nodes = np.empty((8, N))
+    xl, vl, al, vp, F, dx, ffl, ff_o = (nodes[0], nodes[1], nodes[2], nodes[3], nodes[4],
+                                        nodes[5], nodes[6], nodes[7])  # fmt: skip
+    zones = np.empty((7, nz))
+    dpl, fzl, fz_o, fzel, dzl, dz_o, wzl = (zones[0], zones[1], zones[2], zones[3], zones[4],
+                                            zones[5], zones[6])  # fmt: skip
+    fdl, fd_o = np.empty(fd.shape[1]), np.empty(fd.shape[1])
+    for i in range(x.shape[0]):
+        if not active[i]:
+            continue
+        xl[:], vl[:], al[:], dpl[:], fzl[:] = x[i], v[i], a[i], dp[i], fz[i]
+        fdl[:], ffl[:], dzl[:], wzl[:] = fd[i], ff[i], out.crush[i], out.work[i]
+        w_fric, w_damp = out.dissipated[i, 0], out.dissipated[i, 1]
+        sc = scale[i]
+        if init:
+            _chain_forces(xl, vl, dpl, m, mu, g, veps, link_k, link_c, elem_zone, zone_type,
+                          zone_cc, zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku,
+                          t_kt, t_slack, t_abs, sc, F, fzl, fzel, fdl, ffl, dzl)  # fmt: skip
+            for j in range(N):
+                al[j] = F[j] / m[j]
+        for _ in range(0 if init else n_sub):
+            fz_o[:], fd_o[:], ff_o[:], dz_o[:] = fzl, fdl, ffl, dzl
+            for j in range(N):
+                dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
+                xl[j] += dx[j]
+                vp[j] = vl[j] + al[j] * dt
+            _chain_forces(xl, vp, dpl, m, mu, g, veps, link_k, link_c, elem_zone, zone_type,
+                          zone_cc, zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku,
+                          t_kt, t_slack, t_abs, sc, F, fzl, fzel, fdl, ffl, dzl)  # fmt: skip
+            for j in range(N):
+                a_new = F[j] / m[j]
+                vl[j] += 0.5 * (al[j] + a_new) * dt
+                al[j] = a_new
+            for z in range(nz):
+                wzl[z] += 0.5 * (fz_o[z] + fzl[z]) * (dzl[z] - dz_o[z])
+            for e in range(N - 1):
+                w_damp += 0.5 * (fd_o[e] + fdl[e]) * (dx[e + 1] - dx[e])
+            for j in range(N):
+                w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
+        if not _healthy(xl, vl, al, limit):
+            div[i] = True
+            continue
+        x[i], v[i], a[i], dp[i], fz[i], fd[i], ff[i] = xl, vl, al, dpl, fzl, fdl, ffl
+        out.crush[i], out.work[i] = dzl, wzl
+        out.dissipated[i, 0], out.dissipated[i, 1] = w_fric, w_damp
+        energy = 0.0
+        for j in range(N):
+            energy += 0.5 * m[j] * vl[j] * vl[j]
+            if j < N - 1 and elem_zone[j] < 0:
+                energy += 0.5 * link_k[j] * (xl[j + 1] - xl[j]) ** 2
+        out.stored[i] = energy
+        for z in range(nz):
+            fr, bk = zone_front[z], zone_back[z]
+            out.force[i, z] = fzl[z] + (fdl[bk - 1] if fr >= 0 else 0.0)
+            out.rate[i, z] = vl[bk] - (vl[fr] if fr >= 0 else 0.0)
+        for b in range(body_start.shape[0]):
+            mb = sx = sv = sf = 0.0
+            for j in range(body_start[b], body_end[b]):
+                mb += m[j]
+                sx += m[j] * xl[j]
+                sv += m[j] * vl[j]
+                sf += F[j]
+            out.x[i, b], out.v[i, b], out.a[i, b] = sx / mb, sv / mb, sf / mb
+
+
+@njit(cache=True)
+def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, limit, div):
+    """:func:`reference_batch_step` for the surrogate model (paper eq. 4).
+
+    ``state`` = (x, v, a, up, fel, ff) per body and element; ``params`` = (m, mu, g, v_ε,
+    elements, types, lpr) as in :func:`_surrogate_kernel`. No dampers: ``dissipated[:, 1]``
+    stays 0.
+    """
+    x, v, a, up, fel, ff = state
+    m, mu, g, veps, elements, types, lpr = params
+    el_front, el_back, _ = elements
+    N = m.shape[0]
+    ne = el_front.shape[0]
+    nodes = np.empty((8, N))
+    xl, vl, al, vp, F, dx, ffl, ff_o = (nodes[0], nodes[1], nodes[2], nodes[3], nodes[4],
+                                        nodes[5], nodes[6], nodes[7])  # fmt: skip
+    els = np.empty((6, ne))
+    upl, fl, f_o, ul, u_o, wl = els[0], els[1], els[2], els[3], els[4], els[5]
+    ubuf = np.zeros(1)
+    for i in range(x.shape[0]):
+        if not active[i]:
+            continue
+        xl[:], vl[:], al[:], upl[:], fl[:], ffl[:] = x[i], v[i], a[i], up[i], fel[i], ff[i]
+        ul[:], wl[:] = out.crush[i], out.work[i]
+        w_fric = out.dissipated[i, 0]
+        sc = scale[i]
+        if init:
+            _surrogate_forces(xl, vl, upl, m, mu, g, veps, elements, types, lpr, ubuf, sc, F,
+                              fl, ul)  # fmt: skip
+            for j in range(N):
+                al[j] = F[j] / m[j]
+                ffl[j] = mu[j] * m[j] * g * math.tanh(vl[j] / veps)
+        for _ in range(0 if init else n_sub):
+            f_o[:], ff_o[:], u_o[:] = fl, ffl, ul
+            for j in range(N):
+                dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
+                xl[j] += dx[j]
+                vp[j] = vl[j] + al[j] * dt
+                ffl[j] = mu[j] * m[j] * g * math.tanh(vp[j] / veps)
+            _surrogate_forces(xl, vp, upl, m, mu, g, veps, elements, types, lpr, ubuf, sc, F,
+                              fl, ul)  # fmt: skip
+            for j in range(N):
+                a_new = F[j] / m[j]
+                vl[j] += 0.5 * (al[j] + a_new) * dt
+                al[j] = a_new
+                w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
+            for e in range(ne):
+                wl[e] += 0.5 * (f_o[e] + fl[e]) * (ul[e] - u_o[e])
+        if not _healthy(xl, vl, al, limit):
+            div[i] = True
+            continue
+        x[i], v[i], a[i], up[i], fel[i], ff[i] = xl, vl, al, upl, fl, ffl
+        out.x[i], out.v[i], out.a[i] = xl, vl, al
+        out.crush[i], out.force[i], out.work[i] = ul, fl, wl
+        out.dissipated[i, 0] = w_fric
+        energy = 0.0
+        for j in range(N):
+            energy += 0.5 * m[j] * vl[j] * vl[j]
+        out.stored[i] = energy
+        for e in range(ne):
+            fr = el_front[e]
+            out.rate[i, e] = vl[el_back[e]] - (vl[fr] if fr >= 0 else 0.0)
+
+
+@dataclass(frozen=True)
+class CrashBatchModel:
+    """A scenario's reference or surrogate model, ready for batch stepping.
+
+    Made by :func:`crash_batch_model`. Holds no simulation state: :meth:`new_state` and
+    :meth:`new_outputs` allocate the arrays of ``n`` simulations, :meth:`reset` puts one at
+    first contact, :meth:`step` advances the active ones by ``sample_dt`` in one compiled call.
+
+    Attributes
+    ----------
+    backend : ``"reference"`` or ``"surrogate"``.
+    scenario : the simulated scenario (its ``speed`` is the nominal initial speed).
+    sample_dt : time advanced by one :meth:`step`, s.
+    dt, n_sub : integration step (s) and steps per :meth:`step`.
+    params : static kernel arrays.
+    masses : mass of each integration node (reference) or body (surrogate), kg.
+    v_unit : initial velocity of each node per unit train speed (1 train, 0 obstacle).
+    body_names, zone_names : as in :class:`CrashResult`.
+    zone_absorber : absorber stroke of each zone, m.
+    """
+
+    backend: str
+    scenario: CrashScenario
+    sample_dt: float
+    dt: float
+    n_sub: int
+    params: tuple
+    masses: np.ndarray
+    v_unit: np.ndarray
+    body_names: list[str]
+    zone_names: list[str]
+    zone_absorber: np.ndarray
+
+    def new_state(self, n: int) -> tuple[np.ndarray, ...]:
+        """Zeroed kernel state of ``n`` simulations."""
+        N, nz = self.masses.size, len(self.zone_names)
+        node = [np.zeros((n, N)) for _ in range(3)]
+        zone = [np.zeros((n, nz)) for _ in range(2)]
+        damp = [np.zeros((n, max(N - 1, 1)))] if self.backend == "reference" else []
+        return (*node, *zone, *damp, np.zeros((n, N)))
+
+    def new_outputs(self, n: int) -> BatchOutputs:
+        """Zeroed outputs of ``n`` simulations."""
+        nb, nz = len(self.body_names), len(self.zone_names)
+        return BatchOutputs(*(np.zeros((n, nb)) for _ in range(3)),
+                            *(np.zeros((n, nz)) for _ in range(4)),
+                            np.zeros((n, 2)), np.zeros(n))  # fmt: skip
+
+    def reset(self, state: tuple, out: BatchOutputs, i: int, speed: float) -> None:
+        """Simulation ``i`` at first contact, the train at ``speed`` (m/s); call :meth:`step`
+        with ``init=True`` afterwards to evaluate its forces."""
+        for arr in (*state, *out):
+            arr[i] = 0.0
+        state[1][i] = self.v_unit * speed
+
+    def step(
+        self,
+        state: tuple,
+        out: BatchOutputs,
+        scale: np.ndarray,
+        active: np.ndarray,
+        div: np.ndarray,
+        init: bool = False,
+        limit: float = 1e3,
+    ) -> None:
+        """Advance the ``active`` simulations by ``sample_dt`` (:func:`reference_batch_step`)."""
+        kernel = reference_batch_step if self.backend == "reference" else surrogate_batch_step
+        kernel(state, out, self.params, scale, active, init, self.dt, self.n_sub, limit, div)
+
+
+def crash_batch_model(
+    scenario: CrashScenario | str,
+    backend: str = "reference",
+    sample_dt: float = 1e-3,
+    surrogate: CrashSurrogate | None = None,
+    safety: float = 0.2,
+    dt: float = 5e-4,
+) -> CrashBatchModel:
+    """Batch-steppable model of a scenario.
+
+    Parameters
+    ----------
+    scenario : a :class:`CrashScenario` or a name/path for :func:`load_scenario`.
+    backend : ``"reference"`` (lumped-mass chain, :func:`simulate_reference`) or
+        ``"surrogate"`` (paper eq. 4, :func:`simulate_surrogate`; needs ``surrogate``).
+    sample_dt : time advanced per :meth:`CrashBatchModel.step`, s.
+    safety : reference time-step safety factor; dt : largest surrogate step, s (both as in
+        the ``simulate_*`` functions, which the batch kernels reproduce step for step).
+    """
+    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    if backend not in BATCH_BACKENDS:
+        raise ValueError(f"backend must be one of {BATCH_BACKENDS}, got {backend!r}")
+    _check_run(sample_dt, sample_dt)
+    if backend == "reference":
+        if not 0 < safety <= 1:
+            raise ValueError(f"safety must be in (0, 1], got {safety!r}")
+        ch = _build_chain(sc)
+        step, n_sub = _steps(sample_dt, safety * 2.0 / ch.omega_max)
+        params = (ch.m, ch.mu, sc.gravity, V_EPS, ch.link_k, ch.link_c, ch.elem_zone,
+                  ch.zone_type, ch.zone_cc, ch.zone_front, ch.zone_back, ch.t_s, ch.t_f, ch.t_n,
+                  ch.t_amp, ch.t_lam, ch.t_ku, ch.t_kt, ch.t_slack, ch.t_abs, ch.body_start,
+                  ch.body_end)  # fmt: skip
+        return CrashBatchModel(
+            backend=backend, scenario=sc, sample_dt=float(sample_dt), dt=step, n_sub=n_sub,
+            params=params, masses=ch.m, v_unit=ch.v0 / sc.speed, body_names=ch.body_names,
+            zone_names=ch.zone_names, zone_absorber=ch.t_abs[ch.zone_type],
+        )  # fmt: skip
+    if surrogate is None:
+        raise ValueError("surrogate is required for backend='surrogate'")
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
+    sy = _surrogate_system(sc, surrogate)
+    step, n_sub = _steps(sample_dt, dt)
+    return CrashBatchModel(
+        backend=backend, scenario=sc, sample_dt=float(sample_dt), dt=step, n_sub=n_sub,
+        params=(sy.m, sy.mu, sc.gravity, V_EPS, sy.elements, sy.types, sy.lpr), masses=sy.m,
+        v_unit=sy.v0 / sc.speed, body_names=sy.body_names, zone_names=sy.zone_names,
+        zone_absorber=sy.types[7][sy.elements[2]],
+    )  # fmt: skip

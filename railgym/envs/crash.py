@@ -1,0 +1,559 @@
+"""``railgym/TrainCrash-v0``: adaptive crash energy management of a train hitting a wall.
+
+A lead car and ``n_cars − 1`` passenger cars run into a rigid wall (or a free deformable
+obstacle) from the scenario's speed (default: the paper's table 9 case, 40 km/h). Every crush
+zone — the lead car's front end at the wall and each interface between two cars — holds a
+controllable absorber: the agent sets the force level of each absorber between 0.7 and 1.3
+times nominal (rate-limited), trading the cars' decelerations against crush beyond the
+absorbers' stroke, i.e. loss of survival space. Action 0 everywhere is the passive train.
+
+The physics is in :mod:`railgym.vehicles.crash`: ``backend="reference"`` is the lumped-mass
+chain with hysteretic crush zones (``simulate_reference``), ``"surrogate"`` the paper's eq. (4)
+with surrogate elements fitted on a reference run of the scenario (``build_crash_surrogate``).
+:class:`CrashBatch` steps any number of trains in one compiled call; the single env and the
+native vector env are thin shells around it. See ``docs/envs/crash.md`` for the tables.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+from numba import njit
+
+from railgym.vehicles.crash import (
+    VARIANTS,
+    BatchOutputs,
+    CrashBatchModel,
+    CrashScenario,
+    CrashSurrogate,
+    CrushZone,
+    build_crash_surrogate,
+    crash_batch_model,
+    load_scenario,
+    simulate_reference,
+)
+
+BACKENDS = ("surrogate", "reference")
+#: deceleration of the reward's reference, in g: one control step of 1 ms at 5 g costs 1
+DECEL_REF_G = 5.0
+#: time of the reward's reference, s (the deceleration term is time-integrated)
+TIME_REF = 1e-3
+#: crush beyond the absorber stroke that costs 1 (reward term ``intrusion``), m
+INTRUSION_REF = 1e-3
+DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0}
+DIVERGENCE_PENALTY = 100.0
+#: the crash is over when no zone carries more than F_STOP (N) and none closes faster than
+#: V_STOP (m/s): every car at rest or rebounding away (as ``simulate_reference``'s stop)
+F_STOP = 1e3
+V_STOP = 0.01
+#: a train whose |x| (m) or |v| (m/s) exceeds this, or turns non-finite, has diverged
+STATE_LIMIT = 1e3
+#: observation scales: displacement (m) and acceleration (in g)
+X_SCALE = 1.0
+A_SCALE_G = 10.0
+#: info keys holding one number or bool (the others hold one entry per car or per zone)
+SCALAR_INFO = ("time", "initial_speed", "stroke_exceeded", "friction_work_J", "energy_error",
+               "diverged")  # fmt: skip
+#: info keys holding a bool
+BOOL_INFO = ("stroke_exceeded", "diverged")
+
+
+@dataclass(frozen=True)
+class CrashConfig:
+    """Validated settings shared by the single and the vector env (SI units)."""
+
+    scenario: CrashScenario
+    backend: str
+    control_dt: float
+    n_steps: int
+    absorber_range: float
+    max_scale_change: float
+    speed_jitter: float
+    weights: tuple[float, float]
+    absorber_stroke: np.ndarray
+    obs_names: tuple[str, ...]
+    obs_scale: np.ndarray
+
+
+def nominal_force(zone: CrushZone) -> float:
+    """Largest point force (N) of the zone's envelope within its absorber stroke."""
+    inside = [f for s, f in zip(zone.stroke, zone.force, strict=True) if s <= zone.absorber_stroke]
+    return max(inside, default=zone.force[0])
+
+
+def _positive(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def make_config(
+    scenario: str | Path | CrashScenario,
+    backend: str,
+    n_cars: int | None,
+    speed: float | None,
+    control_dt: float,
+    max_duration: float,
+    absorber_range: float,
+    absorber_rate: float,
+    speed_jitter: float,
+    reward_weights: dict[str, float] | None,
+) -> CrashConfig:
+    """Check the env arguments; every error names the argument (scenario errors its field)."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    sc = scenario if isinstance(scenario, CrashScenario) else load_scenario(scenario)
+    sc = sc.with_overrides(n_cars=n_cars, speed=speed)
+    control_dt = _positive("control_dt", control_dt)
+    max_duration = _positive("max_duration", max_duration)
+    n_steps = round(max_duration / control_dt)
+    if n_steps < 1:
+        raise ValueError(f"max_duration ({max_duration} s) must be at least control_dt")
+    if not (isinstance(absorber_range, int | float) and 0 < absorber_range < 1):
+        raise ValueError(f"absorber_range must be in (0, 1), got {absorber_range!r}")
+    absorber_rate = _positive("absorber_rate", absorber_rate)
+    if not (isinstance(speed_jitter, int | float) and 0 <= speed_jitter < 1):
+        raise ValueError(f"speed_jitter must be in [0, 1), got {speed_jitter!r}")
+    weights = dict(DEFAULT_WEIGHTS)
+    for key, value in (reward_weights or {}).items():
+        if key not in DEFAULT_WEIGHTS:
+            raise ValueError(f"reward_weights has unknown key {key!r}; keys: {list(weights)}")
+        if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+            raise ValueError(f"reward_weights[{key!r}] must be a non-negative number")
+        weights[key] = float(value)
+    zones = [sc.wall] + [sc.interface] * (sc.n_cars - 1)
+    stroke = np.array([z.absorber_stroke for z in zones])
+    force = np.array([nominal_force(z) for z in zones])
+    cars = ["lead"] + [f"car{k + 1}" for k in range(1, sc.n_cars)]
+    zn = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
+    names = ([f"x_{c}" for c in cars] + [f"v_{c}" for c in cars] + [f"a_{c}" for c in cars]
+             + [f"crush_{z}" for z in zn] + [f"force_{z}" for z in zn]
+             + [f"scale_{z}" for z in zn])  # fmt: skip
+    n = sc.n_cars
+    scale = np.concatenate([np.full(n, X_SCALE), np.full(n, sc.speed),
+                            np.full(n, A_SCALE_G * sc.gravity), stroke, force,
+                            np.full(n, absorber_range)])  # fmt: skip
+    return CrashConfig(
+        scenario=sc, backend=backend, control_dt=control_dt, n_steps=n_steps,
+        absorber_range=float(absorber_range), max_scale_change=absorber_rate * control_dt,
+        speed_jitter=float(speed_jitter), weights=(weights["decel"], weights["intrusion"]),
+        absorber_stroke=stroke, obs_names=tuple(names), obs_scale=scale,
+    )  # fmt: skip
+
+
+@functools.lru_cache(maxsize=16)
+def default_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> CrashSurrogate:
+    """Surrogate elements fitted on a passive reference run of ``scenario`` (cached per
+    scenario, i.e. per name/file, number of cars and speed, and process; about 1 s)."""
+    return build_crash_surrogate(simulate_reference(scenario), variant=variant, seed=0)
+
+
+def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchModel:
+    """Batch model of the configured backend; ``surrogate`` = elements or ``None`` (fitted)."""
+    if cfg.backend == "reference":
+        return crash_batch_model(cfg.scenario, "reference", cfg.control_dt)
+    if surrogate is None:
+        if variant not in VARIANTS:
+            raise ValueError(f"surrogate_variant must be one of {VARIANTS}, got {variant!r}")
+        surrogate = default_surrogate(cfg.scenario, variant)
+    if not isinstance(surrogate, CrashSurrogate):
+        raise ValueError(
+            f"surrogate must be a CrashSurrogate (build_crash_surrogate), got "
+            f"{type(surrogate).__name__}"
+        )
+    return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
+
+
+@njit(cache=True)
+def _set_scale(actions, scale, zones, active, absorber_range, max_change):
+    """Move each active absorber's force scale towards ``1 + range · action`` by at most
+    ``max_change`` (the action is already clipped to [−1, 1])."""
+    for i in range(actions.shape[0]):
+        if not active[i]:
+            continue
+        for z in range(zones.shape[0]):
+            k = zones[z]
+            step = 1.0 + absorber_range * actions[i, z] - scale[i, k]
+            scale[i, k] += min(max(step, -max_change), max_change)
+
+
+def info_layout(n_cars: int, n_zones: int) -> dict[str, tuple[slice, bool]]:
+    """Columns of each ``info`` key in the flat info array (key → (columns, is_scalar)),
+    in the order :func:`_post_step` writes them."""
+    sizes = {"time": 1, "initial_speed": 1, "decel_g": n_cars, "crush_m": n_zones,
+             "force_N": n_zones, "absorber_scale": n_zones, "peak_decel_g": n_cars,
+             "mean_decel_g": n_cars, "absorbed_energy_J": n_zones, "max_crush_m": n_zones,
+             "stroke_used": n_zones, "stroke_exceeded": 1, "friction_work_J": 1,
+             "energy_error": 1, "diverged": 1}  # fmt: skip
+    out, j = {}, 0
+    for key, size in sizes.items():
+        out[key] = (slice(j, j + size), key in SCALAR_INFO)
+        j += size
+    return out
+
+
+
+@njit(cache=True)
+def _post_step(out, active, init, div, zones, scale, stroke, inv_scale, g, weights, control_dt,
+               speed, energy0, steps, peak, decel_sum, max_crush, intrusion, obs, reward, over,
+               info):  # fmt: skip
+    """Bookkeeping after a kernel call: episode statistics, observation, reward and the flat
+    ``info`` row (layout of :func:`info_layout`) of every active train.
+
+    With ``init`` the statistics of the active rows are cleared (train at first contact).
+    """
+    n_cars, nz = peak.shape[1], zones.shape[0]
+    w_d, w_i = weights[0], weights[1]
+    for i in range(out.x.shape[0]):
+        if not active[i]:
+            continue
+        if init:
+            steps[i] = 0
+            peak[i] = 0.0
+            decel_sum[i] = 0.0
+            max_crush[i] = 0.0
+            intrusion[i] = 0.0
+            reward[i] = 0.0
+            over[i] = False
+            energy0[i] = out.stored[i]
+        else:
+            steps[i] += 1
+            cost = 0.0
+            for c in range(n_cars):
+                d = -out.a[i, c] / g
+                peak[i, c] = max(peak[i, c], d)
+                decel_sum[i, c] += d
+                cost += (d / DECEL_REF_G) ** 2
+            r = -w_d * (control_dt / TIME_REF) * cost / n_cars
+            for z in range(nz):
+                max_crush[i, z] = max(max_crush[i, z], out.crush[i, zones[z]])
+                new = max(max_crush[i, z] - stroke[z], 0.0)
+                r -= w_i * (new - intrusion[i, z]) / INTRUSION_REF
+                intrusion[i, z] = new
+            reward[i] = -DIVERGENCE_PENALTY if div[i] else r
+            done = True
+            for k in range(out.force.shape[1]):
+                if out.force[i, k] > F_STOP or out.rate[i, k] > V_STOP:
+                    done = False
+            over[i] = done
+        for c in range(n_cars):
+            obs[i, c] = out.x[i, c] * inv_scale[c]
+            obs[i, n_cars + c] = out.v[i, c] * inv_scale[n_cars + c]
+            obs[i, 2 * n_cars + c] = out.a[i, c] * inv_scale[2 * n_cars + c]
+        j = 3 * n_cars
+        for z in range(nz):
+            k = zones[z]
+            obs[i, j + z] = out.crush[i, k] * inv_scale[j + z]
+            obs[i, j + nz + z] = out.force[i, k] * inv_scale[j + nz + z]
+            obs[i, j + 2 * nz + z] = (scale[i, k] - 1.0) * inv_scale[j + 2 * nz + z]
+        # info row
+        row = info[i]
+        row[0] = steps[i] * control_dt
+        row[1] = speed[i]
+        j = 2
+        for c in range(n_cars):
+            row[j + c] = -out.a[i, c] / g
+            row[j + n_cars + 3 * nz + c] = peak[i, c]
+            row[j + 2 * n_cars + 3 * nz + c] = decel_sum[i, c] / max(steps[i], 1)
+        exceeded = False
+        for z in range(nz):
+            k = zones[z]
+            row[j + n_cars + z] = out.crush[i, k]
+            row[j + n_cars + nz + z] = out.force[i, k]
+            row[j + n_cars + 2 * nz + z] = scale[i, k]
+            row[j + 3 * n_cars + 3 * nz + z] = out.work[i, k]
+            row[j + 3 * n_cars + 4 * nz + z] = max_crush[i, z]
+            row[j + 3 * n_cars + 5 * nz + z] = max_crush[i, z] / stroke[z]
+            exceeded = exceeded or max_crush[i, z] > stroke[z]
+        j += 3 * n_cars + 6 * nz
+        balance = energy0[i] - out.stored[i] - out.dissipated[i, 0] - out.dissipated[i, 1]
+        for k in range(out.work.shape[1]):
+            balance -= out.work[i, k]
+        row[j] = 1.0 if exceeded else 0.0
+        row[j + 1] = out.dissipated[i, 0]
+        row[j + 2] = balance / energy0[i] if energy0[i] > 0.0 else 0.0
+        row[j + 3] = 1.0 if div[i] else 0.0
+
+
+class CrashBatch:
+    """``n`` trains, stepped by one compiled kernel call of a :class:`CrashBatchModel`.
+
+    Not a Gymnasium object: it holds the arrays and computes the observation, reward and
+    ``info`` quantities of :class:`TrainCrashEnv`.
+    """
+
+    def __init__(self, n: int, cfg: CrashConfig, model: CrashBatchModel) -> None:
+        self.n, self.cfg, self.model = n, cfg, model
+        sc = cfg.scenario
+        self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
+        self.zones = np.array(
+            [model.zone_names.index(z) for z in ["wall"]
+             + [f"interface_{k}" for k in range(1, sc.n_cars)]], dtype=np.int64,
+        )  # fmt: skip
+        self.state = model.new_state(n)
+        self.out: BatchOutputs = model.new_outputs(n)
+        self.scale = np.ones((n, len(model.zone_names)))
+        self.div = np.zeros(n, np.bool_)
+        self.over = np.zeros(n, np.bool_)
+        self.steps = np.zeros(n, np.int64)
+        self.speed = np.zeros(n)
+        self.energy0 = np.zeros(n)
+        self.peak = np.zeros((n, self.n_cars))
+        self.decel_sum = np.zeros((n, self.n_cars))
+        self.max_crush = np.zeros((n, self.n_zones))
+        self.intrusion = np.zeros((n, self.n_zones))
+        self.obs = np.zeros((n, len(cfg.obs_names)))
+        self.rew = np.zeros(n)
+        self.layout = info_layout(self.n_cars, self.n_zones)
+        self.info = np.zeros((n, max(sl.stop for sl, _ in self.layout.values())))
+        self.inv_scale = 1.0 / cfg.obs_scale
+        self.weights = np.array(cfg.weights)
+        # undeformed front end of each car at first contact (lead car at the wall), m
+        lengths = [sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1)
+        self.lengths = np.array(lengths)
+        self.front0 = -np.concatenate(([0.0], np.cumsum(lengths[:-1])))
+
+    def reset(self, rows: np.ndarray, rngs: list[np.random.Generator]) -> None:
+        """Put the trains ``rows`` at first contact (initial speed jittered with ``rngs[i]``)."""
+        cfg, mask = self.cfg, np.zeros(self.n, np.bool_)
+        for i in rows:
+            v = cfg.scenario.speed
+            if cfg.speed_jitter > 0:
+                v *= 1.0 + cfg.speed_jitter * rngs[i].uniform(-1.0, 1.0)
+            self.model.reset(self.state, self.out, i, v)
+            self.speed[i] = v
+            self.scale[i] = 1.0
+            self.div[i] = False
+            mask[i] = True
+        self._call(mask, init=True)
+
+    def advance(self, actions: np.ndarray, active: np.ndarray) -> None:
+        """One control step of the ``active`` trains with ``actions`` (n, zones) in [−1, 1]."""
+        cfg = self.cfg
+        _set_scale(actions, self.scale, self.zones, active, cfg.absorber_range,
+                   cfg.max_scale_change)  # fmt: skip
+        self._call(active, init=False)
+
+    def _call(self, active: np.ndarray, init: bool) -> None:
+        self.model.step(self.state, self.out, self.scale, active, self.div, init=init,
+                        limit=STATE_LIMIT)  # fmt: skip
+        _post_step(self.out, active, init, self.div, self.zones, self.scale,
+                   self.cfg.absorber_stroke, self.inv_scale, self.cfg.scenario.gravity,
+                   self.weights, self.cfg.control_dt, self.speed, self.energy0, self.steps,
+                   self.peak, self.decel_sum, self.max_crush, self.intrusion, self.obs,
+                   self.rew, self.over, self.info)  # fmt: skip
+
+    def observe(self) -> np.ndarray:
+        """Observations (n, n_obs), float32."""
+        return self.obs.astype(np.float32)
+
+    def infos(self) -> dict[str, np.ndarray]:
+        """``info`` of every train as arrays, first axis the train (``docs/envs/crash.md``)."""
+        out = {}
+        for key, (sl, scalar) in self.layout.items():
+            v = self.info[:, sl.start] if scalar else self.info[:, sl]
+            out[key] = v.astype(np.bool_) if key in BOOL_INFO else v.copy()
+        return out
+
+    def info_row(self, i: int) -> dict[str, Any]:
+        """``info`` of train ``i``: floats, bools and 1-D arrays."""
+        row, out = self.info[i], {}
+        for key, (sl, scalar) in self.layout.items():
+            out[key] = (bool(row[sl.start]) if key in BOOL_INFO
+                        else float(row[sl.start]) if scalar else row[sl].copy())  # fmt: skip
+        return out
+
+    def render_state(self, i: int) -> dict[str, Any]:
+        """What :func:`railgym.envs.rendering.render_crash` draws for train ``i``."""
+        out, c = self.out, self.n_cars
+        wall = float(out.x[i, c]) if out.x.shape[1] > c else 0.0  # the obstacle, if any
+        return {
+            "positions": self.front0 + out.x[i, :c], "lengths": self.lengths,
+            "crush": out.crush[i, self.zones], "stroke": self.cfg.absorber_stroke,
+            "wall_x": wall, "time": float(self.steps[i] * self.cfg.control_dt),
+            "duration": self.cfg.n_steps * self.cfg.control_dt,
+        }  # fmt: skip
+
+
+class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Adaptive crash energy management: a train runs into a wall, the agent sets the force
+    level of a controllable absorber in every crush zone.
+
+    Parameters
+    ----------
+    backend : ``"surrogate"`` (default, paper eq. 4) or ``"reference"`` (lumped-mass chain).
+    scenario : packaged scenario name (``"paper"``, ``"speed50"``, ...) or YAML path.
+    n_cars : number of cars (``None`` = the scenario's). speed : initial speed, m/s (``None``
+        = the scenario's). speed_jitter : initial speed × U(1 − j, 1 + j) at each reset.
+    control_dt : agent step, s. max_duration : truncation, s.
+    absorber_range : action ±1 sets the absorber force to (1 ± range) × nominal.
+    absorber_rate : largest change of the force scale, 1/s.
+    reward_weights : ``decel`` and ``intrusion`` weights.
+    surrogate : :class:`CrashSurrogate` elements, or ``None`` to fit them on a reference run of
+        the scenario (cached per process). surrogate_variant : ``"hysteretic"`` or ``"paper"``.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(
+        self,
+        backend: str = "surrogate",
+        scenario: str | Path | CrashScenario = "paper",
+        n_cars: int | None = 2,
+        speed: float | None = None,
+        control_dt: float = 0.001,
+        max_duration: float = 2.0,
+        absorber_range: float = 0.3,
+        absorber_rate: float = 20.0,
+        speed_jitter: float = 0.0,
+        reward_weights: dict[str, float] | None = None,
+        surrogate: CrashSurrogate | None = None,
+        surrogate_variant: str = "hysteretic",
+        render_mode: str | None = None,
+    ) -> None:
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.cfg = make_config(scenario, backend, n_cars, speed, control_dt, max_duration,
+                               absorber_range, absorber_rate, speed_jitter, reward_weights)
+        self.backend = backend
+        self.model = make_model(self.cfg, surrogate, surrogate_variant)
+        self.sim = CrashBatch(1, self.cfg, self.model)
+        self.render_mode = render_mode
+        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
+        n_z = self.sim.n_zones
+        self.observation_space = spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (n_z,), np.float32)
+        self._one = np.ones(1, np.bool_)
+        self._started = False
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Train at first contact with the wall, absorbers at nominal force."""
+        super().reset(seed=seed)
+        if options:
+            raise ValueError(f"reset takes no options, got {sorted(options)}")
+        self.sim.reset(np.zeros(1, np.int64), [self.np_random])
+        self._started = True
+        return self.sim.observe()[0], self._info()
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Advance ``control_dt``; the action is clipped to [−1, 1], non-finite raises."""
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        a = np.asarray(action, dtype=np.float64)
+        n_z = self.sim.n_zones
+        if a.shape != (n_z,):
+            raise ValueError(f"action must have shape ({n_z},), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be finite, got {action!r}")
+        sim = self.sim
+        sim.advance(np.clip(a, -1.0, 1.0)[None], self._one)
+        terminated = bool(sim.over[0] or sim.div[0])
+        truncated = bool(sim.steps[0] >= self.cfg.n_steps) and not terminated
+        if terminated or truncated:
+            self._started = False
+        return sim.observe()[0], float(sim.rew[0]), terminated, truncated, self._info()
+
+    def _info(self) -> dict[str, Any]:
+        return self.sim.info_row(0)
+
+    def render(self) -> np.ndarray | None:
+        """RGB frame (H, W, 3) of the train and the wall when ``render_mode="rgb_array"``."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
+            return None
+        from railgym.envs.rendering import render_crash
+
+        return render_crash(self.sim.render_state(0))
+
+
+class TrainCrashVectorEnv(VectorEnv):
+    """Native vector version: all sub-envs stepped in one compiled kernel call.
+
+    Sub-env ``i`` of ``reset(seed=s)`` reproduces ``TrainCrashEnv.reset(seed=s + i)`` step
+    for step. Autoreset mode: next step (gymnasium's default).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50,
+                "autoreset_mode": AutoresetMode.NEXT_STEP}  # fmt: skip
+
+    def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
+        if isinstance(num_envs, bool) or not (
+            isinstance(num_envs, int | np.integer) and num_envs >= 1
+        ):
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        self.single_env = TrainCrashEnv(render_mode=render_mode, **kwargs)
+        self.num_envs = int(num_envs)
+        self.render_mode = render_mode
+        self.cfg = self.single_env.cfg
+        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
+        self.sim = CrashBatch(self.num_envs, self.cfg, self.single_env.model)
+        self.single_observation_space = self.single_env.observation_space
+        self.single_action_space = self.single_env.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._rngs: list[np.random.Generator] = []
+        self._prev_done = np.zeros(self.num_envs, np.bool_)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every sub-env; sub-env ``i`` is seeded with ``seed + i``."""
+        if options:
+            raise ValueError(f"reset takes no options, got {sorted(options)}")
+        if seed is not None:
+            self._np_random, self._np_random_seed = seeding.np_random(seed)
+        seeds = [None if seed is None else seed + i for i in range(self.num_envs)]
+        self._rngs = [seeding.np_random(s)[0] for s in seeds]
+        self.sim.reset(np.arange(self.num_envs), self._rngs)
+        self._prev_done[:] = False
+        return self.sim.observe(), self._infos()
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step all sub-envs; those that ended on the previous step are reset instead."""
+        if not self._rngs:
+            raise RuntimeError("call reset() before step()")
+        sim = self.sim
+        a = np.asarray(actions, dtype=np.float64)
+        shape = (self.num_envs, sim.n_zones)
+        if a.shape != shape:
+            raise ValueError(f"actions must have shape {shape}, got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError("actions must be finite; got NaN or Inf")
+        done = self._prev_done
+        if done.any():
+            sim.reset(np.flatnonzero(done), self._rngs)
+        sim.advance(np.clip(a, -1.0, 1.0), ~done)
+        terminated = sim.over | sim.div  # both False for the sub-envs just reset
+        truncated = (sim.steps >= self.cfg.n_steps) & ~terminated
+        self._prev_done = terminated | truncated
+        return sim.observe(), sim.rew.copy(), terminated, truncated, self._infos()
+
+    def _infos(self) -> dict[str, Any]:
+        infos = self.sim.infos()
+        mask = np.ones(self.num_envs, np.bool_)
+        return {**infos, **{f"_{k}": mask for k in infos}}
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """One RGB frame per sub-env."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
+            return None
+        from railgym.envs.rendering import render_crash
+
+        return tuple(render_crash(self.sim.render_state(i)) for i in range(self.num_envs))
