@@ -1,0 +1,575 @@
+"""Train stable-baselines3 agents on railgym environments from rl-zoo3-style YAML files.
+
+Usage::
+
+    python -m agents.train CONFIG.yaml [--out DIR] [--timesteps N] [--seed S] [--no-progress]
+
+The full training run of the vertical suspension agent (a documented command, not a CI test):
+PPO, 4·10⁶ steps on the surrogate backend, about 10 minutes at the ~7000 steps/s of one CPU
+core; every 10⁵ steps it is evaluated on the reference model (4 tracks, FRA class 5, 20 s)::
+
+    python -m agents.train configs/agents/ppo_vertical.yaml
+
+(A 2·10⁶-step run of it reached an RMS carbody acceleration of 0.47 m/s² on the reference
+model against 0.77 passive and 0.63 with skyhook.) ``configs/agents/sac_vertical.yaml`` is the
+off-policy alternative (3·10⁵ steps, ~500 steps/s), ``configs/agents/ppo_crash.yaml`` trains
+the absorbers of ``railgym/TrainCrash-v0``.
+
+Config file: one top-level key, the Gymnasium env id, holding
+
+======================  ==========================================================================
+``algo``                ``ppo``, ``sac``, ``td3`` or ``a2c`` (required)
+``n_timesteps``         total environment steps (all sub-envs together)
+``policy``              stable-baselines3 policy name, e.g. ``MlpPolicy``
+``n_envs``              sub-envs of the vector env (``gym.make_vec``)
+``seed``                seeds python/numpy/torch and the envs (sub-env ``i``: ``seed + i``);
+                        drawn at random and recorded when absent
+``env_kwargs``          passed to ``gym.make_vec`` (e.g. ``backend``, ``duration``)
+``eval_env_kwargs``     overrides of ``env_kwargs`` for the evaluation env (e.g. ``backend:
+                        reference``)
+``eval_freq``           steps between evaluations; ``n_eval_episodes``: episodes per evaluation
+                        (one per sub-env of the evaluation env); ``eval_seed`` (default
+                        999999, the same for every run): the same evaluation tracks every time
+``eval_echo``           ``info`` entries printed with each evaluation (e.g.
+                        ``[rms_carbody_acc]``); all of them go to ``eval.csv``
+``checkpoint_freq``     steps between checkpoints
+``n_threads``           torch CPU threads (default 1: small networks are fastest on one thread)
+``vectorization_mode``  ``vector_entry_point`` (the env's native vector env, default where it
+                        has one) or ``sync`` (a ``SAME_STEP`` ``SyncVectorEnv`` of single
+                        envs)
+everything else         hyperparameters of the algorithm (``learning_rate``, ``n_steps``,
+                        ``policy_kwargs`` with ``net_arch`` and ``activation_fn`` as a name, …);
+                        ``lin_<v>`` is a schedule falling linearly from ``v`` to 0 (rl-zoo3)
+======================  ==========================================================================
+
+Output folder (``--out``; default next to the config, ``<config-stem>/``): ``model.zip`` (the
+final policy), ``best_model.zip`` (best evaluation reward), ``checkpoints/``, ``progress.csv``
+(stable-baselines3's training log), ``eval.csv`` (per evaluation: mean/std episode reward,
+episode length and the mean of every numeric ``info`` entry at episode end, e.g.
+``mean_rms_carbody_acc`` in m/s²) and ``config.yaml`` (the resolved config with its seeds,
+loadable again, plus a ``run`` section: package versions, wall time, steps/s).
+
+SB3 expects vector envs that reset a finished sub-env in the same step and put the final
+observation into ``info["terminal_observation"]``; :class:`GymVecToSB3` provides this on top of
+Gymnasium 1.x vector envs (``NEXT_STEP`` or ``SAME_STEP`` autoreset).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import inspect
+import platform
+import sys
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import stable_baselines3 as sb3
+import torch
+import yaml
+from gymnasium.vector import AutoresetMode, VectorEnv
+from stable_baselines3 import A2C, PPO, SAC, TD3
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+from stable_baselines3.common.logger import configure
+from stable_baselines3.common.utils import LinearSchedule, set_random_seed
+from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+from tqdm import tqdm
+
+import railgym
+
+ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3, "a2c": A2C}
+ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "elu": torch.nn.ELU,
+               "leakyrelu": torch.nn.LeakyReLU, "silu": torch.nn.SiLU}  # fmt: skip
+VECTORIZATION_MODES = ("vector_entry_point", "sync")
+#: default seed of the evaluation env: every run is evaluated on the same tracks
+EVAL_SEED = 999_999
+#: top-level key of the saved config that :func:`load_config` ignores
+RUN_KEY = "run"
+
+
+def _split_infos(infos: dict[str, Any], n: int) -> list[dict[str, Any]]:
+    """Gymnasium's batched ``info`` dict (values + ``_key`` masks) → one dict per sub-env."""
+    out: list[dict[str, Any]] = [{} for _ in range(n)]
+    for key, value in infos.items():
+        if key.startswith("_"):
+            continue
+        mask = infos.get(f"_{key}", np.ones(n, np.bool_))
+        parts = _split_infos(value, n) if isinstance(value, dict) else value
+        for i in np.flatnonzero(mask):
+            out[i][key] = parts[i]
+    return out
+
+
+class GymVecToSB3(VecEnv):
+    """stable-baselines3 ``VecEnv`` view of a Gymnasium 1.x ``VectorEnv``.
+
+    SB3 wants a finished sub-env reset within the same step: the returned observation is the
+    first one of the new episode and ``info["terminal_observation"]`` the last one of the old.
+
+    * ``SAME_STEP`` vector envs already do this (``info["final_obs"]``).
+    * ``NEXT_STEP`` vector envs reset a finished sub-env on the following ``step`` call and
+      ignore its action there; each sub-env keeps its own seeded stream, so sub-env ``i``
+      matches a single env seeded ``seed + i``. When every sub-env finishes in the same step
+      (fixed-length episodes started together), the adapter makes that reset step at once.
+      When only some finish, a step would also advance the others, so the finished ones are
+      reset with Gymnasium's partial reset ``reset(options={"reset_mask": mask})`` (as
+      ``SyncVectorEnv`` has). If the env rejects it (``ValueError``), the adapter warns once
+      and from then on ends every unfinished episode as truncated (``TimeLimit.truncated``;
+      SB3 bootstraps its value from ``terminal_observation``) and resets the whole vector env
+      with a seed drawn from its generator (seeded by :meth:`reset` after :meth:`seed`).
+
+    ``get_attr``/``set_attr``/``env_method`` act on the vector env itself (shared by all
+    sub-envs). The wrapped env must not be stepped by anyone else.
+    """
+
+    def __init__(self, venv: VectorEnv) -> None:
+        mode = venv.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP)
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"venv autoreset_mode must be NEXT_STEP or SAME_STEP, got {mode}")
+        self.venv = venv
+        self.autoreset_mode = mode
+        self.partial_reset = True
+        self._rng = np.random.default_rng()
+        self._actions: np.ndarray | None = None
+        super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
+
+    def reset(self) -> np.ndarray:
+        """Reset all sub-envs; uses the seed of :meth:`seed` once (sub-env ``i``: seed + i)."""
+        seed = self._seeds[0]
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        obs, infos = self.venv.reset(seed=seed, options=self._options[0] or None)
+        self.reset_infos = _split_infos(infos, self.num_envs)
+        self._reset_seeds()
+        self._reset_options()
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
+        obs, rewards, terminated, truncated, infos = self.venv.step(self._actions)
+        dones = terminated | truncated
+        n = self.num_envs
+        out = _split_infos(infos, n)
+        if dones.any() and self.autoreset_mode == AutoresetMode.SAME_STEP:
+            for i in np.flatnonzero(dones):
+                out[i] = {**out[i].get("final_info", {}),
+                          "terminal_observation": out[i]["final_obs"]}  # fmt: skip
+        elif dones.any():
+            obs, cut = self._next_step_reset(obs, dones, out)
+            if cut:  # every unfinished episode was ended too
+                truncated, dones = truncated | ~dones, np.ones(n, np.bool_)
+        for i in np.flatnonzero(dones):
+            out[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+        return obs, np.asarray(rewards, np.float32), dones, out
+
+    def _next_step_reset(
+        self, obs: np.ndarray, dones: np.ndarray, out: list[dict]
+    ) -> tuple[np.ndarray, bool]:
+        """Reset the finished sub-envs of a NEXT_STEP env now (see the class docstring).
+        Returns the new observations and whether all sub-envs had to be reset."""
+        for i in np.flatnonzero(dones):
+            out[i]["terminal_observation"] = obs[i]
+        if dones.all():
+            obs, _, _, _, infos = self.venv.step(self._actions)  # sub-envs only reset
+        elif self.partial_reset:
+            try:
+                obs, infos = self.venv.reset(options={"reset_mask": dones.copy()})
+            except ValueError as err:
+                warnings.warn(f"{type(self.venv).__name__} has no partial reset ({err}); "
+                              "unfinished episodes are truncated whenever one ends",
+                              stacklevel=3)  # fmt: skip
+                self.partial_reset = False
+        cut = not (dones.all() or self.partial_reset)
+        if cut:
+            for i in np.flatnonzero(~dones):
+                out[i]["terminal_observation"] = obs[i]
+            obs, infos = self.venv.reset(seed=int(self._rng.integers(2**31 - 1)))
+        for i, info in enumerate(_split_infos(infos, self.num_envs)):
+            if info:
+                self.reset_infos[i] = info
+        return obs, cut
+
+    def close(self) -> None:
+        self.venv.close()
+
+    def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
+        value = getattr(self.venv, attr_name)
+        return [value for _ in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+        setattr(self.venv, attr_name, value)
+
+    def env_method(self, method_name: str, *args: Any, indices: Any = None, **kw: Any) -> list:
+        result = getattr(self.venv, method_name)(*args, **kw)
+        return [result for _ in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+
+def make_vec(
+    env_id: str, num_envs: int, env_kwargs: dict[str, Any], mode: str | None = None
+) -> VectorEnv:
+    """The env's native vector env (``mode="vector_entry_point"``, the default where the env
+    has one) or a ``SAME_STEP`` ``SyncVectorEnv`` of single envs (``mode="sync"``)."""
+    if mode not in (None, *VECTORIZATION_MODES):
+        raise ValueError(f"vectorization_mode must be one of {VECTORIZATION_MODES}, got {mode!r}")
+    native = gym.spec(env_id).vector_entry_point is not None
+    if mode == "vector_entry_point" and not native:
+        raise ValueError(f"vectorization_mode: {env_id} has no native vector env")
+    if mode != "sync" and native:
+        return gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point",
+                            **env_kwargs)  # fmt: skip
+    same_step = {"autoreset_mode": AutoresetMode.SAME_STEP}
+    return gym.make_vec(env_id, num_envs, vectorization_mode="sync", vector_kwargs=same_step,
+                        **env_kwargs)  # fmt: skip
+
+
+def evaluate(policy: Any, venv: VectorEnv, seed: int) -> dict[str, float]:
+    """One episode per sub-env of ``venv`` (reset with ``seed``), deterministic actions.
+
+    ``policy`` has SB3's ``predict(obs, deterministic=True)``: a model or a controller.
+    Returns ``mean_reward``, ``std_reward``, ``mean_length`` and the mean over the episodes of
+    every numeric or boolean ``info`` entry at their end: ``mean_<key>`` for a scalar (e.g.
+    ``mean_rms_carbody_acc``, m/s²), ``mean_<key>_<j>`` for the entries of a 1-D array.
+    """
+    obs, _ = venv.reset(seed=seed)
+    n = venv.num_envs
+    returns, lengths = np.zeros(n), np.zeros(n, np.int64)
+    active = np.ones(n, np.bool_)
+    final: list[dict[str, Any]] = [{} for _ in range(n)]
+    while active.any():
+        action, _ = policy.predict(obs, deterministic=True)
+        obs, rewards, terminated, truncated, infos = venv.step(action)
+        returns[active] += rewards[active]
+        lengths[active] += 1
+        ended = (terminated | truncated) & active
+        if ended.any():
+            split = _split_infos(infos, n)
+            for i in np.flatnonzero(ended):
+                final[i] = split[i].get("final_info", split[i])
+            active &= ~ended
+    stats = {"mean_reward": float(returns.mean()), "std_reward": float(returns.std()),
+             "mean_length": float(lengths.mean())}  # fmt: skip
+    for key, value in final[0].items():
+        value = np.asarray(value)
+        if value.dtype.kind not in "biuf" or value.ndim > 1:
+            continue
+        mean = np.mean([np.asarray(f[key], np.float64) for f in final], axis=0)
+        if value.ndim == 0:
+            stats[f"mean_{key}"] = float(mean)
+        else:
+            stats.update({f"mean_{key}_{j}": float(m) for j, m in enumerate(mean)})
+    return stats
+
+
+@dataclass
+class TrainConfig:
+    """A validated training config (see the module docstring for the fields)."""
+
+    env_id: str
+    algo: str
+    n_timesteps: int
+    policy: str
+    n_envs: int
+    seed: int
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    eval_env_kwargs: dict[str, Any] = field(default_factory=dict)
+    eval_freq: int = 10_000
+    n_eval_episodes: int = 4
+    eval_seed: int = EVAL_SEED
+    checkpoint_freq: int = 50_000
+    n_threads: int = 1
+    vectorization_mode: str | None = None
+    eval_echo: list[str] = field(default_factory=list)
+    hyperparameters: dict[str, Any] = field(default_factory=dict)
+
+    def to_yaml_dict(self) -> dict[str, Any]:
+        """The config-file form: ``{env_id: {...}}``."""
+        block = asdict(self)
+        del block["env_id"]
+        block.update(block.pop("hyperparameters"))
+        return {self.env_id: block}
+
+
+def _positive_int(block: dict[str, Any], name: str, default: int | None = None) -> int:
+    value = block.get(name, default)
+    if value is None:
+        raise ValueError(f"config is missing {name!r}")
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+def _seed(block: dict[str, Any], name: str, default: int | None) -> int | None:
+    value = block.get(name, default)
+    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 0):
+        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+    return value
+
+
+def _kwargs(block: dict[str, Any], name: str) -> dict[str, Any]:
+    value = block.get(name) or {}
+    if not isinstance(value, dict):
+        raise ValueError(f"{name} must be a mapping, got {value!r}")
+    return dict(value)
+
+
+def _names(block: dict[str, Any], name: str) -> list[str]:
+    value = block.get(name) or []
+    if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
+        raise ValueError(f"{name} must be a list of names, got {value!r}")
+    return value
+
+
+def _hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[str, Any]:
+    """Check names against the algorithm's signature; numbers written as strings (YAML reads
+    ``3e-4`` as text) become floats, rl-zoo3's ``lin_<v>`` a schedule from ``v`` down to 0,
+    ``policy_kwargs.activation_fn`` (a name) a torch module."""
+    allowed = set(inspect.signature(algo.__init__).parameters) - {"self", "policy", "env"}
+    out: dict[str, Any] = {}
+    for key, value in hyper.items():
+        if key not in allowed:
+            raise ValueError(f"unknown config key {key!r}: not a run setting nor a "
+                             f"hyperparameter of {algo.__name__}")  # fmt: skip
+        if isinstance(value, str) and value.startswith("lin_"):
+            try:
+                value = LinearSchedule(float(value[4:]), 0.0, 1.0)
+            except ValueError:
+                msg = f"{key} must be a number or 'lin_<number>', got {value!r}"
+                raise ValueError(msg) from None
+        elif isinstance(value, str):
+            try:
+                value = float(value)
+            except ValueError:
+                pass
+        out[key] = value
+    pk = out.get("policy_kwargs")
+    if pk is not None:
+        if not isinstance(pk, dict):
+            raise ValueError(f"policy_kwargs must be a mapping, got {pk!r}")
+        pk = dict(pk)
+        act = pk.get("activation_fn")
+        if isinstance(act, str):
+            name = act.lower().removeprefix("nn.").replace("_", "")
+            if name not in ACTIVATIONS:
+                raise ValueError(f"policy_kwargs.activation_fn must be one of "
+                                 f"{sorted(ACTIVATIONS)}, got {act!r}")  # fmt: skip
+            pk["activation_fn"] = ACTIVATIONS[name]
+        out["policy_kwargs"] = pk
+    return out
+
+
+def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
+    """Read and validate a config (path of a YAML file or its content as a dict).
+
+    A missing ``seed`` is drawn from the OS entropy, so that it can be recorded.
+    """
+    if isinstance(config, (str, Path)):
+        path = Path(config)
+        if not path.is_file():
+            raise ValueError(f"config file {str(path)!r} does not exist")
+        config = yaml.safe_load(path.read_text())
+    if not isinstance(config, dict):
+        raise ValueError(f"config must be a mapping {{env id: settings}}, got {config!r}")
+    ids = [k for k in config if k != RUN_KEY]
+    if len(ids) != 1:
+        raise ValueError("config must have exactly one top-level key, the env id (e.g. "
+                         f"'railgym/VerticalSuspension-v0'), got {ids}")  # fmt: skip
+    env_id = ids[0]
+    if env_id not in gym.registry:
+        raise ValueError(f"env id {env_id!r} is not a registered Gymnasium env")
+    block = config[env_id]
+    if not isinstance(block, dict):
+        raise ValueError(f"settings of {env_id!r} must be a mapping, got {block!r}")
+    block = dict(block)
+    algo = block.get("algo")
+    if algo not in ALGOS:
+        raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {algo!r}")
+    policy = block.get("policy", "MlpPolicy")
+    if not isinstance(policy, str):
+        raise ValueError(f"policy must be a policy name, got {policy!r}")
+    mode = block.get("vectorization_mode")
+    if mode not in (None, *VECTORIZATION_MODES):
+        raise ValueError(f"vectorization_mode must be one of {VECTORIZATION_MODES}, got {mode!r}")
+    seed = _seed(block, "seed", None)
+    if seed is None:
+        seed = int(np.random.SeedSequence().entropy % 2**31)
+    run_keys = {f.name for f in TrainConfig.__dataclass_fields__.values()} - {"hyperparameters"}
+    hyper = {k: v for k, v in block.items() if k not in run_keys}
+    _hyperparameters(ALGOS[algo], hyper)  # validates; applied by train()
+    return TrainConfig(
+        env_id=env_id, algo=algo, policy=policy, seed=seed,
+        n_timesteps=_positive_int(block, "n_timesteps"),
+        n_envs=_positive_int(block, "n_envs", 1),
+        env_kwargs=_kwargs(block, "env_kwargs"),
+        eval_env_kwargs=_kwargs(block, "eval_env_kwargs"),
+        eval_freq=_positive_int(block, "eval_freq", 10_000),
+        n_eval_episodes=_positive_int(block, "n_eval_episodes", 4),
+        eval_seed=_seed(block, "eval_seed", EVAL_SEED),
+        checkpoint_freq=_positive_int(block, "checkpoint_freq", 50_000),
+        n_threads=_positive_int(block, "n_threads", 1),
+        vectorization_mode=mode,
+        eval_echo=_names(block, "eval_echo"),
+        hyperparameters=hyper,
+    )  # fmt: skip
+
+
+class _ProgressBar(BaseCallback):
+    """tqdm bar over the environment steps of ``learn``."""
+
+    def _on_training_start(self) -> None:
+        total = self.locals["total_timesteps"] - self.model.num_timesteps
+        self.bar = tqdm(total=total, unit="step", dynamic_ncols=True)
+
+    def _on_step(self) -> bool:
+        self.bar.update(self.training_env.num_envs)
+        return True
+
+    def _on_training_end(self) -> None:
+        self.bar.close()
+
+
+class _EvalCallback(BaseCallback):
+    """Every ``freq`` steps and after the last update (the saved model): :func:`evaluate`, a
+    row of ``eval.csv`` and ``best_model.zip`` on a new best mean reward."""
+
+    def __init__(
+        self, venv: VectorEnv, seed: int, freq: int, out: Path, echo: list[str] | None
+    ) -> None:
+        super().__init__()
+        self.venv, self.seed, self.freq, self.out, self.echo = venv, seed, freq, out, echo
+        self.next_eval, self.best = freq, -np.inf
+        self.t0 = time.perf_counter()
+        self.fields: list[str] | None = None
+
+    def _on_training_start(self) -> None:
+        self.total = self.locals["total_timesteps"]
+
+    def _on_step(self) -> bool:
+        if self.next_eval <= self.num_timesteps < self.total:
+            self.next_eval += self.freq * (1 + (self.num_timesteps - self.next_eval) // self.freq)
+            self._evaluate()
+        return True
+
+    def _on_training_end(self) -> None:
+        self._evaluate()
+
+    def _evaluate(self) -> None:
+        stats = evaluate(self.model, self.venv, self.seed)
+        row = {"timesteps": self.num_timesteps,
+               "wall_s": round(time.perf_counter() - self.t0, 2), **stats}  # fmt: skip
+        path = self.out / "eval.csv"
+        with path.open("w" if self.fields is None else "a", newline="") as fh:
+            if self.fields is None:
+                self.fields = list(row)
+                csv.writer(fh).writerow(self.fields)
+            csv.DictWriter(fh, self.fields, extrasaction="ignore").writerow(row)
+        if stats["mean_reward"] > self.best:
+            self.best = stats["mean_reward"]
+            self.model.save(self.out / "best_model.zip")
+        if self.echo is not None:
+            shown = [k for k in stats for name in self.echo if k == f"mean_{name}"
+                     or k.removeprefix(f"mean_{name}_").isdigit()]  # fmt: skip
+            extra = "".join(f", {k[5:]} {stats[k]:.4g}" for k in shown)
+            tqdm.write(f"eval @ {self.num_timesteps} steps: reward {stats['mean_reward']:.4g} "
+                       f"± {stats['std_reward']:.3g}{extra}")  # fmt: skip
+
+
+def _versions() -> dict[str, str]:
+    return {"python": platform.python_version(), "railgym": railgym.__version__,
+            "stable_baselines3": sb3.__version__, "torch": str(torch.__version__),
+            "gymnasium": gym.__version__, "numpy": np.__version__}  # fmt: skip
+
+
+def _write_config(out: Path, cfg: TrainConfig, run: dict[str, Any]) -> None:
+    data = cfg.to_yaml_dict()
+    data[RUN_KEY] = run
+    (out / "config.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+
+
+def train(
+    config: str | Path | dict[str, Any],
+    out: str | Path | None = None,
+    total_timesteps: int | None = None,
+    progress: bool = True,
+    seed: int | None = None,
+) -> Path:
+    """Train the config's algorithm on its env; returns the output folder.
+
+    ``out`` defaults to ``<config folder>/<config stem>/`` (required for a dict config);
+    ``total_timesteps`` and ``seed`` override the config's ``n_timesteps`` and ``seed``.
+    """
+    cfg = load_config(config)
+    if out is None:
+        if isinstance(config, dict):
+            raise ValueError("out is required when the config is given as a dict")
+        out = Path(config).with_suffix("")
+    out = Path(out)
+    if total_timesteps is not None:
+        cfg.n_timesteps = _positive_int({"total_timesteps": total_timesteps}, "total_timesteps")
+    if seed is not None:
+        cfg.seed = _seed({"seed": seed}, "seed", None)
+    out.mkdir(parents=True, exist_ok=True)
+    run: dict[str, Any] = {"versions": _versions()}
+    _write_config(out, cfg, run)
+
+    torch.set_num_threads(cfg.n_threads)
+    set_random_seed(cfg.seed)
+    mode = cfg.vectorization_mode
+    env = VecMonitor(GymVecToSB3(make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)))
+    eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes,
+                         {**cfg.env_kwargs, **cfg.eval_env_kwargs}, mode)  # fmt: skip
+    hyper = _hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
+    hyper = {"device": "cpu", "verbose": 0, **hyper}
+    model = ALGOS[cfg.algo](cfg.policy, env, seed=cfg.seed, **hyper)
+    model.set_logger(configure(str(out), ["csv"]))
+    callbacks: list[BaseCallback] = [
+        _EvalCallback(eval_venv, cfg.eval_seed, cfg.eval_freq, out,
+                      echo=cfg.eval_echo if progress else None),
+        CheckpointCallback(max(cfg.checkpoint_freq // cfg.n_envs, 1), str(out / "checkpoints"),
+                           name_prefix="model"),
+    ]  # fmt: skip
+    if progress:
+        callbacks.append(_ProgressBar())
+    t0 = time.perf_counter()
+    model.learn(cfg.n_timesteps, callback=callbacks)
+    wall = time.perf_counter() - t0
+    model.save(out / "model.zip")
+    env.close()
+    eval_venv.close()
+    run.update(wall_s=round(wall, 1), steps_per_s=round(model.num_timesteps / wall, 1),
+               timesteps=int(model.num_timesteps))  # fmt: skip
+    _write_config(out, cfg, run)
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point: ``python -m agents.train CONFIG [--out DIR] [--timesteps N] [--seed S]``."""
+    parser = argparse.ArgumentParser(prog="python -m agents.train",
+                                     description=__doc__.split("\n\n")[0])  # fmt: skip
+    parser.add_argument("config", type=Path, help="rl-zoo3-style YAML file")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="output folder (default: next to the config, <config-stem>/)")
+    parser.add_argument("--timesteps", type=int, default=None, help="override n_timesteps")
+    parser.add_argument("--seed", type=int, default=None, help="override seed")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    out = train(args.config, args.out, args.timesteps, not args.no_progress, args.seed)
+    run = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
+    print(f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s); "
+          f"model, logs and config in {out}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
