@@ -133,3 +133,22 @@ def test_rgb_array_render():
     env.step(np.ones(1, np.float32))
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+
+
+def test_vector_partial_reset_mask():
+    venv = gym.make_vec(ENV_ID, num_envs=3, vectorization_mode="vector_entry_point",
+                        duration=1.0)  # fmt: skip
+    venv.reset(seed=5)
+    for _ in range(10):
+        venv.step(np.full((3, 1), 0.5, np.float32))
+    before = venv.unwrapped.sim.state.copy()
+    mask = np.array([False, True, False])
+    obs, _ = venv.reset(seed=[None, 42, None], options={"reset_mask": mask})
+    sim = venv.unwrapped.sim
+    np.testing.assert_array_equal(sim.state[~mask], before[~mask])
+    assert np.all(sim.state[1] == 0.0) and sim.steps.tolist() == [10, 0, 10]
+    single = VerticalSuspensionEnv(duration=1.0)
+    np.testing.assert_array_equal(obs[1], single.reset(seed=42)[0])
+    np.testing.assert_array_equal(sim.z[1], single.sim.z[0])  # the track of seed 42
+    with pytest.raises(ValueError, match="reset_mask"):
+        venv.reset(options={"reset_mask": np.zeros(3, bool)})

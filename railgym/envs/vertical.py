@@ -422,23 +422,44 @@ class VerticalSuspensionVectorEnv(VectorEnv):
         self.single_action_space = self.single_env.action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._rngs: list[np.random.Generator] = []
+        self._rngs: list[np.random.Generator | None] = []
         self._prev_done = np.zeros(self.num_envs, np.bool_)
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset every sub-env; sub-env ``i`` is seeded with ``seed + i``."""
-        if seed is not None:
-            self._np_random, self._np_random_seed = seeding.np_random(seed)
-        seeds = [None if seed is None else seed + i for i in range(self.num_envs)]
-        self._rngs = [seeding.np_random(s)[0] for s in seeds]
+        """Reset the sub-envs; sub-env ``i`` is seeded with ``seed + i`` (or ``seed[i]``).
+
+        ``options["reset_mask"]`` (bool array (num_envs,)) resets only those sub-envs
+        (gymnasium's partial reset); a sub-env reset without a seed keeps its generator.
+        """
+        n = self.num_envs
+        options = dict(options or {})
+        mask = options.pop("reset_mask", None)
+        if mask is None:
+            mask = np.ones(n, np.bool_)
+        elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (n,)
+                  and mask.any()):  # fmt: skip
+            raise ValueError(f"options['reset_mask'] must be a bool array ({n},) with a True")
+        if seed is None or isinstance(seed, (int, np.integer)):
+            seeds = [None if seed is None else int(seed) + i for i in range(n)]
+        elif len(seed) == n:
+            seeds = list(seed)
+        else:
+            raise ValueError(f"seed must be None, an int or a list of {n} seeds")
+        if seeds[0] is not None:
+            self._np_random, self._np_random_seed = seeding.np_random(seeds[0])
+        if len(self._rngs) != n:
+            self._rngs = [None] * n
+        for i in np.flatnonzero(mask):
+            if seeds[i] is not None or mask.all() or self._rngs[i] is None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
         env = self.single_env
         if options:
             env.reset(options=options)  # validates and stores track_class / speed
-        for i, g in enumerate(self._rngs):
-            self.sim.reset(i, g, env.track_class, env.speed)
-        self._prev_done[:] = False
+        for i in np.flatnonzero(mask):
+            self.sim.reset(i, self._rngs[i], env.track_class, env.speed)
+        self._prev_done[mask] = False
         return self.sim.observe(self._rngs), self._infos()
 
     def step(
