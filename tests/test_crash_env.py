@@ -252,3 +252,15 @@ def test_surrogate_is_cached_or_given_and_render():
     obs, _ = venv.reset(seed=0)
     assert obs.shape == (2, 18) and venv.action_space.shape == (2, 3)
     assert len(venv.render()) == 2
+
+
+def test_vector_partial_reset_mask_keeps_the_other_crashes():
+    venv = gym.make_vec("railgym/TrainCrash-v0", num_envs=2,
+                        vectorization_mode="vector_entry_point", backend="reference")  # fmt: skip
+    venv.reset(seed=0)
+    for _ in range(20):
+        obs, *_ = venv.step(np.zeros((2, venv.unwrapped.sim.n_zones), np.float32))
+    obs_reset, _ = venv.reset(options={"reset_mask": np.array([True, False])})
+    np.testing.assert_array_equal(obs_reset[1], obs[1])  # sub-env 1 goes on untouched
+    first, _ = TrainCrashEnv(backend="reference").reset(seed=0)
+    np.testing.assert_array_equal(obs_reset[0], first)  # sub-env 0 starts its crash again

@@ -30,6 +30,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numba import njit
 
+from railgym.envs.vector import reset_plan
 from railgym.vehicles.crash import (
     VARIANTS,
     BatchOutputs,
@@ -505,21 +506,23 @@ class TrainCrashVectorEnv(VectorEnv):
         self.single_action_space = self.single_env.action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._rngs: list[np.random.Generator] = []
+        self._rngs: list[np.random.Generator | None] = []
         self._prev_done = np.zeros(self.num_envs, np.bool_)
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset every sub-env; sub-env ``i`` is seeded with ``seed + i``."""
-        if options:
-            raise ValueError(f"reset takes no options, got {sorted(options)}")
+        """Reset the sub-envs; sub-env ``i`` is seeded with ``seed + i`` (or ``seed[i]``);
+        ``options["reset_mask"]`` resets only those (see :func:`railgym.envs.vector.reset_plan`).
+        """
         if seed is not None:
-            self._np_random, self._np_random_seed = seeding.np_random(seed)
-        seeds = [None if seed is None else seed + i for i in range(self.num_envs)]
-        self._rngs = [seeding.np_random(s)[0] for s in seeds]
-        self.sim.reset(np.arange(self.num_envs), self._rngs)
-        self._prev_done[:] = False
+            first = seed if isinstance(seed, (int, np.integer)) else seed[0]
+            self._np_random, self._np_random_seed = seeding.np_random(first)
+        mask, self._rngs, options = reset_plan(self.num_envs, seed, options, self._rngs)
+        if options:
+            raise ValueError(f"reset takes no options but reset_mask, got {sorted(options)}")
+        self.sim.reset(np.flatnonzero(mask), self._rngs)
+        self._prev_done[mask] = False
         return self.sim.observe(), self._infos()
 
     def step(

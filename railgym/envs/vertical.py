@@ -27,6 +27,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numba import njit
 
+from railgym.envs.vector import reset_plan
 from railgym.track import class_parameters, class_speed, track_time_input
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vertical import (
@@ -433,27 +434,10 @@ class VerticalSuspensionVectorEnv(VectorEnv):
         ``options["reset_mask"]`` (bool array (num_envs,)) resets only those sub-envs
         (gymnasium's partial reset); a sub-env reset without a seed keeps its generator.
         """
-        n = self.num_envs
-        options = dict(options or {})
-        mask = options.pop("reset_mask", None)
-        if mask is None:
-            mask = np.ones(n, np.bool_)
-        elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (n,)
-                  and mask.any()):  # fmt: skip
-            raise ValueError(f"options['reset_mask'] must be a bool array ({n},) with a True")
-        if seed is None or isinstance(seed, (int, np.integer)):
-            seeds = [None if seed is None else int(seed) + i for i in range(n)]
-        elif len(seed) == n:
-            seeds = list(seed)
-        else:
-            raise ValueError(f"seed must be None, an int or a list of {n} seeds")
-        if seeds[0] is not None:
-            self._np_random, self._np_random_seed = seeding.np_random(seeds[0])
-        if len(self._rngs) != n:
-            self._rngs = [None] * n
-        for i in np.flatnonzero(mask):
-            if seeds[i] is not None or mask.all() or self._rngs[i] is None:
-                self._rngs[i] = seeding.np_random(seeds[i])[0]
+        if seed is not None:
+            first = seed if isinstance(seed, (int, np.integer)) else seed[0]
+            self._np_random, self._np_random_seed = seeding.np_random(first)
+        mask, self._rngs, options = reset_plan(self.num_envs, seed, options, self._rngs)
         env = self.single_env
         if options:
             env.reset(options=options)  # validates and stores track_class / speed
