@@ -1,9 +1,13 @@
-"""The ``railgym`` command: ``railgym demo [--out DIR]``.
+"""The ``railgym`` command.
 
-``demo`` is the main job of the quickstart: build the surrogate element from the reference
-model (paper stages 1–3), run one episode each on the surrogate and the reference backend
-with a skyhook controller on the same track (stage 4), print the paper's indices and write
-plots.
+- ``railgym demo [--out DIR]``: the main job of the quickstart — build the surrogate element
+  from the reference model (paper stages 1–3), run one episode each on the surrogate and the
+  reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
+  indices and write plots.
+- ``railgym paper [--quick] [--out DIR]``: the paper's tables and figures on our models
+  (:mod:`agents.paper`).
+- ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies
+  (:mod:`agents.evaluate`).
 """
 
 from __future__ import annotations
@@ -132,10 +136,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     d = sub.add_parser("demo", help="build a surrogate, run surrogate vs reference, plot")
     d.add_argument("--out", type=Path, default=Path("railgym-demo"), help="plot folder")
     d.add_argument("--seed", type=int, default=0, help="track seed of the episodes")
+    from agents import evaluate, paper
+
+    paper.add_arguments(sub.add_parser("paper", help="the paper's tables and figures"))
+    evaluate.add_arguments(sub.add_parser("evaluate", help="comfort indices of policies"))
     args = parser.parse_args(argv)
     if args.command == "demo":
         return demo(args.out, args.seed)
-    return 2
+    return {"paper": paper.run, "evaluate": evaluate.run}[args.command](args)
 
 
 if __name__ == "__main__":

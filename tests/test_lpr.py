@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from numba import njit
 from numpy.polynomial import legendre as npleg
 
 import surrogates
@@ -14,7 +15,9 @@ from surrogates.models.lpr import (
     LegendreRegression,
     lpr_eval,
     lpr_eval_batch,
+    lpr_eval_into,
     lpr_is_outside,
+    lpr_scratch,
 )
 
 LOWER = np.array([-0.05, -0.3])  # e.g. relative displacement (m), relative velocity (m/s)
@@ -176,6 +179,79 @@ def test_numba_kernels_match_predict(interactions: bool) -> None:
     np.testing.assert_allclose(
         lpr_eval_batch(Uq, E, c, lo, hi, mode), clip.predict(Uq), rtol=0, atol=1e-10
     )
+
+
+@pytest.mark.parametrize(
+    ("d", "params"),
+    [
+        (1, {"degree": 7}),
+        (1, {"degree": 0}),
+        (2, {"degree": 0}),
+        (2, {"degree": (2, 9)}),
+        (3, {"degree": 4, "interactions": True}),
+        (3, {"degree": (3, 1, 5), "extrapolation": "clip"}),
+    ],
+)
+def test_eval_into_reuses_one_work_array(d: int, params: dict) -> None:
+    """One work array serves every point, equals lpr_eval exactly and predict to rounding."""
+    rng = np.random.default_rng(20 + d)
+    lo, hi = -np.linspace(0.1, 0.3, d), np.linspace(0.2, 0.5, d)
+    U = lo + (hi - lo) * rng.random((120, d))
+    V = np.sin(4 * U).sum(axis=1) + U.prod(axis=1) * 3.0
+    model = LegendreRegression(**params).fit(U, V)
+    E, c, lo, hi, mode = model.kernel_arrays()
+    work = lpr_scratch(E, lo, hi)
+    assert work.shape == (d + 4, max(int(E.max()) + 1, d, 2))
+    Uq = lo + (hi - lo) * rng.uniform(-0.5, 1.5, (60, d))
+    ref = model.predict(Uq)
+    got = np.array([lpr_eval_into(u, E, c, lo, hi, mode, work) for u in Uq])
+    np.testing.assert_array_equal(got, [lpr_eval(u, E, c, lo, hi, mode) for u in Uq])
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    with pytest.raises(ValueError, match="work must come from lpr_scratch"):
+        lpr_eval_into(Uq[0], E, c, lo, hi, mode, np.zeros((d + 3, work.shape[1])))
+
+
+@njit
+def _eval_many(n, u, E, c, lo, hi, mode, work):
+    s = 0.0
+    for _ in range(n):
+        s += lpr_eval_into(u, E, c, lo, hi, mode, work)
+    return s
+
+
+@njit
+def _eval_many_allocating(n, u, E, c, lo, hi, mode):
+    s = 0.0
+    for _ in range(n):
+        s += lpr_eval(u, E, c, lo, hi, mode)
+    return s
+
+
+def test_eval_into_does_not_allocate(fitted: LegendreRegression) -> None:
+    nrt = pytest.importorskip("numba.core.runtime._nrt_python")
+    if not hasattr(nrt, "memsys_enable_stats"):
+        pytest.skip("this numba cannot count NRT allocations")
+    from numba.core.runtime import rtsys
+
+    E, c, lo, hi, mode = fitted.kernel_arrays()
+    work = lpr_scratch(E, lo, hi)
+    u = np.array([0.1, 0.5])  # outside in u2: the gradient path runs too
+    args = (u, E, c, lo, hi, mode)
+
+    def allocations(fn, *extra):
+        nrt.memsys_enable_stats()
+        try:
+            before = rtsys.get_allocation_stats().alloc
+            fn(*extra)
+            return rtsys.get_allocation_stats().alloc - before
+        finally:
+            nrt.memsys_disable_stats()
+
+    _eval_many(1, *args, work)
+    _eval_many_allocating(1, *args)
+    assert allocations(_eval_many, 1, *args, work) == allocations(_eval_many, 500, *args, work)
+    assert allocations(_eval_many_allocating, 500, *args) >= 500
+    assert _eval_many(3, *args, work) == 3 * lpr_eval(*args)
 
 
 def test_extrapolation_policies() -> None:

@@ -139,6 +139,22 @@ def test_linear_frequency_response_matches_analytic(veh):
         assert abs(A2 + w**2 * H) / abs(w**2 * H) < 0.01, f
 
 
+def test_rk4_order_with_sampled_sine_input(veh):
+    """The Hermite midpoint of the samples keeps RK4's 4th order for a sampled smooth input
+    (the average of two samples would give order 2)."""
+    T, Z = 2.0, 0.002
+    runs = []
+    for dt in (4e-3, 2e-3, 1e-3, 5e-4):
+        t = np.arange(round(T / dt) + 1) * dt
+        w1, w2 = 2 * np.pi * 3.0, 2 * np.pi * 11.0
+        z = Z * (np.sin(w1 * t) + 0.5 * np.sin(w2 * t + 1.0))
+        zdot = Z * (w1 * np.cos(w1 * t) + 0.5 * w2 * np.cos(w2 * t + 1.0))
+        runs.append(simulate("linear", veh, z, zdot, dt, sample_every=round(4e-3 / dt))["states"])
+    diffs = [np.sqrt(np.mean((a - b) ** 2)) for a, b in zip(runs, runs[1:], strict=False)]
+    orders = np.log2(np.array(diffs[:-1]) / np.array(diffs[1:]))
+    assert np.all((orders > 3.7) & (orders < 4.3)), orders
+
+
 def test_rk4_order_on_surrogate(veh, cubic_lpr):
     """Free vibration from an offset plus a constant actuator force (input exact at stages)."""
     T, x0 = 1.0, np.array([0.02, 0.0, -0.005, 0.1])
@@ -179,7 +195,7 @@ def test_dynamic_reference_step_halving(veh):
         assert not r["diverged"]
         accs.append(r["a2"])
     assert np.sqrt(np.mean(accs[1] ** 2)) > 0.1  # a real ride, m/s²
-    assert _rel_rms(accs[0], accs[1]) < 1e-3
+    assert _rel_rms(accs[0], accs[1]) < 1e-5  # measured 1.2e-6
 
 
 @pytest.mark.parametrize("variant", ["static", "dynamic"])
@@ -240,11 +256,17 @@ def _in_phase(veh, f, X, dt):
 def test_dynamic_air_spring_frequency_dependence(veh):
     k_slow, phi_slow, _ = _in_phase(veh, 0.02, 0.005, 2e-3)
     k_fast, phi_fast, r = _in_phase(veh, 5.0, 0.005, 2e-4)
-    k_closed = veh.air_spring_stiffness()[1]
+    k_20, phi_20, _ = _in_phase(veh, 20.0, 0.005, 1e-4)
+    k_static, k_closed = veh.air_spring_stiffness()
+    # quasi-static limit: the gas of bag and reservoir is compressed together
+    assert k_slow == pytest.approx(k_static, rel=2e-3)
     assert k_slow == pytest.approx(veh.k2, rel=0.02)
     assert phi_slow < 1.0
-    assert 1.3 * veh.k2 < k_fast < k_closed
-    assert phi_fast > 5.0  # hysteresis: energy lost in the orifice
+    # the orifice throttles the flow to the reservoir: stiffer and lossy as frequency rises
+    assert 1.005 * k_slow < k_fast < 1.1 * k_slow  # nearly static in the ride band
+    assert phi_fast > 3.0  # hysteresis: energy lost in the orifice
+    assert 1.3 * k_slow < k_20 < k_closed
+    assert phi_20 > phi_fast
     # gas mass in bag + reservoir is conserved
     air = veh.air_spring
     p0, n = veh.static_pressure, air.polytropic_index

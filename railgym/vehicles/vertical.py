@@ -38,28 +38,39 @@ Secondary-suspension variants (``VARIANTS``), each with a numba kernel ``advance
 
     Manchester data (``manchester.yaml``): ``p0`` = 624.5 kPa, quasi-static stiffness
     ``count·(n·p0·A0²/(V_b+V_r) + (p0−p_atm)·A')`` = 861 kN/m ≈ ``k2`` = 860 kN/m; with the
-    orifice closed ``count·(n·p0·A0²/V_b + (p0−p_atm)·A')`` = 1.89 MN/m. Measured air-spring
-    in-phase stiffness / loss angle at ±5 mm: 0.86 MN/m / 0.1° (0.02 Hz), 0.88 / 9° (1 Hz),
-    1.04 / 20° (2 Hz), 1.60 / 16° (5 Hz), 1.87 / 4.5° (20 Hz); at ±2 mm the 5 Hz values are
-    1.33 MN/m / 21° (the turbulent orifice makes it amplitude dependent). The Maxwell damper
-    turns into a spring above ``k_b/(2π·c)`` ≈ 24 Hz.
+    orifice closed ``count·(n·p0·A0²/V_b + (p0−p_atm)·A')`` = 1.89 MN/m. With the 30 mm
+    orifice, measured air-spring in-phase stiffness / loss angle at ±5 mm: 0.862 MN/m / 0.02°
+    (0.02 Hz), 0.862 / 1.1° (1 Hz), 0.863 / 2.3° (2 Hz), 0.873 / 6.8° (5 Hz), 0.958 / 17°
+    (10 Hz), 1.33 / 21° (20 Hz, near the loss-angle peak), 1.70 / 13° (40 Hz); at ±2 mm:
+    0.868 / 5.6° (5 Hz), 1.07 / 21° (20 Hz) (the turbulent orifice makes it amplitude
+    dependent). In the ride band the spring is thus nearly static (+1.3 % stiffness at 5 Hz),
+    which a static map ``F̂(δ, δ̇)`` can learn: the relative RMS error of the carbody
+    acceleration simulated with the LPR surrogate of :mod:`railgym.vehicles.collect` (101
+    samples, class 5 at 40 m/s, tested on track seed 1) is 5.5 % (out-of-bag 6.8 %). The
+    orifice size is an engineering choice; a 12 mm orifice put the transition at 1–5 Hz
+    (1.60 MN/m / 16° at 5 Hz) and that error at 46 %. The Maxwell damper turns into a spring
+    above ``k_b/(2π·c)`` ≈ 24 Hz.
 ``"surrogate"``
-    ``F_s = F̂(δ, δ̇)`` from a fitted LPR model via :func:`surrogates.models.lpr.lpr_eval`
-    (eq. 2). Out-of-domain inputs are counted per RK4 stage evaluation (4 per substep).
+    ``F_s = F̂(δ, δ̇)`` from a fitted LPR model via :func:`surrogates.models.lpr.lpr_eval_into`
+    (eq. 2; work array allocated once per kernel call). Out-of-domain inputs are counted per
+    RK4 stage evaluation (4 per substep).
 
 Integration: classic fixed-step RK4; the track is sampled on ``t_k = k·dt`` and the stages at
-``t + dt/2`` use the average of samples ``k`` and ``k + 1`` (so a sampled input is integrated
-with the trapezoidal rule, relative error ≈ (ω·dt)²/12: 0.13 % at 20 Hz for dt = 1 ms).
-Chosen step (``DEFAULT_DT``): 1 ms for every variant. Measured change of the carbody
-acceleration (relative RMS, 20 s, FRA class 5 at 40 m/s, 2.56 m wheelbase, seed 0) when the
-step is halved from 1 ms to 0.5 ms: linear 0.003 %, static 0.003 %, dynamic 0.0035 %
-(2 ms → 1 ms: 0.012 %, 0.011 %, 0.014 %); classes 3, 4, 6 give at most 0.005 % (dynamic,
-1 ms → 0.5 ms), bump-stop contacts included. The errors fall as dt² because of the
-trapezoidal input rule; with an input that is exact at the stages the order is 4.
+``t + dt/2`` use the cubic Hermite midpoint of samples ``k`` and ``k + 1``,
+``z_m = (z_k + z_{k+1})/2 + dt·(ż_k − ż_{k+1})/8`` and
+``ż_m = 3(z_{k+1} − z_k)/(2dt) − (ż_k + ż_{k+1})/4`` (errors for a sine (ω·dt)⁴/384 and
+(ω·dt)⁴/1920 of its amplitudes: 6.5·10⁻⁷ at 20 Hz for dt = 1 ms), so a sampled smooth input
+keeps RK4's 4th order. Chosen step (``DEFAULT_DT``): 1 ms for every variant. Measured
+change of the carbody acceleration (relative RMS, 20 s, FRA class 5 at 40 m/s, 2.56 m
+wheelbase, seed 0) when the step is halved from 1 ms to 0.5 ms: linear 1.4·10⁻⁶ %, static
+0.00009 %, dynamic 0.00012 % (2 ms → 1 ms: 2.3·10⁻⁵ %, 0.0004 %, 0.001 %); classes 3, 4, 6
+give at most 0.0006 % (static, 1 ms → 0.5 ms), bump-stop contacts included. The linear model
+converges with order 4, the nonlinear ones with order ≈ 2: their right-hand sides are not
+smooth (the damper's slope jumps at δ̇ = 0, the bump-stop onset is only C1).
 
 Kernel cost (this project's 2-core machine, one env, 10 ms control step = 10 substeps,
-numba dispatch included / per env in a batch of 64): linear 2.9 / 0.8 µs, static 4.1 /
-2.3 µs, dynamic 6.3 / 4.5 µs, surrogate (degree-5 LPR) 8.6 / 7.1 µs.
+numba dispatch included / per env in a batch of 64): linear 2.5 / 0.8 µs, static 3.8 /
+2.1 µs, dynamic 6.1 / 4.4 µs, surrogate (LPR of degree (10, 10), 21 terms) 4.5 / 2.7 µs.
 
 Per control step the kernels also report the bump-stop contact count (substeps whose end
 state is beyond the free travel, for every variant: a geometric measure), the out-of-domain
@@ -80,7 +91,7 @@ import numpy as np
 import yaml
 from numba import njit
 
-from surrogates.models.lpr import lpr_eval, lpr_is_outside
+from surrogates.models.lpr import lpr_eval_into, lpr_is_outside, lpr_scratch
 
 VARIANTS = ("linear", "static", "dynamic", "surrogate")
 DEFAULT_VARIANT = "dynamic"
@@ -484,9 +495,13 @@ def _rhs(
     up: np.ndarray,
     mode: int,
     u: np.ndarray,
+    lw: np.ndarray,
     dx: np.ndarray,
 ) -> tuple[float, int]:
-    """State derivative ``dx``; returns (F_s, 1 if the surrogate input is outside its box)."""
+    """State derivative ``dx``; returns (F_s, 1 if the surrogate input is outside its box).
+
+    ``u`` (2,) and ``lw`` (:func:`~surrogates.models.lpr.lpr_scratch`) are work arrays.
+    """
     d = x[0] - x[2]
     dd = x[1] - x[3]
     outside = 0
@@ -502,7 +517,7 @@ def _rhs(
         u[1] = dd
         if lpr_is_outside(u, lo, up):
             outside = 1
-        fs = lpr_eval(u, exps, coef, lo, up, mode)
+        fs = lpr_eval_into(u, exps, coef, lo, up, mode, lw)
     dx[0] = x[1]
     dx[1] = (p[P_K1] * (zc - x[0]) + p[P_C1] * (zdc - x[1]) - fs - fa) / p[P_M1]
     dx[2] = x[3]
@@ -525,7 +540,10 @@ def _advance(
     r3 = np.empty(s)
     r4 = np.empty(s)
     u = np.empty(2)
+    lw = lpr_scratch(exps, lo, up)
     h6 = dt / 6.0
+    dt8 = 0.125 * dt  # cubic Hermite midpoint of the track samples (module docstring)
+    c3 = 1.5 / dt
     for i in range(n):
         kk = k0[i]
         if kk < 0 or kk + n_sub > z.shape[1] - 1:
@@ -542,18 +560,18 @@ def _advance(
             zda = zdot[i, ka]
             zb = z[i, ka + 1]
             zdb = zdot[i, ka + 1]
-            zm = 0.5 * (za + zb)
-            zdm = 0.5 * (zda + zdb)
-            _, o1 = _rhs(kind, x, za, zda, fa, p, exps, coef, lo, up, mode, u, r1)
+            zm = 0.5 * (za + zb) + dt8 * (zda - zdb)
+            zdm = c3 * (zb - za) - 0.25 * (zda + zdb)
+            _, o1 = _rhs(kind, x, za, zda, fa, p, exps, coef, lo, up, mode, u, lw, r1)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r1[j]
-            _, o2 = _rhs(kind, xt, zm, zdm, fa, p, exps, coef, lo, up, mode, u, r2)
+            _, o2 = _rhs(kind, xt, zm, zdm, fa, p, exps, coef, lo, up, mode, u, lw, r2)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r2[j]
-            _, o3 = _rhs(kind, xt, zm, zdm, fa, p, exps, coef, lo, up, mode, u, r3)
+            _, o3 = _rhs(kind, xt, zm, zdm, fa, p, exps, coef, lo, up, mode, u, lw, r3)
             for j in range(s):
                 xt[j] = x[j] + dt * r3[j]
-            _, o4 = _rhs(kind, xt, zb, zdb, fa, p, exps, coef, lo, up, mode, u, r4)
+            _, o4 = _rhs(kind, xt, zb, zdb, fa, p, exps, coef, lo, up, mode, u, lw, r4)
             ood += o1 + o2 + o3 + o4
             ok = True
             for j in range(s):
@@ -573,7 +591,8 @@ def _advance(
             state[i, j] = x[j]
         if not div:
             ke = kk + n_sub
-            fs, _ = _rhs(kind, x, z[i, ke], zdot[i, ke], fa, p, exps, coef, lo, up, mode, u, r1)
+            fs, _ = _rhs(kind, x, z[i, ke], zdot[i, ke], fa, p, exps, coef, lo, up, mode, u,
+                         lw, r1)  # fmt: skip
             if math.isfinite(fs) and math.isfinite(r1[1]) and math.isfinite(r1[3]):
                 out_acc[i, 0] = r1[1]
                 out_acc[i, 1] = r1[3]
@@ -716,8 +735,9 @@ def _simulate_loop(
     s = state.shape[1]
     dx = np.empty(s)
     u = np.empty(2)
+    lw = lpr_scratch(exps, lo, up)
     fs, _ = _rhs(kind, state[0], z[0, 0], zdot[0, 0], fa[0] if fa.size > 0 else 0.0, p,
-                 exps, coef, lo, up, mode, u, dx)  # fmt: skip
+                 exps, coef, lo, up, mode, u, lw, dx)  # fmt: skip
     rec_x[0] = state[0]
     rec_acc[0, 0] = dx[1]
     rec_acc[0, 1] = dx[3]
@@ -863,8 +883,8 @@ def _element_loop(kind, d, dd, dt, p, out):
     stt = np.empty(3)
     for k in range(d.size):
         if kind == 2 and k > 0:
-            dm = 0.5 * (d[k - 1] + d[k])
-            ddm = 0.5 * (dd[k - 1] + dd[k])
+            dm = 0.5 * (d[k - 1] + d[k]) + 0.125 * dt * (dd[k - 1] - dd[k])
+            ddm = 1.5 / dt * (d[k] - d[k - 1]) - 0.25 * (dd[k - 1] + dd[k])
             _dynamic_element(d[k - 1], dd[k - 1], st[0], st[1], st[2], p, r1)
             for j in range(3):
                 stt[j] = st[j] + 0.5 * dt * r1[j]
@@ -904,7 +924,7 @@ def element_response(
 
     ``delta`` (m) and ``delta_dot`` (m/s) are sampled at ``dt`` (s), shape (N+1,); the
     dynamic element's internal states start at equilibrium and are integrated by RK4 with
-    the same midpoint-average rule as the vehicle kernels. Variants ``"linear"``,
+    the same cubic Hermite midpoint rule as the vehicle kernels. Variants ``"linear"``,
     ``"static"``, ``"dynamic"``.
 
     Returns

@@ -20,7 +20,9 @@ design matrix.
 
 The module-level numba kernels :func:`lpr_eval`, :func:`lpr_eval_batch` and
 :func:`lpr_is_outside` evaluate a fitted model from the plain arrays of
-:meth:`LegendreRegression.kernel_arrays`, for use inside compiled vehicle models.
+:meth:`LegendreRegression.kernel_arrays`, for use inside compiled vehicle models;
+:func:`lpr_eval_into` is the allocation-free form for inner loops (work arrays from
+:func:`lpr_scratch`, allocated once by the caller).
 """
 
 from __future__ import annotations
@@ -130,7 +132,8 @@ class LegendreRegression(SurrogateModel):
     # --------------------------------------------------------------- evaluation
     def _map(self, U: np.ndarray) -> np.ndarray:
         """Inputs (n, d) → mapped variables ``t`` in [−1, 1] on the training box."""
-        return 2.0 * (U - self.lower_) / (self.upper_ - self.lower_) - 1.0
+        # same arithmetic as the numba kernels (scale from lpr_scratch)
+        return (U - self.lower_) * (2.0 / (self.upper_ - self.lower_)) - 1.0
 
     def _predict_inside(self, U: np.ndarray) -> np.ndarray:
         return _design(self._map(U), self.exponents_) @ self.coef_
@@ -215,7 +218,7 @@ def _legendre_table(
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """``P_k(t)`` (and ``P_k'(t)``) for k = 0..nmax, shape ``t.shape + (nmax + 1,)``.
 
-    Bonnet recurrence ``(k+1) P_{k+1} = (2k+1) t P_k − k P_{k−1}``;
+    Bonnet recurrence ``P_{k+1} = (2k+1)/(k+1)·t·P_k − k/(k+1)·P_{k−1}``;
     derivative ``P'_{k+1} = P'_{k−1} + (2k+1) P_k``.
     """
     P = np.empty(t.shape + (nmax + 1,))
@@ -223,7 +226,8 @@ def _legendre_table(
     if nmax >= 1:
         P[..., 1] = t
     for k in range(1, nmax):
-        P[..., k + 1] = ((2 * k + 1) * t * P[..., k] - k * P[..., k - 1]) / (k + 1)
+        # same arithmetic as the numba kernels (constants from lpr_scratch)
+        P[..., k + 1] = (2 * k + 1) / (k + 1) * t * P[..., k] - k / (k + 1) * P[..., k - 1]
     if not derivative:
         return P, None
     dP = np.empty_like(P)
@@ -252,6 +256,32 @@ def lpr_is_outside(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:
 
 
 @njit(cache=True)
+def lpr_scratch(exponents: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Work array of one model for :func:`lpr_eval_into`, float64 (d + 4, L).
+
+    ``L = max(nmax + 1, d, 2)``, ``nmax`` the largest Legendre degree in ``exponents`` (T, d).
+    Rows ``0..d−1`` receive ``P_k(t_j)`` and row ``d`` ``P'_k`` (k < L); rows ``d+1, d+2``
+    hold the recurrence constants ``(2k+1)/(k+1)`` and ``k/(k+1)``, row ``d+3`` the scales
+    ``2/(upper_j − lower_j)`` of the map to ``t`` (1/input unit). Allocate once per model
+    (``lower, upper`` (d,) its training box) and reuse it for every point.
+    """
+    d = exponents.shape[1]
+    nmax = 0
+    for i in range(exponents.shape[0]):
+        for j in range(d):
+            if exponents[i, j] > nmax:
+                nmax = exponents[i, j]
+    width = max(nmax + 1, d, 2)
+    work = np.zeros((d + 4, width))
+    for k in range(1, width):
+        work[d + 1, k] = (2 * k + 1) / (k + 1)
+        work[d + 2, k] = k / (k + 1)
+    for j in range(d):
+        work[d + 3, j] = 2.0 / (upper[j] - lower[j])
+    return work
+
+
+@njit(cache=True)
 def lpr_eval(
     u: np.ndarray,
     exponents: np.ndarray,
@@ -264,54 +294,90 @@ def lpr_eval(
 
     Outside the box the value at the clipped point is used; for ``mode`` 0 or 2 it is
     extended linearly with the gradient there (``mode`` 1: clip only). Arrays as returned by
-    :meth:`LegendreRegression.kernel_arrays`.
+    :meth:`LegendreRegression.kernel_arrays`. Allocates its work array on every call; loops
+    over many points should use :func:`lpr_eval_into` with one :func:`lpr_scratch`.
+    """
+    work = lpr_scratch(exponents, lower, upper)
+    return lpr_eval_into(u, exponents, coef, lower, upper, mode, work)
+
+
+@njit(cache=True, inline="always")
+def lpr_eval_into(
+    u: np.ndarray,
+    exponents: np.ndarray,
+    coef: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    mode: int,
+    work: np.ndarray,
+) -> float:
+    """Allocation-free :func:`lpr_eval`; ``work`` is :func:`lpr_scratch` of the same model
+    (its rows ``0..d`` are overwritten, so one work array serves one thread).
+
+    Inlined into the calling numba function: as a separate call its array arguments' reference
+    counting costs more than the evaluation (measured 4.2 vs 2.5 µs per vehicle control step).
     """
     d = u.shape[0]
     T = exponents.shape[0]
-    nmax = 0
-    for i in range(T):
-        for j in range(d):
-            if exponents[i, j] > nmax:
-                nmax = exponents[i, j]
-    P = np.empty((d, nmax + 1))
-    t = np.empty(d)
+    nmax = work.shape[1] - 1
+    if work.shape[0] != d + 4:
+        raise ValueError("work must come from lpr_scratch of the same model")
     outside = False
-    for j in range(d):
-        uc = min(max(u[j], lower[j]), upper[j])
-        if uc != u[j]:
-            outside = True
-        t[j] = 2.0 * (uc - lower[j]) / (upper[j] - lower[j]) - 1.0
-        P[j, 0] = 1.0
-        if nmax >= 1:
-            P[j, 1] = t[j]
-        for k in range(1, nmax):
-            P[j, k + 1] = ((2 * k + 1) * t[j] * P[j, k] - k * P[j, k - 1]) / (k + 1)
     value = 0.0
-    for i in range(T):
-        term = coef[i]
+    if d == 2:
+        # two inputs (the vehicle case): interleaved recurrences, unrolled term products
+        u0 = min(max(u[0], lower[0]), upper[0])
+        u1 = min(max(u[1], lower[1]), upper[1])
+        outside = u0 != u[0] or u1 != u[1]
+        t0 = (u0 - lower[0]) * work[5, 0] - 1.0
+        t1 = (u1 - lower[1]) * work[5, 1] - 1.0
+        work[0, 0] = 1.0
+        work[1, 0] = 1.0
+        work[0, 1] = t0
+        work[1, 1] = t1
+        a0, a1, b0, b1 = 1.0, 1.0, t0, t1
+        for k in range(1, nmax):
+            n0 = work[3, k] * t0 * b0 - work[4, k] * a0
+            n1 = work[3, k] * t1 * b1 - work[4, k] * a1
+            work[0, k + 1] = n0
+            work[1, k + 1] = n1
+            a0, b0, a1, b1 = b0, n0, b1, n1
+        for i in range(T):
+            value += coef[i] * work[0, exponents[i, 0]] * work[1, exponents[i, 1]]
+    else:
         for j in range(d):
-            term *= P[j, exponents[i, j]]
-        value += term
+            uc = min(max(u[j], lower[j]), upper[j])
+            if uc != u[j]:
+                outside = True
+            t = (uc - lower[j]) * work[d + 3, j] - 1.0
+            work[j, 0] = 1.0
+            work[j, 1] = t
+            for k in range(1, nmax):
+                work[j, k + 1] = work[d + 1, k] * t * work[j, k] - work[d + 2, k] * work[j, k - 1]
+        for i in range(T):
+            term = coef[i]
+            for j in range(d):
+                term *= work[j, exponents[i, j]]
+            value += term
     if not outside or mode == 1:
         return value
-    dP = np.zeros(nmax + 1)
     for j in range(d):
         uc = min(max(u[j], lower[j]), upper[j])
         if uc == u[j]:
             continue
         # P'_k(t_j) by P'_{k+1} = P'_{k-1} + (2k+1) P_k, then the chain rule dt/du
-        if nmax >= 1:
-            dP[1] = 1.0
+        work[d, 0] = 0.0
+        work[d, 1] = 1.0
         for k in range(1, nmax):
-            dP[k + 1] = dP[k - 1] + (2 * k + 1) * P[j, k]
+            work[d, k + 1] = work[d, k - 1] + (2 * k + 1) * work[j, k]
         g = 0.0
         for i in range(T):
-            term = coef[i] * dP[exponents[i, j]]
+            term = coef[i] * work[d, exponents[i, j]]
             for m in range(d):
                 if m != j:
-                    term *= P[m, exponents[i, m]]
+                    term *= work[m, exponents[i, m]]
             g += term
-        value += g * 2.0 / (upper[j] - lower[j]) * (u[j] - uc)
+        value += g * work[d + 3, j] * (u[j] - uc)
     return value
 
 
@@ -327,6 +393,7 @@ def lpr_eval_batch(
     """:func:`lpr_eval` for each row of ``U`` (n, d) → (n,)."""
     n = U.shape[0]
     out = np.empty(n)
+    work = lpr_scratch(exponents, lower, upper)
     for r in range(n):
-        out[r] = lpr_eval(U[r], exponents, coef, lower, upper, mode)
+        out[r] = lpr_eval_into(U[r], exponents, coef, lower, upper, mode, work)
     return out

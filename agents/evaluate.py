@@ -1,0 +1,153 @@
+"""``railgym evaluate``: comfort indices of any controller or saved policy, beside passive and
+skyhook, on the vertical env.
+
+    railgym evaluate skyhook --backend reference --track-class 4 6 --episodes 10
+    railgym evaluate runs/ppo_vertical/model.zip --backend reference --track-class 4 6
+
+A policy is a controller name (``passive``, ``skyhook``, ``semi-active``, ``groundhook``,
+``lqr``) or a stable-baselines3 ``.zip``; for a zip, the algorithm and the env's observation
+settings are read from the ``config.yaml`` that :mod:`agents.train` writes beside it. Each
+track class runs ``episodes`` episodes in one native vector env, sub-env ``i`` on the track of
+seed ``seed + i`` — the same tracks for every policy.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import yaml
+
+import railgym  # noqa: F401  (registers the environments)
+from agents.controllers import LQR, Groundhook, Passive, Skyhook
+from railgym.comfort import sperling_wz, weighted_rms
+
+ENV_ID = "railgym/VerticalSuspension-v0"
+CONTROLLERS = {
+    "passive": (Passive, {}, {}),
+    "skyhook": (Skyhook, {"mode": "active"}, {}),
+    "semi-active": (Skyhook, {"mode": "semi-active"}, {}),
+    "groundhook": (Groundhook, {}, {}),
+    "lqr": (LQR, {}, {"observation": "full"}),
+}
+
+
+def load_policy(policy: str) -> tuple[Any, dict[str, Any], str]:
+    """``(factory(env) → object with predict, env kwargs it needs, label)`` for a name or zip."""
+    if policy in CONTROLLERS:
+        cls, kwargs, env_kwargs = CONTROLLERS[policy]
+        return (lambda env: cls(env, **kwargs)), env_kwargs, policy
+    path = Path(policy)
+    if path.suffix != ".zip" or not path.is_file():
+        raise ValueError(
+            f"policy must be one of {sorted(CONTROLLERS)} or an existing stable-baselines3 .zip, "
+            f"got {policy!r}"
+        )
+    cfg_path = path.parent / "config.yaml"
+    if not cfg_path.is_file():
+        raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
+    cfg = yaml.safe_load(cfg_path.read_text())
+    block = cfg.get(ENV_ID) if isinstance(cfg, dict) else None
+    if not isinstance(block, dict) or "algo" not in block:
+        raise ValueError(f"{cfg_path}: needs a {ENV_ID!r} block with 'algo'")
+    import stable_baselines3 as sb3
+
+    algo = getattr(sb3, str(block["algo"]).upper(), None)
+    if algo is None:
+        raise ValueError(f"{cfg_path}: unknown algo {block['algo']!r}")
+    model = algo.load(path, device="cpu")
+    keep = {"observation", "sensor_noise", "f_max", "control_dt", "wheelbase"}
+    env_kwargs = {k: v for k, v in (block.get("env_kwargs") or {}).items() if k in keep}
+    return (lambda env: model), env_kwargs, path.parent.name
+
+
+def run_policy(
+    factory: Any, env_kwargs: dict[str, Any], episodes: int, seed: int
+) -> dict[str, float]:
+    """Run ``episodes`` episodes (one per sub-env) and return the mean comfort indices."""
+    venv = gym.make_vec(ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
+                        **env_kwargs)  # fmt: skip
+    ctrl = factory(venv)
+    obs, _ = venv.reset(seed=seed)
+    acc, defl, contacts = [], [], np.zeros(episodes)
+    sim = venv.unwrapped.sim
+    while True:
+        action, _ = ctrl.predict(obs, deterministic=True)
+        obs, _, term, trunc, info = venv.step(np.asarray(action, np.float32).reshape(episodes, 1))
+        acc.append(info["carbody_acc"].copy())
+        defl.append(sim.state[:, 0] - sim.state[:, 2])
+        contacts = np.maximum(contacts, info["bump_stop_contacts"])
+        if np.any(term):
+            raise RuntimeError(f"an episode diverged (sub-envs {np.flatnonzero(term).tolist()})")
+        if np.all(trunc):
+            break
+    a = np.array(acc)  # (steps, episodes)
+    fs = 1.0 / venv.unwrapped.cfg.control_dt
+    return {
+        "rms_acc": float(np.mean(np.sqrt(np.mean(a**2, axis=0)))),
+        "a_w": float(np.mean([weighted_rms(a[:, i], fs, discard=2.0, lowpass=False)
+                              for i in range(episodes)])),  # fmt: skip
+        "wz": float(np.mean([sperling_wz(a[:, i], fs) for i in range(episodes)])),
+        "max_defl_mm": float(np.max(np.abs(defl)) * 1e3),
+        "contacts": float(np.sum(contacts)),
+    }
+
+
+def evaluate(
+    policies: Sequence[str],
+    backend: str = "reference",
+    track_classes: Sequence[int] = (4, 6),
+    episodes: int = 10,
+    seed: int = 1000,
+) -> list[dict[str, Any]]:
+    """One row per (track class, policy): mean RMS ẍ2, Wk a_w, Sperling Wz over episodes."""
+    rows = []
+    loaded = [load_policy(p) for p in policies]
+    for tc in track_classes:
+        passive = None
+        for factory, env_kwargs, label in loaded:
+            kwargs = {"backend": backend, "track_class": tc, **env_kwargs}
+            ix = run_policy(factory, kwargs, episodes, seed)
+            if label == "passive":
+                passive = ix["a_w"]
+            reduction = float("nan") if passive is None else 100 * (1 - ix["a_w"] / passive)
+            rows.append({"track_class": tc, "policy": label, **ix, "a_w_reduction_%": reduction})
+    return rows
+
+
+def format_rows(rows: list[dict[str, Any]]) -> str:
+    """Aligned text table of :func:`evaluate` rows."""
+    head = (f"{'class':>5} {'policy':<16} {'RMS ẍ2':>8} {'a_w Wk':>8} {'Δa_w %':>7} "
+            f"{'Wz':>6} {'max |δ| mm':>10} {'contacts':>8}")  # fmt: skip
+    lines = [head]
+    for r in rows:
+        lines.append(
+            f"{r['track_class']:>5} {r['policy']:<16} {r['rms_acc']:8.3f} {r['a_w']:8.3f} "
+            f"{r['a_w_reduction_%']:7.1f} {r['wz']:6.2f} {r['max_defl_mm']:10.1f} "
+            f"{r['contacts']:8.0f}"
+        )
+    return "\n".join(lines)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``railgym evaluate``."""
+    parser.add_argument("policy", nargs="+", help=f"{', '.join(CONTROLLERS)} or a policy .zip")
+    parser.add_argument("--backend", default="reference", choices=["reference", "surrogate",
+                                                                   "linear"])  # fmt: skip
+    parser.add_argument("--track-class", type=int, nargs="+", default=[4, 6])
+    parser.add_argument("--episodes", type=int, default=10)
+    parser.add_argument("--seed", type=int, default=1000, help="track seed of sub-env 0")
+
+
+def run(args: argparse.Namespace) -> int:
+    """``railgym evaluate``: the policies plus passive and skyhook for comparison."""
+    policies = ["passive", "skyhook"] + [p for p in args.policy if p not in ("passive", "skyhook")]
+    rows = evaluate(policies, args.backend, args.track_class, args.episodes, args.seed)
+    print(f"backend: {args.backend}, {args.episodes} episodes per class (seeds {args.seed}+i); "
+          "Δa_w: reduction of the Wk-weighted RMS vs passive")  # fmt: skip
+    print(format_rows(rows))
+    return 0
