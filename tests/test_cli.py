@@ -1,0 +1,49 @@
+import json
+
+import numpy as np
+import pytest
+
+from surrogates import io
+from surrogates.cli import main
+
+
+def _write_csv(path, n=300, seed=0):
+    rng = np.random.default_rng(seed)
+    du, dv = rng.uniform(-0.02, 0.02, n), rng.uniform(-0.2, 0.2, n)
+    force = 8.6e5 * du + 4e4 * dv + 1e8 * du**3
+    data = np.column_stack([np.arange(n) * 0.02, du, dv, force])
+    rows = "\n".join(",".join(repr(float(x)) for x in r) for r in data)
+    path.write_text("t,du,dv,F\n" + rows + "\n")
+    return np.column_stack([du, dv]), force
+
+
+def test_build_command_writes_a_loadable_model(tmp_path, capsys):
+    U, F = _write_csv(tmp_path / "d.csv")
+    out, rep = tmp_path / "m.json", tmp_path / "r.json"
+    code = main(["build", str(tmp_path / "d.csv"), "--inputs", "du", "dv", "--output", "F",
+                 "-o", str(out), "--m", "61", "--sampling", "greedy", "--units", "F=N",
+                 "--report", str(rep), "--quiet"])  # fmt: skip
+    assert code == 0
+    model = io.load(out)
+    lo, hi = model.domain_
+    inside = np.all((U >= lo) & (U <= hi), axis=1)
+    assert inside.mean() > 0.95
+    np.testing.assert_allclose(model.predict(U[inside]), F[inside], rtol=1e-8, atol=1e-6)
+    assert model.features_["inputs"] == ["du", "dv"] and model.features_["units"]["F"] == "N"
+    assert json.loads(rep.read_text())["m"] == 61
+    assert "chosen" in capsys.readouterr().out
+
+
+def test_build_command_reports_a_missing_column(tmp_path, capsys):
+    _write_csv(tmp_path / "d.csv")
+    code = main(["build", str(tmp_path / "d.csv"), "--inputs", "du", "x", "--output", "F",
+                 "-o", str(tmp_path / "m.json"), "--quiet"])  # fmt: skip
+    assert code == 2 and "missing column" in capsys.readouterr().err
+
+
+def test_railgym_command_has_demo_paper_evaluate():
+    from agents.cli import main as railgym_main
+
+    with pytest.raises(SystemExit) as exc:
+        railgym_main(["--help"])
+    assert exc.value.code == 0
