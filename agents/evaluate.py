@@ -1,8 +1,9 @@
 """``railgym evaluate``: comfort indices of any controller or saved policy, beside passive and
-skyhook, on the vertical env.
+skyhook, on the vertical env; crash-safety indices beside the passive absorbers on the crash env.
 
     railgym evaluate skyhook --backend reference --track-class 4 6 --episodes 10
     railgym evaluate runs/ppo_vertical/model.zip --backend reference --track-class 4 6
+    railgym evaluate runs/ppo_crash/model.zip --env crash --speed 36 40 44
 
 A policy is a controller name (``passive``, ``skyhook``, ``semi-active``, ``groundhook``,
 ``lqr``) or a stable-baselines3 ``.zip``; for a zip, the algorithm and the env's observation
@@ -27,6 +28,7 @@ from agents.controllers import LQR, Groundhook, Passive, Skyhook
 from railgym.comfort import sperling_wz, weighted_rms
 
 ENV_ID = "railgym/VerticalSuspension-v0"
+CRASH_ID = "railgym/TrainCrash-v0"
 CONTROLLERS = {
     "passive": (Passive, {}, {}),
     "skyhook": (Skyhook, {"mode": "active"}, {}),
@@ -36,7 +38,7 @@ CONTROLLERS = {
 }
 
 
-def load_policy(policy: str) -> tuple[Any, dict[str, Any], str]:
+def load_policy(policy: str, env_id: str = ENV_ID) -> tuple[Any, dict[str, Any], str]:
     """``(factory(env) → object with predict, env kwargs it needs, label)`` for a name or zip."""
     if policy in CONTROLLERS:
         cls, kwargs, env_kwargs = CONTROLLERS[policy]
@@ -51,16 +53,17 @@ def load_policy(policy: str) -> tuple[Any, dict[str, Any], str]:
     if not cfg_path.is_file():
         raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
     cfg = yaml.safe_load(cfg_path.read_text())
-    block = cfg.get(ENV_ID) if isinstance(cfg, dict) else None
+    block = cfg.get(env_id) if isinstance(cfg, dict) else None
     if not isinstance(block, dict) or "algo" not in block:
-        raise ValueError(f"{cfg_path}: needs a {ENV_ID!r} block with 'algo'")
+        raise ValueError(f"{cfg_path}: needs a {env_id!r} block with 'algo'")
     import stable_baselines3 as sb3
 
     algo = getattr(sb3, str(block["algo"]).upper(), None)
     if algo is None:
         raise ValueError(f"{cfg_path}: unknown algo {block['algo']!r}")
     model = algo.load(path, device="cpu")
-    keep = {"observation", "sensor_noise", "f_max", "control_dt", "wheelbase"}
+    keep = {"observation", "sensor_noise", "f_max", "control_dt", "wheelbase", "absorber_range",
+            "absorber_rate", "n_cars", "scenario"}  # fmt: skip
     env_kwargs = {k: v for k, v in (block.get("env_kwargs") or {}).items() if k in keep}
     return (lambda env: model), env_kwargs, path.parent.name
 
@@ -133,6 +136,51 @@ def format_rows(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def evaluate_crash(
+    policies: Sequence[str], backend: str = "reference", speeds_kmh: Sequence[float] = (40.0,)
+) -> list[dict[str, Any]]:
+    """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v0``."""
+    rows = []
+    loaded = [load_policy(p, CRASH_ID) if p != "passive" else (None, {}, "passive")
+              for p in policies]  # fmt: skip
+    for v in speeds_kmh:
+        passive = None
+        for factory, env_kwargs, label in loaded:
+            env = gym.make(CRASH_ID, backend=backend, **{**env_kwargs, "speed": v / 3.6})
+            ctrl = factory(env) if factory else None
+            obs, _ = env.reset(seed=0)
+            while True:
+                if ctrl is None:
+                    action = np.zeros(env.action_space.shape, np.float32)
+                else:
+                    action, _ = ctrl.predict(obs, deterministic=True)
+                obs, _, term, trunc, info = env.step(action)
+                if term or trunc:
+                    break
+            peak = float(np.max(info["peak_decel_g"]))
+            passive = peak if label == "passive" else passive
+            rows.append({
+                "speed_kmh": v, "policy": label, "peak_decel_g": info["peak_decel_g"],
+                "max_crush_m": info["max_crush_m"],
+                "stroke_exceeded": bool(info["stroke_exceeded"]),
+                "peak_reduction_%": 100 * (1 - peak / passive) if passive else float("nan"),
+            })  # fmt: skip
+    return rows
+
+
+def format_crash_rows(rows: list[dict[str, Any]]) -> str:
+    """Aligned text table of :func:`evaluate_crash` rows."""
+    lines = [f"{'km/h':>5} {'policy':<16} {'peak decel per car (g)':<24} {'Δpeak %':>7} "
+             f"{'max crush per zone (m)':<24} stroke exceeded"]  # fmt: skip
+    for r in rows:
+        peaks = " ".join(f"{x:.2f}" for x in np.atleast_1d(r["peak_decel_g"]))
+        crush = " ".join(f"{x:.3f}" for x in np.atleast_1d(r["max_crush_m"]))
+        lines.append(f"{r['speed_kmh']:5.0f} {r['policy']:<16} {peaks:<24} "
+                     f"{r['peak_reduction_%']:7.1f} {crush:<24} "
+                     f"{r['stroke_exceeded']}")  # fmt: skip
+    return "\n".join(lines)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``railgym evaluate``."""
     parser.add_argument("policy", nargs="+", help=f"{', '.join(CONTROLLERS)} or a policy .zip")
@@ -141,10 +189,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--track-class", type=int, nargs="+", default=[4, 6])
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--seed", type=int, default=1000, help="track seed of sub-env 0")
+    parser.add_argument("--env", choices=["vertical", "crash"], default="vertical")
+    parser.add_argument("--speed", type=float, nargs="+", default=[40.0],
+                        help="crash: impact speeds, km/h")  # fmt: skip
 
 
 def run(args: argparse.Namespace) -> int:
-    """``railgym evaluate``: the policies plus passive and skyhook for comparison."""
+    """``railgym evaluate``: the policies plus passive (and skyhook) for comparison."""
+    if args.env == "crash":
+        policies = ["passive"] + [p for p in args.policy if p != "passive"]
+        rows = evaluate_crash(policies, args.backend, args.speed)
+        print(f"TrainCrash-v0, backend: {args.backend}; Δpeak: reduction of the largest car "
+              "deceleration vs the passive absorbers")  # fmt: skip
+        print(format_crash_rows(rows))
+        return 0
     policies = ["passive", "skyhook"] + [p for p in args.policy if p not in ("passive", "skyhook")]
     rows = evaluate(policies, args.backend, args.track_class, args.episodes, args.seed)
     print(f"backend: {args.backend}, {args.episodes} episodes per class (seeds {args.seed}+i); "
