@@ -68,6 +68,8 @@ def demo(out: Path, seed: int = 0) -> int:
     runs: dict[tuple[str, str], dict[str, Any]] = {}
     for backend in ("surrogate", "reference"):
         env = VerticalSuspensionEnv(backend=backend, surrogate=model)
+        env.reset(seed=seed)
+        env.step(np.zeros(1, np.float32))  # compile (or load) the kernel outside the timing
         for name, ctrl in (("passive", Passive(env)), ("skyhook", Skyhook(env))):
             runs[backend, name] = run_episode(env, ctrl, seed)
     fs = 1.0 / env.cfg.control_dt
