@@ -33,6 +33,7 @@ from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
     KERNELS,
+    VerticalVehicle,
     initial_state,
     load_vehicle,
     surrogate_arrays,
@@ -194,11 +195,10 @@ class VerticalBatch:
     observation, reward and ``info`` quantities of :class:`VerticalSuspensionEnv`.
     """
 
-    def __init__(self, n: int, cfg: VerticalConfig, vehicle: str, lpr: tuple) -> None:
+    def __init__(self, n: int, cfg: VerticalConfig, vehicle: VerticalVehicle, lpr: tuple) -> None:
         self.n, self.cfg = n, cfg
-        veh = load_vehicle(vehicle)
-        self.m2 = veh.m2
-        self.params = veh.kernel_params()
+        self.vehicle = vehicle
+        self.params = vehicle.kernel_params()
         self.kernel = KERNELS[cfg.variant]
         self.lpr = lpr
         n_samples = cfg.n_steps * cfg.n_sub + 1
@@ -329,7 +329,7 @@ class VerticalSuspensionEnv(gym.Env[np.ndarray, np.ndarray]):
         self.backend = backend
         self.track_class, self.speed = _check_track(track_class, speed)
         self._speed_arg = speed
-        self.sim = VerticalBatch(1, self.cfg, vehicle, _surrogate_arrays(backend, surrogate))
+        self.sim = VerticalBatch(1, self.cfg, veh, _surrogate_arrays(backend, surrogate))
         self.render_mode = render_mode
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         n_obs = len(self.obs_names)
@@ -417,8 +417,8 @@ class VerticalSuspensionVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self.cfg = self.single_env.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
-        self.sim = VerticalBatch(self.num_envs, self.cfg, kwargs.get("vehicle", "manchester"),
-                                 self.single_env.sim.lpr)  # fmt: skip
+        single = self.single_env.sim
+        self.sim = VerticalBatch(self.num_envs, self.cfg, single.vehicle, single.lpr)
         self.single_observation_space = self.single_env.observation_space
         self.single_action_space = self.single_env.action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
