@@ -90,7 +90,7 @@ import yaml
 from numba import njit
 
 from surrogates.features import LOADING, split_branches
-from surrogates.models.lpr import lpr_eval
+from surrogates.models.lpr import lpr_eval_into, lpr_scratch
 from surrogates.selection import factory_for, select_kfold
 
 #: friction regularisation velocity of tanh(v / v_ε), m/s
@@ -813,6 +813,7 @@ def _reference_kernel(
                   zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack,
                   t_abs, scale, F, fz, fzel, fd, ff, dz)  # fmt: skip
     a = F / m
+    dx = np.empty(N)
     n_out = 0
     for k in range(n_samples):
         if k > 0:
@@ -821,16 +822,18 @@ def _reference_kernel(
                 fd_o[:] = fd
                 ff_o[:] = ff
                 dz_o[:] = dz
-                dx = v * dt + 0.5 * a * dt * dt
-                x += dx
-                vp[:] = v + a * dt
+                for i in range(N):
+                    dx[i] = v[i] * dt + 0.5 * a[i] * dt * dt
+                    x[i] += dx[i]
+                    vp[i] = v[i] + a[i] * dt
                 _chain_forces(x, vp, dp, m, mu, g, veps, link_k, link_c, elem_zone, zone_type,
                               zone_cc, zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam,
                               t_ku, t_kt, t_slack, t_abs, scale, F, fz, fzel, fd, ff,
                               dz)  # fmt: skip
-                a_new = F / m
-                v += 0.5 * (a + a_new) * dt
-                a = a_new
+                for i in range(N):
+                    a_new = F[i] / m[i]
+                    v[i] += 0.5 * (a[i] + a_new) * dt
+                    a[i] = a_new
                 for z in range(nz):
                     wz[z] += 0.5 * (fz_o[z] + fz[z]) * (dz[z] - dz_o[z])
                 for e in range(N - 1):
@@ -1266,97 +1269,131 @@ def _permanent_set_history(
 
 
 @njit(cache=True)
-def _element_force(u, rate, up, ty, types, lpr, ubuf, scale):  # fmt: skip
+def _lpr_work(lpr):
+    """Scratch of :func:`surrogates.models.lpr.lpr_eval_into` for every packed LPR model of
+    ``lpr`` (:func:`_pack_models`): float64 (models, d + 4, L), one common width ``L``."""
+    E, _, LO, UP, _, _ = lpr
+    n, T, d = E.shape
+    every = E.reshape(n * T, d)  # the largest degree of all models sets the common width
+    first = lpr_scratch(every, LO[0], UP[0])
+    work = np.empty((n, first.shape[0], first.shape[1]))
+    work[0] = first
+    for k in range(1, n):
+        work[k] = lpr_scratch(every, LO[k], UP[k])
+    return work
+
+
+@njit(cache=True, inline="always")
+def _element_model(u, rate, up, variant, unilateral, ku, i_load, i_unload):
+    """Index of the LPR model the element law (:func:`_element_force`) reads at feature ``u``,
+    rate ``u̇`` and permanent set ``up``; −1 where it needs none."""
+    if unilateral and u <= 0.0:
+        return -1
+    if variant == 0:
+        return i_load if rate >= 0.0 else i_unload
+    return i_load if ku * (u - up) > 0.0 else -1
+
+
+@njit(cache=True, inline="always")
+def _element_force(u, up, f_lpr, f_min, f_max, s, variant, unilateral, ku, kt, slack):
     """Force (N, compression positive) and new permanent set of one surrogate element.
 
-    ``types`` = (variant, loading model, unloading model, k_u, k_t, slack, unilateral,
-    absorber stroke) per element type; ``lpr`` = (exponents, coef, lower, upper, mode, force
-    range) per LPR model. ``scale`` multiplies the LPR force for ``u`` up to the absorber stroke
-    (controllable absorber, as :func:`absorber_zone_force`).
+    ``f_lpr`` is the value at ``u`` of the LPR model chosen by :func:`_element_model` and
+    ``[f_min, f_max]`` that model's force range, N (unused where it chose none). ``s``
+    multiplies the LPR force (controllable absorber, 1 beyond the absorber stroke, as
+    :func:`absorber_zone_force`). ``variant`` 0 is ``"paper"``, 1 ``"hysteretic"``; ``k_u``,
+    ``k_t`` (N/m) and ``slack`` (m) as in :class:`CrashElement`.
     """
-    variant, i_load, i_unload, ku, kt, slack, unilateral, absorber = types
-    E, C, LO, UP, MODE, FR = lpr
-    if unilateral[ty] and u <= 0.0:
+    if unilateral and u <= 0.0:
         return 0.0, up
-    ubuf[0] = u
-    s = scale if u <= absorber[ty] else 1.0
-    if variant[ty] == 0:
-        k = i_load[ty] if rate >= 0.0 else i_unload[ty]
-        f = lpr_eval(ubuf, E[k], C[k], LO[k], UP[k], MODE[k])
-        f = s * min(max(f, FR[k, 0]), FR[k, 1])
-        if unilateral[ty] and f < 0.0:
+    if variant == 0:
+        f = s * min(max(f_lpr, f_min), f_max)
+        if unilateral and f < 0.0:
             f = 0.0
         return f, up
-    trial = ku[ty] * (u - up)
+    trial = ku * (u - up)
     if trial > 0.0:
-        k = i_load[ty]
-        env = s * min(lpr_eval(ubuf, E[k], C[k], LO[k], UP[k], MODE[k]), FR[k, 1])
+        env = s * min(f_lpr, f_max)
         if env <= 0.0:
             return 0.0, up
         if trial >= env:
-            return env, u - env / ku[ty]
+            return env, u - env / ku
         return trial, up
-    if kt[ty] > 0.0 and u < up - slack[ty]:
-        return kt[ty] * (u - up + slack[ty]), up
+    if kt > 0.0 and u < up - slack:
+        return kt * (u - up + slack), up
     return 0.0, up
 
 
-@njit(cache=True)
-def _surrogate_forces(x, v, up, m, mu, g, veps, elements, types, lpr, ubuf, scale, F, fel, uel):
-    """Body forces ``F`` (N); element forces ``fel`` and features ``uel``; updates ``up``.
-
-    ``scale`` (per element) is the absorber force scale of :func:`_element_force`."""
-    el_front, el_back, el_type = elements
-    for i in range(m.shape[0]):
-        F[i] = -mu[i] * m[i] * g * math.tanh(v[i] / veps)
-    for e in range(el_type.shape[0]):
-        fr = el_front[e]
-        bk = el_back[e]
-        u = x[bk] - (x[fr] if fr >= 0 else 0.0)
-        rate = v[bk] - (v[fr] if fr >= 0 else 0.0)
-        f, up[e] = _element_force(u, rate, up[e], el_type[e], types, lpr, ubuf, scale[e])
-        fel[e] = f
-        uel[e] = u
-        if fr >= 0:
-            F[fr] += f
-        F[bk] -= f
-
-
+# The two surrogate kernels below evaluate the elements in their own loop body (tuples unpacked
+# once per call): behind a helper taking the packed arrays, numba's reference counting of
+# those arrays cost more than the physics (measured 2 × the whole kernel time).
 @njit(cache=True)
 def _surrogate_kernel(m, mu, v0, g, veps, elements, types, lpr, dt, n_sub, n_samples, stop,
                       v_stop, f_stop):  # fmt: skip
-    """Velocity-Verlet integration of the n-mass surrogate model (paper eq. 4)."""
-    el_front, el_back, el_type = elements
+    """Velocity-Verlet integration of the n-mass surrogate model (paper eq. 4).
+
+    ``elements`` (elements, 3) = front body (−1 = wall), back body, type; ``types`` = (int
+    (types, 4): variant, loading model, unloading model, unilateral; float (types, 4): k_u, k_t,
+    slack, absorber stroke); ``lpr`` = (exponents, coef, lower, upper, mode, force range) per
+    LPR model (:func:`_pack_models`). (Tables rather than one array per quantity: each array
+    passed into a compiled function costs about 0.08 µs, a sizeable part of an env step.)
+    """
+    el_front, el_back, el_type = elements[:, 0], elements[:, 1], elements[:, 2]
+    variant, i_load, i_unload, unilateral = types[0].T
+    ku, kt, slack, _ = types[1].T
+    E, C, LO, UP, MODE, FR = lpr
     nb = m.shape[0]
     ne = el_type.shape[0]
     x = np.zeros(nb)
     v = v0.copy()
-    vp = np.empty(nb)
+    vp = v0.copy()
+    a = np.zeros(nb)
     up = np.zeros(ne)
     F = np.zeros(nb)
     fel = np.zeros(ne)
     uel = np.zeros(ne)
     ubuf = np.zeros(1)
-    scale = np.ones(ne)
+    work = _lpr_work(lpr)
     out_x = np.zeros((n_samples, nb))
     out_v = np.zeros((n_samples, nb))
     out_a = np.zeros((n_samples, nb))
     out_u = np.zeros((n_samples, ne))
     out_f = np.zeros((n_samples, ne))
     out_up = np.zeros((n_samples, ne))
-    _surrogate_forces(x, v, up, m, mu, g, veps, elements, types, lpr, ubuf, scale, F, fel, uel)
-    a = F / m
     n_out = 0
     for k in range(n_samples):
-        if k > 0:
-            for _ in range(n_sub):
-                x += v * dt + 0.5 * a * dt * dt
-                vp[:] = v + a * dt
-                _surrogate_forces(x, vp, up, m, mu, g, veps, elements, types, lpr, ubuf, scale,
-                                  F, fel, uel)  # fmt: skip
-                a_new = F / m
-                v += 0.5 * (a + a_new) * dt
-                a = a_new
+        # sample 0: forces at the initial state; then n_sub steps per sample
+        for _ in range(n_sub if k > 0 else 1):
+            if k > 0:
+                for j in range(nb):
+                    x[j] += v[j] * dt + 0.5 * a[j] * dt * dt
+                    vp[j] = v[j] + a[j] * dt
+            for j in range(nb):
+                F[j] = -mu[j] * m[j] * g * math.tanh(vp[j] / veps)
+            for e in range(ne):
+                fr, bk, ty = el_front[e], el_back[e], el_type[e]
+                u = x[bk] - (x[fr] if fr >= 0 else 0.0)
+                rate = vp[bk] - (vp[fr] if fr >= 0 else 0.0)
+                mdl = _element_model(u, rate, up[e], variant[ty], unilateral[ty], ku[ty],
+                                     i_load[ty], i_unload[ty])  # fmt: skip
+                f_lpr = f_min = f_max = 0.0
+                if mdl >= 0:
+                    ubuf[0] = u
+                    f_lpr = lpr_eval_into(ubuf, E[mdl], C[mdl], LO[mdl], UP[mdl], MODE[mdl],
+                                          work[mdl])  # fmt: skip
+                    f_min, f_max = FR[mdl, 0], FR[mdl, 1]
+                f, up[e] = _element_force(u, up[e], f_lpr, f_min, f_max, 1.0, variant[ty],
+                                          unilateral[ty], ku[ty], kt[ty], slack[ty])  # fmt: skip
+                fel[e] = f
+                uel[e] = u
+                if fr >= 0:
+                    F[fr] += f
+                F[bk] -= f
+            for j in range(nb):
+                a_new = F[j] / m[j]
+                if k > 0:
+                    v[j] += 0.5 * (a[j] + a_new) * dt
+                a[j] = a_new
         out_x[k] = x
         out_v[k] = v
         out_a[k] = a
@@ -1405,8 +1442,8 @@ class _System:
     v0: np.ndarray  # initial velocities, m/s
     body_names: list[str]
     zone_names: list[str]
-    elements: tuple[np.ndarray, np.ndarray, np.ndarray]  # front body (−1 = wall), back, type
-    types: tuple[np.ndarray, ...]
+    elements: np.ndarray  # (elements, 3): front body (−1 = wall), back body, type
+    types: tuple[np.ndarray, np.ndarray]  # int and float table of _surrogate_kernel
     lpr: tuple[np.ndarray, ...]
 
 
@@ -1441,23 +1478,20 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
         if ty.unloading is not None:
             models.append(ty.unloading)
             ranges.append(ty.force_range["unloading"])
+    absorber = [sc.wall.absorber_stroke, sc.interface.absorber_stroke]
     type_arrays = (
-        np.array([VARIANTS.index(ty.variant) for ty in types], dtype=np.int64),
-        np.array(load_idx, dtype=np.int64),
-        np.array(unload_idx, dtype=np.int64),
-        np.array([ty.unloading_stiffness for ty in types]),
-        np.array([ty.tension_stiffness for ty in types]),
-        np.array([ty.slack for ty in types]),
-        np.array([ty.unilateral for ty in types]),
-        np.array([sc.wall.absorber_stroke, sc.interface.absorber_stroke][: len(types)]),
-    )
+        np.array([[VARIANTS.index(ty.variant), i, j, ty.unilateral]
+                  for ty, i, j in zip(types, load_idx, unload_idx, strict=True)], np.int64),
+        np.array([[ty.unloading_stiffness, ty.tension_stiffness, ty.slack, s]
+                  for ty, s in zip(types, absorber[: len(types)], strict=True)]),
+    )  # fmt: skip
     return _System(
         m=np.array(masses),
         mu=np.array(mu),
         v0=np.array(v0),
         body_names=names,
         zone_names=el_names,
-        elements=(el_front, el_back, el_type),
+        elements=np.stack([el_front, el_back, el_type], axis=1),
         types=type_arrays,
         lpr=_pack_models(models, ranges),
     )
@@ -1683,7 +1717,10 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
     """
     x, v, a, up, fel, ff = state
     m, mu, g, veps, elements, types, lpr = params
-    el_front, el_back, _ = elements
+    el_front, el_back, el_type = elements[:, 0], elements[:, 1], elements[:, 2]
+    variant, i_load, i_unload, unilateral = types[0].T
+    ku, kt, slack, absorber = types[1].T
+    E, C, LO, UP, MODE, FR = lpr
     N = m.shape[0]
     ne = el_front.shape[0]
     nodes = np.empty((8, N))
@@ -1692,49 +1729,75 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
     els = np.empty((6, ne))
     upl, fl, f_o, ul, u_o, wl = els[0], els[1], els[2], els[3], els[4], els[5]
     ubuf = np.zeros(1)
+    work = _lpr_work(lpr)
+    ox, ov, oa, crush, force, rate_out, work_done, dissipated, stored = out
+    # rows are copied element by element: a row view per array and train costs two atomic
+    # reference-count operations, about a quarter of the time of a step of 1024 trains
     for i in range(x.shape[0]):
         if not active[i]:
             continue
-        xl[:], vl[:], al[:], upl[:], fl[:], ffl[:] = x[i], v[i], a[i], up[i], fel[i], ff[i]
-        ul[:], wl[:] = out.crush[i], out.work[i]
-        w_fric = out.dissipated[i, 0]
-        sc = scale[i]
-        if init:
-            _surrogate_forces(xl, vl, upl, m, mu, g, veps, elements, types, lpr, ubuf, sc, F,
-                              fl, ul)  # fmt: skip
+        for j in range(N):
+            xl[j], vl[j], al[j], ffl[j] = x[i, j], v[i, j], a[i, j], ff[i, j]
+        for e in range(ne):
+            upl[e], fl[e], ul[e], wl[e] = up[i, e], fel[i, e], crush[i, e], work_done[i, e]
+        w_fric = dissipated[i, 0]
+        # init: forces at the current state; else n_sub velocity-Verlet steps
+        for _ in range(1 if init else n_sub):
+            if init:
+                vp[:] = vl
+            else:
+                f_o[:], ff_o[:], u_o[:] = fl, ffl, ul
+                for j in range(N):
+                    dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
+                    xl[j] += dx[j]
+                    vp[j] = vl[j] + al[j] * dt
             for j in range(N):
-                al[j] = F[j] / m[j]
-                ffl[j] = mu[j] * m[j] * g * math.tanh(vl[j] / veps)
-        for _ in range(0 if init else n_sub):
-            f_o[:], ff_o[:], u_o[:] = fl, ffl, ul
-            for j in range(N):
-                dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
-                xl[j] += dx[j]
-                vp[j] = vl[j] + al[j] * dt
                 ffl[j] = mu[j] * m[j] * g * math.tanh(vp[j] / veps)
-            _surrogate_forces(xl, vp, upl, m, mu, g, veps, elements, types, lpr, ubuf, sc, F,
-                              fl, ul)  # fmt: skip
+                F[j] = -ffl[j]
+            for e in range(ne):
+                fr, bk, ty = el_front[e], el_back[e], el_type[e]
+                u = xl[bk] - (xl[fr] if fr >= 0 else 0.0)
+                rate = vp[bk] - (vp[fr] if fr >= 0 else 0.0)
+                mdl = _element_model(u, rate, upl[e], variant[ty], unilateral[ty], ku[ty],
+                                     i_load[ty], i_unload[ty])  # fmt: skip
+                f_lpr = f_min = f_max = 0.0
+                if mdl >= 0:
+                    ubuf[0] = u
+                    f_lpr = lpr_eval_into(ubuf, E[mdl], C[mdl], LO[mdl], UP[mdl], MODE[mdl],
+                                          work[mdl])  # fmt: skip
+                    f_min, f_max = FR[mdl, 0], FR[mdl, 1]
+                s = scale[i, e] if u <= absorber[ty] else 1.0
+                f, upl[e] = _element_force(u, upl[e], f_lpr, f_min, f_max, s, variant[ty],
+                                           unilateral[ty], ku[ty], kt[ty], slack[ty])  # fmt: skip
+                fl[e] = f
+                ul[e] = u
+                if fr >= 0:
+                    F[fr] += f
+                F[bk] -= f
             for j in range(N):
                 a_new = F[j] / m[j]
-                vl[j] += 0.5 * (al[j] + a_new) * dt
+                if not init:
+                    vl[j] += 0.5 * (al[j] + a_new) * dt
+                    w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
                 al[j] = a_new
-                w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
-            for e in range(ne):
-                wl[e] += 0.5 * (f_o[e] + fl[e]) * (ul[e] - u_o[e])
+            if not init:
+                for e in range(ne):
+                    wl[e] += 0.5 * (f_o[e] + fl[e]) * (ul[e] - u_o[e])
         if not _healthy(xl, vl, al, limit):
             div[i] = True
             continue
-        x[i], v[i], a[i], up[i], fel[i], ff[i] = xl, vl, al, upl, fl, ffl
-        out.x[i], out.v[i], out.a[i] = xl, vl, al
-        out.crush[i], out.force[i], out.work[i] = ul, fl, wl
-        out.dissipated[i, 0] = w_fric
         energy = 0.0
         for j in range(N):
+            x[i, j], v[i, j], a[i, j], ff[i, j] = xl[j], vl[j], al[j], ffl[j]
+            ox[i, j], ov[i, j], oa[i, j] = xl[j], vl[j], al[j]
             energy += 0.5 * m[j] * vl[j] * vl[j]
-        out.stored[i] = energy
+        stored[i] = energy
+        dissipated[i, 0] = w_fric
         for e in range(ne):
+            up[i, e], fel[i, e] = upl[e], fl[e]
+            crush[i, e], force[i, e], work_done[i, e] = ul[e], fl[e], wl[e]
             fr = el_front[e]
-            out.rate[i, e] = vl[el_back[e]] - (vl[fr] if fr >= 0 else 0.0)
+            rate_out[i, e] = vl[el_back[e]] - (vl[fr] if fr >= 0 else 0.0)
 
 
 @dataclass(frozen=True)
@@ -1854,5 +1917,5 @@ def crash_batch_model(
         backend=backend, scenario=sc, sample_dt=float(sample_dt), dt=step, n_sub=n_sub,
         params=(sy.m, sy.mu, sc.gravity, V_EPS, sy.elements, sy.types, sy.lpr), masses=sy.m,
         v_unit=sy.v0 / sc.speed, body_names=sy.body_names, zone_names=sy.zone_names,
-        zone_absorber=sy.types[7][sy.elements[2]],
+        zone_absorber=sy.types[1][sy.elements[:, 2], 3],
     )  # fmt: skip
