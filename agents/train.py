@@ -398,8 +398,16 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
     if isinstance(config, (str, Path)):
         path = Path(config)
         if not path.is_file():
-            raise ValueError(f"config file {str(path)!r} does not exist")
-        config = yaml.safe_load(path.read_text())
+            raise ValueError(f"config file {str(path)!r} does not exist or is not a file")
+        try:
+            config = yaml.safe_load(path.read_text(encoding="utf-8"))
+        except UnicodeDecodeError as err:
+            raise ValueError(f"config file {path}: not UTF-8 text ({err.reason})") from None
+        except yaml.YAMLError as err:
+            where = getattr(err, "problem_mark", None)
+            line = f", line {where.line + 1}" if where is not None else ""
+            what = getattr(err, "problem", None) or err
+            raise ValueError(f"config file {path}{line}: invalid YAML ({what})") from None
     if not isinstance(config, dict):
         raise ValueError(f"config must be a mapping {{env id: settings}}, got {config!r}")
     ids = [k for k in config if k != RUN_KEY]

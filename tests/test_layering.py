@@ -1,4 +1,5 @@
-"""Imports flow one way: surrogates ← railgym physics ← railgym.envs ← wrappers ← agents."""
+"""Imports flow one way: surrogates ← railgym physics ← railgym.report, railgym.envs ← wrappers
+← agents."""
 
 import ast
 import subprocess
@@ -39,9 +40,16 @@ def test_physics_does_not_use_gymnasium_or_envs(path):
     assert not bad, f"{path} imports {bad}"
 
 
+@pytest.mark.parametrize("path", sorted((ROOT / "railgym" / "report").glob("*.py")), ids=str)
+def test_report_uses_physics_only(path):
+    outer = {"gymnasium", "torch", "stable_baselines3", "railgym.envs", "railgym.wrappers"}
+    bad = _imports(path) & (outer | {"agents"})
+    assert not bad, f"{path} imports {bad}"
+
+
 def test_core_imports_without_torch():
     code = ("import sys, surrogates, railgym, railgym.envs.vertical, railgym.envs.crash, "
-            "railgym.wrappers, agents.controllers, agents.cli; "
+            "railgym.wrappers, railgym.report, agents.controllers, agents.cli; "
             "print('torch' in sys.modules or 'stable_baselines3' in sys.modules)")  # fmt: skip
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

@@ -23,6 +23,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from importlib.resources import files
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -31,8 +32,10 @@ from railgym.report.published import PAPER
 from railgym.track import track_time_input
 from railgym.vehicles.collect import TRAINING_CASE, collect_vertical
 from railgym.vehicles.crash import (
+    CrashScenario,
     build_crash_surrogate,
     crash_errors,
+    load_scenario,
     simulate_reference,
     simulate_surrogate,
 )
@@ -52,6 +55,7 @@ __all__ = [
     "TrackCase",
     "compute",
     "n_steps",
+    "paper_scenario",
     "run_lpr",
     "track_case",
 ]
@@ -338,10 +342,17 @@ def _degrees(sur: Any) -> dict[str, dict[str, Any]]:
     }
 
 
+def paper_scenario() -> CrashScenario:
+    """The packaged ``paper`` crash scenario, read from its file path: a file or folder named
+    ``paper`` in the working directory cannot stand in for it."""
+    return load_scenario(str(files("railgym").joinpath("configs", "crash", "paper.yaml")))
+
+
 def _crash(plan: Plan, seed: int, step: Step) -> tuple[dict[str, Any], dict[str, Any]]:
     """Tables 10, 11 and the crash runs ``{"reference": result, variant: (model, result)}``."""
-    simulate_reference("paper", duration=2e-3)  # load the compiled kernel
-    ref = simulate_reference("paper")
+    scenario = paper_scenario()
+    simulate_reference(scenario, duration=2e-3)  # load the compiled kernel
+    ref = simulate_reference(scenario)
     step("crash reference")
     table10: dict[str, Any] = {"max_degree": CRASH_MAX_DEGREE, "variants": {}, "published": None}
     table11: dict[str, Any] = {
@@ -352,8 +363,8 @@ def _crash(plan: Plan, seed: int, step: Step) -> tuple[dict[str, Any], dict[str,
     runs: dict[str, Any] = {"reference": ref}
     for variant in plan.crash_variants:
         sur = build_crash_surrogate(ref, variant=variant, seed=seed, max_degree=CRASH_MAX_DEGREE)
-        simulate_surrogate("paper", sur, duration=2e-3)  # load the compiled kernel
-        res = simulate_surrogate("paper", sur, duration=float(ref.t[-1]), stop_when_over=False)
+        simulate_surrogate(scenario, sur, duration=2e-3)  # load the compiled kernel
+        res = simulate_surrogate(scenario, sur, duration=float(ref.t[-1]), stop_when_over=False)
         runs[variant] = (sur, res)
         table10["variants"][variant] = _degrees(sur)
         err = crash_errors(res, ref)
