@@ -97,7 +97,9 @@ def _weights(path: Path) -> dict[str, Any]:
     except zipfile.BadZipFile as err:
         raise ValueError(f"policy {path}: not a zip file ({err})") from None
     try:
-        state = torch.load(io.BytesIO(raw), map_location="cpu", weights_only=True)
+        with warnings.catch_warnings():  # torch warns about the pickle protocol of foreign files
+            warnings.simplefilter("ignore", UserWarning)
+            state = torch.load(io.BytesIO(raw), map_location="cpu", weights_only=True)
     except Exception as err:  # torch raises UnpicklingError, RuntimeError, ...
         raise ValueError(
             f"policy {path}: policy.pth is not a weights-only state dict ({err})"
