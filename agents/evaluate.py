@@ -15,6 +15,7 @@ seed ``seed + i`` — the same tracks for every policy.
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import bounded_int, speed_kmh
+from agents._args import MAX_SPEED_KMH, bounded_int, speed_kmh
 from agents.controllers import LQR, Groundhook, Passive, Skyhook
 from agents.policy_io import check_manifest, load_policy_weights
 from railgym.comfort import sperling_wz, weighted_rms
@@ -39,6 +40,14 @@ CONTROLLERS = {
     "groundhook": (Groundhook, {}, {}),
     "lqr": (LQR, {}, {"observation": "full"}),
 }
+
+
+def _check_int(name: str, value: Any, lo: int, hi: int | None = None) -> None:
+    """``lo <= value (<= hi)`` for an int or numpy integer (bools rejected)."""
+    ok = not isinstance(value, bool) and isinstance(value, (int, np.integer))
+    if not (ok and value >= lo and (hi is None or value <= hi)):
+        span = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+        raise ValueError(f"{name} must be an integer {span}, got {value!r}")
 
 
 def load_policy(
@@ -139,6 +148,10 @@ def evaluate(
 ) -> list[dict[str, Any]]:
     """One row per (track class, policy): mean RMS ẍ2, Wk a_w, Sperling Wz over episodes
     (``trust``: see :func:`load_policy`)."""
+    _check_int("episodes", episodes, 1, MAX_EPISODES)
+    _check_int("seed", seed, 0)
+    for tc in track_classes:
+        _check_int("track_classes", tc, 1, 6)
     rows = []
     loaded = [load_policy(p, trust=trust) for p in policies]
     for tc in track_classes:
@@ -177,6 +190,11 @@ def evaluate_crash(
 ) -> list[dict[str, Any]]:
     """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v0``
     (``trust``: see :func:`load_policy`)."""
+    for v in speeds_kmh:
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise ValueError(f"speeds_kmh must be numbers in km/h, got {v!r}")
+        if not (math.isfinite(v) and 0 < v <= MAX_SPEED_KMH):
+            raise ValueError(f"speeds_kmh must be in (0, {MAX_SPEED_KMH:g}] km/h, got {v!r} km/h")
     rows = []
     loaded = [
         load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")

@@ -95,3 +95,19 @@ def test_a_zip_that_is_no_zip_is_one_clear_error(tmp_path):
     write_manifest(folder)
     with pytest.raises(ValueError, match="not a zip file"):
         load_policy(str(folder / "model.zip"))
+
+
+@pytest.mark.parametrize(
+    ("call", "name"),
+    [
+        (lambda: evaluate(["passive"], episodes=0), "episodes"),
+        (lambda: evaluate(["passive"], episodes=True), "episodes"),
+        (lambda: evaluate(["passive"], seed=-1), "seed"),
+        (lambda: evaluate(["passive"], track_classes=(7,)), "track_classes"),
+        (lambda: evaluate_crash(["passive"], speeds_kmh=(-40.0,)), "speeds_kmh.*-40.0 km/h"),
+        (lambda: evaluate_crash(["passive"], speeds_kmh=("40",)), "speeds_kmh"),
+    ],
+)
+def test_bad_evaluate_arguments_name_the_argument(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()

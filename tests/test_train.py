@@ -305,6 +305,11 @@ def test_short_sac_run_with_schedule_reloads(tmp_path, capsys):
     assert model.lr_schedule(1.0) == pytest.approx(1e-3) and model.lr_schedule(0.25) == 2.5e-4
     venv = make_vec(ENV_ID, 1, {"duration": 1.0})
     assert evaluate(model, venv, 999_999)["mean_reward"] == pytest.approx(rows[-1]["mean_reward"])
+    obs, _ = venv.reset(seed=2)
+    weights_only = load_policy(str(out / "model.zip"))[0](venv)
+    np.testing.assert_array_equal(
+        weights_only.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
+    )
 
 
 @pytest.mark.parametrize("path", sorted(CONFIGS.glob("*.yaml")), ids=lambda p: p.name)
