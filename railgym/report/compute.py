@@ -118,14 +118,8 @@ class Artifacts(NamedTuple):
 
 def n_steps(plan: Plan) -> int:
     """Number of progress steps of :func:`compute` (one per build, run or crash variant)."""
-    return (
-        2 * len(plan.sizes)
-        + 2
-        + len(plan.sizes)
-        + 2 * len(TOLERANCE_CASES)
-        + 1
-        + len(plan.crash_variants)
-    )
+    vertical = 1 + 2 * len(plan.sizes) + 1 + len(plan.sizes) + 2 * len(TOLERANCE_CASES)
+    return vertical + 1 + len(plan.crash_variants)
 
 
 # ========================================================================= vertical case
@@ -256,7 +250,11 @@ def _table3(plan: Plan, V: np.ndarray, reports: dict[tuple[str, int], BuildRepor
     }
 
 
-def _table6(plan: Plan, case5: TrackCase, lpr5: dict, models: dict, reports: dict, U) -> dict:
+def _table6(
+    plan: Plan, case5: TrackCase, lpr5: dict, models: dict, reports: dict, U: np.ndarray
+) -> dict:
+    """T_t of every fit, T_s of the compiled LPR runs and the reference, ``predict`` cost."""
+
     def entry(kind: str, m: int) -> dict[str, float]:
         rep = reports[kind, m]
         e = {
