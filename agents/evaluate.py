@@ -7,9 +7,11 @@ skyhook, on the vertical env; crash-safety indices beside the passive absorbers 
 
 A policy is a controller name (``passive``, ``skyhook``, ``semi-active``, ``groundhook``,
 ``lqr``) or a stable-baselines3 ``.zip``; for a zip, the algorithm and the env's observation
-settings are read from the ``config.yaml`` that :mod:`agents.train` writes beside it. Each
-track class runs ``episodes`` episodes in one native vector env, sub-env ``i`` on the track of
-seed ``seed + i`` — the same tracks for every policy.
+settings are read from the ``config.yaml`` that :mod:`agents.train` writes beside it, the zip
+must be listed with its SHA-256 in the ``manifest.json`` beside it (``--trust``: any zip, with a
+warning), and only its network weights are read (:mod:`agents.policy_io`). Each track class
+runs ``episodes`` episodes in one native vector env, sub-env ``i`` on the track of seed
+``seed + i`` — the same tracks for every policy.
 """
 
 from __future__ import annotations
