@@ -91,9 +91,15 @@ def build_vertical_surrogate(
         seed=track_seed,
     )
     model, report = build(
-        data["U"], data["V"], kind=kind, m=m, sampling=sampling, selection=selection,
-        seed=seed, **model_params,
-    )  # fmt: skip
+        data["U"],
+        data["V"],
+        kind=kind,
+        m=m,
+        sampling=sampling,
+        selection=selection,
+        seed=seed,
+        **model_params,
+    )
     return model, report, data
 
 
