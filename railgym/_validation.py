@@ -241,7 +241,7 @@ def resolve_yaml(arg: Any, field: str, package: str, folder: tuple[str, ...]) ->
     if text.endswith(YAML_SUFFIXES):
         path = Path(text)
         if not path.is_file():
-            raise FieldError(field, f"file {text!r} does not exist")
+            raise FieldError(field, f"{field} file {text!r} does not exist", full=True)
         try:
             return path.read_text(encoding="utf-8"), text
         except (OSError, UnicodeDecodeError) as exc:

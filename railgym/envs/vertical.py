@@ -86,6 +86,7 @@ LIMITS = {
     "sensor_noise": 10.0,  # std on the normalised observation
     "reward_weight": 1e6,
     "wheelbase": 50.0,  # m
+    "band": (0.1, 1000.0),  # shortest and longest wavelength, m
     "num_envs": 65536,
     "track_bytes": 2**30,  # track arrays of all sub-envs, bytes
 }
@@ -154,7 +155,9 @@ def make_config(
             )
     if wheelbase is not None:
         wheelbase = val.positive(wheelbase, "wheelbase", LIMITS["wheelbase"])
-    band = tuple(val.positive(b, "band") for b in val.sequence(band, "band", 2))
+    lo, hi = (val.in_range(b, "band", *LIMITS["band"]) for b in val.sequence(band, "band", 2))
+    if not lo < hi:
+        raise val.FieldError("band", f"must be (min, max) with min < max wavelength, got {band!r}")
     names, scales = OBSERVATIONS[observation]
     scale = np.array([free_travel if s is None else s for s in scales])
     return VerticalConfig(
@@ -171,7 +174,7 @@ def make_config(
         weights=(weights["acceleration"], weights["deflection"], weights["force"]),
         sensor_noise=sensor_noise,
         wheelbase=wheelbase,
-        band=band,
+        band=(lo, hi),
     )
 
 
@@ -192,7 +195,12 @@ def _surrogate_arrays(backend: str, surrogate: Any) -> LprArrays:
     if surrogate is None:
         surrogate = default_vertical_surrogate()
     elif isinstance(surrogate, str | Path):
-        surrogate = io.load(surrogate)
+        try:
+            surrogate = io.load(surrogate)
+        except (OSError, ValueError) as exc:
+            raise val.FieldError(
+                "surrogate", f"cannot be loaded from {str(surrogate)!r}: {exc}"
+            ) from None
     if not hasattr(surrogate, "kernel_arrays"):
         raise val.FieldTypeError(
             "surrogate",
