@@ -335,7 +335,7 @@ def _outputs(n):
 def test_batch_equals_single_calls(veh, variant, cubic_lpr):
     n = 5
     lpr = surrogate_arrays(cubic_lpr if variant == "surrogate" else None)
-    p = veh.kernel_params()
+    p = veh.kernel_params().record()
     kernel = KERNELS[variant]
     state, z, zd, k0, fa = _batch_inputs(variant, n)
     single = state.copy()
@@ -366,7 +366,9 @@ def test_nan_and_huge_inputs_set_diverged(veh, variant):
     zd[1, k0[1] + 5] = 1e300
     out = _outputs(n)
     acc, force, count, div = out
-    KERNELS[variant](state, z, zd, k0, 10, 1e-3, fa, veh.kernel_params(), surrogate_arrays(), out)
+    KERNELS[variant](
+        state, z, zd, k0, 10, 1e-3, fa, veh.kernel_params().record(), surrogate_arrays(), out
+    )
     assert div.tolist() == [True, True, False]
     assert np.all(np.isfinite(state)) and np.all(np.isfinite(acc)) and np.all(np.isfinite(force))
     assert np.array_equal(state[0], start[0])  # frozen before the first bad substep
@@ -374,7 +376,7 @@ def test_nan_and_huge_inputs_set_diverged(veh, variant):
     with pytest.raises(ValueError, match="track index out of range"):
         k0[2] = z.shape[1] - 5
         KERNELS[variant](
-            state, z, zd, k0, 10, 1e-3, fa, veh.kernel_params(), surrogate_arrays(), out
+            state, z, zd, k0, 10, 1e-3, fa, veh.kernel_params().record(), surrogate_arrays(), out
         )
 
 

@@ -134,7 +134,7 @@ def test_raise_policy_terminates_with_a_flag_and_linear_does_not():
     for policy in ("raise", "linear"):
         env = VerticalSuspensionEnv(surrogate=_box_lpr(policy), track_class=4, duration=2.0)
         env.reset(seed=0)
-        for k in range(200):
+        for k in range(200):  # noqa: B007 (k is read after the loop)
             _, r, term, trunc, info = env.step(np.ones(1, np.float32))
             if term or trunc:
                 break

@@ -20,10 +20,10 @@ The batch contract (:class:`Batch`)
     Store the validated, clipped actions (n, *action_shape) float64.
 ``advance()``
     One control step of every system; afterwards ``reward`` (n,) is the step reward,
-    ``reward_terms`` a dict of (n,) weighted terms that sum to it, ``info()`` a dict of (n,)
-    arrays (the env's ``info`` layout, declared once by the batch), ``flags()`` a dict of (n,)
-    bool arrays of events (``diverged``; every flag terminates the episode) and
-    ``truncated()`` (n,) bool.
+    ``reward_terms(i=None)`` the weighted terms that sum to it, ``info(i=None)`` the env's
+    ``info`` layout (declared once by the batch) — both as Python numbers of system ``i`` or,
+    for ``i=None``, as (n,) array copies —, ``flags()`` a dict of (n,) bool arrays of events
+    (``diverged``; every flag terminates the episode) and ``truncated()`` (n,) bool.
 ``observe(rngs)``
     Observations (n, *obs_shape) float32, any sensor noise drawn from the per-system ``rngs``.
 ``render_state(i)``
@@ -76,7 +76,6 @@ class Batch(Protocol):
 
     n: int
     reward: np.ndarray
-    reward_terms: dict[str, np.ndarray]
 
     def reset(self, i: int, rng: np.random.Generator, episode: tuple) -> None: ...
 
@@ -88,7 +87,9 @@ class Batch(Protocol):
 
     def observe(self, rngs: list[np.random.Generator]) -> np.ndarray: ...
 
-    def info(self) -> dict[str, np.ndarray]: ...
+    def info(self, i: int | None = None) -> dict[str, Any]: ...
+
+    def reward_terms(self, i: int | None = None) -> dict[str, Any]: ...
 
     def flags(self) -> dict[str, np.ndarray]: ...
 
@@ -97,14 +98,25 @@ class Batch(Protocol):
     def render_state(self, i: int) -> dict[str, Any]: ...
 
 
-def check_actions(actions: Any, space: spaces.Box, field: str = "action") -> np.ndarray:
-    """Actions as float64 clipped to ``space`` (documented clipping).
+def check_actions(
+    actions: Any, shape: tuple[int, ...], low: np.ndarray, high: np.ndarray, field: str = "action"
+) -> np.ndarray:
+    """Actions as float64 of ``shape`` clipped to ``[low, high]`` (float64 bounds; documented
+    clipping).
 
     Strings, bools, complex numbers, objects, NaN/Inf and a wrong shape raise ``ValueError``
     (wrong types also ``TypeError``) naming ``field``.
     """
-    a = val.numeric_array(actions, field, space.shape)
-    return np.clip(a, space.low, space.high)
+    if isinstance(actions, np.ndarray) and actions.dtype.kind == "f":
+        if actions.shape != shape:
+            raise val.FieldError(field, f"must have shape {shape}, got {actions.shape}")
+        a = actions.astype(np.float64)
+        if not np.isfinite(a).all():
+            raise val.FieldError(field, "must be finite; got NaN or Inf")
+    else:
+        a = val.numeric_array(actions, field, shape)
+    np.maximum(a, low, out=a)
+    return np.minimum(a, high, out=a)
 
 
 def _render_mode(render_mode: Any, modes: list[str]) -> str | None:
@@ -130,6 +142,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         self.sim = sim
         self.observation_space = observation_space
         self.action_space = action_space
+        self._bounds = (action_space.low.astype(np.float64), action_space.high.astype(np.float64))
         self._rng1: list[np.random.Generator] = []
         self._started = False
 
@@ -164,20 +177,21 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         if not self._started:
             raise RuntimeError("call reset() before step()")
         sim = self.sim
-        sim.set_action(check_actions(action, self.action_space)[None])
+        sim.set_action(check_actions(action, self.action_space.shape, *self._bounds)[None])
         sim.advance()
-        flags = {k: bool(v[0]) for k, v in sim.flags().items()}
-        terminated = any(flags.values())
+        flags = [k for k, v in sim.flags().items() if v[0]]
+        terminated = bool(flags)
         truncated = bool(sim.truncated()[0]) and not terminated
         if terminated or truncated:
             self._started = False
         info = self._info()
-        info["reward_terms"] = {k: v[0].item() for k, v in sim.reward_terms.items()}
-        info.update({k: True for k, v in flags.items() if v})
+        info["reward_terms"] = sim.reward_terms(0)
+        for k in flags:
+            info[k] = True
         return sim.observe(self._rng1)[0], sim.reward[0].item(), terminated, truncated, info
 
     def _info(self) -> dict[str, Any]:
-        return {k: v[0].item() for k, v in self.sim.info().items()}
+        return self.sim.info(0)
 
     def render(self) -> np.ndarray | None:
         """RGB frame (H, W, 3) when ``render_mode="rgb_array"``."""
@@ -235,7 +249,9 @@ class BatchVectorEnv(VectorEnv):
         if not self._rngs:
             raise RuntimeError("call reset() before step()")
         sim, env = self.sim, self.single_env
-        sim.set_action(check_actions(actions, self.action_space, "actions"))
+        space = self.action_space
+        bounds = (space.low.astype(np.float64), space.high.astype(np.float64))
+        sim.set_action(check_actions(actions, space.shape, *bounds, "actions"))
         done = np.flatnonzero(self._prev_done)
         for i in done:
             sim.reset(i, self._rngs[i], env._episode())
@@ -252,7 +268,7 @@ class BatchVectorEnv(VectorEnv):
         self._prev_done = terminated | truncated
         infos = self._infos()
         mask = np.ones(self.num_envs, np.bool_)
-        terms = {k: v.copy() for k, v in sim.reward_terms.items()}
+        terms = sim.reward_terms()
         infos["reward_terms"] = {**terms, **{f"_{k}": mask for k in terms}}
         infos["_reward_terms"] = mask
         for k, v in flags.items():
@@ -260,7 +276,7 @@ class BatchVectorEnv(VectorEnv):
         return sim.observe(self._rngs), reward, terminated, truncated, infos
 
     def _infos(self) -> dict[str, Any]:
-        infos = {k: v.copy() for k, v in self.sim.info().items()}
+        infos = self.sim.info()
         mask = np.ones(self.num_envs, np.bool_)
         return {**infos, **{f"_{k}": mask for k in infos}}
 

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -49,7 +48,7 @@ __all__ = [
     "ACC_REF",
     "BACKENDS",
     "DEFAULT_WEIGHTS",
-    "INFO_FIELDS",
+    "INFO_KEYS",
     "LIMITS",
     "OBSERVATIONS",
     "VerticalBatch",
@@ -223,15 +222,9 @@ class Counters(NamedTuple):
     acc_sq: np.ndarray  #: float64 (n,) sum of ẍ2², m²/s⁴
 
 
-class ObsSpec(NamedTuple):
-    """Observation layout: ``full`` channels or the sensors, normalisation 1/scale."""
-
-    full: bool
-    inv_scale: np.ndarray
-
-
-class RewardSpec(NamedTuple):
-    """Reward weights and normalisers (SI)."""
+class StepSpec(NamedTuple):
+    """Reward weights and normalisers and the control step (SI); the post-step takes it as
+    a structured record array (:meth:`record`), read by field name."""
 
     w_acc: float
     w_defl: float
@@ -240,25 +233,55 @@ class RewardSpec(NamedTuple):
     free_travel: float  #: m
     f_max: float  #: N
     penalty: float  #: reward of a diverged step (negated)
+    control_dt: float  #: s
+
+    def record(self) -> np.ndarray:
+        """The values as a structured float64 array (1,) with these field names."""
+        return np.array([tuple(self)], [(name, np.float64) for name in self._fields])
 
 
 class StepResult(NamedTuple):
-    """Outputs of :func:`_post_step`: observation (n, n_obs), reward (n,), terms (n, 4)."""
+    """Outputs of :func:`_post_step` per vehicle: observation (n, n_obs), reward (n,), its
+    terms (n, len(REWARD_TERMS)) and the info values (n, len(INFO_KEYS))."""
 
     obs: np.ndarray
     reward: np.ndarray
     terms: np.ndarray
+    info: np.ndarray
 
+
+#: the ``info`` layout of the single and the vector env, declared once: key, integer-valued
+INFO_KEYS = (
+    ("time", False),  # s
+    ("carbody_acc", False),  # m/s²
+    ("out_of_domain", True),
+    ("bump_stop_contacts", True),
+    ("rms_carbody_acc", False),  # m/s²
+    ("actuator_force", False),  # N
+)
+_INFO = [key for key, _ in INFO_KEYS]
+I_TIME, I_ACC, I_OOD, I_CONTACTS, I_RMS, I_FORCE = (
+    _INFO.index(k)
+    for k in (
+        "time",
+        "carbody_acc",
+        "out_of_domain",
+        "bump_stop_contacts",
+        "rms_carbody_acc",
+        "actuator_force",
+    )
+)
+_INT_INFO = tuple(j for j, (_, is_int) in enumerate(INFO_KEYS) if is_int)
 
 #: columns of :attr:`StepResult.terms`, the keys of ``info["reward_terms"]``
 REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
 
 
 @njit(cache=True)
-def _observe(state, acc, z, zdot, k, spec, i, obs):
-    """Normalised observation of vehicle ``i`` into ``obs[i]``."""
-    s = spec.inv_scale
-    if spec.full:
+def _observe(state, acc, z, zdot, k, s, i, obs):
+    """Normalised observation of vehicle ``i`` into ``obs[i]``; ``s`` is 1/scale per channel,
+    8 channels mean the ``"full"`` observation."""
+    if obs.shape[1] == 8:
         kk = min(k[i], z.shape[1] - 1)
         raw = (
             state[i, 0],
@@ -281,19 +304,20 @@ def _observe(state, acc, z, zdot, k, spec, i, obs):
 
 
 @njit(cache=True)
-def _post_step(state, z, zdot, out, force, n_sub, cnt, spec, rw, res):
+def _post_step(state, z, zdot, out, force, n_sub, cnt, inv_scale, spec, res):
     """Bookkeeping after a kernel call: counters, observation, reward and its terms.
 
     A step whose reward is not finite or whose observation exceeds ``OBS_LIMIT`` counts as
     diverged (``out.div``), like a non-finite state in the kernel.
     """
+    rw = spec[0]
     for i in range(state.shape[0]):
         cnt.k[i] += n_sub
         cnt.steps[i] += 1
         cnt.contacts[i] += out.count[i, 0]
         cnt.ood[i] += out.count[i, 1]
         cnt.acc_sq[i] += out.acc[i, 1] * out.acc[i, 1]
-        _observe(state, out.acc, z, zdot, cnt.k, spec, i, res.obs)
+        _observe(state, out.acc, z, zdot, cnt.k, inv_scale, i, res.obs)
         defl = (state[i, 0] - state[i, 2]) / rw.free_travel
         fa = force[i] / rw.f_max
         a2 = out.acc[i, 1] / rw.acc_ref
@@ -316,24 +340,12 @@ def _post_step(state, z, zdot, out, force, n_sub, cnt, spec, rw, res):
         res.terms[i, 2] = t_f
         res.terms[i, 3] = -rw.penalty if out.div[i] else 0.0
         res.reward[i] = r
-
-
-class InfoField(NamedTuple):
-    """One ``info`` entry: key and how to read it from a :class:`VerticalBatch` ((n,) array)."""
-
-    key: str
-    read: Callable[[VerticalBatch], np.ndarray]
-
-
-#: the ``info`` layout of the single and the vector env, declared once
-INFO_FIELDS = (
-    InfoField("time", lambda b: b.steps * b.cfg.control_dt),
-    InfoField("carbody_acc", lambda b: b.acc[:, 1]),
-    InfoField("out_of_domain", lambda b: b.ood),
-    InfoField("bump_stop_contacts", lambda b: b.contacts),
-    InfoField("rms_carbody_acc", lambda b: np.sqrt(b.acc_sq / np.maximum(b.steps, 1))),
-    InfoField("actuator_force", lambda b: b.force),
-)
+        res.info[i, I_TIME] = cnt.steps[i] * rw.control_dt
+        res.info[i, I_ACC] = out.acc[i, 1]
+        res.info[i, I_OOD] = cnt.ood[i]
+        res.info[i, I_CONTACTS] = cnt.contacts[i]
+        res.info[i, I_RMS] = math.sqrt(cnt.acc_sq[i] / max(cnt.steps[i], 1))
+        res.info[i, I_FORCE] = force[i]
 
 
 class VerticalBatch:
@@ -350,6 +362,7 @@ class VerticalBatch:
         self.n, self.cfg = n, cfg
         self.vehicle = vehicle
         self.params: SuspensionParams = vehicle.kernel_params()
+        self.params_record = self.params.record()
         self.kernel = KERNELS[cfg.variant]
         self.lpr = lpr
         n_samples = cfg.n_steps * cfg.n_sub + 1
@@ -376,27 +389,38 @@ class VerticalBatch:
         self.k, self.steps, self.contacts, self.ood, self.acc_sq = self.cnt
         self.track_class = np.zeros(n, np.int64)
         self.speed = np.zeros(n)
-        self.spec = ObsSpec(cfg.obs_names[0] == "x1", 1.0 / cfg.obs_scale)
+        self.inv_scale = 1.0 / cfg.obs_scale
         w = cfg.weights
-        self.reward_spec = RewardSpec(
-            w[0], w[1], w[2], ACC_REF, cfg.free_travel, cfg.f_max, DIVERGENCE_PENALTY
+        self.step_spec = StepSpec(
+            w[0],
+            w[1],
+            w[2],
+            ACC_REF,
+            cfg.free_travel,
+            cfg.f_max,
+            DIVERGENCE_PENALTY,
+            cfg.control_dt,
         )
+        self.step_record = self.step_spec.record()
         self.res = StepResult(
-            np.zeros((n, len(cfg.obs_names))), np.zeros(n), np.zeros((n, len(REWARD_TERMS)))
+            np.zeros((n, len(cfg.obs_names))),
+            np.zeros(n),
+            np.zeros((n, len(REWARD_TERMS))),
+            np.zeros((n, len(INFO_KEYS))),
         )
-        self.obs, self.rew, self.terms = self.res
+        self.obs, self.rew, self.terms, self.info_rows = self.res
         self.reward = self.rew
-        self.reward_terms = {k: self.terms[:, j] for j, k in enumerate(REWARD_TERMS)}
         self.extrapolated = np.zeros(n, np.bool_)
+        self._flags = {"diverged": self.div, "extrapolated": self.extrapolated}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         """Re-link the views (named tuples, column views) after a copy."""
         self.__dict__.update(state)
         self.acc, self.fs, self.count, self.div = self.out
         self.k, self.steps, self.contacts, self.ood, self.acc_sq = self.cnt
-        self.obs, self.rew, self.terms = self.res
+        self.obs, self.rew, self.terms, self.info_rows = self.res
         self.reward = self.rew
-        self.reward_terms = {k: self.terms[:, j] for j, k in enumerate(REWARD_TERMS)}
+        self._flags = {"diverged": self.div, "extrapolated": self.extrapolated}
 
     def reset(self, i: int, rng: np.random.Generator, episode: tuple[int, float]) -> None:
         """New seeded track for vehicle ``i`` (seed drawn from ``rng``), state at rest;
@@ -416,9 +440,9 @@ class VerticalBatch:
         self.state[i] = 0.0
         self.k[i] = self.steps[i] = self.contacts[i] = self.ood[i] = 0
         self.acc[i] = self.force[i] = self.fs[i] = self.acc_sq[i] = self.rew[i] = 0.0
-        self.terms[i] = 0.0
+        self.terms[i] = self.info_rows[i] = 0.0
         self.div[i] = self.extrapolated[i] = False
-        _observe(self.state, self.acc, self.z, self.zdot, self.k, self.spec, i, self.obs)
+        _observe(self.state, self.acc, self.z, self.zdot, self.k, self.inv_scale, i, self.obs)
 
     def set_action(self, actions: np.ndarray) -> None:
         """Actuator forces from the clipped actions (n, 1): ``action · f_max``, N."""
@@ -435,7 +459,7 @@ class VerticalBatch:
             cfg.n_sub,
             cfg.dt,
             self.force,
-            self.params,
+            self.params_record,
             self.lpr,
             self.out,
         )
@@ -447,8 +471,8 @@ class VerticalBatch:
             self.force,
             cfg.n_sub,
             self.cnt,
-            self.spec,
-            self.reward_spec,
+            self.inv_scale,
+            self.step_record,
             self.res,
         )
         if self.lpr.mode == RAISE_MODE:
@@ -457,15 +481,30 @@ class VerticalBatch:
     def flags(self) -> dict[str, np.ndarray]:
         """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of
         its box under the ``"raise"`` extrapolation policy)."""
-        return {"diverged": self.div, "extrapolated": self.extrapolated}
+        return self._flags
 
     def truncated(self) -> np.ndarray:
         """True where the episode reached ``duration``."""
         return self.steps >= self.cfg.n_steps
 
-    def info(self) -> dict[str, np.ndarray]:
-        """The :data:`INFO_FIELDS` of every vehicle, (n,) arrays."""
-        return {f.key: f.read(self) for f in INFO_FIELDS}
+    def info(self, i: int | None = None) -> dict[str, Any]:
+        """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers), or of all ((n,) arrays)."""
+        if i is not None:
+            row = self.info_rows[i].tolist()
+            for j in _INT_INFO:
+                row[j] = int(row[j])
+            return dict(zip(_INFO, row, strict=True))
+        out = {key: self.info_rows[:, j].copy() for j, key in enumerate(_INFO)}
+        for j in _INT_INFO:
+            out[_INFO[j]] = out[_INFO[j]].astype(np.int64)
+        return out
+
+    def reward_terms(self, i: int | None = None) -> dict[str, Any]:
+        """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to
+        the reward."""
+        if i is not None:
+            return dict(zip(REWARD_TERMS, self.terms[i].tolist(), strict=True))
+        return {key: self.terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
 
     def observe(self, rngs: list[np.random.Generator]) -> np.ndarray:
         """Observations (n, n_obs) float32, plus sensor noise drawn from the per-env ``rngs``."""

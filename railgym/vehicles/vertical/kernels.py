@@ -67,6 +67,7 @@ def step_outputs(n: int) -> StepOutputs:
 @njit(cache=True)
 def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`)."""
+    q = p[0]
     n, s = state.shape
     x = np.empty(s)
     xt = np.empty(s)
@@ -97,16 +98,16 @@ def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
             zdb = zdot[i, ka + 1]
             zm = 0.5 * (za + zb) + dt8 * (zda - zdb)
             zdm = c3 * (zb - za) - 0.25 * (zda + zdb)
-            _, o1 = rhs(kind, x, za, zda, fa, p, lpr, u, lw, r1)
+            _, o1 = rhs(kind, x, za, zda, fa, q, lpr, u, lw, r1)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r1[j]
-            _, o2 = rhs(kind, xt, zm, zdm, fa, p, lpr, u, lw, r2)
+            _, o2 = rhs(kind, xt, zm, zdm, fa, q, lpr, u, lw, r2)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r2[j]
-            _, o3 = rhs(kind, xt, zm, zdm, fa, p, lpr, u, lw, r3)
+            _, o3 = rhs(kind, xt, zm, zdm, fa, q, lpr, u, lw, r3)
             for j in range(s):
                 xt[j] = x[j] + dt * r3[j]
-            _, o4 = rhs(kind, xt, zb, zdb, fa, p, lpr, u, lw, r4)
+            _, o4 = rhs(kind, xt, zb, zdb, fa, q, lpr, u, lw, r4)
             ood += o1 + o2 + o3 + o4
             ok = True
             for j in range(s):
@@ -120,13 +121,13 @@ def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
                 break
             for j in range(s):
                 x[j] = xt[j]
-            if in_contact(x[0] - x[2], p):
+            if in_contact(x[0] - x[2], q):
                 contact += 1
         for j in range(s):
             state[i, j] = x[j]
         if not div:
             ke = kk + n_sub
-            fs, _ = rhs(kind, x, z[i, ke], zdot[i, ke], fa, p, lpr, u, lw, r1)
+            fs, _ = rhs(kind, x, z[i, ke], zdot[i, ke], fa, q, lpr, u, lw, r1)
             if math.isfinite(fs) and math.isfinite(r1[1]) and math.isfinite(r1[3]):
                 out.acc[i, 0] = r1[1]
                 out.acc[i, 1] = r1[3]
@@ -162,8 +163,8 @@ def advance_linear(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
         Integration step, s.
     force_a : float64 (n,)
         Actuator force (N, pushes the carbody up and the bogie down), held over the step.
-    p : SuspensionParams
-        :meth:`VerticalVehicle.kernel_params`.
+    p : structured float64 (1,)
+        ``VerticalVehicle.kernel_params().record()`` (:class:`SuspensionParams` fields).
     lpr : LprArrays
         Surrogate element (:func:`surrogate_arrays`); used by ``advance_surrogate`` only.
     out : StepOutputs

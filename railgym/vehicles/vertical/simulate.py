@@ -51,7 +51,7 @@ def _simulate_loop(kind, state, z, zdot, every, dt, fa, p, lpr, rec, out):
     u = np.empty(2)
     lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     fs, _ = rhs(
-        kind, state[0], z[0, 0], zdot[0, 0], fa[0] if fa.size > 0 else 0.0, p, lpr, u, lw, dx
+        kind, state[0], z[0, 0], zdot[0, 0], fa[0] if fa.size > 0 else 0.0, p[0], lpr, u, lw, dx
     )
     rec.x[0] = state[0]
     rec.acc[0, 0] = dx[1]
@@ -157,7 +157,7 @@ def simulate(
         sample_every,
         dt,
         fa,
-        vehicle.kernel_params(),
+        vehicle.kernel_params().record(),
         lpr,
         rec,
         step_outputs(1),
