@@ -276,3 +276,20 @@ def test_speed_limit_override_allows_a_faster_run():
 def test_surrogate_for_a_backend_that_ignores_it_warns(recwarn):
     with pytest.warns(UserWarning, match="surrogate is ignored by backend='reference'"):
         VerticalSuspensionEnv(backend="reference", surrogate=_lpr3())
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "field"),
+    [
+        ({"variant": "quadratic"}, ValueError, "variant"),
+        ({"sample_rate": True}, TypeError, "sample_rate"),
+        ({"sample_rate": 33.0}, ValueError, "sample_rate"),
+        ({"dt": "1ms"}, TypeError, "dt"),
+        ({"vehicle": "nosuch"}, ValueError, "vehicle"),
+    ],
+)
+def test_collect_vertical_bad_arguments(kwargs, error, field):
+    from railgym.vehicles.collect import collect_vertical
+
+    with pytest.raises(error, match=field):
+        collect_vertical(duration=0.1, **kwargs)
