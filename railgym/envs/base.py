@@ -224,6 +224,10 @@ class BatchVectorEnv(VectorEnv):
         self.single_action_space = single_env.action_space
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
+        self._bounds = (
+            self.action_space.low.astype(np.float64),
+            self.action_space.high.astype(np.float64),
+        )
         self._rngs: list[np.random.Generator | None] = []
         self._prev_done = np.zeros(num_envs, np.bool_)
 
@@ -249,9 +253,7 @@ class BatchVectorEnv(VectorEnv):
         if not self._rngs:
             raise RuntimeError("call reset() before step()")
         sim, env = self.sim, self.single_env
-        space = self.action_space
-        bounds = (space.low.astype(np.float64), space.high.astype(np.float64))
-        sim.set_action(check_actions(actions, space.shape, *bounds, "actions"))
+        sim.set_action(check_actions(actions, self.action_space.shape, *self._bounds, "actions"))
         done = np.flatnonzero(self._prev_done)
         for i in done:
             sim.reset(i, self._rngs[i], env._episode())
