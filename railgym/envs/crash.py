@@ -526,18 +526,8 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.cfg = make_config(
-            scenario,
-            backend,
-            n_cars,
-            speed,
-            control_dt,
-            max_duration,
-            absorber_range,
-            absorber_rate,
-            speed_jitter,
-            reward_weights,
-        )
+        self.cfg = make_config(scenario, backend, n_cars, speed, control_dt, max_duration,
+                               absorber_range, absorber_rate, speed_jitter, reward_weights)
         self.backend = backend
         self.model = make_model(self.cfg, surrogate, surrogate_variant)
         self.sim = CrashBatch(1, self.cfg, self.model)
