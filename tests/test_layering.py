@@ -23,7 +23,7 @@ def _imports(path: Path) -> set[str]:
 
 
 PHYSICS = [ROOT / "railgym" / "track.py", ROOT / "railgym" / "comfort.py",
-           *(ROOT / "railgym" / "vehicles").glob("*.py")]  # fmt: skip
+           *(ROOT / "railgym" / "vehicles").rglob("*.py")]  # fmt: skip
 
 
 @pytest.mark.parametrize("path", sorted((ROOT / "surrogates").rglob("*.py")), ids=str)
