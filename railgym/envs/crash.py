@@ -38,6 +38,8 @@ from railgym.vehicles.crash import (
     CrashScenario,
     CrashSurrogate,
     CrushZone,
+    ReferenceState,
+    SurrogateState,
     build_crash_surrogate,
     crash_batch_model,
     load_scenario,
@@ -319,40 +321,50 @@ def _outputs(buf, fields, f):
                         _column(buf, fields, f + 8))  # fmt: skip
 
 
+#: per-train env arrays of the :class:`CrashBatch` buffer, after the 9 :class:`BatchOutputs`
+#: arrays and before the model's state arrays (one declaration: the kernels index by these)
+ENV_FIELDS = ("scale", "speed", "energy0", "peak", "decel_sum", "max_crush", "intrusion", "obs",
+              "rew", "info")  # fmt: skip
+_SCALE = len(BatchOutputs._fields)
+_STATE = _SCALE + len(ENV_FIELDS)
+
+
 @njit(cache=True, inline="always")
-def _finish(buf, fields, f, out, active, init, div, over, steps, zones, consts, g, control_dt):
-    """:func:`_post_step` with the per-train arrays stored from field ``f`` on (after the
-    absorber scales) and ``consts`` = (absorber strokes, 1 / observation scales, weights)."""
-    scale, obs = _field(buf, fields, f - 1), _field(buf, fields, f + 6)
-    info = _field(buf, fields, f + 8)
+def _finish(buf, fields, out, active, init, div, over, steps, zones, consts, g, control_dt):
+    """:func:`_post_step` on the per-train arrays of the buffer (:data:`ENV_FIELDS`), with
+    ``consts`` = (absorber strokes, 1 / observation scales, weights)."""
+    f = _SCALE
+    scale, obs = _field(buf, fields, f), _field(buf, fields, f + 7)
+    info = _field(buf, fields, f + 9)
     nz, n_obs = zones.shape[0], obs.shape[1]
     _post_step(out, active, init, div, zones, scale, consts[:nz], consts[nz : nz + n_obs], g,
-               consts[nz + n_obs :], control_dt, _column(buf, fields, f),
-               _column(buf, fields, f + 1), steps, _field(buf, fields, f + 2),
-               _field(buf, fields, f + 3), _field(buf, fields, f + 4),
-               _field(buf, fields, f + 5), obs, _column(buf, fields, f + 7), over,
+               consts[nz + n_obs :], control_dt, _column(buf, fields, f + 1),
+               _column(buf, fields, f + 2), steps, _field(buf, fields, f + 3),
+               _field(buf, fields, f + 4), _field(buf, fields, f + 5),
+               _field(buf, fields, f + 6), obs, _column(buf, fields, f + 8), over,
                info)  # fmt: skip
 
 
 # One compiled call per control step (absorber scales, physics, bookkeeping) per backend, and
 # every per-train float array in one buffer (:meth:`CrashBatch._pack`): each array passed from
-# Python into a compiled function costs about 0.07 µs, and three separate calls with 50 arrays
-# were 12 µs of the 23 µs single-env step.
+# Python into a compiled function has a fixed cost, a sizeable part of a single-env step.
 @njit(cache=True)
 def _advance_reference(buf, fields, params, dt, n_sub, actions, active, init, div, over, steps,
                        zones, consts, absorber_range, max_change, g, control_dt):  # fmt: skip
     """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
     :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
     non-finite action."""
-    scale = _field(buf, fields, 16)  # after the 7 state and 9 output arrays
+    scale = _field(buf, fields, _SCALE)
     if not init and not _set_scale(actions, scale, zones, active, absorber_range, max_change):
         return False
-    state = (_field(buf, fields, 0), _field(buf, fields, 1), _field(buf, fields, 2),
-             _field(buf, fields, 3), _field(buf, fields, 4), _field(buf, fields, 5),
-             _field(buf, fields, 6))  # fmt: skip
-    out = _outputs(buf, fields, 7)
+    k = _STATE
+    state = ReferenceState(_field(buf, fields, k), _field(buf, fields, k + 1),
+                           _field(buf, fields, k + 2), _field(buf, fields, k + 3),
+                           _field(buf, fields, k + 4), _field(buf, fields, k + 5),
+                           _field(buf, fields, k + 6), _field(buf, fields, k + 7))  # fmt: skip
+    out = _outputs(buf, fields, 0)
     reference_batch_step(state, out, params, scale, active, init, dt, n_sub, STATE_LIMIT, div)
-    _finish(buf, fields, 17, out, active, init, div, over, steps, zones, consts, g, control_dt)
+    _finish(buf, fields, out, active, init, div, over, steps, zones, consts, g, control_dt)
     return True
 
 
@@ -360,14 +372,16 @@ def _advance_reference(buf, fields, params, dt, n_sub, actions, active, init, di
 def _advance_surrogate(buf, fields, params, dt, n_sub, actions, active, init, div, over, steps,
                        zones, consts, absorber_range, max_change, g, control_dt):  # fmt: skip
     """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    scale = _field(buf, fields, 15)  # after the 6 state and 9 output arrays
+    scale = _field(buf, fields, _SCALE)
     if not init and not _set_scale(actions, scale, zones, active, absorber_range, max_change):
         return False
-    state = (_field(buf, fields, 0), _field(buf, fields, 1), _field(buf, fields, 2),
-             _field(buf, fields, 3), _field(buf, fields, 4), _field(buf, fields, 5))  # fmt: skip
-    out = _outputs(buf, fields, 6)
+    k = _STATE
+    state = SurrogateState(_field(buf, fields, k), _field(buf, fields, k + 1),
+                           _field(buf, fields, k + 2), _field(buf, fields, k + 3),
+                           _field(buf, fields, k + 4), _field(buf, fields, k + 5))  # fmt: skip
+    out = _outputs(buf, fields, 0)
     surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, STATE_LIMIT, div)
-    _finish(buf, fields, 16, out, active, init, div, over, steps, zones, consts, g, control_dt)
+    _finish(buf, fields, out, active, init, div, over, steps, zones, consts, g, control_dt)
     return True
 
 
@@ -390,17 +404,12 @@ class CrashBatch:
         n_info = max(sl.stop for sl, _ in self.layout.values())
         state, out = model.new_state(n), model.new_outputs(n)
         nc, nz = self.n_cars, self.n_zones
+        env = [np.ones((n, len(model.zone_names))), np.zeros(n), np.zeros(n),
+               np.zeros((n, nc)), np.zeros((n, nc)), np.zeros((n, nz)), np.zeros((n, nz)),
+               np.zeros((n, len(cfg.obs_names))), np.zeros(n), np.zeros((n, n_info))]  # fmt: skip
         # every per-train float array in one buffer, in the field order of _advance_*
-        self._buf, views, self._fields = self._pack(
-            [*state, *out, np.ones((n, len(model.zone_names))), np.zeros(n), np.zeros(n),
-             np.zeros((n, nc)), np.zeros((n, nc)), np.zeros((n, nz)), np.zeros((n, nz)),
-             np.zeros((n, len(cfg.obs_names))), np.zeros(n), np.zeros((n, n_info))]
-        )  # fmt: skip
-        k = len(state)
-        self.state = tuple(views[:k])
-        self.out: BatchOutputs = BatchOutputs(*views[k : k + 9])
-        (self.scale, self.speed, self.energy0, self.peak, self.decel_sum, self.max_crush,
-         self.intrusion, self.obs, self.rew, self.info) = views[k + 9 :]  # fmt: skip
+        self._state_type = type(state)
+        self._buf, self._fields = self._pack([*out, *env, *state])
         self.div = np.zeros(n, np.bool_)
         self.over = np.zeros(n, np.bool_)
         self.steps = np.zeros(n, np.int64)
@@ -409,11 +418,8 @@ class CrashBatch:
                              for key, (sl, scalar) in self.layout.items()]  # fmt: skip
         self.inv_scale = 1.0 / cfg.obs_scale
         self.weights = np.array(cfg.weights)
-        self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
-        consts = np.concatenate([cfg.absorber_stroke, self.inv_scale, self.weights])
-        self._args = (self._buf, self._fields, model.params, model.dt, model.n_sub)
-        self._env_args = (self.div, self.over, self.steps, self.zones, consts, cfg.absorber_range,
-                          cfg.max_scale_change, sc.gravity, cfg.control_dt)  # fmt: skip
+        self._consts = np.concatenate([cfg.absorber_stroke, self.inv_scale, self.weights])
+        self._bind()
         self._no_action = np.zeros((n, self.n_zones))
         # undeformed front end of each car at first contact (lead car at the wall), m
         lengths = [sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1)
@@ -435,20 +441,48 @@ class CrashBatch:
         self._call(mask, init=True)
 
     @staticmethod
-    def _pack(arrays: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
-        """One float64 buffer holding ``arrays`` (1-D or 2-D) one after another, views of it
-        with their shapes and values, and the (offset, rows, columns) of each (columns 0 for a
-        1-D array): the compiled step then takes one array instead of one per array."""
+    def _pack(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """One float64 buffer holding ``arrays`` (1-D or 2-D) one after another and the
+        (offset, rows, columns) of each (columns 0 for a 1-D array): the compiled step then
+        takes one array instead of one per array."""
         buf = np.empty(sum(a.size for a in arrays))
         fields = np.zeros((len(arrays), 3), np.int64)
-        views, o = [], 0
+        o = 0
         for f, a in enumerate(arrays):
-            view = buf[o : o + a.size].reshape(a.shape)
-            view[...] = a
-            views.append(view)
+            buf[o : o + a.size] = a.ravel()
             fields[f] = o, a.shape[0], a.shape[1] if a.ndim == 2 else 0
             o += a.size
-        return buf, views, fields
+        return buf, fields
+
+    def _view(self, f: int) -> np.ndarray:
+        """Array ``f`` of the buffer, as a view."""
+        o, r, c = (int(v) for v in self._fields[f])
+        return self._buf[o : o + r * max(c, 1)].reshape((r, c) if c else (r,))
+
+    def _bind(self) -> None:
+        """Named views of the buffer and the kernel arguments (again after a copy: a pickled
+        view is a detached array)."""
+        views = [self._view(f) for f in range(self._fields.shape[0])]
+        self.out = BatchOutputs(*views[:_SCALE])
+        (self.scale, self.speed, self.energy0, self.peak, self.decel_sum, self.max_crush,
+         self.intrusion, self.obs, self.rew, self.info) = views[_SCALE:_STATE]  # fmt: skip
+        self.state = self._state_type(*views[_STATE:])
+        model, cfg = self.model, self.cfg
+        self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
+        self._args = (self._buf, self._fields, model.params, model.dt, model.n_sub)
+        self._env_args = (self.div, self.over, self.steps, self.zones, self._consts,
+                          cfg.absorber_range, cfg.max_scale_change, cfg.scenario.gravity,
+                          cfg.control_dt)  # fmt: skip
+
+    _VIEWS = ("out", "state", "scale", "speed", "energy0", "peak", "decel_sum", "max_crush",
+              "intrusion", "obs", "rew", "info", "_kernel", "_args", "_env_args")  # fmt: skip
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind()
 
     def advance(self, actions: np.ndarray, active: np.ndarray) -> bool:
         """One control step of the ``active`` trains with ``actions`` (n, zones) float64,
@@ -526,8 +560,18 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.cfg = make_config(scenario, backend, n_cars, speed, control_dt, max_duration,
-                               absorber_range, absorber_rate, speed_jitter, reward_weights)
+        self.cfg = make_config(
+            scenario,
+            backend,
+            n_cars,
+            speed,
+            control_dt,
+            max_duration,
+            absorber_range,
+            absorber_rate,
+            speed_jitter,
+            reward_weights,
+        )
         self.backend = backend
         self.model = make_model(self.cfg, surrogate, surrogate_variant)
         self.sim = CrashBatch(1, self.cfg, self.model)

@@ -11,17 +11,15 @@ Pure physics (no gymnasium), one module per concept:
 Every public name is re-exported here.
 """
 
-from railgym.vehicles.crash.batch import (
-    BATCH_BACKENDS,
-    BatchOutputs,
-    CrashBatchModel,
-    crash_batch_model,
-    reference_batch_step,
-    surrogate_batch_step,
-)
+from railgym.vehicles.crash.batch import BATCH_BACKENDS, CrashBatchModel, crash_batch_model
 from railgym.vehicles.crash.reference import (
     V_EPS,
+    BatchOutputs,
     CrashResult,
+    ReferenceParams,
+    ReferenceState,
+    ZoneTypes,
+    reference_batch_step,
     reference_time_step,
     simulate_reference,
 )
@@ -39,11 +37,16 @@ from railgym.vehicles.crash.surrogate import (
     VARIANTS,
     CrashElement,
     CrashSurrogate,
+    ElementTypes,
+    LprModels,
+    SurrogateParams,
+    SurrogateState,
     TrainingSet,
     build_crash_surrogate,
     crash_errors,
     crash_training_data,
     simulate_surrogate,
+    surrogate_batch_step,
     virgin_loading,
 )
 from railgym.vehicles.crash.zone import absorber_zone_force, zone_force
@@ -61,8 +64,15 @@ __all__ = [
     "CrashScenario",
     "CrashSurrogate",
     "CrushZone",
+    "ElementTypes",
+    "LprModels",
     "Obstacle",
+    "ReferenceParams",
+    "ReferenceState",
+    "SurrogateParams",
+    "SurrogateState",
     "TrainingSet",
+    "ZoneTypes",
     "absorber_zone_force",
     "build_crash_surrogate",
     "crash_batch_model",

@@ -31,7 +31,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -39,41 +39,178 @@ from numba import njit
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.zone import absorber_zone_force
 
-__all__ = ["V_EPS", "CrashResult", "reference_time_step", "simulate_reference"]
+__all__ = [
+    "V_EPS",
+    "BatchOutputs",
+    "CrashResult",
+    "ReferenceParams",
+    "ReferenceState",
+    "ZoneTypes",
+    "reference_batch_step",
+    "reference_time_step",
+    "simulate_reference",
+]
 
 #: friction regularisation velocity of tanh(v / v_ε), m/s
 V_EPS = 0.01
 
 
-@dataclass
-class _Chain:
-    """Node/element arrays of the reference model (front to back)."""
+class ZoneTypes(NamedTuple):
+    """Crush-zone characteristics, one row per zone type (wall, interface, obstacle).
+
+    Attributes
+    ----------
+    stroke, force : (types, points) envelope points, m and N (rows padded past ``n_points``).
+    n_points : (types,) number of envelope points.
+    fold_amplitude, fold_wavelength : (types,) folding wave ``A`` and ``λ`` (m).
+    unloading_stiffness : (types,) ``k_u``, N/m.
+    tension_stiffness, slack : (types,) coupler ``k_t`` (N/m, 0 = none) and slack (m).
+    absorber : (types,) absorber stroke, m.
+    """
+
+    stroke: np.ndarray
+    force: np.ndarray
+    n_points: np.ndarray
+    fold_amplitude: np.ndarray
+    fold_wavelength: np.ndarray
+    unloading_stiffness: np.ndarray
+    tension_stiffness: np.ndarray
+    slack: np.ndarray
+    absorber: np.ndarray
+
+
+class ReferenceParams(NamedTuple):
+    """Static arrays of the reference chain (front to back), passed into the kernels.
+
+    Attributes
+    ----------
+    m, mu : (nodes,) node mass (kg) and friction coefficient.
+    gravity, v_eps : m/s² and the friction regularisation velocity, m/s.
+    link_k, link_c : (nodes − 1,) carbody link stiffness (N/m) and damping (N s/m) of the
+        element between node e and e + 1 (0 for a zone).
+    elem_zone : (nodes − 1,) zone instance of element e, −1 for a link.
+    zone_type : (zones,) row of ``types`` of each zone instance.
+    zone_cc : (zones,) coupler damping coefficient, N s/m.
+    zone_front, zone_back : (zones,) nodes each zone joins (front −1 = fixed wall).
+    body_start, body_end : (bodies,) node range of each body.
+    types : the :class:`ZoneTypes` table.
+    """
 
     m: np.ndarray
-    v0: np.ndarray
     mu: np.ndarray
-    link_k: np.ndarray  # per element between node e and e+1 (0 for zones)
+    gravity: float
+    v_eps: float
+    link_k: np.ndarray
     link_c: np.ndarray
-    elem_zone: np.ndarray  # zone instance of element e, −1 for a link
-    wall_zone: int  # zone instance at a fixed wall ahead of node 0, −1 if none
-    zone_type: np.ndarray  # type table row of each zone instance
-    zone_cc: np.ndarray  # coupler damping coefficient of each instance, N s/m
-    t_s: np.ndarray  # (types, P) stroke points
-    t_f: np.ndarray
-    t_n: np.ndarray
-    t_amp: np.ndarray
-    t_lam: np.ndarray
-    t_ku: np.ndarray
-    t_kt: np.ndarray
-    t_slack: np.ndarray
-    t_abs: np.ndarray  # absorber stroke of each type, m
+    elem_zone: np.ndarray
+    zone_type: np.ndarray
+    zone_cc: np.ndarray
+    zone_front: np.ndarray
+    zone_back: np.ndarray
     body_start: np.ndarray
     body_end: np.ndarray
+    types: ZoneTypes
+
+
+class ReferenceState(NamedTuple):
+    """Per-simulation state of :func:`reference_batch_step`, one row per simulation.
+
+    Attributes
+    ----------
+    x, v, a : (n, nodes) node displacement (m), velocity (m/s), acceleration (m/s²).
+    dp, fz, elastic : (n, zones) permanent set (m), conservative force (N) and elastic
+        energy (J) of each zone (coupler spring included).
+    fd : (n, max(nodes − 1, 1)) damping force of each element, N.
+    ff : (n, nodes) friction force magnitude along v, N.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    dp: np.ndarray
+    fz: np.ndarray
+    elastic: np.ndarray
+    fd: np.ndarray
+    ff: np.ndarray
+
+
+class BatchOutputs(NamedTuple):
+    """What the batch kernels report after each call, one row per simulation.
+
+    Attributes
+    ----------
+    x, v, a : (n, bodies) centre-of-mass displacement (m), velocity (m/s) and acceleration
+        (m/s²) of each body (cars front to back, then the obstacle if any).
+    crush : (n, zones) crush of each zone (surrogate: element feature ``u``), m.
+    force : (n, zones) zone force, compression positive (coupler damping included), N.
+    rate : (n, zones) closing rate of each zone, m/s.
+    work : (n, zones) net work done on each zone since the start, J.
+    dissipated : (n, 2) friction work and carbody/coupler damping work since the start, J.
+    stored : (n,) kinetic energy plus elastic carbody energy, J.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    crush: np.ndarray
+    force: np.ndarray
+    rate: np.ndarray
+    work: np.ndarray
+    dissipated: np.ndarray
+    stored: np.ndarray
+
+
+def new_outputs(n: int, n_bodies: int, n_zones: int) -> BatchOutputs:
+    """Zeroed :class:`BatchOutputs` of ``n`` simulations."""
+    body = [np.zeros((n, n_bodies)) for _ in range(3)]
+    zone = [np.zeros((n, n_zones)) for _ in range(4)]
+    return BatchOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
+
+
+class StopRule(NamedTuple):
+    """When a recorded run ends: at the first sample after the start where no zone carries
+    more than ``f_stop`` (N) of compression and none closes faster than ``v_stop`` (m/s), if
+    ``enabled``."""
+
+    enabled: bool
+    v_stop: float
+    f_stop: float
+
+
+class Record(NamedTuple):
+    """Sampled histories filled by the recorders, one row per sample.
+
+    ``energy`` columns: kinetic, elastic links, elastic zones, friction, damping (J);
+    ``plastic`` (samples, zones), J; both have no rows for the surrogate.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    crush: np.ndarray
+    force: np.ndarray
+    permanent_set: np.ndarray
+    energy: np.ndarray
+    plastic: np.ndarray
+
+
+def new_record(n: int, n_bodies: int, n_zones: int, energies: bool) -> Record:
+    """Zeroed :class:`Record` of ``n`` samples (energy rows only if ``energies``)."""
+    body = [np.zeros((n, n_bodies)) for _ in range(3)]
+    zone = [np.zeros((n, n_zones)) for _ in range(3)]
+    m = n if energies else 0
+    return Record(*body, *zone, np.zeros((m, 5)), np.zeros((m, n_zones)))
+
+
+@dataclass
+class _Chain:
+    """The reference chain of a scenario: kernel parameters plus what the kernels do not need."""
+
+    params: ReferenceParams
+    v0: np.ndarray  # initial node velocities, m/s
     body_names: list[str]
     zone_names: list[str]
-    zone_front: np.ndarray  # front node of each zone instance (−1 = fixed wall)
-    zone_back: np.ndarray
-    omega_max: float
+    omega_max: float  # Gershgorin bound of the highest angular frequency, rad/s
 
 
 def _build_chain(sc: CrashScenario) -> _Chain:
@@ -167,70 +304,73 @@ def _build_chain(sc: CrashScenario) -> _Chain:
     omega_max = float(np.sqrt(np.max(2.0 * k_node / m_arr)))
     names = [n for n in bodies if n != "obstacle"] + (["obstacle"] if "obstacle" in bodies else [])
     return _Chain(
-        m=m_arr,
+        params=ReferenceParams(
+            m=m_arr,
+            mu=np.array(mu),
+            gravity=float(sc.gravity),
+            v_eps=V_EPS,
+            link_k=np.array(link_k),
+            link_c=np.array(link_c),
+            elem_zone=np.array(elem_zone, dtype=np.int64),
+            zone_type=ztype,
+            zone_cc=np.array(zone_cc),
+            zone_front=np.array(zone_front, dtype=np.int64),
+            zone_back=np.array(zone_back, dtype=np.int64),
+            body_start=np.array([bodies[n][0] for n in names], dtype=np.int64),
+            body_end=np.array([bodies[n][1] for n in names], dtype=np.int64),
+            types=ZoneTypes(
+                stroke=t_s,
+                force=t_f,
+                n_points=t_n,
+                fold_amplitude=np.array([z.fold_amplitude for z in types]),
+                fold_wavelength=np.array([z.fold_wavelength for z in types]),
+                unloading_stiffness=np.array([z.unloading_stiffness for z in types]),
+                tension_stiffness=t_kt,
+                slack=t_slack,
+                absorber=np.array([z.absorber_stroke for z in types]),
+            ),
+        ),
         v0=np.array(v0),
-        mu=np.array(mu),
-        link_k=np.array(link_k),
-        link_c=np.array(link_c),
-        elem_zone=np.array(elem_zone, dtype=np.int64),
-        wall_zone=wall_zone,
-        zone_type=ztype,
-        zone_cc=np.array(zone_cc),
-        t_s=t_s,
-        t_f=t_f,
-        t_n=t_n,
-        t_amp=np.array([z.fold_amplitude for z in types]),
-        t_lam=np.array([z.fold_wavelength for z in types]),
-        t_ku=np.array([z.unloading_stiffness for z in types]),
-        t_kt=t_kt,
-        t_slack=t_slack,
-        t_abs=np.array([z.absorber_stroke for z in types]),
-        body_start=np.array([bodies[n][0] for n in names], dtype=np.int64),
-        body_end=np.array([bodies[n][1] for n in names], dtype=np.int64),
         body_names=names,
         zone_names=zone_names,
-        zone_front=np.array(zone_front, dtype=np.int64),
-        zone_back=np.array(zone_back, dtype=np.int64),
         omega_max=omega_max,
     )
 
 
 @njit(cache=True)
-def _chain_forces(
-    x, v, dp, m, mu, g, veps, link_k, link_c, elem_zone, zone_type, zone_cc,
-    zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack, t_abs, scale,
-    F, fz, fzel, fd, ff, dz,
-):  # fmt: skip
-    """Nodal forces ``F`` at state (x, v); updates the permanent sets ``dp`` in place.
+def _chain_forces(x, v, dp, p, scale, F, fz, fzel, fd, ff, dz):
+    """Nodal forces ``F`` at state (x, v) of chain ``p`` (:class:`ReferenceParams`); updates the
+    permanent sets ``dp`` in place.
 
     ``scale`` (per zone instance) multiplies each zone's envelope up to its type's absorber
-    stroke ``t_abs`` (:func:`absorber_zone_force`).
-
-    Also returns per zone instance: conservative force ``fz`` (zone + coupler spring), its
-    elastic energy ``fzel``, crush ``dz``; per element: damping force ``fd``; per node: friction
-    magnitude along v, ``ff`` (the force is ``−ff``).
+    stroke (:func:`absorber_zone_force`). Also returns per zone instance: conservative force
+    ``fz`` (zone + coupler spring), its elastic energy ``fzel``, crush ``dz``; per element:
+    damping force ``fd``; per node: friction magnitude along v, ``ff`` (the force is ``−ff``).
     """
+    ty = p.types
     N = x.shape[0]
     for i in range(N):
-        ff[i] = mu[i] * m[i] * g * math.tanh(v[i] / veps)
+        ff[i] = p.mu[i] * p.m[i] * p.gravity * math.tanh(v[i] / p.v_eps)
         F[i] = -ff[i]
-    for z in range(zone_type.shape[0]):
-        t = zone_type[z]
-        fr = zone_front[z]
-        bk = zone_back[z]
+    for z in range(p.zone_type.shape[0]):
+        t = p.zone_type[z]
+        fr = p.zone_front[z]
+        bk = p.zone_back[z]
         d = x[bk] - (x[fr] if fr >= 0 else 0.0)
         rate = v[bk] - (v[fr] if fr >= 0 else 0.0)
         dz[z] = d
+        ku, kt, slack = ty.unloading_stiffness[t], ty.tension_stiffness[t], ty.slack[t]
         f, dp[z] = absorber_zone_force(
-            d, dp[z], t_s[t], t_f[t], t_n[t], t_amp[t], t_lam[t], t_ku[t], t_abs[t], scale[z]
-        )
-        el = 0.5 * f * f / t_ku[t]
+            d, dp[z], ty.stroke[t], ty.force[t], ty.n_points[t], ty.fold_amplitude[t],
+            ty.fold_wavelength[t], ku, ty.absorber[t], scale[z],
+        )  # fmt: skip
+        el = 0.5 * f * f / ku
         damp = 0.0
-        if f == 0.0 and t_kt[t] > 0.0 and d < dp[z] - t_slack[t]:
-            ext = d - dp[z] + t_slack[t]
-            f = t_kt[t] * ext
-            el = 0.5 * t_kt[t] * ext * ext
-            damp = zone_cc[z] * rate
+        if f == 0.0 and kt > 0.0 and d < dp[z] - slack:
+            ext = d - dp[z] + slack
+            f = kt * ext
+            el = 0.5 * kt * ext * ext
+            damp = p.zone_cc[z] * rate
         fz[z] = f
         fzel[z] = el
         if fr >= 0:
@@ -239,126 +379,154 @@ def _chain_forces(
         if bk > 0:
             fd[bk - 1] = damp
     for e in range(N - 1):
-        if elem_zone[e] >= 0:
+        if p.elem_zone[e] >= 0:
             continue
         d = x[e + 1] - x[e]
-        fd[e] = link_c[e] * (v[e + 1] - v[e])
-        f = link_k[e] * d + fd[e]
+        fd[e] = p.link_c[e] * (v[e + 1] - v[e])
+        f = p.link_k[e] * d + fd[e]
         F[e] += f
         F[e + 1] -= f
 
 
 @njit(cache=True)
-def _reference_kernel(
-    m, v0, mu, g, veps, link_k, link_c, elem_zone, zone_type, zone_cc, zone_front,
-    zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack, t_abs, body_start, body_end,
-    dt, n_sub, n_samples, stop, v_stop, f_stop,
-):  # fmt: skip
-    """Velocity-Verlet integration of the chain; samples every ``n_sub`` steps."""
-    N = m.shape[0]
-    nz = zone_type.shape[0]
-    nb = body_start.shape[0]
-    x = np.zeros(N)
-    v = v0.copy()
-    vp = np.empty(N)
-    dp = np.zeros(nz)
-    F = np.zeros(N)
-    fz = np.zeros(nz)
-    fzel = np.zeros(nz)
-    fd = np.zeros(max(N - 1, 1))
-    ff = np.zeros(N)
-    dz = np.zeros(nz)
-    scale = np.ones(nz)
-    fz_o = np.zeros(nz)
-    fd_o = np.zeros(max(N - 1, 1))
-    ff_o = np.zeros(N)
-    dz_o = np.zeros(nz)
-    wz = np.zeros(nz)
-    w_fric = 0.0
-    w_damp = 0.0
-    out_xb = np.zeros((n_samples, nb))
-    out_vb = np.zeros((n_samples, nb))
-    out_ab = np.zeros((n_samples, nb))
-    out_dz = np.zeros((n_samples, nz))
-    out_fz = np.zeros((n_samples, nz))
-    out_dp = np.zeros((n_samples, nz))
-    out_e = np.zeros((n_samples, 5))  # kinetic, elastic links, elastic zones, friction, damping
-    out_pl = np.zeros((n_samples, nz))
+def _healthy(x, v, a, limit):
+    """True if every entry is finite and |x|, |v| ≤ ``limit``."""
+    for j in range(x.shape[0]):
+        if not (abs(x[j]) <= limit and abs(v[j]) <= limit and math.isfinite(a[j])):
+            return False
+    return True
 
-    _chain_forces(x, v, dp, m, mu, g, veps, link_k, link_c, elem_zone, zone_type, zone_cc,
-                  zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam, t_ku, t_kt, t_slack,
-                  t_abs, scale, F, fz, fzel, fd, ff, dz)  # fmt: skip
-    a = F / m
-    dx = np.empty(N)
-    n_out = 0
-    for k in range(n_samples):
-        if k > 0:
-            for _ in range(n_sub):
-                fz_o[:] = fz
-                fd_o[:] = fd
-                ff_o[:] = ff
-                dz_o[:] = dz
-                for i in range(N):
-                    dx[i] = v[i] * dt + 0.5 * a[i] * dt * dt
-                    x[i] += dx[i]
-                    vp[i] = v[i] + a[i] * dt
-                _chain_forces(x, vp, dp, m, mu, g, veps, link_k, link_c, elem_zone, zone_type,
-                              zone_cc, zone_front, zone_back, t_s, t_f, t_n, t_amp, t_lam,
-                              t_ku, t_kt, t_slack, t_abs, scale, F, fz, fzel, fd, ff,
-                              dz)  # fmt: skip
-                for i in range(N):
-                    a_new = F[i] / m[i]
-                    v[i] += 0.5 * (a[i] + a_new) * dt
-                    a[i] = a_new
-                for z in range(nz):
-                    wz[z] += 0.5 * (fz_o[z] + fz[z]) * (dz[z] - dz_o[z])
-                for e in range(N - 1):
-                    w_damp += 0.5 * (fd_o[e] + fd[e]) * (dx[e + 1] - dx[e])
-                for i in range(N):
-                    w_fric += 0.5 * (ff_o[i] + ff[i]) * dx[i]
-        # ---- sample
-        ke = 0.0
-        for i in range(N):
-            ke += 0.5 * m[i] * v[i] * v[i]
-        el = 0.0
-        for e in range(N - 1):
-            if elem_zone[e] < 0:
-                d = x[e + 1] - x[e]
-                el += 0.5 * link_k[e] * d * d
-        elz = 0.0
-        for z in range(nz):
-            elz += fzel[z]
-            out_pl[k, z] = wz[z] - fzel[z]
-            out_dz[k, z] = dz[z]
-            out_fz[k, z] = fz[z] + (fd[zone_back[z] - 1] if zone_front[z] >= 0 else 0.0)
-            out_dp[k, z] = dp[z]
-        out_e[k, 0] = ke
-        out_e[k, 1] = el
-        out_e[k, 2] = elz
-        out_e[k, 3] = w_fric
-        out_e[k, 4] = w_damp
-        for b in range(nb):
-            mb = 0.0
-            for i in range(body_start[b], body_end[b]):
-                mb += m[i]
-                out_xb[k, b] += m[i] * x[i]
-                out_vb[k, b] += m[i] * v[i]
-                out_ab[k, b] += F[i]
-            out_xb[k, b] /= mb
-            out_vb[k, b] /= mb
-            out_ab[k, b] /= mb
-        n_out = k + 1
-        if stop and k > 0:
-            over = True
+
+@njit(cache=True)
+def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, limit, div):
+    """Advance every ``active`` reference simulation by ``n_sub`` velocity-Verlet steps.
+
+    Parameters
+    ----------
+    state : :class:`ReferenceState`, updated in place.
+    out : :class:`BatchOutputs`; ``crush``, ``work`` and ``dissipated`` are also read back.
+    params : :class:`ReferenceParams` of the chain.
+    scale : (n, zones) absorber force scale of each zone (:func:`absorber_zone_force`).
+    active : (n,) which simulations to advance.
+    init : evaluate the forces at the current state instead of stepping (after a reset).
+    dt, n_sub : integration step (s) and number of steps.
+    limit : a simulation whose |x| (m) or |v| (m/s) exceeds ``limit`` or that becomes
+        non-finite keeps its state from before the call and gets ``div[i] = True``.
+    """
+    p = params
+    m, elem_zone, link_k = p.m, p.elem_zone, p.link_k
+    N = m.shape[0]
+    nz = p.zone_type.shape[0]
+    nodes = np.empty((8, N))
+    xl, vl, al, vp = nodes[0], nodes[1], nodes[2], nodes[3]
+    F, dx, ffl, ff_o = nodes[4], nodes[5], nodes[6], nodes[7]
+    zones = np.empty((7, nz))
+    dpl, fzl, fz_o, fzel = zones[0], zones[1], zones[2], zones[3]
+    dzl, dz_o, wzl = zones[4], zones[5], zones[6]
+    fdl, fd_o = np.empty(state.fd.shape[1]), np.empty(state.fd.shape[1])
+    for i in range(state.x.shape[0]):
+        if not active[i]:
+            continue
+        xl[:], vl[:], al[:] = state.x[i], state.v[i], state.a[i]
+        dpl[:], fzl[:] = state.dp[i], state.fz[i]
+        fzel[:], fdl[:], ffl[:] = state.elastic[i], state.fd[i], state.ff[i]
+        dzl[:], wzl[:] = out.crush[i], out.work[i]
+        w_fric, w_damp = out.dissipated[i, 0], out.dissipated[i, 1]
+        sc = scale[i]
+        if init:
+            _chain_forces(xl, vl, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
+            for j in range(N):
+                al[j] = F[j] / m[j]
+        for _ in range(0 if init else n_sub):
+            fz_o[:], fd_o[:], ff_o[:], dz_o[:] = fzl, fdl, ffl, dzl
+            for j in range(N):
+                dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
+                xl[j] += dx[j]
+                vp[j] = vl[j] + al[j] * dt
+            _chain_forces(xl, vp, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
+            for j in range(N):
+                a_new = F[j] / m[j]
+                vl[j] += 0.5 * (al[j] + a_new) * dt
+                al[j] = a_new
             for z in range(nz):
-                fr = zone_front[z]
-                rate = v[zone_back[z]] - (v[fr] if fr >= 0 else 0.0)
-                if fz[z] > f_stop or rate > v_stop:
-                    over = False
-                    break
-            if over:
-                break
-    return out_xb, out_vb, out_ab, out_dz, out_fz, out_dp, out_e, out_pl, n_out
+                wzl[z] += 0.5 * (fz_o[z] + fzl[z]) * (dzl[z] - dz_o[z])
+            for e in range(N - 1):
+                w_damp += 0.5 * (fd_o[e] + fdl[e]) * (dx[e + 1] - dx[e])
+            for j in range(N):
+                w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
+        if not _healthy(xl, vl, al, limit):
+            div[i] = True
+            continue
+        state.x[i], state.v[i], state.a[i], state.dp[i], state.fz[i] = xl, vl, al, dpl, fzl
+        state.elastic[i], state.fd[i], state.ff[i] = fzel, fdl, ffl
+        out.crush[i], out.work[i] = dzl, wzl
+        out.dissipated[i, 0], out.dissipated[i, 1] = w_fric, w_damp
+        energy = 0.0
+        for j in range(N):
+            energy += 0.5 * m[j] * vl[j] * vl[j]
+            if j < N - 1 and elem_zone[j] < 0:
+                energy += 0.5 * link_k[j] * (xl[j + 1] - xl[j]) ** 2
+        out.stored[i] = energy
+        for z in range(nz):
+            fr, bk = p.zone_front[z], p.zone_back[z]
+            out.force[i, z] = fzl[z] + (fdl[bk - 1] if fr >= 0 else 0.0)
+            out.rate[i, z] = vl[bk] - (vl[fr] if fr >= 0 else 0.0)
+        for b in range(p.body_start.shape[0]):
+            mb = sx = sv = sf = 0.0
+            for j in range(p.body_start[b], p.body_end[b]):
+                mb += m[j]
+                sx += m[j] * xl[j]
+                sv += m[j] * vl[j]
+                sf += F[j]
+            out.x[i, b], out.v[i, b], out.a[i, b] = sx / mb, sv / mb, sf / mb
+
+
+@njit(cache=True)
+def _crash_over(out, fz, stop):
+    """True if no zone of simulation 0 carries more than ``stop.f_stop`` (conservative force
+    ``fz``) and none closes faster than ``stop.v_stop``."""
+    for z in range(fz.shape[1]):
+        if fz[0, z] > stop.f_stop or out.rate[0, z] > stop.v_stop:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _record_reference(state, out, params, dt, n_sub, stop, rec):
+    """Record simulation 0 of ``state`` sample by sample with :func:`reference_batch_step`
+    into ``rec`` (:class:`Record`); returns the number of samples taken."""
+    p = params
+    N, nz = p.m.shape[0], p.zone_type.shape[0]
+    scale = np.ones((1, nz))
+    active = np.ones(1, np.bool_)
+    div = np.zeros(1, np.bool_)
+    for k in range(rec.x.shape[0]):
+        reference_batch_step(state, out, p, scale, active, k == 0, dt, n_sub, math.inf, div)
+        x, v = state.x[0], state.v[0]
+        ke = el = elz = 0.0
+        for i in range(N):
+            ke += 0.5 * p.m[i] * v[i] * v[i]
+        for e in range(N - 1):
+            if p.elem_zone[e] < 0:
+                d = x[e + 1] - x[e]
+                el += 0.5 * p.link_k[e] * d * d
+        for z in range(nz):
+            elz += state.elastic[0, z]
+            rec.plastic[k, z] = out.work[0, z] - state.elastic[0, z]
+        rec.energy[k, 0], rec.energy[k, 1], rec.energy[k, 2] = ke, el, elz
+        rec.energy[k, 3], rec.energy[k, 4] = out.dissipated[0, 0], out.dissipated[0, 1]
+        rec.x[k], rec.v[k], rec.a[k] = out.x[0], out.v[0], out.a[0]
+        rec.crush[k], rec.force[k], rec.permanent_set[k] = out.crush[0], out.force[0], state.dp[0]
+        if stop.enabled and k > 0 and _crash_over(out, state.fz, stop):
+            return k + 1
+    return rec.x.shape[0]
+
+
+def _new_reference_state(n: int, n_nodes: int, n_zones: int) -> ReferenceState:
+    """Zeroed :class:`ReferenceState` of ``n`` simulations."""
+    node = [np.zeros((n, n_nodes)) for _ in range(3)]
+    zone = [np.zeros((n, n_zones)) for _ in range(3)]
+    return ReferenceState(*node, *zone, np.zeros((n, max(n_nodes - 1, 1))), np.zeros((n, n_nodes)))
 
 
 @dataclass
@@ -478,35 +646,37 @@ def simulate_reference(
     ch = _build_chain(sc)
     dt, n_sub = _steps(sample_dt, safety * 2.0 / ch.omega_max)
     n_samples = int(round(duration / sample_dt)) + 1
+    nb, nz = len(ch.body_names), len(ch.zone_names)
+    state = _new_reference_state(1, ch.v0.size, nz)
+    state.v[0] = ch.v0
+    out = new_outputs(1, nb, nz)
+    rec = new_record(n_samples, nb, nz, energies=True)
     t0 = time.perf_counter()
-    xb, vb, ab, dz, fz, dpz, e, pl, n = _reference_kernel(
-        ch.m, ch.v0, ch.mu, sc.gravity, V_EPS, ch.link_k, ch.link_c, ch.elem_zone, ch.zone_type,
-        ch.zone_cc, ch.zone_front, ch.zone_back, ch.t_s, ch.t_f,
-        ch.t_n, ch.t_amp, ch.t_lam, ch.t_ku, ch.t_kt, ch.t_slack, ch.t_abs, ch.body_start,
-        ch.body_end,
-        dt, n_sub, n_samples, stop_when_over, v_stop, f_stop,
-    )  # fmt: skip
+    n = _record_reference(
+        state, out, ch.params, dt, n_sub, StopRule(stop_when_over, v_stop, f_stop), rec
+    )
     wall = time.perf_counter() - t0
+    e = rec.energy
     return CrashResult(
         t=np.arange(n) * sample_dt,
-        x=xb[:n],
-        v=vb[:n],
-        a=ab[:n],
+        x=rec.x[:n],
+        v=rec.v[:n],
+        a=rec.a[:n],
         body_names=ch.body_names,
         zone_names=ch.zone_names,
-        crush=dz[:n],
-        force=fz[:n],
-        permanent_set=dpz[:n],
+        crush=rec.crush[:n],
+        force=rec.force[:n],
+        permanent_set=rec.permanent_set[:n],
         energy={
             "kinetic": e[:n, 0],
             "elastic": e[:n, 1] + e[:n, 2],
             "elastic_links": e[:n, 1],
             "elastic_zones": e[:n, 2],
-            "plastic": pl[:n],
+            "plastic": rec.plastic[:n],
             "friction": e[:n, 3],
             "damping": e[:n, 4],
         },
-        initial_kinetic_energy=float(0.5 * np.sum(ch.m * ch.v0**2)),
+        initial_kinetic_energy=float(0.5 * np.sum(ch.params.m * ch.v0**2)),
         dt=dt,
         wall_time=wall,
         scenario=sc,

@@ -29,12 +29,22 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
-from railgym.vehicles.crash.reference import V_EPS, CrashResult, _check_run, _steps
+from railgym.vehicles.crash.reference import (
+    V_EPS,
+    CrashResult,
+    StopRule,
+    _check_run,
+    _crash_over,
+    _healthy,
+    _steps,
+    new_outputs,
+    new_record,
+)
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from surrogates.features import LOADING, split_branches
 from surrogates.models.lpr import lpr_eval_into, lpr_scratch
@@ -44,11 +54,16 @@ __all__ = [
     "VARIANTS",
     "CrashElement",
     "CrashSurrogate",
+    "ElementTypes",
+    "LprModels",
+    "SurrogateParams",
+    "SurrogateState",
     "TrainingSet",
     "build_crash_surrogate",
     "crash_errors",
     "crash_training_data",
     "simulate_surrogate",
+    "surrogate_batch_step",
     "virgin_loading",
 ]
 
@@ -280,11 +295,101 @@ def _permanent_set_history(
     return up
 
 
+class LprModels(NamedTuple):
+    """Kernel arrays of the element LPR models (:func:`_pack_models`), one row per model.
+
+    Attributes
+    ----------
+    exponents : (models, terms, 1) int64, zero-padded to a common term count.
+    coef : (models, terms) coefficients.
+    lower, upper : (models, 1) input domain, m.
+    mode : (models,) extrapolation mode of :func:`surrogates.models.lpr.lpr_eval_into`.
+    force_range : (models, 2) lowest and highest training force of each model, N.
+    """
+
+    exponents: np.ndarray
+    coef: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    mode: np.ndarray
+    force_range: np.ndarray
+
+
+class ElementTypes(NamedTuple):
+    """Element characteristics, one row per element type (wall, interface).
+
+    Attributes
+    ----------
+    variant : 0 ``"paper"``, 1 ``"hysteretic"``.
+    load_model, unload_model : row of the loading / unloading LPR in :class:`LprModels`.
+    unilateral : 1 if the element never pulls.
+    unloading_stiffness, tension_stiffness, slack : ``k̂_u``, ``k̂_t`` (N/m) and ``ŝ`` (m).
+    absorber : absorber stroke in the feature ``u``, m.
+    """
+
+    variant: np.ndarray
+    load_model: np.ndarray
+    unload_model: np.ndarray
+    unilateral: np.ndarray
+    unloading_stiffness: np.ndarray
+    tension_stiffness: np.ndarray
+    slack: np.ndarray
+    absorber: np.ndarray
+
+
+class SurrogateParams(NamedTuple):
+    """Static arrays of the surrogate model (paper eq. 4), passed into the kernels.
+
+    Attributes
+    ----------
+    m, mu : (bodies,) body mass (kg) and friction coefficient.
+    gravity, v_eps : m/s² and the friction regularisation velocity, m/s.
+    front, back, kind : (elements,) bodies each element joins (front −1 = wall) and its row
+        of ``types``.
+    types : the :class:`ElementTypes` table. lpr : the :class:`LprModels`.
+    """
+
+    m: np.ndarray
+    mu: np.ndarray
+    gravity: float
+    v_eps: float
+    front: np.ndarray
+    back: np.ndarray
+    kind: np.ndarray
+    types: ElementTypes
+    lpr: LprModels
+
+
+class SurrogateState(NamedTuple):
+    """Per-simulation state of :func:`surrogate_batch_step`, one row per simulation.
+
+    Attributes
+    ----------
+    x, v, a : (n, bodies) displacement (m), velocity (m/s), acceleration (m/s²).
+    up, fz : (n, elements) permanent set in ``u`` (m) and force (N) of each element.
+    ff : (n, bodies) friction force magnitude along v, N.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    up: np.ndarray
+    fz: np.ndarray
+    ff: np.ndarray
+
+
+def _new_surrogate_state(n: int, n_bodies: int, n_elements: int) -> SurrogateState:
+    """Zeroed :class:`SurrogateState` of ``n`` simulations."""
+    body = [np.zeros((n, n_bodies)) for _ in range(3)]
+    el = [np.zeros((n, n_elements)) for _ in range(2)]
+    return SurrogateState(*body, *el, np.zeros((n, n_bodies)))
+
+
 @njit(cache=True)
 def _lpr_work(lpr):
-    """Scratch of :func:`surrogates.models.lpr.lpr_eval_into` for every packed LPR model of
-    ``lpr`` (:func:`_pack_models`): float64 (models, d + 4, L), one common width ``L``."""
-    E, _, LO, UP, _, _ = lpr
+    """Scratch of :func:`surrogates.models.lpr.lpr_eval_into` for every model of ``lpr``
+    (:class:`LprModels`): float64 (models, d + 4, L), one common width ``L``."""
+    E, LO, UP = lpr.exponents, lpr.lower, lpr.upper
     n, T, d = E.shape
     every = E.reshape(n * T, d)  # the largest degree of all models sets the common width
     first = lpr_scratch(every, LO[0], UP[0])
@@ -336,97 +441,136 @@ def _element_force(u, up, f_lpr, f_min, f_max, s, variant, unilateral, ku, kt, s
     return 0.0, up
 
 
-# The two surrogate kernels below evaluate the elements in their own loop body (tuples unpacked
-# once per call): behind a helper taking the packed arrays, numba's reference counting of
-# those arrays cost more than the physics (measured 2 × the whole kernel time).
+# The element evaluation sits in the kernel's loop body (arrays unpacked once per call): behind
+# a helper taking the packed arrays, numba's reference counting of those arrays costs more
+# than the physics.
 @njit(cache=True)
-def _surrogate_kernel(m, mu, v0, g, veps, elements, types, lpr, dt, n_sub, n_samples, stop,
-                      v_stop, f_stop):  # fmt: skip
-    """Velocity-Verlet integration of the n-mass surrogate model (paper eq. 4).
+def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, limit, div):
+    """:func:`reference_batch_step` for the surrogate model (paper eq. 4).
 
-    ``elements`` (elements, 3) = front body (−1 = wall), back body, type; ``types`` = (int
-    (types, 4): variant, loading model, unloading model, unilateral; float (types, 4): k_u, k_t,
-    slack, absorber stroke); ``lpr`` = (exponents, coef, lower, upper, mode, force range) per
-    LPR model (:func:`_pack_models`). (Tables rather than one array per quantity: each array
-    passed into a compiled function costs about 0.08 µs, a sizeable part of an env step.)
+    ``state`` is a :class:`SurrogateState`, ``params`` :class:`SurrogateParams`. No dampers:
+    ``dissipated[:, 1]`` stays 0.
     """
-    el_front, el_back, el_type = elements[:, 0], elements[:, 1], elements[:, 2]
-    variant, i_load, i_unload, unilateral = types[0].T
-    ku, kt, slack, _ = types[1].T
-    E, C, LO, UP, MODE, FR = lpr
-    nb = m.shape[0]
-    ne = el_type.shape[0]
-    x = np.zeros(nb)
-    v = v0.copy()
-    vp = v0.copy()
-    a = np.zeros(nb)
-    up = np.zeros(ne)
-    F = np.zeros(nb)
-    fel = np.zeros(ne)
-    uel = np.zeros(ne)
+    x, v, a, up, fel, ff = state.x, state.v, state.a, state.up, state.fz, state.ff
+    m, mu, g, veps = params.m, params.mu, params.gravity, params.v_eps
+    el_front, el_back, el_type = params.front, params.back, params.kind
+    ty_ = params.types
+    variant, i_load, i_unload, unilateral = (
+        ty_.variant, ty_.load_model, ty_.unload_model, ty_.unilateral,
+    )  # fmt: skip
+    ku, kt, slack, absorber = (
+        ty_.unloading_stiffness, ty_.tension_stiffness, ty_.slack, ty_.absorber,
+    )  # fmt: skip
+    lpr = params.lpr
+    E, C, LO, UP, MODE, FR = (
+        lpr.exponents,
+        lpr.coef,
+        lpr.lower,
+        lpr.upper,
+        lpr.mode,
+        lpr.force_range,
+    )
+    N = m.shape[0]
+    ne = el_front.shape[0]
+    nodes = np.empty((8, N))
+    xl, vl, al, vp = nodes[0], nodes[1], nodes[2], nodes[3]
+    F, dx, ffl, ff_o = nodes[4], nodes[5], nodes[6], nodes[7]
+    els = np.empty((6, ne))
+    upl, fl, f_o, ul, u_o, wl = els[0], els[1], els[2], els[3], els[4], els[5]
     ubuf = np.zeros(1)
     work = _lpr_work(lpr)
-    out_x = np.zeros((n_samples, nb))
-    out_v = np.zeros((n_samples, nb))
-    out_a = np.zeros((n_samples, nb))
-    out_u = np.zeros((n_samples, ne))
-    out_f = np.zeros((n_samples, ne))
-    out_up = np.zeros((n_samples, ne))
-    n_out = 0
-    for k in range(n_samples):
-        # sample 0: forces at the initial state; then n_sub steps per sample
-        for _ in range(n_sub if k > 0 else 1):
-            if k > 0:
-                for j in range(nb):
-                    x[j] += v[j] * dt + 0.5 * a[j] * dt * dt
-                    vp[j] = v[j] + a[j] * dt
-            for j in range(nb):
-                F[j] = -mu[j] * m[j] * g * math.tanh(vp[j] / veps)
+    ox, ov, oa, crush, force, rate_out = out.x, out.v, out.a, out.crush, out.force, out.rate
+    work_done, dissipated, stored = out.work, out.dissipated, out.stored
+    # rows are copied element by element: a row view per array and train costs two atomic
+    # reference-count operations
+    for i in range(x.shape[0]):
+        if not active[i]:
+            continue
+        for j in range(N):
+            xl[j], vl[j], al[j], ffl[j] = x[i, j], v[i, j], a[i, j], ff[i, j]
+        for e in range(ne):
+            upl[e], fl[e], ul[e], wl[e] = up[i, e], fel[i, e], crush[i, e], work_done[i, e]
+        w_fric = dissipated[i, 0]
+        # init: forces at the current state; else n_sub velocity-Verlet steps
+        for _ in range(1 if init else n_sub):
+            if init:
+                vp[:] = vl
+            else:
+                f_o[:], ff_o[:], u_o[:] = fl, ffl, ul
+                for j in range(N):
+                    dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
+                    xl[j] += dx[j]
+                    vp[j] = vl[j] + al[j] * dt
+            for j in range(N):
+                ffl[j] = mu[j] * m[j] * g * math.tanh(vp[j] / veps)
+                F[j] = -ffl[j]
             for e in range(ne):
                 fr, bk, ty = el_front[e], el_back[e], el_type[e]
-                u = x[bk] - (x[fr] if fr >= 0 else 0.0)
+                u = xl[bk] - (xl[fr] if fr >= 0 else 0.0)
                 rate = vp[bk] - (vp[fr] if fr >= 0 else 0.0)
-                mdl = _element_model(u, rate, up[e], variant[ty], unilateral[ty], ku[ty],
-                                     i_load[ty], i_unload[ty])  # fmt: skip
+                mdl = _element_model(
+                    u, rate, upl[e], variant[ty], unilateral[ty], ku[ty], i_load[ty], i_unload[ty]
+                )
                 f_lpr = f_min = f_max = 0.0
                 if mdl >= 0:
                     ubuf[0] = u
-                    f_lpr = lpr_eval_into(ubuf, E[mdl], C[mdl], LO[mdl], UP[mdl], MODE[mdl],
-                                          work[mdl])  # fmt: skip
+                    f_lpr = lpr_eval_into(
+                        ubuf, E[mdl], C[mdl], LO[mdl], UP[mdl], MODE[mdl], work[mdl]
+                    )
                     f_min, f_max = FR[mdl, 0], FR[mdl, 1]
-                f, up[e] = _element_force(u, up[e], f_lpr, f_min, f_max, 1.0, variant[ty],
-                                          unilateral[ty], ku[ty], kt[ty], slack[ty])  # fmt: skip
-                fel[e] = f
-                uel[e] = u
+                s = scale[i, e] if u <= absorber[ty] else 1.0
+                f, upl[e] = _element_force(
+                    u, upl[e], f_lpr, f_min, f_max, s, variant[ty], unilateral[ty], ku[ty],
+                    kt[ty], slack[ty],
+                )  # fmt: skip
+                fl[e] = f
+                ul[e] = u
                 if fr >= 0:
                     F[fr] += f
                 F[bk] -= f
-            for j in range(nb):
+            for j in range(N):
                 a_new = F[j] / m[j]
-                if k > 0:
-                    v[j] += 0.5 * (a[j] + a_new) * dt
-                a[j] = a_new
-        out_x[k] = x
-        out_v[k] = v
-        out_a[k] = a
-        out_u[k] = uel
-        out_f[k] = fel
-        out_up[k] = up
-        n_out = k + 1
-        if stop and k > 0:
-            over = True
-            for e in range(ne):
-                fr = el_front[e]
-                rate = v[el_back[e]] - (v[fr] if fr >= 0 else 0.0)
-                if fel[e] > f_stop or rate > v_stop:
-                    over = False
-                    break
-            if over:
-                break
-    return out_x, out_v, out_a, out_u, out_f, out_up, n_out
+                if not init:
+                    vl[j] += 0.5 * (al[j] + a_new) * dt
+                    w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
+                al[j] = a_new
+            if not init:
+                for e in range(ne):
+                    wl[e] += 0.5 * (f_o[e] + fl[e]) * (ul[e] - u_o[e])
+        if not _healthy(xl, vl, al, limit):
+            div[i] = True
+            continue
+        energy = 0.0
+        for j in range(N):
+            x[i, j], v[i, j], a[i, j], ff[i, j] = xl[j], vl[j], al[j], ffl[j]
+            ox[i, j], ov[i, j], oa[i, j] = xl[j], vl[j], al[j]
+            energy += 0.5 * m[j] * vl[j] * vl[j]
+        stored[i] = energy
+        dissipated[i, 0] = w_fric
+        for e in range(ne):
+            up[i, e], fel[i, e] = upl[e], fl[e]
+            crush[i, e], force[i, e], work_done[i, e] = ul[e], fl[e], wl[e]
+            fr = el_front[e]
+            rate_out[i, e] = vl[el_back[e]] - (vl[fr] if fr >= 0 else 0.0)
 
 
-def _pack_models(models: list[Any], ranges: list[tuple[float, float]]) -> tuple[np.ndarray, ...]:
+@njit(cache=True)
+def _record_surrogate(state, out, params, dt, n_sub, stop, rec):
+    """Record simulation 0 of ``state`` sample by sample with :func:`surrogate_batch_step`
+    into ``rec`` (:class:`Record`); returns the number of samples taken."""
+    scale = np.ones((1, params.front.shape[0]))
+    active = np.ones(1, np.bool_)
+    div = np.zeros(1, np.bool_)
+    for k in range(rec.x.shape[0]):
+        surrogate_batch_step(state, out, params, scale, active, k == 0, dt, n_sub, math.inf, div)
+        rec.x[k], rec.v[k], rec.a[k] = out.x[0], out.v[0], out.a[0]
+        rec.crush[k], rec.force[k], rec.permanent_set[k] = out.crush[0], out.force[0], state.up[0]
+        if stop.enabled and k > 0 and _crash_over(out, state.fz, stop):
+            return k + 1
+    return rec.x.shape[0]
+
+
+def _pack_models(models: list[Any], ranges: list[tuple[float, float]]) -> LprModels:
     """Kernel arrays of several 1-input LPR models, zero-padded to a common term count, and
     their output ranges (models, 2)."""
     arrays = [mdl.kernel_arrays() for mdl in models]
@@ -442,21 +586,19 @@ def _pack_models(models: list[Any], ranges: list[tuple[float, float]]) -> tuple[
         E[i, : e.shape[0]] = e
         C[i, : c.size] = c
         LO[i], UP[i], MODE[i] = lo, up, mode
-    return E, C, LO, UP, MODE, np.array(ranges, dtype=np.float64).reshape(len(arrays), 2)
+    FR = np.array(ranges, dtype=np.float64).reshape(len(arrays), 2)
+    return LprModels(E, C, LO, UP, MODE, FR)
 
 
 @dataclass
 class _System:
-    """Kernel arrays of the surrogate model of one scenario (paper eq. 4)."""
+    """The surrogate model of one scenario: kernel parameters plus what the kernels do not
+    need."""
 
-    m: np.ndarray  # body masses: cars front to back, then the obstacle if any, kg
-    mu: np.ndarray
+    params: SurrogateParams
     v0: np.ndarray  # initial velocities, m/s
     body_names: list[str]
     zone_names: list[str]
-    elements: np.ndarray  # (elements, 3): front body (−1 = wall), back body, type
-    types: tuple[np.ndarray, np.ndarray]  # int and float table of _surrogate_kernel
-    lpr: tuple[np.ndarray, ...]
 
 
 def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
@@ -490,23 +632,29 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
         if ty.unloading is not None:
             models.append(ty.unloading)
             ranges.append(ty.force_range["unloading"])
-    absorber = [sc.wall.absorber_stroke, sc.interface.absorber_stroke]
-    type_arrays = (
-        np.array([[VARIANTS.index(ty.variant), i, j, ty.unilateral]
-                  for ty, i, j in zip(types, load_idx, unload_idx, strict=True)], np.int64),
-        np.array([[ty.unloading_stiffness, ty.tension_stiffness, ty.slack, s]
-                  for ty, s in zip(types, absorber[: len(types)], strict=True)]),
-    )  # fmt: skip
-    return _System(
+    zone_stroke = [sc.wall.absorber_stroke, sc.interface.absorber_stroke][: len(types)]
+    element_types = ElementTypes(
+        variant=np.array([VARIANTS.index(ty.variant) for ty in types], np.int64),
+        load_model=np.array(load_idx, np.int64),
+        unload_model=np.array(unload_idx, np.int64),
+        unilateral=np.array([ty.unilateral for ty in types], np.int64),
+        unloading_stiffness=np.array([ty.unloading_stiffness for ty in types]),
+        tension_stiffness=np.array([ty.tension_stiffness for ty in types]),
+        slack=np.array([ty.slack for ty in types]),
+        absorber=np.array(zone_stroke, dtype=np.float64),
+    )
+    params = SurrogateParams(
         m=np.array(masses),
         mu=np.array(mu),
-        v0=np.array(v0),
-        body_names=names,
-        zone_names=el_names,
-        elements=np.stack([el_front, el_back, el_type], axis=1),
-        types=type_arrays,
+        gravity=float(sc.gravity),
+        v_eps=V_EPS,
+        front=el_front,
+        back=el_back,
+        kind=el_type,
+        types=element_types,
         lpr=_pack_models(models, ranges),
     )
+    return _System(params=params, v0=np.array(v0), body_names=names, zone_names=el_names)
 
 
 def simulate_surrogate(
@@ -548,24 +696,27 @@ def simulate_surrogate(
     dt, n_sub = _steps(sample_dt, dt)
     sy = _surrogate_system(sc, surrogate)
     n_samples = int(round(duration / sample_dt)) + 1
+    nb, ne = len(sy.body_names), len(sy.zone_names)
+    state = _new_surrogate_state(1, nb, ne)
+    state.v[0] = sy.v0
+    out = new_outputs(1, nb, ne)
+    rec = new_record(n_samples, nb, ne, energies=False)
+    stop = StopRule(stop_when_over, v_stop, f_stop)
     t0 = time.perf_counter()
-    xo, vo, ao, uo, fo, upo, n = _surrogate_kernel(
-        sy.m, sy.mu, sy.v0, sc.gravity, V_EPS, sy.elements, sy.types, sy.lpr,
-        dt, n_sub, n_samples, stop_when_over, v_stop, f_stop,
-    )  # fmt: skip
+    n = _record_surrogate(state, out, sy.params, dt, n_sub, stop, rec)
     wall = time.perf_counter() - t0
     return CrashResult(
         t=np.arange(n) * sample_dt,
-        x=xo[:n],
-        v=vo[:n],
-        a=ao[:n],
+        x=rec.x[:n],
+        v=rec.v[:n],
+        a=rec.a[:n],
         body_names=sy.body_names,
         zone_names=sy.zone_names,
-        crush=uo[:n],
-        force=fo[:n],
-        permanent_set=upo[:n],
+        crush=rec.crush[:n],
+        force=rec.force[:n],
+        permanent_set=rec.permanent_set[:n],
         energy={},
-        initial_kinetic_energy=float(0.5 * np.sum(sy.m * sy.v0**2)),
+        initial_kinetic_energy=float(0.5 * np.sum(sy.params.m * sy.v0**2)),
         dt=dt,
         wall_time=wall,
         scenario=sc,
