@@ -20,7 +20,7 @@ import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -38,8 +38,13 @@ from railgym.vehicles.crash import (
     CrashScenario,
     CrashSurrogate,
     CrushZone,
+    ElementTypes,
+    LprModels,
+    ReferenceParams,
     ReferenceState,
+    SurrogateParams,
     SurrogateState,
+    ZoneTypes,
     build_crash_surrogate,
     crash_batch_model,
     load_scenario,
@@ -66,11 +71,6 @@ STATE_LIMIT = 1e3
 #: observation scales: displacement (m) and acceleration (in g)
 X_SCALE = 1.0
 A_SCALE_G = 10.0
-#: info keys holding one number or bool (the others hold one entry per car or per zone)
-SCALAR_INFO = ("time", "initial_speed", "stroke_exceeded", "friction_work_J", "energy_error",
-               "diverged")  # fmt: skip
-#: info keys holding a bool
-BOOL_INFO = ("stroke_exceeded", "diverged")
 
 
 @dataclass(frozen=True)
@@ -181,10 +181,105 @@ def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchMode
     return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
 
 
+#: the ``info`` row, in column order: key and size (``"1"``, ``"bool"``, ``"cars"``, ``"zones"``)
+INFO_FIELDS = (("time", "1"), ("initial_speed", "1"), ("decel_g", "cars"), ("crush_m", "zones"),
+               ("force_N", "zones"), ("absorber_scale", "zones"), ("peak_decel_g", "cars"),
+               ("mean_decel_g", "cars"), ("absorbed_energy_J", "zones"), ("max_crush_m", "zones"),
+               ("stroke_used", "zones"), ("stroke_exceeded", "bool"), ("friction_work_J", "1"),
+               ("energy_error", "1"), ("diverged", "bool"))  # fmt: skip
+#: first column of each ``info`` key in the flat info row (:func:`info_layout`)
+InfoColumns = NamedTuple("InfoColumns", [(key, int) for key, _ in INFO_FIELDS])
+
+
+class EnvConsts(NamedTuple):
+    """Constants of the env's compiled bookkeeping.
+
+    Attributes
+    ----------
+    zones : (zones,) model zone of each controlled zone, front to back.
+    stroke : (zones,) absorber stroke, m. inv_scale : (obs,) 1 / observation scale.
+    w_decel, w_intrusion : reward weights. gravity : m/s². control_dt : s.
+    absorber_range : action ±1 sets the scale 1 ± range. max_change : largest scale change
+        per step. info : :class:`InfoColumns`.
+    """
+
+    zones: np.ndarray
+    stroke: np.ndarray
+    inv_scale: np.ndarray
+    w_decel: float
+    w_intrusion: float
+    gravity: float
+    control_dt: float
+    absorber_range: float
+    max_change: float
+    info: InfoColumns
+
+
+class Episode(NamedTuple):
+    """Per-train arrays of :class:`CrashBatch`: absorber scales and episode statistics (the
+    float ones in this order in the buffer, :data:`ENV_FIELDS`), then the flags."""
+
+    scale: np.ndarray  # (n, model zones) absorber force scale
+    speed: np.ndarray  # (n,) initial speed, m/s
+    energy0: np.ndarray  # (n,) stored energy at first contact, J
+    peak: np.ndarray  # (n, cars) peak deceleration, g
+    decel_sum: np.ndarray  # (n, cars) sum of the step decelerations, g
+    max_crush: np.ndarray  # (n, zones) largest crush, m
+    intrusion: np.ndarray  # (n, zones) crush beyond the absorber stroke, m
+    obs: np.ndarray  # (n, obs) observation
+    reward: np.ndarray  # (n,) last reward
+    info: np.ndarray  # (n, info columns) flat info row
+    div: np.ndarray  # (n,) bool: diverged
+    over: np.ndarray  # (n,) bool: crash over
+    steps: np.ndarray  # (n,) int64: control steps since the reset
+
+
+#: the float arrays of :class:`Episode` kept in the :class:`CrashBatch` buffer
+ENV_FIELDS = Episode._fields[:10]
+#: buffer layout: the 9 :class:`BatchOutputs` arrays, :data:`ENV_FIELDS`, the model state
+_ENV = len(BatchOutputs._fields)
+_STATE = _ENV + len(ENV_FIELDS)
+
+
+def info_layout(n_cars: int, n_zones: int) -> dict[str, tuple[slice, bool]]:
+    """Columns of each ``info`` key in the flat info row (key → (columns, is_scalar)), from
+    :data:`INFO_FIELDS`."""
+    sizes = {"1": 1, "bool": 1, "cars": n_cars, "zones": n_zones}
+    out, j = {}, 0
+    for key, size in INFO_FIELDS:
+        out[key] = (slice(j, j + sizes[size]), size in ("1", "bool"))
+        j += sizes[size]
+    return out
+
+
+def plain(value: Any) -> Any:
+    """``value`` with every NamedTuple turned into a plain tuple, recursively: compiled code
+    types a plain tuple argument much faster than a NamedTuple (rebuilt inside, e.g.
+    :func:`_named_consts`)."""
+    if isinstance(value, tuple):
+        return tuple(plain(v) for v in value)
+    return value
+
+
+@njit(cache=True, inline="always")
+def _named_consts(c):
+    return EnvConsts(*c[:-1], InfoColumns(*c[-1]))
+
+
+@njit(cache=True, inline="always")
+def _named_reference(p):
+    return ReferenceParams(*p[:-1], ZoneTypes(*p[-1]))
+
+
+@njit(cache=True, inline="always")
+def _named_surrogate(p):
+    return SurrogateParams(*p[:-2], ElementTypes(*p[-2]), LprModels(*p[-1]))
+
+
 @njit(cache=True)
-def _set_scale(actions, scale, zones, active, absorber_range, max_change):
+def _set_scale(actions, scale, active, c):
     """Move each active absorber's force scale towards ``1 + range · action`` by at most
-    ``max_change``, the action clipped to [−1, 1]. Returns ``False``, changing nothing, if
+    ``c.max_change``, the action clipped to [−1, 1]. Returns ``False``, changing nothing, if
     any action (of any train) is not finite."""
     for i in range(actions.shape[0]):
         for z in range(actions.shape[1]):
@@ -193,109 +288,92 @@ def _set_scale(actions, scale, zones, active, absorber_range, max_change):
     for i in range(actions.shape[0]):
         if not active[i]:
             continue
-        for z in range(zones.shape[0]):
-            k = zones[z]
+        for z in range(c.zones.shape[0]):
+            k = c.zones[z]
             a = min(max(actions[i, z], -1.0), 1.0)
-            step = 1.0 + absorber_range * a - scale[i, k]
-            scale[i, k] += min(max(step, -max_change), max_change)
+            step = 1.0 + c.absorber_range * a - scale[i, k]
+            scale[i, k] += min(max(step, -c.max_change), c.max_change)
     return True
 
 
-def info_layout(n_cars: int, n_zones: int) -> dict[str, tuple[slice, bool]]:
-    """Columns of each ``info`` key in the flat info array (key → (columns, is_scalar)),
-    in the order :func:`_post_step` writes them."""
-    sizes = {"time": 1, "initial_speed": 1, "decel_g": n_cars, "crush_m": n_zones,
-             "force_N": n_zones, "absorber_scale": n_zones, "peak_decel_g": n_cars,
-             "mean_decel_g": n_cars, "absorbed_energy_J": n_zones, "max_crush_m": n_zones,
-             "stroke_used": n_zones, "stroke_exceeded": 1, "friction_work_J": 1,
-             "energy_error": 1, "diverged": 1}  # fmt: skip
-    out, j = {}, 0
-    for key, size in sizes.items():
-        out[key] = (slice(j, j + size), key in SCALAR_INFO)
-        j += size
-    return out
-
-
 @njit(cache=True)
-def _post_step(out, active, init, div, zones, scale, stroke, inv_scale, g, weights, control_dt,
-               speed, energy0, steps, peak, decel_sum, max_crush, intrusion, obs, reward, over,
-               info):  # fmt: skip
+def _post_step(out, ep, c, active, init):
     """Bookkeeping after a kernel call: episode statistics, observation, reward and the flat
-    ``info`` row (layout of :func:`info_layout`) of every active train.
+    ``info`` row (:data:`INFO_FIELDS`) of every active train.
 
-    With ``init`` the statistics of the active rows are cleared (train at first contact).
+    ``out`` :class:`BatchOutputs`, ``ep`` :class:`Episode`, ``c`` :class:`EnvConsts`. With
+    ``init`` the statistics of the active rows are cleared (train at first contact).
     """
-    n_cars, nz = peak.shape[1], zones.shape[0]
-    w_d, w_i = weights[0], weights[1]
+    n_cars, nz = ep.peak.shape[1], c.zones.shape[0]
+    g, ic, zones, stroke, inv = c.gravity, c.info, c.zones, c.stroke, c.inv_scale
     for i in range(out.x.shape[0]):
         if not active[i]:
             continue
         if init:
-            steps[i] = 0
-            peak[i] = 0.0
-            decel_sum[i] = 0.0
-            max_crush[i] = 0.0
-            intrusion[i] = 0.0
-            reward[i] = 0.0
-            over[i] = False
-            energy0[i] = out.stored[i]
+            ep.steps[i] = 0
+            ep.peak[i] = 0.0
+            ep.decel_sum[i] = 0.0
+            ep.max_crush[i] = 0.0
+            ep.intrusion[i] = 0.0
+            ep.reward[i] = 0.0
+            ep.over[i] = False
+            ep.energy0[i] = out.stored[i]
         else:
-            steps[i] += 1
+            ep.steps[i] += 1
             cost = 0.0
-            for c in range(n_cars):
-                d = -out.a[i, c] / g
-                peak[i, c] = max(peak[i, c], d)
-                decel_sum[i, c] += d
+            for k in range(n_cars):
+                d = -out.a[i, k] / g
+                ep.peak[i, k] = max(ep.peak[i, k], d)
+                ep.decel_sum[i, k] += d
                 cost += (d / DECEL_REF_G) ** 2
-            r = -w_d * (control_dt / TIME_REF) * cost / n_cars
+            r = -c.w_decel * (c.control_dt / TIME_REF) * cost / n_cars
             for z in range(nz):
-                max_crush[i, z] = max(max_crush[i, z], out.crush[i, zones[z]])
-                new = max(max_crush[i, z] - stroke[z], 0.0)
-                r -= w_i * (new - intrusion[i, z]) / INTRUSION_REF
-                intrusion[i, z] = new
-            reward[i] = -DIVERGENCE_PENALTY if div[i] else r
+                ep.max_crush[i, z] = max(ep.max_crush[i, z], out.crush[i, zones[z]])
+                new = max(ep.max_crush[i, z] - stroke[z], 0.0)
+                r -= c.w_intrusion * (new - ep.intrusion[i, z]) / INTRUSION_REF
+                ep.intrusion[i, z] = new
+            ep.reward[i] = -DIVERGENCE_PENALTY if ep.div[i] else r
             done = True
             for k in range(out.force.shape[1]):
                 if out.force[i, k] > F_STOP or out.rate[i, k] > V_STOP:
                     done = False
-            over[i] = done
-        for c in range(n_cars):
-            obs[i, c] = out.x[i, c] * inv_scale[c]
-            obs[i, n_cars + c] = out.v[i, c] * inv_scale[n_cars + c]
-            obs[i, 2 * n_cars + c] = out.a[i, c] * inv_scale[2 * n_cars + c]
+            ep.over[i] = done
+        obs = ep.obs[i]
+        for k in range(n_cars):
+            obs[k] = out.x[i, k] * inv[k]
+            obs[n_cars + k] = out.v[i, k] * inv[n_cars + k]
+            obs[2 * n_cars + k] = out.a[i, k] * inv[2 * n_cars + k]
         j = 3 * n_cars
         for z in range(nz):
             k = zones[z]
-            obs[i, j + z] = out.crush[i, k] * inv_scale[j + z]
-            obs[i, j + nz + z] = out.force[i, k] * inv_scale[j + nz + z]
-            obs[i, j + 2 * nz + z] = (scale[i, k] - 1.0) * inv_scale[j + 2 * nz + z]
-        # info row
-        row = info[i]
-        row[0] = steps[i] * control_dt
-        row[1] = speed[i]
-        j = 2
-        for c in range(n_cars):
-            row[j + c] = -out.a[i, c] / g
-            row[j + n_cars + 3 * nz + c] = peak[i, c]
-            row[j + 2 * n_cars + 3 * nz + c] = decel_sum[i, c] / max(steps[i], 1)
+            obs[j + z] = out.crush[i, k] * inv[j + z]
+            obs[j + nz + z] = out.force[i, k] * inv[j + nz + z]
+            obs[j + 2 * nz + z] = (ep.scale[i, k] - 1.0) * inv[j + 2 * nz + z]
+        row = ep.info[i]
+        steps = ep.steps[i]
+        row[ic.time] = steps * c.control_dt
+        row[ic.initial_speed] = ep.speed[i]
+        for k in range(n_cars):
+            row[ic.decel_g + k] = -out.a[i, k] / g
+            row[ic.peak_decel_g + k] = ep.peak[i, k]
+            row[ic.mean_decel_g + k] = ep.decel_sum[i, k] / max(steps, 1)
         exceeded = False
         for z in range(nz):
             k = zones[z]
-            row[j + n_cars + z] = out.crush[i, k]
-            row[j + n_cars + nz + z] = out.force[i, k]
-            row[j + n_cars + 2 * nz + z] = scale[i, k]
-            row[j + 3 * n_cars + 3 * nz + z] = out.work[i, k]
-            row[j + 3 * n_cars + 4 * nz + z] = max_crush[i, z]
-            row[j + 3 * n_cars + 5 * nz + z] = max_crush[i, z] / stroke[z]
-            exceeded = exceeded or max_crush[i, z] > stroke[z]
-        j += 3 * n_cars + 6 * nz
-        balance = energy0[i] - out.stored[i] - out.dissipated[i, 0] - out.dissipated[i, 1]
+            row[ic.crush_m + z] = out.crush[i, k]
+            row[ic.force_N + z] = out.force[i, k]
+            row[ic.absorber_scale + z] = ep.scale[i, k]
+            row[ic.absorbed_energy_J + z] = out.work[i, k]
+            row[ic.max_crush_m + z] = ep.max_crush[i, z]
+            row[ic.stroke_used + z] = ep.max_crush[i, z] / stroke[z]
+            exceeded = exceeded or ep.max_crush[i, z] > stroke[z]
+        balance = ep.energy0[i] - out.stored[i] - out.dissipated[i, 0] - out.dissipated[i, 1]
         for k in range(out.work.shape[1]):
             balance -= out.work[i, k]
-        row[j] = 1.0 if exceeded else 0.0
-        row[j + 1] = out.dissipated[i, 0]
-        row[j + 2] = balance / energy0[i] if energy0[i] > 0.0 else 0.0
-        row[j + 3] = 1.0 if div[i] else 0.0
+        row[ic.stroke_exceeded] = 1.0 if exceeded else 0.0
+        row[ic.friction_work_J] = out.dissipated[i, 0]
+        row[ic.energy_error] = balance / ep.energy0[i] if ep.energy0[i] > 0.0 else 0.0
+        row[ic.diverged] = 1.0 if ep.div[i] else 0.0
 
 
 @njit(cache=True, inline="always")
@@ -312,76 +390,63 @@ def _column(buf, fields, f):
 
 
 @njit(cache=True, inline="always")
-def _outputs(buf, fields, f):
-    """The :class:`BatchOutputs` stored from field ``f`` on."""
-    return BatchOutputs(_field(buf, fields, f), _field(buf, fields, f + 1),
-                        _field(buf, fields, f + 2), _field(buf, fields, f + 3),
-                        _field(buf, fields, f + 4), _field(buf, fields, f + 5),
-                        _field(buf, fields, f + 6), _field(buf, fields, f + 7),
-                        _column(buf, fields, f + 8))  # fmt: skip
-
-
-#: per-train env arrays of the :class:`CrashBatch` buffer, after the 9 :class:`BatchOutputs`
-#: arrays and before the model's state arrays (one declaration: the kernels index by these)
-ENV_FIELDS = ("scale", "speed", "energy0", "peak", "decel_sum", "max_crush", "intrusion", "obs",
-              "rew", "info")  # fmt: skip
-_SCALE = len(BatchOutputs._fields)
-_STATE = _SCALE + len(ENV_FIELDS)
-
-
-@njit(cache=True, inline="always")
-def _finish(buf, fields, out, active, init, div, over, steps, zones, consts, g, control_dt):
-    """:func:`_post_step` on the per-train arrays of the buffer (:data:`ENV_FIELDS`), with
-    ``consts`` = (absorber strokes, 1 / observation scales, weights)."""
-    f = _SCALE
-    scale, obs = _field(buf, fields, f), _field(buf, fields, f + 7)
-    info = _field(buf, fields, f + 9)
-    nz, n_obs = zones.shape[0], obs.shape[1]
-    _post_step(out, active, init, div, zones, scale, consts[:nz], consts[nz : nz + n_obs], g,
-               consts[nz + n_obs :], control_dt, _column(buf, fields, f + 1),
-               _column(buf, fields, f + 2), steps, _field(buf, fields, f + 3),
-               _field(buf, fields, f + 4), _field(buf, fields, f + 5),
-               _field(buf, fields, f + 6), obs, _column(buf, fields, f + 8), over,
-               info)  # fmt: skip
+def _views(buf, fields, flags):
+    """The :class:`BatchOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
+    :class:`CrashBatch` buffer, as views; 1-D fields are ``speed``, ``energy0``, ``reward``
+    and ``stored``."""
+    out = BatchOutputs(_field(buf, fields, 0), _field(buf, fields, 1), _field(buf, fields, 2),
+                       _field(buf, fields, 3), _field(buf, fields, 4), _field(buf, fields, 5),
+                       _field(buf, fields, 6), _field(buf, fields, 7),
+                       _column(buf, fields, 8))  # fmt: skip
+    k = _ENV
+    ep = Episode(_field(buf, fields, k), _column(buf, fields, k + 1),
+                 _column(buf, fields, k + 2), _field(buf, fields, k + 3),
+                 _field(buf, fields, k + 4), _field(buf, fields, k + 5),
+                 _field(buf, fields, k + 6), _field(buf, fields, k + 7),
+                 _column(buf, fields, k + 8), _field(buf, fields, k + 9), *flags)  # fmt: skip
+    return out, ep
 
 
 # One compiled call per control step (absorber scales, physics, bookkeeping) per backend, and
 # every per-train float array in one buffer (:meth:`CrashBatch._pack`): each array passed from
 # Python into a compiled function has a fixed cost, a sizeable part of a single-env step.
 @njit(cache=True)
-def _advance_reference(buf, fields, params, dt, n_sub, actions, active, init, div, over, steps,
-                       zones, consts, absorber_range, max_change, g, control_dt):  # fmt: skip
+def _advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
     """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
     :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
-    non-finite action."""
-    scale = _field(buf, fields, _SCALE)
-    if not init and not _set_scale(actions, scale, zones, active, absorber_range, max_change):
+    non-finite action. ``params``, ``consts``: :func:`plain` tuples of
+    :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
+    c = _named_consts(consts)
+    out, ep = _views(buf, fields, flags)
+    if not init and not _set_scale(actions, ep.scale, active, c):
         return False
     k = _STATE
     state = ReferenceState(_field(buf, fields, k), _field(buf, fields, k + 1),
                            _field(buf, fields, k + 2), _field(buf, fields, k + 3),
                            _field(buf, fields, k + 4), _field(buf, fields, k + 5),
                            _field(buf, fields, k + 6), _field(buf, fields, k + 7))  # fmt: skip
-    out = _outputs(buf, fields, 0)
-    reference_batch_step(state, out, params, scale, active, init, dt, n_sub, STATE_LIMIT, div)
-    _finish(buf, fields, out, active, init, div, over, steps, zones, consts, g, control_dt)
+    p = _named_reference(params)
+    dt, n_sub = stepping
+    reference_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
+    _post_step(out, ep, c, active, init)
     return True
 
 
 @njit(cache=True)
-def _advance_surrogate(buf, fields, params, dt, n_sub, actions, active, init, div, over, steps,
-                       zones, consts, absorber_range, max_change, g, control_dt):  # fmt: skip
+def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
     """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    scale = _field(buf, fields, _SCALE)
-    if not init and not _set_scale(actions, scale, zones, active, absorber_range, max_change):
+    c = _named_consts(consts)
+    out, ep = _views(buf, fields, flags)
+    if not init and not _set_scale(actions, ep.scale, active, c):
         return False
     k = _STATE
     state = SurrogateState(_field(buf, fields, k), _field(buf, fields, k + 1),
                            _field(buf, fields, k + 2), _field(buf, fields, k + 3),
                            _field(buf, fields, k + 4), _field(buf, fields, k + 5))  # fmt: skip
-    out = _outputs(buf, fields, 0)
-    surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, STATE_LIMIT, div)
-    _finish(buf, fields, out, active, init, div, over, steps, zones, consts, g, control_dt)
+    p = _named_surrogate(params)
+    dt, n_sub = stepping
+    surrogate_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
+    _post_step(out, ep, c, active, init)
     return True
 
 
@@ -414,11 +479,17 @@ class CrashBatch:
         self.over = np.zeros(n, np.bool_)
         self.steps = np.zeros(n, np.int64)
         # (key, kind, first, stop) per info key: kind 0 float, 1 bool, 2 array
-        self._info_fields = [(key, 2 if not scalar else int(key in BOOL_INFO), sl.start, sl.stop)
-                             for key, (sl, scalar) in self.layout.items()]  # fmt: skip
+        kinds = {"1": 0, "bool": 1, "cars": 2, "zones": 2}
+        self._info_fields = [(key, kinds[size], self.layout[key][0].start,
+                              self.layout[key][0].stop) for key, size in INFO_FIELDS]  # fmt: skip
         self.inv_scale = 1.0 / cfg.obs_scale
-        self.weights = np.array(cfg.weights)
-        self._consts = np.concatenate([cfg.absorber_stroke, self.inv_scale, self.weights])
+        columns = InfoColumns(*(sl.start for sl, _ in self.layout.values()))
+        self.consts = EnvConsts(
+            zones=self.zones, stroke=cfg.absorber_stroke, inv_scale=self.inv_scale,
+            w_decel=cfg.weights[0], w_intrusion=cfg.weights[1], gravity=sc.gravity,
+            control_dt=cfg.control_dt, absorber_range=cfg.absorber_range,
+            max_change=cfg.max_scale_change, info=columns,
+        )  # fmt: skip
         self._bind()
         self._no_action = np.zeros((n, self.n_zones))
         # undeformed front end of each car at first contact (lead car at the wall), m
@@ -463,19 +534,24 @@ class CrashBatch:
         """Named views of the buffer and the kernel arguments (again after a copy: a pickled
         view is a detached array)."""
         views = [self._view(f) for f in range(self._fields.shape[0])]
-        self.out = BatchOutputs(*views[:_SCALE])
-        (self.scale, self.speed, self.energy0, self.peak, self.decel_sum, self.max_crush,
-         self.intrusion, self.obs, self.rew, self.info) = views[_SCALE:_STATE]  # fmt: skip
+        self.out = BatchOutputs(*views[:_ENV])
+        self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
         self.state = self._state_type(*views[_STATE:])
-        model, cfg = self.model, self.cfg
+        model = self.model
         self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
-        self._args = (self._buf, self._fields, model.params, model.dt, model.n_sub)
-        self._env_args = (self.div, self.over, self.steps, self.zones, self._consts,
-                          cfg.absorber_range, cfg.max_scale_change, cfg.scenario.gravity,
-                          cfg.control_dt)  # fmt: skip
+        flags = (self.div, self.over, self.steps)
+        stepping = (model.dt, model.n_sub)
+        self._args = (self._buf, self._fields, flags, plain(model.params), stepping,
+                      plain(self.consts))  # fmt: skip
 
-    _VIEWS = ("out", "state", "scale", "speed", "energy0", "peak", "decel_sum", "max_crush",
-              "intrusion", "obs", "rew", "info", "_kernel", "_args", "_env_args")  # fmt: skip
+    _VIEWS = ("out", "episode", "state", "_kernel", "_args")
+
+    # per-train arrays under their short names (views of the buffer)
+    scale = property(lambda self: self.episode.scale)
+    speed = property(lambda self: self.episode.speed)
+    obs = property(lambda self: self.episode.obs)
+    rew = property(lambda self: self.episode.reward)
+    info = property(lambda self: self.episode.info)
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
@@ -487,10 +563,10 @@ class CrashBatch:
     def advance(self, actions: np.ndarray, active: np.ndarray) -> bool:
         """One control step of the ``active`` trains with ``actions`` (n, zones) float64,
         clipped to [−1, 1]. Returns ``False``, changing nothing, if any action is not finite."""
-        return self._kernel(*self._args, actions, active, False, *self._env_args)
+        return self._kernel(*self._args, actions, active, False)
 
     def _call(self, active: np.ndarray, init: bool) -> None:
-        self._kernel(*self._args, self._no_action, active, init, *self._env_args)
+        self._kernel(*self._args, self._no_action, active, init)
 
     def observe(self) -> np.ndarray:
         """Observations (n, n_obs), float32."""
