@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import copy
 import math
-import time
 from importlib.resources import files
 
 import numpy as np
@@ -308,18 +307,6 @@ def test_surrogate_trainset_and_stop():
     assert abs(pred.t[-1] - truth.t[-1]) < 0.1
     n = min(pred.t.size, truth.t.size)
     assert np.max(np.abs(pred.x[:n] - truth.x[:n])) < 0.05
-
-
-def test_surrogate_episode_is_fast(surrogates):
-    s = surrogates["hysteretic"][0]
-    sc = load_scenario("paper")
-    simulate_surrogate(sc, s)
-    best = math.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        simulate_surrogate(sc, s)
-        best = min(best, time.perf_counter() - t0)
-    assert best < 0.02  # target 5 ms; loose for a shared CI machine
 
 
 def test_hysteretic_surrogate_recovers_coupler_tension():

@@ -161,7 +161,7 @@ def make_config(
 @functools.lru_cache(maxsize=16)
 def default_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> CrashSurrogate:
     """Surrogate elements fitted on a passive reference run of ``scenario`` (cached per
-    scenario, i.e. per name/file, number of cars and speed, and process; about 1 s)."""
+    scenario, i.e. per name/file, number of cars and speed, and process)."""
     return build_crash_surrogate(simulate_reference(scenario), variant=variant, seed=0)
 
 
@@ -574,7 +574,7 @@ class CrashBatch:
 
     def infos(self) -> dict[str, np.ndarray]:
         """``info`` of every train as arrays, first axis the train (``docs/envs/crash.md``);
-        views of one fresh copy (5 × faster than a copy per key at 1024 trains)."""
+        views of one fresh copy."""
         info = self.info.copy()
         return {key: info[:, a] if kind == 0 else info[:, a] != 0.0 if kind == 1 else info[:, a:b]
                 for key, kind, a, b in self._info_fields}  # fmt: skip

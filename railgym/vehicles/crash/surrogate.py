@@ -677,10 +677,8 @@ def simulate_surrogate(
     surrogate : elements from :func:`build_crash_surrogate`.
     n_cars, speed : optional overrides (number of cars; initial speed in m/s).
     duration, sample_dt : longest simulated time and output interval, s.
-    dt : largest integration step, s (rounded down to divide ``sample_dt``). The default
-        5e-4 s is ``ω dt ≈ 0.07`` for the paper scenario's stiffest surrogate mode
-        (``ω² ≈ 2 (k̂_u,wall + k̂_u,interface) / m_1``, ω ≈ 140 rad/s); 2.5e-4 s changes the
-        eq. 9 errors by < 2 %.
+    dt : largest integration step, s (rounded down to divide ``sample_dt``); the stiffest
+        surrogate mode has ``ω² ≈ 2 (k̂_u,wall + k̂_u,interface) / m_1`` (docs/envs/crash.md).
     stop_when_over, v_stop, f_stop : stop as :func:`simulate_reference` does.
 
     Returns
