@@ -122,7 +122,7 @@ def test_bad_names_and_overrides():
     sc = load_scenario("paper")
     with pytest.raises(ValueError, match="n_cars must be an integer"):
         sc.with_overrides(n_cars=0)
-    with pytest.raises(ValueError, match="speed must be a positive"):
+    with pytest.raises(ValueError, match=r"speed \(m/s\) must be in"):
         simulate_reference(sc, speed=-1.0)
     with pytest.raises(ValueError, match="sample_dt"):
         simulate_reference(sc, sample_dt=0.0)

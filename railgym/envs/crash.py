@@ -46,6 +46,7 @@ from railgym.vehicles.crash import (
     SurrogateState,
     ZoneTypes,
     build_crash_surrogate,
+    check_real,
     crash_batch_model,
     load_scenario,
     reference_batch_step,
@@ -62,6 +63,13 @@ TIME_REF = 1e-3
 INTRUSION_REF = 1e-3
 DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0}
 DIVERGENCE_PENALTY = 100.0
+#: largest control step, s: the statistics and the reward sample the state once per step, so
+#: a coarser step misses the deceleration peaks of a crash lasting a few hundred ms
+MAX_CONTROL_DT = 0.01
+#: longest episode, s
+MAX_DURATION = 60.0
+#: largest reward weight and absorber rate (1/s): keeps every reward finite
+MAX_WEIGHT = 1e6
 #: the crash is over when no zone carries more than F_STOP (N) and none closes faster than
 #: V_STOP (m/s): every car at rest or rebounding away (as ``simulate_reference``'s stop)
 F_STOP = 1e3
@@ -96,14 +104,6 @@ def nominal_force(zone: CrushZone) -> float:
     return max(inside, default=zone.force[0])
 
 
-def _positive(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
-
-
 def make_config(
     scenario: str | Path | CrashScenario,
     backend: str,
@@ -121,23 +121,22 @@ def make_config(
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     sc = scenario if isinstance(scenario, CrashScenario) else load_scenario(scenario)
     sc = sc.with_overrides(n_cars=n_cars, speed=speed)
-    control_dt = _positive("control_dt", control_dt)
-    max_duration = _positive("max_duration", max_duration)
+    control_dt = check_real("control_dt", control_dt, 0.0, MAX_CONTROL_DT, low_open=True)
+    max_duration = check_real("max_duration", max_duration, 0.0, MAX_DURATION, low_open=True)
     n_steps = round(max_duration / control_dt)
     if n_steps < 1:
         raise ValueError(f"max_duration ({max_duration} s) must be at least control_dt")
-    if not (isinstance(absorber_range, int | float) and 0 < absorber_range < 1):
-        raise ValueError(f"absorber_range must be in (0, 1), got {absorber_range!r}")
-    absorber_rate = _positive("absorber_rate", absorber_rate)
-    if not (isinstance(speed_jitter, int | float) and 0 <= speed_jitter < 1):
-        raise ValueError(f"speed_jitter must be in [0, 1), got {speed_jitter!r}")
+    absorber_range = check_real("absorber_range", absorber_range, 0.0, 1.0, low_open=True,
+                                high_open=True)  # fmt: skip
+    absorber_rate = check_real("absorber_rate", absorber_rate, 0.0, MAX_WEIGHT, low_open=True)
+    speed_jitter = check_real("speed_jitter", speed_jitter, 0.0, 1.0, high_open=True)
     weights = dict(DEFAULT_WEIGHTS)
+    if reward_weights is not None and not isinstance(reward_weights, dict):
+        raise ValueError(f"reward_weights must be a dict, got {type(reward_weights).__name__}")
     for key, value in (reward_weights or {}).items():
         if key not in DEFAULT_WEIGHTS:
             raise ValueError(f"reward_weights has unknown key {key!r}; keys: {list(weights)}")
-        if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-            raise ValueError(f"reward_weights[{key!r}] must be a non-negative number")
-        weights[key] = float(value)
+        weights[key] = check_real(f"reward_weights[{key!r}]", value, 0.0, MAX_WEIGHT)
     zones = [sc.wall] + [sc.interface] * (sc.n_cars - 1)
     stroke = np.array([z.absorber_stroke for z in zones])
     force = np.array([nominal_force(z) for z in zones])
@@ -168,6 +167,8 @@ def default_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> C
 def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchModel:
     """Batch model of the configured backend; ``surrogate`` = elements or ``None`` (fitted)."""
     if cfg.backend == "reference":
+        if surrogate is not None:
+            raise ValueError("surrogate is only used by backend='surrogate', not 'reference'")
         return crash_batch_model(cfg.scenario, "reference", cfg.control_dt)
     if surrogate is None:
         if variant not in VARIANTS:
@@ -178,7 +179,14 @@ def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchMode
             f"surrogate must be a CrashSurrogate (build_crash_surrogate), got "
             f"{type(surrogate).__name__}"
         )
-    return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
+    if surrogate.source != cfg.scenario.name:
+        raise ValueError(
+            f"surrogate was built for scenario {surrogate.source!r}, not {cfg.scenario.name!r}"
+        )
+    try:
+        return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
+    except (ValueError, AttributeError, TypeError, IndexError) as err:
+        raise ValueError(f"surrogate does not fit this env: {err}") from err
 
 
 #: the ``info`` row, in column order: key and size (``"1"``, ``"bool"``, ``"cars"``, ``"zones"``)
@@ -332,6 +340,8 @@ def _post_step(out, ep, c, active, init):
                 new = max(ep.max_crush[i, z] - stroke[z], 0.0)
                 r -= c.w_intrusion * (new - ep.intrusion[i, z]) / INTRUSION_REF
                 ep.intrusion[i, z] = new
+            if not math.isfinite(r):  # a state too violent to score counts as diverged
+                ep.div[i] = True
             ep.reward[i] = -DIVERGENCE_PENALTY if ep.div[i] else r
             done = True
             for k in range(out.force.shape[1]):
@@ -598,6 +608,15 @@ class CrashBatch:
         }  # fmt: skip
 
 
+def _real_actions(name: str, value: Any) -> np.ndarray:
+    """``value`` as a float64 array if it holds real numbers (not bools, strings, complex);
+    else ``ValueError`` naming ``name``."""
+    a = np.asarray(value)
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must hold real numbers, got dtype {a.dtype} ({value!r})")
+    return a.astype(np.float64)
+
+
 class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
     """Adaptive crash energy management: a train runs into a wall, the agent sets the force
     level of a controllable absorber in every crush zone.
@@ -675,7 +694,7 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
         """Advance ``control_dt``; the action is clipped to [−1, 1], non-finite raises."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(action, dtype=np.float64)
+        a = _real_actions("action", action)
         sim = self.sim
         if a.shape != self._action_shape:
             raise ValueError(f"action must have shape ({sim.n_zones},), got {a.shape}")
@@ -753,7 +772,7 @@ class TrainCrashVectorEnv(VectorEnv):
         if not self._rngs:
             raise RuntimeError("call reset() before step()")
         sim = self.sim
-        a = np.asarray(actions, dtype=np.float64)
+        a = _real_actions("actions", actions)
         shape = (self.num_envs, sim.n_zones)
         if a.shape != shape:
             raise ValueError(f"actions must have shape {shape}, got {a.shape}")

@@ -13,6 +13,7 @@ Every public name is re-exported here.
 
 from railgym.vehicles.crash.batch import BATCH_BACKENDS, CrashBatchModel, crash_batch_model
 from railgym.vehicles.crash.reference import (
+    MIN_REFERENCE_DT,
     V_EPS,
     BatchOutputs,
     CrashResult,
@@ -24,11 +25,15 @@ from railgym.vehicles.crash.reference import (
     simulate_reference,
 )
 from railgym.vehicles.crash.scenario import (
+    LIMITS,
+    MAX_SPEED,
     CarSpec,
     Coupler,
     CrashScenario,
     CrushZone,
     Obstacle,
+    check_int,
+    check_real,
     load_scenario,
     parse_scenario,
     scenario_names,
@@ -53,6 +58,9 @@ from railgym.vehicles.crash.zone import absorber_zone_force, zone_force
 
 __all__ = [
     "BATCH_BACKENDS",
+    "LIMITS",
+    "MAX_SPEED",
+    "MIN_REFERENCE_DT",
     "VARIANTS",
     "V_EPS",
     "BatchOutputs",
@@ -75,6 +83,8 @@ __all__ = [
     "ZoneTypes",
     "absorber_zone_force",
     "build_crash_surrogate",
+    "check_int",
+    "check_real",
     "crash_batch_model",
     "crash_errors",
     "crash_training_data",

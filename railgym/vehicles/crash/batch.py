@@ -22,6 +22,7 @@ from railgym.vehicles.crash.reference import (
     _build_chain,
     _check_run,
     _new_reference_state,
+    _reference_steps,
     _steps,
     new_outputs,
     reference_batch_step,
@@ -136,10 +137,8 @@ def crash_batch_model(
             raise ValueError(
                 "surrogate is only used by backend='surrogate', got one for 'reference'"
             )
-        if not 0 < safety <= 1:
-            raise ValueError(f"safety must be in (0, 1], got {safety!r}")
         ch = _build_chain(sc)
-        step, n_sub = _steps(sample_dt, safety * 2.0 / ch.omega_max)
+        step, n_sub = _reference_steps(ch, sample_dt, safety)
         return CrashBatchModel(
             backend=backend,
             scenario=sc,

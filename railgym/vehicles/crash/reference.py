@@ -40,6 +40,7 @@ from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.zone import absorber_zone_force
 
 __all__ = [
+    "MIN_REFERENCE_DT",
     "V_EPS",
     "BatchOutputs",
     "CrashResult",
@@ -53,6 +54,9 @@ __all__ = [
 
 #: friction regularisation velocity of tanh(v / v_ε), m/s
 V_EPS = 0.01
+#: smallest stable integration step of the reference model, s (lighter or stiffer chains are
+#: rejected: their runs would take minutes)
+MIN_REFERENCE_DT = 1e-6
 
 
 class ZoneTypes(NamedTuple):
@@ -597,8 +601,22 @@ def reference_time_step(
 
     ``dt = safety · 2 / ω_max`` rounded down to ``sample_dt / n_sub``.
     """
-    chain = _build_chain(scenario)
-    return _steps(sample_dt, safety * 2.0 / chain.omega_max)
+    return _reference_steps(_build_chain(scenario), sample_dt, safety)
+
+
+def _reference_steps(chain: _Chain, sample_dt: float, safety: float) -> tuple[float, int]:
+    """:func:`_steps` of the chain's stable step ``safety · 2 / ω_max``, rejecting one below
+    :data:`MIN_REFERENCE_DT`."""
+    if not 0 < safety <= 1:
+        raise ValueError(f"safety must be in (0, 1], got {safety!r}")
+    dt_max = safety * 2.0 / chain.omega_max
+    if dt_max < MIN_REFERENCE_DT:
+        raise ValueError(
+            f"scenario: the reference model's stable time step {dt_max:.3g} s is below "
+            f"{MIN_REFERENCE_DT:g} s; its cars are too light or too stiff (crash.cars.*.mass_t, "
+            "EA_MN, n_nodes, crash.zones.*.unloading_stiffness_kN_per_mm)"
+        )
+    return _steps(sample_dt, dt_max)
 
 
 def _steps(sample_dt: float, dt_max: float) -> tuple[float, int]:
@@ -641,10 +659,8 @@ def simulate_reference(
     sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
     sc = sc.with_overrides(n_cars=n_cars, speed=speed)
     _check_run(duration, sample_dt)
-    if not 0 < safety <= 1:
-        raise ValueError(f"safety must be in (0, 1], got {safety!r}")
     ch = _build_chain(sc)
-    dt, n_sub = _steps(sample_dt, safety * 2.0 / ch.omega_max)
+    dt, n_sub = _reference_steps(ch, sample_dt, safety)
     n_samples = int(round(duration / sample_dt)) + 1
     nb, nz = len(ch.body_names), len(ch.zone_names)
     state = _new_reference_state(1, ch.v0.size, nz)

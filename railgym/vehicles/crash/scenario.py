@@ -28,11 +28,15 @@ import yaml
 from railgym.vehicles.crash.zone import _envelope
 
 __all__ = [
+    "LIMITS",
+    "MAX_SPEED",
     "CarSpec",
     "Coupler",
     "CrashScenario",
     "CrushZone",
     "Obstacle",
+    "check_int",
+    "check_real",
     "load_scenario",
     "parse_scenario",
     "scenario_names",
@@ -41,6 +45,63 @@ __all__ = [
 #: scenario names packaged in railgym/configs/crash
 _CONFIG_DIR = ("configs", "crash")
 _MAX_BASE_DEPTH = 8
+#: documented physical limits of the scenario fields, inclusive, in the file's units (a field
+#: outside them is an error naming it: it would overflow in the conversion to SI, or shrink the
+#: reference model's stable time step until an episode takes minutes)
+LIMITS: dict[str, tuple[float, float]] = {
+    "speed_kmh": (1.0, 500.0),
+    "friction": (0.0, 1.0),
+    "gravity": (1.0, 100.0),
+    "n_cars": (1, 50),
+    "mass_t": (1.0, 1000.0),
+    "face_mass_t": (0.1, 1000.0),
+    "length_m": (1.0, 100.0),
+    "cab_length_m": (0.0, 100.0),
+    "n_nodes": (2, 100),
+    "EA_MN": (1.0, 1e6),
+    "stroke_mm": (0.01, 1e5),
+    "force_kN": (0.01, 1e5),
+    "absorber_stroke_mm": (0.01, 1e5),
+    "unloading_stiffness_kN_per_mm": (1e-3, 1e5),
+    "fold_wavelength_mm": (1.0, 1e4),
+    "slack_mm": (0.0, 1e3),
+    "stiffness_kN_per_mm": (1e-3, 1e5),
+}
+#: largest initial speed override, m/s (``speed_kmh``'s limit)
+MAX_SPEED = LIMITS["speed_kmh"][1] / 3.6
+
+
+def check_real(
+    name: str, value: Any, low: float | None = None, high: float | None = None, *,
+    low_open: bool = False, high_open: bool = False,
+) -> float:  # fmt: skip
+    """``value`` as a float if it is a real number (Python or numpy, not a bool) within
+    ``[low, high]`` (bounds ``None`` = unbounded; ``*_open`` excludes the bound); else
+    ``ValueError`` naming ``name``."""
+    if isinstance(value, bool | np.bool_) or not isinstance(
+        value, int | float | np.integer | np.floating
+    ):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    out = float(value)
+    if not math.isfinite(out):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    below = low is not None and (out <= low if low_open else out < low)
+    above = high is not None and (out >= high if high_open else out > high)
+    if below or above:
+        lo = "unbounded" if low is None else ("(" if low_open else "[") + f"{low:g}"
+        hi = "unbounded" if high is None else f"{high:g}" + (")" if high_open else "]")
+        raise ValueError(f"{name} must be in {lo}, {hi}, got {value!r}")
+    return out
+
+
+def check_int(name: str, value: Any, low: int, high: int) -> int:
+    """``value`` as an int if it is an integer (Python or numpy, not a bool) in [low, high];
+    else ``ValueError`` naming ``name``."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    if not low <= value <= high:
+        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
+    return int(value)
 
 
 @dataclass(frozen=True)
@@ -196,13 +257,10 @@ class CrashScenario:
         """Copy with another number of cars and/or initial speed (m/s)."""
         out = self
         if n_cars is not None:
-            if isinstance(n_cars, bool) or not isinstance(n_cars, int | np.integer) or n_cars < 1:
-                raise ValueError(f"n_cars must be an integer ≥ 1, got {n_cars!r}")
-            out = replace(out, n_cars=int(n_cars))
+            out = replace(out, n_cars=check_int("n_cars", n_cars, *LIMITS["n_cars"]))
         if speed is not None:
-            if not (isinstance(speed, int | float) and math.isfinite(speed) and speed > 0):
-                raise ValueError(f"speed must be a positive finite number (m/s), got {speed!r}")
-            out = replace(out, speed=float(speed))
+            speed = check_real("speed (m/s)", speed, 0.0, MAX_SPEED, low_open=True)
+            out = replace(out, speed=speed)
         return out
 
 
@@ -233,7 +291,7 @@ class _Fields:
         value = self.data.get(key, default)
         if value is None:
             raise ValueError(f"{self.name(key)} is missing")
-        if isinstance(value, bool) or not isinstance(value, int | float):
+        if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.number):
             raise ValueError(f"{self.name(key)} must be a number, got {value!r}")
         value = float(value)
         if not math.isfinite(value):
@@ -244,13 +302,26 @@ class _Fields:
             raise ValueError(f"{self.name(key)} must be non-negative, got {value!r}")
         if upper is not None and value >= upper:
             raise ValueError(f"{self.name(key)} must be below {upper}, got {value!r}")
+        return self._within(key, value)
+
+    def _within(self, key: str, value: float, label: str | None = None) -> float:
+        """``value`` if within the documented :data:`LIMITS` of ``key`` (before any unit
+        conversion)."""
+        if key in LIMITS:
+            lo, hi = LIMITS[key]
+            if not lo <= value <= hi:
+                raise ValueError(
+                    f"{label or self.name(key)} must be in [{lo:g}, {hi:g}] (documented "
+                    f"limits), got {value!r}"
+                )
         return value
 
     def integer(self, key: str, default: int | None = None, lower: int = 1) -> int:
         value = self.data.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int) or value < lower:
+        ok = isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+        if not ok or value < lower:
             raise ValueError(f"{self.name(key)} must be an integer ≥ {lower}, got {value!r}")
-        return value
+        return int(self._within(key, value))
 
     def text(self, key: str, default: str | None = None) -> str:
         value = self.data.get(key, default)
@@ -264,13 +335,13 @@ class _Fields:
             raise ValueError(f"{self.name(key)} must be a non-empty list of numbers")
         out = np.empty(len(value))
         for i, item in enumerate(value):
-            if isinstance(item, bool) or not isinstance(item, int | float):
+            if isinstance(item, bool | np.bool_) or not isinstance(item, int | float | np.number):
                 raise ValueError(f"{self.name(key)}[{i}] must be a number, got {item!r}")
             if not math.isfinite(item):
                 raise ValueError(f"{self.name(key)}[{i}] must be finite, got {item!r}")
             if item <= 0:
                 raise ValueError(f"{self.name(key)}[{i}] must be positive, got {item!r}")
-            out[i] = item
+            out[i] = self._within(key, float(item), f"{self.name(key)}[{i}]")
         return out
 
     def sub(self, key: str, known: tuple[str, ...]) -> _Fields:
