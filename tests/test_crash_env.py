@@ -8,7 +8,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import railgym  # noqa: F401  (registers the environments)
-from railgym.envs.crash import STATE_LIMIT, TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
+from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
+from railgym.envs.crash_step import STATE_LIMIT
 from railgym.vehicles.crash import (
     absorber_zone_force,
     load_scenario,

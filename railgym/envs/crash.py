@@ -17,10 +17,9 @@ native vector env are thin shells around it. See ``docs/envs/crash.md`` for the 
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -28,8 +27,19 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
-from numba import njit
 
+from railgym.envs.crash_step import (
+    _ENV,
+    _STATE,
+    INFO_FIELDS,
+    EnvConsts,
+    Episode,
+    InfoColumns,
+    _advance_reference,
+    _advance_surrogate,
+    info_layout,
+    plain,
+)
 from railgym.envs.vector import reset_plan
 from railgym.vehicles.crash import (
     VARIANTS,
@@ -38,31 +48,15 @@ from railgym.vehicles.crash import (
     CrashScenario,
     CrashSurrogate,
     CrushZone,
-    ElementTypes,
-    LprModels,
-    ReferenceParams,
-    ReferenceState,
-    SurrogateParams,
-    SurrogateState,
-    ZoneTypes,
     build_crash_surrogate,
     check_real,
     crash_batch_model,
     load_scenario,
-    reference_batch_step,
     simulate_reference,
-    surrogate_batch_step,
 )
 
 BACKENDS = ("surrogate", "reference")
-#: deceleration of the reward's reference, in g: one control step of 1 ms at 5 g costs 1
-DECEL_REF_G = 5.0
-#: time of the reward's reference, s (the deceleration term is time-integrated)
-TIME_REF = 1e-3
-#: crush beyond the absorber stroke that costs 1 (reward term ``intrusion``), m
-INTRUSION_REF = 1e-3
 DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0}
-DIVERGENCE_PENALTY = 100.0
 #: largest control step, s: the statistics and the reward sample the state once per step, so
 #: a coarser step misses the deceleration peaks of a crash lasting a few hundred ms
 MAX_CONTROL_DT = 0.01
@@ -70,12 +64,6 @@ MAX_CONTROL_DT = 0.01
 MAX_DURATION = 60.0
 #: largest reward weight and absorber rate (1/s): keeps every reward finite
 MAX_WEIGHT = 1e6
-#: the crash is over when no zone carries more than F_STOP (N) and none closes faster than
-#: V_STOP (m/s): every car at rest or rebounding away (as ``simulate_reference``'s stop)
-F_STOP = 1e3
-V_STOP = 0.01
-#: a train whose |x| (m) or |v| (m/s) exceeds this, or turns non-finite, has diverged
-STATE_LIMIT = 1e3
 #: observation scales: displacement (m) and acceleration (in g)
 X_SCALE = 1.0
 A_SCALE_G = 10.0
@@ -126,8 +114,9 @@ def make_config(
     n_steps = round(max_duration / control_dt)
     if n_steps < 1:
         raise ValueError(f"max_duration ({max_duration} s) must be at least control_dt")
-    absorber_range = check_real("absorber_range", absorber_range, 0.0, 1.0, low_open=True,
-                                high_open=True)  # fmt: skip
+    absorber_range = check_real(
+        "absorber_range", absorber_range, 0.0, 1.0, low_open=True, high_open=True
+    )
     absorber_rate = check_real("absorber_rate", absorber_rate, 0.0, MAX_WEIGHT, low_open=True)
     speed_jitter = check_real("speed_jitter", speed_jitter, 0.0, 1.0, high_open=True)
     weights = dict(DEFAULT_WEIGHTS)
@@ -142,19 +131,38 @@ def make_config(
     force = np.array([nominal_force(z) for z in zones])
     cars = ["lead"] + [f"car{k + 1}" for k in range(1, sc.n_cars)]
     zn = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
-    names = ([f"x_{c}" for c in cars] + [f"v_{c}" for c in cars] + [f"a_{c}" for c in cars]
-             + [f"crush_{z}" for z in zn] + [f"force_{z}" for z in zn]
-             + [f"scale_{z}" for z in zn])  # fmt: skip
+    names = (
+        [f"x_{c}" for c in cars]
+        + [f"v_{c}" for c in cars]
+        + [f"a_{c}" for c in cars]
+        + [f"crush_{z}" for z in zn]
+        + [f"force_{z}" for z in zn]
+        + [f"scale_{z}" for z in zn]
+    )
     n = sc.n_cars
-    scale = np.concatenate([np.full(n, X_SCALE), np.full(n, sc.speed),
-                            np.full(n, A_SCALE_G * sc.gravity), stroke, force,
-                            np.full(n, absorber_range)])  # fmt: skip
+    scale = np.concatenate(
+        [
+            np.full(n, X_SCALE),
+            np.full(n, sc.speed),
+            np.full(n, A_SCALE_G * sc.gravity),
+            stroke,
+            force,
+            np.full(n, absorber_range),
+        ]
+    )
     return CrashConfig(
-        scenario=sc, backend=backend, control_dt=control_dt, n_steps=n_steps,
-        absorber_range=float(absorber_range), max_scale_change=absorber_rate * control_dt,
-        speed_jitter=float(speed_jitter), weights=(weights["decel"], weights["intrusion"]),
-        absorber_stroke=stroke, obs_names=tuple(names), obs_scale=scale,
-    )  # fmt: skip
+        scenario=sc,
+        backend=backend,
+        control_dt=control_dt,
+        n_steps=n_steps,
+        absorber_range=float(absorber_range),
+        max_scale_change=absorber_rate * control_dt,
+        speed_jitter=float(speed_jitter),
+        weights=(weights["decel"], weights["intrusion"]),
+        absorber_stroke=stroke,
+        obs_names=tuple(names),
+        obs_scale=scale,
+    )
 
 
 @functools.lru_cache(maxsize=16)
@@ -189,277 +197,6 @@ def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchMode
         raise ValueError(f"surrogate does not fit this env: {err}") from err
 
 
-#: the ``info`` row, in column order: key and size (``"1"``, ``"bool"``, ``"cars"``, ``"zones"``)
-INFO_FIELDS = (("time", "1"), ("initial_speed", "1"), ("decel_g", "cars"), ("crush_m", "zones"),
-               ("force_N", "zones"), ("absorber_scale", "zones"), ("peak_decel_g", "cars"),
-               ("mean_decel_g", "cars"), ("absorbed_energy_J", "zones"), ("max_crush_m", "zones"),
-               ("stroke_used", "zones"), ("stroke_exceeded", "bool"), ("friction_work_J", "1"),
-               ("energy_error", "1"), ("diverged", "bool"))  # fmt: skip
-#: first column of each ``info`` key in the flat info row (:func:`info_layout`)
-InfoColumns = NamedTuple("InfoColumns", [(key, int) for key, _ in INFO_FIELDS])
-
-
-class EnvConsts(NamedTuple):
-    """Constants of the env's compiled bookkeeping.
-
-    Attributes
-    ----------
-    zones : (zones,) model zone of each controlled zone, front to back.
-    stroke : (zones,) absorber stroke, m. inv_scale : (obs,) 1 / observation scale.
-    w_decel, w_intrusion : reward weights. gravity : m/s². control_dt : s.
-    absorber_range : action ±1 sets the scale 1 ± range. max_change : largest scale change
-        per step. info : :class:`InfoColumns`.
-    """
-
-    zones: np.ndarray
-    stroke: np.ndarray
-    inv_scale: np.ndarray
-    w_decel: float
-    w_intrusion: float
-    gravity: float
-    control_dt: float
-    absorber_range: float
-    max_change: float
-    info: InfoColumns
-
-
-class Episode(NamedTuple):
-    """Per-train arrays of :class:`CrashBatch`: absorber scales and episode statistics (the
-    float ones in this order in the buffer, :data:`ENV_FIELDS`), then the flags."""
-
-    scale: np.ndarray  # (n, model zones) absorber force scale
-    speed: np.ndarray  # (n,) initial speed, m/s
-    energy0: np.ndarray  # (n,) stored energy at first contact, J
-    peak: np.ndarray  # (n, cars) peak deceleration, g
-    decel_sum: np.ndarray  # (n, cars) sum of the step decelerations, g
-    max_crush: np.ndarray  # (n, zones) largest crush, m
-    intrusion: np.ndarray  # (n, zones) crush beyond the absorber stroke, m
-    obs: np.ndarray  # (n, obs) observation
-    reward: np.ndarray  # (n,) last reward
-    info: np.ndarray  # (n, info columns) flat info row
-    div: np.ndarray  # (n,) bool: diverged
-    over: np.ndarray  # (n,) bool: crash over
-    steps: np.ndarray  # (n,) int64: control steps since the reset
-
-
-#: the float arrays of :class:`Episode` kept in the :class:`CrashBatch` buffer
-ENV_FIELDS = Episode._fields[:10]
-#: buffer layout: the 9 :class:`BatchOutputs` arrays, :data:`ENV_FIELDS`, the model state
-_ENV = len(BatchOutputs._fields)
-_STATE = _ENV + len(ENV_FIELDS)
-
-
-def info_layout(n_cars: int, n_zones: int) -> dict[str, tuple[slice, bool]]:
-    """Columns of each ``info`` key in the flat info row (key → (columns, is_scalar)), from
-    :data:`INFO_FIELDS`."""
-    sizes = {"1": 1, "bool": 1, "cars": n_cars, "zones": n_zones}
-    out, j = {}, 0
-    for key, size in INFO_FIELDS:
-        out[key] = (slice(j, j + sizes[size]), size in ("1", "bool"))
-        j += sizes[size]
-    return out
-
-
-def plain(value: Any) -> Any:
-    """``value`` with every NamedTuple turned into a plain tuple, recursively: compiled code
-    types a plain tuple argument much faster than a NamedTuple (rebuilt inside, e.g.
-    :func:`_named_consts`)."""
-    if isinstance(value, tuple):
-        return tuple(plain(v) for v in value)
-    return value
-
-
-@njit(cache=True, inline="always")
-def _named_consts(c):
-    return EnvConsts(*c[:-1], InfoColumns(*c[-1]))
-
-
-@njit(cache=True, inline="always")
-def _named_reference(p):
-    return ReferenceParams(*p[:-1], ZoneTypes(*p[-1]))
-
-
-@njit(cache=True, inline="always")
-def _named_surrogate(p):
-    return SurrogateParams(*p[:-2], ElementTypes(*p[-2]), LprModels(*p[-1]))
-
-
-@njit(cache=True)
-def _set_scale(actions, scale, active, c):
-    """Move each active absorber's force scale towards ``1 + range · action`` by at most
-    ``c.max_change``, the action clipped to [−1, 1]. Returns ``False``, changing nothing, if
-    any action (of any train) is not finite."""
-    for i in range(actions.shape[0]):
-        for z in range(actions.shape[1]):
-            if not math.isfinite(actions[i, z]):
-                return False
-    for i in range(actions.shape[0]):
-        if not active[i]:
-            continue
-        for z in range(c.zones.shape[0]):
-            k = c.zones[z]
-            a = min(max(actions[i, z], -1.0), 1.0)
-            step = 1.0 + c.absorber_range * a - scale[i, k]
-            scale[i, k] += min(max(step, -c.max_change), c.max_change)
-    return True
-
-
-@njit(cache=True)
-def _post_step(out, ep, c, active, init):
-    """Bookkeeping after a kernel call: episode statistics, observation, reward and the flat
-    ``info`` row (:data:`INFO_FIELDS`) of every active train.
-
-    ``out`` :class:`BatchOutputs`, ``ep`` :class:`Episode`, ``c`` :class:`EnvConsts`. With
-    ``init`` the statistics of the active rows are cleared (train at first contact).
-    """
-    n_cars, nz = ep.peak.shape[1], c.zones.shape[0]
-    g, ic, zones, stroke, inv = c.gravity, c.info, c.zones, c.stroke, c.inv_scale
-    for i in range(out.x.shape[0]):
-        if not active[i]:
-            continue
-        if init:
-            ep.steps[i] = 0
-            ep.peak[i] = 0.0
-            ep.decel_sum[i] = 0.0
-            ep.max_crush[i] = 0.0
-            ep.intrusion[i] = 0.0
-            ep.reward[i] = 0.0
-            ep.over[i] = False
-            ep.energy0[i] = out.stored[i]
-        else:
-            ep.steps[i] += 1
-            cost = 0.0
-            for k in range(n_cars):
-                d = -out.a[i, k] / g
-                ep.peak[i, k] = max(ep.peak[i, k], d)
-                ep.decel_sum[i, k] += d
-                cost += (d / DECEL_REF_G) ** 2
-            r = -c.w_decel * (c.control_dt / TIME_REF) * cost / n_cars
-            for z in range(nz):
-                ep.max_crush[i, z] = max(ep.max_crush[i, z], out.crush[i, zones[z]])
-                new = max(ep.max_crush[i, z] - stroke[z], 0.0)
-                r -= c.w_intrusion * (new - ep.intrusion[i, z]) / INTRUSION_REF
-                ep.intrusion[i, z] = new
-            if not math.isfinite(r):  # a state too violent to score counts as diverged
-                ep.div[i] = True
-            ep.reward[i] = -DIVERGENCE_PENALTY if ep.div[i] else r
-            done = True
-            for k in range(out.force.shape[1]):
-                if out.force[i, k] > F_STOP or out.rate[i, k] > V_STOP:
-                    done = False
-            ep.over[i] = done
-        obs = ep.obs[i]
-        for k in range(n_cars):
-            obs[k] = out.x[i, k] * inv[k]
-            obs[n_cars + k] = out.v[i, k] * inv[n_cars + k]
-            obs[2 * n_cars + k] = out.a[i, k] * inv[2 * n_cars + k]
-        j = 3 * n_cars
-        for z in range(nz):
-            k = zones[z]
-            obs[j + z] = out.crush[i, k] * inv[j + z]
-            obs[j + nz + z] = out.force[i, k] * inv[j + nz + z]
-            obs[j + 2 * nz + z] = (ep.scale[i, k] - 1.0) * inv[j + 2 * nz + z]
-        row = ep.info[i]
-        steps = ep.steps[i]
-        row[ic.time] = steps * c.control_dt
-        row[ic.initial_speed] = ep.speed[i]
-        for k in range(n_cars):
-            row[ic.decel_g + k] = -out.a[i, k] / g
-            row[ic.peak_decel_g + k] = ep.peak[i, k]
-            row[ic.mean_decel_g + k] = ep.decel_sum[i, k] / max(steps, 1)
-        exceeded = False
-        for z in range(nz):
-            k = zones[z]
-            row[ic.crush_m + z] = out.crush[i, k]
-            row[ic.force_N + z] = out.force[i, k]
-            row[ic.absorber_scale + z] = ep.scale[i, k]
-            row[ic.absorbed_energy_J + z] = out.work[i, k]
-            row[ic.max_crush_m + z] = ep.max_crush[i, z]
-            row[ic.stroke_used + z] = ep.max_crush[i, z] / stroke[z]
-            exceeded = exceeded or ep.max_crush[i, z] > stroke[z]
-        balance = ep.energy0[i] - out.stored[i] - out.dissipated[i, 0] - out.dissipated[i, 1]
-        for k in range(out.work.shape[1]):
-            balance -= out.work[i, k]
-        row[ic.stroke_exceeded] = 1.0 if exceeded else 0.0
-        row[ic.friction_work_J] = out.dissipated[i, 0]
-        row[ic.energy_error] = balance / ep.energy0[i] if ep.energy0[i] > 0.0 else 0.0
-        row[ic.diverged] = 1.0 if ep.div[i] else 0.0
-
-
-@njit(cache=True, inline="always")
-def _field(buf, fields, f):
-    """2-D array ``f`` (rows, columns) of a :class:`CrashBatch` buffer, as a view."""
-    o, r, c = fields[f, 0], fields[f, 1], fields[f, 2]
-    return buf[o : o + r * c].reshape((r, c))
-
-
-@njit(cache=True, inline="always")
-def _column(buf, fields, f):
-    """1-D array ``f`` (rows,) of a :class:`CrashBatch` buffer, as a view."""
-    return buf[fields[f, 0] : fields[f, 0] + fields[f, 1]]
-
-
-@njit(cache=True, inline="always")
-def _views(buf, fields, flags):
-    """The :class:`BatchOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
-    :class:`CrashBatch` buffer, as views; 1-D fields are ``speed``, ``energy0``, ``reward``
-    and ``stored``."""
-    out = BatchOutputs(_field(buf, fields, 0), _field(buf, fields, 1), _field(buf, fields, 2),
-                       _field(buf, fields, 3), _field(buf, fields, 4), _field(buf, fields, 5),
-                       _field(buf, fields, 6), _field(buf, fields, 7),
-                       _column(buf, fields, 8))  # fmt: skip
-    k = _ENV
-    ep = Episode(_field(buf, fields, k), _column(buf, fields, k + 1),
-                 _column(buf, fields, k + 2), _field(buf, fields, k + 3),
-                 _field(buf, fields, k + 4), _field(buf, fields, k + 5),
-                 _field(buf, fields, k + 6), _field(buf, fields, k + 7),
-                 _column(buf, fields, k + 8), _field(buf, fields, k + 9), *flags)  # fmt: skip
-    return out, ep
-
-
-# One compiled call per control step (absorber scales, physics, bookkeeping) per backend, and
-# every per-train float array in one buffer (:meth:`CrashBatch._pack`): each array passed from
-# Python into a compiled function has a fixed cost, a sizeable part of a single-env step.
-@njit(cache=True)
-def _advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
-    """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
-    :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
-    non-finite action. ``params``, ``consts``: :func:`plain` tuples of
-    :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
-    c = _named_consts(consts)
-    out, ep = _views(buf, fields, flags)
-    if not init and not _set_scale(actions, ep.scale, active, c):
-        return False
-    k = _STATE
-    state = ReferenceState(_field(buf, fields, k), _field(buf, fields, k + 1),
-                           _field(buf, fields, k + 2), _field(buf, fields, k + 3),
-                           _field(buf, fields, k + 4), _field(buf, fields, k + 5),
-                           _field(buf, fields, k + 6), _field(buf, fields, k + 7))  # fmt: skip
-    p = _named_reference(params)
-    dt, n_sub = stepping
-    reference_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
-    _post_step(out, ep, c, active, init)
-    return True
-
-
-@njit(cache=True)
-def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
-    """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    c = _named_consts(consts)
-    out, ep = _views(buf, fields, flags)
-    if not init and not _set_scale(actions, ep.scale, active, c):
-        return False
-    k = _STATE
-    state = SurrogateState(_field(buf, fields, k), _field(buf, fields, k + 1),
-                           _field(buf, fields, k + 2), _field(buf, fields, k + 3),
-                           _field(buf, fields, k + 4), _field(buf, fields, k + 5))  # fmt: skip
-    p = _named_surrogate(params)
-    dt, n_sub = stepping
-    surrogate_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
-    _post_step(out, ep, c, active, init)
-    return True
-
-
 class CrashBatch:
     """``n`` trains, stepped by one compiled kernel call of a :class:`CrashBatchModel`.
 
@@ -472,16 +209,28 @@ class CrashBatch:
         sc = cfg.scenario
         self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
         self.zones = np.array(
-            [model.zone_names.index(z) for z in ["wall"]
-             + [f"interface_{k}" for k in range(1, sc.n_cars)]], dtype=np.int64,
-        )  # fmt: skip
+            [
+                model.zone_names.index(z)
+                for z in ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
+            ],
+            dtype=np.int64,
+        )
         self.layout = info_layout(self.n_cars, self.n_zones)
         n_info = max(sl.stop for sl, _ in self.layout.values())
         state, out = model.new_state(n), model.new_outputs(n)
         nc, nz = self.n_cars, self.n_zones
-        env = [np.ones((n, len(model.zone_names))), np.zeros(n), np.zeros(n),
-               np.zeros((n, nc)), np.zeros((n, nc)), np.zeros((n, nz)), np.zeros((n, nz)),
-               np.zeros((n, len(cfg.obs_names))), np.zeros(n), np.zeros((n, n_info))]  # fmt: skip
+        env = [
+            np.ones((n, len(model.zone_names))),
+            np.zeros(n),
+            np.zeros(n),
+            np.zeros((n, nc)),
+            np.zeros((n, nc)),
+            np.zeros((n, nz)),
+            np.zeros((n, nz)),
+            np.zeros((n, len(cfg.obs_names))),
+            np.zeros(n),
+            np.zeros((n, n_info)),
+        ]
         # every per-train float array in one buffer, in the field order of _advance_*
         self._state_type = type(state)
         self._buf, self._fields = self._pack([*out, *env, *state])
@@ -490,16 +239,24 @@ class CrashBatch:
         self.steps = np.zeros(n, np.int64)
         # (key, kind, first, stop) per info key: kind 0 float, 1 bool, 2 array
         kinds = {"1": 0, "bool": 1, "cars": 2, "zones": 2}
-        self._info_fields = [(key, kinds[size], self.layout[key][0].start,
-                              self.layout[key][0].stop) for key, size in INFO_FIELDS]  # fmt: skip
+        self._info_fields = [
+            (key, kinds[size], self.layout[key][0].start, self.layout[key][0].stop)
+            for key, size in INFO_FIELDS
+        ]
         self.inv_scale = 1.0 / cfg.obs_scale
         columns = InfoColumns(*(sl.start for sl, _ in self.layout.values()))
         self.consts = EnvConsts(
-            zones=self.zones, stroke=cfg.absorber_stroke, inv_scale=self.inv_scale,
-            w_decel=cfg.weights[0], w_intrusion=cfg.weights[1], gravity=sc.gravity,
-            control_dt=cfg.control_dt, absorber_range=cfg.absorber_range,
-            max_change=cfg.max_scale_change, info=columns,
-        )  # fmt: skip
+            zones=self.zones,
+            stroke=cfg.absorber_stroke,
+            inv_scale=self.inv_scale,
+            w_decel=cfg.weights[0],
+            w_intrusion=cfg.weights[1],
+            gravity=sc.gravity,
+            control_dt=cfg.control_dt,
+            absorber_range=cfg.absorber_range,
+            max_change=cfg.max_scale_change,
+            info=columns,
+        )
         self._bind()
         self._no_action = np.zeros((n, self.n_zones))
         # undeformed front end of each car at first contact (lead car at the wall), m
@@ -551,8 +308,14 @@ class CrashBatch:
         self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
         flags = (self.div, self.over, self.steps)
         stepping = (model.dt, model.n_sub)
-        self._args = (self._buf, self._fields, flags, plain(model.params), stepping,
-                      plain(self.consts))  # fmt: skip
+        self._args = (
+            self._buf,
+            self._fields,
+            flags,
+            plain(model.params),
+            stepping,
+            plain(self.consts),
+        )
 
     _VIEWS = ("out", "episode", "state", "_kernel", "_args")
 
@@ -586,26 +349,33 @@ class CrashBatch:
         """``info`` of every train as arrays, first axis the train (``docs/envs/crash.md``);
         views of one fresh copy."""
         info = self.info.copy()
-        return {key: info[:, a] if kind == 0 else info[:, a] != 0.0 if kind == 1 else info[:, a:b]
-                for key, kind, a, b in self._info_fields}  # fmt: skip
+        return {
+            key: info[:, a] if kind == 0 else info[:, a] != 0.0 if kind == 1 else info[:, a:b]
+            for key, kind, a, b in self._info_fields
+        }
 
     def info_row(self, i: int) -> dict[str, Any]:
         """``info`` of train ``i``: floats, bools and 1-D arrays (views of one fresh copy)."""
         row = self.info[i].copy()
         vals = row.tolist()
-        return {key: vals[a] if kind == 0 else vals[a] != 0.0 if kind == 1 else row[a:b]
-                for key, kind, a, b in self._info_fields}  # fmt: skip
+        return {
+            key: vals[a] if kind == 0 else vals[a] != 0.0 if kind == 1 else row[a:b]
+            for key, kind, a, b in self._info_fields
+        }
 
     def render_state(self, i: int) -> dict[str, Any]:
         """What :func:`railgym.envs.rendering.render_crash` draws for train ``i``."""
         out, c = self.out, self.n_cars
         wall = float(out.x[i, c]) if out.x.shape[1] > c else 0.0  # the obstacle, if any
         return {
-            "positions": self.front0 + out.x[i, :c], "lengths": self.lengths,
-            "crush": out.crush[i, self.zones], "stroke": self.cfg.absorber_stroke,
-            "wall_x": wall, "time": float(self.steps[i] * self.cfg.control_dt),
+            "positions": self.front0 + out.x[i, :c],
+            "lengths": self.lengths,
+            "crush": out.crush[i, self.zones],
+            "stroke": self.cfg.absorber_stroke,
+            "wall_x": wall,
+            "time": float(self.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.n_steps * self.cfg.control_dt,
-        }  # fmt: skip
+        }
 
 
 def _real_actions(name: str, value: Any) -> np.ndarray:
@@ -704,8 +474,13 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
         truncated = not terminated and int(sim.steps[0]) >= self.cfg.n_steps
         if terminated or truncated:
             self._started = False
-        return (sim.obs[0].astype(np.float32), float(sim.rew[0]), terminated, truncated,
-                sim.info_row(0))  # fmt: skip
+        return (
+            sim.obs[0].astype(np.float32),
+            float(sim.rew[0]),
+            terminated,
+            truncated,
+            sim.info_row(0),
+        )
 
     def _info(self) -> dict[str, Any]:
         return self.sim.info_row(0)
@@ -727,8 +502,11 @@ class TrainCrashVectorEnv(VectorEnv):
     for step. Autoreset mode: next step (gymnasium's default).
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 50,
-                "autoreset_mode": AutoresetMode.NEXT_STEP}  # fmt: skip
+    metadata = {
+        "render_modes": ["rgb_array"],
+        "render_fps": 50,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
         if isinstance(num_envs, bool) or not (

@@ -4,19 +4,20 @@ Pure physics (no gymnasium), one module per concept:
 
 * :mod:`~railgym.vehicles.crash.scenario` — validated scenarios (SI) from the YAML files;
 * :mod:`~railgym.vehicles.crash.zone` — the hysteretic crush-zone law;
+* :mod:`~railgym.vehicles.crash.outputs` — what both models share (kernel outputs, records,
+  :class:`CrashResult`);
 * :mod:`~railgym.vehicles.crash.reference` — the lumped-mass reference model;
-* :mod:`~railgym.vehicles.crash.surrogate` — the surrogate model of paper eq. (4);
+* :mod:`~railgym.vehicles.crash.surrogate` — the surrogate elements of paper eq. (4), fitted;
+* :mod:`~railgym.vehicles.crash.surrogate_model` — the compiled surrogate model;
 * :mod:`~railgym.vehicles.crash.batch` — batch stepping of many trains for the envs.
 
 Every public name is re-exported here.
 """
 
 from railgym.vehicles.crash.batch import BATCH_BACKENDS, CrashBatchModel, crash_batch_model
+from railgym.vehicles.crash.outputs import V_EPS, BatchOutputs, CrashResult, Record, StopRule
 from railgym.vehicles.crash.reference import (
     MIN_REFERENCE_DT,
-    V_EPS,
-    BatchOutputs,
-    CrashResult,
     ReferenceParams,
     ReferenceState,
     ZoneTypes,
@@ -42,17 +43,19 @@ from railgym.vehicles.crash.surrogate import (
     VARIANTS,
     CrashElement,
     CrashSurrogate,
-    ElementTypes,
-    LprModels,
-    SurrogateParams,
-    SurrogateState,
     TrainingSet,
     build_crash_surrogate,
     crash_errors,
     crash_training_data,
+    virgin_loading,
+)
+from railgym.vehicles.crash.surrogate_model import (
+    ElementTypes,
+    LprModels,
+    SurrogateParams,
+    SurrogateState,
     simulate_surrogate,
     surrogate_batch_step,
-    virgin_loading,
 )
 from railgym.vehicles.crash.zone import absorber_zone_force, zone_force
 
@@ -75,8 +78,10 @@ __all__ = [
     "ElementTypes",
     "LprModels",
     "Obstacle",
+    "Record",
     "ReferenceParams",
     "ReferenceState",
+    "StopRule",
     "SurrogateParams",
     "SurrogateState",
     "TrainingSet",

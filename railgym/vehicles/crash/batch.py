@@ -15,21 +15,18 @@ from pathlib import Path
 
 import numpy as np
 
+from railgym.vehicles.crash.outputs import BatchOutputs, _check_run, _steps, new_outputs
 from railgym.vehicles.crash.reference import (
-    BatchOutputs,
     ReferenceParams,
     ReferenceState,
     _build_chain,
-    _check_run,
     _new_reference_state,
     _reference_steps,
-    _steps,
-    new_outputs,
     reference_batch_step,
 )
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
-from railgym.vehicles.crash.surrogate import (
-    CrashSurrogate,
+from railgym.vehicles.crash.surrogate import CrashSurrogate
+from railgym.vehicles.crash.surrogate_model import (
     SurrogateParams,
     SurrogateState,
     _new_surrogate_state,

@@ -29,21 +29,29 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
+from railgym.vehicles.crash.outputs import (
+    V_EPS,
+    CrashResult,
+    StopRule,
+    _check_run,
+    _crash_over,
+    _healthy,
+    _steps,
+    new_outputs,
+    new_record,
+)
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.zone import absorber_zone_force
 
 __all__ = [
     "MIN_REFERENCE_DT",
-    "V_EPS",
-    "BatchOutputs",
-    "CrashResult",
     "ReferenceParams",
     "ReferenceState",
     "ZoneTypes",
@@ -52,8 +60,6 @@ __all__ = [
     "simulate_reference",
 ]
 
-#: friction regularisation velocity of tanh(v / v_ε), m/s
-V_EPS = 0.01
 #: smallest stable integration step of the reference model, s (lighter or stiffer chains are
 #: rejected: their runs would take minutes)
 MIN_REFERENCE_DT = 1e-6
@@ -136,74 +142,6 @@ class ReferenceState(NamedTuple):
     elastic: np.ndarray
     fd: np.ndarray
     ff: np.ndarray
-
-
-class BatchOutputs(NamedTuple):
-    """What the batch kernels report after each call, one row per simulation.
-
-    Attributes
-    ----------
-    x, v, a : (n, bodies) centre-of-mass displacement (m), velocity (m/s) and acceleration
-        (m/s²) of each body (cars front to back, then the obstacle if any).
-    crush : (n, zones) crush of each zone (surrogate: element feature ``u``), m.
-    force : (n, zones) zone force, compression positive (coupler damping included), N.
-    rate : (n, zones) closing rate of each zone, m/s.
-    work : (n, zones) net work done on each zone since the start, J.
-    dissipated : (n, 2) friction work and carbody/coupler damping work since the start, J.
-    stored : (n,) kinetic energy plus elastic carbody energy, J.
-    """
-
-    x: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    crush: np.ndarray
-    force: np.ndarray
-    rate: np.ndarray
-    work: np.ndarray
-    dissipated: np.ndarray
-    stored: np.ndarray
-
-
-def new_outputs(n: int, n_bodies: int, n_zones: int) -> BatchOutputs:
-    """Zeroed :class:`BatchOutputs` of ``n`` simulations."""
-    body = [np.zeros((n, n_bodies)) for _ in range(3)]
-    zone = [np.zeros((n, n_zones)) for _ in range(4)]
-    return BatchOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
-
-
-class StopRule(NamedTuple):
-    """When a recorded run ends: at the first sample after the start where no zone carries
-    more than ``f_stop`` (N) of compression and none closes faster than ``v_stop`` (m/s), if
-    ``enabled``."""
-
-    enabled: bool
-    v_stop: float
-    f_stop: float
-
-
-class Record(NamedTuple):
-    """Sampled histories filled by the recorders, one row per sample.
-
-    ``energy`` columns: kinetic, elastic links, elastic zones, friction, damping (J);
-    ``plastic`` (samples, zones), J; both have no rows for the surrogate.
-    """
-
-    x: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    crush: np.ndarray
-    force: np.ndarray
-    permanent_set: np.ndarray
-    energy: np.ndarray
-    plastic: np.ndarray
-
-
-def new_record(n: int, n_bodies: int, n_zones: int, energies: bool) -> Record:
-    """Zeroed :class:`Record` of ``n`` samples (energy rows only if ``energies``)."""
-    body = [np.zeros((n, n_bodies)) for _ in range(3)]
-    zone = [np.zeros((n, n_zones)) for _ in range(3)]
-    m = n if energies else 0
-    return Record(*body, *zone, np.zeros((m, 5)), np.zeros((m, n_zones)))
 
 
 @dataclass
@@ -365,9 +303,17 @@ def _chain_forces(x, v, dp, p, scale, F, fz, fzel, fd, ff, dz):
         dz[z] = d
         ku, kt, slack = ty.unloading_stiffness[t], ty.tension_stiffness[t], ty.slack[t]
         f, dp[z] = absorber_zone_force(
-            d, dp[z], ty.stroke[t], ty.force[t], ty.n_points[t], ty.fold_amplitude[t],
-            ty.fold_wavelength[t], ku, ty.absorber[t], scale[z],
-        )  # fmt: skip
+            d,
+            dp[z],
+            ty.stroke[t],
+            ty.force[t],
+            ty.n_points[t],
+            ty.fold_amplitude[t],
+            ty.fold_wavelength[t],
+            ku,
+            ty.absorber[t],
+            scale[z],
+        )
         el = 0.5 * f * f / ku
         damp = 0.0
         if f == 0.0 and kt > 0.0 and d < dp[z] - slack:
@@ -390,15 +336,6 @@ def _chain_forces(x, v, dp, p, scale, F, fz, fzel, fd, ff, dz):
         f = p.link_k[e] * d + fd[e]
         F[e] += f
         F[e + 1] -= f
-
-
-@njit(cache=True)
-def _healthy(x, v, a, limit):
-    """True if every entry is finite and |x|, |v| ≤ ``limit``."""
-    for j in range(x.shape[0]):
-        if not (abs(x[j]) <= limit and abs(v[j]) <= limit and math.isfinite(a[j])):
-            return False
-    return True
 
 
 @njit(cache=True)
@@ -486,16 +423,6 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
 
 
 @njit(cache=True)
-def _crash_over(out, fz, stop):
-    """True if no zone of simulation 0 carries more than ``stop.f_stop`` (conservative force
-    ``fz``) and none closes faster than ``stop.v_stop``."""
-    for z in range(fz.shape[1]):
-        if fz[0, z] > stop.f_stop or out.rate[0, z] > stop.v_stop:
-            return False
-    return True
-
-
-@njit(cache=True)
 def _record_reference(state, out, params, dt, n_sub, stop, rec):
     """Record simulation 0 of ``state`` sample by sample with :func:`reference_batch_step`
     into ``rec`` (:class:`Record`); returns the number of samples taken."""
@@ -533,67 +460,6 @@ def _new_reference_state(n: int, n_nodes: int, n_zones: int) -> ReferenceState:
     return ReferenceState(*node, *zone, np.zeros((n, max(n_nodes - 1, 1))), np.zeros((n, n_nodes)))
 
 
-@dataclass
-class CrashResult:
-    """Time histories of a crash simulation, sampled every ``sample_dt``.
-
-    Attributes
-    ----------
-    t : (n,) time, s.
-    x, v, a : (n, bodies) centre-of-mass displacement (m), velocity (m/s) and acceleration
-        (m/s²) of each body; bodies are the cars front to back, then the obstacle if any.
-    body_names : names of the bodies (``"lead"``, ``"car2"``, ..., ``"obstacle"``).
-    zone_names : names of the zone instances (``"wall"``, ``"interface_1"``, ...).
-    crush, force : (n, zones) crush (m) and force (N, compression positive) of each zone; for
-        the surrogate, the element feature ``u`` (m) and force.
-    permanent_set : (n, zones) permanent set of each zone, m.
-    energy : dict of (n,) or (n, zones) arrays, J: ``kinetic``, ``elastic`` (total),
-        ``plastic`` (per zone), ``friction``, ``damping``; empty for the surrogate.
-    initial_kinetic_energy : J.
-    dt : integration time step, s.
-    wall_time : wall-clock time of the integration (compiled kernel only), s.
-    scenario : the simulated scenario.
-    model : ``"reference"`` or ``"surrogate:<variant>"``.
-    """
-
-    t: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    body_names: list[str]
-    zone_names: list[str]
-    crush: np.ndarray
-    force: np.ndarray
-    permanent_set: np.ndarray
-    energy: dict[str, np.ndarray]
-    initial_kinetic_energy: float
-    dt: float
-    wall_time: float
-    scenario: CrashScenario
-    model: str = "reference"
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    def energy_residual(self) -> np.ndarray:
-        """(n,) relative energy-balance error ``(E_0 − Σ energies) / E_0`` (reference only)."""
-        if not self.energy:
-            raise ValueError(f"{self.model} results carry no energy histories")
-        e = self.energy
-        total = (
-            e["kinetic"] + e["elastic"] + e["plastic"].sum(axis=1) + e["friction"] + e["damping"]
-        )
-        return (self.initial_kinetic_energy - total) / self.initial_kinetic_energy
-
-    def intrusion(self) -> dict[str, float]:
-        """Largest crush beyond each zone's absorber stroke (structure crush), m."""
-        sc = self.scenario
-        zones = {"wall": sc.wall, "obstacle": sc.obstacle.zone if sc.obstacle else None}
-        out = {}
-        for j, name in enumerate(self.zone_names):
-            zone = zones.get(name, sc.interface)
-            out[name] = max(0.0, float(self.permanent_set[:, j].max()) - zone.absorber_stroke)
-        return out
-
-
 def reference_time_step(
     scenario: CrashScenario, sample_dt: float = 1e-3, safety: float = 0.2
 ) -> tuple[float, int]:
@@ -617,19 +483,6 @@ def _reference_steps(chain: _Chain, sample_dt: float, safety: float) -> tuple[fl
             "EA_MN, n_nodes, crash.zones.*.unloading_stiffness_kN_per_mm)"
         )
     return _steps(sample_dt, dt_max)
-
-
-def _steps(sample_dt: float, dt_max: float) -> tuple[float, int]:
-    n_sub = max(1, math.ceil(sample_dt / dt_max - 1e-9))
-    return sample_dt / n_sub, n_sub
-
-
-def _check_run(duration: float, sample_dt: float) -> None:
-    for name, value in (("duration", duration), ("sample_dt", sample_dt)):
-        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number (s), got {value!r}")
-    if sample_dt > duration:
-        raise ValueError(f"sample_dt ({sample_dt} s) must not exceed duration ({duration} s)")
 
 
 def simulate_reference(

@@ -72,9 +72,14 @@ MAX_SPEED = LIMITS["speed_kmh"][1] / 3.6
 
 
 def check_real(
-    name: str, value: Any, low: float | None = None, high: float | None = None, *,
-    low_open: bool = False, high_open: bool = False,
-) -> float:  # fmt: skip
+    name: str,
+    value: Any,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
     """``value`` as a float if it is a real number (Python or numpy, not a bool) within
     ``[low, high]`` (bounds ``None`` = unbounded; ``*_open`` excludes the bound); else
     ``ValueError`` naming ``name``."""
@@ -492,8 +497,19 @@ def load_scenario(name_or_path: str | Path = "paper") -> CrashScenario:
 
 def parse_scenario(raw: dict) -> CrashScenario:
     """Validate the raw ``crash`` mapping of a scenario file (see :func:`load_scenario`)."""
-    top = ("base", "name", "description", "sources", "speed_kmh", "friction", "gravity",
-           "n_cars", "barrier", "cars", "zones")  # fmt: skip
+    top = (
+        "base",
+        "name",
+        "description",
+        "sources",
+        "speed_kmh",
+        "friction",
+        "gravity",
+        "n_cars",
+        "barrier",
+        "cars",
+        "zones",
+    )
     r = _Fields(raw, "crash", top)
     sources = raw.get("sources", [])
     if not isinstance(sources, list) or not all(isinstance(s, str) for s in sources):

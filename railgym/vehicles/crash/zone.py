@@ -47,9 +47,17 @@ def zone_force(
 
 @njit(cache=True)
 def absorber_zone_force(
-    d: float, dp: float, s: np.ndarray, f: np.ndarray, n: int, amp: float, lam: float, ku: float,
-    absorber: float, scale: float,
-) -> tuple[float, float]:  # fmt: skip
+    d: float,
+    dp: float,
+    s: np.ndarray,
+    f: np.ndarray,
+    n: int,
+    amp: float,
+    lam: float,
+    ku: float,
+    absorber: float,
+    scale: float,
+) -> tuple[float, float]:
     """:func:`zone_force` with a controllable absorber: the loading envelope up to the absorber
     stroke ``absorber`` (m) is multiplied by ``scale``; beyond it (the carbody structure) and
     the unloading stiffness are unchanged."""
