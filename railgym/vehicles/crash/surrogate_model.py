@@ -25,7 +25,6 @@ from railgym.vehicles.crash.outputs import (
 )
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import VARIANTS, CrashSurrogate
-from surrogates.models.lpr import lpr_eval_into, lpr_scratch
 
 __all__ = [
     "ElementTypes",
@@ -38,19 +37,21 @@ __all__ = [
 
 
 class LprModels(NamedTuple):
-    """Kernel arrays of the element LPR models (:func:`_pack_models`), one row per model.
+    """The element LPR models (:func:`_pack_models`), one row per model: each a 1-input
+    Legendre series ``f(u) = Σ_k c_k P_k(t)``, ``t = 2 (u − lower) / (upper − lower) − 1``.
 
     Attributes
     ----------
-    exponents : (models, terms, 1) int64, zero-padded to a common term count.
-    coef : (models, terms) coefficients.
-    lower, upper : (models, 1) input domain, m.
-    mode : (models,) extrapolation mode of :func:`surrogates.models.lpr.lpr_eval_into`.
+    coef : (models, degrees + 1) coefficient ``c_k`` of each degree, contiguous, zero-padded.
+    degree : (models,) int64 highest degree of each model.
+    lower, upper : (models,) input domain, m.
+    mode : (models,) extrapolation mode (:data:`surrogates.models.lpr.EXTRAPOLATION_MODES`):
+        1 clips, else the series is extended linearly beyond the domain.
     force_range : (models, 2) lowest and highest training force of each model, N.
     """
 
-    exponents: np.ndarray
     coef: np.ndarray
+    degree: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
     mode: np.ndarray
@@ -127,19 +128,31 @@ def _new_surrogate_state(n: int, n_bodies: int, n_elements: int) -> SurrogateSta
     return SurrogateState(*body, *el, np.zeros((n, n_bodies)))
 
 
-@njit(cache=True)
-def _lpr_work(lpr):
-    """Scratch of :func:`surrogates.models.lpr.lpr_eval_into` for every model of ``lpr``
-    (:class:`LprModels`): float64 (models, d + 4, L), one common width ``L``."""
-    E, LO, UP = lpr.exponents, lpr.lower, lpr.upper
-    n, T, d = E.shape
-    every = E.reshape(n * T, d)  # the largest degree of all models sets the common width
-    first = lpr_scratch(every, LO[0], UP[0])
-    work = np.empty((n, first.shape[0], first.shape[1]))
-    work[0] = first
-    for k in range(1, n):
-        work[k] = lpr_scratch(every, LO[k], UP[k])
-    return work
+@njit(cache=True, inline="always")
+def _legendre_series(u, c, n, lower, upper, mode):
+    """``Σ_{k≤n} c_k P_k(t)`` at ``t = 2 (u − lower) / (upper − lower) − 1`` by Clenshaw's
+    recurrence; outside ``[lower, upper]`` the value at the nearer end, extended linearly with
+    the slope there (``P_k(±1) = (±1)^k``, ``P'_k(±1) = (±1)^{k+1} k (k + 1) / 2``) unless
+    ``mode`` is 1 (clip)."""
+    if lower <= u <= upper:
+        t = (u - lower) * (2.0 / (upper - lower)) - 1.0
+        b1 = b2 = 0.0
+        for k in range(n, 0, -1):
+            b0 = c[k] + (2.0 * k + 1.0) / (k + 1.0) * t * b1 - (k + 1.0) / (k + 2.0) * b2
+            b2 = b1
+            b1 = b0
+        return c[0] + t * b1 - 0.5 * b2
+    s = 1.0 if u > upper else -1.0
+    value = slope = 0.0
+    sign = 1.0
+    for k in range(n + 1):
+        value += c[k] * sign
+        slope += c[k] * sign * s * 0.5 * k * (k + 1)
+        sign *= s
+    if mode == 1:
+        return value
+    end = upper if u > upper else lower
+    return value + slope * (2.0 / (upper - lower)) * (u - end)
 
 
 @njit(cache=True, inline="always")
@@ -210,9 +223,9 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
         ty_.absorber,
     )
     lpr = params.lpr
-    E, C, LO, UP, MODE, FR = (
-        lpr.exponents,
+    C, DEG, LO, UP, MODE, FR = (
         lpr.coef,
+        lpr.degree,
         lpr.lower,
         lpr.upper,
         lpr.mode,
@@ -225,8 +238,6 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
     F, dx, ffl, ff_o = nodes[4], nodes[5], nodes[6], nodes[7]
     els = np.empty((6, ne))
     upl, fl, f_o, ul, u_o, wl = els[0], els[1], els[2], els[3], els[4], els[5]
-    ubuf = np.zeros(1)
-    work = _lpr_work(lpr)
     ox, ov, oa, crush, force, rate_out = out.x, out.v, out.a, out.crush, out.force, out.rate
     work_done, dissipated, stored = out.work, out.dissipated, out.stored
     # rows are copied element by element: a row view per array and train costs two atomic
@@ -261,10 +272,7 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
                 )
                 f_lpr = f_min = f_max = 0.0
                 if mdl >= 0:
-                    ubuf[0] = u
-                    f_lpr = lpr_eval_into(
-                        ubuf, E[mdl], C[mdl], LO[mdl], UP[mdl], MODE[mdl], work[mdl]
-                    )
+                    f_lpr = _legendre_series(u, C[mdl], DEG[mdl], LO[mdl], UP[mdl], MODE[mdl])
                     f_min, f_max = FR[mdl, 0], FR[mdl, 1]
                 s = scale[i, e] if u <= absorber[ty] else 1.0
                 f, upl[e] = _element_force(
@@ -328,23 +336,21 @@ def _record_surrogate(state, out, params, dt, n_sub, stop, rec):
 
 
 def _pack_models(models: list[Any], ranges: list[tuple[float, float]]) -> LprModels:
-    """Kernel arrays of several 1-input LPR models, zero-padded to a common term count, and
-    their output ranges (models, 2)."""
+    """:class:`LprModels` of several 1-input LPR models (their coefficients summed per
+    Legendre degree) and their output ranges, N."""
     arrays = [mdl.kernel_arrays() for mdl in models]
-    T = max(a[0].shape[0] for a in arrays)
-    E = np.zeros((len(arrays), T, 1), dtype=np.int64)
-    C = np.zeros((len(arrays), T))
-    LO = np.zeros((len(arrays), 1))
-    UP = np.zeros((len(arrays), 1))
+    for i, (e, *_) in enumerate(arrays):
+        if e.ndim != 2 or e.shape[1] != 1:
+            raise ValueError(f"surrogate element model {i} has {e.shape[-1]} inputs, expected 1")
+    degree = np.array([int(e.max()) for e, *_ in arrays], dtype=np.int64)
+    C = np.zeros((len(arrays), int(degree.max()) + 1))
+    LO, UP = np.zeros(len(arrays)), np.zeros(len(arrays))
     MODE = np.zeros(len(arrays), dtype=np.int64)
     for i, (e, c, lo, up, mode) in enumerate(arrays):
-        if e.shape[1] != 1:
-            raise ValueError(f"surrogate element model {i} has {e.shape[1]} inputs, expected 1")
-        E[i, : e.shape[0]] = e
-        C[i, : c.size] = c
-        LO[i], UP[i], MODE[i] = lo, up, mode
+        np.add.at(C[i], e[:, 0], c)
+        LO[i], UP[i], MODE[i] = lo[0], up[0], mode
     FR = np.array(ranges, dtype=np.float64).reshape(len(arrays), 2)
-    return LprModels(E, C, LO, UP, MODE, FR)
+    return LprModels(C, degree, LO, UP, MODE, FR)
 
 
 @dataclass
