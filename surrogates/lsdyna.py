@@ -56,6 +56,12 @@ Numbers: Fortran ``E`` format; an exponent of three digits that lost its ``E``
 short line or fewer nodes) is dropped with a :class:`UserWarning`; anything else that does not
 fit the layout is a ``ValueError`` naming the file, line and field.
 
+``binout`` (:func:`read_binout`) is read through lasso-python (``lasso.dyna.Binout``, the
+optional ``lsdyna`` extra; its pins conflict with common packages, so install it in its own
+environment): the same three branches, from the LSDA variables ``nodout/{x,y,z}_displacement``
+… ``_coordinate`` and ``ids``, ``rcforc/{x,y,z}_force``, ``ids`` and ``side`` (non-zero:
+master), ``glstat/<quantity>`` with the channel names above, and each branch's ``time``.
+
 :func:`write_nodout` and :func:`write_rcforc` write these layouts (with ``%12.4E`` and
 ``%12.5E`` fields as LS-DYNA's ``l2a`` does), for fixtures and round trips.
 """
@@ -522,3 +528,100 @@ def write_rcforc(
                     f"z {z:12.5E} mass {0.0:12.5E}\n"
                 )
     return path
+
+
+# ------------------------------------------------------------------------------- binout
+class BinoutData(NamedTuple):
+    """The branches of a ``binout`` as the ASCII readers return them (``None``: absent)."""
+
+    nodout: dict[int, TimeHistory] | None
+    rcforc: dict[tuple[str, int], TimeHistory] | None
+    glstat: TimeHistory | None
+
+
+_BINOUT_NODOUT = {
+    f"{axis}_{q}": f"{axis}_{name}"
+    for q, name in (
+        ("disp", "displacement"),
+        ("vel", "velocity"),
+        ("accl", "acceleration"),
+        ("coor", "coordinate"),
+    )
+    for axis in ("x", "y", "z")
+}
+
+
+def read_binout(
+    path: str | Path, units: str = "m-s-kg-N", nodes: Iterable[int] | None = None
+) -> BinoutData:
+    """``nodout``, ``rcforc`` and ``glstat`` of an LS-DYNA ``binout`` (glob for ``binout*``
+    families), in SI, with the channels of :func:`read_nodout`, :func:`read_rcforc` and
+    :func:`read_glstat`. Needs lasso-python (the ``lsdyna`` extra); ``ImportError`` if absent.
+    """
+    try:
+        from lasso.dyna import Binout  # type: ignore[import-not-found, unused-ignore]
+    except ImportError as exc:
+        raise ImportError(
+            "read_binout needs lasso-python (pip install 'railgym[lsdyna]', best in its own "
+            "environment: its pins conflict with common packages); or convert the binout to "
+            "ASCII with LS-PrePost/l2a and use read_nodout/read_rcforc/read_glstat"
+        ) from exc
+    us = unit_system(units)
+    try:
+        b = Binout(str(path))
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot open the binout ({exc})") from exc
+    branches = set(b.read())
+
+    def table(branch: str, name: str, n: int) -> np.ndarray:
+        a = np.asarray(b.read(branch, name), dtype=float)
+        return a.reshape(a.shape[0], n) if a.ndim < 2 else a
+
+    nod = rc = gl = None
+    if "nodout" in branches:
+        ids = np.atleast_1d(np.asarray(b.read("nodout", "ids"), dtype=np.int64))
+        t = np.asarray(b.read("nodout", "time"), dtype=float) * us.time
+        wanted = ids if nodes is None else np.array([int(n) for n in nodes])
+        missing = sorted(set(wanted.tolist()) - set(ids.tolist()))
+        if missing:
+            raise ValueError(f"{path}: node(s) {missing} not in the binout's nodout")
+        scale = dict(
+            zip(
+                NODOUT_FIELDS,
+                [us.length] * 3 + [us.velocity] * 3 + [us.acceleration] * 3 + [us.length] * 3,
+                strict=True,
+            )
+        )
+        unit = dict(
+            zip(NODOUT_FIELDS, ["m"] * 3 + ["m/s"] * 3 + ["m/s^2"] * 3 + ["m"] * 3, strict=True)
+        )
+        cols = {f: table("nodout", _BINOUT_NODOUT[f], ids.size) * scale[f] for f in NODOUT_FIELDS}
+        col = {int(n): int(np.flatnonzero(ids == n)[0]) for n in wanted}
+        nod = {
+            n: TimeHistory(t, {f: c[:, j] for f, c in cols.items()}, unit) for n, j in col.items()
+        }
+    if "rcforc" in branches:
+        ids = np.atleast_1d(np.asarray(b.read("rcforc", "ids"), dtype=np.int64))
+        sides = np.atleast_1d(np.asarray(b.read("rcforc", "side")))
+        t = np.asarray(b.read("rcforc", "time"), dtype=float) * us.time
+        f = {n: table("rcforc", n, ids.size) * us.force for n in RCFORC_FIELDS}
+        rc = {}
+        for j, (cid, side) in enumerate(zip(ids, sides, strict=True)):
+            ch = {n: f[n][:, j] for n in RCFORC_FIELDS}
+            ch["resultant"] = np.sqrt(sum(ch[n] ** 2 for n in RCFORC_FIELDS))
+            rc[("master" if side else "slave", int(cid))] = TimeHistory(
+                t, ch, dict.fromkeys(ch, "N")
+            )
+    if "glstat" in branches:
+        t = np.asarray(b.read("glstat", "time"), dtype=float) * us.time
+        ch = {}
+        for n in GLSTAT_LABELS.values():
+            try:
+                a = np.asarray(b.read("glstat", n), dtype=float)
+            except ValueError:  # lasso: no such variable
+                continue
+            if n != "time" and a.shape[:1] == t.shape:
+                si = us.time if n == "time_step" else us.energy
+                ch[n] = (a.sum(axis=1) if a.ndim == 2 else a) * si
+        gl = TimeHistory(t, ch, {n: "s" if n == "time_step" else "J" for n in ch})
+    return BinoutData(nod, rc, gl)

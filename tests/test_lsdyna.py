@@ -205,3 +205,59 @@ def test_a_200_mb_nodout_is_streamed(tmp_path):
     )
     assert peaks["two"] < 0.05 * size
     assert peaks["all"] < 2.5 * kept_all
+
+
+def _has_lasso() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("lasso") is not None
+
+
+@pytest.mark.skipif(_has_lasso(), reason="lasso-python is installed")
+def test_binout_without_lasso_is_a_clear_import_error(tmp_path):
+    with pytest.raises(ImportError, match="read_binout needs lasso-python"):
+        io_binout(tmp_path / "binout")
+
+
+def io_binout(path, **kw):
+    from surrogates.lsdyna import read_binout
+
+    return read_binout(path, **kw)
+
+
+def test_binout_read_through_lasso(tmp_path):
+    """binout written with lasso's own LSDA writer, read back in SI (mm-ms-kg-kN)."""
+    lsda = pytest.importorskip(
+        "lasso.dyna.lsda_py3", reason="lasso-python (the 'lsdyna' extra) is not installed"
+    )
+    Lsda = lsda.Lsda
+    path = str(tmp_path / "binout")
+    f = Lsda(path, "w")
+    f.cd("/nodout/metadata")
+    f.write("ids", Lsda.I4, [101, 202])
+    f.cd("/rcforc/metadata")
+    f.write("ids", Lsda.I4, [1, 1])
+    f.write("side", Lsda.I4, [1, 0])
+    for k in range(3):
+        f.cd(f"/nodout/d{k + 1:06d}")
+        f.write("time", Lsda.R8, [float(k)])
+        for name in ("displacement", "velocity", "acceleration", "coordinate"):
+            for axis in "xyz":
+                f.write(f"{axis}_{name}", Lsda.R4, [10.0 * k, -1.0 * k])
+        f.cd(f"/rcforc/d{k + 1:06d}")
+        f.write("time", Lsda.R4, [float(k)])
+        for axis in "xyz":
+            f.write(f"{axis}_force", Lsda.R4, [2.0 * k, -2.0 * k])
+        f.cd(f"/glstat/d{k + 1:06d}")
+        f.write("time", Lsda.R4, [float(k)])
+        for name in ("kinetic_energy", "internal_energy", "total_energy"):
+            f.write(name, Lsda.R4, [100.0 - k])
+    f.close()
+    data = io_binout(path, units="mm-ms-kg-kN")
+    node = data.nodout[101]
+    np.testing.assert_allclose(node.t, [0.0, 1e-3, 2e-3])
+    np.testing.assert_allclose(node["x_disp"], [0.0, 0.01, 0.02])  # mm → m
+    np.testing.assert_allclose(data.nodout[202]["y_accl"], [0.0, -1e3, -2e3])  # mm/ms² → m/s²
+    np.testing.assert_allclose(data.rcforc[("master", 1)]["x_force"], [0.0, 2e3, 4e3])
+    np.testing.assert_allclose(data.rcforc[("slave", 1)]["z_force"], [0.0, -2e3, -4e3])
+    np.testing.assert_allclose(data.glstat["total_energy"], [100.0, 99.0, 98.0])  # kN·mm = J
