@@ -133,5 +133,6 @@ def read_csv(path: str | Path, columns: Sequence[str] | None = None) -> dict[str
     return {name: np.asarray(col) for name, col in zip(wanted, data, strict=True)}
 
 
-# LS-DYNA ASCII readers (surrogates.lsdyna), re-exported as part of this module's API
+# readers of LS-DYNA output and multibody tables, re-exported as part of this module's API
 from surrogates.lsdyna import read_glstat, read_legend, read_nodout, read_rcforc  # noqa: E402, F401
+from surrogates.tables import read_table  # noqa: E402, F401

@@ -54,6 +54,7 @@ from railgym.vehicles.crash import (
 )
 from surrogates import io
 from surrogates.features import TimeHistory
+from surrogates.models.base import _jsonable
 from surrogates.selection import SelectionResult
 
 AXES = ("x", "y", "z")
@@ -205,19 +206,6 @@ def crash_surrogate_from_fe(
 
 
 # ------------------------------------------------------------------------------ JSON files
-def _plain(obj: Any) -> Any:
-    """numpy scalars/arrays inside ``obj`` as plain Python (for JSON)."""
-    if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_plain(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return obj
-
-
 def _model_document(model: Any) -> dict[str, Any]:
     return io.model_to_document(model, inputs=["u"], output="f", units={"u": "m", "f": "N"})
 
@@ -256,7 +244,7 @@ def save_crash_surrogate(
         "build_time_s": surrogate.build_time,
         "elements": {k: _element_document(e) for k, e in surrogate.elements.items()},
     }
-    path.write_text(json.dumps(_plain(doc), indent=1) + "\n")
+    path.write_text(json.dumps(_jsonable(doc), indent=1) + "\n")
     return path
 
 
