@@ -23,12 +23,16 @@ sees ``u = x_lead`` (rigid wall at rest) and ``f_1`` the wall force, the interfa
 and ``f_2``, both split into loading and unloading branches by the crush rate. The masses,
 speed and zone layout of the env come from ``scenario``: give the scenario of the FE model.
 
+:func:`export_crash_element_fmu` writes one element, memory included, as an FMI 2.0
+co-simulation FMU (see ``docs/fmi.md``).
+
 :func:`save_crash_surrogate` / :func:`load_crash_surrogate` write and read a
 :class:`~railgym.vehicles.crash.CrashSurrogate` as JSON (each LPR as a
 :func:`surrogates.io.model_to_document`). Command line::
 
     python -m railgym.vehicles.crash_fe --nodout nodout --rcforc rcforc --units mm-ms-kg-kN \\
-        --car-nodes 1001 2001 --wall-contact 1 --interface-contacts 2 -o elements.json
+        --car-nodes 1001 2001 --wall-contact 1 --interface-contacts 2 -o elements.json \\
+        [--fmu-dir fmus/]
 """
 
 from __future__ import annotations
@@ -309,6 +313,35 @@ def load_crash_surrogate(path: str | Path) -> CrashSurrogate:
     )
 
 
+# ------------------------------------------------------------------------------ FMU export
+def export_crash_element_fmu(
+    element: CrashElement, path: str | Path, *, overwrite: bool = False, binary: bool = True
+) -> Path:
+    """Co-simulation FMU of one crash element with its memory (permanent set), by
+    :func:`surrogates.fmi.hysteretic.export_hysteretic_fmu`: inputs ``u`` (m) and ``rate``
+    (m/s), outputs ``f`` (N) and ``permanent_set`` (m), the law of ``element``'s variant."""
+    from surrogates.fmi.hysteretic import HystereticLaw, export_hysteretic_fmu
+
+    law = HystereticLaw(
+        variant=element.variant,
+        unilateral=element.unilateral,
+        unloading_stiffness=element.unloading_stiffness,
+        tension_stiffness=element.tension_stiffness,
+        slack=element.slack,
+        loading_range=element.force_range["loading"],
+        unloading_range=element.force_range.get("unloading"),
+    )
+    return export_hysteretic_fmu(
+        path,
+        element.loading,
+        law,
+        element.unloading,
+        name=f"{element.name} element",
+        binary=binary,
+        overwrite=overwrite,
+    )
+
+
 # ------------------------------------------------------------------------------ command line
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m railgym.vehicles.crash_fe``: crash elements from LS-DYNA nodout/rcforc."""
@@ -328,6 +361,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--start-time", type=float, default=None, help="first contact, s")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("-o", "--output", required=True, help="where to write the elements JSON")
+    p.add_argument("--fmu-dir", help="also export each element as <name>.fmu (co-simulation)")
     p.add_argument("--overwrite", action="store_true")
     args = p.parse_args(argv)
     if Path(args.output).exists() and not args.overwrite:
@@ -352,6 +386,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     save_crash_surrogate(sur, args.output, overwrite=args.overwrite)
+    if args.fmu_dir:
+        for name, el in sur.elements.items():
+            fmu = Path(args.fmu_dir) / f"{name}.fmu"
+            try:
+                export_crash_element_fmu(el, fmu, overwrite=args.overwrite)
+            except (OSError, RuntimeError) as exc:
+                print(f"error: {exc}", file=sys.stderr)
+                return 2
+            print(f"{name} element FMU written to {fmu}")
     for name, el in sur.elements.items():
         ku = el.unloading_stiffness
         print(f"{name}: degrees {el.degrees}, k_u {ku:.4g} N/m, samples {el.n_samples}")

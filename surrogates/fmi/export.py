@@ -4,6 +4,7 @@ The FMU (a zip archive) holds::
 
     modelDescription.xml           inputs = features, output = element force (see model_description)
     sources/element.c              generic FMI 2.0 implementation (surrogates/fmi/c/element.c)
+    sources/lpr.h, lpr_element.h   the Legendre evaluation and the element built on it
     sources/element_data.h         generated: coefficients, exponents, training box, policy
     sources/fmi2*.h                FMI 2.0.1 standard headers (2-clause BSD, Modelica Association)
     binaries/<platform>/<id>.<ext> shared library built here with the system C compiler
@@ -114,16 +115,24 @@ def element_data_header(
             "static const char *const el_input_names[EL_D] = {"
             + ", ".join(f'"{n}"' for n in names)
             + "};",
+            f"#define LPR_MAXD {d}",
+            f"#define LPR_MAXW {int(exps.max()) + 2}",
+            '#include "lpr_element.h"',
             "",
         ]
     )
 
 
-def compile_sources(sources: Path, output: Path, compiler: str | None = None) -> Path:
-    """Build the shared library ``output`` from the FMU ``sources`` folder with the C compiler."""
+def compile_sources(
+    sources: Path,
+    output: Path,
+    compiler: str | None = None,
+    files: Sequence[str] = SOURCE_FILES,
+) -> Path:
+    """Build the shared library ``output`` from ``files`` of the FMU ``sources`` folder."""
     cc = find_compiler(compiler)
     output.parent.mkdir(parents=True, exist_ok=True)
-    cmd = [cc, *CFLAGS, "-o", str(output), *SOURCE_FILES, "-lm"]
+    cmd = [cc, *CFLAGS, "-o", str(output), *files, "-lm"]
     proc = subprocess.run(cmd, cwd=sources, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise FMUExportError(f"compiling the FMU failed ({' '.join(cmd)}):\n{proc.stderr}")
@@ -220,10 +229,8 @@ def export_fmu(
         metadata=dict(getattr(model, "metadata_", {}) or {}),
     )
     doc_text = json.dumps(document, indent=1, sort_keys=True)
-    guid = "{" + str(uuid.UUID(bytes=hashlib.sha256(doc_text.encode()).digest()[:16])) + "}"
-    ident = model_identifier or re.sub(r"\W", "_", path.stem) or "element"
-    if not re.fullmatch(r"[A-Za-z_]\w*", ident):
-        ident = "_" + ident
+    guid = guid_of(doc_text)
+    ident = identifier(path, model_identifier)
     starts = [float(0.5 * (lo + up)) for lo, up in zip(lower, upper, strict=True)]
     kinds = ("me", "cs") if kind == "both" else (kind,)
     xml = model_description(
@@ -232,26 +239,70 @@ def export_fmu(
         description=f"surrogate element {out_name} = F({', '.join(in_names)}), "
         f"Legendre regression, {model.n_terms_} terms",
         inputs=variables,
-        output=out_var,
+        outputs=[out_var],
         starts=starts,
         kinds=kinds,
         source_files=SOURCE_FILES,
     )
+    sources = {
+        "element_data.h": element_data_header(model, guid, names[:-1], starts),
+        **{name: template(name) for name in (*SOURCE_FILES, "lpr.h", "lpr_element.h")},
+    }
+    return write_fmu(
+        path,
+        ident,
+        xml,
+        sources,
+        {"element.json": doc_text + "\n"},
+        SOURCE_FILES,
+        binary=binary,
+        compiler=compiler,
+    )
+
+
+def template(name: str) -> str:
+    """Text of a shipped C file of ``surrogates/fmi/c``."""
+    return (resources.files("surrogates.fmi") / "c" / name).read_text()
+
+
+def guid_of(text: str) -> str:
+    """FMI GUID ``{…}`` derived from ``text`` (the same element gives the same GUID)."""
+    return "{" + str(uuid.UUID(bytes=hashlib.sha256(text.encode()).digest()[:16])) + "}"
+
+
+def identifier(path: Path, model_identifier: str | None) -> str:
+    """``model_identifier``, else a C identifier from the file name."""
+    ident = model_identifier or re.sub(r"\W", "_", path.stem) or "element"
+    return ident if re.fullmatch(r"[A-Za-z_]\w*", ident) else "_" + ident
+
+
+def write_fmu(
+    path: Path,
+    ident: str,
+    xml: str,
+    sources: Mapping[str, str],
+    resource_files: Mapping[str, str],
+    source_files: Sequence[str],
+    *,
+    binary: bool,
+    compiler: str | None,
+) -> Path:
+    """Assemble the FMU in a fresh temporary folder (sources + FMI headers, optional binary
+    built from ``source_files``), zip it and copy it to ``path``."""
     with tempfile.TemporaryDirectory(prefix="fmu-") as tmp:
         root = Path(tmp)
-        sources = root / "sources"
-        sources.mkdir()
-        c_dir = resources.files("surrogates.fmi") / "c"
-        for name in (*SOURCE_FILES, *HEADERS):
-            (sources / name).write_text((c_dir / name).read_text())
-        header = element_data_header(model, guid, names[:-1], starts)
-        (sources / "element_data.h").write_text(header)
+        src = root / "sources"
+        src.mkdir()
+        for name, text in {**{h: template(h) for h in HEADERS}, **sources}.items():
+            (src / name).write_text(text)
         (root / "modelDescription.xml").write_text(xml)
         (root / "resources").mkdir()
-        (root / "resources" / "element.json").write_text(doc_text + "\n")
+        for name, text in resource_files.items():
+            (root / "resources" / name).write_text(text)
         if binary:
             folder, ext = fmi_platform()
-            compile_sources(sources, root / "binaries" / folder / f"{ident}{ext}", compiler)
+            lib = root / "binaries" / folder / f"{ident}{ext}"
+            compile_sources(src, lib, compiler, source_files)
         tmp_fmu = root / "element.fmu"
         with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as zf:
             for f in sorted(root.rglob("*")):

@@ -1,8 +1,8 @@
 """``modelDescription.xml`` of an exported surrogate element (FMI 2.0).
 
 One ``Real`` input per feature (value references ``0 … d−1``, continuous, start value the
-centre of the training box) and one ``Real`` output, the element force (value reference
-``d``, continuous, ``initial="calculated"``, depending on every input). Names follow the
+centre of the training box) and ``Real`` outputs from value reference ``d`` on (the element
+force first; continuous, ``initial="calculated"``, each depending on every input). Names follow the
 ``flat`` naming convention restricted to C identifiers (:func:`fmi_names`); the original
 feature name, its training range and unit go into the description. Units are declared in
 ``UnitDefinitions``, with SI base-unit exponents for the common mechanical units.
@@ -66,13 +66,13 @@ def model_description(
     guid: str,
     description: str,
     inputs: Sequence[Variable],
-    output: Variable,
+    outputs: Sequence[Variable],
     starts: Sequence[float],
     kinds: Sequence[str],
     source_files: Sequence[str],
 ) -> str:
     """The ``modelDescription.xml`` text; ``kinds`` ⊆ ``("me", "cs")``."""
-    units = sorted({v.unit for v in (*inputs, output) if v.unit})
+    units = sorted({v.unit for v in (*inputs, *outputs) if v.unit})
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(model_identifier)} '
@@ -117,18 +117,23 @@ def model_description(
             f'description={quoteattr(var.description)}><Real start="{start!r}"{unit}/>'
             "</ScalarVariable>"
         )
-    unit = f" unit={quoteattr(output.unit)}" if output.unit else ""
-    lines.append(
-        f'    <ScalarVariable name={quoteattr(output.name)} valueReference="{len(inputs)}" '
-        'causality="output" variability="continuous" initial="calculated" '
-        f"description={quoteattr(output.description)}><Real{unit}/></ScalarVariable>"
-    )
+    for k, out in enumerate(outputs):
+        unit = f" unit={quoteattr(out.unit)}" if out.unit else ""
+        lines.append(
+            f"    <ScalarVariable name={quoteattr(out.name)} "
+            f'valueReference="{len(inputs) + k}" causality="output" variability="continuous" '
+            f'initial="calculated" description={quoteattr(out.description)}><Real{unit}/>'
+            "</ScalarVariable>"
+        )
     lines.append("  </ModelVariables>")
     deps = " ".join(str(i + 1) for i in range(len(inputs)))
-    unknown = f'<Unknown index="{len(inputs) + 1}" dependencies="{deps}"/>'
+    unknowns = "".join(
+        f'<Unknown index="{len(inputs) + k + 1}" dependencies="{deps}"/>'
+        for k in range(len(outputs))
+    )
     lines.append(
-        f"  <ModelStructure><Outputs>{unknown}</Outputs>"
-        f"<InitialUnknowns>{unknown}</InitialUnknowns></ModelStructure>"
+        f"  <ModelStructure><Outputs>{unknowns}</Outputs>"
+        f"<InitialUnknowns>{unknowns}</InitialUnknowns></ModelStructure>"
     )
     lines.append("</fmiModelDescription>")
     return "\n".join(lines) + "\n"

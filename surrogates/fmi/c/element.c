@@ -1,24 +1,21 @@
 /*
- * FMI 2.0 model exchange and co-simulation implementation of one memoryless Legendre
- * polynomial regression (LPR) surrogate element, written by railgym's surrogates.fmi.
+ * FMI 2.0 model exchange and co-simulation implementation of one surrogate element, written by
+ * railgym's surrogates.fmi. This file is generic; the generated element_data.h holds the
+ * element's constants and includes its model header, which defines
  *
- * The element: inputs u_j (j < EL_D) in their own units, output v = F(u).
- *   t_j = (u_j - lower_j) * (2 / (upper_j - lower_j)) - 1            (domain map to [-1, 1])
- *   P_0 = 1, P_1 = t, P_{k+1} = (2k+1)/(k+1) t P_k - k/(k+1) P_{k-1}  (Bonnet recurrence)
- *   v = sum_i coef_i prod_j P_{E_ij}(t_j)
- * Outside the training box [lower, upper] the extrapolation policy EL_MODE applies:
- *   0 "linear": value at the clipped point plus its gradient times (u - u_clipped),
- *               with P'_{k+1} = P'_{k-1} + (2k+1) P_k;
- *   1 "clip":   value at the clipped point;
- *   2 "raise":  fmi2GetReal returns fmi2Error and logs the offending input.
- * The arithmetic follows surrogates.models.lpr term by term; compile without floating-point
- * contraction (gcc -ffp-contract=off) to reproduce it to rounding.
+ *   EL_NIN, EL_NOUT, EL_NSTATE          numbers of inputs, outputs and discrete states
+ *   el_start[EL_NIN], el_input_names[]  start values and names of the inputs
+ *   el_init(state)                      initial discrete state
+ *   el_outputs(u, state, y, msg, n)     outputs y[EL_NOUT] at the inputs u; nonzero (with a
+ *                                       message in msg) if they cannot be computed
+ *   el_commit(u, state)                 state update at the end of a communication step
  *
- * The element has no state: model exchange exposes no continuous states and no event
- * indicators, and fmi2DoStep only advances the communication time.
+ * lpr_element.h: a memoryless Legendre element (model exchange and co-simulation);
+ * hysteretic_element.h: a crash element with a permanent set (co-simulation).
+ * lpr.h evaluates a Legendre regression with the arithmetic of surrogates.models.lpr; compile
+ * without floating-point contraction (gcc -ffp-contract=off) to reproduce it to rounding.
  *
- * Value references: 0 .. EL_D-1 the inputs, EL_D the output. The coefficients, exponents
- * and the training box are in element_data.h (generated).
+ * Value references: 0 .. EL_NIN-1 the inputs, EL_NIN .. EL_NIN+EL_NOUT-1 the outputs.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -29,10 +26,9 @@
 #include "fmi2Functions.h"
 #include "element_data.h"
 
-#define EL_WIDTH (EL_NMAX + 2)
-
 typedef struct {
-    fmi2Real u[EL_D];
+    fmi2Real u[EL_NIN];
+    fmi2Real state[EL_NSTATE];
     fmi2Real time;
     fmi2Type type;
     fmi2Boolean logging;
@@ -49,64 +45,6 @@ static void logmsg(Element *e, fmi2Status status, const char *category, const ch
     vsnprintf(buf, sizeof buf, fmt, ap);
     va_end(ap);
     e->cb.logger(e->cb.componentEnvironment, e->name, status, category, "%s", buf);
-}
-
-/* Evaluate the element at u; returns 1 (and leaves *value untouched) if u is outside the box
-   under the "raise" policy, with *column the first offending input. */
-static int el_eval(const fmi2Real *u, fmi2Real *value, int *column) {
-    double P[EL_D][EL_WIDTH];
-    double dP[EL_WIDTH];
-    double uc[EL_D];
-    double t[EL_D];
-    double scale[EL_D];
-    double v = 0.0;
-    int outside = 0;
-    int i, j, k;
-    for (j = 0; j < EL_D; j++) {
-        uc[j] = u[j] < el_lower[j] ? el_lower[j] : (u[j] > el_upper[j] ? el_upper[j] : u[j]);
-        if (uc[j] != u[j]) {
-            if (!outside) *column = j;
-            outside = 1;
-        }
-    }
-    if (outside && EL_MODE == 2) return 1;
-    for (j = 0; j < EL_D; j++) {
-        scale[j] = 2.0 / (el_upper[j] - el_lower[j]);
-        t[j] = (uc[j] - el_lower[j]) * scale[j] - 1.0;
-        P[j][0] = 1.0;
-        P[j][1] = t[j];
-        for (k = 1; k < EL_NMAX; k++) {
-            P[j][k + 1] = (double)(2 * k + 1) / (double)(k + 1) * t[j] * P[j][k]
-                          - (double)k / (double)(k + 1) * P[j][k - 1];
-        }
-    }
-    for (i = 0; i < EL_T; i++) {
-        double term = P[0][el_exponents[i][0]];
-        for (j = 1; j < EL_D; j++) term *= P[j][el_exponents[i][j]];
-        v += term * el_coef[i];
-    }
-    if (outside && EL_MODE == 0) {
-        double ext = 0.0;
-        for (j = 0; j < EL_D; j++) {
-            double g = 0.0;
-            if (uc[j] == u[j]) continue;
-            dP[0] = 0.0;
-            dP[1] = 1.0;
-            for (k = 1; k < EL_NMAX; k++) dP[k + 1] = dP[k - 1] + (double)(2 * k + 1) * P[j][k];
-            for (i = 0; i < EL_T; i++) {
-                double term = j == 0 ? dP[el_exponents[i][0]] : P[0][el_exponents[i][0]];
-                int m;
-                for (m = 1; m < EL_D; m++) {
-                    term *= m == j ? dP[el_exponents[i][m]] : P[m][el_exponents[i][m]];
-                }
-                g += term * el_coef[i];
-            }
-            ext += g * scale[j] * (u[j] - uc[j]);
-        }
-        v += ext;
-    }
-    *value = v;
-    return 0;
 }
 
 /* ------------------------------------------------------------------ common functions */
@@ -148,7 +86,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     e->cb = *functions;
     e->type = fmuType;
     e->logging = loggingOn;
-    for (j = 0; j < EL_D; j++) e->u[j] = el_start[j];
+    for (j = 0; j < EL_NIN; j++) e->u[j] = el_start[j];
+    el_init(e->state);
     return (fmi2Component)e;
 }
 
@@ -186,7 +125,8 @@ fmi2Status fmi2Terminate(fmi2Component c) {
 fmi2Status fmi2Reset(fmi2Component c) {
     Element *e = (Element *)c;
     int j;
-    for (j = 0; j < EL_D; j++) e->u[j] = el_start[j];
+    for (j = 0; j < EL_NIN; j++) e->u[j] = el_start[j];
+    el_init(e->state);
     e->time = 0.0;
     return fmi2OK;
 }
@@ -202,18 +142,16 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     Element *e = (Element *)c;
     size_t i;
     for (i = 0; i < nvr; i++) {
-        if (vr[i] < EL_D) {
+        if (vr[i] < EL_NIN) {
             value[i] = e->u[vr[i]];
-        } else if (vr[i] == EL_D) {
-            int column = 0;
-            if (el_eval(e->u, &value[i], &column)) {
-                logmsg(e, fmi2Error, "logStatusError",
-                       "input %s = %.17g is outside the training domain [%.17g, %.17g] "
-                       "(extrapolation policy \"raise\")",
-                       el_input_names[column], e->u[column], el_lower[column],
-                       el_upper[column]);
+        } else if (vr[i] < EL_NIN + EL_NOUT) {
+            fmi2Real y[EL_NOUT];
+            char msg[256];
+            if (el_outputs(e->u, e->state, y, msg, sizeof msg)) {
+                logmsg(e, fmi2Error, "logStatusError", "fmi2GetReal: %s", msg);
                 return fmi2Error;
             }
+            value[i] = y[vr[i] - EL_NIN];
         } else {
             return bad_reference(e, vr[i], "fmi2GetReal");
         }
@@ -226,7 +164,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     Element *e = (Element *)c;
     size_t i;
     for (i = 0; i < nvr; i++) {
-        if (vr[i] >= EL_D) return bad_reference(e, vr[i], "fmi2SetReal (inputs only)");
+        if (vr[i] >= EL_NIN) return bad_reference(e, vr[i], "fmi2SetReal (inputs only)");
         if (!isfinite(value[i])) {
             logmsg(e, fmi2Error, "logStatusError", "input %s set to a non-finite value",
                    el_input_names[vr[i]]);
@@ -331,6 +269,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 }
 
 /* ------------------------------------------------------------------ model exchange */
+/* A model-exchange element has no continuous states and no event indicators. */
 fmi2Status fmi2EnterEventMode(fmi2Component c) {
     (void)c;
     return fmi2OK;
@@ -426,6 +365,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                communicationStepSize);
         return fmi2Error;
     }
+    el_commit(e->u, e->state);
     e->time = currentCommunicationPoint + communicationStepSize;
     return fmi2OK;
 }
