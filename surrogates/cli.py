@@ -47,7 +47,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     b.add_argument("--units", nargs="*", default=[], help="NAME=UNIT pairs, e.g. F=N")
     b.add_argument("--report", help="also write the build report as JSON here")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    e = sub.add_parser("export-fmu", help="export a saved Legendre element as an FMI 2.0 FMU")
+    e.add_argument("model", help="model JSON written by 'surrogates build'")
+    e.add_argument("-o", "--fmu", required=True, help="where to write the .fmu")
+    e.add_argument("--kind", choices=["me", "cs", "both"], default="both")
+    e.add_argument("--sources-only", action="store_true", help="do not compile a binary")
+    e.add_argument("--overwrite", action="store_true", help="replace an existing FMU")
     args = parser.parse_args(argv)
+    if args.command == "export-fmu":
+        return _export_fmu(args)
 
     try:
         units = dict(u.split("=", 1) for u in args.units)
@@ -83,6 +91,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.report:
         with open(args.report, "w") as fh:
             json.dump(report.to_dict(), fh, indent=1)
+    return 0
+
+
+def _export_fmu(args: argparse.Namespace) -> int:
+    """``surrogates export-fmu``: :func:`surrogates.fmi.export_fmu` of a saved model."""
+    from surrogates.fmi import FMUExportError, export_fmu
+
+    try:
+        path = export_fmu(
+            args.model,
+            args.fmu,
+            kind=args.kind,
+            binary=not args.sources_only,
+            overwrite=args.overwrite,
+        )
+    except (OSError, ValueError, FMUExportError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"FMU written to {path}")
     return 0
 
 
