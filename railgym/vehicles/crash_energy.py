@@ -135,8 +135,8 @@ def element_force_history(element: CrashElement, u: np.ndarray, t: np.ndarray) -
         f_lpr, (f_min, f_max) = (load[k], ranges[0]) if mdl == 0 else (unload[k], ranges[1])
         if mdl < 0:
             f_lpr = f_min = f_max = 0.0
-        f[k], up = _element_force(u[k], up, f_lpr, f_min, f_max, 1.0, variant,
-                                  element.unilateral, ku, kt, slack)  # fmt: skip
+        law = (variant, element.unilateral, ku, kt, slack)
+        f[k], up = _element_force(u[k], up, f_lpr, f_min, f_max, 1.0, *law)
     return f
 
 
