@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from railgym.vehicles.crash import parse_scenario, simulate_reference
+from railgym.vehicles.crash import CrushZone, load_scenario, simulate_reference
 from railgym.vehicles.crash_criteria import (
     CriteriaLimits,
     G,
@@ -20,7 +21,6 @@ from railgym.vehicles.crash_criteria import (
     peak_deceleration,
     result_criteria,
 )
-from tests.test_crash_models import paper_raw
 
 
 def _constant_force_crash(mass: float, v0: float, force: float, dt: float, duration: float):
@@ -53,14 +53,15 @@ def test_pulse_mean_deceleration_of_constant_force_crash_is_analytic(mass, v0, f
 
 
 def test_pulse_of_reference_single_mass_into_plateau_absorber():
-    raw = paper_raw()
     force, v0, mass = 1.0e6, 10.0, 30.0e3
-    raw.update(n_cars=1, friction=0.0, speed_kmh=v0 * 3.6)
-    raw["cars"]["lead"].update(mass_t=mass / 1e3, n_nodes=2, EA_MN=1e6, damping_ratio=0.0)
-    raw["zones"]["wall"] = {"stroke_mm": [1, 5000], "force_kN": [force / 1e3] * 2,
-                            "absorber_stroke_mm": 1000, "unloading_stiffness_kN_per_mm": 1000,
-                            "fold_amplitude": 0.0}  # fmt: skip
-    r = simulate_reference(parse_scenario(raw), duration=1.0, sample_dt=1e-4)
+    sc = load_scenario("paper")
+    plateau = {"stroke": (1e-3, 5.0), "force": (force, force), "absorber_stroke": 1.0}
+    wall = CrushZone(
+        "wall", **plateau, unloading_stiffness=1e9, fold_amplitude=0.0, fold_wavelength=0.15
+    )
+    lead = replace(sc.lead, mass=mass, n_nodes=2, axial_rigidity=1e12, damping_ratio=0.0)
+    sc = replace(sc, n_cars=1, friction=0.0, speed=v0, lead=lead, wall=wall)
+    r = simulate_reference(sc, duration=1.0, sample_dt=1e-4)
     c = result_criteria(r)
     g = r.scenario.gravity
     assert c.pulse.end[0] == pytest.approx(v0 * mass / force, rel=5e-3)
