@@ -14,6 +14,13 @@ from agents.crash_baselines import (
     rollout,
     search_constant,
 )
+from agents.crash_report import (
+    ERROR_ACTIONS,
+    baseline_rows,
+    baseline_table,
+    error_table,
+    surrogate_error_rows,
+)
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv
 from railgym.vehicles.crash import load_scenario, simulate_reference
 from railgym.vehicles.crash_criteria import result_criteria
@@ -91,3 +98,21 @@ def test_search_finds_the_shipped_best_constant():
     assert not res.admissible[passive]  # passive crushes structure at 45 km/h
     best = int(np.flatnonzero(np.all(res.candidates == res.best, axis=1))[0])
     assert np.all(res.intrusion[:5, best] == 0.0)
+
+
+def test_report_tables_reproduce_the_issue_measurements():
+    rows = surrogate_error_rows([40.0], fit="nominal")
+    again = surrogate_error_rows([40.0], fit="per-speed")  # the same fit at the nominal speed
+    for r, s in zip(rows, again, strict=True):
+        np.testing.assert_array_equal(r["surrogate"].crush, s["surrogate"].crush)
+    minus = rows[ERROR_ACTIONS.index(-1.0)]
+    # issue 11: at −1 the surrogate reports 0.446 m of cab intrusion, the reference 0.200 m
+    assert minus["surrogate"].criteria().intrusion_m[0] == pytest.approx(0.446, abs=5e-3)
+    assert minus["reference"].criteria().intrusion_m[0] == pytest.approx(0.200, abs=5e-3)
+    table = error_table(rows)
+    assert table.count("\n") == 2 + len(ERROR_ACTIONS) - 1
+    assert "0.200 / 0.000 → 0.446 / 0.000" in table
+    text = baseline_table(baseline_rows([25.0]))
+    assert "| 25 | speed-adaptive |" in text and "| speed-adaptive |" in text
+    with pytest.raises(ValueError, match="fit must be"):
+        surrogate_error_rows([40.0], fit="other")
