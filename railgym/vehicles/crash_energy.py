@@ -31,7 +31,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from railgym.vehicles.crash import VARIANTS, CrashElement, _element_force, _element_model
+from railgym.vehicles.crash import VARIANTS, CrashElement
+from railgym.vehicles.crash.surrogate_model import _element_force, _element_model
 
 
 class CycleWork(NamedTuple):
