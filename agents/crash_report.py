@@ -74,7 +74,7 @@ def surrogate_error_rows(
                 backend=backend,
                 scenario=scenario,
                 speed=kmh / 3.6,
-                surrogate=sur,
+                surrogate=sur if backend == "surrogate" else None,
             )
             out[backend] = rollout(env, _Fixed(actions))
         for a, ref, srg in zip(ERROR_ACTIONS, out["reference"], out["surrogate"], strict=True):
