@@ -80,9 +80,16 @@ def test_memory_element_recovers_maxwell_force_where_static_map_cannot():
     rows = np.flatnonzero(warm)[::5]
     taus = TAU * 2.0 ** (np.arange(-4, 5) / 2)
     sel = select_tau(
-        factory_for("lpr"), [1, 2, 3], taus, train.delta, train.delta_dot, train.t,
-        train.force, rows=rows, k=5,
-    )  # fmt: skip
+        factory_for("lpr"),
+        [1, 2, 3],
+        taus,
+        train.delta,
+        train.delta_dot,
+        train.t,
+        train.force,
+        rows=rows,
+        k=5,
+    )
     tau, degree = sel.best
     assert tau == pytest.approx(TAU)
     U = memory_features(train.delta, train.delta_dot, train.t, tau)
