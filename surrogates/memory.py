@@ -35,7 +35,8 @@ FEATURE_FORMS = {"static": ("delta", "delta_dot"), "maxwell": ("delta", "delta_d
 
 
 def _tau(tau: Any) -> float:
-    if isinstance(tau, bool) or not (np.isscalar(tau) and np.isfinite(tau) and tau > 0):
+    ok = isinstance(tau, (int, float, np.integer, np.floating)) and not isinstance(tau, bool)
+    if not (ok and np.isfinite(float(tau)) and float(tau) > 0):
         raise ValueError(f"tau must be a positive time constant in s, got {tau!r}")
     return float(tau)
 

@@ -68,7 +68,7 @@ class PassiveLegendreRegression(LegendreRegression):
     """
 
     kind: ClassVar[str] = "lpr_passive"
-    interactions: ClassVar[bool] = False
+    interactions = False  # additive form only (fixed, not a parameter)
 
     def __init__(
         self,
@@ -124,18 +124,13 @@ class PassiveLegendreRegression(LegendreRegression):
         points = [grid if m else np.empty(0) for m in mono]
         for _ in range(MAX_REFINE_ROUNDS):
             coef_scaled = _lsi(R, f, _slope_rows(points, E) / norms, margin)
-            minima = [
-                _slope_minima(coef_scaled / norms, E, j) if mono[j] else None for j in range(d)
-            ]
-            bad = [m is not None and m[1].min() < 0.0 for m in minima]
-            if not any(bad):
+            minima = {j: _slope_minima(coef_scaled / norms, E, j) for j in range(d) if mono[j]}
+            bad = {j for j, (_, slope) in minima.items() if slope.min() < 0.0}
+            if not bad:
                 break
-            points = [
-                np.concatenate([points[j], minima[j][0][minima[j][1] < 0.5 * margin]])
-                if bad[j]
-                else points[j]
-                for j in range(d)
-            ]
+            for j in bad:
+                t_min, slope = minima[j]
+                points[j] = np.concatenate([points[j], t_min[slope < 0.5 * margin]])
         self.coef_ = coef_scaled / norms
         self.exponents_ = E
         self.n_terms_ = T
@@ -143,7 +138,7 @@ class PassiveLegendreRegression(LegendreRegression):
         self.n_constraints_ = int(sum(p.size for p in points))
         dt_du = 2.0 / (self.upper_ - self.lower_)
         self.min_slope_ = np.array(
-            [minima[j][1].min() * dt_du[j] if mono[j] else np.nan for j in range(d)]
+            [minima[j][1].min() * dt_du[j] if j in minima else np.nan for j in range(d)]
         )
 
 
@@ -168,6 +163,7 @@ def _slope_rows(points: list[np.ndarray], E: np.ndarray) -> np.ndarray:
         if t.size == 0:
             continue
         _, dP = _legendre_table(t, max(nmax, 1), derivative=True)
+        assert dP is not None
         own = np.all(np.delete(E, j, axis=1) == 0, axis=1) & (E[:, j] > 0)
         block = np.zeros((t.size, E.shape[0]))
         block[:, own] = dP[:, E[own, j]]

@@ -15,7 +15,6 @@ Every run is recorded at the integration step (the memory features of
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
@@ -24,6 +23,19 @@ from railgym.track import class_speed, track_time_input
 from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle, simulate
 
 DESIGNS = ("paper", "envelope")
+
+
+def _number(v: Any) -> float | None:
+    """``v`` as a finite float, or ``None`` when it is not a finite real number."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        return None
+    x = float(v)
+    return x if np.isfinite(x) else None
+
+
+def _count(v: Any) -> bool:
+    """True for a non-negative integer (not a bool)."""
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool) and int(v) >= 0
 
 
 @dataclass(frozen=True)
@@ -54,21 +66,20 @@ class CollectionDesign:
     def __post_init__(self) -> None:
         for name in ("track_classes", "seeds"):
             values = getattr(self, name)
-            if not values or not all(
-                isinstance(v, Integral) and not isinstance(v, bool) and v >= 0 for v in values
-            ):
+            if not values or not all(_count(v) for v in values):
                 raise ValueError(f"design.{name} must be a non-empty tuple of integers >= 0")
         for name in ("speed_factors", "speeds"):
             values = getattr(self, name)
-            if not all(isinstance(v, Real) and np.isfinite(v) and v > 0 for v in values):
+            if not all((_number(v) or 0.0) > 0 for v in values):
                 raise ValueError(f"design.{name} must hold positive numbers, got {values!r}")
         if not self.speed_factors and not self.speeds:
             raise ValueError("design needs speed_factors or speeds")
         for name in ("duration", "sample_rate", "band"):
             v = getattr(self, name)
-            if not (isinstance(v, Real) and np.isfinite(v) and v > 0):
+            if not (_number(v) or 0.0) > 0:
                 raise ValueError(f"design.{name} must be a positive number, got {v!r}")
-        if not (isinstance(self.f_max, Real) and np.isfinite(self.f_max) and self.f_max >= 0):
+        f_max = _number(self.f_max)
+        if f_max is None or f_max < 0:
             raise ValueError(f"design.f_max must be a non-negative force in N, got {self.f_max!r}")
 
     def cases(self) -> list[tuple[int, float, int]]:
