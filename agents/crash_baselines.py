@@ -173,18 +173,23 @@ class Rollout(NamedTuple):
         return crash_criteria(*args, g=self.gravity, **kwargs)
 
 
-def rollout(env: TrainCrashVectorEnv, controller: Any, seed: int = 0) -> list[Rollout]:
-    """Run one episode of every sub-env of ``env`` under ``controller.predict``; histories
-    from the kernel outputs (float64), each until its sub-env terminates or truncates."""
-    obs, _ = env.reset(seed=seed)
-    sim, n = env.sim, env.num_envs
-    cars, zones = sim.n_cars, sim.zones
+def rollout(
+    env: TrainCrashVectorEnv,
+    controller: Any,
+    seed: int = 0,
+    options: dict[str, Any] | None = None,
+) -> list[Rollout]:
+    """Run one episode of every sub-env of ``env`` under ``controller.predict`` (reset with
+    ``seed`` and ``options``); histories from the env's accessors (float64), each until its
+    sub-env terminates or truncates."""
+    obs, _ = env.reset(seed=seed, options=options)
+    n = env.num_envs
     rec: list[list[np.ndarray]] = [[] for _ in range(3)]
 
     def record() -> None:
-        rec[0].append(sim.out.v[:, :cars].copy())
-        rec[1].append(sim.out.a[:, :cars].copy())
-        rec[2].append(sim.out.crush[:, zones].copy())
+        rec[0].append(env.velocities)
+        rec[1].append(env.accelerations)
+        rec[2].append(env.crush)
 
     record()
     length = np.zeros(n, np.int64)
@@ -197,7 +202,7 @@ def rollout(env: TrainCrashVectorEnv, controller: Any, seed: int = 0) -> list[Ro
         done |= term | trunc
     v, a, crush = (np.stack(r, axis=1) for r in rec)
     t = np.arange(length.max() + 1) * env.cfg.control_dt
-    stroke, g = np.asarray(env.cfg.absorber_stroke), env.cfg.scenario.gravity
+    stroke, g = env.absorber_stroke, env.cfg.scenario.gravity
     return [
         Rollout(t[: m + 1], v[i, : m + 1], a[i, : m + 1], crush[i, : m + 1], stroke, g)
         for i, m in enumerate(length)
@@ -240,7 +245,7 @@ def search_constant(
     """
     speeds = np.asarray(speeds, dtype=np.float64)
     probe = TrainCrashVectorEnv(num_envs=1, **env_kwargs)
-    n_zones = probe.sim.n_zones
+    n_zones = probe.single_action_space.shape[0]
     cand = np.array(list(itertools.product(levels, repeat=n_zones)), dtype=np.float64)
     if not np.any(np.all(cand == 0.0, axis=1)):
         cand = np.vstack([np.zeros(n_zones), cand])  # passive is the reference for intrusion

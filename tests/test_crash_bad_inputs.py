@@ -174,6 +174,8 @@ def test_extreme_weights_and_actions_keep_every_output_finite():
     while True:
         obs, r, term, trunc, info = env.step(rng.choice([-1e30, 1e30], 2))
         assert np.isfinite(r) and np.all(np.isfinite(obs))
-        assert all(np.all(np.isfinite(v)) for v in info.values())
+        values = [v for k, v in info.items() if k != "reward_terms"]
+        assert all(np.all(np.isfinite(v)) for v in [*values, *info["reward_terms"].values()])
+        assert sum(info["reward_terms"].values()) == pytest.approx(r, rel=1e-12, abs=1e-12)
         if term or trunc:
             break

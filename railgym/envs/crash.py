@@ -1,49 +1,40 @@
 """``railgym/TrainCrash-v0``: adaptive crash energy management of a train hitting a wall.
 
 A lead car and ``n_cars − 1`` passenger cars run into a rigid wall (or a free deformable
-obstacle) from the scenario's speed (default: the paper's table 9 case, 40 km/h). Every crush
-zone — the lead car's front end at the wall and each interface between two cars — holds a
-controllable absorber: the agent sets the force level of each absorber between 0.7 and 1.3
-times nominal (rate-limited), trading the cars' decelerations against crush beyond the
-absorbers' stroke, i.e. loss of survival space. Action 0 everywhere is the passive train.
+obstacle) from the scenario's speed (default: the paper's table 9 case, 40 km/h), or — for a
+scenario with an ``envelope`` (``"envelope"``: 25–50 km/h and a payload per car) — from
+conditions drawn at each reset from the env's ``np_random``. Every crush zone — the lead car's
+front end at the wall and each interface between two cars — holds a controllable absorber:
+the agent sets the force level of each absorber between 0.7 and 1.3 times nominal
+(rate-limited), trading the cars' decelerations against crush beyond the absorbers' stroke,
+i.e. loss of survival space. Action 0 everywhere is the passive train.
 
 The physics is in :mod:`railgym.vehicles.crash`: ``backend="reference"`` is the lumped-mass
 chain with hysteretic crush zones (``simulate_reference``), ``"surrogate"`` the paper's eq. (4)
-with surrogate elements fitted on a reference run of the scenario (``build_crash_surrogate``).
-:class:`CrashBatch` steps any number of trains in one compiled call; the single env and the
-native vector env are thin shells around it. See ``docs/envs/crash.md`` for the tables.
+with surrogate elements (packaged ones, else fitted on a reference run of the scenario). The
+single env and the native vector env are the shells of :mod:`railgym.envs.base` around
+:class:`~railgym.envs.crash_batch.CrashBatch`, which steps any number of trains in one
+compiled call. ``info`` carries the crash criteria of
+:mod:`railgym.vehicles.crash_criteria` with the scenario's limits. See ``docs/envs/crash.md``.
 """
 
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import seeding
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
 
-from railgym.envs.crash_step import (
-    _ENV,
-    _STATE,
-    INFO_FIELDS,
-    EnvConsts,
-    Episode,
-    InfoColumns,
-    _advance_reference,
-    _advance_surrogate,
-    info_layout,
-    plain,
-)
-from railgym.envs.vector import reset_plan
+from railgym import _validation as val
+from railgym.envs.base import BatchEnv, BatchVectorEnv
+from railgym.envs.crash_batch import CrashBatch, CrashConfig
+from railgym.envs.crash_step import INFO_FIELDS, REWARD_TERMS, Criteria
 from railgym.vehicles.crash import (
+    LIMITS,
     VARIANTS,
-    BatchOutputs,
     CrashBatchModel,
     CrashScenario,
     CrashSurrogate,
@@ -54,6 +45,22 @@ from railgym.vehicles.crash import (
     load_scenario,
     simulate_reference,
 )
+from railgym.vehicles.crash_criteria import ONSET_G, WINDOW
+
+__all__ = [
+    "BACKENDS",
+    "DEFAULT_WEIGHTS",
+    "INFO_FIELDS",
+    "REWARD_TERMS",
+    "CrashBatch",
+    "CrashConfig",
+    "TrainCrashEnv",
+    "TrainCrashVectorEnv",
+    "default_surrogate",
+    "make_config",
+    "make_model",
+    "nominal_force",
+]
 
 BACKENDS = ("surrogate", "reference")
 DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0}
@@ -64,26 +71,13 @@ MAX_CONTROL_DT = 0.01
 MAX_DURATION = 60.0
 #: largest reward weight and absorber rate (1/s): keeps every reward finite
 MAX_WEIGHT = 1e6
+#: most sub-envs of the vector env
+MAX_NUM_ENVS = 4096
 #: observation scales: displacement (m) and acceleration (in g)
 X_SCALE = 1.0
 A_SCALE_G = 10.0
-
-
-@dataclass(frozen=True)
-class CrashConfig:
-    """Validated settings shared by the single and the vector env (SI units)."""
-
-    scenario: CrashScenario
-    backend: str
-    control_dt: float
-    n_steps: int
-    absorber_range: float
-    max_scale_change: float
-    speed_jitter: float
-    weights: tuple[float, float]
-    absorber_stroke: np.ndarray
-    obs_names: tuple[str, ...]
-    obs_scale: np.ndarray
+#: the reset options (impact conditions, in the scenario file's units)
+OPTIONS = ("speed_kmh", "payload_t")
 
 
 def nominal_force(zone: CrushZone) -> float:
@@ -109,6 +103,10 @@ def make_config(
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     sc = scenario if isinstance(scenario, CrashScenario) else load_scenario(scenario)
     sc = sc.with_overrides(n_cars=n_cars, speed=speed)
+    speed_range = payload_range = None
+    if sc.envelope is not None:  # an explicit speed fixes the envelope's speed
+        speed_range = (sc.speed, sc.speed) if speed is not None else sc.envelope.speed
+        payload_range = sc.envelope.payload_ranges(sc.n_cars)
     control_dt = check_real("control_dt", control_dt, 0.0, MAX_CONTROL_DT, low_open=True)
     max_duration = check_real("max_duration", max_duration, 0.0, MAX_DURATION, low_open=True)
     n_steps = round(max_duration / control_dt)
@@ -143,7 +141,7 @@ def make_config(
     scale = np.concatenate(
         [
             np.full(n, X_SCALE),
-            np.full(n, sc.speed),
+            np.full(n, sc.speed if speed_range is None else speed_range[1]),
             np.full(n, A_SCALE_G * sc.gravity),
             stroke,
             force,
@@ -162,6 +160,14 @@ def make_config(
         absorber_stroke=stroke,
         obs_names=tuple(names),
         obs_scale=scale,
+        speed_range=speed_range,
+        payload_range=payload_range,
+        criteria=Criteria(
+            onset_g=ONSET_G,
+            window_steps=max(1, round(WINDOW / control_dt)),
+            window=max(1, round(WINDOW / control_dt)) * control_dt,
+            **sc.criteria._asdict(),
+        ),
     )
 
 
@@ -197,215 +203,146 @@ def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchMode
         raise ValueError(f"surrogate does not fit this env: {err}") from err
 
 
-class CrashBatch:
-    """``n`` trains, stepped by one compiled kernel call of a :class:`CrashBatchModel`.
+def _options_payload(value: Any, n_cars: int) -> np.ndarray:
+    """``payload_t`` of ``reset(options=...)``: one number (t) for every car, a sequence of
+    ``n_cars`` numbers or a mapping with ``lead`` and ``passenger``; returned in kg."""
+    field = "options['payload_t']"
+    lo, hi = LIMITS["payload_t"]
+    if isinstance(value, Mapping):
+        unknown = sorted(set(value) - {"lead", "passenger"})
+        if unknown:
+            raise val.FieldError(f"{field}[{unknown[0]!r}]", "is not a car type (lead, passenger)")
+        lead = val.in_range(value.get("lead", 0.0), f"{field}['lead']", lo, hi)
+        other = val.in_range(value.get("passenger", 0.0), f"{field}['passenger']", lo, hi)
+        tonnes = [lead] + [other] * (n_cars - 1)
+    elif isinstance(value, list | tuple | np.ndarray):
+        items = val.sequence(value, field, n_cars)
+        tonnes = [val.in_range(v, f"{field}[{k}]", lo, hi) for k, v in enumerate(items)]
+    else:
+        tonnes = [val.in_range(value, field, lo, hi)] * n_cars
+    return np.array(tonnes) * 1e3
 
-    Not a Gymnasium object: it holds the arrays and computes the observation, reward and
-    ``info`` quantities of :class:`TrainCrashEnv`.
+
+class _CrashShell:
+    """Option handling and the public accessors shared by the single and the vector env.
+
+    Accessors return copies of the end-of-step state: for the single env arrays over the cars
+    or zones, for the vector env with a first axis over the sub-envs.
     """
 
-    def __init__(self, n: int, cfg: CrashConfig, model: CrashBatchModel) -> None:
-        self.n, self.cfg, self.model = n, cfg, model
-        sc = cfg.scenario
-        self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
-        self.zones = np.array(
-            [
-                model.zone_names.index(z)
-                for z in ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
-            ],
-            dtype=np.int64,
-        )
-        self.layout = info_layout(self.n_cars, self.n_zones)
-        n_info = max(sl.stop for sl, _ in self.layout.values())
-        state, out = model.new_state(n), model.new_outputs(n)
-        nc, nz = self.n_cars, self.n_zones
-        env = [
-            np.ones((n, len(model.zone_names))),
-            np.zeros(n),
-            np.zeros(n),
-            np.zeros((n, nc)),
-            np.zeros((n, nc)),
-            np.zeros((n, nz)),
-            np.zeros((n, nz)),
-            np.zeros((n, len(cfg.obs_names))),
-            np.zeros(n),
-            np.zeros((n, n_info)),
-        ]
-        # every per-train float array in one buffer, in the field order of _advance_*
-        self._state_type = type(state)
-        self._buf, self._fields = self._pack([*out, *env, *state])
-        self.div = np.zeros(n, np.bool_)
-        self.over = np.zeros(n, np.bool_)
-        self.steps = np.zeros(n, np.int64)
-        # (key, kind, first, stop) per info key: kind 0 float, 1 bool, 2 array
-        kinds = {"1": 0, "bool": 1, "cars": 2, "zones": 2}
-        self._info_fields = [
-            (key, kinds[size], self.layout[key][0].start, self.layout[key][0].stop)
-            for key, size in INFO_FIELDS
-        ]
-        self.inv_scale = 1.0 / cfg.obs_scale
-        columns = InfoColumns(*(sl.start for sl, _ in self.layout.values()))
-        self.consts = EnvConsts(
-            zones=self.zones,
-            stroke=cfg.absorber_stroke,
-            inv_scale=self.inv_scale,
-            w_decel=cfg.weights[0],
-            w_intrusion=cfg.weights[1],
-            gravity=sc.gravity,
-            control_dt=cfg.control_dt,
-            absorber_range=cfg.absorber_range,
-            max_change=cfg.max_scale_change,
-            info=columns,
-        )
-        self._bind()
-        self._no_action = np.zeros((n, self.n_zones))
-        # undeformed front end of each car at first contact (lead car at the wall), m
-        lengths = [sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1)
-        self.lengths = np.array(lengths)
-        self.front0 = -np.concatenate(([0.0], np.cumsum(lengths[:-1])))
+    sim: CrashBatch
+    cfg: CrashConfig
+    _single: bool
 
-    def reset(self, rows: np.ndarray, rngs: list[np.random.Generator]) -> None:
-        """Put the trains ``rows`` at first contact (initial speed jittered with ``rngs[i]``)."""
-        cfg, mask = self.cfg, np.zeros(self.n, np.bool_)
-        for i in rows:
-            v = cfg.scenario.speed
-            if cfg.speed_jitter > 0:
-                v *= 1.0 + cfg.speed_jitter * rngs[i].uniform(-1.0, 1.0)
-            self.model.reset(self.state, self.out, i, v)
-            self.speed[i] = v
-            self.scale[i] = 1.0
-            self.div[i] = False
-            mask[i] = True
-        self._call(mask, init=True)
+    def _rows(self, a: np.ndarray) -> np.ndarray:
+        return a[0].copy() if self._single else a.copy()
 
-    @staticmethod
-    def _pack(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-        """One float64 buffer holding ``arrays`` (1-D or 2-D) one after another and the
-        (offset, rows, columns) of each (columns 0 for a 1-D array): the compiled step then
-        takes one array instead of one per array."""
-        buf = np.empty(sum(a.size for a in arrays))
-        fields = np.zeros((len(arrays), 3), np.int64)
-        o = 0
-        for f, a in enumerate(arrays):
-            buf[o : o + a.size] = a.ravel()
-            fields[f] = o, a.shape[0], a.shape[1] if a.ndim == 2 else 0
-            o += a.size
-        return buf, fields
+    @property
+    def positions(self) -> np.ndarray:
+        """Car displacements from first contact (centre of mass), m."""
+        return self._rows(self.sim.out.x[:, : self.sim.n_cars])
 
-    def _view(self, f: int) -> np.ndarray:
-        """Array ``f`` of the buffer, as a view."""
-        o, r, c = (int(v) for v in self._fields[f])
-        return self._buf[o : o + r * max(c, 1)].reshape((r, c) if c else (r,))
+    @property
+    def velocities(self) -> np.ndarray:
+        """Car velocities towards the barrier, m/s."""
+        return self._rows(self.sim.out.v[:, : self.sim.n_cars])
 
-    def _bind(self) -> None:
-        """Named views of the buffer and the kernel arguments (again after a copy: a pickled
-        view is a detached array)."""
-        views = [self._view(f) for f in range(self._fields.shape[0])]
-        self.out = BatchOutputs(*views[:_ENV])
-        self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
-        self.state = self._state_type(*views[_STATE:])
-        model = self.model
-        self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
-        flags = (self.div, self.over, self.steps)
-        stepping = (model.dt, model.n_sub)
-        self._args = (
-            self._buf,
-            self._fields,
-            flags,
-            plain(model.params),
-            stepping,
-            plain(self.consts),
-        )
+    @property
+    def accelerations(self) -> np.ndarray:
+        """Car accelerations (negative when braking), m/s²."""
+        return self._rows(self.sim.out.a[:, : self.sim.n_cars])
 
-    _VIEWS = ("out", "episode", "state", "_kernel", "_args")
+    @property
+    def crush(self) -> np.ndarray:
+        """Crush of each zone (wall first; surrogate: element feature u), m."""
+        return self._rows(self.sim.out.crush[:, self.sim.zones])
 
-    # per-train arrays under their short names (views of the buffer)
-    scale = property(lambda self: self.episode.scale)
-    speed = property(lambda self: self.episode.speed)
-    obs = property(lambda self: self.episode.obs)
-    rew = property(lambda self: self.episode.reward)
-    info = property(lambda self: self.episode.info)
+    @property
+    def zone_forces(self) -> np.ndarray:
+        """Force of each zone, compression positive, N."""
+        return self._rows(self.sim.out.force[:, self.sim.zones])
 
-    def __getstate__(self) -> dict[str, Any]:
-        return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
+    @property
+    def absorber_scales(self) -> np.ndarray:
+        """Force scale of each zone's absorber over the last step."""
+        return self._rows(self.sim.scale[:, self.sim.zones])
 
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self._bind()
+    @property
+    def car_masses(self) -> np.ndarray:
+        """Mass of each car in this episode (payload included), kg."""
+        return self._rows(self.cfg.scenario.car_masses + self.sim.payload)
 
-    def advance(self, actions: np.ndarray, active: np.ndarray) -> bool:
-        """One control step of the ``active`` trains with ``actions`` (n, zones) float64,
-        clipped to [−1, 1]. Returns ``False``, changing nothing, if any action is not finite."""
-        return self._kernel(*self._args, actions, active, False)
+    @property
+    def initial_speed(self) -> Any:
+        """This episode's initial speed, m/s (float; vector env: (n,) array)."""
+        return float(self.sim.speed[0]) if self._single else self.sim.speed.copy()
 
-    def _call(self, active: np.ndarray, init: bool) -> None:
-        self._kernel(*self._args, self._no_action, active, init)
+    @property
+    def absorber_stroke(self) -> np.ndarray:
+        """Absorber stroke of each zone, m."""
+        return self.cfg.absorber_stroke.copy()
 
-    def observe(self) -> np.ndarray:
-        """Observations (n, n_obs), float32."""
-        return self.obs.astype(np.float32)
+    def _apply_options(self, options: dict[str, Any]) -> None:
+        """``speed_kmh`` (km/h) and ``payload_t`` (t, see :func:`_options_payload`) fix the
+        impact conditions of this and later episodes (``None`` draws them again); the
+        envelope's draws are made all the same, so that the episodes after still follow the
+        seed."""
+        if not options:
+            return
+        unknown = sorted(set(options) - set(OPTIONS))
+        if unknown:
+            raise val.FieldError(
+                f"options[{unknown[0]!r}]", f"is not a reset option; options: {list(OPTIONS)}"
+            )
+        fixed = dict(self._fixed)
+        if "speed_kmh" in options:
+            v = options["speed_kmh"]
+            lo, hi = LIMITS["speed_kmh"]
+            fixed["speed_kmh"] = (
+                None if v is None else val.in_range(v, "options['speed_kmh']", lo, hi) / 3.6
+            )
+        if "payload_t" in options:
+            p = options["payload_t"]
+            fixed["payload_t"] = None if p is None else _options_payload(p, self.sim.n_cars)
+        self._fixed = fixed
 
-    def infos(self) -> dict[str, np.ndarray]:
-        """``info`` of every train as arrays, first axis the train (``docs/envs/crash.md``);
-        views of one fresh copy."""
-        info = self.info.copy()
-        return {
-            key: info[:, a] if kind == 0 else info[:, a] != 0.0 if kind == 1 else info[:, a:b]
-            for key, kind, a, b in self._info_fields
-        }
+    def _episode(self) -> tuple[Any, Any]:
+        return self._fixed.get("speed_kmh"), self._fixed.get("payload_t")
 
-    def info_row(self, i: int) -> dict[str, Any]:
-        """``info`` of train ``i``: floats, bools and 1-D arrays (views of one fresh copy)."""
-        row = self.info[i].copy()
-        vals = row.tolist()
-        return {
-            key: vals[a] if kind == 0 else vals[a] != 0.0 if kind == 1 else row[a:b]
-            for key, kind, a, b in self._info_fields
-        }
+    def _frame(self, state: dict[str, Any]) -> np.ndarray:
+        from railgym.envs.rendering import render_crash
 
-    def render_state(self, i: int) -> dict[str, Any]:
-        """What :func:`railgym.envs.rendering.render_crash` draws for train ``i``."""
-        out, c = self.out, self.n_cars
-        wall = float(out.x[i, c]) if out.x.shape[1] > c else 0.0  # the obstacle, if any
-        return {
-            "positions": self.front0 + out.x[i, :c],
-            "lengths": self.lengths,
-            "crush": out.crush[i, self.zones],
-            "stroke": self.cfg.absorber_stroke,
-            "wall_x": wall,
-            "time": float(self.steps[i] * self.cfg.control_dt),
-            "duration": self.cfg.n_steps * self.cfg.control_dt,
-        }
+        return render_crash(state)
 
 
-def _real_actions(name: str, value: Any) -> np.ndarray:
-    """``value`` as a float64 array if it holds real numbers (not bools, strings, complex);
-    else ``ValueError`` naming ``name``."""
-    a = np.asarray(value)
-    if a.dtype.kind not in "iuf":
-        raise ValueError(f"{name} must hold real numbers, got dtype {a.dtype} ({value!r})")
-    return a.astype(np.float64)
-
-
-class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
+class TrainCrashEnv(_CrashShell, BatchEnv):
     """Adaptive crash energy management: a train runs into a wall, the agent sets the force
     level of a controllable absorber in every crush zone.
 
     Parameters
     ----------
     backend : ``"surrogate"`` (default, paper eq. 4) or ``"reference"`` (lumped-mass chain).
-    scenario : packaged scenario name (``"paper"``, ``"speed50"``, ...) or YAML path.
+    scenario : packaged scenario name (``"paper"``, ``"envelope"``, ``"speed50"``, ...) or YAML
+        path; a scenario with an ``envelope`` draws the initial speed and the payloads at each
+        reset.
     n_cars : number of cars (``None`` = the scenario's). speed : initial speed, m/s (``None``
-        = the scenario's). speed_jitter : initial speed × U(1 − j, 1 + j) at each reset.
+        = the scenario's; fixes an envelope's speed). speed_jitter : initial speed
+        × U(1 − j, 1 + j) at each reset.
     control_dt : agent step, s. max_duration : truncation, s.
     absorber_range : action ±1 sets the absorber force to (1 ± range) × nominal.
     absorber_rate : largest change of the force scale, 1/s.
     reward_weights : ``decel`` and ``intrusion`` weights.
-    surrogate : :class:`CrashSurrogate` elements, or ``None`` to fit them on a reference run of
-        the scenario (cached per process). surrogate_variant : ``"hysteretic"`` or ``"paper"``.
+    surrogate : :class:`CrashSurrogate` elements, or ``None`` for the packaged ones of the
+        scenario (else fitted on a reference run, cached per process). surrogate_variant :
+        ``"hysteretic"`` or ``"paper"`` (creates energy at rebound, see docs/envs/crash.md).
+
+    ``reset(options=...)``: ``speed_kmh``, ``payload_t`` (:meth:`_apply_options`). Accessors:
+    :attr:`positions`, :attr:`velocities`, :attr:`accelerations`, :attr:`crush`,
+    :attr:`zone_forces`, :attr:`absorber_scales`, :attr:`car_masses`, :attr:`initial_speed`,
+    :attr:`absorber_stroke`.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+    _single = True
 
     def __init__(
         self,
@@ -423,8 +360,6 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
         surrogate_variant: str = "hysteretic",
         render_mode: str | None = None,
     ) -> None:
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.cfg = make_config(
             scenario,
             backend,
@@ -439,143 +374,30 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
         )
         self.backend = backend
         self.model = make_model(self.cfg, surrogate, surrogate_variant)
-        self.sim = CrashBatch(1, self.cfg, self.model)
-        self.render_mode = render_mode
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
-        n_z = self.sim.n_zones
-        self.observation_space = spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (n_z,), np.float32)
-        self._one = np.ones(1, np.bool_)
-        self._action_shape, self._batch_shape = (n_z,), (1, n_z)
-        self._started = False
-
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Train at first contact with the wall, absorbers at nominal force."""
-        super().reset(seed=seed)
-        if options:
-            raise ValueError(f"reset takes no options, got {sorted(options)}")
-        self.sim.reset(np.zeros(1, np.int64), [self.np_random])
-        self._started = True
-        return self.sim.observe()[0], self._info()
-
-    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """Advance ``control_dt``; the action is clipped to [−1, 1], non-finite raises."""
-        if not self._started:
-            raise RuntimeError("call reset() before step()")
-        a = _real_actions("action", action)
-        sim = self.sim
-        if a.shape != self._action_shape:
-            raise ValueError(f"action must have shape ({sim.n_zones},), got {a.shape}")
-        if not sim.advance(a.reshape(self._batch_shape), self._one):
-            raise ValueError(f"action must be finite, got {action!r}")
-        terminated = bool(sim.over[0] or sim.div[0])
-        truncated = not terminated and int(sim.steps[0]) >= self.cfg.n_steps
-        if terminated or truncated:
-            self._started = False
-        return (
-            sim.obs[0].astype(np.float32),
-            float(sim.rew[0]),
-            terminated,
-            truncated,
-            sim.info_row(0),
+        self._fixed: dict[str, Any] = {}
+        sim = CrashBatch(1, self.cfg, self.model)
+        self._init_shell(
+            sim,
+            render_mode,
+            spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32),
+            spaces.Box(-1.0, 1.0, (sim.n_zones,), np.float32),
         )
 
-    def _info(self) -> dict[str, Any]:
-        return self.sim.info_row(0)
 
-    def render(self) -> np.ndarray | None:
-        """RGB frame (H, W, 3) of the train and the wall when ``render_mode="rgb_array"``."""
-        if self.render_mode is None:
-            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
-            return None
-        from railgym.envs.rendering import render_crash
-
-        return render_crash(self.sim.render_state(0))
-
-
-class TrainCrashVectorEnv(VectorEnv):
+class TrainCrashVectorEnv(_CrashShell, BatchVectorEnv):
     """Native vector version: all sub-envs stepped in one compiled kernel call.
 
     Sub-env ``i`` of ``reset(seed=s)`` reproduces ``TrainCrashEnv.reset(seed=s + i)`` step
-    for step. Autoreset mode: next step (gymnasium's default).
+    for step. Autoreset mode: next step (gymnasium's default). ``reset(options=...)`` as the
+    single env's (plus ``reset_mask``); accessors as arrays over the sub-envs.
     """
 
-    metadata = {
-        "render_modes": ["rgb_array"],
-        "render_fps": 50,
-        "autoreset_mode": AutoresetMode.NEXT_STEP,
-    }
+    _single = False
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
-        if isinstance(num_envs, bool) or not (
-            isinstance(num_envs, int | np.integer) and num_envs >= 1
-        ):
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        self.single_env = TrainCrashEnv(render_mode=render_mode, **kwargs)
-        self.num_envs = int(num_envs)
-        self.render_mode = render_mode
-        self.cfg = self.single_env.cfg
+        num_envs = val.integer(num_envs, "num_envs", min=1, max=MAX_NUM_ENVS)
+        single = TrainCrashEnv(render_mode=render_mode, **kwargs)
+        self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
-        self.sim = CrashBatch(self.num_envs, self.cfg, self.single_env.model)
-        self.single_observation_space = self.single_env.observation_space
-        self.single_action_space = self.single_env.action_space
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._rngs: list[np.random.Generator | None] = []
-        self._prev_done = np.zeros(self.num_envs, np.bool_)
-        self._mask_keys = [f"_{k}" for k in self.sim.layout]
-
-    def reset(
-        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset the sub-envs; sub-env ``i`` is seeded with ``seed + i`` (or ``seed[i]``);
-        ``options["reset_mask"]`` resets only those (see :func:`railgym.envs.vector.reset_plan`).
-        """
-        if seed is not None:
-            first = seed if isinstance(seed, (int, np.integer)) else seed[0]
-            self._np_random, self._np_random_seed = seeding.np_random(first)
-        mask, self._rngs, options = reset_plan(self.num_envs, seed, options, self._rngs)
-        if options:
-            raise ValueError(f"reset takes no options but reset_mask, got {sorted(options)}")
-        self.sim.reset(np.flatnonzero(mask), self._rngs)
-        self._prev_done[mask] = False
-        return self.sim.observe(), self._infos()
-
-    def step(
-        self, actions: Any
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Step all sub-envs; those that ended on the previous step are reset instead."""
-        if not self._rngs:
-            raise RuntimeError("call reset() before step()")
-        sim = self.sim
-        a = _real_actions("actions", actions)
-        shape = (self.num_envs, sim.n_zones)
-        if a.shape != shape:
-            raise ValueError(f"actions must have shape {shape}, got {a.shape}")
-        if not np.isfinite(a).all():  # checked before the resets of the ended sub-envs
-            raise ValueError("actions must be finite; got NaN or Inf")
-        done = self._prev_done
-        if done.any():
-            sim.reset(np.flatnonzero(done), self._rngs)
-        sim.advance(a, ~done)
-        terminated = sim.over | sim.div  # both False for the sub-envs just reset
-        truncated = (sim.steps >= self.cfg.n_steps) & ~terminated
-        self._prev_done = terminated | truncated
-        return sim.observe(), sim.rew.copy(), terminated, truncated, self._infos()
-
-    def _infos(self) -> dict[str, Any]:
-        infos = self.sim.infos()
-        mask = np.ones(self.num_envs, np.bool_)
-        infos.update(dict.fromkeys(self._mask_keys, mask))
-        return infos
-
-    def render(self) -> tuple[np.ndarray, ...] | None:
-        """One RGB frame per sub-env."""
-        if self.render_mode is None:
-            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
-            return None
-        from railgym.envs.rendering import render_crash
-
-        return tuple(render_crash(self.sim.render_state(i)) for i in range(self.num_envs))
+        self._init_vector(single, CrashBatch(num_envs, self.cfg, single.model), num_envs)

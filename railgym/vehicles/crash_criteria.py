@@ -46,6 +46,7 @@ import math
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+from numba import njit
 
 if TYPE_CHECKING:
     from railgym.vehicles.crash import CrashResult
@@ -157,7 +158,8 @@ def moving_average_peak(
     return out
 
 
-def _zero_crossing(t0: float, t1: float, v0: float, v1: float, a0: float) -> float:
+@njit(cache=True)
+def zero_crossing(t0: float, t1: float, v0: float, v1: float, a0: float) -> float:
     """Time in [t0, t1] at which a velocity going from ``v0 > 0`` to ``v1 ≤ 0`` reaches zero:
     at the deceleration ``a0`` of the first sample if that stops it inside the interval (a car
     that comes to rest, ``v1 = 0``), else by linear interpolation (a car that rebounds)."""
@@ -190,7 +192,7 @@ def crash_pulse(
             k = i0 + stopped[0]
             t_end = t[k]
             if k > i0:
-                t_end = _zero_crossing(t[k - 1], t[k], v[k - 1, c], v[k, c], a[k - 1, c])
+                t_end = zero_crossing(t[k - 1], t[k], v[k - 1, c], v[k, c], a[k - 1, c])
             v_end = 0.0 if k > i0 else v[k, c]
         else:
             k = braking[-1]

@@ -3,8 +3,10 @@
 Per car: the peak and the time-averaged deceleration (in g, from the per-step
 ``info["decel_g"]``); per crush zone: the largest crush, i.e. stroke used (m, from
 ``info["crush_m"]``), the energy absorbed (J) and the fraction of the absorber stroke used;
-plus the share of the train's initial kinetic energy the zones absorbed. No acceptance limits
-are applied (the crash scenarios are only inspired by EN 15227).
+plus the share of the train's initial kinetic energy the zones absorbed. With an env that
+reports them (``TrainCrash-v0`` does), the crash criteria of
+:mod:`railgym.vehicles.crash_criteria` and their pass/fail against the scenario's limits
+(the crash scenarios are only inspired by EN 15227; see ``docs/envs/crash.md``).
 """
 
 from __future__ import annotations
@@ -16,6 +18,17 @@ import numpy as np
 
 #: per-step info keys the wrapper accumulates
 STEP_KEYS = ("decel_g", "crush_m")
+#: episode-end criteria info keys copied into the summary when the env reports them
+CRITERIA_KEYS = (
+    "pulse_mean_decel_g",
+    "moving_average_peak_g",
+    "intrusion_m",
+    "mean_decel_passed",
+    "peak_decel_passed",
+    "moving_average_passed",
+    "intrusion_passed",
+    "criteria_passed",
+)
 
 
 class CrashSafety(gym.Wrapper):
@@ -32,14 +45,19 @@ class CrashSafety(gym.Wrapper):
     Notes
     -----
     At episode end ``info["crash_safety"]`` holds: ``peak_decel_g`` and ``mean_decel_g``
-    (per car, over the control steps of the episode), ``max_peak_decel_g``, ``worst_car``
+    (per car, the mean over every control step of the episode, including the steps after the
+    car has stopped — not the pulse mean, which is ``pulse_mean_decel_g`` Δv / (g·t_stop)),
+    ``max_peak_decel_g``, ``worst_car``
     (index of the largest peak), ``max_crush_m`` (per zone: stroke used, m),
     ``absorbed_energy_J`` (per zone), ``total_absorbed_J``, ``stroke_exceeded``,
     ``energy_error``, ``duration`` (s, steps × control_dt when the env has ``cfg.control_dt``,
     else the step count), ``steps``; and, when the env exposes them (``cfg.absorber_stroke``;
     ``cfg.scenario.car_masses`` with ``info["initial_speed"]``): ``stroke_used`` (max crush /
     absorber stroke, per zone) and ``absorbed_fraction`` (total absorbed / initial kinetic
-    energy ``½ Σ m v0²``).
+    energy ``½ Σ m v0²``, the payload included when the env has ``car_masses``); and the
+    criteria of :data:`CRITERIA_KEYS` the env's info holds: per car ``pulse_mean_decel_g``
+    (Δv / (g·t_stop) over its crash pulse), ``moving_average_peak_g`` (10 ms), per zone
+    ``intrusion_m``, the pass/fail arrays and ``criteria_passed``.
     """
 
     def __init__(self, env: gym.Env) -> None:
@@ -95,10 +113,16 @@ class CrashSafety(gym.Wrapper):
         stroke = getattr(cfg, "absorber_stroke", None)
         if stroke is not None:
             out["stroke_used"] = self._crush / np.asarray(stroke, float)
-        masses = getattr(getattr(cfg, "scenario", None), "car_masses", None)
+        masses = getattr(self.env.unwrapped, "car_masses", None)
+        if masses is None:
+            masses = getattr(getattr(cfg, "scenario", None), "car_masses", None)
         if masses is not None and "initial_speed" in info:
             energy0 = 0.5 * float(np.sum(masses)) * float(info["initial_speed"]) ** 2
             out["absorbed_fraction"] = out["total_absorbed_J"] / energy0
+        for key in CRITERIA_KEYS:
+            if key in info:
+                value = info[key]
+                out[key] = value.copy() if isinstance(value, np.ndarray) else value
         return out
 
 

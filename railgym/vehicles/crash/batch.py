@@ -57,6 +57,8 @@ class CrashBatchModel:
     params : :class:`ReferenceParams` or :class:`SurrogateParams` of the kernel.
     masses : mass of each integration node (reference) or body (surrogate), kg.
     v_unit : initial velocity of each node per unit train speed (1 train, 0 obstacle).
+    car_nodes : (cars, 2) first and past-the-end node (reference) or body (surrogate) of
+        each car.
     body_names, zone_names : as in :class:`CrashResult`.
     """
 
@@ -68,28 +70,47 @@ class CrashBatchModel:
     params: ReferenceParams | SurrogateParams
     masses: np.ndarray
     v_unit: np.ndarray
+    car_nodes: np.ndarray
     body_names: list[str]
     zone_names: list[str]
 
     def new_state(self, n: int) -> ReferenceState | SurrogateState:
         """Zeroed kernel state of ``n`` simulations."""
-        N, nz = self.masses.size, len(self.zone_names)
+        nz = len(self.zone_names)
         if self.backend == "reference":
-            return _new_reference_state(n, N, nz)
-        return _new_surrogate_state(n, N, nz)
+            return _new_reference_state(n, self.masses, nz)
+        return _new_surrogate_state(n, self.masses, nz)
 
     def new_outputs(self, n: int) -> BatchOutputs:
         """Zeroed outputs of ``n`` simulations."""
         return new_outputs(n, len(self.body_names), len(self.zone_names))
 
+    def node_masses(self, payload: np.ndarray | None = None) -> np.ndarray:
+        """Mass of each node or body (kg) with ``payload`` (cars,) kg added to the cars, each
+        car's nodes in proportion to their mass; ``None`` = no payload."""
+        m = self.masses.copy()
+        if payload is not None:
+            car_mass = self.scenario.car_masses
+            for k, (a, b) in enumerate(self.car_nodes):
+                if payload[k] != 0.0:
+                    m[a:b] *= (car_mass[k] + payload[k]) / car_mass[k]
+        return m
+
     def reset(
-        self, state: ReferenceState | SurrogateState, out: BatchOutputs, i: int, speed: float
+        self,
+        state: ReferenceState | SurrogateState,
+        out: BatchOutputs,
+        i: int,
+        speed: float,
+        payload: np.ndarray | None = None,
     ) -> None:
-        """Simulation ``i`` at first contact, the train at ``speed`` (m/s); call :meth:`step`
-        with ``init=True`` afterwards to evaluate its forces."""
+        """Simulation ``i`` at first contact, the train at ``speed`` (m/s) with ``payload``
+        (cars,) kg added (:meth:`node_masses`); call :meth:`step` with ``init=True``
+        afterwards to evaluate its forces."""
         for arr in (*state, *out):
             arr[i] = 0.0
         state.v[i] = self.v_unit * speed
+        state.m[i] = self.node_masses(payload)
 
     def step(
         self,
@@ -145,6 +166,7 @@ def crash_batch_model(
             params=ch.params,
             masses=ch.params.m,
             v_unit=ch.v0 / sc.speed,
+            car_nodes=np.column_stack([ch.params.body_start, ch.params.body_end])[: sc.n_cars],
             body_names=ch.body_names,
             zone_names=ch.zone_names,
         )
@@ -163,6 +185,7 @@ def crash_batch_model(
         params=sy.params,
         masses=sy.params.m,
         v_unit=sy.v0 / sc.speed,
+        car_nodes=np.column_stack([np.arange(sc.n_cars), np.arange(1, sc.n_cars + 1)]),
         body_names=sy.body_names,
         zone_names=sy.zone_names,
     )

@@ -132,6 +132,8 @@ class ReferenceState(NamedTuple):
         energy (J) of each zone (coupler spring included).
     fd : (n, max(nodes − 1, 1)) damping force of each element, N.
     ff : (n, nodes) friction force magnitude along v, N.
+    m : (n, nodes) node mass of each simulation (a car's payload included), kg; the carbody
+        and coupler damping coefficients stay those of :attr:`ReferenceParams.m`.
     """
 
     x: np.ndarray
@@ -142,6 +144,7 @@ class ReferenceState(NamedTuple):
     elastic: np.ndarray
     fd: np.ndarray
     ff: np.ndarray
+    m: np.ndarray
 
 
 @dataclass
@@ -280,9 +283,9 @@ def _build_chain(sc: CrashScenario) -> _Chain:
 
 
 @njit(cache=True)
-def _chain_forces(x, v, dp, p, scale, F, fz, fzel, fd, ff, dz):
-    """Nodal forces ``F`` at state (x, v) of chain ``p`` (:class:`ReferenceParams`); updates the
-    permanent sets ``dp`` in place.
+def _chain_forces(x, v, m, dp, p, scale, F, fz, fzel, fd, ff, dz):
+    """Nodal forces ``F`` at state (x, v) of chain ``p`` (:class:`ReferenceParams`) with node
+    masses ``m`` (kg); updates the permanent sets ``dp`` in place.
 
     ``scale`` (per zone instance) multiplies each zone's envelope up to its type's absorber
     stroke (:func:`absorber_zone_force`). Also returns per zone instance: conservative force
@@ -292,7 +295,7 @@ def _chain_forces(x, v, dp, p, scale, F, fz, fzel, fd, ff, dz):
     ty = p.types
     N = x.shape[0]
     for i in range(N):
-        ff[i] = p.mu[i] * p.m[i] * p.gravity * math.tanh(v[i] / p.v_eps)
+        ff[i] = p.mu[i] * m[i] * p.gravity * math.tanh(v[i] / p.v_eps)
         F[i] = -ff[i]
     for z in range(p.zone_type.shape[0]):
         t = p.zone_type[z]
@@ -355,8 +358,8 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
         non-finite keeps its state from before the call and gets ``div[i] = True``.
     """
     p = params
-    m, elem_zone, link_k = p.m, p.elem_zone, p.link_k
-    N = m.shape[0]
+    elem_zone, link_k = p.elem_zone, p.link_k
+    N = p.m.shape[0]
     nz = p.zone_type.shape[0]
     nodes = np.empty((8, N))
     xl, vl, al, vp = nodes[0], nodes[1], nodes[2], nodes[3]
@@ -373,9 +376,9 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
         fzel[:], fdl[:], ffl[:] = state.elastic[i], state.fd[i], state.ff[i]
         dzl[:], wzl[:] = out.crush[i], out.work[i]
         w_fric, w_damp = out.dissipated[i, 0], out.dissipated[i, 1]
-        sc = scale[i]
+        sc, m = scale[i], state.m[i]
         if init:
-            _chain_forces(xl, vl, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
+            _chain_forces(xl, vl, m, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
             for j in range(N):
                 al[j] = F[j] / m[j]
         for _ in range(0 if init else n_sub):
@@ -384,7 +387,7 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
                 dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
                 xl[j] += dx[j]
                 vp[j] = vl[j] + al[j] * dt
-            _chain_forces(xl, vp, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
+            _chain_forces(xl, vp, m, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
             for j in range(N):
                 a_new = F[j] / m[j]
                 vl[j] += 0.5 * (al[j] + a_new) * dt
@@ -436,7 +439,7 @@ def _record_reference(state, out, params, dt, n_sub, stop, rec):
         x, v = state.x[0], state.v[0]
         ke = el = elz = 0.0
         for i in range(N):
-            ke += 0.5 * p.m[i] * v[i] * v[i]
+            ke += 0.5 * state.m[0, i] * v[i] * v[i]
         for e in range(N - 1):
             if p.elem_zone[e] < 0:
                 d = x[e + 1] - x[e]
@@ -453,11 +456,13 @@ def _record_reference(state, out, params, dt, n_sub, stop, rec):
     return rec.x.shape[0]
 
 
-def _new_reference_state(n: int, n_nodes: int, n_zones: int) -> ReferenceState:
-    """Zeroed :class:`ReferenceState` of ``n`` simulations."""
+def _new_reference_state(n: int, masses: np.ndarray, n_zones: int) -> ReferenceState:
+    """Zeroed :class:`ReferenceState` of ``n`` simulations with node ``masses`` (kg)."""
+    n_nodes = masses.size
     node = [np.zeros((n, n_nodes)) for _ in range(3)]
     zone = [np.zeros((n, n_zones)) for _ in range(3)]
-    return ReferenceState(*node, *zone, np.zeros((n, max(n_nodes - 1, 1))), np.zeros((n, n_nodes)))
+    fd = np.zeros((n, max(n_nodes - 1, 1)))
+    return ReferenceState(*node, *zone, fd, np.zeros((n, n_nodes)), np.tile(masses, (n, 1)))
 
 
 def reference_time_step(
@@ -516,7 +521,7 @@ def simulate_reference(
     dt, n_sub = _reference_steps(ch, sample_dt, safety)
     n_samples = int(round(duration / sample_dt)) + 1
     nb, nz = len(ch.body_names), len(ch.zone_names)
-    state = _new_reference_state(1, ch.v0.size, nz)
+    state = _new_reference_state(1, ch.params.m, nz)
     state.v[0] = ch.v0
     out = new_outputs(1, nb, nz)
     rec = new_record(n_samples, nb, nz, energies=True)

@@ -18,14 +18,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from importlib.resources import files
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
+from railgym import _validation as val
 from railgym.vehicles.crash.zone import _envelope
+from railgym.vehicles.crash_criteria import CriteriaLimits
 
 __all__ = [
     "LIMITS",
@@ -34,6 +35,7 @@ __all__ = [
     "Coupler",
     "CrashScenario",
     "CrushZone",
+    "Envelope",
     "Obstacle",
     "check_int",
     "check_real",
@@ -66,6 +68,11 @@ LIMITS: dict[str, tuple[float, float]] = {
     "fold_wavelength_mm": (1.0, 1e4),
     "slack_mm": (0.0, 1e3),
     "stiffness_kN_per_mm": (1e-3, 1e5),
+    "payload_t": (0.0, 1000.0),
+    "mean_decel_g": (0.0, 1e3),
+    "peak_decel_g": (0.0, 1e3),
+    "moving_average_g": (0.0, 1e3),
+    "intrusion_mm": (0.0, 1e5),
 }
 #: largest initial speed override, m/s (``speed_kmh``'s limit)
 MAX_SPEED = LIMITS["speed_kmh"][1] / 3.6
@@ -216,6 +223,26 @@ class Obstacle:
 
 
 @dataclass(frozen=True)
+class Envelope:
+    """Impact envelope: what each ``reset`` of the env draws, uniformly, from its ``np_random``.
+
+    Attributes
+    ----------
+    speed : (low, high) initial speed, m/s (low = high: fixed).
+    payload_lead, payload_passenger : (low, high) mass added to the lead car and, drawn
+        separately, to each passenger car, kg.
+    """
+
+    speed: tuple[float, float]
+    payload_lead: tuple[float, float] = (0.0, 0.0)
+    payload_passenger: tuple[float, float] = (0.0, 0.0)
+
+    def payload_ranges(self, n_cars: int) -> np.ndarray:
+        """(cars, 2) payload range of each car, kg."""
+        return np.array([self.payload_lead] + [self.payload_passenger] * (n_cars - 1))
+
+
+@dataclass(frozen=True)
 class CrashScenario:
     """A validated crash scenario, SI units.
 
@@ -231,6 +258,9 @@ class CrashScenario:
     wall : crush zone at the lead car's front end (meets the wall or the obstacle).
     interface : crush zone between two cars (two coupled car ends in series).
     obstacle : ``None`` for a rigid wall, else the free obstacle.
+    envelope : the impact envelope the env draws from (``None``: every episode at ``speed``).
+    criteria : acceptance limits of the crash criteria
+        (:class:`~railgym.vehicles.crash_criteria.CriteriaLimits`).
     """
 
     name: str
@@ -245,6 +275,8 @@ class CrashScenario:
     wall: CrushZone
     interface: CrushZone
     obstacle: Obstacle | None = None
+    envelope: Envelope | None = None
+    criteria: CriteriaLimits = CriteriaLimits()
 
     @property
     def car_masses(self) -> np.ndarray:
@@ -269,22 +301,24 @@ class CrashScenario:
         return out
 
 
-class _Fields:
-    """Reads one YAML mapping, naming each field by its dotted path in errors."""
+class _Fields(val.Fields):
+    """:class:`railgym._validation.Fields` of one scenario mapping: unknown keys rejected up
+    front, numbers checked against the documented :data:`LIMITS` in the file's units, i.e.
+    before any unit conversion."""
 
     def __init__(self, data: Any, path: str, known: tuple[str, ...]) -> None:
-        if not isinstance(data, dict):
-            raise ValueError(f"{path} must be a mapping, got {type(data).__name__}")
-        unknown = sorted(set(map(str, data)) - set(known))
+        super().__init__(data, path)
+        unknown = sorted(set(map(str, self.data)) - set(known))
         if unknown:
-            raise ValueError(f"{path}.{unknown[0]} is not a known field (known: {list(known)})")
-        self.data, self.path = data, path
+            raise val.FieldError(
+                self.field(unknown[0]), f"is not a known field (known: {list(known)})"
+            )
 
     def has(self, key: str) -> bool:
         return self.data.get(key) is not None
 
     def name(self, key: str) -> str:
-        return f"{self.path}.{key}"
+        return self.field(key)
 
     def number(
         self,
@@ -293,66 +327,82 @@ class _Fields:
         positive: bool = True,
         upper: float | None = None,
     ) -> float:
-        value = self.data.get(key, default)
+        value = self.get(key, None)
+        value = default if value is None else value
         if value is None:
-            raise ValueError(f"{self.name(key)} is missing")
-        if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.number):
-            raise ValueError(f"{self.name(key)} must be a number, got {value!r}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise ValueError(f"{self.name(key)} must be finite, got {value!r}")
-        if positive and value <= 0:
-            raise ValueError(f"{self.name(key)} must be positive, got {value!r}")
-        if not positive and value < 0:
-            raise ValueError(f"{self.name(key)} must be non-negative, got {value!r}")
-        if upper is not None and value >= upper:
-            raise ValueError(f"{self.name(key)} must be below {upper}, got {value!r}")
-        return self._within(key, value)
+            raise val.FieldError(self.field(key), "is missing")
+        return self._checked(key, value, self.field(key), positive, upper)
 
-    def _within(self, key: str, value: float, label: str | None = None) -> float:
-        """``value`` if within the documented :data:`LIMITS` of ``key`` (before any unit
-        conversion)."""
+    def _checked(
+        self, key: str, value: Any, label: str, positive: bool = True, upper: float | None = None
+    ) -> float:
+        """``value`` as a finite float, positive (or non-negative), below ``upper`` and within
+        the :data:`LIMITS` of ``key``; errors name ``label``."""
+        out = val.real(value, label)
+        if positive and out <= 0:
+            raise val.FieldError(label, f"must be positive, got {value!r}")
+        if not positive and out < 0:
+            raise val.FieldError(label, f"must be non-negative, got {value!r}")
+        if upper is not None and out >= upper:
+            raise val.FieldError(label, f"must be below {upper}, got {value!r}")
         if key in LIMITS:
             lo, hi = LIMITS[key]
-            if not lo <= value <= hi:
-                raise ValueError(
-                    f"{label or self.name(key)} must be in [{lo:g}, {hi:g}] (documented "
-                    f"limits), got {value!r}"
+            if not lo <= out <= hi:
+                raise val.FieldError(
+                    label, f"must be in [{lo:g}, {hi:g}] (documented limits), got {value!r}"
                 )
-        return value
+        return out
 
     def integer(self, key: str, default: int | None = None, lower: int = 1) -> int:
-        value = self.data.get(key, default)
+        value = self.get(key, default)
+        if isinstance(value, np.ndarray) and value.ndim == 0:
+            value = value[()]
         ok = isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
         if not ok or value < lower:
-            raise ValueError(f"{self.name(key)} must be an integer ≥ {lower}, got {value!r}")
-        return int(self._within(key, value))
+            raise val.FieldTypeError(
+                self.field(key), f"must be an integer ≥ {lower}, got {value!r}"
+            )
+        return int(self._checked(key, value, self.field(key)))
 
-    def text(self, key: str, default: str | None = None) -> str:
-        value = self.data.get(key, default)
+    def text(self, key: str, default: str | None = None) -> str:  # type: ignore[override]
+        value = self.get(key, default)
         if not isinstance(value, str):
-            raise ValueError(f"{self.name(key)} must be a string, got {value!r}")
+            raise val.FieldTypeError(self.field(key), f"must be a string, got {value!r}")
         return value.strip()
 
     def array(self, key: str) -> np.ndarray:
-        value = self.data.get(key)
+        value = self.get(key, None)
         if not isinstance(value, list) or not value:
-            raise ValueError(f"{self.name(key)} must be a non-empty list of numbers")
-        out = np.empty(len(value))
-        for i, item in enumerate(value):
-            if isinstance(item, bool | np.bool_) or not isinstance(item, int | float | np.number):
-                raise ValueError(f"{self.name(key)}[{i}] must be a number, got {item!r}")
-            if not math.isfinite(item):
-                raise ValueError(f"{self.name(key)}[{i}] must be finite, got {item!r}")
-            if item <= 0:
-                raise ValueError(f"{self.name(key)}[{i}] must be positive, got {item!r}")
-            out[i] = self._within(key, float(item), f"{self.name(key)}[{i}]")
-        return out
+            raise val.FieldError(self.field(key), "must be a non-empty list of numbers")
+        label = self.field(key)
+        return np.array([self._checked(key, v, f"{label}[{i}]") for i, v in enumerate(value)])
+
+    def range(
+        self, key: str, default: Any = None, limits: str | None = None
+    ) -> tuple[float, float] | None:
+        """A ``[low, high]`` pair (or one number: ``low = high``) within the :data:`LIMITS` of
+        ``limits`` (default ``key``), low ≤ high; ``None`` if absent."""
+        value = self.get(key, None)
+        value = default if value is None else value
+        if value is None:
+            return None
+        label = self.field(key)
+        items = value if isinstance(value, list) else [value]
+        if len(items) not in (1, 2):
+            raise val.FieldError(label, f"must be a number or [low, high], got {value!r}")
+        lim = limits or key
+        lo, hi = (
+            self._checked(lim, v, f"{label}[{i}]" if len(items) == 2 else label, False)
+            for i, v in enumerate(items * (3 - len(items)))
+        )
+        if lo > hi:
+            raise val.FieldError(label, f"must be [low, high] with low ≤ high, got {value!r}")
+        return lo, hi
 
     def sub(self, key: str, known: tuple[str, ...]) -> _Fields:
         if key not in self.data:
-            raise ValueError(f"{self.name(key)} is missing")
-        return _Fields(self.data[key], self.name(key), known)
+            raise val.FieldError(self.field(key), "is missing")
+        return _Fields(self.get(key), self.field(key), known)
 
 
 _ZONE_KEYS = (
@@ -437,23 +487,14 @@ def _deep_merge(base: dict, over: dict) -> dict:
 
 
 def _read_yaml(name_or_path: str | Path) -> tuple[dict, Path | None]:
-    """Raw ``crash`` mapping of a packaged scenario name or a YAML path."""
-    p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml") or p.exists():
-        if not p.is_file():
-            raise ValueError(f"scenario file {str(p)!r} does not exist")
-        text, folder = p.read_text(encoding="utf-8"), p.parent
-    else:
-        res = files("railgym").joinpath(*_CONFIG_DIR, f"{name_or_path}.yaml")
-        if not res.is_file():
-            raise ValueError(
-                f"unknown crash scenario {str(name_or_path)!r}; packaged: {scenario_names()}"
-            )
-        text, folder = res.read_text(encoding="utf-8"), None
-    doc = yaml.safe_load(text)
+    """Raw ``crash`` mapping of a packaged scenario name or a YAML path
+    (:func:`railgym._validation.resolve_yaml`) and the file's folder (``None`` if packaged)."""
+    text, source = val.resolve_yaml(name_or_path, "crash scenario", "railgym", _CONFIG_DIR)
+    doc = val.load_yaml(text, source)
     if not isinstance(doc, dict) or not isinstance(doc.get("crash"), dict):
-        raise ValueError(f"{name_or_path}: the file must hold a mapping under the key 'crash'")
-    return doc["crash"], folder
+        raise val.FieldError(source, "must hold a mapping under the key 'crash'", full=False)
+    packaged = not str(name_or_path).endswith(val.YAML_SUFFIXES)
+    return doc["crash"], None if packaged else Path(source).parent
 
 
 def _resolve(name_or_path: str | Path, depth: int = 0) -> dict:
@@ -466,7 +507,7 @@ def _resolve(name_or_path: str | Path, depth: int = 0) -> dict:
     if base is None:
         return raw
     if not isinstance(base, str):
-        raise ValueError(f"crash.base must be a scenario name or path, got {base!r}")
+        raise val.FieldTypeError("crash.base", f"must be a scenario name or path, got {base!r}")
     if folder is not None and (folder / base).is_file():
         base = str(folder / base)
     merged = _deep_merge(_resolve(base, depth + 1), raw)
@@ -476,7 +517,7 @@ def _resolve(name_or_path: str | Path, depth: int = 0) -> dict:
 
 def scenario_names() -> list[str]:
     """Names of the packaged crash scenarios."""
-    folder = files("railgym").joinpath(*_CONFIG_DIR)
+    folder = resources.files("railgym").joinpath(*_CONFIG_DIR)
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
 
 
@@ -509,6 +550,8 @@ def parse_scenario(raw: dict) -> CrashScenario:
         "barrier",
         "cars",
         "zones",
+        "envelope",
+        "criteria",
     )
     r = _Fields(raw, "crash", top)
     sources = raw.get("sources", [])
@@ -545,4 +588,40 @@ def parse_scenario(raw: dict) -> CrashScenario:
         wall=_parse_zone(zones.sub("wall", _ZONE_KEYS), "wall", False),
         interface=_parse_zone(zones.sub("interface", _ZONE_KEYS), "interface", True),
         obstacle=obstacle,
+        envelope=_parse_envelope(r) if r.has("envelope") else None,
+        criteria=_parse_criteria(r) if r.has("criteria") else CriteriaLimits(),
     )
+
+
+def _parse_envelope(r: _Fields) -> Envelope:
+    """``crash.envelope``: ``speed_kmh`` (a number or [low, high], default the scenario's
+    speed) and ``payload_t`` (``lead`` and ``passenger``, each a number or [low, high], t)."""
+    e = r.sub("envelope", ("speed_kmh", "payload_t"))
+    speed = e.range("speed_kmh", r.get("speed_kmh"))
+    if speed is None:
+        raise val.FieldError(e.field("speed_kmh"), "is missing")
+    if speed[0] < LIMITS["speed_kmh"][0]:
+        raise val.FieldError(e.field("speed_kmh"), f"must be at least 1 km/h, got {speed[0]!r}")
+    lead = passenger = (0.0, 0.0)
+    if e.has("payload_t"):
+        p = e.sub("payload_t", ("lead", "passenger"))
+        lead = p.range("lead", 0.0, "payload_t")
+        passenger = p.range("passenger", 0.0, "payload_t")
+    return Envelope(
+        speed=(speed[0] / 3.6, speed[1] / 3.6),
+        payload_lead=(lead[0] * 1e3, lead[1] * 1e3),
+        payload_passenger=(passenger[0] * 1e3, passenger[1] * 1e3),
+    )
+
+
+def _parse_criteria(r: _Fields) -> CriteriaLimits:
+    """``crash.criteria``: limits ``mean_decel_g``, ``peak_decel_g``, ``moving_average_g`` (g)
+    and ``intrusion_mm``; an absent limit keeps its :class:`CriteriaLimits` default."""
+    c = r.sub("criteria", ("mean_decel_g", "peak_decel_g", "moving_average_g", "intrusion_mm"))
+    d = CriteriaLimits()
+    keys = ("mean_decel_g", "peak_decel_g", "moving_average_g")
+    g = {k: c.number(k, positive=False) if c.has(k) else getattr(d, k) for k in keys}
+    intr = (
+        c.number("intrusion_mm", positive=False) * 1e-3 if c.has("intrusion_mm") else d.intrusion_m
+    )
+    return CriteriaLimits(intrusion_m=intr, **g)

@@ -25,6 +25,7 @@ from railgym.vehicles.crash.outputs import (
 )
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import VARIANTS, CrashSurrogate
+from surrogates.models.lpr import EXTRAPOLATION_MODES
 
 __all__ = [
     "ElementTypes",
@@ -46,7 +47,8 @@ class LprModels(NamedTuple):
     degree : (models,) int64 highest degree of each model.
     lower, upper : (models,) input domain, m.
     mode : (models,) extrapolation mode (:data:`surrogates.models.lpr.EXTRAPOLATION_MODES`):
-        1 clips, else the series is extended linearly beyond the domain.
+        1 clips, 0 extends the series linearly beyond the domain; ``"raise"`` (2) is rejected
+        when the models are packed (:func:`_pack_models`), the kernels cannot raise.
     force_range : (models, 2) lowest and highest training force of each model, N.
     """
 
@@ -111,6 +113,7 @@ class SurrogateState(NamedTuple):
     x, v, a : (n, bodies) displacement (m), velocity (m/s), acceleration (m/s²).
     up, fz : (n, elements) permanent set in ``u`` (m) and force (N) of each element.
     ff : (n, bodies) friction force magnitude along v, N.
+    m : (n, bodies) body mass of each simulation (a car's payload included), kg.
     """
 
     x: np.ndarray
@@ -119,13 +122,15 @@ class SurrogateState(NamedTuple):
     up: np.ndarray
     fz: np.ndarray
     ff: np.ndarray
+    m: np.ndarray
 
 
-def _new_surrogate_state(n: int, n_bodies: int, n_elements: int) -> SurrogateState:
-    """Zeroed :class:`SurrogateState` of ``n`` simulations."""
+def _new_surrogate_state(n: int, masses: np.ndarray, n_elements: int) -> SurrogateState:
+    """Zeroed :class:`SurrogateState` of ``n`` simulations with body ``masses`` (kg)."""
+    n_bodies = masses.size
     body = [np.zeros((n, n_bodies)) for _ in range(3)]
     el = [np.zeros((n, n_elements)) for _ in range(2)]
-    return SurrogateState(*body, *el, np.zeros((n, n_bodies)))
+    return SurrogateState(*body, *el, np.zeros((n, n_bodies)), np.tile(masses, (n, 1)))
 
 
 @njit(cache=True, inline="always")
@@ -207,7 +212,7 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
     ``dissipated[:, 1]`` stays 0.
     """
     x, v, a, up, fel, ff = state.x, state.v, state.a, state.up, state.fz, state.ff
-    m, mu, g, veps = params.m, params.mu, params.gravity, params.v_eps
+    mu, g, veps = params.mu, params.gravity, params.v_eps
     el_front, el_back, el_type = params.front, params.back, params.kind
     ty_ = params.types
     variant, i_load, i_unload, unilateral = (
@@ -231,7 +236,7 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
         lpr.mode,
         lpr.force_range,
     )
-    N = m.shape[0]
+    N = mu.shape[0]
     ne = el_front.shape[0]
     nodes = np.empty((8, N))
     xl, vl, al, vp = nodes[0], nodes[1], nodes[2], nodes[3]
@@ -245,6 +250,7 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
     for i in range(x.shape[0]):
         if not active[i]:
             continue
+        m = state.m[i]
         for j in range(N):
             xl[j], vl[j], al[j], ffl[j] = x[i, j], v[i, j], a[i, j], ff[i, j]
         for e in range(ne):
@@ -339,9 +345,15 @@ def _pack_models(models: list[Any], ranges: list[tuple[float, float]]) -> LprMod
     """:class:`LprModels` of several 1-input LPR models (their coefficients summed per
     Legendre degree) and their output ranges, N."""
     arrays = [mdl.kernel_arrays() for mdl in models]
-    for i, (e, *_) in enumerate(arrays):
+    for i, (e, *_, mode) in enumerate(arrays):
         if e.ndim != 2 or e.shape[1] != 1:
             raise ValueError(f"surrogate element model {i} has {e.shape[-1]} inputs, expected 1")
+        if mode == EXTRAPOLATION_MODES["raise"]:
+            raise ValueError(
+                f"surrogate element model {i} has extrapolation='raise', which the compiled "
+                "crash kernels cannot honour (they would extrapolate linearly): use 'clip' or "
+                "'linear'"
+            )
     degree = np.array([int(e.max()) for e, *_ in arrays], dtype=np.int64)
     C = np.zeros((len(arrays), int(degree.max()) + 1))
     LO, UP = np.zeros(len(arrays)), np.zeros(len(arrays))
@@ -458,7 +470,7 @@ def simulate_surrogate(
     sy = _surrogate_system(sc, surrogate)
     n_samples = int(round(duration / sample_dt)) + 1
     nb, ne = len(sy.body_names), len(sy.zone_names)
-    state = _new_surrogate_state(1, nb, ne)
+    state = _new_surrogate_state(1, sy.params.m, ne)
     state.v[0] = sy.v0
     out = new_outputs(1, nb, ne)
     rec = new_record(n_samples, nb, ne, energies=False)

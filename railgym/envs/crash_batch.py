@@ -1,0 +1,291 @@
+"""The batch of ``railgym/TrainCrash-v0`` (:mod:`railgym.envs.crash`): ``n`` trains stepped by
+one compiled call per control step (:mod:`railgym.envs.crash_step`), behind the batch contract
+of :mod:`railgym.envs.base`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from railgym.envs.crash_step import (
+    _ENV,
+    _STATE,
+    INFO_FIELDS,
+    REWARD_TERMS,
+    Criteria,
+    EnvConsts,
+    Episode,
+    InfoColumns,
+    _advance_reference,
+    _advance_surrogate,
+    info_layout,
+    plain,
+)
+from railgym.vehicles.crash import BatchOutputs, CrashBatchModel, CrashScenario
+
+__all__ = ["CrashBatch", "CrashConfig"]
+
+
+@dataclass(frozen=True)
+class CrashConfig:
+    """Validated settings shared by the single and the vector env (SI units).
+
+    ``speed_range`` (m/s) and ``payload_range`` ((cars, 2) kg) are the impact envelope drawn
+    at each reset, or ``None`` without one (every episode at ``scenario.speed``, no payload).
+    """
+
+    scenario: CrashScenario
+    backend: str
+    control_dt: float
+    n_steps: int
+    absorber_range: float
+    max_scale_change: float
+    speed_jitter: float
+    weights: tuple[float, float]
+    absorber_stroke: np.ndarray
+    obs_names: tuple[str, ...]
+    obs_scale: np.ndarray
+    speed_range: tuple[float, float] | None
+    payload_range: np.ndarray | None
+    criteria: Criteria
+
+
+#: info kinds: 0 float, 1 bool, 2 float array, 3 bool array
+_KINDS = {"1": 0, "bool": 1, "cars": 2, "zones": 2, "cars?": 3, "zones?": 3}
+
+
+class CrashBatch:
+    """``n`` trains, stepped by one compiled kernel call of a :class:`CrashBatchModel`.
+
+    Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there). It
+    holds the arrays and computes the observation, reward, its terms and the ``info``
+    quantities of :class:`~railgym.envs.crash.TrainCrashEnv`. ``reset`` draws the episode's
+    initial speed and payload (:meth:`draw`); ``reset_state`` restarts the same episode.
+    """
+
+    def __init__(self, n: int, cfg: CrashConfig, model: CrashBatchModel) -> None:
+        self.n, self.cfg, self.model = n, cfg, model
+        sc = cfg.scenario
+        self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
+        names = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
+        self.zones = np.array([model.zone_names.index(z) for z in names], dtype=np.int64)
+        self.layout = info_layout(self.n_cars, self.n_zones)
+        n_info = max(sl.stop for sl, _ in self.layout.values())
+        state, out = model.new_state(n), model.new_outputs(n)
+        nc, nz, nm = self.n_cars, self.n_zones, len(model.zone_names)
+        shapes = {
+            "scale": nm,
+            "payload": nc,
+            "peak": nc,
+            "decel_sum": nc,
+            "max_crush": nz,
+            "intrusion": nz,
+            "w_peak": nm,
+            "f_peak": nm,
+            "ring": (cfg.criteria.window_steps + 1) * nc,
+            "terms": len(REWARD_TERMS),
+            "obs": len(cfg.obs_names),
+            "info": n_info,
+        }
+        episode = [
+            np.zeros(n) if f in ("speed", "energy0", "reward") else np.zeros((n, shapes.get(f, nc)))
+            for f in Episode._fields[:-3]
+        ]
+        episode[0][:] = 1.0  # absorber scales at nominal
+        # every per-train float array in one buffer, in the field order of _advance_*
+        self._state_type = type(state)
+        self._buf, self._fields = self._pack([*out, *episode, *state])
+        self.div = np.zeros(n, np.bool_)
+        self.over = np.zeros(n, np.bool_)
+        self.steps = np.zeros(n, np.int64)
+        self._info_fields = [
+            (key, _KINDS[size], self.layout[key][0].start, self.layout[key][0].stop)
+            for key, size in INFO_FIELDS
+        ]
+        columns = InfoColumns(*(sl.start for sl, _ in self.layout.values()))
+        surrogate = model.backend == "surrogate"
+        types = model.params.types if surrogate else None
+        kind = model.params.kind if surrogate else np.zeros(0, np.int64)
+        self.consts = EnvConsts(
+            zones=self.zones,
+            stroke=cfg.absorber_stroke,
+            inv_scale=1.0 / cfg.obs_scale,
+            w_decel=cfg.weights[0],
+            w_intrusion=cfg.weights[1],
+            gravity=sc.gravity,
+            control_dt=cfg.control_dt,
+            absorber_range=cfg.absorber_range,
+            max_change=cfg.max_scale_change,
+            unloading_k=types.unloading_stiffness[kind] if surrogate else np.zeros(0),
+            tension_k=types.tension_stiffness[kind] if surrogate else np.zeros(0),
+            criteria=cfg.criteria,
+            info=columns,
+        )
+        self._bind()
+        self._actions = np.zeros((n, self.n_zones))
+        self._all = np.ones(n, np.bool_)
+        # undeformed front end of each car at first contact (lead car at the wall), m
+        lengths = [sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1)
+        self.lengths = np.array(lengths)
+        self.front0 = -np.concatenate(([0.0], np.cumsum(lengths[:-1])))
+
+    @staticmethod
+    def _pack(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """One float64 buffer holding ``arrays`` (1-D or 2-D) one after another and the
+        (offset, rows, columns) of each (columns 0 for a 1-D array): the compiled step then
+        takes one array instead of one per array."""
+        buf = np.empty(sum(a.size for a in arrays))
+        fields = np.zeros((len(arrays), 3), np.int64)
+        o = 0
+        for f, a in enumerate(arrays):
+            buf[o : o + a.size] = a.ravel()
+            fields[f] = o, a.shape[0], a.shape[1] if a.ndim == 2 else 0
+            o += a.size
+        return buf, fields
+
+    def _view(self, f: int) -> np.ndarray:
+        """Array ``f`` of the buffer, as a view."""
+        o, r, c = (int(v) for v in self._fields[f])
+        return self._buf[o : o + r * max(c, 1)].reshape((r, c) if c else (r,))
+
+    def _bind(self) -> None:
+        """Named views of the buffer and the kernel arguments (again after a copy: a pickled
+        view is a detached array)."""
+        views = [self._view(f) for f in range(self._fields.shape[0])]
+        self.out = BatchOutputs(*views[:_ENV])
+        self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
+        self.state = self._state_type(*views[_STATE:])
+        model = self.model
+        self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
+        flags = (self.div, self.over, self.steps)
+        stepping = (model.dt, model.n_sub)
+        self._args = (
+            self._buf,
+            self._fields,
+            flags,
+            plain(model.params),
+            stepping,
+            plain(self.consts),
+        )
+        self._flags = {"crash_over": self.over, "diverged": self.div}
+
+    _VIEWS = ("out", "episode", "state", "_kernel", "_args", "_flags")
+
+    # per-train arrays under their short names (views of the buffer)
+    scale = property(lambda self: self.episode.scale)
+    speed = property(lambda self: self.episode.speed)
+    payload = property(lambda self: self.episode.payload)
+    obs = property(lambda self: self.episode.obs)
+    reward = property(lambda self: self.episode.reward)
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind()
+
+    # the batch contract of railgym.envs.base ------------------------------------------
+    def draw(self, rng: np.random.Generator, episode: tuple[Any, Any]) -> tuple[float, np.ndarray]:
+        """Initial speed (m/s) and payload per car (kg) of a new episode.
+
+        Draws, in this order and whatever ``episode`` fixes: the speed from the envelope
+        ``U(low, high)``, each car's payload ``U(low, high)`` (front to back), then the speed
+        jitter ``U(−1, 1)``; without an envelope only the jitter (if any). ``episode`` is
+        ``(speed, payload)`` fixed by ``reset(options=...)``, each ``None`` to draw.
+        """
+        cfg = self.cfg
+        fixed_speed, fixed_payload = episode
+        v, payload = cfg.scenario.speed, np.zeros(self.n_cars)
+        if cfg.speed_range is not None:
+            v = rng.uniform(*cfg.speed_range)
+            payload = rng.uniform(cfg.payload_range[:, 0], cfg.payload_range[:, 1])
+        if cfg.speed_jitter > 0:
+            jitter = 1.0 + cfg.speed_jitter * rng.uniform(-1.0, 1.0)
+            if fixed_speed is None:
+                v *= jitter
+        if fixed_speed is not None:
+            v = fixed_speed
+        if fixed_payload is not None:
+            payload = np.array(fixed_payload, dtype=np.float64)
+        return v, payload
+
+    def reset(self, i: int, rng: np.random.Generator, episode: tuple[Any, Any]) -> None:
+        """Train ``i`` at first contact on a new episode (:meth:`draw`)."""
+        self.speed[i], self.payload[i] = self.draw(rng, episode)
+        self.reset_state(i)
+
+    def reset_state(self, i: int) -> None:
+        """Train ``i`` back at first contact at its episode's speed and payload."""
+        payload = self.payload[i] if self.payload[i].any() else None
+        self.model.reset(self.state, self.out, i, float(self.speed[i]), payload)
+        self.scale[i] = 1.0
+        self.div[i] = False
+        mask = np.zeros(self.n, np.bool_)
+        mask[i] = True
+        self._kernel(*self._args, self._actions, mask, True)
+
+    def set_action(self, actions: np.ndarray) -> None:
+        """Store the clipped actions (n, zones)."""
+        self._actions[:] = actions
+
+    def advance(self) -> None:
+        """One control step of every train with the stored actions."""
+        self._kernel(*self._args, self._actions, self._all, False)
+
+    def flags(self) -> dict[str, np.ndarray]:
+        """Events that end the episode: ``crash_over`` (no zone loaded or closing: every car
+        at rest or rebounding away) and ``diverged``."""
+        return self._flags
+
+    def truncated(self) -> np.ndarray:
+        """True where the episode reached ``max_duration``."""
+        return self.steps >= self.cfg.n_steps
+
+    def observe(self, rngs: list[np.random.Generator]) -> np.ndarray:
+        """Observations (n, n_obs), float32 (no sensor noise)."""
+        return self.obs.astype(np.float32)
+
+    def info(self, i: int | None = None) -> dict[str, Any]:
+        """``info`` of train ``i`` (floats, bools and 1-D arrays) or of all (arrays, first axis
+        the train), from one fresh copy of the flat rows (``docs/envs/crash.md``)."""
+        if i is None:
+            rows = self.episode.info.copy()
+            return {key: _decode(rows[:, a:b], kind, True) for key, kind, a, b in self._info_fields}
+        row = self.episode.info[i].copy()
+        vals = row.tolist()
+        return {
+            key: vals[a] if kind == 0 else vals[a] != 0.0 if kind == 1 else _decode(row[a:b], kind)
+            for key, kind, a, b in self._info_fields
+        }
+
+    def reward_terms(self, i: int | None = None) -> dict[str, Any]:
+        """Reward terms (:data:`REWARD_TERMS`) of train ``i`` (floats) or of all ((n,)
+        arrays); they sum to the reward (to rounding)."""
+        terms = self.episode.terms
+        if i is not None:
+            return dict(zip(REWARD_TERMS, terms[i].tolist(), strict=True))
+        return {key: terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
+
+    def render_state(self, i: int) -> dict[str, Any]:
+        """What :func:`railgym.envs.rendering.render_crash` draws for train ``i``."""
+        out, c = self.out, self.n_cars
+        wall = float(out.x[i, c]) if out.x.shape[1] > c else 0.0  # the obstacle, if any
+        return {
+            "positions": self.front0 + out.x[i, :c],
+            "lengths": self.lengths,
+            "crush": out.crush[i, self.zones],
+            "stroke": self.cfg.absorber_stroke,
+            "wall_x": wall,
+            "time": float(self.steps[i] * self.cfg.control_dt),
+            "duration": self.cfg.n_steps * self.cfg.control_dt,
+        }
+
+
+def _decode(cols: np.ndarray, kind: int, batch: bool = False) -> Any:
+    """Info columns of one kind (:data:`_KINDS`) as the env returns them."""
+    if batch and kind in (0, 1):
+        cols = cols[:, 0]
+    return cols != 0.0 if kind in (1, 3) else cols
