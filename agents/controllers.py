@@ -240,3 +240,13 @@ class LQR(_Controller):
     def force(self, x: np.ndarray) -> np.ndarray:
         """State feedback ``−K·x`` (n,), N."""
         return -(x[:, :4] @ self.K[0])
+
+
+# Crash controllers of railgym/TrainCrash-v0 (same predict interface), defined with their
+# rollout and search helpers in agents.crash_baselines.
+from agents.crash_baselines import (  # noqa: E402, F401  (re-exported)
+    BEST_CONSTANT_ACTION,
+    ConstantAbsorber,
+    CrashPassive,
+    SpeedAdaptive,
+)

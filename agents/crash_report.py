@@ -1,7 +1,8 @@
 """Baseline and surrogate-error tables of ``railgym/TrainCrash-v0`` over an impact envelope.
 
 ``python -m agents.crash_report`` prints the markdown tables of
-``docs/envs/crash_baselines.md``: the crash criteria (:mod:`railgym.vehicles.crash_criteria`)
+``docs/envs/crash_baselines.md`` (``--matrix``: the surrogate-vs-reference matrix of
+``docs/envs/crash.md``): the crash criteria (:mod:`railgym.vehicles.crash_criteria`)
 of the passive train, the best constant setting and the speed-adaptive rule on the reference
 backend at the envelope speeds, the constant-setting search, and the surrogate's error against
 the reference with constant actions −1 / 0 / +1.
@@ -24,13 +25,16 @@ from agents.crash_baselines import (
     rollout,
     search_constant,
 )
-from railgym.envs.crash import TrainCrashVectorEnv, default_surrogate
+from railgym.envs.crash import TrainCrashVectorEnv, default_surrogate, env_surrogate
 from railgym.vehicles.crash import load_scenario
+from railgym.vehicles.crash_elements import MatrixRow, validation_matrix
 
 #: envelope speeds of the tables, km/h
 SPEEDS_KMH = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
 #: constant actions of the surrogate-error table (every zone)
 ERROR_ACTIONS = (-1.0, 0.0, 1.0)
+#: element fits of :func:`surrogate_error_rows`
+FITS = ("nominal", "per-speed", "envelope")
 
 
 def baseline_rows(speeds_kmh: Any = SPEEDS_KMH, scenario: str = "paper") -> list[dict[str, Any]]:
@@ -57,16 +61,22 @@ def surrogate_error_rows(
     """Surrogate against reference with constant actions :data:`ERROR_ACTIONS`.
 
     ``fit="nominal"``: one set of elements fitted on the scenario's nominal-speed reference
-    run (what an env over an envelope gets from one fit); ``"per-speed"``: elements fitted at
-    each speed (what ``gym.make(..., speed=v)`` fits today).
+    run; ``"per-speed"``: elements fitted on a reference run at each speed; ``"envelope"``:
+    the env's default, the packaged elements fitted over the envelope
+    (:func:`railgym.envs.crash.env_surrogate`).
     """
-    if fit not in ("nominal", "per-speed"):
-        raise ValueError(f"fit must be 'nominal' or 'per-speed', got {fit!r}")
+    if fit not in FITS:
+        raise ValueError(f"fit must be one of {FITS}, got {fit!r}")
     sc = load_scenario(scenario)
     actions = np.array([[a, a] for a in ERROR_ACTIONS])
     rows = []
     for kmh in speeds_kmh:
-        sur = default_surrogate(sc) if fit == "nominal" else None
+        if fit == "nominal":
+            sur = default_surrogate(sc)
+        elif fit == "per-speed":
+            sur = default_surrogate(sc.with_overrides(n_cars=2, speed=kmh / 3.6))
+        else:
+            sur = env_surrogate(sc)
         out = {}
         for backend in ("reference", "surrogate"):
             env = TrainCrashVectorEnv(
@@ -144,17 +154,55 @@ def error_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def matrix_table(rows: list[MatrixRow]) -> str:
+    """Markdown table of :func:`railgym.vehicles.crash_elements.validation_matrix` rows:
+    each car's peak deceleration and each zone's largest crush, reference → surrogate (error),
+    and the largest absolute errors."""
+    lines = [
+        "| speed km/h | absorber scale | peak g lead | peak g car 2 | max crush m wall "
+        "| max crush m interface |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        cells = [
+            f"{a:.2f} → {b:.2f} ({100 * e:+.1f} %)"
+            for a, b, e in zip(r.peak_ref, r.peak_sur, r.peak_error, strict=True)
+        ] + [
+            f"{a:.3f} → {b:.3f} ({100 * e:+.1f} %)"
+            for a, b, e in zip(r.crush_ref, r.crush_sur, r.crush_error, strict=True)
+        ]
+        lines.append(f"| {r.speed_kmh:g} | {r.scale:g} | " + " | ".join(cells) + " |")
+    peak = np.max([np.abs(r.peak_error) for r in rows], axis=0)
+    crush = np.max([np.abs(r.crush_error) for r in rows], axis=0)
+    worst = " / ".join(f"{100 * x:.1f} %" for x in peak)
+    worst_c = " / ".join(f"{100 * x:.1f} %" for x in crush)
+    lines.append(
+        f"\nLargest |error|: peak deceleration {worst} (cars front to back), largest crush "
+        f"{worst_c} (zones wall first); target 5 %."
+    )
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print the markdown tables of ``docs/envs/crash_baselines.md``."""
     parser = argparse.ArgumentParser(prog="python -m agents.crash_report", description=__doc__)
     parser.add_argument("--scenario", default="paper", help="crash scenario (default: paper)")
+    parser.add_argument(
+        "--matrix",
+        action="store_true",
+        help="only the surrogate-vs-reference matrix of the env's elements (docs/envs/crash.md)",
+    )
     args = parser.parse_args(argv)
+    if args.matrix:
+        sc = load_scenario(args.scenario)
+        print(matrix_table(validation_matrix(sc, env_surrogate(sc))))
+        return 0
     speeds = np.array(SPEEDS_KMH) / 3.6
     levels = np.linspace(-1, 1, 9)
     res = search_constant(speeds, levels=levels, backend="reference", scenario=args.scenario)
     print(f"best constant action {res.best.tolist()}, mean worst-car peak {res.score:.3f} g\n")
     print(baseline_table(baseline_rows(scenario=args.scenario)))
-    for fit in ("nominal", "per-speed"):
+    for fit in FITS:
         print(f"\nsurrogate fitted {fit}\n")
         print(error_table(surrogate_error_rows(scenario=args.scenario, fit=fit)))
     return 0

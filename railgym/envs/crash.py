@@ -46,6 +46,7 @@ from railgym.vehicles.crash import (
     simulate_reference,
 )
 from railgym.vehicles.crash_criteria import ONSET_G, WINDOW
+from railgym.vehicles.crash_elements import packaged_surrogate
 
 __all__ = [
     "BACKENDS",
@@ -57,6 +58,7 @@ __all__ = [
     "TrainCrashEnv",
     "TrainCrashVectorEnv",
     "default_surrogate",
+    "env_surrogate",
     "make_config",
     "make_model",
     "nominal_force",
@@ -178,8 +180,18 @@ def default_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> C
     return build_crash_surrogate(simulate_reference(scenario), variant=variant, seed=0)
 
 
+@functools.lru_cache(maxsize=16)
+def env_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> CrashSurrogate:
+    """The elements ``gym.make`` uses without ``surrogate=``: the packaged envelope elements
+    of the scenario's train (:func:`railgym.vehicles.crash_elements.packaged_surrogate`), else
+    :func:`default_surrogate` (fitted once per process); cached per scenario and process."""
+    packaged = packaged_surrogate(scenario, variant)
+    return packaged if packaged is not None else default_surrogate(scenario, variant)
+
+
 def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchModel:
-    """Batch model of the configured backend; ``surrogate`` = elements or ``None`` (fitted)."""
+    """Batch model of the configured backend; ``surrogate`` = elements or ``None``
+    (:func:`env_surrogate`)."""
     if cfg.backend == "reference":
         if surrogate is not None:
             raise ValueError("surrogate is only used by backend='surrogate', not 'reference'")
@@ -187,7 +199,7 @@ def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchMode
     if surrogate is None:
         if variant not in VARIANTS:
             raise ValueError(f"surrogate_variant must be one of {VARIANTS}, got {variant!r}")
-        surrogate = default_surrogate(cfg.scenario, variant)
+        surrogate = env_surrogate(cfg.scenario, variant)
     if not isinstance(surrogate, CrashSurrogate):
         raise ValueError(
             f"surrogate must be a CrashSurrogate (build_crash_surrogate), got "

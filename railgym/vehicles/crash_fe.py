@@ -234,13 +234,18 @@ def _element_document(el: CrashElement) -> dict[str, Any]:
 
 
 def save_crash_surrogate(
-    surrogate: CrashSurrogate, path: str | Path, overwrite: bool = False
+    surrogate: CrashSurrogate,
+    path: str | Path,
+    overwrite: bool = False,
+    metadata: Mapping[str, Any] | None = None,
 ) -> Path:
-    """Write the elements as JSON (format ``railgym-crash-surrogate``, schema 1)."""
+    """Write the elements as JSON (format ``railgym-crash-surrogate``, schema 1);
+    ``metadata`` (JSON values) is stored under ``"metadata"`` and ignored when loading."""
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
     doc = {
+        "metadata": dict(metadata or {}),
         "format": FORMAT,
         "schema_version": SCHEMA_VERSION,
         "variant": surrogate.variant,

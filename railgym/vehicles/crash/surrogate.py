@@ -162,13 +162,17 @@ def virgin_loading(
     return out
 
 
-def _fit_lpr(u: np.ndarray, f: np.ndarray, max_degree: int, seed: int) -> tuple[Any, Any]:
-    """LPR of f(u) with the degree chosen by 10-fold CV (``clip`` extrapolation)."""
+def _fit_lpr(
+    u: np.ndarray, f: np.ndarray, max_degree: int, seed: int, degrees: Any = None
+) -> tuple[Any, Any]:
+    """LPR of f(u) with the degree chosen by 10-fold CV (``clip`` extrapolation) among
+    ``degrees`` (default 1 … ``max_degree``)."""
     n = u.size
     if n < 4:
         raise ValueError(f"too few training samples ({n}) to fit a surrogate branch")
     make = factory_for("lpr", extrapolation="clip")
-    cands = list(range(1, min(max_degree, n - 2) + 1))
+    tried = range(1, max_degree + 1) if degrees is None else degrees
+    cands = [int(d) for d in tried if 1 <= d <= n - 2]
     sel = select_kfold(make, cands, u[:, None], f, k=min(10, n), seed=seed)
     return make(sel.best).fit(u[:, None], f), sel
 
@@ -185,29 +189,69 @@ def _unloading_stiffness(
     return float(np.sum(df[ok] * du[ok]) / np.sum(du[ok] ** 2))
 
 
+def _pooled_training_data(
+    references: list[CrashResult],
+) -> dict[str, tuple[TrainingSet, np.ndarray]]:
+    """:func:`crash_training_data` of several results pooled per element type (series
+    numbered apart) with each sample's absorber scale (``result.extra["absorber_scale"]``,
+    default 1, the same in every zone of a run)."""
+    pooled: dict[str, list[tuple[TrainingSet, float]]] = {}
+    for ref in references:
+        scale = float(ref.extra.get("absorber_scale", 1.0))
+        for name, data in crash_training_data(ref).items():
+            pooled.setdefault(name, []).append((data, scale))
+    out = {}
+    for name, items in pooled.items():
+        offset, parts, scales = 0, [], []
+        for (u, f, rate, load, series), scale in items:
+            parts.append((u, f, rate, load, series + offset))
+            scales.append(np.full(u.size, scale))
+            offset += int(series.max()) + 1
+        cols = tuple(np.concatenate([p[j] for p in parts]) for j in range(5))
+        out[name] = (cols, np.concatenate(scales))
+    return out
+
+
 def build_crash_surrogate(
-    reference: CrashResult,
+    reference: CrashResult | list[CrashResult],
     variant: str = "hysteretic",
     seed: int = 0,
     max_degree: int = 30,
+    degrees: Any = None,
 ) -> CrashSurrogate:
-    """Fit the surrogate elements of paper eq. (4) on a reference result.
+    """Fit the surrogate elements of paper eq. (4) on one reference result or several.
 
     Parameters
     ----------
-    reference : output of :func:`simulate_reference`.
+    reference : output of :func:`simulate_reference`, or a list of reference results of one
+        scenario (e.g. :func:`railgym.vehicles.crash_elements.envelope_runs`) pooled into one
+        element set. A run with absorber scale ``s`` (``result.extra["absorber_scale"]``)
+        contributes its loading forces divided by ``s`` within the absorber stroke, i.e. the
+        nominal envelope the element scales at run time; unloading samples (``k̂_u``) as they
+        are.
     variant : ``"paper"`` (loading/unloading LPR switched by the crush rate) or
         ``"hysteretic"`` (LPR envelope + elastic unloading, energy-consistent).
     seed : seed of the cross-validation folds.
-    max_degree : largest LPR degree tried by 10-fold cross-validation.
+    max_degree : largest LPR degree tried by 10-fold cross-validation; degrees : the LPR
+        degrees tried instead (a sequence of positive integers, e.g. a coarse grid up to a
+        high degree).
     """
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
-    if reference.model != "reference":
-        raise ValueError(f"reference must be a reference-model result, got {reference.model!r}")
+    refs = reference if isinstance(reference, list) else [reference]
+    if not refs:
+        raise ValueError("reference must hold at least one reference result")
+    for ref in refs:
+        if ref.model != "reference":
+            raise ValueError(f"reference must be a reference-model result, got {ref.model!r}")
+    sc = refs[0].scenario
     t0 = time.perf_counter()
     elements = {}
-    for name, (u, f, rate, loading, series) in crash_training_data(reference).items():
+    absorber = {"wall": sc.wall.absorber_stroke, "interface": sc.interface.absorber_stroke}
+    for name, (data, run_scale) in _pooled_training_data(refs).items():
+        u, f, rate, loading, series = data
+        # nominal envelope: the loading forces of a scaled absorber divided by its scale
+        nominal = f / np.where(u <= absorber[name], run_scale, 1.0)
         unilateral = name == "wall"
         sel: dict[str, Any] = {}
         n: dict[str, int] = {}
@@ -215,16 +259,19 @@ def build_crash_surrogate(
         unload = None
         if variant == "paper":
             lo, un = loading, ~loading
-            load, sel["loading"] = _fit_lpr(u[lo], f[lo], max_degree, seed)
-            unload, sel["unloading"] = _fit_lpr(u[un], f[un], max_degree, seed)
+            load, sel["loading"] = _fit_lpr(u[lo], nominal[lo], max_degree, seed, degrees)
+            unload, sel["unloading"] = _fit_lpr(u[un], f[un], max_degree, seed, degrees)
             n = {"loading": int(lo.sum()), "unloading": int(un.sum())}
-            rng = {"loading": (f[lo].min(), f[lo].max()), "unloading": (f[un].min(), f[un].max())}
+            rng = {
+                "loading": (nominal[lo].min(), nominal[lo].max()),
+                "unloading": (f[un].min(), f[un].max()),
+            }
             ku = _unloading_stiffness(u, f, rate, series)
         else:
             vg = virgin_loading(u, rate, series) & (f > 0)
             uu = np.concatenate(([0.0], u[vg]))
-            ff = np.concatenate(([0.0], f[vg]))
-            load, sel["loading"] = _fit_lpr(uu, ff, max_degree, seed)
+            ff = np.concatenate(([0.0], nominal[vg]))
+            load, sel["loading"] = _fit_lpr(uu, ff, max_degree, seed, degrees)
             ku = _unloading_stiffness(u, f, rate, series)
             n = {"loading": int(uu.size)}
             rng = {"loading": (0.0, ff.max())}
@@ -253,7 +300,7 @@ def build_crash_surrogate(
     return CrashSurrogate(
         variant=variant,
         elements=elements,
-        source=reference.scenario.name,
+        source=sc.name,
         build_time=time.perf_counter() - t0,
     )
 

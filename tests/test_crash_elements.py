@@ -1,0 +1,104 @@
+"""Packaged crash elements fitted over the envelope: rebuild = packaged file, gym.make loads
+them, the surrogate-vs-reference validation matrix."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from railgym.envs.crash import TrainCrashEnv, env_surrogate
+from railgym.vehicles.crash import build_crash_surrogate, load_scenario, simulate_reference
+from railgym.vehicles.crash_elements import (
+    FIT_SCALES,
+    FIT_SPEEDS_KMH,
+    build_envelope_surrogate,
+    envelope_runs,
+    main,
+    packaged_path,
+    packaged_surrogate,
+    train_key,
+    validation_matrix,
+)
+
+
+def _run(env):
+    env.reset(seed=0)
+    while True:
+        *_, term, trunc, info = env.step(np.zeros(2, np.float32))
+        if term or trunc:
+            return info
+
+
+def test_rebuilding_the_packaged_elements_gives_the_packaged_file(tmp_path):
+    """The documented command rebuilds the file: same fit, same forces on a dense grid."""
+    assert main(["--scenario", "paper", "--out", str(tmp_path / "e.json")]) == 0
+    with pytest.raises(SystemExit):  # an existing file needs --overwrite
+        main(["--scenario", "paper", "--out", str(tmp_path / "e.json")])
+    sc = load_scenario("paper")
+    rebuilt, packaged = build_envelope_surrogate(sc), packaged_surrogate(sc)
+    assert packaged is not None and packaged.source == "paper"
+    for name, el in packaged.elements.items():
+        new = rebuilt.elements[name]
+        assert new.degrees == el.degrees
+        u = np.linspace(-0.1, 3.0, 2001)[:, None]
+        scale = np.max(np.abs(el.loading.predict(u)))
+        np.testing.assert_allclose(new.loading.predict(u), el.loading.predict(u), atol=1e-6 * scale)
+        assert new.unloading_stiffness == pytest.approx(el.unloading_stiffness, rel=1e-9)
+        assert new.tension_stiffness == pytest.approx(el.tension_stiffness, rel=1e-6, abs=1e-6)
+
+
+def test_envelope_runs_cover_the_grid_and_scale_the_absorbers():
+    runs = envelope_runs("paper", speeds_kmh=(40.0,), scales=FIT_SCALES)
+    crush = [r.crush[:, 0].max() for r in runs]
+    assert crush[0] > crush[1] > crush[2]  # softer absorbers crush further
+    passive = simulate_reference("paper")  # the batch recorder = the reference recorder
+    np.testing.assert_array_equal(runs[1].a[: passive.t.size - 1], passive.a[:-1])
+    assert {r.extra["absorber_scale"] for r in runs} == set(FIT_SCALES)
+    # a scaled run fitted alone recovers the nominal envelope: force / scale in the stroke
+    soft, nominal = (build_crash_surrogate(r).elements["wall"] for r in (runs[0], runs[1]))
+    u = np.linspace(0.7, 1.5, 81)[:, None]
+    np.testing.assert_allclose(
+        soft.loading.predict(u), nominal.loading.predict(u), rtol=0.1
+    )  # LPR fits of different data: agree to the folding-wave amplitude
+
+
+def test_gym_make_loads_the_packaged_elements_for_every_scenario_of_the_train():
+    paper = load_scenario("paper")
+    key = train_key(paper)
+    for name in ("envelope", "speed25", "speed50", "identical_train"):
+        sc = load_scenario(name)
+        assert train_key(sc) == key
+        assert env_surrogate(sc).source == name
+    assert train_key(load_scenario("trainset")) != key  # 4 cars: fitted on demand
+    assert packaged_surrogate(load_scenario("trainset")) is None
+    assert packaged_surrogate(paper, "paper") is None  # only the hysteretic set is packaged
+    env = TrainCrashEnv()
+    deg = env.model.params.lpr.degree
+    assert list(deg) == [e.degrees["loading"] for e in packaged_surrogate(paper).elements.values()]
+    assert packaged_path("paper").is_file()
+
+
+def test_validation_matrix_is_the_envs_physics_and_holds_its_measured_accuracy():
+    sc = load_scenario("paper")
+    sur = env_surrogate(sc)
+    rows = validation_matrix(sc, sur)
+    assert [(r.speed_kmh, r.scale) for r in rows][:4] == [
+        (25, 0.7),
+        (25, 1.0),
+        (25, 1.3),
+        (32, 0.7),
+    ]
+    assert len(rows) == 12
+    cell = next(r for r in rows if r.speed_kmh == 40 and r.scale == 1.0)
+    for backend, peak, crush in (
+        ("reference", cell.peak_ref, cell.crush_ref),
+        ("surrogate", cell.peak_sur, cell.crush_sur),
+    ):
+        info = _run(TrainCrashEnv(backend=backend))  # passive env episode at 40 km/h
+        np.testing.assert_array_equal(info["peak_decel_g"], peak)
+        np.testing.assert_array_equal(info["max_crush_m"], crush)
+    # measured (docs/envs/crash.md): wall crush within 2.1 %, car-2 peak within 0.5 %; the
+    # lead-car peak and the interface crush miss the 5 % target (up to 12 % / 13 %)
+    assert max(abs(r.crush_error[0]) for r in rows) < 0.03
+    assert max(abs(r.peak_error[1]) for r in rows) < 0.01
+    assert FIT_SPEEDS_KMH[0] == 25.0 and 32.0 not in FIT_SPEEDS_KMH  # 32 km/h is held out
