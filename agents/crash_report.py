@@ -25,6 +25,7 @@ from agents.crash_baselines import (
     rollout,
     search_constant,
 )
+from agents.evaluate import CRASH_ID, load_policy
 from railgym.envs.crash import TrainCrashVectorEnv, default_surrogate, env_surrogate
 from railgym.vehicles.crash import load_scenario
 from railgym.vehicles.crash_elements import MatrixRow, validation_matrix
@@ -90,6 +91,102 @@ def surrogate_error_rows(
         for a, ref, srg in zip(ERROR_ACTIONS, out["reference"], out["surrogate"], strict=True):
             rows.append({"speed_kmh": kmh, "action": a, "reference": ref, "surrogate": srg})
     return rows
+
+
+#: the held-out evaluation of issue 11: speeds (km/h) and payloads (t: lead, passenger car)
+EVAL_SPEEDS_KMH = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
+EVAL_PAYLOADS_T = ((0.0, 0.0), (2.0, 8.0))
+#: the baselines of the evaluation (name → controller factory of an env)
+BASELINES = {
+    "passive": CrashPassive,
+    "best constant": lambda env: ConstantAbsorber(env, BEST_CONSTANT_ACTION),
+    "speed-adaptive": SpeedAdaptive,
+}
+
+
+def envelope_rows(
+    policies: dict[str, Any],
+    env_kwargs: dict[str, Any] | None = None,
+    speeds_kmh: Any = EVAL_SPEEDS_KMH,
+    payloads_t: Any = EVAL_PAYLOADS_T,
+) -> list[dict[str, Any]]:
+    """Criteria on the **reference** of each policy (name → factory of an env → object with
+    ``predict``) at each speed (km/h) × payload ((lead, passenger) t), fixed by
+    ``reset(options=...)``; ``env_kwargs`` as the policy was trained with (default: the
+    ``envelope`` scenario)."""
+    kwargs = {"scenario": "envelope", **(env_kwargs or {}), "backend": "reference"}
+    rows = []
+    for kmh in speeds_kmh:
+        for payload in payloads_t:
+            options = {"speed_kmh": kmh, "payload_t": list(payload)}
+            for name, factory in policies.items():
+                env = TrainCrashVectorEnv(num_envs=1, **kwargs)
+                crit = rollout(env, factory(env), options=options)[0].criteria()
+                rows.append(
+                    {"controller": name, "speed_kmh": kmh, "payload_t": payload, "criteria": crit}
+                )
+    return rows
+
+
+def envelope_summary(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
+    """Per controller: mean worst-car peak deceleration (g) over the cases, the largest
+    intrusion (m) up to 45 km/h and over all, its largest intrusion excess over passive in any
+    case (m), the share of cases passing every criterion."""
+    cases: dict[tuple[float, tuple[float, float]], float] = {
+        (r["speed_kmh"], r["payload_t"]): r["criteria"].intrusion_m.max()
+        for r in rows
+        if r["controller"] == "passive"
+    }
+    out = {}
+    for name in dict.fromkeys(r["controller"] for r in rows):
+        mine = [r for r in rows if r["controller"] == name]
+        intr = [(r["speed_kmh"], r["criteria"].intrusion_m.max()) for r in mine]
+        excess = [
+            r["criteria"].intrusion_m.max() - cases.get((r["speed_kmh"], r["payload_t"]), math.nan)
+            for r in mine
+        ]
+        out[name] = {
+            "peak_g": float(np.mean([r["criteria"].peak_decel_g.max() for r in mine])),
+            "intrusion_le45_m": max(x for v, x in intr if v <= 45.0),
+            "intrusion_m": max(x for _, x in intr),
+            "excess_over_passive_m": float(np.nanmax(excess)),
+            "passed": float(np.mean([r["criteria"].all_passed for r in mine])),
+        }
+    return out
+
+
+def envelope_table(rows: list[dict[str, Any]]) -> str:
+    """Markdown tables of :func:`envelope_rows`: every case, then :func:`envelope_summary`
+    with the peak reduction against passive and against the speed-adaptive rule."""
+    lines = [
+        "| speed km/h | payload t | controller | peak g (per car) | pulse mean g "
+        "| intrusion m (per zone) | all criteria |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        c = r["criteria"]
+        lines.append(
+            f"| {r['speed_kmh']:g} | {_pair(r['payload_t'], '{:g}')} | {r['controller']} "
+            f"| {_pair(c.peak_decel_g)} | {_pair(c.pulse.mean_g)} "
+            f"| {_pair(c.intrusion_m, '{:.3f}')} | {'✓' if c.all_passed else '✗'} |"
+        )
+    summary = envelope_summary(rows)
+    ref = {k: summary[k]["peak_g"] for k in ("passive", "speed-adaptive") if k in summary}
+    lines += [
+        "",
+        "| controller | mean worst-car peak g | vs passive | vs speed-adaptive "
+        "| max intrusion m ≤ 45 km/h | max intrusion m | max excess over passive m "
+        "| cases passing |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, s in summary.items():
+        rel = [f"{100 * (s['peak_g'] / ref[k] - 1):+.1f} %" if k in ref else "–" for k in ref]
+        lines.append(
+            f"| {name} | {s['peak_g']:.2f} | {' | '.join(rel)} | {s['intrusion_le45_m']:.3f} "
+            f"| {s['intrusion_m']:.3f} | {s['excess_over_passive_m']:+.3f} "
+            f"| {100 * s['passed']:.0f} % |"
+        )
+    return "\n".join(lines)
 
 
 def _passed(c: Any) -> str:
@@ -192,7 +289,23 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="only the surrogate-vs-reference matrix of the env's elements (docs/envs/crash.md)",
     )
+    parser.add_argument(
+        "--envelope",
+        nargs="*",
+        metavar="POLICY_ZIP",
+        help="only the held-out envelope evaluation on the reference (speeds × payloads) of "
+        "the baselines and these trained policies (SB3 .zip written by agents.train)",
+    )
+    parser.add_argument("--trust", action="store_true", help="as for railgym evaluate")
     args = parser.parse_args(argv)
+    if args.envelope is not None:
+        policies: dict[str, Any] = dict(BASELINES)
+        env_kwargs: dict[str, Any] = {}
+        for path in args.envelope:
+            factory, env_kwargs, label = load_policy(path, CRASH_ID, args.trust)
+            policies[label] = factory
+        print(envelope_table(envelope_rows(policies, env_kwargs)))
+        return 0
     if args.matrix:
         sc = load_scenario(args.scenario)
         print(matrix_table(validation_matrix(sc, env_surrogate(sc))))

@@ -263,3 +263,27 @@ def test_raise_extrapolation_is_rejected_by_the_crash_models():
     sur.elements["wall"].loading.extrapolation = "raise"
     with pytest.raises(ValueError, match=r"extrapolation='raise'.*use 'clip' or 'linear'"):
         TrainCrashEnv(surrogate=sur)
+
+
+def test_envelope_evaluation_fixes_speed_and_payload_and_summarises():
+    from agents.controllers import CrashPassive as Passive
+    from agents.controllers import SpeedAdaptive
+    from agents.crash_report import envelope_rows, envelope_summary, envelope_table
+
+    policies = {"passive": Passive, "speed-adaptive": SpeedAdaptive}
+    rows = envelope_rows(policies, {"control_dt": 0.005}, (25.0,), ((0.0, 0.0), (2.0, 8.0)))
+    assert [(r["payload_t"], r["controller"]) for r in rows] == [
+        ((0.0, 0.0), "passive"),
+        ((0.0, 0.0), "speed-adaptive"),
+        ((2.0, 8.0), "passive"),
+        ((2.0, 8.0), "speed-adaptive"),
+    ]
+    env = TrainCrashEnv(backend="reference", scenario="envelope", control_dt=0.005)
+    info = _run(env, seed=0, options={"speed_kmh": 25.0, "payload_t": [2.0, 8.0]})
+    np.testing.assert_array_equal(rows[2]["criteria"].peak_decel_g, info["peak_decel_g"])
+    s = envelope_summary(rows)
+    assert s["passive"]["excess_over_passive_m"] == 0.0
+    # issue 11: the speed-adaptive rule beats passive at 25 km/h without intrusion
+    assert s["speed-adaptive"]["peak_g"] < 0.9 * s["passive"]["peak_g"]
+    assert s["speed-adaptive"]["intrusion_m"] == 0.0
+    assert "| speed-adaptive |" in envelope_table(rows)
