@@ -12,6 +12,8 @@ import numpy as np
 from railgym.envs.crash_step import (
     _ENV,
     _STATE,
+    COLUMNS,
+    ENV_FIELDS,
     INFO_FIELDS,
     REWARD_TERMS,
     Criteria,
@@ -90,8 +92,7 @@ class CrashBatch:
             "info": n_info,
         }
         episode = [
-            np.zeros(n) if f in ("speed", "energy0", "reward") else np.zeros((n, shapes.get(f, nc)))
-            for f in Episode._fields[:-3]
+            np.zeros(n) if f in COLUMNS else np.zeros((n, shapes.get(f, nc))) for f in ENV_FIELDS
         ]
         episode[0][:] = 1.0  # absorber scales at nominal
         # every per-train float array in one buffer, in the field order of _advance_*

@@ -25,6 +25,7 @@ from railgym.vehicles.crash import (
 from railgym.vehicles.crash_criteria import zero_crossing
 
 __all__ = [
+    "COLUMNS",
     "DECEL_REF_G",
     "DIVERGENCE_PENALTY",
     "ENV_FIELDS",
@@ -175,8 +176,8 @@ class Episode(NamedTuple):
 
 #: the float arrays of :class:`Episode` kept in the :class:`CrashBatch` buffer
 ENV_FIELDS = Episode._fields[:-3]
-#: the 1-D ones among them
-_COLUMNS = ("speed", "energy0", "reward")
+#: the 1-D ones among them (the others are 2-D)
+COLUMNS = ("speed", "energy0", "reward")
 #: buffer layout: the 9 :class:`BatchOutputs` arrays, :data:`ENV_FIELDS`, the model state
 _ENV = len(BatchOutputs._fields)
 _STATE = _ENV + len(ENV_FIELDS)
@@ -432,7 +433,7 @@ def _column(buf, fields, f):
 @njit(cache=True, inline="always")
 def _views(buf, fields, flags):
     """The :class:`BatchOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
-    :class:`CrashBatch` buffer, as views; 1-D fields are ``stored`` and :data:`_COLUMNS`."""
+    :class:`CrashBatch` buffer, as views; 1-D fields are ``stored`` and :data:`COLUMNS`."""
     out = BatchOutputs(
         _field(buf, fields, 0),
         _field(buf, fields, 1),
