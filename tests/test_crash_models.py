@@ -124,7 +124,7 @@ def test_bad_names_and_overrides():
     with pytest.raises(ValueError, match="unknown crash scenario 'nope'"):
         load_scenario("nope")
     sc = load_scenario("paper")
-    with pytest.raises(ValueError, match="n_cars must be an integer"):
+    with pytest.raises(ValueError, match="n_cars must be at least 1"):
         sc.with_overrides(n_cars=0)
     with pytest.raises(ValueError, match=r"speed \(m/s\) must be in"):
         simulate_reference(sc, speed=-1.0)

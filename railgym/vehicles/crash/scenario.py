@@ -87,33 +87,16 @@ def check_real(
     low_open: bool = False,
     high_open: bool = False,
 ) -> float:
-    """``value`` as a float if it is a real number (Python or numpy, not a bool) within
+    """``value`` as a float if it is a finite real number (Python or numpy, not a bool) within
     ``[low, high]`` (bounds ``None`` = unbounded; ``*_open`` excludes the bound); else
-    ``ValueError`` naming ``name``."""
-    if isinstance(value, bool | np.bool_) or not isinstance(
-        value, int | float | np.integer | np.floating
-    ):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
-    out = float(value)
-    if not math.isfinite(out):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    below = low is not None and (out <= low if low_open else out < low)
-    above = high is not None and (out >= high if high_open else out > high)
-    if below or above:
-        lo = "unbounded" if low is None else ("(" if low_open else "[") + f"{low:g}"
-        hi = "unbounded" if high is None else f"{high:g}" + (")" if high_open else "]")
-        raise ValueError(f"{name} must be in {lo}, {hi}, got {value!r}")
-    return out
+    ``ValueError`` naming ``name`` (:func:`railgym._validation.in_range`)."""
+    return val.in_range(value, name, low, high, lo_open=low_open, hi_open=high_open)
 
 
 def check_int(name: str, value: Any, low: int, high: int) -> int:
     """``value`` as an int if it is an integer (Python or numpy, not a bool) in [low, high];
-    else ``ValueError`` naming ``name``."""
-    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
-    if not low <= value <= high:
-        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
-    return int(value)
+    else ``ValueError`` naming ``name`` (:func:`railgym._validation.integer`)."""
+    return val.integer(value, name, low, high)
 
 
 @dataclass(frozen=True)
