@@ -20,9 +20,28 @@ def _write_csv(path, n=300, seed=0):
 def test_build_command_writes_a_loadable_model(tmp_path, capsys):
     U, F = _write_csv(tmp_path / "d.csv")
     out, rep = tmp_path / "m.json", tmp_path / "r.json"
-    code = main(["build", str(tmp_path / "d.csv"), "--inputs", "du", "dv", "--output", "F",
-                 "-o", str(out), "--m", "61", "--sampling", "greedy", "--units", "F=N",
-                 "--report", str(rep), "--quiet"])  # fmt: skip
+    code = main(
+        [
+            "build",
+            str(tmp_path / "d.csv"),
+            "--inputs",
+            "du",
+            "dv",
+            "--output",
+            "F",
+            "-o",
+            str(out),
+            "--m",
+            "61",
+            "--sampling",
+            "greedy",
+            "--units",
+            "F=N",
+            "--report",
+            str(rep),
+            "--quiet",
+        ]
+    )
     assert code == 0
     model = io.load(out)
     lo, hi = model.domain_
@@ -36,8 +55,20 @@ def test_build_command_writes_a_loadable_model(tmp_path, capsys):
 
 def test_build_command_reports_a_missing_column(tmp_path, capsys):
     _write_csv(tmp_path / "d.csv")
-    code = main(["build", str(tmp_path / "d.csv"), "--inputs", "du", "x", "--output", "F",
-                 "-o", str(tmp_path / "m.json"), "--quiet"])  # fmt: skip
+    code = main(
+        [
+            "build",
+            str(tmp_path / "d.csv"),
+            "--inputs",
+            "du",
+            "x",
+            "--output",
+            "F",
+            "-o",
+            str(tmp_path / "m.json"),
+            "--quiet",
+        ]
+    )
     assert code == 2 and "missing column" in capsys.readouterr().err
 
 

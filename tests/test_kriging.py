@@ -250,3 +250,22 @@ def test_bad_data():
         model.predict_variance(np.zeros((2, 3)))
     with pytest.raises(RuntimeError, match="not fitted"):
         Kriging().predict_variance([[0.0]])
+
+
+def test_auto_nugget_keeps_interpolating_accuracy_on_noise_free_data():
+    # smooth noise-free 2-D suspension-like force: the old nugget floor (1e-8) cost ~20x
+    def force(U: np.ndarray) -> np.ndarray:
+        u1, u2 = U[:, 0], U[:, 1]
+        return 4e5 * u1 + 2.2e8 * u1**3 + 9e3 * np.tanh(u2 / 0.3) + 1e6 * u1 * u2
+
+    rng = np.random.default_rng(5)
+    U = rng.uniform([-0.03, -0.3], [0.03, 0.3], (50, 2))
+    Q = rng.uniform(U.min(axis=0), U.max(axis=0), (300, 2))
+    errors = {}
+    for nugget in ("auto", None, 1e-8):
+        model = Kriging(nugget=nugget, n_starts=2).fit(U, force(U))
+        errors[nugget] = rel_rms(model.predict(Q), force(Q))
+        if nugget == "auto":
+            assert model.nugget_ < 1e-10
+    assert errors["auto"] <= 1.2 * errors[None]
+    assert errors["auto"] < 0.1 * errors[1e-8]

@@ -91,6 +91,8 @@ def field_array(
     """
     if isinstance(value, (str, bytes, dict)) or value is None:
         raise ModelFieldError(f"{field} must be an array of numbers, got {type(value).__name__}")
+    if _has_bool(value):
+        raise ModelFieldError(f"{field} must hold numbers, got true/false")
     try:
         arr = np.asarray(value)
     except (ValueError, TypeError) as exc:
@@ -121,6 +123,15 @@ def field(d: Any, key: str, path: str) -> Any:
     if key not in d:
         raise ModelFieldError(f"{path} is missing the field {key!r}")
     return d[key]
+
+
+def _has_bool(value: Any) -> bool:
+    """True if the nested lists ``value`` hold a bool (numpy would read it as 0 or 1)."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(_has_bool(v) for v in value)
+    return False
 
 
 def _shape_text(shape: tuple[int | None, ...]) -> str:
