@@ -167,6 +167,7 @@ def select_kfold(
                 error = model
                 break
             pred[fold] = model.predict(U[fold])
+        row: dict[str, Any]
         if error is None:
             row = {
                 "rms": float(np.sqrt(np.mean((pred - V) ** 2))),

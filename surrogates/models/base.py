@@ -19,6 +19,7 @@ Each prediction of a point outside the box increments ``n_out_of_domain_``.
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
@@ -69,6 +70,10 @@ class SurrogateModel:
     """
 
     kind: ClassVar[str] = "base"
+    #: feature names and units, attached by :func:`surrogates.io.load`
+    features_: dict[str, Any]
+    #: free-form metadata, attached by :func:`surrogates.io.load`
+    metadata_: dict[str, Any]
 
     def __init__(self, extrapolation: str = "linear") -> None:
         self.extrapolation = extrapolation
@@ -181,7 +186,8 @@ class SurrogateModel:
         if unknown:
             raise ModelFieldError(f"model.params has unknown field(s) {unknown}")
         params = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
-        model = cls(**params)
+        make: Callable[..., SurrogateModel] = cls
+        model = make(**params)
         try:
             model._check_params()
         except ModelFieldError as exc:

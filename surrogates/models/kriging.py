@@ -38,6 +38,8 @@ TRENDS = ("constant", "linear")
 LENGTH_SCALE_BOUNDS = (1e-3, 1e2)
 #: bounds of the estimated nugget, relative to the process variance
 NUGGET_BOUNDS = (1e-12, 1.0)
+#: relative tolerance of L-BFGS-B on the log-likelihood (its change per iteration)
+LIKELIHOOD_FTOL = 1e-6
 #: default largest training set accepted by :meth:`Kriging.fit`
 MAX_SAMPLES = 2000
 #: first diagonal jitter of an interpolating model (nugget off)
@@ -175,6 +177,7 @@ class Kriging(SurrogateModel):
                     jac=True,
                     method="L-BFGS-B",
                     bounds=bounds,
+                    options={"ftol": LIKELIHOOD_FTOL},
                 )
                 if best is None or res.fun < best.fun:
                     best = res

@@ -100,8 +100,8 @@ class LegendreRegression(SurrogateModel):
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
         n, d = U.shape
         degree = check_degree(self.degree)
-        if self.interactions:
-            T = math.comb(int(degree) + d, d)  # int: _check_params rejected tuples
+        if self.interactions and isinstance(degree, int):  # _check_params rejects a tuple here
+            T = math.comb(degree + d, d)
         else:
             degrees = degree if isinstance(degree, tuple) else (degree,) * d
             if len(degrees) != d:
@@ -140,13 +140,13 @@ class LegendreRegression(SurrogateModel):
         degrees = degree if isinstance(degree, tuple) else (degree,) * d
         if len(degrees) != d:
             raise ValueError(f"degree has {len(degrees)} entries but U has {d} columns")
-        rows = [np.zeros(d, dtype=np.int64)]
+        table = [np.zeros(d, dtype=np.int64)]
         for j, n_j in enumerate(degrees):
             for k in range(1, n_j + 1):
                 e = np.zeros(d, dtype=np.int64)
                 e[j] = k
-                rows.append(e)
-        return np.array(rows, dtype=np.int64)
+                table.append(e)
+        return np.array(table, dtype=np.int64)
 
     # --------------------------------------------------------------- evaluation
     def _map(self, U: np.ndarray) -> np.ndarray:
@@ -161,7 +161,8 @@ class LegendreRegression(SurrogateModel):
         """Analytic gradient (n, d) in output units per input unit."""
         E = self.exponents_
         d = E.shape[1]
-        P, dP = _legendre_table(self._map(U), int(E.max()), derivative=True)
+        P = _legendre_table(self._map(U), int(E.max()))
+        dP = _legendre_derivative(P)
         cols = np.arange(d)[None, :]
         F = P[:, cols, E]  # (n, T, d): P_{e_tj}(t_j)
         D = dP[:, cols, E]
@@ -204,6 +205,10 @@ class LegendreRegression(SurrogateModel):
         coef = field_array(field(d, "coef", "model.state"), "model.state.coef", (None,))
         if coef.size == 0:
             raise ModelFieldError("model.state.coef must have at least one entry")
+        with np.errstate(over="ignore"):
+            bound = np.abs(coef).sum()  # |P_k| <= 1 on the box: bounds every prediction there
+        if not np.isfinite(bound):
+            raise ModelFieldError("model.state.coef: the sum of magnitudes overflows float64")
         E = field_array(
             field(d, "exponents", "model.state"),
             "model.state.exponents",
@@ -219,13 +224,10 @@ class LegendreRegression(SurrogateModel):
 
 
 # ---------------------------------------------------------------------- helpers
-def _legendre_table(
-    t: np.ndarray, nmax: int, derivative: bool = False
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """``P_k(t)`` (and ``P_k'(t)``) for k = 0..nmax, shape ``t.shape + (nmax + 1,)``.
+def _legendre_table(t: np.ndarray, nmax: int) -> np.ndarray:
+    """``P_k(t)`` for k = 0..nmax, shape ``t.shape + (nmax + 1,)``.
 
-    Bonnet recurrence ``P_{k+1} = (2k+1)/(k+1)·t·P_k − k/(k+1)·P_{k−1}``;
-    derivative ``P'_{k+1} = P'_{k−1} + (2k+1) P_k``.
+    Bonnet recurrence ``P_{k+1} = (2k+1)/(k+1)·t·P_k − k/(k+1)·P_{k−1}``.
     """
     P = np.empty(t.shape + (nmax + 1,))
     P[..., 0] = 1.0
@@ -234,20 +236,25 @@ def _legendre_table(
     for k in range(1, nmax):
         # same arithmetic as the numba kernels (constants from lpr_scratch)
         P[..., k + 1] = (2 * k + 1) / (k + 1) * t * P[..., k] - k / (k + 1) * P[..., k - 1]
-    if not derivative:
-        return P, None
+    return P
+
+
+def _legendre_derivative(P: np.ndarray) -> np.ndarray:
+    """``P'_k(t)`` from the table ``P`` of :func:`_legendre_table`:
+    ``P'_{k+1} = P'_{k−1} + (2k+1) P_k``."""
+    nmax = P.shape[-1] - 1
     dP = np.empty_like(P)
     dP[..., 0] = 0.0
     if nmax >= 1:
         dP[..., 1] = 1.0
     for k in range(1, nmax):
         dP[..., k + 1] = dP[..., k - 1] + (2 * k + 1) * P[..., k]
-    return P, dP
+    return dP
 
 
 def _design(t: np.ndarray, E: np.ndarray) -> np.ndarray:
     """Design matrix (n, T): column ``t`` is ``Π_j P_{E[t, j]}(t_j)``."""
-    P, _ = _legendre_table(t, int(E.max()))
+    P = _legendre_table(t, int(E.max()))
     return np.prod(P[:, np.arange(E.shape[1])[None, :], E], axis=2)
 
 

@@ -39,10 +39,11 @@ def check_int(value: Any, field: str, low: int = 0, high: int | None = None) -> 
     """An integer (not a bool) in ``[low, high]``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, Integral):
         raise ModelFieldError(f"{field} must be an integer, got {value!r}")
-    if value < low or (high is not None and value > high):
+    v = int(value)
+    if v < low or (high is not None and v > high):
         bound = f">= {low}" if high is None else f"between {low} and {high}"
-        raise ModelFieldError(f"{field} must be {bound}, got {value}")
-    return int(value)
+        raise ModelFieldError(f"{field} must be {bound}, got {v}")
+    return v
 
 
 def check_float(
