@@ -5,9 +5,14 @@
   reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
   indices and write plots.
 - ``railgym paper [--quick] [--out DIR]``: the paper's tables and figures on our models
-  (:mod:`agents.paper`).
+  (:func:`railgym.report.make_report`).
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies
   (:mod:`agents.evaluate`).
+
+Every subcommand takes ``--debug``. Arguments and output folders are checked before any work;
+a user error (bad value, existing output without ``--overwrite``, unreadable file) is one line
+on stderr and exit status 2, another failure one line and status 1; ``--debug`` shows the
+traceback instead.
 """
 
 from __future__ import annotations
@@ -21,9 +26,12 @@ from typing import Any
 
 import numpy as np
 
+from agents._args import bounded_int
 from agents.controllers import Passive, Skyhook
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.report import make_report
+from railgym.report.output import prepare_output_dir
 from railgym.vehicles.collect import build_vertical_surrogate
 from surrogates.metrics import average_absolute_error
 
@@ -37,8 +45,13 @@ def run_episode(env: VerticalSuspensionEnv, controller: Any, seed: int) -> dict[
     while True:
         action, _ = controller.predict(obs, deterministic=True)
         obs, _, term, trunc, info = env.step(action)
-        values = (info["time"], sim.state[0, 2], sim.state[0, 3], info["carbody_acc"],
-                  info["actuator_force"])  # fmt: skip
+        values = (
+            info["time"],
+            sim.state[0, 2],
+            sim.state[0, 3],
+            info["carbody_acc"],
+            info["actuator_force"],
+        )
         for key, val in zip(rec, values, strict=True):
             rec[key].append(float(val))
         if term or trunc:
@@ -59,9 +72,10 @@ def _indices(run: dict[str, Any], fs: float) -> dict[str, float]:
     }
 
 
-def demo(out: Path, seed: int = 0) -> int:
-    """Build the surrogate, compare surrogate and reference under skyhook, write plots."""
-    out.mkdir(parents=True, exist_ok=True)
+def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
+    """Build the surrogate, compare surrogate and reference under skyhook, write plots into
+    ``out`` (an existing non-empty folder only with ``overwrite``)."""
+    out = prepare_output_dir(out, overwrite)
     print("1-3. collect (dynamic reference, FRA class 5, 144 km/h, 20 s at 50 Hz), sample, fit")
     model, report, data = build_vertical_surrogate(m=101)
     print(report.format().split("\n   candidate")[0])
@@ -78,16 +92,20 @@ def demo(out: Path, seed: int = 0) -> int:
     print(head + f"{'contacts':>8} {'out-dom':>8} {'wall s':>7}")
     for (backend, name), run in runs.items():
         ix = _indices(run, fs)
-        print(f"{backend:<10} {name:<9} {ix['rms_acc']:8.3f} {ix['a_w']:9.3f} {ix['wz']:8.2f} "
-              f"{ix['contacts']:8d} {ix['ood']:8d} {ix['wall_s']:7.3f}")  # fmt: skip
+        print(
+            f"{backend:<10} {name:<9} {ix['rms_acc']:8.3f} {ix['a_w']:9.3f} {ix['wz']:8.2f} "
+            f"{ix['contacts']:8d} {ix['ood']:8d} {ix['wall_s']:7.3f}"
+        )
     print("\nsurrogate vs reference, eq. 9 average absolute error of the carbody (paper table 5)")
     print(f"{'controller':<9} {'disp. (m)':>10} {'vel. (m/s)':>11} {'acc. (m/s²)':>12}")
     for name in ("passive", "skyhook"):
         s, r = runs["surrogate", name], runs["reference", name]
         errs = [average_absolute_error(s[k], r[k]) for k in ("x2", "v2", "a2")]
         print(f"{name:<9} {errs[0]:10.3g} {errs[1]:11.3g} {errs[2]:12.3g}")
-    print("paper (LPR, M = 101, Simpack source; not directly comparable): "
-          "2.44e-06 m, 2.38e-05 m/s, 5.67e-04 m/s²")  # fmt: skip
+    print(
+        "paper (LPR, M = 101, Simpack source; not directly comparable): "
+        "2.44e-06 m, 2.38e-05 m/s, 5.67e-04 m/s²"
+    )
     _plots(out, model, report, data, runs)
     print(f"\nplots written to {out}/")
     return 0
@@ -113,8 +131,11 @@ def _plots(out: Path, model: Any, report: Any, data: dict, runs: dict) -> None:
     ax[1].plot(V[oob] / 1e3, model.predict(U[oob]) / 1e3, ".", ms=3)
     lim = [V.min() / 1e3, V.max() / 1e3]
     ax[1].plot(lim, lim, "k-", lw=0.8)
-    ax[1].set(xlabel="reference m2·ẍ2 (kN)", ylabel="surrogate (kN)",
-              title=f"Out-of-bag prediction, rel. RMS {report.oob_nrms:.3f} (fig. 8)")  # fmt: skip
+    ax[1].set(
+        xlabel="reference m2·ẍ2 (kN)",
+        ylabel="surrogate (kN)",
+        title=f"Out-of-bag prediction, rel. RMS {report.oob_nrms:.3f} (fig. 8)",
+    )
     fig.tight_layout()
     fig.savefig(out / "samples_and_oob.png", dpi=110)
     plt.close(fig)
@@ -131,21 +152,91 @@ def _plots(out: Path, model: Any, report: Any, data: dict, runs: dict) -> None:
     plt.close(fig)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``railgym`` command."""
+def paper(args: argparse.Namespace) -> int:
+    """``railgym paper``: write the report, print where and the table 3 headline."""
+    result = make_report(args.out, quick=args.quick, seed=args.seed, overwrite=args.overwrite)
+    t3 = result["table3"]
+    print(
+        f"report written to {Path(args.out) / 'report.md'} with {len(result['figures'])} "
+        f"figures in {result['elapsed_s']:.1f} s"
+    )
+    print(
+        f"table 3 (M = {t3['m']}): OOB relative RMS LPR {t3['lpr']['oob_nrms']:.3g}, "
+        f"Kriging {t3['kriging']['oob_nrms']:.3g}"
+    )
+    return 0
+
+
+def _out_arguments(parser: argparse.ArgumentParser, default: str, what: str) -> None:
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path(default),
+        help=f"folder for {what} (default {default}/; created, or an empty one)",
+    )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into an existing non-empty --out folder, replacing its files",
+    )
+    parser.add_argument(
+        "--seed",
+        type=bounded_int(0),
+        default=0,
+        help="seed of the training track, sampling and folds",
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``railgym`` argument parser."""
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     parser = argparse.ArgumentParser(prog="railgym", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    d = sub.add_parser("demo", help="build a surrogate, run surrogate vs reference, plot")
-    d.add_argument("--out", type=Path, default=Path("railgym-demo"), help="plot folder")
-    d.add_argument("--seed", type=int, default=0, help="track seed of the episodes")
-    from agents import evaluate, paper
+    d = sub.add_parser(
+        "demo", parents=[common], help="build a surrogate, run surrogate vs reference, plot"
+    )
+    _out_arguments(d, "railgym-demo", "the plots")
+    p = sub.add_parser("paper", parents=[common], help="the paper's tables and figures")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="reduced sizes (CI): M = 51, 101; 5 s runs; one crash variant",
+    )
+    _out_arguments(p, "railgym-paper", "report.md and the figures")
+    from agents import evaluate
 
-    paper.add_arguments(sub.add_parser("paper", help="the paper's tables and figures"))
-    evaluate.add_arguments(sub.add_parser("evaluate", help="comfort indices of policies"))
-    args = parser.parse_args(argv)
-    if args.command == "demo":
-        return demo(args.out, args.seed)
-    return {"paper": paper.run, "evaluate": evaluate.run}[args.command](args)
+    evaluate.add_arguments(
+        sub.add_parser("evaluate", parents=[common], help="comfort indices of policies")
+    )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``railgym`` command; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    from agents import evaluate
+
+    command = {
+        "demo": lambda a: demo(a.out, a.seed, a.overwrite),
+        "paper": paper,
+        "evaluate": evaluate.run,
+    }[args.command]
+    try:
+        return command(args)
+    except (ValueError, OSError) as err:
+        if args.debug:
+            raise
+        print(f"railgym {args.command}: error: {err}", file=sys.stderr)
+        return 2
+    except Exception as err:
+        if args.debug:
+            raise
+        print(
+            f"railgym {args.command}: {type(err).__name__}: {err} (--debug shows the traceback)",
+            file=sys.stderr,
+        )
+        return 1
 
 
 if __name__ == "__main__":

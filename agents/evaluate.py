@@ -7,28 +7,34 @@ skyhook, on the vertical env; crash-safety indices beside the passive absorbers 
 
 A policy is a controller name (``passive``, ``skyhook``, ``semi-active``, ``groundhook``,
 ``lqr``) or a stable-baselines3 ``.zip``; for a zip, the algorithm and the env's observation
-settings are read from the ``config.yaml`` that :mod:`agents.train` writes beside it. Each
-track class runs ``episodes`` episodes in one native vector env, sub-env ``i`` on the track of
-seed ``seed + i`` — the same tracks for every policy.
+settings are read from the ``config.yaml`` that :mod:`agents.train` writes beside it, the zip
+must be listed with its SHA-256 in the ``manifest.json`` beside it (``--trust``: any zip, with a
+warning), and only its network weights are read (:mod:`agents.policy_io`). Each track class
+runs ``episodes`` episodes in one native vector env, sub-env ``i`` on the track of seed
+``seed + i`` — the same tracks for every policy.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import yaml
 
 import railgym  # noqa: F401  (registers the environments)
+from agents._args import MAX_SPEED_KMH, bounded_int, speed_kmh
 from agents.controllers import LQR, Groundhook, Passive, Skyhook
+from agents.policy_io import check_manifest, load_policy_weights
 from railgym.comfort import sperling_wz, weighted_rms
 
 ENV_ID = "railgym/VerticalSuspension-v0"
 CRASH_ID = "railgym/TrainCrash-v0"
+#: most episodes per class (one vector sub-env each)
+MAX_EPISODES = 1000
 CONTROLLERS = {
     "passive": (Passive, {}, {}),
     "skyhook": (Skyhook, {"mode": "active"}, {}),
@@ -38,8 +44,23 @@ CONTROLLERS = {
 }
 
 
-def load_policy(policy: str, env_id: str = ENV_ID) -> tuple[Any, dict[str, Any], str]:
-    """``(factory(env) → object with predict, env kwargs it needs, label)`` for a name or zip."""
+def _check_int(name: str, value: Any, lo: int, hi: int | None = None) -> None:
+    """``lo <= value (<= hi)`` for an int or numpy integer (bools rejected)."""
+    ok = not isinstance(value, bool) and isinstance(value, (int, np.integer))
+    if not (ok and value >= lo and (hi is None or value <= hi)):
+        span = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+        raise ValueError(f"{name} must be an integer {span}, got {value!r}")
+
+
+def load_policy(
+    policy: str, env_id: str = ENV_ID, trust: bool = False
+) -> tuple[Any, dict[str, Any], str]:
+    """``(factory(env) → object with predict, env kwargs it needs, label)`` for a name or zip.
+
+    A zip must be listed with its SHA-256 in the ``manifest.json`` that :mod:`agents.train`
+    writes beside it (or ``trust`` given, with a warning); only its network weights are read
+    (:func:`agents.policy_io.load_policy_weights`), nothing in it is unpickled or run.
+    """
     if policy in CONTROLLERS:
         cls, kwargs, env_kwargs = CONTROLLERS[policy]
         return (lambda env: cls(env, **kwargs)), env_kwargs, policy
@@ -52,28 +73,44 @@ def load_policy(policy: str, env_id: str = ENV_ID) -> tuple[Any, dict[str, Any],
     cfg_path = path.parent / "config.yaml"
     if not cfg_path.is_file():
         raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
-    cfg = yaml.safe_load(cfg_path.read_text())
-    block = cfg.get(env_id) if isinstance(cfg, dict) else None
-    if not isinstance(block, dict) or "algo" not in block:
-        raise ValueError(f"{cfg_path}: needs a {env_id!r} block with 'algo'")
-    import stable_baselines3 as sb3
+    check_manifest(path, trust)
+    from agents.train import ALGOS, _hyperparameters, load_config
 
-    algo = getattr(sb3, str(block["algo"]).upper(), None)
-    if algo is None:
-        raise ValueError(f"{cfg_path}: unknown algo {block['algo']!r}")
-    model = algo.load(path, device="cpu")
-    keep = {"observation", "sensor_noise", "f_max", "control_dt", "wheelbase", "absorber_range",
-            "absorber_rate", "n_cars", "scenario"}  # fmt: skip
-    env_kwargs = {k: v for k, v in (block.get("env_kwargs") or {}).items() if k in keep}
-    return (lambda env: model), env_kwargs, path.parent.name
+    cfg = load_config(cfg_path)
+    if cfg.env_id != env_id:
+        raise ValueError(f"{cfg_path}: the policy was trained on {cfg.env_id}, not {env_id}")
+    hyper = _hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
+    net_kwargs = dict(hyper.get("policy_kwargs") or {})
+    if "use_sde" in hyper:
+        net_kwargs["use_sde"] = hyper["use_sde"]
+    keep = {
+        "observation",
+        "sensor_noise",
+        "f_max",
+        "control_dt",
+        "wheelbase",
+        "absorber_range",
+        "absorber_rate",
+        "n_cars",
+        "scenario",
+    }
+    env_kwargs = {k: v for k, v in cfg.env_kwargs.items() if k in keep}
+
+    probe = gym.make(env_id, **env_kwargs)  # the single env's spaces
+    net = load_policy_weights(
+        path, cfg.algo, cfg.policy, net_kwargs, probe.observation_space, probe.action_space
+    )
+    probe.close()
+    return (lambda env: net), env_kwargs, path.parent.name
 
 
 def run_policy(
     factory: Any, env_kwargs: dict[str, Any], episodes: int, seed: int
 ) -> dict[str, float]:
     """Run ``episodes`` episodes (one per sub-env) and return the mean comfort indices."""
-    venv = gym.make_vec(ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
-                        **env_kwargs)  # fmt: skip
+    venv = gym.make_vec(
+        ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point", **env_kwargs
+    )
     ctrl = factory(venv)
     obs, _ = venv.reset(seed=seed)
     acc, defl, contacts = [], [], np.zeros(episodes)
@@ -92,8 +129,11 @@ def run_policy(
     fs = 1.0 / venv.unwrapped.cfg.control_dt
     return {
         "rms_acc": float(np.mean(np.sqrt(np.mean(a**2, axis=0)))),
-        "a_w": float(np.mean([weighted_rms(a[:, i], fs, discard=2.0, lowpass=False)
-                              for i in range(episodes)])),  # fmt: skip
+        "a_w": float(
+            np.mean(
+                [weighted_rms(a[:, i], fs, discard=2.0, lowpass=False) for i in range(episodes)]
+            )
+        ),
         "wz": float(np.mean([sperling_wz(a[:, i], fs) for i in range(episodes)])),
         "max_defl_mm": float(np.max(np.abs(defl)) * 1e3),
         "contacts": float(np.sum(contacts)),
@@ -106,10 +146,16 @@ def evaluate(
     track_classes: Sequence[int] = (4, 6),
     episodes: int = 10,
     seed: int = 1000,
+    trust: bool = False,
 ) -> list[dict[str, Any]]:
-    """One row per (track class, policy): mean RMS ẍ2, Wk a_w, Sperling Wz over episodes."""
+    """One row per (track class, policy): mean RMS ẍ2, Wk a_w, Sperling Wz over episodes
+    (``trust``: see :func:`load_policy`)."""
+    _check_int("episodes", episodes, 1, MAX_EPISODES)
+    _check_int("seed", seed, 0)
+    for tc in track_classes:
+        _check_int("track_classes", tc, 1, 6)
     rows = []
-    loaded = [load_policy(p) for p in policies]
+    loaded = [load_policy(p, trust=trust) for p in policies]
     for tc in track_classes:
         passive = None
         for factory, env_kwargs, label in loaded:
@@ -124,8 +170,10 @@ def evaluate(
 
 def format_rows(rows: list[dict[str, Any]]) -> str:
     """Aligned text table of :func:`evaluate` rows."""
-    head = (f"{'class':>5} {'policy':<16} {'RMS ẍ2':>8} {'a_w Wk':>8} {'Δa_w %':>7} "
-            f"{'Wz':>6} {'max |δ| mm':>10} {'contacts':>8}")  # fmt: skip
+    head = (
+        f"{'class':>5} {'policy':<16} {'RMS ẍ2':>8} {'a_w Wk':>8} {'Δa_w %':>7} "
+        f"{'Wz':>6} {'max |δ| mm':>10} {'contacts':>8}"
+    )
     lines = [head]
     for r in rows:
         lines.append(
@@ -137,12 +185,23 @@ def format_rows(rows: list[dict[str, Any]]) -> str:
 
 
 def evaluate_crash(
-    policies: Sequence[str], backend: str = "reference", speeds_kmh: Sequence[float] = (40.0,)
+    policies: Sequence[str],
+    backend: str = "reference",
+    speeds_kmh: Sequence[float] = (40.0,),
+    trust: bool = False,
 ) -> list[dict[str, Any]]:
-    """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v0``."""
+    """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v0``
+    (``trust``: see :func:`load_policy`)."""
+    for v in speeds_kmh:
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise ValueError(f"speeds_kmh must be numbers in km/h, got {v!r}")
+        if not (math.isfinite(v) and 0 < v <= MAX_SPEED_KMH):
+            raise ValueError(f"speeds_kmh must be in (0, {MAX_SPEED_KMH:g}] km/h, got {v!r} km/h")
     rows = []
-    loaded = [load_policy(p, CRASH_ID) if p != "passive" else (None, {}, "passive")
-              for p in policies]  # fmt: skip
+    loaded = [
+        load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")
+        for p in policies
+    ]
     for v in speeds_kmh:
         passive = None
         for factory, env_kwargs, label in loaded:
@@ -159,53 +218,90 @@ def evaluate_crash(
                     break
             peak = float(np.max(info["peak_decel_g"]))
             passive = peak if label == "passive" else passive
-            rows.append({
-                "speed_kmh": v, "policy": label, "peak_decel_g": info["peak_decel_g"],
-                "max_crush_m": info["max_crush_m"],
-                "stroke_exceeded": bool(info["stroke_exceeded"]),
-                "peak_reduction_%": 100 * (1 - peak / passive) if passive else float("nan"),
-            })  # fmt: skip
+            rows.append(
+                {
+                    "speed_kmh": v,
+                    "policy": label,
+                    "peak_decel_g": info["peak_decel_g"],
+                    "max_crush_m": info["max_crush_m"],
+                    "stroke_exceeded": bool(info["stroke_exceeded"]),
+                    "peak_reduction_%": 100 * (1 - peak / passive) if passive else float("nan"),
+                }
+            )
     return rows
 
 
 def format_crash_rows(rows: list[dict[str, Any]]) -> str:
     """Aligned text table of :func:`evaluate_crash` rows."""
-    lines = [f"{'km/h':>5} {'policy':<16} {'peak decel per car (g)':<24} {'Δpeak %':>7} "
-             f"{'max crush per zone (m)':<24} stroke exceeded"]  # fmt: skip
+    lines = [
+        f"{'km/h':>5} {'policy':<16} {'peak decel per car (g)':<24} {'Δpeak %':>7} "
+        f"{'max crush per zone (m)':<24} stroke exceeded"
+    ]
     for r in rows:
         peaks = " ".join(f"{x:.2f}" for x in np.atleast_1d(r["peak_decel_g"]))
         crush = " ".join(f"{x:.3f}" for x in np.atleast_1d(r["max_crush_m"]))
-        lines.append(f"{r['speed_kmh']:5.0f} {r['policy']:<16} {peaks:<24} "
-                     f"{r['peak_reduction_%']:7.1f} {crush:<24} "
-                     f"{r['stroke_exceeded']}")  # fmt: skip
+        lines.append(
+            f"{r['speed_kmh']:5.0f} {r['policy']:<16} {peaks:<24} "
+            f"{r['peak_reduction_%']:7.1f} {crush:<24} "
+            f"{r['stroke_exceeded']}"
+        )
     return "\n".join(lines)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``railgym evaluate``."""
     parser.add_argument("policy", nargs="+", help=f"{', '.join(CONTROLLERS)} or a policy .zip")
-    parser.add_argument("--backend", default="reference", choices=["reference", "surrogate",
-                                                                   "linear"])  # fmt: skip
-    parser.add_argument("--track-class", type=int, nargs="+", default=[4, 6])
-    parser.add_argument("--episodes", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=1000, help="track seed of sub-env 0")
+    parser.add_argument(
+        "--backend",
+        default="reference",
+        choices=["reference", "surrogate", "linear"],
+        help="model the policies run on (crash: reference or surrogate)",
+    )
+    parser.add_argument(
+        "--track-class",
+        type=bounded_int(1, 6),
+        nargs="+",
+        default=[4, 6],
+        help="vertical: FRA track classes 1..6",
+    )
+    parser.add_argument(
+        "--episodes",
+        type=bounded_int(1, MAX_EPISODES),
+        default=10,
+        help=f"vertical: episodes per class, 1..{MAX_EPISODES} (one sub-env each)",
+    )
+    parser.add_argument("--seed", type=bounded_int(0), default=1000, help="track seed of sub-env 0")
     parser.add_argument("--env", choices=["vertical", "crash"], default="vertical")
-    parser.add_argument("--speed", type=float, nargs="+", default=[40.0],
-                        help="crash: impact speeds, km/h")  # fmt: skip
+    parser.add_argument(
+        "--speed", type=speed_kmh, nargs="+", default=[40.0], help="crash: impact speeds, km/h"
+    )
+    parser.add_argument(
+        "--trust",
+        action="store_true",
+        help="load a policy .zip that is not listed with its SHA-256 in the "
+        "manifest.json its training wrote (a warning is given); only its network "
+        "weights are read, never its pickled fields",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     """``railgym evaluate``: the policies plus passive (and skyhook) for comparison."""
     if args.env == "crash":
+        if args.backend == "linear":
+            raise ValueError("--backend: the crash env has backends reference and surrogate")
         policies = ["passive"] + [p for p in args.policy if p != "passive"]
-        rows = evaluate_crash(policies, args.backend, args.speed)
-        print(f"TrainCrash-v0, backend: {args.backend}; Δpeak: reduction of the largest car "
-              "deceleration vs the passive absorbers")  # fmt: skip
+        rows = evaluate_crash(policies, args.backend, args.speed, args.trust)
+        print(
+            f"TrainCrash-v0, backend: {args.backend}; Δpeak: reduction of the largest car "
+            "deceleration vs the passive absorbers"
+        )
         print(format_crash_rows(rows))
         return 0
     policies = ["passive", "skyhook"] + [p for p in args.policy if p not in ("passive", "skyhook")]
-    rows = evaluate(policies, args.backend, args.track_class, args.episodes, args.seed)
-    print(f"backend: {args.backend}, {args.episodes} episodes per class (seeds {args.seed}+i); "
-          "Δa_w: reduction of the Wk-weighted RMS vs passive")  # fmt: skip
+    rows = evaluate(policies, args.backend, args.track_class, args.episodes, args.seed, args.trust)
+    print(
+        f"backend: {args.backend}, {args.episodes} episodes per class (seeds {args.seed}+i); "
+        "Δa_w: reduction of the Wk-weighted RMS vs passive"
+    )
     print(format_rows(rows))
     return 0

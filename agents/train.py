@@ -2,19 +2,16 @@
 
 Usage::
 
-    python -m agents.train CONFIG.yaml [--out DIR] [--timesteps N] [--seed S] [--no-progress]
+    python -m agents.train CONFIG.yaml [--out DIR] [--overwrite] [--timesteps N] [--seed S]
+                           [--no-progress] [--debug]
 
 The full training run of the vertical suspension agent (a documented command, not a CI test):
-PPO, 4·10⁶ steps on the surrogate backend, about 10 minutes at the ~7000 steps/s of one CPU
-core; every 10⁵ steps it is evaluated on the reference model (4 tracks, FRA class 5, 20 s)::
+PPO, 4·10⁶ steps on the surrogate backend, evaluated every 10⁵ steps on the reference model
+(4 tracks, FRA class 5, 20 s); measured run times and results are in ``docs/results.md``::
 
     python -m agents.train configs/agents/ppo_vertical.yaml
 
-(Measured on 2026-11-24, 4·10⁶ steps in 8 min 20 s; ``railgym evaluate`` on the reference
-model, 10 unseen tracks per class: Wk-weighted RMS carbody acceleration −39.9 % vs passive on
-class 4 at 128 km/h (skyhook −25.2 %; bump-stop contact substeps 109 vs 2194 passive) and
-−60.5 % on class 6 at 176 km/h (skyhook −12.3 %, no contact).)
-``configs/agents/sac_vertical.yaml`` is the off-policy alternative (3·10⁵ steps, ~500 steps/s),
+``configs/agents/sac_vertical.yaml`` is the off-policy alternative (3·10⁵ steps),
 ``configs/agents/ppo_crash.yaml`` trains the absorbers of ``railgym/TrainCrash-v0``.
 
 Config file: one top-level key, the Gymnasium env id, holding
@@ -44,8 +41,10 @@ everything else         hyperparameters of the algorithm (``learning_rate``, ``n
                         ``lin_<v>`` is a schedule falling linearly from ``v`` to 0 (rl-zoo3)
 ======================  ==========================================================================
 
-Output folder (``--out``; default next to the config, ``<config-stem>/``): ``model.zip`` (the
-final policy), ``best_model.zip`` (best evaluation reward), ``checkpoints/``, ``progress.csv``
+Output folder (``--out``; default ``runs/<config-stem>/`` in the working directory; an existing
+non-empty folder only with ``--overwrite``): ``model.zip`` (the final policy),
+``best_model.zip`` (best evaluation reward), ``manifest.json`` (the SHA-256 of both zips, checked
+by ``railgym evaluate``, which reads only their weights), ``checkpoints/``, ``progress.csv``
 (stable-baselines3's training log), ``eval.csv`` (per evaluation: mean/std episode reward,
 episode length and the mean of every numeric ``info`` entry at episode end, e.g.
 ``mean_rms_carbody_acc`` in m/s²) and ``config.yaml`` (the resolved config with its seeds,
@@ -85,10 +84,18 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from tqdm import tqdm
 
 import railgym
+from agents._args import bounded_int
+from agents.policy_io import write_manifest
+from railgym.report.output import atomic_path, prepare_output_dir, write_text_atomic
 
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3, "a2c": A2C}
-ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "elu": torch.nn.ELU,
-               "leakyrelu": torch.nn.LeakyReLU, "silu": torch.nn.SiLU}  # fmt: skip
+ACTIVATIONS = {
+    "tanh": torch.nn.Tanh,
+    "relu": torch.nn.ReLU,
+    "elu": torch.nn.ELU,
+    "leakyrelu": torch.nn.LeakyReLU,
+    "silu": torch.nn.SiLU,
+}
 VECTORIZATION_MODES = ("vector_entry_point", "sync")
 #: default seed of the evaluation env: every run is evaluated on the same tracks
 EVAL_SEED = 999_999
@@ -163,8 +170,10 @@ class GymVecToSB3(VecEnv):
         out = _split_infos(infos, n)
         if dones.any() and self.autoreset_mode == AutoresetMode.SAME_STEP:
             for i in np.flatnonzero(dones):
-                out[i] = {**out[i].get("final_info", {}),
-                          "terminal_observation": out[i]["final_obs"]}  # fmt: skip
+                out[i] = {
+                    **out[i].get("final_info", {}),
+                    "terminal_observation": out[i]["final_obs"],
+                }
         elif dones.any():
             obs, cut = self._next_step_reset(obs, dones, out)
             if cut:  # every unfinished episode was ended too
@@ -186,9 +195,11 @@ class GymVecToSB3(VecEnv):
             try:
                 obs, infos = self.venv.reset(options={"reset_mask": dones.copy()})
             except ValueError as err:
-                warnings.warn(f"{type(self.venv).__name__} has no partial reset ({err}); "
-                              "unfinished episodes are truncated whenever one ends",
-                              stacklevel=3)  # fmt: skip
+                warnings.warn(
+                    f"{type(self.venv).__name__} has no partial reset ({err}); "
+                    "unfinished episodes are truncated whenever one ends",
+                    stacklevel=3,
+                )
                 self.partial_reset = False
         cut = not (dones.all() or self.partial_reset)
         if cut:
@@ -229,11 +240,11 @@ def make_vec(
     if mode == "vector_entry_point" and not native:
         raise ValueError(f"vectorization_mode: {env_id} has no native vector env")
     if mode != "sync" and native:
-        return gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point",
-                            **env_kwargs)  # fmt: skip
+        return gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point", **env_kwargs)
     same_step = {"autoreset_mode": AutoresetMode.SAME_STEP}
-    return gym.make_vec(env_id, num_envs, vectorization_mode="sync", vector_kwargs=same_step,
-                        **env_kwargs)  # fmt: skip
+    return gym.make_vec(
+        env_id, num_envs, vectorization_mode="sync", vector_kwargs=same_step, **env_kwargs
+    )
 
 
 def evaluate(policy: Any, venv: VectorEnv, seed: int) -> dict[str, float]:
@@ -260,8 +271,11 @@ def evaluate(policy: Any, venv: VectorEnv, seed: int) -> dict[str, float]:
             for i in np.flatnonzero(ended):
                 final[i] = split[i].get("final_info", split[i])
             active &= ~ended
-    stats = {"mean_reward": float(returns.mean()), "std_reward": float(returns.std()),
-             "mean_length": float(lengths.mean())}  # fmt: skip
+    stats = {
+        "mean_reward": float(returns.mean()),
+        "std_reward": float(returns.std()),
+        "mean_length": float(lengths.mean()),
+    }
     for key, value in final[0].items():
         value = np.asarray(value)
         if value.dtype.kind not in "biuf" or value.ndim > 1:
@@ -314,9 +328,11 @@ def _positive_int(block: dict[str, Any], name: str, default: int | None = None) 
 
 def _seed(block: dict[str, Any], name: str, default: int | None) -> int | None:
     value = block.get(name, default)
-    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 0):
+    if value is not None and (
+        isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0
+    ):
         raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-    return value
+    return None if value is None else int(value)
 
 
 def _kwargs(block: dict[str, Any], name: str) -> dict[str, Any]:
@@ -341,8 +357,10 @@ def _hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[s
     out: dict[str, Any] = {}
     for key, value in hyper.items():
         if key not in allowed:
-            raise ValueError(f"unknown config key {key!r}: not a run setting nor a "
-                             f"hyperparameter of {algo.__name__}")  # fmt: skip
+            raise ValueError(
+                f"unknown config key {key!r}: not a run setting nor a "
+                f"hyperparameter of {algo.__name__}"
+            )
         if isinstance(value, str) and value.startswith("lin_"):
             try:
                 value = LinearSchedule(float(value[4:]), 0.0, 1.0)
@@ -364,8 +382,9 @@ def _hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[s
         if isinstance(act, str):
             name = act.lower().removeprefix("nn.").replace("_", "")
             if name not in ACTIVATIONS:
-                raise ValueError(f"policy_kwargs.activation_fn must be one of "
-                                 f"{sorted(ACTIVATIONS)}, got {act!r}")  # fmt: skip
+                raise ValueError(
+                    f"policy_kwargs.activation_fn must be one of {sorted(ACTIVATIONS)}, got {act!r}"
+                )
             pk["activation_fn"] = ACTIVATIONS[name]
         out["policy_kwargs"] = pk
     return out
@@ -379,14 +398,24 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
     if isinstance(config, (str, Path)):
         path = Path(config)
         if not path.is_file():
-            raise ValueError(f"config file {str(path)!r} does not exist")
-        config = yaml.safe_load(path.read_text())
+            raise ValueError(f"config file {str(path)!r} does not exist or is not a file")
+        try:
+            config = yaml.safe_load(path.read_text(encoding="utf-8"))
+        except UnicodeDecodeError as err:
+            raise ValueError(f"config file {path}: not UTF-8 text ({err.reason})") from None
+        except yaml.YAMLError as err:
+            where = getattr(err, "problem_mark", None)
+            line = f", line {where.line + 1}" if where is not None else ""
+            what = getattr(err, "problem", None) or err
+            raise ValueError(f"config file {path}{line}: invalid YAML ({what})") from None
     if not isinstance(config, dict):
         raise ValueError(f"config must be a mapping {{env id: settings}}, got {config!r}")
     ids = [k for k in config if k != RUN_KEY]
     if len(ids) != 1:
-        raise ValueError("config must have exactly one top-level key, the env id (e.g. "
-                         f"'railgym/VerticalSuspension-v0'), got {ids}")  # fmt: skip
+        raise ValueError(
+            "config must have exactly one top-level key, the env id (e.g. "
+            f"'railgym/VerticalSuspension-v0'), got {ids}"
+        )
     env_id = ids[0]
     if env_id not in gym.registry:
         raise ValueError(f"env id {env_id!r} is not a registered Gymnasium env")
@@ -410,7 +439,10 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
     hyper = {k: v for k, v in block.items() if k not in run_keys}
     _hyperparameters(ALGOS[algo], hyper)  # validates; applied by train()
     return TrainConfig(
-        env_id=env_id, algo=algo, policy=policy, seed=seed,
+        env_id=env_id,
+        algo=algo,
+        policy=policy,
+        seed=seed,
         n_timesteps=_positive_int(block, "n_timesteps"),
         n_envs=_positive_int(block, "n_envs", 1),
         env_kwargs=_kwargs(block, "env_kwargs"),
@@ -423,7 +455,7 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
         vectorization_mode=mode,
         eval_echo=_names(block, "eval_echo"),
         hyperparameters=hyper,
-    )  # fmt: skip
+    )
 
 
 class _ProgressBar(BaseCallback):
@@ -468,8 +500,11 @@ class _EvalCallback(BaseCallback):
 
     def _evaluate(self) -> None:
         stats = evaluate(self.model, self.venv, self.seed)
-        row = {"timesteps": self.num_timesteps,
-               "wall_s": round(time.perf_counter() - self.t0, 2), **stats}  # fmt: skip
+        row = {
+            "timesteps": self.num_timesteps,
+            "wall_s": round(time.perf_counter() - self.t0, 2),
+            **stats,
+        }
         path = self.out / "eval.csv"
         with path.open("w" if self.fields is None else "a", newline="") as fh:
             if self.fields is None:
@@ -478,25 +513,37 @@ class _EvalCallback(BaseCallback):
             csv.DictWriter(fh, self.fields, extrasaction="ignore").writerow(row)
         if stats["mean_reward"] > self.best:
             self.best = stats["mean_reward"]
-            self.model.save(self.out / "best_model.zip")
+            with atomic_path(self.out / "best_model.zip") as tmp:
+                self.model.save(tmp)
         if self.echo is not None:
-            shown = [k for k in stats for name in self.echo if k == f"mean_{name}"
-                     or k.removeprefix(f"mean_{name}_").isdigit()]  # fmt: skip
+            shown = [
+                k
+                for k in stats
+                for name in self.echo
+                if k == f"mean_{name}" or k.removeprefix(f"mean_{name}_").isdigit()
+            ]
             extra = "".join(f", {k[5:]} {stats[k]:.4g}" for k in shown)
-            tqdm.write(f"eval @ {self.num_timesteps} steps: reward {stats['mean_reward']:.4g} "
-                       f"± {stats['std_reward']:.3g}{extra}")  # fmt: skip
+            tqdm.write(
+                f"eval @ {self.num_timesteps} steps: reward {stats['mean_reward']:.4g} "
+                f"± {stats['std_reward']:.3g}{extra}"
+            )
 
 
 def _versions() -> dict[str, str]:
-    return {"python": platform.python_version(), "railgym": railgym.__version__,
-            "stable_baselines3": sb3.__version__, "torch": str(torch.__version__),
-            "gymnasium": gym.__version__, "numpy": np.__version__}  # fmt: skip
+    return {
+        "python": platform.python_version(),
+        "railgym": railgym.__version__,
+        "stable_baselines3": sb3.__version__,
+        "torch": str(torch.__version__),
+        "gymnasium": gym.__version__,
+        "numpy": np.__version__,
+    }
 
 
 def _write_config(out: Path, cfg: TrainConfig, run: dict[str, Any]) -> None:
     data = cfg.to_yaml_dict()
     data[RUN_KEY] = run
-    (out / "config.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+    write_text_atomic(out / "config.yaml", yaml.safe_dump(data, sort_keys=False))
 
 
 def train(
@@ -505,23 +552,25 @@ def train(
     total_timesteps: int | None = None,
     progress: bool = True,
     seed: int | None = None,
+    overwrite: bool = False,
 ) -> Path:
     """Train the config's algorithm on its env; returns the output folder.
 
-    ``out`` defaults to ``<config folder>/<config stem>/`` (required for a dict config);
-    ``total_timesteps`` and ``seed`` override the config's ``n_timesteps`` and ``seed``.
+    ``out`` defaults to ``runs/<config stem>/`` in the working directory (required for a dict
+    config); an existing non-empty ``out`` needs ``overwrite``. ``total_timesteps`` and
+    ``seed`` override the config's ``n_timesteps`` and ``seed``. Everything is checked before
+    training starts.
     """
     cfg = load_config(config)
     if out is None:
         if isinstance(config, dict):
             raise ValueError("out is required when the config is given as a dict")
-        out = Path(config).with_suffix("")
-    out = Path(out)
+        out = Path("runs") / Path(config).stem
     if total_timesteps is not None:
         cfg.n_timesteps = _positive_int({"total_timesteps": total_timesteps}, "total_timesteps")
     if seed is not None:
         cfg.seed = _seed({"seed": seed}, "seed", None)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out, overwrite)
     run: dict[str, Any] = {"versions": _versions()}
     _write_config(out, cfg, run)
 
@@ -529,47 +578,81 @@ def train(
     set_random_seed(cfg.seed)
     mode = cfg.vectorization_mode
     env = VecMonitor(GymVecToSB3(make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)))
-    eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes,
-                         {**cfg.env_kwargs, **cfg.eval_env_kwargs}, mode)  # fmt: skip
+    eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}
+    eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes, eval_kwargs, mode)
     hyper = _hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
     hyper = {"device": "cpu", "verbose": 0, **hyper}
     model = ALGOS[cfg.algo](cfg.policy, env, seed=cfg.seed, **hyper)
     model.set_logger(configure(str(out), ["csv"]))
+    echo = cfg.eval_echo if progress else None
+    every = max(cfg.checkpoint_freq // cfg.n_envs, 1)
     callbacks: list[BaseCallback] = [
-        _EvalCallback(eval_venv, cfg.eval_seed, cfg.eval_freq, out,
-                      echo=cfg.eval_echo if progress else None),
-        CheckpointCallback(max(cfg.checkpoint_freq // cfg.n_envs, 1), str(out / "checkpoints"),
-                           name_prefix="model"),
-    ]  # fmt: skip
+        _EvalCallback(eval_venv, cfg.eval_seed, cfg.eval_freq, out, echo=echo),
+        CheckpointCallback(every, str(out / "checkpoints"), name_prefix="model"),
+    ]
     if progress:
         callbacks.append(_ProgressBar())
     t0 = time.perf_counter()
     model.learn(cfg.n_timesteps, callback=callbacks)
     wall = time.perf_counter() - t0
-    model.save(out / "model.zip")
+    with atomic_path(out / "model.zip") as tmp:
+        model.save(tmp)
+    write_manifest(out)
     env.close()
     eval_venv.close()
-    run.update(wall_s=round(wall, 1), steps_per_s=round(model.num_timesteps / wall, 1),
-               timesteps=int(model.num_timesteps))  # fmt: skip
+    run.update(
+        wall_s=round(wall, 1),
+        steps_per_s=round(model.num_timesteps / wall, 1),
+        timesteps=int(model.num_timesteps),
+    )
     _write_config(out, cfg, run)
     return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point: ``python -m agents.train CONFIG [--out DIR] [--timesteps N] [--seed S]``."""
-    parser = argparse.ArgumentParser(prog="python -m agents.train",
-                                     description=__doc__.split("\n\n")[0])  # fmt: skip
+    """Entry point of ``python -m agents.train``; returns the exit status (2: user error)."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.train", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("config", type=Path, help="rl-zoo3-style YAML file")
-    parser.add_argument("--out", type=Path, default=None,
-                        help="output folder (default: next to the config, <config-stem>/)")
-    parser.add_argument("--timesteps", type=int, default=None, help="override n_timesteps")
-    parser.add_argument("--seed", type=int, default=None, help="override seed")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output folder (default runs/<config-stem>/ in the working folder)",
+    )
+    parser.add_argument(
+        "--overwrite", action="store_true", help="write into an existing non-empty --out folder"
+    )
+    parser.add_argument(
+        "--timesteps", type=bounded_int(1), default=None, help="override n_timesteps"
+    )
+    parser.add_argument("--seed", type=bounded_int(0), default=None, help="override seed")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     args = parser.parse_args(argv)
-    out = train(args.config, args.out, args.timesteps, not args.no_progress, args.seed)
+    try:
+        out = train(
+            args.config, args.out, args.timesteps, not args.no_progress, args.seed, args.overwrite
+        )
+    except (ValueError, OSError) as err:
+        if args.debug:
+            raise
+        print(f"{parser.prog}: error: {err}", file=sys.stderr)
+        return 2
+    except Exception as err:
+        if args.debug:
+            raise
+        print(
+            f"{parser.prog}: {type(err).__name__}: {err} (--debug shows the traceback)",
+            file=sys.stderr,
+        )
+        return 1
     run = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
-    print(f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s); "
-          f"model, logs and config in {out}/")
+    print(
+        f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s); "
+        f"model, logs and config in {out}/"
+    )
     return 0
 
 

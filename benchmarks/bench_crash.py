@@ -78,24 +78,45 @@ def run() -> list[dict]:
     ref = simulate_reference(sc)
     t_ref = _best(lambda: simulate_reference(sc), repeats=30)
     masses = sc.lead.n_nodes + (sc.n_cars - 1) * sc.passenger.n_nodes
-    rows = [row(f"crash reference run (paper, {sc.n_cars} cars, {sc.speed * 3.6:.0f} km/h)",
-                t_ref * 1e3, "ms",
-                context=f"{ref.t[-1]:.3f} s simulated, {masses} masses, dt {ref.dt:.1e} s")]
+    rows = [
+        row(
+            f"crash reference run (paper, {sc.n_cars} cars, {sc.speed * 3.6:.0f} km/h)",
+            t_ref * 1e3,
+            "ms",
+            context=f"{ref.t[-1]:.3f} s simulated, {masses} masses, dt {ref.dt:.1e} s",
+        )
+    ]
     for variant in ("hysteretic", "paper"):
         sur = build_crash_surrogate(ref, variant=variant, seed=0)
         res = simulate_surrogate(sc, sur)
         t_sur = _best(lambda s=sur: simulate_surrogate(sc, s), repeats=30)
         rows += [
-            row(f"crash surrogate run ({variant})", t_sur * 1e3, "ms",
-                context=f"{res.t[-1]:.3f} s simulated, dt {res.dt:.1e} s"),
-            row(f"  reference / surrogate ({variant})", t_ref / t_sur, "×", "≥ 100",
-                "paper: FE 51 548 s vs 8 s"),
-        ]  # fmt: skip
+            row(
+                f"crash surrogate run ({variant})",
+                t_sur * 1e3,
+                "ms",
+                context=f"{res.t[-1]:.3f} s simulated, dt {res.dt:.1e} s",
+            ),
+            row(
+                f"  reference / surrogate ({variant})",
+                t_ref / t_sur,
+                "×",
+                "≥ 100",
+                "paper: FE 51 548 s vs 8 s",
+            ),
+        ]
     env = gym.make("railgym/TrainCrash-v0")
     steps = _episode(env)
     t_ep = _best(lambda: _episode(env), repeats=20)
-    rows.append(row("TrainCrash-v0 passive episode (surrogate)", t_ep * 1e3, "ms", "≤ 5",
-                    f"{steps} steps of 1 ms, gym.make"))  # fmt: skip
+    rows.append(
+        row(
+            "TrainCrash-v0 passive episode (surrogate)",
+            t_ep * 1e3,
+            "ms",
+            "≤ 5",
+            f"{steps} steps of 1 ms, gym.make",
+        )
+    )
     cart = gym.make("CartPole-v1")
     t_cart = _step_us(cart, lambda k: k % 2)
     zero = np.zeros(env.action_space.shape, np.float32)
@@ -111,12 +132,15 @@ def run() -> list[dict]:
     venv = gym.make_vec("railgym/TrainCrash-v0", num_envs=N_VEC, vectorization_mode=mode)
     r_crash = _vector_rate(venv, np.zeros((N_VEC,) + zero.shape, np.float32), 100)
     rows += [
-        row(f"CartPoleVectorEnv ({N_VEC}) (anchor)", r_cart / 1e6, "M steps/s",
-            context="same run"),
-        row(f"TrainCrash vector ({N_VEC}, surrogate)", r_crash / 1e6, "M steps/s",
-            context="autoreset included"),
+        row(f"CartPoleVectorEnv ({N_VEC}) (anchor)", r_cart / 1e6, "M steps/s", context="same run"),
+        row(
+            f"TrainCrash vector ({N_VEC}, surrogate)",
+            r_crash / 1e6,
+            "M steps/s",
+            context="autoreset included",
+        ),
         row("  share of CartPoleVectorEnv", 100 * r_crash / r_cart, "%"),
-    ]  # fmt: skip
+    ]
     return rows
 
 

@@ -59,8 +59,9 @@ def run() -> list[dict]:
     n = 1024
     cart_vec = gym.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
     r_cart = _vector_rate(cart_vec, np.ones(n, np.int64), 300)
-    venv = gym.make_vec("railgym/VerticalSuspension-v0", num_envs=n,
-                        vectorization_mode="vector_entry_point")  # fmt: skip
+    venv = gym.make_vec(
+        "railgym/VerticalSuspension-v0", num_envs=n, vectorization_mode="vector_entry_point"
+    )
     r = _vector_rate(venv, np.zeros((n, 1), np.float32), 30)
     rows += [
         row(f"CartPoleVectorEnv ({n}) (anchor)", r_cart / 1e6, "M steps/s", context="same run"),

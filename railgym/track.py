@@ -22,7 +22,8 @@ from pathlib import Path
 from typing import Any, Literal, NamedTuple
 
 import numpy as np
-import yaml
+
+from railgym import _validation as val
 
 __all__ = [
     "TrackClassParameters",
@@ -95,44 +96,37 @@ class TrackInput(NamedTuple):
     zdot: np.ndarray
 
 
-def _positive_number(value: Any, field: str) -> float:
-    """Return ``value`` as a float if it is a finite positive real number, else raise."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(f"{field} must be a finite positive number, got {value!r}")
-    out = float(value)
-    if not (math.isfinite(out) and out > 0.0):
-        raise ValueError(f"{field} must be a finite positive number, got {value!r}")
-    return out
+#: largest internal grid of one synthesised profile (samples); the FFT work arrays of a
+#: profile at the limit take about 1.5 GiB
+MAX_SAMPLES = 2**26
 
 
-def _parse_table(data: Any) -> dict[int, TrackClassParameters]:
-    """Validate a loaded FRA table mapping and convert it to SI."""
+def _parse_table(data: Any, source: str = "FRA table") -> dict[int, TrackClassParameters]:
+    """Validate a loaded FRA table mapping and convert it to SI (values finite before the
+    conversion, positive after it)."""
     if not isinstance(data, Mapping):
-        raise ValueError("FRA table must be a mapping with keys k, units, classes")
-    k = _positive_number(data.get("k"), "k")
-    units = data.get("units")
+        raise ValueError(f"{source} must be a mapping with keys k, units, classes")
+    root = val.Fields(data, "")
+    k = root.positive("k")
+    units = root.get("units")
     if not isinstance(units, Mapping):
         raise ValueError("units must be a mapping of field -> unit string")
     for name, (unit, _) in _UNITS.items():
         if units.get(name) != unit:
             raise ValueError(f"units.{name} must be {unit!r}, got {units.get(name)!r}")
-    classes = data.get("classes")
+    classes = root.get("classes")
     if not isinstance(classes, Mapping) or not classes:
         raise ValueError("classes must be a non-empty mapping of class number -> parameters")
     table: dict[int, TrackClassParameters] = {}
     for key, row in classes.items():
         if isinstance(key, bool) or not isinstance(key, int):
             raise ValueError(f"classes key must be an integer track class, got {key!r}")
-        if not isinstance(row, Mapping):
-            raise ValueError(f"classes.{key} must be a mapping of parameters")
-        si = {}
-        for name, (_, factor) in _UNITS.items():
-            if name not in row:
-                raise ValueError(f"classes.{key}.{name} is missing")
-            si[name] = _positive_number(row[name], f"classes.{key}.{name}") * factor
-        verified = row.get("verified", False)
-        if not isinstance(verified, bool):
-            raise ValueError(f"classes.{key}.verified must be true or false, got {verified!r}")
+        f = val.Fields(row, f"classes.{key}")
+        si = {
+            name: f.quantity(name, factor, 0.0, None, lo_open=True)
+            for name, (_, factor) in _UNITS.items()
+        }
+        verified = val.boolean(f.get("verified", False), f.field("verified"))
         table[key] = TrackClassParameters(
             track_class=key,
             k=k,
@@ -149,7 +143,7 @@ def _parse_table(data: Any) -> dict[int, TrackClassParameters]:
 @lru_cache(maxsize=1)
 def _packaged_table() -> dict[int, TrackClassParameters]:
     text = files("railgym").joinpath("configs", "track", "fra.yaml").read_text(encoding="utf-8")
-    return _parse_table(yaml.safe_load(text))
+    return _parse_table(val.load_yaml(text, "fra.yaml"))
 
 
 def load_fra_table(path: str | Path | None = None) -> dict[int, TrackClassParameters]:
@@ -166,7 +160,12 @@ def load_fra_table(path: str | Path | None = None) -> dict[int, TrackClassParame
     """
     if path is None:
         return dict(_packaged_table())
-    return _parse_table(yaml.safe_load(Path(path).read_text(encoding="utf-8")))
+    source = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise val.FieldError("path", f"{source!r} cannot be read: {exc}") from None
+    return _parse_table(val.load_yaml(text, source), source)
 
 
 def class_parameters(track_class: int) -> TrackClassParameters:
@@ -228,8 +227,8 @@ def _check_band(band: Any) -> tuple[float, float]:
         lo, hi = band
     except (TypeError, ValueError):
         raise ValueError(f"band must be a (min, max) wavelength pair in m, got {band!r}") from None
-    lo = _positive_number(lo, "band")
-    hi = _positive_number(hi, "band")
+    lo = val.positive(lo, "band")
+    hi = val.positive(hi, "band")
     if not lo < hi:
         raise ValueError(f"band must satisfy min < max wavelength, got {band!r}")
     return lo, hi
@@ -261,6 +260,11 @@ def _synthesise(
     per-harmonic phase factor (1 + exp(iΩ_k·shift))/2.
     """
     n_min = max(n_needed, math.ceil(_MIN_PERIODS * band[1] / dx))
+    if n_min > MAX_SAMPLES:
+        raise ValueError(
+            f"the track needs {n_min} samples (length or duration·speed, band, dx or dt), over "
+            f"the limit of {MAX_SAMPLES}; shorten the duration or raise the shortest wavelength"
+        )
     n_fft = 1 << (n_min - 1).bit_length()
     period = n_fft * dx
     d_omega = 2.0 * math.pi / period
@@ -314,8 +318,8 @@ def fra_profile_with_slope(
     """
     p = class_parameters(track_class)
     _check_kind(kind)
-    length = _positive_number(length, "length")
-    dx = _positive_number(dx, "dx")
+    length = val.positive(length, "length")
+    dx = val.positive(dx, "dx")
     lo, hi = _check_band(band)
     if not dx < 0.5 * lo:
         raise ValueError(f"dx must be below half the shortest wavelength {lo} m, got {dx}")
@@ -377,13 +381,13 @@ def track_time_input(
     """
     p = class_parameters(track_class)
     _check_kind(kind)
-    speed = _positive_number(speed, "speed")
-    duration = _positive_number(duration, "duration")
-    dt = _positive_number(dt, "dt")
+    speed = val.positive(speed, "speed")
+    duration = val.positive(duration, "duration")
+    dt = val.positive(dt, "dt")
     lo, hi = _check_band(band)
     if not dt <= duration:
         raise ValueError(f"duration must be at least dt, got {duration}")
-    shift = 0.0 if wheelbase is None else _positive_number(wheelbase, "wheelbase")
+    shift = 0.0 if wheelbase is None else val.positive(wheelbase, "wheelbase")
     n_steps = math.floor(duration / dt + 1e-9)
     step = speed * dt
     sub = math.floor(2.0 * step / lo) + 1  # internal samples per time step, keeps dx < lo/2

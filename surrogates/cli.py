@@ -70,6 +70,12 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument(
         "--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks"
     )
+    e = sub.add_parser("export-fmu", help="export a saved Legendre element as an FMI 2.0 FMU")
+    e.add_argument("model", help="model JSON written by 'surrogates build'")
+    e.add_argument("-o", "--fmu", required=True, help="where to write the .fmu")
+    e.add_argument("--kind", choices=["me", "cs", "both"], default="both")
+    e.add_argument("--sources-only", action="store_true", help="do not compile a binary")
+    e.add_argument("--overwrite", action="store_true", help="replace an existing FMU")
     return parser
 
 
@@ -121,6 +127,25 @@ def _build(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export_fmu(args: argparse.Namespace) -> int:
+    """``surrogates export-fmu``: :func:`surrogates.fmi.export_fmu` of a saved model."""
+    from surrogates.fmi import FMUExportError, export_fmu
+
+    try:
+        path = export_fmu(
+            args.model,
+            args.fmu,
+            kind=args.kind,
+            binary=not args.sources_only,
+            overwrite=args.overwrite,
+        )
+    except (OSError, ValueError, FMUExportError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"FMU written to {path}")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``surrogates`` command.
 
@@ -128,6 +153,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     reported as one line on stderr; ``--debug`` shows the traceback instead.
     """
     args = _parser().parse_args(argv)
+    if args.command == "export-fmu":
+        return _export_fmu(args)
     try:
         return _build(args)
     except (ValueError, OSError) as exc:

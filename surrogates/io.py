@@ -228,3 +228,8 @@ def _read_rows(reader: Any, path: Path, columns: Sequence[str] | None) -> dict[s
     if not data or not data[0]:
         raise ValueError(f"{path}: no data rows")
     return {name: np.asarray(col) for name, col in zip(wanted, data, strict=True)}
+
+
+# readers of LS-DYNA output and multibody tables, re-exported as part of this module's API
+from surrogates.lsdyna import read_glstat, read_legend, read_nodout, read_rcforc  # noqa: E402, F401
+from surrogates.tables import read_table  # noqa: E402, F401

@@ -1,15 +1,17 @@
 """railgym/TrainCrash-v0: checkers, seeding, vector env = singles, physics of the control."""
 
+import copy
+
 import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
 import railgym  # noqa: F401  (registers the environments)
-from railgym.envs.crash import STATE_LIMIT, TrainCrashEnv, default_surrogate
+from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
+from railgym.envs.crash_step import STATE_LIMIT
 from railgym.vehicles.crash import (
     absorber_zone_force,
-    crash_batch_model,
     load_scenario,
     simulate_reference,
     simulate_surrogate,
@@ -49,25 +51,26 @@ def test_checkers_pass(backend):
     sb3_check(TrainCrashEnv(backend=backend), warn=False)
 
 
-def test_batch_kernels_reproduce_the_simulate_functions():
+@pytest.mark.parametrize("backend", ["reference", "surrogate"])
+def test_recorder_equals_the_env(backend):
+    """simulate_* record with the env's kernel: a passive episode gives the same numbers."""
     sc = load_scenario("paper")
-    for backend in ("reference", "surrogate"):
-        s = default_surrogate(sc) if backend == "surrogate" else None
-        truth = simulate_reference(sc) if s is None else simulate_surrogate(sc, s)
-        mdl = crash_batch_model(sc, backend, surrogate=s)
-        state, out = mdl.new_state(2), mdl.new_outputs(2)
-        scale, active, div = np.ones((2, 2)), np.ones(2, bool), np.zeros(2, bool)
-        for i in range(2):
-            mdl.reset(state, out, i, sc.speed)
-        mdl.step(state, out, scale, active, div, init=True)
-        for k in range(1, truth.t.size):
-            mdl.step(state, out, scale, active, div)
-            np.testing.assert_array_equal(out.x[1], truth.x[k])
-            np.testing.assert_array_equal(out.force[0], truth.force[k])
-        if backend == "reference":  # zone work = plastic + elastic zone energy of the result
-            e = truth.energy
-            np.testing.assert_allclose(out.dissipated[0], [e["friction"][-1], e["damping"][-1]])
-        assert not div.any()
+    s = default_surrogate(sc) if backend == "surrogate" else None
+    truth = simulate_reference(sc) if s is None else simulate_surrogate(sc, s)
+    env = TrainCrashEnv(backend=backend, surrogate=s)
+    _, info = env.reset(seed=0)
+    np.testing.assert_array_equal(info["force_N"], truth.force[0])
+    for k in range(1, truth.t.size):
+        _, _, term, trunc, info = env.step(np.zeros(2, np.float32))
+        np.testing.assert_array_equal(info["force_N"], truth.force[k])
+        np.testing.assert_array_equal(info["crush_m"], truth.crush[k])
+        np.testing.assert_array_equal(info["decel_g"], -truth.a[k, :2] / sc.gravity)
+        assert info["time"] == pytest.approx(truth.t[k], abs=1e-12)
+        if term or trunc:
+            break
+    assert k >= truth.t.size - 2  # the env's episode ends with the recorded run
+    if backend == "reference":  # friction work of the env = the recorded friction energy
+        assert info["friction_work_J"] == truth.energy["friction"][k]
 
 
 def test_absorber_scale_multiplies_the_envelope_only_within_the_stroke():
@@ -264,3 +267,49 @@ def test_vector_partial_reset_mask_keeps_the_other_crashes():
     np.testing.assert_array_equal(obs_reset[1], obs[1])  # sub-env 1 goes on untouched
     first, _ = TrainCrashEnv(backend="reference").reset(seed=0)
     np.testing.assert_array_equal(obs_reset[0], first)  # sub-env 0 starts its crash again
+
+
+def _copies(env):
+    import pickle
+
+    import cloudpickle
+
+    return [pickle.loads(pickle.dumps(env)), cloudpickle.loads(cloudpickle.dumps(env)),
+            copy.deepcopy(env)]  # fmt: skip
+
+
+@pytest.mark.parametrize("backend", ["reference", "surrogate"])
+@pytest.mark.parametrize("steps_before", [0, 40])  # copied at reset and mid-episode
+def test_copies_continue_exactly_like_the_original(backend, steps_before):
+    env = TrainCrashEnv(backend=backend, speed_jitter=0.1)
+    env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (steps_before + 60, 2)).astype(np.float32)
+    for a in actions[:steps_before]:
+        env.step(a)
+    copies = _copies(env)
+    for a in actions[steps_before:]:
+        want = env.step(a)
+        for c in copies:
+            got = c.step(a)
+            np.testing.assert_array_equal(got[0], want[0])
+            assert got[1:4] == want[1:4]
+            np.testing.assert_array_equal(got[4]["force_N"], want[4]["force_N"])
+    assert not want[2]  # still in the crash: the copies did not end early
+
+
+def test_vector_env_copies_continue_exactly_like_the_original():
+    venv = TrainCrashVectorEnv(num_envs=3, backend="surrogate", speed_jitter=0.2, max_duration=0.1)
+    venv.reset(seed=1)
+    rng = np.random.default_rng(2)
+    actions = rng.uniform(-1, 1, (150, 3, 2)).astype(np.float32)
+    for a in actions[:30]:
+        venv.step(a)
+    copies = _copies(venv)
+    for a in actions[30:]:  # across the autoresets at truncation
+        want = venv.step(a)
+        for c in copies:
+            got = c.step(a)
+            for g, w in zip(got[:4], want[:4], strict=True):
+                np.testing.assert_array_equal(g, w)
+            np.testing.assert_array_equal(got[4]["peak_decel_g"], want[4]["peak_decel_g"])

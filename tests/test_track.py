@@ -162,7 +162,9 @@ def test_wheelbase_is_mean_of_two_wheels():
         both.z, 0.5 * (one.z[:-lag] + one.z[lag:]), rtol=0, atol=1e-12 * scale
     )
     np.testing.assert_allclose(
-        both.zdot, 0.5 * (one.zdot[:-lag] + one.zdot[lag:]), rtol=0,
+        both.zdot,
+        0.5 * (one.zdot[:-lag] + one.zdot[lag:]),
+        rtol=0,
         atol=1e-12 * np.abs(one.zdot).max(),
     )
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import csv
+import hashlib
+import json
 from pathlib import Path
 
 import gymnasium as gym
@@ -16,6 +18,7 @@ pytest.importorskip("stable_baselines3")
 
 import railgym  # noqa: E402
 from agents.controllers import Passive  # noqa: E402
+from agents.evaluate import load_policy  # noqa: E402
 from agents.train import GymVecToSB3, evaluate, load_config, main, make_vec, train  # noqa: E402
 
 ENV_ID = "railgym/VerticalSuspension-v0"
@@ -61,12 +64,19 @@ def _csv_rows(path: Path) -> list[dict[str, float]]:
 
 def _tiny_config(seed: int | None = 3) -> dict:
     block = {
-        "algo": "ppo", "n_timesteps": 2048, "policy": "MlpPolicy", "n_envs": 4,
-        "env_kwargs": {"duration": 1.0}, "eval_freq": 1024, "n_eval_episodes": 2,
+        "algo": "ppo",
+        "n_timesteps": 2048,
+        "policy": "MlpPolicy",
+        "n_envs": 4,
+        "env_kwargs": {"duration": 1.0},
+        "eval_freq": 1024,
+        "n_eval_episodes": 2,
         "checkpoint_freq": 1024,
-        "n_steps": 128, "batch_size": 128, "n_epochs": 2,
+        "n_steps": 128,
+        "batch_size": 128,
+        "n_epochs": 2,
         "policy_kwargs": {"net_arch": [16], "activation_fn": "tanh"},
-    }  # fmt: skip
+    }
     if seed is not None:
         block["seed"] = seed
     return {ENV_ID: block}
@@ -76,8 +86,9 @@ def test_native_vector_env_matches_single_envs_across_autoresets():
     """Same-step autoreset on the native NEXT_STEP env: terminal obs = last obs of the
     episode, returned obs = first obs of the next one, as for single envs stepped alongside."""
     n, seed, kwargs = 3, 7, {"duration": 0.05}  # 5 steps per episode
-    adapter = GymVecToSB3(gym.make_vec(ENV_ID, n, vectorization_mode="vector_entry_point",
-                                       **kwargs))  # fmt: skip
+    adapter = GymVecToSB3(
+        gym.make_vec(ENV_ID, n, vectorization_mode="vector_entry_point", **kwargs)
+    )
     singles = [gym.make(ENV_ID, **kwargs) for _ in range(n)]
     adapter.seed(seed)
     obs = adapter.reset()
@@ -204,15 +215,28 @@ def test_evaluate_passive_matches_single_episode_rms():
     assert stats["mean_rms_carbody_acc"] > 0.05
 
 
-def test_short_ppo_run_saves_reloadable_reproducible_policy(tmp_path):
+def test_short_ppo_run_saves_reloadable_reproducible_policy(tmp_path, monkeypatch, capsys):
     from stable_baselines3 import PPO
 
-    path = tmp_path / "ppo_tiny.yaml"
+    path = tmp_path / "configs" / "ppo_tiny.yaml"
+    path.parent.mkdir()
     path.write_text(yaml.safe_dump(_tiny_config()))
+    monkeypatch.chdir(tmp_path)
     assert main([str(path), "--no-progress"]) == 0
-    out = tmp_path / "ppo_tiny"  # default: next to the config
+    out = tmp_path / "runs" / "ppo_tiny"  # default: runs/<stem>/ in the working directory
+    assert sorted(p.name for p in path.parent.iterdir()) == ["ppo_tiny.yaml"]
     for name in ("model.zip", "best_model.zip", "progress.csv", "eval.csv", "config.yaml"):
         assert (out / name).is_file(), name
+    manifest = json.loads((out / "manifest.json").read_text())["sha256"]
+    assert manifest == {
+        n: hashlib.sha256((out / n).read_bytes()).hexdigest()
+        for n in ("best_model.zip", "model.zip")
+    }
+    # a second run into the same folder is refused before any work, unless --overwrite
+    before = (out / "model.zip").read_bytes()
+    assert main([str(path), "--no-progress"]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert (out / "model.zip").read_bytes() == before
     saved = yaml.safe_load((out / "config.yaml").read_text())
     assert saved[ENV_ID]["seed"] == 3 and saved[ENV_ID]["eval_seed"] == 999_999
     assert saved["run"]["timesteps"] == 2048 and saved["run"]["steps_per_s"] > 0
@@ -235,6 +259,13 @@ def test_short_ppo_run_saves_reloadable_reproducible_policy(tmp_path):
     )
     obs, _ = venv.reset(seed=1)
     action, _ = model.predict(obs, deterministic=True)
+    # railgym evaluate's loader reads only the weights: the same actions, nothing unpickled
+    factory, env_kwargs, label = load_policy(str(out / "model.zip"))
+    assert label == "ppo_tiny" and env_kwargs == {}
+    np.testing.assert_array_equal(factory(venv).predict(obs, deterministic=True)[0], action)
+    (out / "model.zip").write_bytes(before + b"\0")  # changed after training: refused
+    with pytest.raises(ValueError, match="SHA-256 differs.*--trust"):
+        load_policy(str(out / "model.zip"))
 
     # same seed, same training: identical policy; another seed: a different one
     def act(folder: Path) -> np.ndarray:
@@ -249,11 +280,21 @@ def test_short_ppo_run_saves_reloadable_reproducible_policy(tmp_path):
 def test_short_sac_run_with_schedule_reloads(tmp_path, capsys):
     from stable_baselines3 import SAC
 
-    block = {"algo": "sac", "n_timesteps": 400, "n_envs": 2, "seed": 5,
-             "env_kwargs": {"duration": 1.0}, "eval_freq": 200, "n_eval_episodes": 1,
-             "learning_starts": 100, "buffer_size": 1000, "batch_size": 32,
-             "learning_rate": "lin_1e-3", "policy_kwargs": {"net_arch": [16]},
-             "eval_echo": ["rms_carbody_acc"]}  # fmt: skip
+    block = {
+        "algo": "sac",
+        "n_timesteps": 400,
+        "n_envs": 2,
+        "seed": 5,
+        "env_kwargs": {"duration": 1.0},
+        "eval_freq": 200,
+        "n_eval_episodes": 1,
+        "learning_starts": 100,
+        "buffer_size": 1000,
+        "batch_size": 32,
+        "learning_rate": "lin_1e-3",
+        "policy_kwargs": {"net_arch": [16]},
+        "eval_echo": ["rms_carbody_acc"],
+    }
     out = train({ENV_ID: block}, tmp_path, progress=True)
     rows = _csv_rows(out / "eval.csv")
     echoed = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("eval @ 400")]
@@ -264,6 +305,11 @@ def test_short_sac_run_with_schedule_reloads(tmp_path, capsys):
     assert model.lr_schedule(1.0) == pytest.approx(1e-3) and model.lr_schedule(0.25) == 2.5e-4
     venv = make_vec(ENV_ID, 1, {"duration": 1.0})
     assert evaluate(model, venv, 999_999)["mean_reward"] == pytest.approx(rows[-1]["mean_reward"])
+    obs, _ = venv.reset(seed=2)
+    weights_only = load_policy(str(out / "model.zip"))[0](venv)
+    np.testing.assert_array_equal(
+        weights_only.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
+    )
 
 
 @pytest.mark.parametrize("path", sorted(CONFIGS.glob("*.yaml")), ids=lambda p: p.name)
@@ -294,10 +340,12 @@ def test_missing_seed_is_drawn_and_recorded():
         (lambda c: c[ENV_ID].update(learning_rat=0.1) or c, "learning_rat"),
         (lambda c: c[ENV_ID].update(learning_rate="lin_fast") or c, "learning_rate"),
         (lambda c: c[ENV_ID].update(vectorization_mode="async") or c, "vectorization_mode"),
-        (lambda c: c[ENV_ID].update(policy_kwargs={"activation_fn": "swish2"}) or c,
-         "activation_fn"),
+        (
+            lambda c: c[ENV_ID].update(policy_kwargs={"activation_fn": "swish2"}) or c,
+            "activation_fn",
+        ),
     ],
-)  # fmt: skip
+)
 def test_bad_config_raises_naming_the_field(change, field):
     with pytest.raises(ValueError, match=field):
         load_config(change(_tiny_config()))
@@ -314,3 +362,24 @@ def test_dict_config_needs_out_and_file_must_exist(tmp_path):
         train(_tiny_config(), progress=False)
     with pytest.raises(ValueError, match="does not exist"):
         load_config(tmp_path / "missing.yaml")
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [("a: [1,\n", "line 2: invalid YAML"), ("- 1\n", "mapping"), (b"\xff\xfe", "not UTF-8")],
+)
+def test_unreadable_config_file_is_one_clear_error(tmp_path, text, match):
+    path = tmp_path / "c.yaml"
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    with pytest.raises(ValueError, match=match):
+        load_config(path)
+
+
+def test_numpy_integers_are_accepted_and_bools_rejected():
+    cfg = _tiny_config()
+    cfg[ENV_ID].update(n_envs=np.int64(2), seed=np.int32(7))
+    got = load_config(cfg)
+    assert (got.n_envs, got.seed) == (2, 7) and type(got.seed) is int
+    cfg[ENV_ID]["n_envs"] = True
+    with pytest.raises(ValueError, match="n_envs"):
+        load_config(cfg)

@@ -40,8 +40,13 @@ def test_same_seed_same_episode_other_seed_differs():
 
 def test_vector_env_equals_single_envs_with_autoreset():
     n, duration = 3, 0.5  # 50 steps per episode: the run crosses one autoreset
-    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point",
-                        duration=duration, sensor_noise=0.05)  # fmt: skip
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=n,
+        vectorization_mode="vector_entry_point",
+        duration=duration,
+        sensor_noise=0.05,
+    )
     singles = [VerticalSuspensionEnv(duration=duration, sensor_noise=0.05) for _ in range(n)]
     obs_v, _ = venv.reset(seed=11)
     obs_s = [e.reset(seed=11 + i)[0] for i, e in enumerate(singles)]
@@ -136,8 +141,7 @@ def test_rgb_array_render():
 
 
 def test_vector_partial_reset_mask():
-    venv = gym.make_vec(ENV_ID, num_envs=3, vectorization_mode="vector_entry_point",
-                        duration=1.0)  # fmt: skip
+    venv = gym.make_vec(ENV_ID, num_envs=3, vectorization_mode="vector_entry_point", duration=1.0)
     venv.reset(seed=5)
     for _ in range(10):
         venv.step(np.full((3, 1), 0.5, np.float32))

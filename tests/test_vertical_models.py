@@ -19,6 +19,7 @@ from railgym.vehicles.vertical import (
     initial_state,
     load_vehicle,
     simulate,
+    step_outputs,
     surrogate_arrays,
     vehicle_from_dict,
 )
@@ -162,8 +163,17 @@ def test_rk4_order_on_surrogate(veh, cubic_lpr):
     for dt in (4e-3, 2e-3, 1e-3, 5e-4):
         n = round(T / dt)
         every = round(4e-3 / dt)
-        r = simulate("surrogate", veh, np.zeros(n + 1), np.zeros(n + 1), dt, force_a=5e3,
-                     surrogate=cubic_lpr, sample_every=every, x0=x0)  # fmt: skip
+        r = simulate(
+            "surrogate",
+            veh,
+            np.zeros(n + 1),
+            np.zeros(n + 1),
+            dt,
+            force_a=5e3,
+            surrogate=cubic_lpr,
+            sample_every=every,
+            x0=x0,
+        )
         assert r["out_of_domain"] == 0
         runs.append(r["states"])
     diffs = [np.sqrt(np.mean((a - b) ** 2)) for a, b in zip(runs, runs[1:], strict=False)]
@@ -274,8 +284,10 @@ def test_dynamic_air_spring_frequency_dependence(veh):
     t = np.arange(r["dp_b"].size) * 2e-4
     delta = 0.005 * np.sin(2 * np.pi * 5.0 * t)
     vb = air.bag_volume - air.effective_area * delta - 0.5 * air.area_gradient * delta**2
-    mass = rho0 * (((p0 + r["dp_b"]) / p0) ** (1 / n) * vb
-                   + ((p0 + r["dp_r"]) / p0) ** (1 / n) * air.reservoir_volume)  # fmt: skip
+    mass = rho0 * (
+        ((p0 + r["dp_b"]) / p0) ** (1 / n) * vb
+        + ((p0 + r["dp_r"]) / p0) ** (1 / n) * air.reservoir_volume
+    )
     assert np.ptp(mass) < 1e-6 * mass[0]
     assert np.ptp(r["dp_r"]) > 1e3
 
@@ -316,25 +328,26 @@ def _batch_inputs(variant, n, seed=0):
 
 
 def _outputs(n):
-    return (np.zeros((n, 2)), np.zeros(n), np.zeros((n, 2), np.int64), np.zeros(n, bool))
+    return step_outputs(n)
 
 
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_batch_equals_single_calls(veh, variant, cubic_lpr):
     n = 5
     lpr = surrogate_arrays(cubic_lpr if variant == "surrogate" else None)
-    p = veh.kernel_params()
+    p = veh.kernel_params().record()
     kernel = KERNELS[variant]
     state, z, zd, k0, fa = _batch_inputs(variant, n)
     single = state.copy()
     batch_out = _outputs(n)
     for _ in range(3):
-        kernel(state, z, zd, k0, 10, 1e-3, fa, p, *lpr, *batch_out)
+        kernel(state, z, zd, k0, 10, 1e-3, fa, p, lpr, batch_out)
         for i in range(n):
             s = single[i : i + 1]
             o = _outputs(1)
-            kernel(s, z[i : i + 1], zd[i : i + 1], k0[i : i + 1], 10, 1e-3, fa[i : i + 1], p,
-                   *lpr, *o)  # fmt: skip
+            kernel(
+                s, z[i : i + 1], zd[i : i + 1], k0[i : i + 1], 10, 1e-3, fa[i : i + 1], p, lpr, o
+            )
             for a, b in zip(o, batch_out, strict=True):
                 assert np.array_equal(a[0], b[i])
         assert np.array_equal(state, single)
@@ -351,17 +364,20 @@ def test_nan_and_huge_inputs_set_diverged(veh, variant):
     fa[0] = np.nan
     z[1, k0[1] + 5] = 1e300
     zd[1, k0[1] + 5] = 1e300
-    acc, force, count, div = _outputs(n)
-    KERNELS[variant](state, z, zd, k0, 10, 1e-3, fa, veh.kernel_params(), *surrogate_arrays(),
-                     acc, force, count, div)  # fmt: skip
+    out = _outputs(n)
+    acc, force, count, div = out
+    KERNELS[variant](
+        state, z, zd, k0, 10, 1e-3, fa, veh.kernel_params().record(), surrogate_arrays(), out
+    )
     assert div.tolist() == [True, True, False]
     assert np.all(np.isfinite(state)) and np.all(np.isfinite(acc)) and np.all(np.isfinite(force))
     assert np.array_equal(state[0], start[0])  # frozen before the first bad substep
     assert np.all(acc[:2] == 0.0) and acc[2, 1] != 0.0
     with pytest.raises(ValueError, match="track index out of range"):
         k0[2] = z.shape[1] - 5
-        KERNELS[variant](state, z, zd, k0, 10, 1e-3, fa, veh.kernel_params(),
-                         *surrogate_arrays(), acc, force, count, div)  # fmt: skip
+        KERNELS[variant](
+            state, z, zd, k0, 10, 1e-3, fa, veh.kernel_params().record(), surrogate_arrays(), out
+        )
 
 
 def test_simulate_rejects_bad_input(veh, cubic_lpr):

@@ -28,8 +28,9 @@ def test_rebuilding_the_packaged_surrogate_gives_the_same_model(packaged):
 
 def _errors(track_class, model, seed=1, duration=20.0):
     ref = collect_vertical(track_class=track_class, seed=seed, duration=duration)
-    sur = collect_vertical("surrogate", track_class=track_class, seed=seed, duration=duration,
-                           surrogate=model)  # fmt: skip
+    sur = collect_vertical(
+        "surrogate", track_class=track_class, seed=seed, duration=duration, surrogate=model
+    )
     assert not sur["diverged"]
     return {k: average_absolute_error(sur[k], ref[k]) for k in ("x2", "v2", "a2")} | {
         "nrms_a2": rms_normalised_error(sur["a2"], ref["a2"]),

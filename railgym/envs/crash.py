@@ -17,7 +17,6 @@ native vector env are thin shells around it. See ``docs/envs/crash.md`` for the 
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,8 +27,19 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
-from numba import njit
 
+from railgym.envs.crash_step import (
+    _ENV,
+    _STATE,
+    INFO_FIELDS,
+    EnvConsts,
+    Episode,
+    InfoColumns,
+    _advance_reference,
+    _advance_surrogate,
+    info_layout,
+    plain,
+)
 from railgym.envs.vector import reset_plan
 from railgym.vehicles.crash import (
     VARIANTS,
@@ -39,36 +49,24 @@ from railgym.vehicles.crash import (
     CrashSurrogate,
     CrushZone,
     build_crash_surrogate,
+    check_real,
     crash_batch_model,
     load_scenario,
-    reference_batch_step,
     simulate_reference,
-    surrogate_batch_step,
 )
 
 BACKENDS = ("surrogate", "reference")
-#: deceleration of the reward's reference, in g: one control step of 1 ms at 5 g costs 1
-DECEL_REF_G = 5.0
-#: time of the reward's reference, s (the deceleration term is time-integrated)
-TIME_REF = 1e-3
-#: crush beyond the absorber stroke that costs 1 (reward term ``intrusion``), m
-INTRUSION_REF = 1e-3
 DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0}
-DIVERGENCE_PENALTY = 100.0
-#: the crash is over when no zone carries more than F_STOP (N) and none closes faster than
-#: V_STOP (m/s): every car at rest or rebounding away (as ``simulate_reference``'s stop)
-F_STOP = 1e3
-V_STOP = 0.01
-#: a train whose |x| (m) or |v| (m/s) exceeds this, or turns non-finite, has diverged
-STATE_LIMIT = 1e3
+#: largest control step, s: the statistics and the reward sample the state once per step, so
+#: a coarser step misses the deceleration peaks of a crash lasting a few hundred ms
+MAX_CONTROL_DT = 0.01
+#: longest episode, s
+MAX_DURATION = 60.0
+#: largest reward weight and absorber rate (1/s): keeps every reward finite
+MAX_WEIGHT = 1e6
 #: observation scales: displacement (m) and acceleration (in g)
 X_SCALE = 1.0
 A_SCALE_G = 10.0
-#: info keys holding one number or bool (the others hold one entry per car or per zone)
-SCALAR_INFO = ("time", "initial_speed", "stroke_exceeded", "friction_work_J", "energy_error",
-               "diverged")  # fmt: skip
-#: info keys holding a bool
-BOOL_INFO = ("stroke_exceeded", "diverged")
 
 
 @dataclass(frozen=True)
@@ -94,14 +92,6 @@ def nominal_force(zone: CrushZone) -> float:
     return max(inside, default=zone.force[0])
 
 
-def _positive(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
-
-
 def make_config(
     scenario: str | Path | CrashScenario,
     backend: str,
@@ -119,53 +109,74 @@ def make_config(
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     sc = scenario if isinstance(scenario, CrashScenario) else load_scenario(scenario)
     sc = sc.with_overrides(n_cars=n_cars, speed=speed)
-    control_dt = _positive("control_dt", control_dt)
-    max_duration = _positive("max_duration", max_duration)
+    control_dt = check_real("control_dt", control_dt, 0.0, MAX_CONTROL_DT, low_open=True)
+    max_duration = check_real("max_duration", max_duration, 0.0, MAX_DURATION, low_open=True)
     n_steps = round(max_duration / control_dt)
     if n_steps < 1:
         raise ValueError(f"max_duration ({max_duration} s) must be at least control_dt")
-    if not (isinstance(absorber_range, int | float) and 0 < absorber_range < 1):
-        raise ValueError(f"absorber_range must be in (0, 1), got {absorber_range!r}")
-    absorber_rate = _positive("absorber_rate", absorber_rate)
-    if not (isinstance(speed_jitter, int | float) and 0 <= speed_jitter < 1):
-        raise ValueError(f"speed_jitter must be in [0, 1), got {speed_jitter!r}")
+    absorber_range = check_real(
+        "absorber_range", absorber_range, 0.0, 1.0, low_open=True, high_open=True
+    )
+    absorber_rate = check_real("absorber_rate", absorber_rate, 0.0, MAX_WEIGHT, low_open=True)
+    speed_jitter = check_real("speed_jitter", speed_jitter, 0.0, 1.0, high_open=True)
     weights = dict(DEFAULT_WEIGHTS)
+    if reward_weights is not None and not isinstance(reward_weights, dict):
+        raise ValueError(f"reward_weights must be a dict, got {type(reward_weights).__name__}")
     for key, value in (reward_weights or {}).items():
         if key not in DEFAULT_WEIGHTS:
             raise ValueError(f"reward_weights has unknown key {key!r}; keys: {list(weights)}")
-        if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-            raise ValueError(f"reward_weights[{key!r}] must be a non-negative number")
-        weights[key] = float(value)
+        weights[key] = check_real(f"reward_weights[{key!r}]", value, 0.0, MAX_WEIGHT)
     zones = [sc.wall] + [sc.interface] * (sc.n_cars - 1)
     stroke = np.array([z.absorber_stroke for z in zones])
     force = np.array([nominal_force(z) for z in zones])
     cars = ["lead"] + [f"car{k + 1}" for k in range(1, sc.n_cars)]
     zn = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
-    names = ([f"x_{c}" for c in cars] + [f"v_{c}" for c in cars] + [f"a_{c}" for c in cars]
-             + [f"crush_{z}" for z in zn] + [f"force_{z}" for z in zn]
-             + [f"scale_{z}" for z in zn])  # fmt: skip
+    names = (
+        [f"x_{c}" for c in cars]
+        + [f"v_{c}" for c in cars]
+        + [f"a_{c}" for c in cars]
+        + [f"crush_{z}" for z in zn]
+        + [f"force_{z}" for z in zn]
+        + [f"scale_{z}" for z in zn]
+    )
     n = sc.n_cars
-    scale = np.concatenate([np.full(n, X_SCALE), np.full(n, sc.speed),
-                            np.full(n, A_SCALE_G * sc.gravity), stroke, force,
-                            np.full(n, absorber_range)])  # fmt: skip
+    scale = np.concatenate(
+        [
+            np.full(n, X_SCALE),
+            np.full(n, sc.speed),
+            np.full(n, A_SCALE_G * sc.gravity),
+            stroke,
+            force,
+            np.full(n, absorber_range),
+        ]
+    )
     return CrashConfig(
-        scenario=sc, backend=backend, control_dt=control_dt, n_steps=n_steps,
-        absorber_range=float(absorber_range), max_scale_change=absorber_rate * control_dt,
-        speed_jitter=float(speed_jitter), weights=(weights["decel"], weights["intrusion"]),
-        absorber_stroke=stroke, obs_names=tuple(names), obs_scale=scale,
-    )  # fmt: skip
+        scenario=sc,
+        backend=backend,
+        control_dt=control_dt,
+        n_steps=n_steps,
+        absorber_range=float(absorber_range),
+        max_scale_change=absorber_rate * control_dt,
+        speed_jitter=float(speed_jitter),
+        weights=(weights["decel"], weights["intrusion"]),
+        absorber_stroke=stroke,
+        obs_names=tuple(names),
+        obs_scale=scale,
+    )
 
 
 @functools.lru_cache(maxsize=16)
 def default_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> CrashSurrogate:
     """Surrogate elements fitted on a passive reference run of ``scenario`` (cached per
-    scenario, i.e. per name/file, number of cars and speed, and process; about 1 s)."""
+    scenario, i.e. per name/file, number of cars and speed, and process)."""
     return build_crash_surrogate(simulate_reference(scenario), variant=variant, seed=0)
 
 
 def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchModel:
     """Batch model of the configured backend; ``surrogate`` = elements or ``None`` (fitted)."""
     if cfg.backend == "reference":
+        if surrogate is not None:
+            raise ValueError("surrogate is only used by backend='surrogate', not 'reference'")
         return crash_batch_model(cfg.scenario, "reference", cfg.control_dt)
     if surrogate is None:
         if variant not in VARIANTS:
@@ -176,199 +187,14 @@ def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchMode
             f"surrogate must be a CrashSurrogate (build_crash_surrogate), got "
             f"{type(surrogate).__name__}"
         )
-    return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
-
-
-@njit(cache=True)
-def _set_scale(actions, scale, zones, active, absorber_range, max_change):
-    """Move each active absorber's force scale towards ``1 + range · action`` by at most
-    ``max_change``, the action clipped to [−1, 1]. Returns ``False``, changing nothing, if
-    any action (of any train) is not finite."""
-    for i in range(actions.shape[0]):
-        for z in range(actions.shape[1]):
-            if not math.isfinite(actions[i, z]):
-                return False
-    for i in range(actions.shape[0]):
-        if not active[i]:
-            continue
-        for z in range(zones.shape[0]):
-            k = zones[z]
-            a = min(max(actions[i, z], -1.0), 1.0)
-            step = 1.0 + absorber_range * a - scale[i, k]
-            scale[i, k] += min(max(step, -max_change), max_change)
-    return True
-
-
-def info_layout(n_cars: int, n_zones: int) -> dict[str, tuple[slice, bool]]:
-    """Columns of each ``info`` key in the flat info array (key → (columns, is_scalar)),
-    in the order :func:`_post_step` writes them."""
-    sizes = {"time": 1, "initial_speed": 1, "decel_g": n_cars, "crush_m": n_zones,
-             "force_N": n_zones, "absorber_scale": n_zones, "peak_decel_g": n_cars,
-             "mean_decel_g": n_cars, "absorbed_energy_J": n_zones, "max_crush_m": n_zones,
-             "stroke_used": n_zones, "stroke_exceeded": 1, "friction_work_J": 1,
-             "energy_error": 1, "diverged": 1}  # fmt: skip
-    out, j = {}, 0
-    for key, size in sizes.items():
-        out[key] = (slice(j, j + size), key in SCALAR_INFO)
-        j += size
-    return out
-
-
-@njit(cache=True)
-def _post_step(out, active, init, div, zones, scale, stroke, inv_scale, g, weights, control_dt,
-               speed, energy0, steps, peak, decel_sum, max_crush, intrusion, obs, reward, over,
-               info):  # fmt: skip
-    """Bookkeeping after a kernel call: episode statistics, observation, reward and the flat
-    ``info`` row (layout of :func:`info_layout`) of every active train.
-
-    With ``init`` the statistics of the active rows are cleared (train at first contact).
-    """
-    n_cars, nz = peak.shape[1], zones.shape[0]
-    w_d, w_i = weights[0], weights[1]
-    for i in range(out.x.shape[0]):
-        if not active[i]:
-            continue
-        if init:
-            steps[i] = 0
-            peak[i] = 0.0
-            decel_sum[i] = 0.0
-            max_crush[i] = 0.0
-            intrusion[i] = 0.0
-            reward[i] = 0.0
-            over[i] = False
-            energy0[i] = out.stored[i]
-        else:
-            steps[i] += 1
-            cost = 0.0
-            for c in range(n_cars):
-                d = -out.a[i, c] / g
-                peak[i, c] = max(peak[i, c], d)
-                decel_sum[i, c] += d
-                cost += (d / DECEL_REF_G) ** 2
-            r = -w_d * (control_dt / TIME_REF) * cost / n_cars
-            for z in range(nz):
-                max_crush[i, z] = max(max_crush[i, z], out.crush[i, zones[z]])
-                new = max(max_crush[i, z] - stroke[z], 0.0)
-                r -= w_i * (new - intrusion[i, z]) / INTRUSION_REF
-                intrusion[i, z] = new
-            reward[i] = -DIVERGENCE_PENALTY if div[i] else r
-            done = True
-            for k in range(out.force.shape[1]):
-                if out.force[i, k] > F_STOP or out.rate[i, k] > V_STOP:
-                    done = False
-            over[i] = done
-        for c in range(n_cars):
-            obs[i, c] = out.x[i, c] * inv_scale[c]
-            obs[i, n_cars + c] = out.v[i, c] * inv_scale[n_cars + c]
-            obs[i, 2 * n_cars + c] = out.a[i, c] * inv_scale[2 * n_cars + c]
-        j = 3 * n_cars
-        for z in range(nz):
-            k = zones[z]
-            obs[i, j + z] = out.crush[i, k] * inv_scale[j + z]
-            obs[i, j + nz + z] = out.force[i, k] * inv_scale[j + nz + z]
-            obs[i, j + 2 * nz + z] = (scale[i, k] - 1.0) * inv_scale[j + 2 * nz + z]
-        # info row
-        row = info[i]
-        row[0] = steps[i] * control_dt
-        row[1] = speed[i]
-        j = 2
-        for c in range(n_cars):
-            row[j + c] = -out.a[i, c] / g
-            row[j + n_cars + 3 * nz + c] = peak[i, c]
-            row[j + 2 * n_cars + 3 * nz + c] = decel_sum[i, c] / max(steps[i], 1)
-        exceeded = False
-        for z in range(nz):
-            k = zones[z]
-            row[j + n_cars + z] = out.crush[i, k]
-            row[j + n_cars + nz + z] = out.force[i, k]
-            row[j + n_cars + 2 * nz + z] = scale[i, k]
-            row[j + 3 * n_cars + 3 * nz + z] = out.work[i, k]
-            row[j + 3 * n_cars + 4 * nz + z] = max_crush[i, z]
-            row[j + 3 * n_cars + 5 * nz + z] = max_crush[i, z] / stroke[z]
-            exceeded = exceeded or max_crush[i, z] > stroke[z]
-        j += 3 * n_cars + 6 * nz
-        balance = energy0[i] - out.stored[i] - out.dissipated[i, 0] - out.dissipated[i, 1]
-        for k in range(out.work.shape[1]):
-            balance -= out.work[i, k]
-        row[j] = 1.0 if exceeded else 0.0
-        row[j + 1] = out.dissipated[i, 0]
-        row[j + 2] = balance / energy0[i] if energy0[i] > 0.0 else 0.0
-        row[j + 3] = 1.0 if div[i] else 0.0
-
-
-@njit(cache=True, inline="always")
-def _field(buf, fields, f):
-    """2-D array ``f`` (rows, columns) of a :class:`CrashBatch` buffer, as a view."""
-    o, r, c = fields[f, 0], fields[f, 1], fields[f, 2]
-    return buf[o : o + r * c].reshape((r, c))
-
-
-@njit(cache=True, inline="always")
-def _column(buf, fields, f):
-    """1-D array ``f`` (rows,) of a :class:`CrashBatch` buffer, as a view."""
-    return buf[fields[f, 0] : fields[f, 0] + fields[f, 1]]
-
-
-@njit(cache=True, inline="always")
-def _outputs(buf, fields, f):
-    """The :class:`BatchOutputs` stored from field ``f`` on."""
-    return BatchOutputs(_field(buf, fields, f), _field(buf, fields, f + 1),
-                        _field(buf, fields, f + 2), _field(buf, fields, f + 3),
-                        _field(buf, fields, f + 4), _field(buf, fields, f + 5),
-                        _field(buf, fields, f + 6), _field(buf, fields, f + 7),
-                        _column(buf, fields, f + 8))  # fmt: skip
-
-
-@njit(cache=True, inline="always")
-def _finish(buf, fields, f, out, active, init, div, over, steps, zones, consts, g, control_dt):
-    """:func:`_post_step` with the per-train arrays stored from field ``f`` on (after the
-    absorber scales) and ``consts`` = (absorber strokes, 1 / observation scales, weights)."""
-    scale, obs = _field(buf, fields, f - 1), _field(buf, fields, f + 6)
-    info = _field(buf, fields, f + 8)
-    nz, n_obs = zones.shape[0], obs.shape[1]
-    _post_step(out, active, init, div, zones, scale, consts[:nz], consts[nz : nz + n_obs], g,
-               consts[nz + n_obs :], control_dt, _column(buf, fields, f),
-               _column(buf, fields, f + 1), steps, _field(buf, fields, f + 2),
-               _field(buf, fields, f + 3), _field(buf, fields, f + 4),
-               _field(buf, fields, f + 5), obs, _column(buf, fields, f + 7), over,
-               info)  # fmt: skip
-
-
-# One compiled call per control step (absorber scales, physics, bookkeeping) per backend, and
-# every per-train float array in one buffer (:meth:`CrashBatch._pack`): each array passed from
-# Python into a compiled function costs about 0.07 µs, and three separate calls with 50 arrays
-# were 12 µs of the 23 µs single-env step.
-@njit(cache=True)
-def _advance_reference(buf, fields, params, dt, n_sub, actions, active, init, div, over, steps,
-                       zones, consts, absorber_range, max_change, g, control_dt):  # fmt: skip
-    """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
-    :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
-    non-finite action."""
-    scale = _field(buf, fields, 16)  # after the 7 state and 9 output arrays
-    if not init and not _set_scale(actions, scale, zones, active, absorber_range, max_change):
-        return False
-    state = (_field(buf, fields, 0), _field(buf, fields, 1), _field(buf, fields, 2),
-             _field(buf, fields, 3), _field(buf, fields, 4), _field(buf, fields, 5),
-             _field(buf, fields, 6))  # fmt: skip
-    out = _outputs(buf, fields, 7)
-    reference_batch_step(state, out, params, scale, active, init, dt, n_sub, STATE_LIMIT, div)
-    _finish(buf, fields, 17, out, active, init, div, over, steps, zones, consts, g, control_dt)
-    return True
-
-
-@njit(cache=True)
-def _advance_surrogate(buf, fields, params, dt, n_sub, actions, active, init, div, over, steps,
-                       zones, consts, absorber_range, max_change, g, control_dt):  # fmt: skip
-    """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    scale = _field(buf, fields, 15)  # after the 6 state and 9 output arrays
-    if not init and not _set_scale(actions, scale, zones, active, absorber_range, max_change):
-        return False
-    state = (_field(buf, fields, 0), _field(buf, fields, 1), _field(buf, fields, 2),
-             _field(buf, fields, 3), _field(buf, fields, 4), _field(buf, fields, 5))  # fmt: skip
-    out = _outputs(buf, fields, 6)
-    surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, STATE_LIMIT, div)
-    _finish(buf, fields, 16, out, active, init, div, over, steps, zones, consts, g, control_dt)
-    return True
+    if surrogate.source != cfg.scenario.name:
+        raise ValueError(
+            f"surrogate was built for scenario {surrogate.source!r}, not {cfg.scenario.name!r}"
+        )
+    try:
+        return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
+    except (ValueError, AttributeError, TypeError, IndexError) as err:
+        raise ValueError(f"surrogate does not fit this env: {err}") from err
 
 
 class CrashBatch:
@@ -383,37 +209,55 @@ class CrashBatch:
         sc = cfg.scenario
         self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
         self.zones = np.array(
-            [model.zone_names.index(z) for z in ["wall"]
-             + [f"interface_{k}" for k in range(1, sc.n_cars)]], dtype=np.int64,
-        )  # fmt: skip
+            [
+                model.zone_names.index(z)
+                for z in ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
+            ],
+            dtype=np.int64,
+        )
         self.layout = info_layout(self.n_cars, self.n_zones)
         n_info = max(sl.stop for sl, _ in self.layout.values())
         state, out = model.new_state(n), model.new_outputs(n)
         nc, nz = self.n_cars, self.n_zones
+        env = [
+            np.ones((n, len(model.zone_names))),
+            np.zeros(n),
+            np.zeros(n),
+            np.zeros((n, nc)),
+            np.zeros((n, nc)),
+            np.zeros((n, nz)),
+            np.zeros((n, nz)),
+            np.zeros((n, len(cfg.obs_names))),
+            np.zeros(n),
+            np.zeros((n, n_info)),
+        ]
         # every per-train float array in one buffer, in the field order of _advance_*
-        self._buf, views, self._fields = self._pack(
-            [*state, *out, np.ones((n, len(model.zone_names))), np.zeros(n), np.zeros(n),
-             np.zeros((n, nc)), np.zeros((n, nc)), np.zeros((n, nz)), np.zeros((n, nz)),
-             np.zeros((n, len(cfg.obs_names))), np.zeros(n), np.zeros((n, n_info))]
-        )  # fmt: skip
-        k = len(state)
-        self.state = tuple(views[:k])
-        self.out: BatchOutputs = BatchOutputs(*views[k : k + 9])
-        (self.scale, self.speed, self.energy0, self.peak, self.decel_sum, self.max_crush,
-         self.intrusion, self.obs, self.rew, self.info) = views[k + 9 :]  # fmt: skip
+        self._state_type = type(state)
+        self._buf, self._fields = self._pack([*out, *env, *state])
         self.div = np.zeros(n, np.bool_)
         self.over = np.zeros(n, np.bool_)
         self.steps = np.zeros(n, np.int64)
         # (key, kind, first, stop) per info key: kind 0 float, 1 bool, 2 array
-        self._info_fields = [(key, 2 if not scalar else int(key in BOOL_INFO), sl.start, sl.stop)
-                             for key, (sl, scalar) in self.layout.items()]  # fmt: skip
+        kinds = {"1": 0, "bool": 1, "cars": 2, "zones": 2}
+        self._info_fields = [
+            (key, kinds[size], self.layout[key][0].start, self.layout[key][0].stop)
+            for key, size in INFO_FIELDS
+        ]
         self.inv_scale = 1.0 / cfg.obs_scale
-        self.weights = np.array(cfg.weights)
-        self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
-        consts = np.concatenate([cfg.absorber_stroke, self.inv_scale, self.weights])
-        self._args = (self._buf, self._fields, model.params, model.dt, model.n_sub)
-        self._env_args = (self.div, self.over, self.steps, self.zones, consts, cfg.absorber_range,
-                          cfg.max_scale_change, sc.gravity, cfg.control_dt)  # fmt: skip
+        columns = InfoColumns(*(sl.start for sl, _ in self.layout.values()))
+        self.consts = EnvConsts(
+            zones=self.zones,
+            stroke=cfg.absorber_stroke,
+            inv_scale=self.inv_scale,
+            w_decel=cfg.weights[0],
+            w_intrusion=cfg.weights[1],
+            gravity=sc.gravity,
+            control_dt=cfg.control_dt,
+            absorber_range=cfg.absorber_range,
+            max_change=cfg.max_scale_change,
+            info=columns,
+        )
+        self._bind()
         self._no_action = np.zeros((n, self.n_zones))
         # undeformed front end of each car at first contact (lead car at the wall), m
         lengths = [sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1)
@@ -435,28 +279,67 @@ class CrashBatch:
         self._call(mask, init=True)
 
     @staticmethod
-    def _pack(arrays: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
-        """One float64 buffer holding ``arrays`` (1-D or 2-D) one after another, views of it
-        with their shapes and values, and the (offset, rows, columns) of each (columns 0 for a
-        1-D array): the compiled step then takes one array instead of one per array."""
+    def _pack(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """One float64 buffer holding ``arrays`` (1-D or 2-D) one after another and the
+        (offset, rows, columns) of each (columns 0 for a 1-D array): the compiled step then
+        takes one array instead of one per array."""
         buf = np.empty(sum(a.size for a in arrays))
         fields = np.zeros((len(arrays), 3), np.int64)
-        views, o = [], 0
+        o = 0
         for f, a in enumerate(arrays):
-            view = buf[o : o + a.size].reshape(a.shape)
-            view[...] = a
-            views.append(view)
+            buf[o : o + a.size] = a.ravel()
             fields[f] = o, a.shape[0], a.shape[1] if a.ndim == 2 else 0
             o += a.size
-        return buf, views, fields
+        return buf, fields
+
+    def _view(self, f: int) -> np.ndarray:
+        """Array ``f`` of the buffer, as a view."""
+        o, r, c = (int(v) for v in self._fields[f])
+        return self._buf[o : o + r * max(c, 1)].reshape((r, c) if c else (r,))
+
+    def _bind(self) -> None:
+        """Named views of the buffer and the kernel arguments (again after a copy: a pickled
+        view is a detached array)."""
+        views = [self._view(f) for f in range(self._fields.shape[0])]
+        self.out = BatchOutputs(*views[:_ENV])
+        self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
+        self.state = self._state_type(*views[_STATE:])
+        model = self.model
+        self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
+        flags = (self.div, self.over, self.steps)
+        stepping = (model.dt, model.n_sub)
+        self._args = (
+            self._buf,
+            self._fields,
+            flags,
+            plain(model.params),
+            stepping,
+            plain(self.consts),
+        )
+
+    _VIEWS = ("out", "episode", "state", "_kernel", "_args")
+
+    # per-train arrays under their short names (views of the buffer)
+    scale = property(lambda self: self.episode.scale)
+    speed = property(lambda self: self.episode.speed)
+    obs = property(lambda self: self.episode.obs)
+    rew = property(lambda self: self.episode.reward)
+    info = property(lambda self: self.episode.info)
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind()
 
     def advance(self, actions: np.ndarray, active: np.ndarray) -> bool:
         """One control step of the ``active`` trains with ``actions`` (n, zones) float64,
         clipped to [−1, 1]. Returns ``False``, changing nothing, if any action is not finite."""
-        return self._kernel(*self._args, actions, active, False, *self._env_args)
+        return self._kernel(*self._args, actions, active, False)
 
     def _call(self, active: np.ndarray, init: bool) -> None:
-        self._kernel(*self._args, self._no_action, active, init, *self._env_args)
+        self._kernel(*self._args, self._no_action, active, init)
 
     def observe(self) -> np.ndarray:
         """Observations (n, n_obs), float32."""
@@ -464,28 +347,44 @@ class CrashBatch:
 
     def infos(self) -> dict[str, np.ndarray]:
         """``info`` of every train as arrays, first axis the train (``docs/envs/crash.md``);
-        views of one fresh copy (5 × faster than a copy per key at 1024 trains)."""
+        views of one fresh copy."""
         info = self.info.copy()
-        return {key: info[:, a] if kind == 0 else info[:, a] != 0.0 if kind == 1 else info[:, a:b]
-                for key, kind, a, b in self._info_fields}  # fmt: skip
+        return {
+            key: info[:, a] if kind == 0 else info[:, a] != 0.0 if kind == 1 else info[:, a:b]
+            for key, kind, a, b in self._info_fields
+        }
 
     def info_row(self, i: int) -> dict[str, Any]:
         """``info`` of train ``i``: floats, bools and 1-D arrays (views of one fresh copy)."""
         row = self.info[i].copy()
         vals = row.tolist()
-        return {key: vals[a] if kind == 0 else vals[a] != 0.0 if kind == 1 else row[a:b]
-                for key, kind, a, b in self._info_fields}  # fmt: skip
+        return {
+            key: vals[a] if kind == 0 else vals[a] != 0.0 if kind == 1 else row[a:b]
+            for key, kind, a, b in self._info_fields
+        }
 
     def render_state(self, i: int) -> dict[str, Any]:
         """What :func:`railgym.envs.rendering.render_crash` draws for train ``i``."""
         out, c = self.out, self.n_cars
         wall = float(out.x[i, c]) if out.x.shape[1] > c else 0.0  # the obstacle, if any
         return {
-            "positions": self.front0 + out.x[i, :c], "lengths": self.lengths,
-            "crush": out.crush[i, self.zones], "stroke": self.cfg.absorber_stroke,
-            "wall_x": wall, "time": float(self.steps[i] * self.cfg.control_dt),
+            "positions": self.front0 + out.x[i, :c],
+            "lengths": self.lengths,
+            "crush": out.crush[i, self.zones],
+            "stroke": self.cfg.absorber_stroke,
+            "wall_x": wall,
+            "time": float(self.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.n_steps * self.cfg.control_dt,
-        }  # fmt: skip
+        }
+
+
+def _real_actions(name: str, value: Any) -> np.ndarray:
+    """``value`` as a float64 array if it holds real numbers (not bools, strings, complex);
+    else ``ValueError`` naming ``name``."""
+    a = np.asarray(value)
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must hold real numbers, got dtype {a.dtype} ({value!r})")
+    return a.astype(np.float64)
 
 
 class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -526,8 +425,18 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.cfg = make_config(scenario, backend, n_cars, speed, control_dt, max_duration,
-                               absorber_range, absorber_rate, speed_jitter, reward_weights)
+        self.cfg = make_config(
+            scenario,
+            backend,
+            n_cars,
+            speed,
+            control_dt,
+            max_duration,
+            absorber_range,
+            absorber_rate,
+            speed_jitter,
+            reward_weights,
+        )
         self.backend = backend
         self.model = make_model(self.cfg, surrogate, surrogate_variant)
         self.sim = CrashBatch(1, self.cfg, self.model)
@@ -555,7 +464,7 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
         """Advance ``control_dt``; the action is clipped to [−1, 1], non-finite raises."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(action, dtype=np.float64)
+        a = _real_actions("action", action)
         sim = self.sim
         if a.shape != self._action_shape:
             raise ValueError(f"action must have shape ({sim.n_zones},), got {a.shape}")
@@ -565,8 +474,13 @@ class TrainCrashEnv(gym.Env[np.ndarray, np.ndarray]):
         truncated = not terminated and int(sim.steps[0]) >= self.cfg.n_steps
         if terminated or truncated:
             self._started = False
-        return (sim.obs[0].astype(np.float32), float(sim.rew[0]), terminated, truncated,
-                sim.info_row(0))  # fmt: skip
+        return (
+            sim.obs[0].astype(np.float32),
+            float(sim.rew[0]),
+            terminated,
+            truncated,
+            sim.info_row(0),
+        )
 
     def _info(self) -> dict[str, Any]:
         return self.sim.info_row(0)
@@ -588,8 +502,11 @@ class TrainCrashVectorEnv(VectorEnv):
     for step. Autoreset mode: next step (gymnasium's default).
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 50,
-                "autoreset_mode": AutoresetMode.NEXT_STEP}  # fmt: skip
+    metadata = {
+        "render_modes": ["rgb_array"],
+        "render_fps": 50,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
         if isinstance(num_envs, bool) or not (
@@ -633,7 +550,7 @@ class TrainCrashVectorEnv(VectorEnv):
         if not self._rngs:
             raise RuntimeError("call reset() before step()")
         sim = self.sim
-        a = np.asarray(actions, dtype=np.float64)
+        a = _real_actions("actions", actions)
         shape = (self.num_envs, sim.n_zones)
         if a.shape != shape:
             raise ValueError(f"actions must have shape {shape}, got {a.shape}")

@@ -26,8 +26,12 @@ def reset_plan(
     mask = options.pop("reset_mask", None)
     if mask is None:
         mask = np.ones(n, np.bool_)
-    elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (n,)
-              and mask.any()):  # fmt: skip
+    elif not (
+        isinstance(mask, np.ndarray)
+        and mask.dtype == np.bool_
+        and mask.shape == (n,)
+        and mask.any()
+    ):
         raise ValueError(f"options['reset_mask'] must be a bool array ({n},) with a True value")
     if seed is None or isinstance(seed, (int, np.integer)):
         seeds = [None if seed is None else int(seed) + i for i in range(n)]

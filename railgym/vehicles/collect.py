@@ -21,8 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from railgym import _validation as val
 from railgym.track import class_speed, track_time_input
-from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle, simulate
+from railgym.vehicles.vertical import DEFAULT_DT, VARIANTS, load_vehicle, simulate
 from surrogates import io
 from surrogates.builder import BuildReport, build
 from surrogates.features import vertical_features
@@ -58,8 +59,10 @@ def collect_vertical(
     dict with the simulation record (``t, x1, v1, x2, v2, a1, a2, F_s, ...``) at
     ``sample_rate`` and the features ``U`` (n, 2) = (x1 − x2, ẋ1 − ẋ2) and ``V`` = m2·ẍ2.
     """
+    variant = val.choice(variant, "variant", VARIANTS)
+    sample_rate = val.positive(sample_rate, "sample_rate")
     veh = load_vehicle(vehicle)
-    dt = DEFAULT_DT[variant] if dt is None else dt
+    dt = DEFAULT_DT[variant] if dt is None else val.positive(dt, "dt")
     every = round(1.0 / (sample_rate * dt))
     if not np.isclose(every * dt * sample_rate, 1.0):
         raise ValueError(f"sample_rate {sample_rate} Hz is not a whole number of steps of {dt} s")
@@ -91,9 +94,15 @@ def build_vertical_surrogate(
         seed=track_seed,
     )
     model, report = build(
-        data["U"], data["V"], kind=kind, m=m, sampling=sampling, selection=selection,
-        seed=seed, **model_params,
-    )  # fmt: skip
+        data["U"],
+        data["V"],
+        kind=kind,
+        m=m,
+        sampling=sampling,
+        selection=selection,
+        seed=seed,
+        **model_params,
+    )
     return model, report, data
 
 

@@ -16,8 +16,6 @@ import numpy as np
 
 #: per-step info keys the wrapper accumulates
 STEP_KEYS = ("decel_g", "crush_m")
-#: info keys taken from the env's last step
-END_KEYS = ("absorbed_energy_J", "stroke_exceeded", "energy_error")
 
 
 class CrashSafety(gym.Wrapper):

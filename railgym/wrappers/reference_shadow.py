@@ -26,8 +26,8 @@ CHANNELS = (("disp", "m"), ("vel", "m/s"), ("acc", "m/s²"))
 
 def _carbody(env: VerticalSuspensionEnv) -> tuple[float, float, float]:
     """Carbody displacement x2 (m), velocity v2 (m/s), acceleration ẍ2 (m/s²) of ``env``."""
-    sim = env.sim
-    return float(sim.state[0, 2]), float(sim.state[0, 3]), float(sim.acc[0, 1])
+    state = env.state
+    return float(state[2]), float(state[3]), env.carbody_acceleration
 
 
 def _shadow_of(base: VerticalSuspensionEnv, backend: str, vehicle: str | None) -> Any:
@@ -38,13 +38,21 @@ def _shadow_of(base: VerticalSuspensionEnv, backend: str, vehicle: str | None) -
     cfg = base.cfg
     observation = next(k for k, (names, _) in OBSERVATIONS.items() if names == cfg.obs_names)
     shadow = VerticalSuspensionEnv(
-        backend=backend, track_class=base.track_class, speed=base.speed,
-        duration=cfg.duration, control_dt=cfg.control_dt, dt=cfg.dt, f_max=cfg.f_max,
-        observation=observation, sensor_noise=cfg.sensor_noise,
+        backend=backend,
+        track_class=base.track_class,
+        speed=base.speed,
+        duration=cfg.duration,
+        control_dt=cfg.control_dt,
+        dt=cfg.dt,
+        f_max=cfg.f_max,
+        observation=observation,
+        sensor_noise=cfg.sensor_noise,
         reward_weights=dict(zip(DEFAULT_WEIGHTS, cfg.weights, strict=True)),
-        wheelbase=cfg.wheelbase, band=cfg.band, vehicle=vehicle,
-    )  # fmt: skip
-    if not np.array_equal(shadow.sim.params, base.sim.params):
+        wheelbase=cfg.wheelbase,
+        band=cfg.band,
+        vehicle=vehicle,
+    )
+    if shadow.vehicle_params != base.vehicle_params:
         raise ValueError(
             f"vehicle {vehicle!r} differs from the wrapped env's vehicle; pass the wrapped "
             "env's vehicle as vehicle="
@@ -68,7 +76,7 @@ class ReferenceShadow(gym.Wrapper):
     -----
     After every ``reset`` the shadow gets a copy of the wrapped env's track arrays ``z``,
     ``ż``, class and speed, so both models ride the identical track. Each step the shadow
-    receives the actuator force the wrapped env applied (``sim.force / f_max``), so
+    receives the actuator force the wrapped env applied (``actuator_force / f_max``), so
     action-transforming wrappers inside this one are followed exactly.
 
     ``info`` of every step adds ``shadow_err_disp`` (m), ``shadow_err_vel`` (m/s),
@@ -123,12 +131,7 @@ class ReferenceShadow(gym.Wrapper):
         obs, info = self.env.reset(seed=seed, options=options)
         base, shadow = self.base, self.shadow
         shadow.reset(seed=seed, options={"track_class": base.track_class, "speed": base.speed})
-        src, dst = base.sim, shadow.sim
-        np.copyto(dst.z, src.z)
-        np.copyto(dst.zdot, src.zdot)
-        np.copyto(dst.track_class, src.track_class)
-        np.copyto(dst.speed, src.speed)
-        dst.reset_state(0)
+        shadow.reset_on_track(base)
         self._clear()
         return obs, info
 
@@ -139,7 +142,7 @@ class ReferenceShadow(gym.Wrapper):
         self._time_model += time.perf_counter() - t0
         base = self.base
         if not self._ref_done:
-            u = np.array([base.sim.force[0] / base.cfg.f_max])
+            u = np.array([base.actuator_force / base.cfg.f_max])
             t0 = time.perf_counter()
             _, _, s_term, s_trunc, _ = self.shadow.step(u)
             self._time_ref += time.perf_counter() - t0
@@ -152,7 +155,7 @@ class ReferenceShadow(gym.Wrapper):
         errors = self._abs_sum / self._n
         for (name, _), e in zip(CHANNELS, errors, strict=True):
             info[f"shadow_err_{name}"] = float(e)
-        info["shadow_carbody_acc"] = float(self.shadow.sim.acc[0, 1])
+        info["shadow_carbody_acc"] = self.shadow.carbody_acceleration
         if terminated or truncated:
             info["shadow"] = self._summary(model_diverged=bool(terminated), info=info)
         return obs, reward, terminated, truncated, info
@@ -169,7 +172,7 @@ class ReferenceShadow(gym.Wrapper):
         }
         out["rms_acc_model"] = float(np.sqrt(np.mean(model[:, 2] ** 2)))
         out["rms_acc_reference"] = float(np.sqrt(np.mean(ref[:, 2] ** 2)))
-        out["out_of_domain"] = int(info.get("out_of_domain", self.base.sim.ood[0]))
+        out["out_of_domain"] = int(info.get("out_of_domain", self.base.out_of_domain))
         out["wall_time_model_s"] = self._time_model
         out["wall_time_reference_s"] = self._time_ref
         out["speedup"] = self._time_ref / self._time_model if self._time_model > 0 else np.nan

@@ -1,0 +1,335 @@
+"""Validation of arguments, configs and YAML files: one rule set, errors that name the field.
+
+Every helper takes the value and its *field path* (``"speed"``, ``"damper.c_rebound"``,
+``"reward_weights['force']"``) and returns the value in a canonical Python type, or raises
+:class:`FieldError` (a ``ValueError``) whose message starts with that path. Wrong types raise
+:class:`FieldTypeError`, which is also a ``TypeError``.
+
+Rules
+-----
+* Numbers: ``int``, ``float`` and numpy integer/floating scalars (and 0-d arrays of them) are
+  accepted; ``bool``, ``numpy.bool_``, strings, complex numbers and ``None`` are rejected.
+  Every number must be finite.
+* Ranges are checked on the value the caller uses: read the raw (file) value with
+  :func:`real`, convert it to SI, then check the SI value with :func:`in_range` (or use
+  :meth:`Fields.quantity`, which does all three, so that ``1e307 t`` is reported as an
+  overflow instead of becoming an infinite mass).
+* "Name or path" (:func:`resolve_yaml`): an argument is a file when it ends in ``.yaml`` /
+  ``.yml`` and names an existing file; otherwise it must be a packaged name (letters, digits,
+  ``_``, ``-``). The working directory is never searched for a bare name, so a folder or file
+  named like a packaged config never changes what is loaded.
+
+API
+---
+``real(v, field)`` finite number → float; ``positive(v, field, max=None)``,
+``non_negative(v, field, max=None)``, ``in_range(v, field, lo, hi, lo_open=False,
+hi_open=False)`` → float; ``integer(v, field, min=None, max=None)`` → int; ``boolean(v,
+field)``; ``choice(v, field, options)``; ``sequence(v, field, length=None)`` → tuple;
+``mapping(v, field)``; ``numeric_array(v, field, shape=None)`` → float64 array (rejects bool,
+complex, string and object data and non-finite values); ``resolve_yaml(arg, field,
+package, folder)`` → (text, source); ``load_yaml(text, source)`` → data (syntax errors name the
+source and line); :class:`Fields` reads a YAML mapping section by section::
+
+    f = Fields(data, "vehicle")                 # the mapping and its path
+    m1 = f.positive("m1")                       # "vehicle.m1 must be positive, got -1"
+    area = f.quantity("A_v", 1e-4, lo=0.0, lo_open=True)
+    sub = f.section("damper")                   # Fields of data["damper"], path vehicle.damper
+    f.done()                                    # unknown keys → "unknown field vehicle.x"
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Mapping
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+__all__ = [
+    "FieldError",
+    "FieldTypeError",
+    "Fields",
+    "boolean",
+    "choice",
+    "in_range",
+    "integer",
+    "load_yaml",
+    "mapping",
+    "non_negative",
+    "numeric_array",
+    "positive",
+    "real",
+    "resolve_yaml",
+    "sequence",
+]
+
+YAML_SUFFIXES = (".yaml", ".yml")
+_NAME = re.compile(r"[A-Za-z0-9_-]+")
+
+
+class FieldError(ValueError):
+    """Invalid value; ``field`` is the path of the offending field."""
+
+    def __init__(self, field: str, message: str, *, full: bool = False) -> None:
+        super().__init__(message if full else f"{field} {message}")
+        self.field = field
+
+
+class FieldTypeError(FieldError, TypeError):
+    """Value of the wrong type (also a ``TypeError``)."""
+
+
+def _is_number(value: Any) -> bool:
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    return not isinstance(value, bool | np.bool_) and isinstance(
+        value, int | float | np.integer | np.floating
+    )
+
+
+def real(value: Any, field: str) -> float:
+    """A finite real number (numpy scalars accepted, bools and strings rejected)."""
+    if not _is_number(value):
+        raise FieldTypeError(field, f"must be a number, got {value!r}")
+    try:
+        out = float(value)
+    except OverflowError:  # a Python int beyond the float range
+        raise FieldError(field, f"must be finite, got {value!r}") from None
+    if not math.isfinite(out):
+        raise FieldError(field, f"must be finite, got {value!r}")
+    return out
+
+
+def in_range(
+    value: Any,
+    field: str,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+) -> float:
+    """A finite number in ``[lo, hi]`` (``(lo, …`` / ``…, hi)`` when open; None: unbounded)."""
+    out = real(value, field)
+    below = lo is not None and (out <= lo if lo_open else out < lo)
+    above = hi is not None and (out >= hi if hi_open else out > hi)
+    if below or above:
+        left = "-inf" if lo is None else f"{lo:g}"
+        right = "inf" if hi is None else f"{hi:g}"
+        opening = "(" if lo_open or lo is None else "["
+        closing = ")" if hi_open or hi is None else "]"
+        interval = f"{opening}{left}, {right}{closing}"
+        raise FieldError(field, f"must be in {interval}, got {value!r}")
+    return out
+
+
+def positive(value: Any, field: str, max: float | None = None) -> float:
+    """A finite number ``> 0`` (and ``<= max`` when given)."""
+    out = real(value, field)
+    if out <= 0.0:
+        raise FieldError(field, f"must be positive, got {value!r}")
+    if max is not None and out > max:
+        raise FieldError(field, f"must be at most {max:g}, got {value!r}")
+    return out
+
+
+def non_negative(value: Any, field: str, max: float | None = None) -> float:
+    """A finite number ``>= 0`` (and ``<= max`` when given)."""
+    out = real(value, field)
+    if out < 0.0:
+        raise FieldError(field, f"must be non-negative, got {value!r}")
+    if max is not None and out > max:
+        raise FieldError(field, f"must be at most {max:g}, got {value!r}")
+    return out
+
+
+def integer(value: Any, field: str, min: int | None = None, max: int | None = None) -> int:
+    """An integer (Python or numpy; not bool, not a float) in ``[min, max]``."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+        raise FieldTypeError(field, f"must be an integer, got {value!r}")
+    out = int(value)
+    if min is not None and out < min:
+        raise FieldError(field, f"must be at least {min}, got {value!r}")
+    if max is not None and out > max:
+        raise FieldError(field, f"must be at most {max}, got {value!r}")
+    return out
+
+
+def boolean(value: Any, field: str) -> bool:
+    """``True`` or ``False`` (numpy bools accepted; 0/1 and strings rejected)."""
+    if not isinstance(value, bool | np.bool_):
+        raise FieldTypeError(field, f"must be true or false, got {value!r}")
+    return bool(value)
+
+
+def choice(value: Any, field: str, options: Iterable[Any]) -> Any:
+    """One of ``options`` (compared with ``==``; bools never match numbers)."""
+    opts = list(options)
+    for o in opts:
+        if type(value) is type(o) and value == o:
+            return o
+    if isinstance(value, str):
+        for o in opts:
+            if value == o:
+                return o
+    raise FieldError(field, f"must be one of {opts}, got {value!r}")
+
+
+def sequence(value: Any, field: str, length: int | None = None) -> tuple[Any, ...]:
+    """A list, tuple or 1-D array (not a string or mapping), as a tuple of ``length`` items."""
+    if isinstance(value, str | bytes | Mapping) or not isinstance(value, list | tuple | np.ndarray):
+        raise FieldTypeError(field, f"must be a sequence, got {value!r}")
+    items = tuple(value.tolist() if isinstance(value, np.ndarray) else value)
+    if length is not None and len(items) != length:
+        raise FieldError(field, f"must have {length} items, got {len(items)}")
+    return items
+
+
+def mapping(value: Any, field: str) -> Mapping[str, Any]:
+    """A mapping (dict-like); anything else is a type error."""
+    if not isinstance(value, Mapping):
+        raise FieldTypeError(field, f"must be a mapping, got {type(value).__name__}")
+    return value
+
+
+def numeric_array(value: Any, field: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """A finite float64 array of real numbers (ints and floats; not bool, complex or text)."""
+    arr = np.asarray(value) if not isinstance(value, str | bytes) else np.asarray(value, object)
+    if arr.dtype.kind not in "iuf":
+        raise FieldTypeError(
+            field, f"must hold real numbers, got dtype {arr.dtype} ({type(value).__name__})"
+        )
+    if shape is not None and arr.shape != shape:
+        raise FieldError(field, f"must have shape {shape}, got {arr.shape}")
+    out = arr.astype(np.float64)
+    if not np.all(np.isfinite(out)):
+        raise FieldError(field, "must be finite; got NaN or Inf")
+    return out
+
+
+def load_yaml(text: str, source: str) -> Any:
+    """``yaml.safe_load`` whose syntax errors name ``source`` and the line."""
+    try:
+        return yaml.safe_load(text)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = f", line {mark.line + 1}" if mark is not None else ""
+        raise FieldError(source, f"is not valid YAML{line}: {exc.problem}") from None
+    except yaml.YAMLError as exc:
+        raise FieldError(source, f"is not valid YAML: {exc}") from None
+
+
+def resolve_yaml(arg: Any, field: str, package: str, folder: tuple[str, ...]) -> tuple[str, str]:
+    """Text and source label of a "name or path" argument (rule in the module docstring).
+
+    Parameters
+    ----------
+    arg : packaged name (``"manchester"``) or path of a ``.yaml`` / ``.yml`` file.
+    field : argument name for the error messages.
+    package, folder : where packaged files live, e.g. ``"railgym"``, ``("configs", "vehicles")``.
+    """
+    if not isinstance(arg, str | Path):
+        raise FieldTypeError(field, f"must be a name or a YAML path, got {arg!r}")
+    text = str(arg)
+    base = resources.files(package).joinpath(*folder)
+    if text.endswith(YAML_SUFFIXES):
+        path = Path(text)
+        if not path.is_file():
+            raise FieldError(field, f"{field} file {text!r} does not exist", full=True)
+        try:
+            return path.read_text(encoding="utf-8"), text
+        except (OSError, UnicodeDecodeError) as exc:
+            raise FieldError(field, f"file {text!r} cannot be read: {exc}") from None
+    names = sorted(p.name[:-5] for p in base.iterdir() if p.name.endswith(".yaml"))
+    if not _NAME.fullmatch(text) or text not in names:
+        raise FieldError(
+            field,
+            f"unknown {field} {text!r}: not a packaged name {names}, and a file path must "
+            "end in .yaml or .yml",
+            full=True,
+        )
+    return base.joinpath(f"{text}.yaml").read_text(encoding="utf-8"), f"{text}.yaml"
+
+
+class Fields:
+    """Reader of one YAML mapping with its field path; records which keys were read."""
+
+    def __init__(self, data: Any, path: str) -> None:
+        self.data = mapping(data, path)
+        self.path = path
+        self._read: set[str] = set()
+
+    def field(self, key: str) -> str:
+        """Path of ``key`` in this mapping."""
+        return f"{self.path}.{key}" if self.path else key
+
+    def get(self, key: str, default: Any = ...) -> Any:
+        """Raw value of ``key``; missing without a ``default`` raises."""
+        self._read.add(key)
+        if key not in self.data:
+            if default is ...:
+                raise FieldError(self.field(key), "is missing")
+            return default
+        return self.data[key]
+
+    def real(self, key: str) -> float:
+        """Finite number at ``key``."""
+        return real(self.get(key), self.field(key))
+
+    def positive(self, key: str, max: float | None = None) -> float:
+        """Positive number at ``key``."""
+        return positive(self.get(key), self.field(key), max)
+
+    def non_negative(self, key: str, max: float | None = None) -> float:
+        """Non-negative number at ``key``."""
+        return non_negative(self.get(key), self.field(key), max)
+
+    def in_range(self, key: str, lo: float | None, hi: float | None, **open_: bool) -> float:
+        """Number at ``key`` in a range (see :func:`in_range`)."""
+        return in_range(self.get(key), self.field(key), lo, hi, **open_)
+
+    def integer(self, key: str, min: int | None = None, max: int | None = None) -> int:
+        """Integer at ``key``."""
+        return integer(self.get(key), self.field(key), min, max)
+
+    def quantity(
+        self,
+        key: str,
+        factor: float,
+        lo: float | None = None,
+        hi: float | None = None,
+        **open_: bool,
+    ) -> float:
+        """Number at ``key`` times ``factor`` (unit conversion), range checked after it.
+
+        Finiteness is checked on the raw value and again after the conversion (overflow).
+        """
+        raw = self.real(key)
+        si = raw * factor
+        if not math.isfinite(si):
+            raise FieldError(self.field(key), f"overflows after unit conversion, got {raw!r}")
+        return in_range(si, self.field(key), lo, hi, **open_)
+
+    def text(self, key: str) -> str:
+        """Non-empty string at ``key``."""
+        value = self.get(key)
+        if not isinstance(value, str) or not value:
+            raise FieldTypeError(self.field(key), f"must be a non-empty string, got {value!r}")
+        return value
+
+    def section(self, key: str) -> Fields:
+        """:class:`Fields` of the mapping at ``key``."""
+        return Fields(self.get(key), self.field(key))
+
+    def done(self) -> None:
+        """Raise on keys that were never read (typos, unknown fields)."""
+        for key in self.data:
+            if key not in self._read:
+                path = self.field(str(key))
+                raise FieldError(path, f"unknown field {path}", full=True)

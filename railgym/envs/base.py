@@ -1,0 +1,290 @@
+"""Env shells around a batch simulator: seeding, reset plan, autoreset, info, render.
+
+An env is a thin shell around a *batch*, an object that holds the arrays of ``n`` simulated
+systems and steps them all by one compiled call. The single env is the shell around a batch
+of one (:class:`BatchEnv`), the native vector env around a batch of ``num_envs``
+(:class:`BatchVectorEnv`); both share the batch, so sub-env ``i`` of ``reset(seed=s)``
+reproduces the single env reset with ``seed=s + i`` step for step.
+
+The batch contract (:class:`Batch`)
+-----------------------------------
+``n``
+    Number of systems.
+``reset(i, rng, episode)``
+    New episode for system ``i``: draw what is random (a track, a scenario) from ``rng``;
+    ``episode`` is what the env's :meth:`BatchEnv._episode` returns (e.g. track class and
+    speed).
+``reset_state(i)``
+    System ``i`` back to its initial state on its current episode data, counters cleared.
+``set_action(actions)``
+    Store the validated, clipped actions (n, *action_shape) float64.
+``advance()``
+    One control step of every system; afterwards ``reward`` (n,) is the step reward,
+    ``reward_terms(i=None)`` the weighted terms that sum to it, ``info(i=None)`` the env's
+    ``info`` layout (declared once by the batch) — both as Python numbers of system ``i`` or,
+    for ``i=None``, as (n,) array copies —, ``flags()`` a dict of (n,) bool arrays of events
+    (``diverged``; every flag terminates the episode) and ``truncated()`` (n,) bool.
+``observe(rngs)``
+    Observations (n, *obs_shape) float32, any sensor noise drawn from the per-system ``rngs``.
+``render_state(i)``
+    What the env's frame function draws for system ``i``.
+
+Using the shells
+----------------
+A new env (the crash env, a whole-vehicle env) writes its batch, then::
+
+    class MyEnv(BatchEnv):
+        def __init__(self, ..., render_mode=None):
+            self._init_shell(MyBatch(1, ...), render_mode, obs_space, action_space)
+        def _episode(self):                       # per-episode settings passed to reset
+            return (self.scenario,)
+        def _apply_options(self, options):        # validate / store reset options
+            ...
+        def _frame(self, state):                  # RGB frame from render_state(i)
+            return render_my_env(state)
+
+    class MyVectorEnv(BatchVectorEnv):
+        def __init__(self, num_envs=1, render_mode=None, **kwargs):
+            single = MyEnv(render_mode=render_mode, **kwargs)
+            self._init_vector(single, MyBatch(num_envs, ...), num_envs)
+
+Single-env ``info``: the batch's ``info()`` entries as Python scalars, ``reward_terms`` as a
+dict of floats, and each flag of ``flags()`` as ``True`` only on the step where it is set.
+Vector ``info``: the same keys as arrays with gymnasium's ``_key`` masks (flags always
+present); ``reward_terms`` a dict of arrays with its own masks.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from railgym import _validation as val
+from railgym.envs.vector import reset_plan
+
+__all__ = ["Batch", "BatchEnv", "BatchVectorEnv", "check_actions"]
+
+
+class Batch(Protocol):
+    """The batch simulator a shell drives (see the module docstring)."""
+
+    n: int
+    reward: np.ndarray
+
+    def reset(self, i: int, rng: np.random.Generator, episode: tuple) -> None: ...
+
+    def reset_state(self, i: int) -> None: ...
+
+    def set_action(self, actions: np.ndarray) -> None: ...
+
+    def advance(self) -> None: ...
+
+    def observe(self, rngs: list[np.random.Generator]) -> np.ndarray: ...
+
+    def info(self, i: int | None = None) -> dict[str, Any]: ...
+
+    def reward_terms(self, i: int | None = None) -> dict[str, Any]: ...
+
+    def flags(self) -> dict[str, np.ndarray]: ...
+
+    def truncated(self) -> np.ndarray: ...
+
+    def render_state(self, i: int) -> dict[str, Any]: ...
+
+
+def check_actions(
+    actions: Any, shape: tuple[int, ...], low: np.ndarray, high: np.ndarray, field: str = "action"
+) -> np.ndarray:
+    """Actions as float64 of ``shape`` clipped to ``[low, high]`` (float64 bounds; documented
+    clipping).
+
+    Strings, bools, complex numbers, objects, NaN/Inf and a wrong shape raise ``ValueError``
+    (wrong types also ``TypeError``) naming ``field``.
+    """
+    if isinstance(actions, np.ndarray) and actions.dtype.kind == "f":
+        if actions.shape != shape:
+            raise val.FieldError(field, f"must have shape {shape}, got {actions.shape}")
+        a = actions.astype(np.float64)
+        if not np.isfinite(a).all():
+            raise val.FieldError(field, "must be finite; got NaN or Inf")
+    else:
+        a = val.numeric_array(actions, field, shape)
+    np.maximum(a, low, out=a)
+    return np.minimum(a, high, out=a)
+
+
+def _render_mode(render_mode: Any, modes: list[str]) -> str | None:
+    if render_mode is not None and render_mode not in modes:
+        raise ValueError(f"render_mode must be None or one of {modes}, got {render_mode!r}")
+    return render_mode
+
+
+class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Single-env shell around a batch of one (see the module docstring)."""
+
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 50}
+    sim: Batch
+
+    def _init_shell(
+        self,
+        sim: Batch,
+        render_mode: str | None,
+        observation_space: spaces.Space,
+        action_space: spaces.Box,
+    ) -> None:
+        self.render_mode = _render_mode(render_mode, self.metadata["render_modes"])
+        self.sim = sim
+        self.observation_space = observation_space
+        self.action_space = action_space
+        self._bounds = (action_space.low.astype(np.float64), action_space.high.astype(np.float64))
+        self._rng1: list[np.random.Generator] = []
+        self._started = False
+
+    # hooks --------------------------------------------------------------------------
+    def _episode(self) -> tuple:
+        """Per-episode settings passed to ``sim.reset``."""
+        return ()
+
+    def _apply_options(self, options: dict[str, Any]) -> None:
+        """Validate and store ``reset`` options; the default accepts none."""
+        if options:
+            raise ValueError(f"unknown reset option(s) {sorted(options)}")
+
+    def _frame(self, state: dict[str, Any]) -> np.ndarray:
+        """RGB frame of ``sim.render_state(i)``."""
+        raise NotImplementedError
+
+    # gymnasium API ------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """New episode; ``options`` as accepted by the env's ``_apply_options``."""
+        super().reset(seed=seed)
+        self._apply_options(dict(options or {}))
+        self.sim.reset(0, self.np_random, self._episode())
+        self._rng1 = [self.np_random]
+        self._started = True
+        return self.sim.observe(self._rng1)[0], self._info()
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Advance one control step; the action is clipped to the action space."""
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        sim = self.sim
+        sim.set_action(check_actions(action, self.action_space.shape, *self._bounds)[None])
+        sim.advance()
+        flags = [k for k, v in sim.flags().items() if v[0]]
+        terminated = bool(flags)
+        truncated = bool(sim.truncated()[0]) and not terminated
+        if terminated or truncated:
+            self._started = False
+        info = self._info()
+        info["reward_terms"] = sim.reward_terms(0)
+        for k in flags:
+            info[k] = True
+        return sim.observe(self._rng1)[0], sim.reward[0].item(), terminated, truncated, info
+
+    def _info(self) -> dict[str, Any]:
+        return self.sim.info(0)
+
+    def render(self) -> np.ndarray | None:
+        """RGB frame (H, W, 3) when ``render_mode="rgb_array"``."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
+            return None
+        return self._frame(self.sim.render_state(0))
+
+
+class BatchVectorEnv(VectorEnv):
+    """Native vector shell: every sub-env stepped by one batch call, next-step autoreset.
+
+    Sub-env ``i`` of ``reset(seed=s)`` is seeded with ``s + i`` (or ``seed[i]``);
+    ``options["reset_mask"]`` resets only those sub-envs (a sub-env reset without a seed keeps
+    its generator); other options go to the single env's ``_apply_options``.
+    """
+
+    metadata: dict[str, Any] = {
+        "render_modes": ["rgb_array"],
+        "render_fps": 50,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+
+    def _init_vector(self, single_env: BatchEnv, sim: Batch, num_envs: int) -> None:
+        self.single_env = single_env
+        self.num_envs = num_envs
+        self.render_mode = single_env.render_mode
+        self.sim = sim
+        self.single_observation_space = single_env.observation_space
+        self.single_action_space = single_env.action_space
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self._bounds = (
+            self.action_space.low.astype(np.float64),
+            self.action_space.high.astype(np.float64),
+        )
+        self._rngs: list[np.random.Generator | None] = []
+        self._prev_done = np.zeros(num_envs, np.bool_)
+
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset the sub-envs (all, or those of ``options["reset_mask"]``)."""
+        if seed is not None:
+            first = seed if isinstance(seed, int | np.integer) else seed[0]
+            self._np_random, self._np_random_seed = seeding.np_random(first)
+        mask, self._rngs, options = reset_plan(self.num_envs, seed, options, self._rngs)
+        env = self.single_env
+        env._apply_options(options)
+        for i in np.flatnonzero(mask):
+            self.sim.reset(i, self._rngs[i], env._episode())
+        self._prev_done[mask] = False
+        return self.sim.observe(self._rngs), self._infos()
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step all sub-envs; those that ended on the previous step are reset instead."""
+        if not self._rngs:
+            raise RuntimeError("call reset() before step()")
+        sim, env = self.sim, self.single_env
+        sim.set_action(check_actions(actions, self.action_space.shape, *self._bounds, "actions"))
+        done = np.flatnonzero(self._prev_done)
+        for i in done:
+            sim.reset(i, self._rngs[i], env._episode())
+        sim.advance()
+        for i in done:  # sub-envs that were reset do not move on this step
+            sim.reset_state(i)
+        flags = {k: v.copy() for k, v in sim.flags().items()}
+        terminated = np.zeros(self.num_envs, np.bool_)
+        for v in flags.values():
+            terminated |= v
+        truncated = sim.truncated() & ~terminated
+        reward = sim.reward.copy()
+        terminated[done] = truncated[done] = False
+        self._prev_done = terminated | truncated
+        infos = self._infos()
+        mask = np.ones(self.num_envs, np.bool_)
+        terms = sim.reward_terms()
+        infos["reward_terms"] = {**terms, **{f"_{k}": mask for k in terms}}
+        infos["_reward_terms"] = mask
+        for k, v in flags.items():
+            infos[k], infos[f"_{k}"] = v, mask
+        return sim.observe(self._rngs), reward, terminated, truncated, infos
+
+    def _infos(self) -> dict[str, Any]:
+        infos = self.sim.info()
+        mask = np.ones(self.num_envs, np.bool_)
+        return {**infos, **{f"_{k}": mask for k in infos}}
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """One RGB frame per sub-env."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
+            return None
+        return tuple(self.single_env._frame(self.sim.render_state(i)) for i in range(self.num_envs))

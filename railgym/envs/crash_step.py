@@ -1,0 +1,363 @@
+"""Compiled bookkeeping of ``railgym/TrainCrash-v0`` (:mod:`railgym.envs.crash`): absorber
+scales, the model's batch step, episode statistics, observation, reward and the flat ``info``
+row, one compiled call per control step for all trains."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+
+from railgym.vehicles.crash import (
+    BatchOutputs,
+    ElementTypes,
+    LprModels,
+    ReferenceParams,
+    ReferenceState,
+    SurrogateParams,
+    SurrogateState,
+    ZoneTypes,
+    reference_batch_step,
+    surrogate_batch_step,
+)
+
+__all__ = [
+    "DECEL_REF_G",
+    "DIVERGENCE_PENALTY",
+    "ENV_FIELDS",
+    "F_STOP",
+    "INFO_FIELDS",
+    "INTRUSION_REF",
+    "STATE_LIMIT",
+    "TIME_REF",
+    "V_STOP",
+    "EnvConsts",
+    "Episode",
+    "InfoColumns",
+    "info_layout",
+    "plain",
+]
+
+#: deceleration of the reward's reference, in g: one control step of 1 ms at 5 g costs 1
+DECEL_REF_G = 5.0
+#: time of the reward's reference, s (the deceleration term is time-integrated)
+TIME_REF = 1e-3
+#: crush beyond the absorber stroke that costs 1 (reward term ``intrusion``), m
+INTRUSION_REF = 1e-3
+DIVERGENCE_PENALTY = 100.0
+#: the crash is over when no zone carries more than F_STOP (N) and none closes faster than
+#: V_STOP (m/s): every car at rest or rebounding away (as ``simulate_reference``'s stop)
+F_STOP = 1e3
+V_STOP = 0.01
+#: a train whose |x| (m) or |v| (m/s) exceeds this, or turns non-finite, has diverged
+STATE_LIMIT = 1e3
+
+#: the ``info`` row, in column order: key and size (``"1"``, ``"bool"``, ``"cars"``, ``"zones"``)
+INFO_FIELDS = (
+    ("time", "1"),
+    ("initial_speed", "1"),
+    ("decel_g", "cars"),
+    ("crush_m", "zones"),
+    ("force_N", "zones"),
+    ("absorber_scale", "zones"),
+    ("peak_decel_g", "cars"),
+    ("mean_decel_g", "cars"),
+    ("absorbed_energy_J", "zones"),
+    ("max_crush_m", "zones"),
+    ("stroke_used", "zones"),
+    ("stroke_exceeded", "bool"),
+    ("friction_work_J", "1"),
+    ("energy_error", "1"),
+    ("diverged", "bool"),
+)
+#: first column of each ``info`` key in the flat info row (:func:`info_layout`)
+InfoColumns = NamedTuple("InfoColumns", [(key, int) for key, _ in INFO_FIELDS])
+
+
+class EnvConsts(NamedTuple):
+    """Constants of the env's compiled bookkeeping.
+
+    Attributes
+    ----------
+    zones : (zones,) model zone of each controlled zone, front to back.
+    stroke : (zones,) absorber stroke, m. inv_scale : (obs,) 1 / observation scale.
+    w_decel, w_intrusion : reward weights. gravity : m/s². control_dt : s.
+    absorber_range : action ±1 sets the scale 1 ± range. max_change : largest scale change
+        per step. info : :class:`InfoColumns`.
+    """
+
+    zones: np.ndarray
+    stroke: np.ndarray
+    inv_scale: np.ndarray
+    w_decel: float
+    w_intrusion: float
+    gravity: float
+    control_dt: float
+    absorber_range: float
+    max_change: float
+    info: InfoColumns
+
+
+class Episode(NamedTuple):
+    """Per-train arrays of :class:`CrashBatch`: absorber scales and episode statistics (the
+    float ones in this order in the buffer, :data:`ENV_FIELDS`), then the flags."""
+
+    scale: np.ndarray  # (n, model zones) absorber force scale
+    speed: np.ndarray  # (n,) initial speed, m/s
+    energy0: np.ndarray  # (n,) stored energy at first contact, J
+    peak: np.ndarray  # (n, cars) peak deceleration, g
+    decel_sum: np.ndarray  # (n, cars) sum of the step decelerations, g
+    max_crush: np.ndarray  # (n, zones) largest crush, m
+    intrusion: np.ndarray  # (n, zones) crush beyond the absorber stroke, m
+    obs: np.ndarray  # (n, obs) observation
+    reward: np.ndarray  # (n,) last reward
+    info: np.ndarray  # (n, info columns) flat info row
+    div: np.ndarray  # (n,) bool: diverged
+    over: np.ndarray  # (n,) bool: crash over
+    steps: np.ndarray  # (n,) int64: control steps since the reset
+
+
+#: the float arrays of :class:`Episode` kept in the :class:`CrashBatch` buffer
+ENV_FIELDS = Episode._fields[:10]
+#: buffer layout: the 9 :class:`BatchOutputs` arrays, :data:`ENV_FIELDS`, the model state
+_ENV = len(BatchOutputs._fields)
+_STATE = _ENV + len(ENV_FIELDS)
+
+
+def info_layout(n_cars: int, n_zones: int) -> dict[str, tuple[slice, bool]]:
+    """Columns of each ``info`` key in the flat info row (key → (columns, is_scalar)), from
+    :data:`INFO_FIELDS`."""
+    sizes = {"1": 1, "bool": 1, "cars": n_cars, "zones": n_zones}
+    out, j = {}, 0
+    for key, size in INFO_FIELDS:
+        out[key] = (slice(j, j + sizes[size]), size in ("1", "bool"))
+        j += sizes[size]
+    return out
+
+
+def plain(value: Any) -> Any:
+    """``value`` with every NamedTuple turned into a plain tuple, recursively: compiled code
+    types a plain tuple argument much faster than a NamedTuple (rebuilt inside, e.g.
+    :func:`_named_consts`)."""
+    if isinstance(value, tuple):
+        return tuple(plain(v) for v in value)
+    return value
+
+
+@njit(cache=True, inline="always")
+def _named_consts(c):
+    return EnvConsts(*c[:-1], InfoColumns(*c[-1]))
+
+
+@njit(cache=True, inline="always")
+def _named_reference(p):
+    return ReferenceParams(*p[:-1], ZoneTypes(*p[-1]))
+
+
+@njit(cache=True, inline="always")
+def _named_surrogate(p):
+    return SurrogateParams(*p[:-2], ElementTypes(*p[-2]), LprModels(*p[-1]))
+
+
+@njit(cache=True)
+def _set_scale(actions, scale, active, c):
+    """Move each active absorber's force scale towards ``1 + range · action`` by at most
+    ``c.max_change``, the action clipped to [−1, 1]. Returns ``False``, changing nothing, if
+    any action (of any train) is not finite."""
+    for i in range(actions.shape[0]):
+        for z in range(actions.shape[1]):
+            if not math.isfinite(actions[i, z]):
+                return False
+    for i in range(actions.shape[0]):
+        if not active[i]:
+            continue
+        for z in range(c.zones.shape[0]):
+            k = c.zones[z]
+            a = min(max(actions[i, z], -1.0), 1.0)
+            step = 1.0 + c.absorber_range * a - scale[i, k]
+            scale[i, k] += min(max(step, -c.max_change), c.max_change)
+    return True
+
+
+@njit(cache=True)
+def _post_step(out, ep, c, active, init):
+    """Bookkeeping after a kernel call: episode statistics, observation, reward and the flat
+    ``info`` row (:data:`INFO_FIELDS`) of every active train.
+
+    ``out`` :class:`BatchOutputs`, ``ep`` :class:`Episode`, ``c`` :class:`EnvConsts`. With
+    ``init`` the statistics of the active rows are cleared (train at first contact).
+    """
+    n_cars, nz = ep.peak.shape[1], c.zones.shape[0]
+    g, ic, zones, stroke, inv = c.gravity, c.info, c.zones, c.stroke, c.inv_scale
+    for i in range(out.x.shape[0]):
+        if not active[i]:
+            continue
+        if init:
+            ep.steps[i] = 0
+            ep.peak[i] = 0.0
+            ep.decel_sum[i] = 0.0
+            ep.max_crush[i] = 0.0
+            ep.intrusion[i] = 0.0
+            ep.reward[i] = 0.0
+            ep.over[i] = False
+            ep.energy0[i] = out.stored[i]
+        else:
+            ep.steps[i] += 1
+            cost = 0.0
+            for k in range(n_cars):
+                d = -out.a[i, k] / g
+                ep.peak[i, k] = max(ep.peak[i, k], d)
+                ep.decel_sum[i, k] += d
+                cost += (d / DECEL_REF_G) ** 2
+            r = -c.w_decel * (c.control_dt / TIME_REF) * cost / n_cars
+            for z in range(nz):
+                ep.max_crush[i, z] = max(ep.max_crush[i, z], out.crush[i, zones[z]])
+                new = max(ep.max_crush[i, z] - stroke[z], 0.0)
+                r -= c.w_intrusion * (new - ep.intrusion[i, z]) / INTRUSION_REF
+                ep.intrusion[i, z] = new
+            if not math.isfinite(r):  # a state too violent to score counts as diverged
+                ep.div[i] = True
+            ep.reward[i] = -DIVERGENCE_PENALTY if ep.div[i] else r
+            done = True
+            for k in range(out.force.shape[1]):
+                if out.force[i, k] > F_STOP or out.rate[i, k] > V_STOP:
+                    done = False
+            ep.over[i] = done
+        obs = ep.obs[i]
+        for k in range(n_cars):
+            obs[k] = out.x[i, k] * inv[k]
+            obs[n_cars + k] = out.v[i, k] * inv[n_cars + k]
+            obs[2 * n_cars + k] = out.a[i, k] * inv[2 * n_cars + k]
+        j = 3 * n_cars
+        for z in range(nz):
+            k = zones[z]
+            obs[j + z] = out.crush[i, k] * inv[j + z]
+            obs[j + nz + z] = out.force[i, k] * inv[j + nz + z]
+            obs[j + 2 * nz + z] = (ep.scale[i, k] - 1.0) * inv[j + 2 * nz + z]
+        row = ep.info[i]
+        steps = ep.steps[i]
+        row[ic.time] = steps * c.control_dt
+        row[ic.initial_speed] = ep.speed[i]
+        for k in range(n_cars):
+            row[ic.decel_g + k] = -out.a[i, k] / g
+            row[ic.peak_decel_g + k] = ep.peak[i, k]
+            row[ic.mean_decel_g + k] = ep.decel_sum[i, k] / max(steps, 1)
+        exceeded = False
+        for z in range(nz):
+            k = zones[z]
+            row[ic.crush_m + z] = out.crush[i, k]
+            row[ic.force_N + z] = out.force[i, k]
+            row[ic.absorber_scale + z] = ep.scale[i, k]
+            row[ic.absorbed_energy_J + z] = out.work[i, k]
+            row[ic.max_crush_m + z] = ep.max_crush[i, z]
+            row[ic.stroke_used + z] = ep.max_crush[i, z] / stroke[z]
+            exceeded = exceeded or ep.max_crush[i, z] > stroke[z]
+        balance = ep.energy0[i] - out.stored[i] - out.dissipated[i, 0] - out.dissipated[i, 1]
+        for k in range(out.work.shape[1]):
+            balance -= out.work[i, k]
+        row[ic.stroke_exceeded] = 1.0 if exceeded else 0.0
+        row[ic.friction_work_J] = out.dissipated[i, 0]
+        row[ic.energy_error] = balance / ep.energy0[i] if ep.energy0[i] > 0.0 else 0.0
+        row[ic.diverged] = 1.0 if ep.div[i] else 0.0
+
+
+@njit(cache=True, inline="always")
+def _field(buf, fields, f):
+    """2-D array ``f`` (rows, columns) of a :class:`CrashBatch` buffer, as a view."""
+    o, r, c = fields[f, 0], fields[f, 1], fields[f, 2]
+    return buf[o : o + r * c].reshape((r, c))
+
+
+@njit(cache=True, inline="always")
+def _column(buf, fields, f):
+    """1-D array ``f`` (rows,) of a :class:`CrashBatch` buffer, as a view."""
+    return buf[fields[f, 0] : fields[f, 0] + fields[f, 1]]
+
+
+@njit(cache=True, inline="always")
+def _views(buf, fields, flags):
+    """The :class:`BatchOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
+    :class:`CrashBatch` buffer, as views; 1-D fields are ``speed``, ``energy0``, ``reward``
+    and ``stored``."""
+    out = BatchOutputs(
+        _field(buf, fields, 0),
+        _field(buf, fields, 1),
+        _field(buf, fields, 2),
+        _field(buf, fields, 3),
+        _field(buf, fields, 4),
+        _field(buf, fields, 5),
+        _field(buf, fields, 6),
+        _field(buf, fields, 7),
+        _column(buf, fields, 8),
+    )
+    k = _ENV
+    ep = Episode(
+        _field(buf, fields, k),
+        _column(buf, fields, k + 1),
+        _column(buf, fields, k + 2),
+        _field(buf, fields, k + 3),
+        _field(buf, fields, k + 4),
+        _field(buf, fields, k + 5),
+        _field(buf, fields, k + 6),
+        _field(buf, fields, k + 7),
+        _column(buf, fields, k + 8),
+        _field(buf, fields, k + 9),
+        *flags,
+    )
+    return out, ep
+
+
+# One compiled call per control step (absorber scales, physics, bookkeeping) per backend, and
+# every per-train float array in one buffer (:meth:`CrashBatch._pack`): each array passed from
+# Python into a compiled function has a fixed cost, a sizeable part of a single-env step.
+@njit(cache=True)
+def _advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
+    """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
+    :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
+    non-finite action. ``params``, ``consts``: :func:`plain` tuples of
+    :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
+    c = _named_consts(consts)
+    out, ep = _views(buf, fields, flags)
+    if not init and not _set_scale(actions, ep.scale, active, c):
+        return False
+    k = _STATE
+    state = ReferenceState(
+        _field(buf, fields, k),
+        _field(buf, fields, k + 1),
+        _field(buf, fields, k + 2),
+        _field(buf, fields, k + 3),
+        _field(buf, fields, k + 4),
+        _field(buf, fields, k + 5),
+        _field(buf, fields, k + 6),
+        _field(buf, fields, k + 7),
+    )
+    p = _named_reference(params)
+    dt, n_sub = stepping
+    reference_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
+    _post_step(out, ep, c, active, init)
+    return True
+
+
+@njit(cache=True)
+def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
+    """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
+    c = _named_consts(consts)
+    out, ep = _views(buf, fields, flags)
+    if not init and not _set_scale(actions, ep.scale, active, c):
+        return False
+    k = _STATE
+    state = SurrogateState(
+        _field(buf, fields, k),
+        _field(buf, fields, k + 1),
+        _field(buf, fields, k + 2),
+        _field(buf, fields, k + 3),
+        _field(buf, fields, k + 4),
+        _field(buf, fields, k + 5),
+    )
+    p = _named_surrogate(params)
+    dt, n_sub = stepping
+    surrogate_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
+    _post_step(out, ep, c, active, init)
+    return True

@@ -1,0 +1,68 @@
+"""The paper report: the analogues of the paper's tables and figures on our models.
+
+:func:`make_report` runs :func:`~railgym.report.compute.compute` (runs and indices), writes
+the PNG figures (:mod:`~railgym.report.figures`, needs matplotlib) and ``report.md``
+(:mod:`~railgym.report.tables`) and returns the tables as plain data. The ``railgym paper``
+command is a thin shell around it.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+from tqdm.auto import tqdm
+
+from railgym.report.compute import FULL, QUICK, Plan, compute, n_steps
+from railgym.report.figures import write_figures
+from railgym.report.output import prepare_output_dir, write_text_atomic
+from railgym.report.published import PAPER, PAPER_LABEL
+from railgym.report.tables import markdown
+
+__all__ = ["FULL", "PAPER", "PAPER_LABEL", "QUICK", "Plan", "make_report"]
+
+
+def make_report(
+    out: str | Path,
+    quick: bool = False,
+    seed: int = 0,
+    progress: bool = True,
+    overwrite: bool = False,
+) -> dict[str, Any]:
+    """Regenerate the paper's tables 3, 5, 6, 8, 10, 11 and figures 7–15 on our models.
+
+    Parameters
+    ----------
+    out : folder for ``report.md`` and the PNG figures; created, or an existing empty one.
+    quick : reduced sizes (:data:`QUICK`) instead of :data:`FULL`.
+    seed : seed of the training track, the sampling and the CV folds; the vertical test
+        simulations run on track seed ``seed + 1``.
+    progress : show a progress bar.
+    overwrite : allow an existing non-empty ``out`` (its report files are replaced).
+
+    Returns
+    -------
+    dict of plain data: ``plan``, ``table3``, ``table5``, ``table6``, ``table8``, ``table10``,
+    ``table11`` (each with the paper's numbers under ``"published"`` where the text has them),
+    ``figures`` (file names), ``elapsed_s``.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    out = prepare_output_dir(out, overwrite)
+    plan = QUICK if quick else FULL
+    t0 = time.perf_counter()
+    bar = tqdm(total=n_steps(plan) + 1, desc="railgym paper", disable=not progress)
+
+    def step(label: str) -> None:
+        bar.set_postfix_str(label, refresh=False)
+        bar.update(1)
+
+    result, art = compute(plan, seed, step)
+    result["plan"]["quick"] = quick
+    result["figures"] = write_figures(out, art, plan, result["table5"])
+    step("figures")
+    bar.close()
+    result["elapsed_s"] = time.perf_counter() - t0
+    write_text_atomic(out / "report.md", markdown(result))
+    return result

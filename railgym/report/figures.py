@@ -1,0 +1,156 @@
+"""PNG figures of the paper report (paper figs. 7–15); matplotlib is an optional dependency."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from railgym.report.compute import Artifacts, Plan
+from railgym.report.tables import LABEL, QUANTITIES
+from railgym.vehicles.crash import crash_training_data
+
+__all__ = ["write_figures"]
+
+
+def _samples(plt: Any, art: Artifacts, plan: Plan) -> Any:
+    """Figs. 7 / 10: training samples among all data, one panel per M."""
+    U = art.data["U"]
+    n = len(plan.sizes)
+    fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 4), squeeze=False)
+    for ax, m in zip(axes[0], plan.sizes, strict=True):
+        tr = art.reports["lpr", m].train_idx
+        ax.plot(U[:, 0] * 1e3, U[:, 1], ".", ms=2, color="tab:blue", label=f"all data ({len(U)})")
+        ax.plot(U[tr, 0] * 1e3, U[tr, 1], "o", ms=4, color="tab:red", label=f"training ({m})")
+        ax.set(xlabel="x1 − x2 (mm)", ylabel="ẋ1 − ẋ2 (m/s)", title=f"Samples, M = {m}")
+        ax.legend(loc="lower left", fontsize=8)
+    fig.suptitle("Training samples vs all data (paper figs. 7, 10)")
+    return fig
+
+
+def _oob(plt: Any, art: Artifacts, plan: Plan) -> Any:
+    """Fig. 8: out-of-bag predictions of both models against the reference force."""
+    U, V = art.data["U"], art.data["V"]
+    m = plan.table3_m
+    oob = art.reports["lpr", m].oob_idx
+    fig, ax = plt.subplots(figsize=(5.5, 4.5))
+    for kind, mk in (("lpr", "."), ("kriging", "x")):
+        rel = art.reports[kind, m].oob_nrms
+        pred = art.models[kind, m].predict(U[oob]) / 1e3
+        ax.plot(V[oob] / 1e3, pred, mk, ms=3, label=f"{LABEL[kind]} (rel. RMS {rel:.3f})")
+    lim = [V.min() / 1e3, V.max() / 1e3]
+    ax.plot(lim, lim, "k-", lw=0.8)
+    ax.set(
+        xlabel="reference m2·ẍ2 (kN)",
+        ylabel="prediction (kN)",
+        title=f"Out-of-bag predictions, M = {m} (paper fig. 8)",
+    )
+    ax.legend()
+    return fig
+
+
+def _time_histories(plt: Any, art: Artifacts, plan: Plan) -> Any:
+    """Fig. 9: carbody response of the reference and the LPR element, class 5."""
+    ref = art.case5.reference
+    m = plan.table3_m if f"lpr_{plan.table3_m}" in art.records else plan.sizes[-1]
+    sim = art.records[f"lpr_{m}"]
+    fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+    for ax, (ch, unit) in zip(axes, (("x2", "m"), ("v2", "m/s"), ("a2", "m/s²")), strict=True):
+        ax.plot(ref["t"], ref[ch], lw=0.9, color="k", label="reference (dynamic)")
+        ax.plot(sim["t"], sim[ch], lw=0.8, ls="--", label=f"LPR M={m}")
+        ax.set_ylabel(f"{ch} ({unit})")
+        ax.legend(loc="upper right", fontsize=8)
+    axes[0].set_title("Carbody response, class 5, 144 km/h, unseen track (paper fig. 9)")
+    axes[-1].set_xlabel("t (s)")
+    return fig
+
+
+def _errors(plt: Any, table5: dict[str, Any], plan: Plan) -> Any:
+    """Fig. 11: eq. 9 errors of the LPR element vs the sample size M."""
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    for ax, (q, label) in zip(axes, QUANTITIES, strict=True):
+        vals = [table5["lpr"][m][q] for m in plan.sizes]
+        ax.bar(range(len(vals)), vals, width=0.5, label="LPR")
+        ax.set_xticks(range(len(plan.sizes)), [f"{m} samples" for m in plan.sizes])
+        ax.set(yscale="log" if max(vals) > 10 * min(vals) else "linear", title=label)
+        ax.legend(fontsize=8)
+    fig.suptitle("Simulation errors vs sample size (paper fig. 11)")
+    return fig
+
+
+def _crash_elements(plt: Any, art: Artifacts, plan: Plan) -> Any:
+    """Figs. 13–14: force–crush data of the reference and the LPR branches."""
+    train = crash_training_data(art.crash["reference"])
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    for ax, name in zip(axes, ("wall", "interface"), strict=True):
+        u, f, _, loading, _ = train[name]
+        ax.plot(u[loading], f[loading] / 1e3, ".", ms=2, color="tab:blue", label="loading data")
+        ax.plot(
+            u[~loading], f[~loading] / 1e3, ".", ms=2, color="tab:orange", label="unloading data"
+        )
+        for variant in plan.crash_variants:
+            el = art.crash[variant][0].elements[name]
+            for branch, mdl, ls in (("loading", el.loading, "-"), ("unloading", el.unloading, ":")):
+                if mdl is None:
+                    continue
+                grid = np.linspace(mdl.lower_[0], mdl.upper_[0], 400)
+                lo, hi = el.force_range[branch]
+                ax.plot(
+                    grid,
+                    np.clip(mdl.predict(grid[:, None]), lo, hi) / 1e3,
+                    ls,
+                    lw=1.2,
+                    label=f"{variant} LPR {branch} (deg {el.degrees[branch]})",
+                )
+        ax.set(
+            xlabel="crush u (m)", ylabel="force (kN)", title=f"{name}: f = G(u) (paper figs. 13–14)"
+        )
+        ax.legend(fontsize=7)
+    return fig
+
+
+def _crash_histories(plt: Any, art: Artifacts, plan: Plan) -> Any:
+    """Fig. 15: crash time histories of the reference and each surrogate variant."""
+    cref = art.crash["reference"]
+    fig, axes = plt.subplots(3, 2, figsize=(12, 9), sharex=True)
+    for col, car in enumerate(("lead car", "passenger car")):
+        for row, (key, unit) in enumerate((("x", "m"), ("v", "m/s"), ("a", "m/s²"))):
+            ax = axes[row, col]
+            ax.plot(cref.t, getattr(cref, key)[:, col], color="k", lw=1, label="reference")
+            for variant in plan.crash_variants:
+                res = art.crash[variant][1]
+                ax.plot(
+                    res.t, getattr(res, key)[:, col], ls="--", lw=1, label=f"surrogate ({variant})"
+                )
+            ax.set_ylabel(f"{key} ({unit})")
+            ax.set_title(car if row == 0 else "")
+            ax.legend(fontsize=7)
+        axes[-1, col].set_xlabel("t (s)")
+    fig.suptitle("Crash, paper scenario: surrogate vs reference (paper fig. 15)")
+    return fig
+
+
+def write_figures(out: Path, art: Artifacts, plan: Plan, table5: dict[str, Any]) -> list[str]:
+    """Write the PNG figures into ``out``; returns their file names ([] without matplotlib)."""
+    try:
+        import matplotlib
+    except ImportError:
+        return []
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figures = {
+        "fig07_samples.png": lambda: _samples(plt, art, plan),
+        "fig08_oob.png": lambda: _oob(plt, art, plan),
+        "fig09_time_histories.png": lambda: _time_histories(plt, art, plan),
+        "fig11_errors.png": lambda: _errors(plt, table5, plan),
+        "fig13_14_crash_elements.png": lambda: _crash_elements(plt, art, plan),
+        "fig15_crash_time_histories.png": lambda: _crash_histories(plt, art, plan),
+    }
+    for name, draw in figures.items():
+        fig = draw()
+        fig.tight_layout()
+        fig.savefig(out / name, dpi=90)
+        plt.close(fig)
+    return list(figures)

@@ -1,0 +1,168 @@
+"""Batch stepping (:func:`crash_batch_model`) for the gymnasium envs.
+
+Either model of a scenario advanced sample by sample for many trains in one compiled call, with
+a controllable absorber in every zone: a force scale per zone multiplies its loading envelope
+(surrogate: its element force) up to the absorber stroke (:func:`absorber_zone_force`). The
+same kernels record :func:`simulate_reference` and :func:`simulate_surrogate` (one train, all
+scales 1).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from railgym.vehicles.crash.outputs import BatchOutputs, _check_run, _steps, new_outputs
+from railgym.vehicles.crash.reference import (
+    ReferenceParams,
+    ReferenceState,
+    _build_chain,
+    _new_reference_state,
+    _reference_steps,
+    reference_batch_step,
+)
+from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
+from railgym.vehicles.crash.surrogate import CrashSurrogate
+from railgym.vehicles.crash.surrogate_model import (
+    SurrogateParams,
+    SurrogateState,
+    _new_surrogate_state,
+    _surrogate_system,
+    surrogate_batch_step,
+)
+
+__all__ = ["BATCH_BACKENDS", "CrashBatchModel", "crash_batch_model"]
+
+#: models of :func:`crash_batch_model`
+BATCH_BACKENDS = ("reference", "surrogate")
+
+
+@dataclass(frozen=True)
+class CrashBatchModel:
+    """A scenario's reference or surrogate model, ready for batch stepping.
+
+    Made by :func:`crash_batch_model`. Holds no simulation state: :meth:`new_state` and
+    :meth:`new_outputs` allocate the arrays of ``n`` simulations, :meth:`reset` puts one at
+    first contact, :meth:`step` advances the active ones by ``sample_dt`` in one compiled call.
+
+    Attributes
+    ----------
+    backend : ``"reference"`` or ``"surrogate"``.
+    scenario : the simulated scenario (its ``speed`` is the nominal initial speed).
+    sample_dt : time advanced by one :meth:`step`, s.
+    dt, n_sub : integration step (s) and steps per :meth:`step`.
+    params : :class:`ReferenceParams` or :class:`SurrogateParams` of the kernel.
+    masses : mass of each integration node (reference) or body (surrogate), kg.
+    v_unit : initial velocity of each node per unit train speed (1 train, 0 obstacle).
+    body_names, zone_names : as in :class:`CrashResult`.
+    """
+
+    backend: str
+    scenario: CrashScenario
+    sample_dt: float
+    dt: float
+    n_sub: int
+    params: ReferenceParams | SurrogateParams
+    masses: np.ndarray
+    v_unit: np.ndarray
+    body_names: list[str]
+    zone_names: list[str]
+
+    def new_state(self, n: int) -> ReferenceState | SurrogateState:
+        """Zeroed kernel state of ``n`` simulations."""
+        N, nz = self.masses.size, len(self.zone_names)
+        if self.backend == "reference":
+            return _new_reference_state(n, N, nz)
+        return _new_surrogate_state(n, N, nz)
+
+    def new_outputs(self, n: int) -> BatchOutputs:
+        """Zeroed outputs of ``n`` simulations."""
+        return new_outputs(n, len(self.body_names), len(self.zone_names))
+
+    def reset(
+        self, state: ReferenceState | SurrogateState, out: BatchOutputs, i: int, speed: float
+    ) -> None:
+        """Simulation ``i`` at first contact, the train at ``speed`` (m/s); call :meth:`step`
+        with ``init=True`` afterwards to evaluate its forces."""
+        for arr in (*state, *out):
+            arr[i] = 0.0
+        state.v[i] = self.v_unit * speed
+
+    def step(
+        self,
+        state: ReferenceState | SurrogateState,
+        out: BatchOutputs,
+        scale: np.ndarray,
+        active: np.ndarray,
+        div: np.ndarray,
+        init: bool = False,
+        limit: float = 1e3,
+    ) -> None:
+        """Advance the ``active`` simulations by ``sample_dt`` (:func:`reference_batch_step`)."""
+        kernel = reference_batch_step if self.backend == "reference" else surrogate_batch_step
+        kernel(state, out, self.params, scale, active, init, self.dt, self.n_sub, limit, div)
+
+
+def crash_batch_model(
+    scenario: CrashScenario | str,
+    backend: str = "reference",
+    sample_dt: float = 1e-3,
+    surrogate: CrashSurrogate | None = None,
+    safety: float = 0.2,
+    dt: float = 5e-4,
+) -> CrashBatchModel:
+    """Batch-steppable model of a scenario.
+
+    Parameters
+    ----------
+    scenario : a :class:`CrashScenario` or a name/path for :func:`load_scenario`.
+    backend : ``"reference"`` (lumped-mass chain, :func:`simulate_reference`) or
+        ``"surrogate"`` (paper eq. 4, :func:`simulate_surrogate`; needs ``surrogate``).
+    sample_dt : time advanced per :meth:`CrashBatchModel.step`, s.
+    safety : reference time-step safety factor; dt : largest surrogate step, s (both as in
+        the ``simulate_*`` functions, which record with the same kernels).
+    """
+    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    if backend not in BATCH_BACKENDS:
+        raise ValueError(f"backend must be one of {BATCH_BACKENDS}, got {backend!r}")
+    _check_run(sample_dt, sample_dt)
+    if backend == "reference":
+        if surrogate is not None:
+            raise ValueError(
+                "surrogate is only used by backend='surrogate', got one for 'reference'"
+            )
+        ch = _build_chain(sc)
+        step, n_sub = _reference_steps(ch, sample_dt, safety)
+        return CrashBatchModel(
+            backend=backend,
+            scenario=sc,
+            sample_dt=float(sample_dt),
+            dt=step,
+            n_sub=n_sub,
+            params=ch.params,
+            masses=ch.params.m,
+            v_unit=ch.v0 / sc.speed,
+            body_names=ch.body_names,
+            zone_names=ch.zone_names,
+        )
+    if surrogate is None:
+        raise ValueError("surrogate is required for backend='surrogate'")
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
+    sy = _surrogate_system(sc, surrogate)
+    step, n_sub = _steps(sample_dt, dt)
+    return CrashBatchModel(
+        backend=backend,
+        scenario=sc,
+        sample_dt=float(sample_dt),
+        dt=step,
+        n_sub=n_sub,
+        params=sy.params,
+        masses=sy.params.m,
+        v_unit=sy.v0 / sc.speed,
+        body_names=sy.body_names,
+        zone_names=sy.zone_names,
+    )

@@ -1,0 +1,188 @@
+"""What both crash models share: the outputs of the batch kernels (:class:`BatchOutputs`), the
+recorders' :class:`Record` and :class:`StopRule`, the recorded :class:`CrashResult`, the
+divergence guard and the time-step rounding."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+
+from railgym.vehicles.crash.scenario import CrashScenario
+
+__all__ = [
+    "V_EPS",
+    "BatchOutputs",
+    "CrashResult",
+    "Record",
+    "StopRule",
+    "new_outputs",
+    "new_record",
+]
+
+#: friction regularisation velocity of tanh(v / v_ε), m/s
+V_EPS = 0.01
+
+
+class BatchOutputs(NamedTuple):
+    """What the batch kernels report after each call, one row per simulation.
+
+    Attributes
+    ----------
+    x, v, a : (n, bodies) centre-of-mass displacement (m), velocity (m/s) and acceleration
+        (m/s²) of each body (cars front to back, then the obstacle if any).
+    crush : (n, zones) crush of each zone (surrogate: element feature ``u``), m.
+    force : (n, zones) zone force, compression positive (coupler damping included), N.
+    rate : (n, zones) closing rate of each zone, m/s.
+    work : (n, zones) net work done on each zone since the start, J.
+    dissipated : (n, 2) friction work and carbody/coupler damping work since the start, J.
+    stored : (n,) kinetic energy plus elastic carbody energy, J.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    crush: np.ndarray
+    force: np.ndarray
+    rate: np.ndarray
+    work: np.ndarray
+    dissipated: np.ndarray
+    stored: np.ndarray
+
+
+def new_outputs(n: int, n_bodies: int, n_zones: int) -> BatchOutputs:
+    """Zeroed :class:`BatchOutputs` of ``n`` simulations."""
+    body = [np.zeros((n, n_bodies)) for _ in range(3)]
+    zone = [np.zeros((n, n_zones)) for _ in range(4)]
+    return BatchOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
+
+
+class StopRule(NamedTuple):
+    """When a recorded run ends: at the first sample after the start where no zone carries
+    more than ``f_stop`` (N) of compression and none closes faster than ``v_stop`` (m/s), if
+    ``enabled``."""
+
+    enabled: bool
+    v_stop: float
+    f_stop: float
+
+
+class Record(NamedTuple):
+    """Sampled histories filled by the recorders, one row per sample.
+
+    ``energy`` columns: kinetic, elastic links, elastic zones, friction, damping (J);
+    ``plastic`` (samples, zones), J; both have no rows for the surrogate.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    crush: np.ndarray
+    force: np.ndarray
+    permanent_set: np.ndarray
+    energy: np.ndarray
+    plastic: np.ndarray
+
+
+def new_record(n: int, n_bodies: int, n_zones: int, energies: bool) -> Record:
+    """Zeroed :class:`Record` of ``n`` samples (energy rows only if ``energies``)."""
+    body = [np.zeros((n, n_bodies)) for _ in range(3)]
+    zone = [np.zeros((n, n_zones)) for _ in range(3)]
+    m = n if energies else 0
+    return Record(*body, *zone, np.zeros((m, 5)), np.zeros((m, n_zones)))
+
+
+@njit(cache=True)
+def _healthy(x, v, a, limit):
+    """True if every entry is finite and |x|, |v| ≤ ``limit``."""
+    for j in range(x.shape[0]):
+        if not (abs(x[j]) <= limit and abs(v[j]) <= limit and math.isfinite(a[j])):
+            return False
+    return True
+
+
+@njit(cache=True)
+def _crash_over(out, fz, stop):
+    """True if no zone of simulation 0 carries more than ``stop.f_stop`` (conservative force
+    ``fz``) and none closes faster than ``stop.v_stop``."""
+    for z in range(fz.shape[1]):
+        if fz[0, z] > stop.f_stop or out.rate[0, z] > stop.v_stop:
+            return False
+    return True
+
+
+@dataclass
+class CrashResult:
+    """Time histories of a crash simulation, sampled every ``sample_dt``.
+
+    Attributes
+    ----------
+    t : (n,) time, s.
+    x, v, a : (n, bodies) centre-of-mass displacement (m), velocity (m/s) and acceleration
+        (m/s²) of each body; bodies are the cars front to back, then the obstacle if any.
+    body_names : names of the bodies (``"lead"``, ``"car2"``, ..., ``"obstacle"``).
+    zone_names : names of the zone instances (``"wall"``, ``"interface_1"``, ...).
+    crush, force : (n, zones) crush (m) and force (N, compression positive) of each zone; for
+        the surrogate, the element feature ``u`` (m) and force.
+    permanent_set : (n, zones) permanent set of each zone, m.
+    energy : dict of (n,) or (n, zones) arrays, J: ``kinetic``, ``elastic`` (total),
+        ``plastic`` (per zone), ``friction``, ``damping``; empty for the surrogate.
+    initial_kinetic_energy : J.
+    dt : integration time step, s.
+    wall_time : wall-clock time of the integration (compiled kernel only), s.
+    scenario : the simulated scenario.
+    model : ``"reference"`` or ``"surrogate:<variant>"``.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    body_names: list[str]
+    zone_names: list[str]
+    crush: np.ndarray
+    force: np.ndarray
+    permanent_set: np.ndarray
+    energy: dict[str, np.ndarray]
+    initial_kinetic_energy: float
+    dt: float
+    wall_time: float
+    scenario: CrashScenario
+    model: str = "reference"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def energy_residual(self) -> np.ndarray:
+        """(n,) relative energy-balance error ``(E_0 − Σ energies) / E_0`` (reference only)."""
+        if not self.energy:
+            raise ValueError(f"{self.model} results carry no energy histories")
+        e = self.energy
+        total = (
+            e["kinetic"] + e["elastic"] + e["plastic"].sum(axis=1) + e["friction"] + e["damping"]
+        )
+        return (self.initial_kinetic_energy - total) / self.initial_kinetic_energy
+
+    def intrusion(self) -> dict[str, float]:
+        """Largest crush beyond each zone's absorber stroke (structure crush), m."""
+        sc = self.scenario
+        zones = {"wall": sc.wall, "obstacle": sc.obstacle.zone if sc.obstacle else None}
+        out = {}
+        for j, name in enumerate(self.zone_names):
+            zone = zones.get(name, sc.interface)
+            out[name] = max(0.0, float(self.permanent_set[:, j].max()) - zone.absorber_stroke)
+        return out
+
+
+def _steps(sample_dt: float, dt_max: float) -> tuple[float, int]:
+    n_sub = max(1, math.ceil(sample_dt / dt_max - 1e-9))
+    return sample_dt / n_sub, n_sub
+
+
+def _check_run(duration: float, sample_dt: float) -> None:
+    for name, value in (("duration", duration), ("sample_dt", sample_dt)):
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive finite number (s), got {value!r}")
+    if sample_dt > duration:
+        raise ValueError(f"sample_dt ({sample_dt} s) must not exceed duration ({duration} s)")

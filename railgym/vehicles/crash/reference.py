@@ -1,0 +1,554 @@
+"""Reference crash model (:func:`simulate_reference`): a lumped-mass chain per car.
+
+Our stand-in for the paper's LS-DYNA model, about an order of magnitude finer than eq. (4):
+
+* each car is a chain of ``n_nodes`` lumped masses (row-sum lumping of bar elements: the end
+  nodes carry half the share of the inner nodes) joined by elastic carbody links of stiffness
+  ``EA / ℓ`` with viscous damping ``c = 2 ζ √(k m_red)``, so carbody elasticity and stress
+  waves exist;
+* each crush zone is a hysteretic elastoplastic element (:func:`zone_force`): a loading
+  envelope (the scenario's piecewise-linear force–crush stages times a progressive-folding
+  wave ``1 + A sin(2π (δ − δ_1)/λ)`` beyond the first point ``δ_1``), elastic unloading from
+  the current point with the documented unloading stiffness ``k_u``, reloading along the same
+  line back to the envelope, and permanent set ``δ_p`` (the crush at zero force);
+* contact is unilateral (a zone never pulls); between cars the coupler's draft gear carries
+  tension: linear spring ``k_t`` with damping ratio ``ζ_t``, engaged once the zone has opened
+  by more than the slack beyond its permanent set (the coupler is shortened by the crushed
+  tube: tension ``f = k_t (δ − δ_p + s)`` for ``δ < δ_p − s``);
+* wheel–rail friction on every mass ``f_c m g tanh(v / v_ε)`` (regularised sign,
+  ``v_ε = 0.01 m/s``);
+* velocity Verlet (explicit, velocity-dependent forces from the predicted velocity
+  ``v + a dt``) with ``dt = safety · 2 / ω_max`` where ``ω_max² = max_i 2 Σ_e k_e / m_i``
+  (Gershgorin bound of M⁻¹K over the links, zones' ``k_u`` and couplers' ``k_t``), rounded
+  down so that a whole number of steps fits in ``sample_dt``;
+* energies: kinetic, elastic (links + elastic part of zones and couplers), plastic dissipation
+  per zone (work into the zone minus its elastic energy), friction work, damping work.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from railgym.vehicles.crash.outputs import (
+    V_EPS,
+    CrashResult,
+    StopRule,
+    _check_run,
+    _crash_over,
+    _healthy,
+    _steps,
+    new_outputs,
+    new_record,
+)
+from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
+from railgym.vehicles.crash.zone import absorber_zone_force
+
+__all__ = [
+    "MIN_REFERENCE_DT",
+    "ReferenceParams",
+    "ReferenceState",
+    "ZoneTypes",
+    "reference_batch_step",
+    "reference_time_step",
+    "simulate_reference",
+]
+
+#: smallest stable integration step of the reference model, s (lighter or stiffer chains are
+#: rejected: their runs would take minutes)
+MIN_REFERENCE_DT = 1e-6
+
+
+class ZoneTypes(NamedTuple):
+    """Crush-zone characteristics, one row per zone type (wall, interface, obstacle).
+
+    Attributes
+    ----------
+    stroke, force : (types, points) envelope points, m and N (rows padded past ``n_points``).
+    n_points : (types,) number of envelope points.
+    fold_amplitude, fold_wavelength : (types,) folding wave ``A`` and ``λ`` (m).
+    unloading_stiffness : (types,) ``k_u``, N/m.
+    tension_stiffness, slack : (types,) coupler ``k_t`` (N/m, 0 = none) and slack (m).
+    absorber : (types,) absorber stroke, m.
+    """
+
+    stroke: np.ndarray
+    force: np.ndarray
+    n_points: np.ndarray
+    fold_amplitude: np.ndarray
+    fold_wavelength: np.ndarray
+    unloading_stiffness: np.ndarray
+    tension_stiffness: np.ndarray
+    slack: np.ndarray
+    absorber: np.ndarray
+
+
+class ReferenceParams(NamedTuple):
+    """Static arrays of the reference chain (front to back), passed into the kernels.
+
+    Attributes
+    ----------
+    m, mu : (nodes,) node mass (kg) and friction coefficient.
+    gravity, v_eps : m/s² and the friction regularisation velocity, m/s.
+    link_k, link_c : (nodes − 1,) carbody link stiffness (N/m) and damping (N s/m) of the
+        element between node e and e + 1 (0 for a zone).
+    elem_zone : (nodes − 1,) zone instance of element e, −1 for a link.
+    zone_type : (zones,) row of ``types`` of each zone instance.
+    zone_cc : (zones,) coupler damping coefficient, N s/m.
+    zone_front, zone_back : (zones,) nodes each zone joins (front −1 = fixed wall).
+    body_start, body_end : (bodies,) node range of each body.
+    types : the :class:`ZoneTypes` table.
+    """
+
+    m: np.ndarray
+    mu: np.ndarray
+    gravity: float
+    v_eps: float
+    link_k: np.ndarray
+    link_c: np.ndarray
+    elem_zone: np.ndarray
+    zone_type: np.ndarray
+    zone_cc: np.ndarray
+    zone_front: np.ndarray
+    zone_back: np.ndarray
+    body_start: np.ndarray
+    body_end: np.ndarray
+    types: ZoneTypes
+
+
+class ReferenceState(NamedTuple):
+    """Per-simulation state of :func:`reference_batch_step`, one row per simulation.
+
+    Attributes
+    ----------
+    x, v, a : (n, nodes) node displacement (m), velocity (m/s), acceleration (m/s²).
+    dp, fz, elastic : (n, zones) permanent set (m), conservative force (N) and elastic
+        energy (J) of each zone (coupler spring included).
+    fd : (n, max(nodes − 1, 1)) damping force of each element, N.
+    ff : (n, nodes) friction force magnitude along v, N.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    dp: np.ndarray
+    fz: np.ndarray
+    elastic: np.ndarray
+    fd: np.ndarray
+    ff: np.ndarray
+
+
+@dataclass
+class _Chain:
+    """The reference chain of a scenario: kernel parameters plus what the kernels do not need."""
+
+    params: ReferenceParams
+    v0: np.ndarray  # initial node velocities, m/s
+    body_names: list[str]
+    zone_names: list[str]
+    omega_max: float  # Gershgorin bound of the highest angular frequency, rad/s
+
+
+def _build_chain(sc: CrashScenario) -> _Chain:
+    types = [sc.wall, sc.interface] + ([sc.obstacle.zone] if sc.obstacle else [])
+    P = max(len(z.stroke) for z in types)
+    t_s = np.ones((len(types), P))
+    t_f = np.zeros((len(types), P))
+    for i, z in enumerate(types):
+        t_s[i, : len(z.stroke)] = z.stroke
+        t_f[i, : len(z.force)] = z.force
+    t_n = np.array([len(z.stroke) for z in types], dtype=np.int64)
+    t_kt = np.array([z.coupler.stiffness if z.coupler else 0.0 for z in types])
+    t_slack = np.array([z.coupler.slack if z.coupler else 0.0 for z in types])
+
+    m: list[float] = []
+    v0: list[float] = []
+    mu: list[float] = []
+    link_k: list[float] = []
+    link_c: list[float] = []
+    elem_zone: list[int] = []
+    zone_type: list[int] = []
+    zone_cc: list[float] = []
+    zone_front: list[int] = []
+    zone_back: list[int] = []
+    zone_names: list[str] = []
+    bodies: dict[str, tuple[int, int]] = {}
+
+    def add_zone(t: int, name: str, front: int, back: int, cc: float) -> int:
+        zone_type.append(t)
+        zone_cc.append(cc)
+        zone_front.append(front)
+        zone_back.append(back)
+        zone_names.append(name)
+        return len(zone_type) - 1
+
+    wall_zone = -1
+    if sc.obstacle is None:
+        wall_zone = add_zone(0, "wall", -1, 0, 0.0)
+    else:
+        ob = sc.obstacle
+        m += [ob.mass - ob.face_mass, ob.face_mass]
+        v0 += [0.0, 0.0]
+        mu += [ob.friction] * 2
+        bodies["obstacle"] = (0, 2)
+        link_k.append(0.0)
+        link_c.append(0.0)
+        elem_zone.append(add_zone(2, "obstacle", 0, 1, 0.0))
+    masses = sc.car_masses
+    for k in range(sc.n_cars):
+        car = sc.lead if k == 0 else sc.passenger
+        first = len(m)
+        if first > 0:  # element joining the previous body to this car
+            link_k.append(0.0)
+            link_c.append(0.0)
+            if k == 0:
+                elem_zone.append(add_zone(0, "wall", first - 1, first, 0.0))
+            else:
+                cc = 0.0
+                if sc.interface.coupler is not None:
+                    mred = masses[k - 1] * masses[k] / (masses[k - 1] + masses[k])
+                    cp = sc.interface.coupler
+                    cc = 2 * cp.damping_ratio * math.sqrt(cp.stiffness * mred)
+                elem_zone.append(add_zone(1, f"interface_{k}", first - 1, first, cc))
+        n = car.n_nodes
+        mi = np.full(n, car.mass / (n - 1))
+        mi[[0, -1]] *= 0.5
+        m += mi.tolist()
+        v0 += [sc.speed] * n
+        mu += [sc.friction] * n
+        k_link = car.axial_rigidity / (car.length / (n - 1))
+        for j in range(n - 1):
+            mred = mi[j] * mi[j + 1] / (mi[j] + mi[j + 1])
+            link_k.append(k_link)
+            link_c.append(2 * car.damping_ratio * math.sqrt(k_link * mred))
+            elem_zone.append(-1)
+        bodies["lead" if k == 0 else f"car{k + 1}"] = (first, first + n)
+
+    m_arr = np.array(m)
+    # Gershgorin bound of M⁻¹K: ω² ≤ max_i 2 Σ_e k_e / m_i
+    k_elem = np.array(link_k)
+    ztype = np.array(zone_type, dtype=np.int64)
+    kz = np.array([max(types[t].unloading_stiffness, t_kt[t]) for t in zone_type])
+    for e, z in enumerate(elem_zone):
+        if z >= 0:
+            k_elem[e] = kz[z]
+    k_node = np.zeros(m_arr.size)
+    k_node[:-1] += k_elem
+    k_node[1:] += k_elem
+    if wall_zone >= 0:
+        k_node[0] += kz[wall_zone]
+    omega_max = float(np.sqrt(np.max(2.0 * k_node / m_arr)))
+    names = [n for n in bodies if n != "obstacle"] + (["obstacle"] if "obstacle" in bodies else [])
+    return _Chain(
+        params=ReferenceParams(
+            m=m_arr,
+            mu=np.array(mu),
+            gravity=float(sc.gravity),
+            v_eps=V_EPS,
+            link_k=np.array(link_k),
+            link_c=np.array(link_c),
+            elem_zone=np.array(elem_zone, dtype=np.int64),
+            zone_type=ztype,
+            zone_cc=np.array(zone_cc),
+            zone_front=np.array(zone_front, dtype=np.int64),
+            zone_back=np.array(zone_back, dtype=np.int64),
+            body_start=np.array([bodies[n][0] for n in names], dtype=np.int64),
+            body_end=np.array([bodies[n][1] for n in names], dtype=np.int64),
+            types=ZoneTypes(
+                stroke=t_s,
+                force=t_f,
+                n_points=t_n,
+                fold_amplitude=np.array([z.fold_amplitude for z in types]),
+                fold_wavelength=np.array([z.fold_wavelength for z in types]),
+                unloading_stiffness=np.array([z.unloading_stiffness for z in types]),
+                tension_stiffness=t_kt,
+                slack=t_slack,
+                absorber=np.array([z.absorber_stroke for z in types]),
+            ),
+        ),
+        v0=np.array(v0),
+        body_names=names,
+        zone_names=zone_names,
+        omega_max=omega_max,
+    )
+
+
+@njit(cache=True)
+def _chain_forces(x, v, dp, p, scale, F, fz, fzel, fd, ff, dz):
+    """Nodal forces ``F`` at state (x, v) of chain ``p`` (:class:`ReferenceParams`); updates the
+    permanent sets ``dp`` in place.
+
+    ``scale`` (per zone instance) multiplies each zone's envelope up to its type's absorber
+    stroke (:func:`absorber_zone_force`). Also returns per zone instance: conservative force
+    ``fz`` (zone + coupler spring), its elastic energy ``fzel``, crush ``dz``; per element:
+    damping force ``fd``; per node: friction magnitude along v, ``ff`` (the force is ``−ff``).
+    """
+    ty = p.types
+    N = x.shape[0]
+    for i in range(N):
+        ff[i] = p.mu[i] * p.m[i] * p.gravity * math.tanh(v[i] / p.v_eps)
+        F[i] = -ff[i]
+    for z in range(p.zone_type.shape[0]):
+        t = p.zone_type[z]
+        fr = p.zone_front[z]
+        bk = p.zone_back[z]
+        d = x[bk] - (x[fr] if fr >= 0 else 0.0)
+        rate = v[bk] - (v[fr] if fr >= 0 else 0.0)
+        dz[z] = d
+        ku, kt, slack = ty.unloading_stiffness[t], ty.tension_stiffness[t], ty.slack[t]
+        f, dp[z] = absorber_zone_force(
+            d,
+            dp[z],
+            ty.stroke[t],
+            ty.force[t],
+            ty.n_points[t],
+            ty.fold_amplitude[t],
+            ty.fold_wavelength[t],
+            ku,
+            ty.absorber[t],
+            scale[z],
+        )
+        el = 0.5 * f * f / ku
+        damp = 0.0
+        if f == 0.0 and kt > 0.0 and d < dp[z] - slack:
+            ext = d - dp[z] + slack
+            f = kt * ext
+            el = 0.5 * kt * ext * ext
+            damp = p.zone_cc[z] * rate
+        fz[z] = f
+        fzel[z] = el
+        if fr >= 0:
+            F[fr] += f + damp
+        F[bk] -= f + damp
+        if bk > 0:
+            fd[bk - 1] = damp
+    for e in range(N - 1):
+        if p.elem_zone[e] >= 0:
+            continue
+        d = x[e + 1] - x[e]
+        fd[e] = p.link_c[e] * (v[e + 1] - v[e])
+        f = p.link_k[e] * d + fd[e]
+        F[e] += f
+        F[e + 1] -= f
+
+
+@njit(cache=True)
+def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, limit, div):
+    """Advance every ``active`` reference simulation by ``n_sub`` velocity-Verlet steps.
+
+    Parameters
+    ----------
+    state : :class:`ReferenceState`, updated in place.
+    out : :class:`BatchOutputs`; ``crush``, ``work`` and ``dissipated`` are also read back.
+    params : :class:`ReferenceParams` of the chain.
+    scale : (n, zones) absorber force scale of each zone (:func:`absorber_zone_force`).
+    active : (n,) which simulations to advance.
+    init : evaluate the forces at the current state instead of stepping (after a reset).
+    dt, n_sub : integration step (s) and number of steps.
+    limit : a simulation whose |x| (m) or |v| (m/s) exceeds ``limit`` or that becomes
+        non-finite keeps its state from before the call and gets ``div[i] = True``.
+    """
+    p = params
+    m, elem_zone, link_k = p.m, p.elem_zone, p.link_k
+    N = m.shape[0]
+    nz = p.zone_type.shape[0]
+    nodes = np.empty((8, N))
+    xl, vl, al, vp = nodes[0], nodes[1], nodes[2], nodes[3]
+    F, dx, ffl, ff_o = nodes[4], nodes[5], nodes[6], nodes[7]
+    zones = np.empty((7, nz))
+    dpl, fzl, fz_o, fzel = zones[0], zones[1], zones[2], zones[3]
+    dzl, dz_o, wzl = zones[4], zones[5], zones[6]
+    fdl, fd_o = np.empty(state.fd.shape[1]), np.empty(state.fd.shape[1])
+    for i in range(state.x.shape[0]):
+        if not active[i]:
+            continue
+        xl[:], vl[:], al[:] = state.x[i], state.v[i], state.a[i]
+        dpl[:], fzl[:] = state.dp[i], state.fz[i]
+        fzel[:], fdl[:], ffl[:] = state.elastic[i], state.fd[i], state.ff[i]
+        dzl[:], wzl[:] = out.crush[i], out.work[i]
+        w_fric, w_damp = out.dissipated[i, 0], out.dissipated[i, 1]
+        sc = scale[i]
+        if init:
+            _chain_forces(xl, vl, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
+            for j in range(N):
+                al[j] = F[j] / m[j]
+        for _ in range(0 if init else n_sub):
+            fz_o[:], fd_o[:], ff_o[:], dz_o[:] = fzl, fdl, ffl, dzl
+            for j in range(N):
+                dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
+                xl[j] += dx[j]
+                vp[j] = vl[j] + al[j] * dt
+            _chain_forces(xl, vp, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
+            for j in range(N):
+                a_new = F[j] / m[j]
+                vl[j] += 0.5 * (al[j] + a_new) * dt
+                al[j] = a_new
+            for z in range(nz):
+                wzl[z] += 0.5 * (fz_o[z] + fzl[z]) * (dzl[z] - dz_o[z])
+            for e in range(N - 1):
+                w_damp += 0.5 * (fd_o[e] + fdl[e]) * (dx[e + 1] - dx[e])
+            for j in range(N):
+                w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
+        if not _healthy(xl, vl, al, limit):
+            div[i] = True
+            continue
+        state.x[i], state.v[i], state.a[i], state.dp[i], state.fz[i] = xl, vl, al, dpl, fzl
+        state.elastic[i], state.fd[i], state.ff[i] = fzel, fdl, ffl
+        out.crush[i], out.work[i] = dzl, wzl
+        out.dissipated[i, 0], out.dissipated[i, 1] = w_fric, w_damp
+        energy = 0.0
+        for j in range(N):
+            energy += 0.5 * m[j] * vl[j] * vl[j]
+            if j < N - 1 and elem_zone[j] < 0:
+                energy += 0.5 * link_k[j] * (xl[j + 1] - xl[j]) ** 2
+        out.stored[i] = energy
+        for z in range(nz):
+            fr, bk = p.zone_front[z], p.zone_back[z]
+            out.force[i, z] = fzl[z] + (fdl[bk - 1] if fr >= 0 else 0.0)
+            out.rate[i, z] = vl[bk] - (vl[fr] if fr >= 0 else 0.0)
+        for b in range(p.body_start.shape[0]):
+            mb = sx = sv = sf = 0.0
+            for j in range(p.body_start[b], p.body_end[b]):
+                mb += m[j]
+                sx += m[j] * xl[j]
+                sv += m[j] * vl[j]
+                sf += F[j]
+            out.x[i, b], out.v[i, b], out.a[i, b] = sx / mb, sv / mb, sf / mb
+
+
+@njit(cache=True)
+def _record_reference(state, out, params, dt, n_sub, stop, rec):
+    """Record simulation 0 of ``state`` sample by sample with :func:`reference_batch_step`
+    into ``rec`` (:class:`Record`); returns the number of samples taken."""
+    p = params
+    N, nz = p.m.shape[0], p.zone_type.shape[0]
+    scale = np.ones((1, nz))
+    active = np.ones(1, np.bool_)
+    div = np.zeros(1, np.bool_)
+    for k in range(rec.x.shape[0]):
+        reference_batch_step(state, out, p, scale, active, k == 0, dt, n_sub, math.inf, div)
+        x, v = state.x[0], state.v[0]
+        ke = el = elz = 0.0
+        for i in range(N):
+            ke += 0.5 * p.m[i] * v[i] * v[i]
+        for e in range(N - 1):
+            if p.elem_zone[e] < 0:
+                d = x[e + 1] - x[e]
+                el += 0.5 * p.link_k[e] * d * d
+        for z in range(nz):
+            elz += state.elastic[0, z]
+            rec.plastic[k, z] = out.work[0, z] - state.elastic[0, z]
+        rec.energy[k, 0], rec.energy[k, 1], rec.energy[k, 2] = ke, el, elz
+        rec.energy[k, 3], rec.energy[k, 4] = out.dissipated[0, 0], out.dissipated[0, 1]
+        rec.x[k], rec.v[k], rec.a[k] = out.x[0], out.v[0], out.a[0]
+        rec.crush[k], rec.force[k], rec.permanent_set[k] = out.crush[0], out.force[0], state.dp[0]
+        if stop.enabled and k > 0 and _crash_over(out, state.fz, stop):
+            return k + 1
+    return rec.x.shape[0]
+
+
+def _new_reference_state(n: int, n_nodes: int, n_zones: int) -> ReferenceState:
+    """Zeroed :class:`ReferenceState` of ``n`` simulations."""
+    node = [np.zeros((n, n_nodes)) for _ in range(3)]
+    zone = [np.zeros((n, n_zones)) for _ in range(3)]
+    return ReferenceState(*node, *zone, np.zeros((n, max(n_nodes - 1, 1))), np.zeros((n, n_nodes)))
+
+
+def reference_time_step(
+    scenario: CrashScenario, sample_dt: float = 1e-3, safety: float = 0.2
+) -> tuple[float, int]:
+    """Integration step of the reference model and the number of steps per sample.
+
+    ``dt = safety · 2 / ω_max`` rounded down to ``sample_dt / n_sub``.
+    """
+    return _reference_steps(_build_chain(scenario), sample_dt, safety)
+
+
+def _reference_steps(chain: _Chain, sample_dt: float, safety: float) -> tuple[float, int]:
+    """:func:`_steps` of the chain's stable step ``safety · 2 / ω_max``, rejecting one below
+    :data:`MIN_REFERENCE_DT`."""
+    if not 0 < safety <= 1:
+        raise ValueError(f"safety must be in (0, 1], got {safety!r}")
+    dt_max = safety * 2.0 / chain.omega_max
+    if dt_max < MIN_REFERENCE_DT:
+        raise ValueError(
+            f"scenario: the reference model's stable time step {dt_max:.3g} s is below "
+            f"{MIN_REFERENCE_DT:g} s; its cars are too light or too stiff (crash.cars.*.mass_t, "
+            "EA_MN, n_nodes, crash.zones.*.unloading_stiffness_kN_per_mm)"
+        )
+    return _steps(sample_dt, dt_max)
+
+
+def simulate_reference(
+    scenario: CrashScenario | str,
+    n_cars: int | None = None,
+    speed: float | None = None,
+    duration: float = 2.0,
+    sample_dt: float = 1e-3,
+    safety: float = 0.2,
+    stop_when_over: bool = True,
+    v_stop: float = 0.01,
+    f_stop: float = 1e3,
+) -> CrashResult:
+    """Run the reference lumped-mass crash model.
+
+    Parameters
+    ----------
+    scenario : a :class:`CrashScenario` or a name/path for :func:`load_scenario`.
+    n_cars, speed : optional overrides (number of cars; initial speed in m/s).
+    duration : longest simulated time, s.
+    sample_dt : output interval, s.
+    safety : time-step safety factor on ``2 / ω_max`` (0 < safety ≤ 1).
+    stop_when_over : end at the first sample where no zone carries more than ``f_stop`` (N) of
+        compression and no zone closes faster than ``v_stop`` (m/s): all cars at rest or
+        rebounding away.
+    """
+    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    sc = sc.with_overrides(n_cars=n_cars, speed=speed)
+    _check_run(duration, sample_dt)
+    ch = _build_chain(sc)
+    dt, n_sub = _reference_steps(ch, sample_dt, safety)
+    n_samples = int(round(duration / sample_dt)) + 1
+    nb, nz = len(ch.body_names), len(ch.zone_names)
+    state = _new_reference_state(1, ch.v0.size, nz)
+    state.v[0] = ch.v0
+    out = new_outputs(1, nb, nz)
+    rec = new_record(n_samples, nb, nz, energies=True)
+    t0 = time.perf_counter()
+    n = _record_reference(
+        state, out, ch.params, dt, n_sub, StopRule(stop_when_over, v_stop, f_stop), rec
+    )
+    wall = time.perf_counter() - t0
+    e = rec.energy
+    return CrashResult(
+        t=np.arange(n) * sample_dt,
+        x=rec.x[:n],
+        v=rec.v[:n],
+        a=rec.a[:n],
+        body_names=ch.body_names,
+        zone_names=ch.zone_names,
+        crush=rec.crush[:n],
+        force=rec.force[:n],
+        permanent_set=rec.permanent_set[:n],
+        energy={
+            "kinetic": e[:n, 0],
+            "elastic": e[:n, 1] + e[:n, 2],
+            "elastic_links": e[:n, 1],
+            "elastic_zones": e[:n, 2],
+            "plastic": rec.plastic[:n],
+            "friction": e[:n, 3],
+            "damping": e[:n, 4],
+        },
+        initial_kinetic_energy=float(0.5 * np.sum(ch.params.m * ch.v0**2)),
+        dt=dt,
+        wall_time=wall,
+        scenario=sc,
+        model="reference",
+        extra={"omega_max": ch.omega_max, "n_sub": n_sub, "safety": safety},
+    )

@@ -1,0 +1,292 @@
+"""Surrogate crash elements (paper eq. 4) fitted on reference runs: :func:`build_crash_surrogate`.
+
+One mass per car (plus the obstacle, if any); the wall element's feature is
+``u = x_lead − x_barrier`` (``x_barrier = 0`` for a rigid wall), the interface's
+``u = x_{k+1} − x_k``, both from the cars' centre-of-mass displacements, as the paper's
+``(x_1, f_1)`` and ``(x_1 − x_2, f_2)``. Two element variants:
+
+``"paper"``
+    one LPR for the loading branch and one for the unloading branch, switched by the sign of
+    the crush rate ``u̇`` (paper section 3.1); the training samples are split by
+    :func:`surrogates.features.split_branches`. Each LPR's output is clipped to the force
+    range of its branch's data: the unloading branch is fitted on few samples (the rebound)
+    and, unclipped, its extrapolation throws the cars apart. Being memoryless, this variant
+    can push at any crush (e.g. the loading force at rest when ``u̇`` is a hair above zero).
+``"hysteretic"``
+    the loading LPR is the envelope (fitted on virgin-loading samples only); unloading and
+    reloading follow a straight line of stiffness ``k̂_u`` (estimated from the unloading samples)
+    from the largest crush reached, with permanent set, exactly like the reference law; so the
+    element dissipates energy only on the envelope. Interface tension, if the data have any, is a
+    fitted linear spring ``k̂_t`` with slack ``ŝ`` beyond the permanent set.
+
+A wall element never pulls (``f ≥ 0``) in either variant. LPR degrees are chosen by 10-fold
+cross-validation (:func:`surrogates.selection.select_kfold`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from railgym.vehicles.crash.outputs import CrashResult
+from surrogates.features import LOADING, split_branches
+from surrogates.selection import factory_for, select_kfold
+
+__all__ = [
+    "VARIANTS",
+    "CrashElement",
+    "CrashSurrogate",
+    "TrainingSet",
+    "build_crash_surrogate",
+    "crash_errors",
+    "crash_training_data",
+    "virgin_loading",
+]
+
+#: element variants of the surrogate model
+VARIANTS = ("paper", "hysteretic")
+
+
+@dataclass
+class CrashElement:
+    """One surrogate crash element (paper eq. 4), fitted on reference time histories.
+
+    Attributes
+    ----------
+    name : ``"wall"`` (lead car against the barrier) or ``"interface"`` (between two cars).
+    variant : ``"paper"`` or ``"hysteretic"`` (see the module docstring).
+    loading : LPR of the loading branch (``"paper"``) or of the envelope (``"hysteretic"``),
+        force (N) of the feature ``u`` (m).
+    unloading : LPR of the unloading branch (``"paper"`` only).
+    unloading_stiffness : ``k̂_u`` of elastic unloading/reloading, N/m (estimated for both
+        variants, used by ``"hysteretic"``).
+    tension_stiffness, slack : fitted coupler tension ``k̂_t`` (N/m; 0 = none) and slack ``ŝ``
+        (m) beyond the permanent set (``"hysteretic"``).
+    unilateral : the element never pulls and carries no force for ``u ≤ 0`` (the wall).
+    force_range : (branch → (lowest, highest) training force, N); each LPR's output is clipped
+        to its branch's range, so that a branch extrapolated beyond its data (the paper
+        variant's unloading branch, fitted on a narrow set) cannot produce unseen forces.
+    selection : 10-fold cross-validation table of each fitted LPR (branch → SelectionResult).
+    n_samples : number of training samples of each branch.
+    """
+
+    name: str
+    variant: str
+    loading: Any
+    unloading: Any
+    unloading_stiffness: float
+    tension_stiffness: float
+    slack: float
+    unilateral: bool
+    force_range: dict[str, tuple[float, float]]
+    selection: dict[str, Any]
+    n_samples: dict[str, int]
+
+    @property
+    def degrees(self) -> dict[str, int]:
+        """Chosen LPR degree of each branch."""
+        out = {"loading": _degree(self.loading)}
+        if self.unloading is not None:
+            out["unloading"] = _degree(self.unloading)
+        return out
+
+
+@dataclass
+class CrashSurrogate:
+    """The surrogate elements of one model: ``elements["wall"]`` and ``elements["interface"]``."""
+
+    variant: str
+    elements: dict[str, CrashElement]
+    source: str
+    build_time: float
+
+
+def _degree(model: Any) -> int:
+    d = model.degree
+    return int(d[0] if isinstance(d, tuple) else d)
+
+
+TrainingSet = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def crash_training_data(result: CrashResult, branch_tol: float = 0.01) -> dict[str, TrainingSet]:
+    """Surrogate training data ``(u, f, u̇, loading, series)`` per element type.
+
+    ``u`` from the cars' centre-of-mass displacements: wall ``x_lead − x_barrier``, interface
+    ``x_{k+1} − x_k`` (all interfaces pooled); ``f`` the zone's force (N); ``u̇`` by
+    :func:`numpy.gradient` of each series (m/s); ``loading`` the loading-branch mask of
+    :func:`surrogates.features.split_branches` (sign of the crush rate with hysteresis
+    ``branch_tol`` × the 90th percentile of |u̇|; its default 0.05, i.e. ~0.5 m/s in a 40 km/h
+    crash, would label the slow rebound as loading); ``series`` the index of the time
+    history each sample comes from (one per interface).
+    """
+    t = result.t
+    if t.size < 3:
+        raise ValueError("result has fewer than 3 samples: too short to train on")
+    names = result.body_names
+    x_bar = result.x[:, names.index("obstacle")] if "obstacle" in names else 0.0
+    n_cars = result.scenario.n_cars
+    series: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {"wall": [], "interface": []}
+    wall = result.force[:, result.zone_names.index("wall")]
+    series["wall"].append((result.x[:, 0] - x_bar, wall))
+    for k in range(1, n_cars):
+        j = result.zone_names.index(f"interface_{k}")
+        series["interface"].append((result.x[:, k] - result.x[:, k - 1], result.force[:, j]))
+    out = {}
+    for key, items in series.items():
+        if items:
+            u = np.concatenate([s[0] for s in items])
+            f = np.concatenate([s[1] for s in items])
+            rate = np.concatenate([np.gradient(s[0], t) for s in items])
+            load = np.concatenate(
+                [split_branches(s[0], t, tol=branch_tol) == LOADING for s in items]
+            )
+            series_id = np.repeat(np.arange(len(items)), t.size)
+            out[key] = (u, f, rate, load, series_id)
+    return out
+
+
+def virgin_loading(
+    u: np.ndarray, rate: np.ndarray, series: np.ndarray | None = None, tol: float = 1e-4
+) -> np.ndarray:
+    """Mask of the samples on the virgin loading path: crush growing and within ``tol`` (m) of
+    the largest crush reached so far in the same time history (``series``, default one)."""
+    series = np.zeros(u.size, dtype=np.int64) if series is None else series
+    out = np.zeros(u.size, dtype=bool)
+    for k in np.unique(series):
+        i = series == k
+        out[i] = (rate[i] > 0.0) & (u[i] >= np.maximum.accumulate(u[i]) - tol)
+    return out
+
+
+def _fit_lpr(u: np.ndarray, f: np.ndarray, max_degree: int, seed: int) -> tuple[Any, Any]:
+    """LPR of f(u) with the degree chosen by 10-fold CV (``clip`` extrapolation)."""
+    n = u.size
+    if n < 4:
+        raise ValueError(f"too few training samples ({n}) to fit a surrogate branch")
+    make = factory_for("lpr", extrapolation="clip")
+    cands = list(range(1, min(max_degree, n - 2) + 1))
+    sel = select_kfold(make, cands, u[:, None], f, k=min(10, n), seed=seed)
+    return make(sel.best).fit(u[:, None], f), sel
+
+
+def _unloading_stiffness(
+    u: np.ndarray, f: np.ndarray, rate: np.ndarray, series: np.ndarray
+) -> float:
+    """Least-squares slope (N/m) of Δf against Δu over consecutive unloading samples under load."""
+    du, df = np.diff(u), np.diff(f)
+    ok = (rate[1:] < 0) & (rate[:-1] < 0) & (f[1:] > 0) & (f[:-1] > 0) & (du < 0) & (df < 0)
+    ok &= series[1:] == series[:-1]
+    if np.count_nonzero(ok) < 2:
+        raise ValueError("the training data hold no elastic unloading: k_u cannot be estimated")
+    return float(np.sum(df[ok] * du[ok]) / np.sum(du[ok] ** 2))
+
+
+def build_crash_surrogate(
+    reference: CrashResult,
+    variant: str = "hysteretic",
+    seed: int = 0,
+    max_degree: int = 30,
+) -> CrashSurrogate:
+    """Fit the surrogate elements of paper eq. (4) on a reference result.
+
+    Parameters
+    ----------
+    reference : output of :func:`simulate_reference`.
+    variant : ``"paper"`` (loading/unloading LPR switched by the crush rate) or
+        ``"hysteretic"`` (LPR envelope + elastic unloading, energy-consistent).
+    seed : seed of the cross-validation folds.
+    max_degree : largest LPR degree tried by 10-fold cross-validation.
+    """
+    if variant not in VARIANTS:
+        raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+    if reference.model != "reference":
+        raise ValueError(f"reference must be a reference-model result, got {reference.model!r}")
+    t0 = time.perf_counter()
+    elements = {}
+    for name, (u, f, rate, loading, series) in crash_training_data(reference).items():
+        unilateral = name == "wall"
+        sel: dict[str, Any] = {}
+        n: dict[str, int] = {}
+        kt = slack = 0.0
+        unload = None
+        if variant == "paper":
+            lo, un = loading, ~loading
+            load, sel["loading"] = _fit_lpr(u[lo], f[lo], max_degree, seed)
+            unload, sel["unloading"] = _fit_lpr(u[un], f[un], max_degree, seed)
+            n = {"loading": int(lo.sum()), "unloading": int(un.sum())}
+            rng = {"loading": (f[lo].min(), f[lo].max()), "unloading": (f[un].min(), f[un].max())}
+            ku = _unloading_stiffness(u, f, rate, series)
+        else:
+            vg = virgin_loading(u, rate, series) & (f > 0)
+            uu = np.concatenate(([0.0], u[vg]))
+            ff = np.concatenate(([0.0], f[vg]))
+            load, sel["loading"] = _fit_lpr(uu, ff, max_degree, seed)
+            ku = _unloading_stiffness(u, f, rate, series)
+            n = {"loading": int(uu.size)}
+            rng = {"loading": (0.0, ff.max())}
+            tension = f < 0
+            if not unilateral and np.count_nonzero(tension) >= 5:
+                # f = k_t (u − u_0) on the tension samples; slack measured from the final set
+                A = np.column_stack([u[tension], np.ones(np.count_nonzero(tension))])
+                (kt, c), *_ = np.linalg.lstsq(A, f[tension], rcond=None)
+                up = _permanent_set_history(u, series, load, ku)
+                slack = max(0.0, float(up[tension].mean() + c / kt)) if kt > 0 else 0.0
+                kt = max(float(kt), 0.0)
+                n["tension"] = int(np.count_nonzero(tension))
+        elements[name] = CrashElement(
+            name=name,
+            variant=variant,
+            loading=load,
+            unloading=unload,
+            unloading_stiffness=ku,
+            tension_stiffness=kt,
+            slack=slack,
+            unilateral=unilateral,
+            force_range={k: (float(a), float(b)) for k, (a, b) in rng.items()},
+            selection=sel,
+            n_samples=n,
+        )
+    return CrashSurrogate(
+        variant=variant,
+        elements=elements,
+        source=reference.scenario.name,
+        build_time=time.perf_counter() - t0,
+    )
+
+
+def _permanent_set_history(
+    u: np.ndarray, series: np.ndarray, envelope: Any, ku: float
+) -> np.ndarray:
+    """Permanent set (m) along each feature history ``u`` under the hysteretic element law."""
+    env = envelope.predict(u[:, None])
+    up = np.zeros_like(u)
+    cur = 0.0
+    for i in range(u.size):
+        if i > 0 and series[i] != series[i - 1]:
+            cur = 0.0
+        if env[i] > 0 and ku * (u[i] - cur) >= env[i]:
+            cur = u[i] - env[i] / ku
+        up[i] = cur
+    return up
+
+
+def crash_errors(prediction: CrashResult, truth: CrashResult) -> dict[str, np.ndarray]:
+    """Paper eq. (9) average absolute errors per car over the common samples.
+
+    Returns ``{"x": (cars,) m, "v": (cars,) m/s, "a": (cars,) m/s²}``.
+    """
+    if not np.isclose(prediction.t[1] - prediction.t[0], truth.t[1] - truth.t[0]):
+        raise ValueError("prediction and truth must share the sample interval")
+    n = min(prediction.t.size, truth.t.size)
+    cars = truth.scenario.n_cars
+    if prediction.scenario.n_cars != cars:
+        raise ValueError("prediction and truth have different numbers of cars")
+    out = {}
+    for key in ("x", "v", "a"):
+        diff = getattr(prediction, key)[:n, :cars] - getattr(truth, key)[:n, :cars]
+        out[key] = np.mean(np.abs(diff), axis=0)
+    return out

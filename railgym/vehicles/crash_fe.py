@@ -1,0 +1,406 @@
+"""Crash surrogate elements from a user's FE crash model (LS-DYNA output), and their JSON files.
+
+The paper learns its crash elements (eq. 4) from an LS-DYNA run. Here the run's ASCII output is
+read by :mod:`surrogates.lsdyna` and turned into the time histories railgym's own reference model
+produces, so that :func:`railgym.vehicles.crash.build_crash_surrogate` fits the elements exactly
+as it does on :func:`~railgym.vehicles.crash.simulate_reference` results, and
+``gym.make("railgym/TrainCrash-v0", surrogate=elements)`` runs on them.
+
+What is taken from the FE output (:func:`crash_result_from_fe`):
+
+* ``nodout``: one node per car (lead car first), ideally at the car's centre of mass or on a
+  rigid part of its underframe; its displacement along the travel ``axis`` (times
+  ``direction`` = ±1, so that positive is towards the wall), re-zeroed at ``start_time``
+  (default the first sample: the FE run should start at first contact), is the car's ``x``;
+  its velocity and acceleration give ``v`` and ``a``;
+* ``rcforc``: the wall contact and one contact per car interface; a contact only pushes, so
+  the zone force is ``|F_axis|`` of the contact's master side (the slave side if the file has
+  no master line for it), interpolated linearly onto the nodout times.
+
+The crash features follow :func:`~railgym.vehicles.crash.crash_training_data`: the wall element
+sees ``u = x_lead`` (rigid wall at rest) and ``f_1`` the wall force, the interface element
+``u = x_{k+1} − x_k`` (the paper's ``x_1 − x_2`` with railgym's sign, compression positive)
+and ``f_2``, both split into loading and unloading branches by the crush rate. The masses,
+speed and zone layout of the env come from ``scenario``: give the scenario of the FE model.
+
+:func:`export_crash_element_fmu` writes one element, memory included, as an FMI 2.0
+co-simulation FMU (see ``docs/fmi.md``).
+
+:func:`save_crash_surrogate` / :func:`load_crash_surrogate` write and read a
+:class:`~railgym.vehicles.crash.CrashSurrogate` as JSON (each LPR as a
+:func:`surrogates.io.model_to_document`). Command line::
+
+    python -m railgym.vehicles.crash_fe --nodout nodout --rcforc rcforc --units mm-ms-kg-kN \\
+        --car-nodes 1001 2001 --wall-contact 1 --interface-contacts 2 -o elements.json \\
+        [--fmu-dir fmus/]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from railgym.vehicles.crash import (
+    CrashElement,
+    CrashResult,
+    CrashScenario,
+    CrashSurrogate,
+    build_crash_surrogate,
+    load_scenario,
+)
+from surrogates import io
+from surrogates.features import TimeHistory
+from surrogates.models.base import _jsonable
+from surrogates.selection import SelectionResult
+
+AXES = ("x", "y", "z")
+FORMAT = "railgym-crash-surrogate"
+SCHEMA_VERSION = 1
+
+
+def _contact_force(
+    contacts: Mapping[tuple[str, int], TimeHistory], cid: int, axis: str, t: np.ndarray
+) -> np.ndarray:
+    """``|F_axis|`` (N) of contact ``cid`` (master side, else slave) at the times ``t``."""
+    key = ("master", cid) if ("master", cid) in contacts else ("slave", cid)
+    th = contacts.get(key)
+    if th is None:
+        have = sorted({k[1] for k in contacts})
+        raise ValueError(f"contact {cid} is not in the rcforc data; it has contacts {have}")
+    return np.abs(np.interp(t, th.t, th[f"{axis}_force"]))
+
+
+def crash_result_from_fe(
+    nodes: Mapping[int, TimeHistory],
+    contacts: Mapping[tuple[str, int], TimeHistory],
+    *,
+    car_nodes: Sequence[int],
+    wall_contact: int,
+    interface_contacts: Sequence[int],
+    scenario: CrashScenario | str | Path = "paper",
+    axis: str = "x",
+    direction: float = 1.0,
+    start_time: float | None = None,
+) -> CrashResult:
+    """FE output (:func:`surrogates.io.read_nodout`, :func:`~surrogates.io.read_rcforc`) as
+    the :class:`CrashResult` that :func:`build_crash_surrogate` learns from.
+
+    Parameters
+    ----------
+    nodes, contacts : the readers' output (SI).
+    car_nodes : node id of each car, lead car first (``n_cars`` ids).
+    wall_contact : contact id of the wall (or obstacle) contact.
+    interface_contacts : contact id of each car interface, front to back (``n_cars − 1``).
+    scenario : the scenario of the FE model (masses and zones of the env); its ``n_cars`` is
+        set to ``len(car_nodes)``.
+    axis : travel axis of the FE model. direction : +1 if the train travels towards +axis.
+    start_time : first contact, s (default the first nodout sample); earlier samples dropped.
+
+    Returns
+    -------
+    :class:`CrashResult` with ``model="reference"`` (the FE run stands in for the reference
+    model), bodies ``lead, car2, …``, zones ``wall, interface_1, …``, no energies.
+    """
+    if axis not in AXES:
+        raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
+    if direction not in (1, -1, 1.0, -1.0):
+        raise ValueError(f"direction must be +1 or -1, got {direction!r}")
+    car_nodes = [int(n) for n in car_nodes]
+    interface_contacts = [int(c) for c in interface_contacts]
+    if len(car_nodes) < 2:
+        raise ValueError(f"car_nodes needs one node per car and at least 2 cars, got {car_nodes}")
+    if len(interface_contacts) != len(car_nodes) - 1:
+        raise ValueError(
+            f"interface_contacts needs {len(car_nodes) - 1} ids (one per interface), "
+            f"got {interface_contacts}"
+        )
+    missing = [n for n in car_nodes if n not in nodes]
+    if missing:
+        raise ValueError(f"car_nodes {missing} are not in the nodout data; it has {sorted(nodes)}")
+    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    sc = sc.with_overrides(n_cars=len(car_nodes))
+    t = nodes[car_nodes[0]].t
+    for n in car_nodes[1:]:
+        if not np.array_equal(nodes[n].t, t):
+            raise ValueError(f"node {n} has other sample times than node {car_nodes[0]}")
+    used = [k for k in contacts if k[1] in (wall_contact, *interface_contacts)]
+    t_end = min((contacts[k].t[-1] for k in used), default=np.inf)
+    t_beg = max((contacts[k].t[0] for k in used), default=-np.inf)
+    t0 = t[0] if start_time is None else float(start_time)
+    keep = (t >= t0) & (t >= t_beg) & (t <= t_end)
+    if np.count_nonzero(keep) < 3:
+        raise ValueError(
+            f"fewer than 3 nodout samples from start_time {t0} s within the rcforc times "
+            f"[{t_beg}, {t_end}] s"
+        )
+    tk = t[keep]
+    x = np.column_stack([nodes[n][f"{axis}_disp"][keep] for n in car_nodes]) * direction
+    x -= x[0]
+    v = np.column_stack([nodes[n][f"{axis}_vel"][keep] for n in car_nodes]) * direction
+    a = np.column_stack([nodes[n][f"{axis}_accl"][keep] for n in car_nodes]) * direction
+    force = np.column_stack(
+        [_contact_force(contacts, c, axis, tk) for c in (wall_contact, *interface_contacts)]
+    )
+    crush = np.column_stack([x[:, 0], *(x[:, k] - x[:, k - 1] for k in range(1, x.shape[1]))])
+    n_zones = force.shape[1]
+    return CrashResult(
+        t=tk - tk[0],
+        x=x,
+        v=v,
+        a=a,
+        body_names=["lead"] + [f"car{k + 1}" for k in range(1, len(car_nodes))],
+        zone_names=["wall"] + [f"interface_{k}" for k in range(1, n_zones)],
+        crush=crush,
+        force=force,
+        permanent_set=np.zeros_like(force),
+        energy={},
+        initial_kinetic_energy=float(0.5 * np.sum(sc.car_masses * v[0] ** 2)),
+        dt=float(np.min(np.diff(tk))),
+        wall_time=0.0,
+        scenario=sc,
+        model="reference",
+        extra={"source": "FE output"},
+    )
+
+
+def crash_surrogate_from_fe(
+    nodout: str | Path,
+    rcforc: str | Path,
+    *,
+    units: str,
+    car_nodes: Sequence[int],
+    wall_contact: int,
+    interface_contacts: Sequence[int],
+    scenario: CrashScenario | str | Path = "paper",
+    variant: str = "hysteretic",
+    seed: int = 0,
+    max_degree: int = 30,
+    axis: str = "x",
+    direction: float = 1.0,
+    start_time: float | None = None,
+) -> CrashSurrogate:
+    """Read ``nodout`` and ``rcforc`` (unit set ``units``) and fit the crash elements.
+
+    Arguments as :func:`crash_result_from_fe` and :func:`build_crash_surrogate`.
+    """
+    t0 = time.perf_counter()
+    result = crash_result_from_fe(
+        io.read_nodout(nodout, nodes=car_nodes, units=units),
+        io.read_rcforc(rcforc, units=units),
+        car_nodes=car_nodes,
+        wall_contact=wall_contact,
+        interface_contacts=interface_contacts,
+        scenario=scenario,
+        axis=axis,
+        direction=direction,
+        start_time=start_time,
+    )
+    out = build_crash_surrogate(result, variant=variant, seed=seed, max_degree=max_degree)
+    out.source = f"FE: {nodout}, {rcforc} ({units})"
+    out.build_time = time.perf_counter() - t0
+    return out
+
+
+# ------------------------------------------------------------------------------ JSON files
+def _model_document(model: Any) -> dict[str, Any]:
+    return io.model_to_document(model, inputs=["u"], output="f", units={"u": "m", "f": "N"})
+
+
+def _element_document(el: CrashElement) -> dict[str, Any]:
+    return {
+        "name": el.name,
+        "variant": el.variant,
+        "loading": _model_document(el.loading),
+        "unloading": None if el.unloading is None else _model_document(el.unloading),
+        "unloading_stiffness": el.unloading_stiffness,
+        "tension_stiffness": el.tension_stiffness,
+        "slack": el.slack,
+        "unilateral": el.unilateral,
+        "force_range": {k: list(v) for k, v in el.force_range.items()},
+        "selection": {
+            k: {"method": s.method, "best": s.best, "table": s.table}
+            for k, s in el.selection.items()
+        },
+        "n_samples": el.n_samples,
+    }
+
+
+def save_crash_surrogate(
+    surrogate: CrashSurrogate, path: str | Path, overwrite: bool = False
+) -> Path:
+    """Write the elements as JSON (format ``railgym-crash-surrogate``, schema 1)."""
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
+    doc = {
+        "format": FORMAT,
+        "schema_version": SCHEMA_VERSION,
+        "variant": surrogate.variant,
+        "source": surrogate.source,
+        "build_time_s": surrogate.build_time,
+        "elements": {k: _element_document(e) for k, e in surrogate.elements.items()},
+    }
+    path.write_text(json.dumps(_jsonable(doc), indent=1) + "\n")
+    return path
+
+
+def _field(d: Mapping[str, Any], key: str, where: str) -> Any:
+    if not isinstance(d, Mapping) or key not in d:
+        raise ValueError(f"{where}: missing field {key!r}")
+    return d[key]
+
+
+def _number(d: Mapping[str, Any], key: str, where: str) -> float:
+    v = _field(d, key, where)
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise ValueError(f"{where}: field {key!r} must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _element_from_document(d: Any, where: str) -> CrashElement:
+    loading = io.model_from_document(_field(d, "loading", where), f"{where}.loading")
+    un = _field(d, "unloading", where)
+    unloading = None if un is None else io.model_from_document(un, f"{where}.unloading")
+    rng = _field(d, "force_range", where)
+    sel = _field(d, "selection", where)
+    return CrashElement(
+        name=str(_field(d, "name", where)),
+        variant=str(_field(d, "variant", where)),
+        loading=loading,
+        unloading=unloading,
+        unloading_stiffness=_number(d, "unloading_stiffness", where),
+        tension_stiffness=_number(d, "tension_stiffness", where),
+        slack=_number(d, "slack", where),
+        unilateral=bool(_field(d, "unilateral", where)),
+        force_range={k: (float(a), float(b)) for k, (a, b) in rng.items()},
+        selection={k: SelectionResult(s["method"], s["table"], s["best"]) for k, s in sel.items()},
+        n_samples={k: int(v) for k, v in _field(d, "n_samples", where).items()},
+    )
+
+
+def load_crash_surrogate(path: str | Path) -> CrashSurrogate:
+    """Read elements written by :func:`save_crash_surrogate`; clear errors for bad files."""
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc})") from exc
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise ValueError(f"{path}: field 'format' must be {FORMAT!r}")
+    if doc.get("schema_version") != SCHEMA_VERSION:
+        raise ValueError(f"{path}: schema_version {doc.get('schema_version')!r} is not supported")
+    elements = _field(doc, "elements", str(path))
+    for need in ("wall", "interface"):
+        if need not in elements:
+            raise ValueError(f"{path}: field 'elements' has no {need!r} element")
+    try:
+        els = {k: _element_from_document(v, f"{path}: elements.{k}") for k, v in elements.items()}
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"{path}: malformed element ({exc!r})") from exc
+    return CrashSurrogate(
+        variant=str(_field(doc, "variant", str(path))),
+        elements=els,
+        source=str(doc.get("source", path)),
+        build_time=float(doc.get("build_time_s", 0.0)),
+    )
+
+
+# ------------------------------------------------------------------------------ FMU export
+def export_crash_element_fmu(
+    element: CrashElement, path: str | Path, *, overwrite: bool = False, binary: bool = True
+) -> Path:
+    """Co-simulation FMU of one crash element with its memory (permanent set), by
+    :func:`surrogates.fmi.hysteretic.export_hysteretic_fmu`: inputs ``u`` (m) and ``rate``
+    (m/s), outputs ``f`` (N) and ``permanent_set`` (m), the law of ``element``'s variant."""
+    from surrogates.fmi.hysteretic import HystereticLaw, export_hysteretic_fmu
+
+    law = HystereticLaw(
+        variant=element.variant,
+        unilateral=element.unilateral,
+        unloading_stiffness=element.unloading_stiffness,
+        tension_stiffness=element.tension_stiffness,
+        slack=element.slack,
+        loading_range=element.force_range["loading"],
+        unloading_range=element.force_range.get("unloading"),
+    )
+    return export_hysteretic_fmu(
+        path,
+        element.loading,
+        law,
+        element.unloading,
+        name=f"{element.name} element",
+        binary=binary,
+        overwrite=overwrite,
+    )
+
+
+# ------------------------------------------------------------------------------ command line
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m railgym.vehicles.crash_fe``: crash elements from LS-DYNA nodout/rcforc."""
+    p = argparse.ArgumentParser(
+        prog="python -m railgym.vehicles.crash_fe", description=main.__doc__
+    )
+    p.add_argument("--nodout", required=True, help="LS-DYNA ASCII nodout file")
+    p.add_argument("--rcforc", required=True, help="LS-DYNA ASCII rcforc file")
+    p.add_argument("--units", required=True, help="unit set of the FE model, e.g. mm-ms-kg-kN")
+    p.add_argument("--car-nodes", type=int, nargs="+", required=True, help="node per car")
+    p.add_argument("--wall-contact", type=int, required=True, help="wall contact id")
+    p.add_argument("--interface-contacts", type=int, nargs="+", required=True)
+    p.add_argument("--scenario", default="paper", help="scenario of the FE model (name or YAML)")
+    p.add_argument("--variant", choices=["hysteretic", "paper"], default="hysteretic")
+    p.add_argument("--axis", choices=list(AXES), default="x")
+    p.add_argument("--direction", type=float, choices=[1.0, -1.0], default=1.0)
+    p.add_argument("--start-time", type=float, default=None, help="first contact, s")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("-o", "--output", required=True, help="where to write the elements JSON")
+    p.add_argument("--fmu-dir", help="also export each element as <name>.fmu (co-simulation)")
+    p.add_argument("--overwrite", action="store_true")
+    args = p.parse_args(argv)
+    if Path(args.output).exists() and not args.overwrite:
+        print(f"error: {args.output} exists; pass --overwrite to replace it", file=sys.stderr)
+        return 2
+    try:
+        sur = crash_surrogate_from_fe(
+            args.nodout,
+            args.rcforc,
+            units=args.units,
+            car_nodes=args.car_nodes,
+            wall_contact=args.wall_contact,
+            interface_contacts=args.interface_contacts,
+            scenario=args.scenario,
+            variant=args.variant,
+            seed=args.seed,
+            axis=args.axis,
+            direction=args.direction,
+            start_time=args.start_time,
+        )
+    except (OSError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    save_crash_surrogate(sur, args.output, overwrite=args.overwrite)
+    if args.fmu_dir:
+        for name, el in sur.elements.items():
+            fmu = Path(args.fmu_dir) / f"{name}.fmu"
+            try:
+                export_crash_element_fmu(el, fmu, overwrite=args.overwrite)
+            except (OSError, RuntimeError) as exc:
+                print(f"error: {exc}", file=sys.stderr)
+                return 2
+            print(f"{name} element FMU written to {fmu}")
+    for name, el in sur.elements.items():
+        ku = el.unloading_stiffness
+        print(f"{name}: degrees {el.degrees}, k_u {ku:.4g} N/m, samples {el.n_samples}")
+    print(f"elements written to {args.output}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

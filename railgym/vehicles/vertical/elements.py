@@ -1,0 +1,164 @@
+"""Compiled secondary-suspension element laws and the vehicle's right-hand side (eq. 1–2).
+
+Every function reads the vehicle from a :class:`~railgym.vehicles.vertical.params.SuspensionParams`
+``p`` by field name; the surrogate element from an :class:`LprArrays` tuple.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from surrogates.models.lpr import lpr_eval_into, lpr_is_outside
+
+__all__ = [
+    "LprArrays",
+    "bump_stop_force",
+    "damper_force",
+    "damper_velocity",
+]
+
+
+class LprArrays(NamedTuple):
+    """A fitted LPR element as plain arrays (:meth:`LegendreRegression.kernel_arrays`)."""
+
+    exps: np.ndarray  #: int64 (L, 2) exponents
+    coef: np.ndarray  #: float64 (L,) coefficients
+    lo: np.ndarray  #: float64 (2,) lower corner of the training box
+    up: np.ndarray  #: float64 (2,) upper corner
+    mode: int  #: extrapolation mode (``surrogates.models.lpr.EXTRAPOLATION_MODES``)
+
+
+@njit(cache=True)
+def _ramp(x: float, eps: float) -> float:
+    """Hyperbolic smooth ramp ``(x + √(x² + ε²))/2``."""
+    return 0.5 * (x + math.sqrt(x * x + eps * eps))
+
+
+@njit(cache=True)
+def _damper_branch(v: float, c: float, vk: float, r: float, eps: float) -> float:
+    """Force of one damper branch for ``v ≥ 0``: slope ``c`` then ``r·c`` past the knee."""
+    return c * (v - (1.0 - r) * (_ramp(v - vk, eps) - _ramp(-vk, eps)))
+
+
+@njit(cache=True)
+def _damper_branch_inv(f: float, c: float, vk: float, r: float, eps: float) -> float:
+    """Closed-form inverse of :func:`_damper_branch` for ``f ≥ 0`` (exactly 0 at ``f = 0``).
+
+    With ``v = vk + w`` the branch reads ``α·w − β·√(w² + ε²) = Φ``, ``α, β = (1 ± r)/2``,
+    whose root is ``w = (α·Φ + β·√(Φ² + r·ε²))/r``.
+    """
+    alpha = 0.5 * (1.0 + r)
+    beta = 0.5 * (1.0 - r)
+    re2 = r * eps * eps
+    phi0 = -vk - (1.0 - r) * _ramp(-vk, eps)
+    phi = f / c + phi0
+    w = alpha * phi + beta * math.sqrt(phi * phi + re2)
+    w0 = alpha * phi0 + beta * math.sqrt(phi0 * phi0 + re2)
+    return (w - w0) / r
+
+
+@njit(cache=True)
+def damper_force(v, p):
+    """Damper force (N) at relative velocity ``v`` (m/s, > 0 compression)."""
+    if v >= 0.0:
+        return _damper_branch(v, p.c_c, p.vk_c, p.blowoff, p.knee)
+    return -_damper_branch(-v, p.c_r, p.vk_r, p.blowoff, p.knee)
+
+
+@njit(cache=True)
+def damper_velocity(f, p):
+    """Inverse of :func:`damper_force`: velocity (m/s) that produces force ``f`` (N)."""
+    if f >= 0.0:
+        return _damper_branch_inv(f, p.c_c, p.vk_c, p.blowoff, p.knee)
+    return -_damper_branch_inv(-f, p.c_r, p.vk_r, p.blowoff, p.knee)
+
+
+@njit(cache=True)
+def _contact_ramp(e: float, s: float) -> float:
+    """C1 ramp: 0 for e ≤ 0, e²/(2s) up to s, then e − s/2."""
+    if e <= 0.0:
+        return 0.0
+    if e < s:
+        return 0.5 * e * e / s
+    return e - 0.5 * s
+
+
+@njit(cache=True)
+def bump_stop_force(d, p):
+    """Bump-stop (δ > free travel) and rebound-stop (δ < −free travel) force, N."""
+    ec = d - p.free_c
+    er = -d - p.free_r
+    f = 0.0
+    if ec > 0.0:
+        f += p.k_bs * _contact_ramp(ec, p.bs_smooth) + p.k_bs3 * ec * ec * ec
+    if er > 0.0:
+        f -= p.k_bs * _contact_ramp(er, p.bs_smooth) + p.k_bs3 * er * er * er
+    return f
+
+
+@njit(cache=True)
+def in_contact(d, p):
+    """True where the deflection ``d`` (m) is beyond either free travel."""
+    return d > p.free_c or d < -p.free_r
+
+
+@njit(cache=True)
+def dynamic_element(d, dd, dpb, dpr, y, p, rates):
+    """Air spring and Maxwell damper of the dynamic reference.
+
+    Writes ``rates = (d Δp_b/dt, d Δp_r/dt, dy/dt)``; returns (air-spring force, damper force).
+    """
+    n = p.n_poly
+    p0 = p.p0
+    a0 = p.area
+    da = p.d_area
+    ae = a0 + da * d
+    vb = p.v_bag - a0 * d - 0.5 * da * d * d
+    vr = p.v_res
+    pb = p0 + dpb
+    pr = p0 + dpr
+    rho_b = p.rho0 * (pb / p0) ** (1.0 / n)
+    rho_r = p.rho0 * (pr / p0) ** (1.0 / n)
+    dp = dpb - dpr
+    dl = p.dp_lam
+    q = p.cd_area * math.sqrt(rho_b + rho_r) * dp / math.sqrt(math.sqrt(dp * dp + dl * dl))
+    rates[0] = n * pb * (ae * dd - q / rho_b) / vb
+    rates[1] = n * pr * q / (rho_r * vr)
+    f_d = p.k_series * (d - y)
+    rates[2] = damper_velocity(f_d, p)
+    f_air = p.n_springs * ((p0 - p.p_atm) * da * d + dpb * ae)
+    return f_air, f_d
+
+
+@njit(cache=True)
+def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
+    """State derivative ``dx`` of variant ``kind``; returns (F_s, 1 if the surrogate input is
+    outside its box). ``zc, zdc``: track input (m, m/s); ``fa``: actuator force, N.
+
+    ``u`` (2,) and ``lw`` (:func:`~surrogates.models.lpr.lpr_scratch`) are work arrays.
+    """
+    d = x[0] - x[2]
+    dd = x[1] - x[3]
+    outside = 0
+    if kind == 0:
+        fs = p.k2 * d + p.c2 * dd
+    elif kind == 1:
+        fs = p.k2 * d * (1.0 + p.progression * d * d) + bump_stop_force(d, p) + damper_force(dd, p)
+    elif kind == 2:
+        f_air, f_d = dynamic_element(d, dd, x[4], x[5], x[6], p, dx[4:])
+        fs = f_air + f_d + bump_stop_force(d, p)
+    else:
+        u[0] = d
+        u[1] = dd
+        if lpr_is_outside(u, lpr.lo, lpr.up):
+            outside = 1
+        fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+    dx[0] = x[1]
+    dx[1] = (p.k1 * (zc - x[0]) + p.c1 * (zdc - x[1]) - fs - fa) / p.m1
+    dx[2] = x[3]
+    dx[3] = (fs + fa) / p.m2
+    return fs, outside

@@ -1,0 +1,239 @@
+"""Compiled RK4 kernels that advance ``n`` vertical vehicles by one control step in place.
+
+Each variant has a kernel ``advance_<variant>(state, z, zdot, k0, n_sub, dt, force_a, p, lpr,
+out)``: ``p`` is :class:`~railgym.vehicles.vertical.params.SuspensionParams`, ``lpr`` an
+:class:`~railgym.vehicles.vertical.elements.LprArrays` (placeholders for the physical
+variants) and ``out`` a :class:`StepOutputs` of preallocated arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+
+from railgym.vehicles.vertical.elements import LprArrays, in_contact, rhs
+from surrogates.models.lpr import EXTRAPOLATION_MODES, lpr_scratch
+
+__all__ = [
+    "DEFAULT_DT",
+    "DIVERGENCE_DISPLACEMENT",
+    "KERNELS",
+    "RAISE_MODE",
+    "STATE_SIZE",
+    "StepOutputs",
+    "VARIANTS",
+    "advance_dynamic",
+    "advance_linear",
+    "advance_static",
+    "advance_surrogate",
+    "check_variant",
+    "initial_state",
+    "step_outputs",
+    "surrogate_arrays",
+]
+
+VARIANTS = ("linear", "static", "dynamic", "surrogate")
+#: number of state variables per variant
+STATE_SIZE = {"linear": 4, "static": 4, "dynamic": 7, "surrogate": 4}
+#: recommended integration step per variant, s
+DEFAULT_DT = {"linear": 1e-3, "static": 1e-3, "dynamic": 1e-3, "surrogate": 1e-3}
+#: |x1| or |x2| above this (m) counts as divergence
+DIVERGENCE_DISPLACEMENT = 10.0
+#: LPR extrapolation mode of the ``"raise"`` policy
+RAISE_MODE = EXTRAPOLATION_MODES["raise"]
+
+_KIND = {"linear": 0, "static": 1, "dynamic": 2, "surrogate": 3}
+
+
+class StepOutputs(NamedTuple):
+    """Per-env results of one kernel call (preallocated, overwritten in place)."""
+
+    acc: np.ndarray  #: float64 (n, 2): (ẍ1, ẍ2) at the end of the step, m/s² (0 if diverged)
+    force: np.ndarray  #: float64 (n,): secondary-suspension force F_s at the end, N
+    count: np.ndarray  #: int64 (n, 2): substeps in bump-stop contact, out-of-domain stages
+    div: np.ndarray  #: bool (n,): diverged during this step (state frozen)
+
+
+def step_outputs(n: int) -> StepOutputs:
+    """Zeroed :class:`StepOutputs` for ``n`` envs."""
+    return StepOutputs(
+        np.zeros((n, 2)), np.zeros(n), np.zeros((n, 2), np.int64), np.zeros(n, np.bool_)
+    )
+
+
+@njit(cache=True)
+def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+    """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`)."""
+    q = p[0]
+    n, s = state.shape
+    x = np.empty(s)
+    xt = np.empty(s)
+    r1 = np.empty(s)
+    r2 = np.empty(s)
+    r3 = np.empty(s)
+    r4 = np.empty(s)
+    u = np.empty(2)
+    lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
+    h6 = dt / 6.0
+    dt8 = 0.125 * dt  # cubic Hermite midpoint of the track samples (package docstring)
+    c3 = 1.5 / dt
+    for i in range(n):
+        kk = k0[i]
+        if kk < 0 or kk + n_sub > z.shape[1] - 1:
+            raise ValueError("track index out of range: need 0 <= k0 and k0 + n_sub <= N")
+        fa = force_a[i]
+        for j in range(s):
+            x[j] = state[i, j]
+        contact = 0
+        ood = 0
+        div = False
+        for m in range(n_sub):
+            ka = kk + m
+            za = z[i, ka]
+            zda = zdot[i, ka]
+            zb = z[i, ka + 1]
+            zdb = zdot[i, ka + 1]
+            zm = 0.5 * (za + zb) + dt8 * (zda - zdb)
+            zdm = c3 * (zb - za) - 0.25 * (zda + zdb)
+            _, o1 = rhs(kind, x, za, zda, fa, q, lpr, u, lw, r1)
+            for j in range(s):
+                xt[j] = x[j] + 0.5 * dt * r1[j]
+            _, o2 = rhs(kind, xt, zm, zdm, fa, q, lpr, u, lw, r2)
+            for j in range(s):
+                xt[j] = x[j] + 0.5 * dt * r2[j]
+            _, o3 = rhs(kind, xt, zm, zdm, fa, q, lpr, u, lw, r3)
+            for j in range(s):
+                xt[j] = x[j] + dt * r3[j]
+            _, o4 = rhs(kind, xt, zb, zdb, fa, q, lpr, u, lw, r4)
+            ood += o1 + o2 + o3 + o4
+            ok = True
+            for j in range(s):
+                xt[j] = x[j] + h6 * (r1[j] + 2.0 * r2[j] + 2.0 * r3[j] + r4[j])
+                if not math.isfinite(xt[j]):
+                    ok = False
+            if abs(xt[0]) > DIVERGENCE_DISPLACEMENT or abs(xt[2]) > DIVERGENCE_DISPLACEMENT:
+                ok = False
+            if not ok:
+                div = True
+                break
+            for j in range(s):
+                x[j] = xt[j]
+            if in_contact(x[0] - x[2], q):
+                contact += 1
+        for j in range(s):
+            state[i, j] = x[j]
+        if not div:
+            ke = kk + n_sub
+            fs, _ = rhs(kind, x, z[i, ke], zdot[i, ke], fa, q, lpr, u, lw, r1)
+            if math.isfinite(fs) and math.isfinite(r1[1]) and math.isfinite(r1[3]):
+                out.acc[i, 0] = r1[1]
+                out.acc[i, 1] = r1[3]
+                out.force[i] = fs
+            else:
+                div = True
+        if div:
+            out.acc[i, 0] = 0.0
+            out.acc[i, 1] = 0.0
+            out.force[i] = 0.0
+        out.count[i, 0] = contact
+        out.count[i, 1] = ood
+        out.div[i] = div
+
+
+@njit(cache=True)
+def advance_linear(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+    """Advance ``n`` envs by ``n_sub`` RK4 substeps of ``dt`` (s), linear secondary suspension.
+
+    All four ``advance_<variant>`` kernels share this signature and work in place.
+
+    Parameters
+    ----------
+    state : float64 (n, s)
+        States, updated in place (``s = STATE_SIZE[variant]``).
+    z, zdot : float64 (n, N+1)
+        Track displacement (m) and velocity (m/s) per env on the grid ``t_k = k·dt``.
+    k0 : int64 (n,)
+        Index of each env's current track sample; needs ``k0 + n_sub <= N``.
+    n_sub : int
+        Substeps per control step.
+    dt : float
+        Integration step, s.
+    force_a : float64 (n,)
+        Actuator force (N, pushes the carbody up and the bogie down), held over the step.
+    p : structured float64 (1,)
+        ``VerticalVehicle.kernel_params().record()`` (:class:`SuspensionParams` fields).
+    lpr : LprArrays
+        Surrogate element (:func:`surrogate_arrays`); used by ``advance_surrogate`` only.
+    out : StepOutputs
+        Accelerations, force, counters and the diverged flags of this step.
+    """
+    _advance(0, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+
+
+@njit(cache=True)
+def advance_static(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+    """:func:`advance_linear` with the static nonlinear reference suspension."""
+    _advance(1, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+
+
+@njit(cache=True)
+def advance_dynamic(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+    """:func:`advance_linear` with the dynamic reference (air spring + Maxwell damper)."""
+    _advance(2, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+
+
+@njit(cache=True)
+def advance_surrogate(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+    """:func:`advance_linear` with the LPR surrogate ``F̂(δ, δ̇)`` as secondary suspension."""
+    _advance(3, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+
+
+KERNELS = {
+    "linear": advance_linear,
+    "static": advance_static,
+    "dynamic": advance_dynamic,
+    "surrogate": advance_surrogate,
+}
+
+
+def surrogate_arrays(surrogate: Any = None) -> LprArrays:
+    """:class:`LprArrays` from a fitted LPR model (or its ``kernel_arrays()`` tuple).
+
+    ``None`` gives placeholder arrays for the variants that ignore them. A model whose input
+    count is not 2 (δ, δ̇) is rejected.
+    """
+    if surrogate is None:
+        return LprArrays(np.zeros((1, 2), np.int64), np.zeros(1), np.zeros(2), np.ones(2), 0)
+    arrays = surrogate.kernel_arrays() if hasattr(surrogate, "kernel_arrays") else surrogate
+    if not isinstance(arrays, tuple | list) or len(arrays) != 5:
+        raise ValueError("surrogate must be a fitted LPR model or its kernel_arrays() tuple")
+    exps, coef, lo, up, mode = arrays
+    exps = np.ascontiguousarray(exps, dtype=np.int64)
+    coef = np.ascontiguousarray(coef, dtype=np.float64)
+    lo = np.ascontiguousarray(lo, dtype=np.float64)
+    up = np.ascontiguousarray(up, dtype=np.float64)
+    if exps.ndim != 2 or exps.shape[1] != 2 or lo.shape != (2,) or up.shape != (2,):
+        raise ValueError(
+            f"surrogate must have 2 inputs (δ, δ̇); got exponents of shape {exps.shape}"
+        )
+    if coef.shape != (exps.shape[0],):
+        raise ValueError(f"surrogate coef has shape {coef.shape}, expected ({exps.shape[0]},)")
+    if int(mode) not in EXTRAPOLATION_MODES.values():
+        raise ValueError(f"surrogate extrapolation mode must be one of {EXTRAPOLATION_MODES}")
+    return LprArrays(exps, coef, lo, up, int(mode))
+
+
+def check_variant(variant: str) -> int:
+    """Kernel number of ``variant``; ValueError naming ``variant`` otherwise."""
+    if not isinstance(variant, str) or variant not in _KIND:
+        raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+    return _KIND[variant]
+
+
+def initial_state(variant: str, n: int = 1) -> np.ndarray:
+    """Static equilibrium state(s), float64 (n, STATE_SIZE[variant]) of zeros."""
+    check_variant(variant)
+    return np.zeros((n, STATE_SIZE[variant]))

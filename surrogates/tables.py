@@ -1,0 +1,209 @@
+"""Multibody time-history tables (Simpack, Adams, GENSYS exports) → :class:`TimeHistory` in SI.
+
+:func:`read_table` reads a text table with one row per sample: CSV (``,`` or ``;``), tab- or
+whitespace-separated, with a header row of column names and, optionally, a row of units or
+units inside the names (``x1 [mm]``, ``x1 (mm)``, ``x1/mm``…: the last bracket pair is taken),
+or per-column units given by the caller. Lines before ``header_row`` (an export preamble),
+blank lines and lines starting with ``comment`` are skipped. Values are converted to SI once
+with :data:`UNITS` (an unknown unit is an error naming the column); the file is streamed.
+
+Errors name the file, line and column: missing columns, non-numeric or non-finite cells, a
+row with another number of fields than the header, a time that does not increase, an empty
+file. A last row cut short (the export was interrupted) is dropped with a ``UserWarning``.
+
+Recipe, multibody export → vertical element (see ``docs/data.md``)::
+
+    th = read_table("bogie.txt", delimiter="whitespace", unit_row=1, time="Time")
+    U, V = vertical_features_from(th, m2=..., x1="z_bogie", x2="z_body", v1=..., v2=..., a2=...)
+    model, report = build(U, V)
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from array import array
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from surrogates.features import TimeHistory
+
+#: unit → (SI factor, SI unit); also "-", "1" and "" (no unit)
+UNITS: dict[str, tuple[float, str]] = {
+    "m": (1.0, "m"),
+    "cm": (1e-2, "m"),
+    "mm": (1e-3, "m"),
+    "um": (1e-6, "m"),
+    "m/s": (1.0, "m/s"),
+    "mm/s": (1e-3, "m/s"),
+    "km/h": (1 / 3.6, "m/s"),
+    "m/s^2": (1.0, "m/s^2"),
+    "m/s2": (1.0, "m/s^2"),
+    "m/s**2": (1.0, "m/s^2"),
+    "mm/s^2": (1e-3, "m/s^2"),
+    "mm/s2": (1e-3, "m/s^2"),
+    "g": (9.80665, "m/s^2"),
+    "N": (1.0, "N"),
+    "kN": (1e3, "N"),
+    "MN": (1e6, "N"),
+    "s": (1.0, "s"),
+    "ms": (1e-3, "s"),
+    "kg": (1.0, "kg"),
+    "t": (1e3, "kg"),
+    "rad": (1.0, "rad"),
+    "deg": (np.pi / 180.0, "rad"),
+    "Pa": (1.0, "Pa"),
+    "kPa": (1e3, "Pa"),
+    "bar": (1e5, "Pa"),
+    "-": (1.0, ""),
+    "1": (1.0, ""),
+    "": (1.0, ""),
+}
+DELIMITERS = {",": ",", ";": ";", "tab": "\t", "whitespace": None}
+_NAME_UNIT = re.compile(r"^(.*?)\s*[\[(]([^\[\]()]*)[\])]\s*$")
+
+
+def _split(line: str, sep: str | None) -> list[str]:
+    return [f.strip() for f in (line.split() if sep is None else line.split(sep))]
+
+
+def _detect(header: str) -> str | None:
+    for sep in (",", ";", "\t"):
+        if sep in header:
+            return sep
+    return None
+
+
+def _si(unit: str, column: str, where: str) -> tuple[float, str]:
+    u = unit.strip()
+    if u not in UNITS:
+        raise ValueError(
+            f"{where}: unit {unit!r} of column {column!r} is not known; known units: "
+            f"{sorted(k for k in UNITS if k)}"
+        )
+    return UNITS[u]
+
+
+def read_table(
+    path: str | Path,
+    *,
+    delimiter: str | None = None,
+    header_row: int = 0,
+    unit_row: int | None = None,
+    units: Mapping[str, str] | None = None,
+    time: str = "t",
+    columns: Sequence[str] | None = None,
+    comment: str = "#",
+) -> TimeHistory:
+    """Read a time-history table into a :class:`TimeHistory` in SI.
+
+    Parameters
+    ----------
+    path : the text file.
+    delimiter : ``","``, ``";"``, ``"tab"``, ``"whitespace"`` or ``None`` (detected from the
+        header line: ``,`` then ``;`` then tab, else whitespace).
+    header_row : 0-based line number of the column names (earlier lines are skipped).
+    unit_row : 0-based line number of a row of units (``None``: none, or units in the names).
+    units : column → unit, overriding the file's (default: the file's, else SI assumed).
+    time : name of the time column (strictly increasing; converted to s).
+    columns : channels to keep (default every column but the time).
+    comment : lines starting with it (after leading blanks) are skipped.
+    """
+    path = Path(path)
+    if delimiter is not None and delimiter not in DELIMITERS:
+        raise ValueError(f"delimiter must be one of {list(DELIMITERS)} or None, got {delimiter!r}")
+    if unit_row is not None and unit_row <= header_row:
+        raise ValueError(f"unit_row ({unit_row}) must come after header_row ({header_row})")
+    with path.open() as fh:
+        names: list[str] | None = None
+        sep: str | None = None
+        file_units: dict[str, str] = {}
+        cols: list[array] = []
+        pos: list[int] = []
+        scale: list[float] = []
+        short: int | None = None
+        last_t: float | None = None
+        chosen: list[str] = []
+        si_units: dict[str, str] = {}
+        for i, raw in enumerate(fh):
+            lineno = i + 1
+            line = raw.rstrip("\r\n")
+            if i < header_row:
+                continue
+            if i == header_row:
+                sep = DELIMITERS[delimiter] if delimiter is not None else _detect(line)
+                names = []
+                for field in _split(line, sep):
+                    m = _NAME_UNIT.match(field)
+                    name = m.group(1) if m else field
+                    if m:
+                        file_units[name] = m.group(2)
+                    names.append(name)
+                if not any(names):
+                    raise ValueError(f"{path}: line {lineno}: empty header row")
+                continue
+            if names is None:
+                continue
+            if i == unit_row:
+                cells = _split(line, sep)
+                if len(cells) != len(names):
+                    raise ValueError(
+                        f"{path}: line {lineno}: the unit row has {len(cells)} fields, the "
+                        f"header {len(names)}"
+                    )
+                file_units.update({n: u.strip("[]()") for n, u in zip(names, cells, strict=True)})
+                continue
+            if not line.strip() or line.lstrip().startswith(comment):
+                continue
+            if not cols:  # first data row: fix the columns and their SI factors
+                if time not in names:
+                    raise ValueError(f"{path}: no time column {time!r}; the header has {names}")
+                keep = [n for n in names if n != time] if columns is None else list(columns)
+                missing = [c for c in keep if c not in names]
+                if missing:
+                    raise ValueError(f"{path}: missing column(s) {missing}; the header has {names}")
+                chosen = [time, *keep]
+                pos = [names.index(c) for c in chosen]
+                where = f"{path}: line {unit_row + 1 if unit_row is not None else header_row + 1}"
+                all_units = {**file_units, **dict(units or {})}
+                si = [_si(all_units.get(c, ""), c, where) for c in chosen]
+                scale = [f for f, _ in si]
+                si_units = {c: u for c, (_, u) in zip(chosen, si, strict=True) if u}
+                cols = [array("d") for _ in chosen]
+            if short is not None:
+                raise ValueError(f"{path}: line {short} has fewer fields than the header")
+            cells = _split(line, sep)
+            if len(cells) < len(names):
+                short = lineno
+                continue
+            if len(cells) > len(names):
+                raise ValueError(
+                    f"{path}: line {lineno} has {len(cells)} fields, the header has {len(names)}"
+                )
+            for col, p, name in zip(cols, pos, chosen, strict=True):
+                try:
+                    v = float(cells[p])
+                except ValueError:
+                    raise ValueError(
+                        f"{path}: line {lineno}: column {name!r}: {cells[p]!r} is not a number"
+                    ) from None
+                if not np.isfinite(v):
+                    raise ValueError(f"{path}: line {lineno}: column {name!r}: value is {v}")
+                col.append(v)
+            t = cols[0][-1]
+            if last_t is not None and t <= last_t:
+                raise ValueError(
+                    f"{path}: line {lineno}: time {t} does not increase (previous {last_t})"
+                )
+            last_t = t
+    if names is None:
+        raise ValueError(f"{path}: empty file, expected a header row at line {header_row + 1}")
+    if not cols or len(cols[0]) < 2:
+        raise ValueError(f"{path}: fewer than 2 data rows")
+    if short is not None:
+        warnings.warn(f"{path}: last row (line {short}) is cut short; dropped", stacklevel=2)
+    data = [np.frombuffer(c, dtype=float) * s for c, s in zip(cols, scale, strict=True)]
+    si_units.pop(time, None)
+    return TimeHistory(data[0], dict(zip(chosen[1:], data[1:], strict=True)), si_units)

@@ -1,0 +1,121 @@
+"""Bad command lines of ``railgym`` and ``python -m agents.train``: each is refused before any
+work with exit status 2, no traceback, and an error line that names the flag or file."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+import yaml
+
+from agents.cli import main as railgym_main
+
+pytest.importorskip("stable_baselines3")
+
+from agents.train import main as train_main  # noqa: E402
+
+ENV_ID = "railgym/VerticalSuspension-v0"
+TINY = {"algo": "ppo", "n_timesteps": 256, "n_envs": 1, "seed": 0}
+
+ROWS = [
+    # railgym paper / demo: output folder and seed
+    ("railgym", "paper --quick --out {file}", "--out"),
+    ("railgym", "paper --quick --out {nonempty}", "--out"),
+    ("railgym", "paper --quick --out {file}/sub", "--out"),
+    ("railgym", "paper --seed -1", "--seed"),
+    ("railgym", "paper --seed abc", "--seed"),
+    ("railgym", "paper --seed 1.5", "--seed"),
+    ("railgym", "paper --quick=yes", "--quick"),
+    ("railgym", "demo --out {file}", "--out"),
+    ("railgym", "demo --out {nonempty}", "--out"),
+    ("railgym", "demo --seed -3", "--seed"),
+    ("railgym", "", "command"),
+    ("railgym", "frobnicate", "command"),
+    # railgym evaluate: numbers with their units and ranges
+    ("railgym", "evaluate skyhook --episodes 0", "--episodes"),
+    ("railgym", "evaluate skyhook --episodes -5", "--episodes"),
+    ("railgym", "evaluate skyhook --episodes 1e9", "--episodes"),
+    ("railgym", "evaluate skyhook --episodes 100000", "--episodes"),
+    ("railgym", "evaluate skyhook --track-class 0", "--track-class"),
+    ("railgym", "evaluate skyhook --track-class 7", "--track-class"),
+    ("railgym", "evaluate skyhook --track-class x", "--track-class"),
+    ("railgym", "evaluate passive --env crash --speed -40", "--speed: .*-40 km/h"),
+    ("railgym", "evaluate passive --env crash --speed 0", "--speed"),
+    ("railgym", "evaluate passive --env crash --speed nan", "--speed"),
+    ("railgym", "evaluate passive --env crash --speed inf", "--speed"),
+    ("railgym", "evaluate passive --env crash --speed 1e6", "--speed: .*km/h"),
+    ("railgym", "evaluate passive --env crash --speed fast", "--speed"),
+    ("railgym", "evaluate skyhook --seed -1", "--seed"),
+    ("railgym", "evaluate skyhook --backend magic", "--backend"),
+    ("railgym", "evaluate skyhook --env rail", "--env"),
+    ("railgym", "evaluate passive --env crash --backend linear", "--backend"),
+    # railgym evaluate: policies
+    ("railgym", "evaluate", "policy"),
+    ("railgym", "evaluate skyhook2", "policy must be one of"),
+    ("railgym", "evaluate {missing}.zip", "policy must be one of"),
+    ("railgym", "evaluate {noconfig}", "no config.yaml"),
+    ("railgym", "evaluate {nomanifest}", "--trust"),
+    # python -m agents.train
+    ("train", "", "config"),
+    ("train", "{missing}.yaml", "missing.yaml"),
+    ("train", "{nonempty}", "nonempty"),
+    ("train", "{cfg_n_envs}", "n_envs"),
+    ("train", "{cfg_unknown}", "learning_rat"),
+    ("train", "{cfg_broken}", "broken.yaml, line"),
+    ("train", "{cfg_list}", "mapping"),
+    ("train", "{cfg} --timesteps 0", "--timesteps"),
+    ("train", "{cfg} --timesteps abc", "--timesteps"),
+    ("train", "{cfg} --seed -1", "--seed"),
+    ("train", "{cfg} --out {nonempty}", "--out"),
+    ("train", "{cfg} --out {file}", "--out"),
+]
+
+
+@pytest.fixture
+def places(tmp_path, monkeypatch):
+    """Files and folders the rows name; the working directory is ``tmp_path``."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "nonempty").mkdir()
+    (tmp_path / "nonempty" / "keep.txt").write_text("keep")
+    (tmp_path / "noconfig").mkdir()
+    (tmp_path / "noconfig" / "model.zip").write_bytes(b"PK")
+    (tmp_path / "nomanifest").mkdir()
+    (tmp_path / "nomanifest" / "model.zip").write_bytes(b"PK")
+    (tmp_path / "nomanifest" / "config.yaml").write_text(yaml.safe_dump({ENV_ID: TINY}))
+
+    def config(name: str, block: object) -> str:
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(yaml.safe_dump({ENV_ID: block}) if isinstance(block, dict) else block)
+        return str(path)
+
+    return {
+        "file": str(tmp_path / "file"),
+        "nonempty": str(tmp_path / "nonempty"),
+        "missing": str(tmp_path / "missing"),
+        "noconfig": str(tmp_path / "noconfig" / "model.zip"),
+        "nomanifest": str(tmp_path / "nomanifest" / "model.zip"),
+        "cfg": config("ok", TINY),
+        "cfg_n_envs": config("n_envs", {**TINY, "n_envs": 0}),
+        "cfg_unknown": config("unknown", {**TINY, "learning_rat": 0.1}),
+        "cfg_broken": config("broken", "a: [1,\n"),
+        "cfg_list": config("list", "- 1\n- 2\n"),
+    }
+
+
+@pytest.mark.parametrize(("prog", "argv", "names"), ROWS, ids=[f"{p} {a}" for p, a, _ in ROWS])
+def test_bad_command_line_is_one_clear_error(places, capsys, prog, argv, names):
+    args = argv.format(**places).split()
+    main = railgym_main if prog == "railgym" else train_main
+    try:
+        code = main(args)
+    except SystemExit as exc:  # argparse's own errors
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert "error:" in last
+    assert re.search(names, last), last
+    assert sorted(p.name for p in Path("nonempty").iterdir()) == ["keep.txt"]  # nothing written

@@ -1,0 +1,183 @@
+"""The env shell of the vertical envs: copies, reward terms, accessors, the "raise"
+extrapolation policy, bounded outputs under extreme settings, and "name or path" loading."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+
+import cloudpickle
+import numpy as np
+import pytest
+
+from railgym.envs.vertical import (
+    ACC_REF,
+    LIMITS,
+    VerticalSuspensionEnv,
+    VerticalSuspensionVectorEnv,
+)
+from railgym.vehicles.vertical import load_vehicle
+from surrogates import LegendreRegression
+
+COPIES = {
+    "pickle": lambda e: pickle.loads(pickle.dumps(e)),
+    "cloudpickle": lambda e: cloudpickle.loads(cloudpickle.dumps(e)),
+    "deepcopy": copy.deepcopy,
+}
+
+
+def _actions(n, shape, seed=0):
+    rng = np.random.default_rng(seed)
+    return [rng.uniform(-1.2, 1.2, shape).astype(np.float32) for _ in range(n)]
+
+
+def _run(env, actions):
+    out = []
+    for a in actions:
+        obs, r, term, trunc, info = env.step(a)
+        out.append((obs.copy(), np.copy(r), np.copy(term), np.copy(trunc), info["carbody_acc"]))
+    return out
+
+
+def _assert_same(a, b):
+    for x, y in zip(a, b, strict=True):
+        for u, v in zip(x, y, strict=True):
+            np.testing.assert_array_equal(u, v)
+
+
+@pytest.mark.parametrize("how", COPIES)
+@pytest.mark.parametrize("mid", [0, 37])
+def test_single_env_copy_continues_bit_identically(how, mid):
+    env = VerticalSuspensionEnv(duration=0.6, sensor_noise=0.05)
+    env.reset(seed=4)
+    _run(env, _actions(mid, (1,), seed=1))
+    twin = COPIES[how](env)
+    acts = _actions(23, (1,), seed=2)  # runs to the end of the 60-step episode (mid=37)
+    a, b = _run(env, acts), _run(twin, acts)
+    _assert_same(a, b)
+    assert twin.sim.z is not env.sim.z and twin.sim.obs is twin.sim.res.obs
+
+
+@pytest.mark.parametrize("how", COPIES)
+@pytest.mark.parametrize("mid", [0, 25])
+def test_vector_env_copy_continues_bit_identically(how, mid):
+    venv = VerticalSuspensionVectorEnv(num_envs=3, duration=0.3, sensor_noise=0.05)
+    venv.reset(seed=9)
+    _run(venv, _actions(mid, (3, 1), seed=3))
+    twin = COPIES[how](venv)
+    acts = _actions(45, (3, 1), seed=4)  # crosses an autoreset
+    _assert_same(_run(venv, acts), _run(twin, acts))
+
+
+def test_reward_terms_sum_to_the_reward_and_follow_the_definition():
+    w = {"acceleration": 1.5, "deflection": 0.5, "force": 0.2}
+    env = VerticalSuspensionEnv(backend="reference", duration=0.5, reward_weights=w)
+    env.reset(seed=0)
+    for a in _actions(50, (1,)):
+        _, r, *_, info = env.step(a)
+        t = info["reward_terms"]
+        assert t["acceleration"] + t["deflection"] + t["force"] + t["divergence"] == r
+        assert t["acceleration"] == pytest.approx(
+            -w["acceleration"] * (info["carbody_acc"] / ACC_REF) ** 2, rel=1e-12
+        )
+        defl = (env.state[0] - env.state[2]) / env.cfg.free_travel
+        assert t["deflection"] == pytest.approx(-w["deflection"] * defl**2, rel=1e-12)
+        f = np.clip(a[0], -1, 1)
+        assert t["force"] == pytest.approx(-w["force"] * f**2, rel=1e-6)
+        assert info["actuator_force"] == env.actuator_force == pytest.approx(8000.0 * f)
+        assert t["divergence"] == 0.0
+
+
+def test_vector_reward_terms_are_arrays_that_sum_to_the_reward():
+    venv = VerticalSuspensionVectorEnv(num_envs=4, duration=0.2)
+    venv.reset(seed=1)
+    for a in _actions(30, (4, 1)):
+        _, r, *_, info = venv.step(a)
+        t = info["reward_terms"]
+        total = t["acceleration"] + t["deflection"] + t["force"] + t["divergence"]
+        np.testing.assert_array_equal(total, r)
+        assert info["_reward_terms"].all() and t["_force"].all()
+        np.testing.assert_array_equal(venv.carbody_acceleration, info["carbody_acc"])
+        assert venv.state.shape == (4, 4) and venv.actuator_force.shape == (4,)
+
+
+def test_divergence_term_and_accessors_are_copies():
+    env = VerticalSuspensionEnv(backend="linear", duration=1.0)
+    env.reset(seed=0)
+    s = env.state
+    s[0] = 1e6  # a copy: the env is not changed
+    _, r, term, _, info = env.step(np.zeros(1, np.float32))
+    assert not term
+    env.sim.state[0, 0] = 1e6  # beyond the divergence guard
+    _, r, term, _, info = env.step(np.zeros(1, np.float32))
+    assert term and info["diverged"] and r == -100.0
+    assert info["reward_terms"] == {
+        "acceleration": 0.0,
+        "deflection": 0.0,
+        "force": 0.0,
+        "divergence": -100.0,
+    }
+
+
+def _box_lpr(extrapolation):
+    """LPR of the linear suspension on a small box (±5 mm, ±0.05 m/s)."""
+    veh = load_vehicle()
+    g = np.meshgrid(np.linspace(-0.005, 0.005, 9), np.linspace(-0.05, 0.05, 9))
+    u = np.c_[g[0].ravel(), g[1].ravel()]
+    return LegendreRegression(degree=1, extrapolation=extrapolation).fit(
+        u, veh.k2 * u[:, 0] + veh.c2 * u[:, 1]
+    )
+
+
+def test_raise_policy_terminates_with_a_flag_and_linear_does_not():
+    runs = {}
+    for policy in ("raise", "linear"):
+        env = VerticalSuspensionEnv(surrogate=_box_lpr(policy), track_class=4, duration=2.0)
+        env.reset(seed=0)
+        for k in range(200):  # noqa: B007 (k is read after the loop)
+            _, r, term, trunc, info = env.step(np.ones(1, np.float32))
+            if term or trunc:
+                break
+        runs[policy] = (k, term, info)
+    k, term, info = runs["raise"]
+    assert term and info["extrapolated"] and info["out_of_domain"] > 0 and k < 199
+    k, term, info = runs["linear"]
+    assert not term and "extrapolated" not in info and info["out_of_domain"] > 0
+
+
+def test_extreme_documented_settings_keep_step_finite():
+    w = {k: LIMITS["reward_weight"] for k in ("acceleration", "deflection", "force")}
+    env = VerticalSuspensionEnv(
+        backend="linear",
+        observation="full",
+        duration=1.0,
+        sensor_noise=LIMITS["sensor_noise"],
+        reward_weights=w,
+        f_max=LIMITS["f_max"],
+        track_class=1,
+        speed=2 * 4.47,
+    )
+    env.reset(seed=0)
+    for a in _actions(100, (1,), seed=5):
+        obs, r, term, trunc, info = env.step(a * 100)
+        assert np.all(np.isfinite(obs)) and np.isfinite(r)
+        assert all(np.isfinite(v) for v in info["reward_terms"].values())
+        if term or trunc:
+            break
+
+
+def test_packaged_name_wins_over_a_folder_or_file_of_that_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "manchester").mkdir()
+    (tmp_path / "manchester.yml").mkdir()  # a folder with a YAML suffix: not a file
+    ref = load_vehicle("manchester")
+    assert load_vehicle("manchester") == ref and ref.m2 == 16000.0
+    with pytest.raises(ValueError, match="vehicle file 'manchester.yml' does not exist"):
+        load_vehicle("manchester.yml")
+    from importlib import resources
+
+    text = resources.files("railgym").joinpath("configs", "vehicles", "manchester.yaml")
+    (tmp_path / "mine.yaml").write_text(text.read_text().replace("m2: 16000.0", "m2: 15000.0"))
+    assert load_vehicle("mine.yaml").m2 == 15000.0
+    with pytest.raises(ValueError, match="unknown vehicle 'mine'"):
+        load_vehicle("mine")  # a bare name never reads the working directory
