@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from surrogates import Kriging, LegendreRegression, io
+from surrogates.passive import PassiveLegendreRegression
 
 sklearn_base = pytest.importorskip("sklearn.base")
 
@@ -17,6 +18,10 @@ U = RNG.uniform(-1.0, 1.0, (30, 2))
 V = np.sin(2.0 * U[:, 0]) + U[:, 1] ** 2
 
 CASES = [
+    (
+        PassiveLegendreRegression,
+        {"degree": [3, 3], "extrapolation": "clip", "grid_size": 51, "monotone": [True, False]},
+    ),
     (LegendreRegression, {"degree": [3, 2], "interactions": False, "extrapolation": "clip"}),
     (LegendreRegression, {"degree": 4, "interactions": True, "extrapolation": "raise"}),
     (
