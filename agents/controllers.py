@@ -183,6 +183,24 @@ def linear_model(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return a, b, a[3].copy(), 1.0 / m2
 
 
+def _lqr_weights(
+    cfg: Any, acc_ref: float, q_acc: float | None, q_defl: float | None, r_force: float | None
+) -> tuple[float, float, float]:
+    """LQR weights in SI; ``None`` = the reward's: ``1/acc_ref²``, ``1/free_travel²``,
+    ``0.1/f_max²``. ValueError names a negative or non-finite weight, or ``r_force <= 0``."""
+    weights = {
+        "q_acc": 1.0 / acc_ref**2 if q_acc is None else q_acc,
+        "q_defl": 1.0 / cfg.free_travel**2 if q_defl is None else q_defl,
+        "r_force": 0.1 / cfg.f_max**2 if r_force is None else r_force,
+    }
+    for name, value in weights.items():
+        if not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a non-negative number, got {value!r}")
+    if weights["r_force"] <= 0:
+        raise ValueError(f"r_force must be positive, got {weights['r_force']!r}")
+    return float(weights["q_acc"]), float(weights["q_defl"]), float(weights["r_force"])
+
+
 class LQR(_Controller):
     """Linear-quadratic regulator on the linearised vertical model (needs ``observation="full"``).
 
@@ -219,18 +237,9 @@ class LQR(_Controller):
                 "observation must be 'full' for LQR (it needs the states x1, v1, x2, v2); "
                 f"the env observes {list(self.obs_names)}"
             )
-        cfg = self._base.cfg
-        weights = {
-            "q_acc": 1.0 / ACC_REF**2 if q_acc is None else q_acc,
-            "q_defl": 1.0 / cfg.free_travel**2 if q_defl is None else q_defl,
-            "r_force": 0.1 / cfg.f_max**2 if r_force is None else r_force,
-        }
-        for name, value in weights.items():
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
-        if weights["r_force"] <= 0:
-            raise ValueError(f"r_force must be positive, got {weights['r_force']!r}")
-        self.q_acc, self.q_defl, self.r_force = weights.values()
+        self.q_acc, self.q_defl, self.r_force = _lqr_weights(
+            self._base.cfg, ACC_REF, q_acc, q_defl, r_force
+        )
         self.A, self.B, c, d = linear_model(self._base.sim.params)
         c_d = np.array([1.0, 0.0, -1.0, 0.0])
         q = self.q_acc * np.outer(c, c) + self.q_defl * np.outer(c_d, c_d)
@@ -363,17 +372,9 @@ class VehicleLQR(_VehicleController):
                 f"the env observes {list(self.obs_names)}"
             )
         cfg = self._base.cfg
-        weights = {
-            "q_acc": 1.0 / VEHICLE_ACC_REF**2 if q_acc is None else q_acc,
-            "q_defl": 1.0 / cfg.free_travel**2 if q_defl is None else q_defl,
-            "r_force": 0.1 / cfg.f_max**2 if r_force is None else r_force,
-        }
-        for name, value in weights.items():
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
-        if weights["r_force"] <= 0:
-            raise ValueError(f"r_force must be positive, got {weights['r_force']!r}")
-        self.q_acc, self.q_defl, self.r_force = weights.values()
+        self.q_acc, self.q_defl, self.r_force = _lqr_weights(
+            cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force
+        )
         self.A, self.B, _, c, d = linear_state_space(self.vehicle, cfg.flexible)
         p = self.params
         q = self.q_acc * c.T @ c / 3.0
