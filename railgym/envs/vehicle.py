@@ -107,9 +107,9 @@ def make_config(
     for name, value in (("duration", duration), ("control_dt", control_dt), ("f_max", f_max)):
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ValueError(f"{name} must be a positive number, got {value!r}")
-    if control_dt > 1.0 / 60.0:
+    if control_dt >= 1.0 / 60.0:
         raise ValueError(
-            f"control_dt must be at most 1/60 s (comfort figures need a sample rate above "
+            f"control_dt must be below 1/60 s (the Sperling index needs a sample rate above "
             f"60 Hz), got {control_dt!r}"
         )
     if n_actuators != 2:
@@ -436,7 +436,7 @@ class VerticalVehicleEnv(gym.Env[np.ndarray, np.ndarray]):
     speed : m/s: a number, a range ``(v_min, v_max)`` drawn uniformly per episode, or
         ``None`` = the class's maximum passenger speed (class 5: 144 km/h).
     profile : ``None`` (seeded FRA track), a CSV path (columns x, z in m) or ``(x, z)``.
-    duration : episode length, s (truncation). control_dt : agent step, s (≤ 1/60).
+    duration : episode length, s (truncation). control_dt : agent step, s (< 1/60).
     dt : RK4 step, s (default 1 ms). f_max : force of each actuator at action ±1, N.
     n_actuators : 2 (front and rear secondary suspension).
     observation : ``"sensors"`` or ``"full"``; sensor_noise : std of the additive noise on

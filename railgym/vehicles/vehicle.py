@@ -359,6 +359,7 @@ def advance(kind, bt, n_sub, dt, p, lpr, out):  # fmt: skip
     r3 = np.empty(s)
     r4 = np.empty(s)
     w = np.empty((4, 2))
+    wm = np.empty((4, 2))
     fs = np.empty(2)
     u = np.empty(2)
     lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
@@ -374,17 +375,17 @@ def advance(kind, bt, n_sub, dt, p, lpr, out):  # fmt: skip
         contact = 0
         ood = 0
         div = False
+        _inputs(bt, i, float(kk), dt, w)  # then carried from the end of each substep
         for m in range(n_sub):
             t0 = float(kk + m)
-            _inputs(bt, i, t0, dt, w)
             ood += _rhs(kind, x, w, fa, p, lpr, u, lw, r1, fs)
-            _inputs(bt, i, t0 + 0.5, dt, w)
+            _inputs(bt, i, t0 + 0.5, dt, wm)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r1[j]
-            ood += _rhs(kind, xt, w, fa, p, lpr, u, lw, r2, fs)
+            ood += _rhs(kind, xt, wm, fa, p, lpr, u, lw, r2, fs)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r2[j]
-            ood += _rhs(kind, xt, w, fa, p, lpr, u, lw, r3, fs)
+            ood += _rhs(kind, xt, wm, fa, p, lpr, u, lw, r3, fs)
             _inputs(bt, i, t0 + 1.0, dt, w)
             for j in range(s):
                 xt[j] = x[j] + dt * r3[j]
@@ -408,8 +409,7 @@ def advance(kind, bt, n_sub, dt, p, lpr, out):  # fmt: skip
                     contact += 1
         for j in range(s):
             bt.state[i, j] = x[j]
-        if not div:
-            _inputs(bt, i, float(kk + n_sub), dt, w)
+        if not div:  # w holds the inputs at the end of the step
             _rhs(kind, x, w, fa, p, lpr, u, lw, r1, fs)
             _outputs(x, r1, p, out.acc, i)
             for j in range(5):
@@ -430,7 +430,8 @@ def advance(kind, bt, n_sub, dt, p, lpr, out):  # fmt: skip
 # ======================================================================== utilities
 def make_batch(n: int, variant: str, n_samples: int) -> tuple[Batch, Out]:
     """Zeroed :class:`Batch` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples."""
-    s = STATE_SIZE[VARIANTS[check_variant(variant)]]
+    check_variant(variant)
+    s = STATE_SIZE[variant]
     bt = Batch(np.zeros((n, s)), np.zeros((n, n_samples)), np.zeros((n, n_samples)),
                np.zeros(n, np.int64), np.zeros((n, 4)), np.zeros((n, 2)))  # fmt: skip
     out = Out(np.zeros((n, 5)), np.zeros((n, 2)), np.zeros((n, 2), np.int64),
