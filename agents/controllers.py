@@ -323,12 +323,11 @@ class ModalSkyhook(_VehicleController):
         k2, a = v.suspension.k2, v.bogie_semi_spacing
         if not (np.isfinite(zeta) and zeta >= 0):
             raise ValueError(f"zeta must be a non-negative number, got {zeta!r}")
-        gains = {
-            "c_bounce": 2 * zeta * np.sqrt(2 * k2 * v.carbody_mass) if c_bounce is None
-            else c_bounce,
-            "c_pitch": 2 * zeta * np.sqrt(2 * k2 * a * a * v.carbody_pitch_inertia)
-            if c_pitch is None else c_pitch,
-        }  # fmt: skip
+        if c_bounce is None:
+            c_bounce = 2 * zeta * np.sqrt(2 * k2 * v.carbody_mass)
+        if c_pitch is None:
+            c_pitch = 2 * zeta * np.sqrt(2 * k2 * a * a * v.carbody_pitch_inertia)
+        gains = {"c_bounce": c_bounce, "c_pitch": c_pitch}
         for name, value in gains.items():
             if not (np.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a non-negative number, got {value!r}")
