@@ -177,7 +177,7 @@ class StepCfg(NamedTuple):
     weighted: bool
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _observe(bt, out, p, sc, bk, i):  # fmt: skip
     """Normalised observation of vehicle ``i`` into ``bk.obs[i]``."""
     x = bt.state[i]
@@ -204,7 +204,7 @@ def _observe(bt, out, p, sc, bk, i):  # fmt: skip
         o[9 + b] = vel * inv[9 + b]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _weigh(sos, zi, v):
     """One sample ``v`` through the cascade ``sos`` (transposed direct form II, state zi)."""
     y = v
@@ -217,10 +217,10 @@ def _weigh(sos, zi, v):
     return y
 
 
-@njit(cache=True)
-def control_step(kind, bt, p, lpr, out, bk, sc):  # fmt: skip
+@njit(cache=True, error_model="numpy")
+def control_step(kind, bt, p, e, lpr, out, bk, sc):  # fmt: skip
     """One control step of every vehicle: kernel, counters, observation and reward."""
-    advance(kind, bt, sc.n_sub, sc.dt, p, lpr, out)
+    advance(kind, bt, sc.n_sub, sc.dt, p, e, lpr, out)
     w_a, w_d, w_f = sc.weights[0], sc.weights[1], sc.weights[2]
     for i in range(bt.state.shape[0]):
         bt.k[i] += sc.n_sub
@@ -326,6 +326,7 @@ class VehicleBatch:
         self.n, self.cfg, self.vehicle = n, cfg, vehicle
         self.kind = check_variant(cfg.variant)
         self.params = kernel_params(vehicle, cfg.flexible)
+        self.elem = vehicle.suspension.kernel_params()
         self.lpr = Lpr(*lpr)
         span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)
         self.v_min = v_min
@@ -341,7 +342,8 @@ class VehicleBatch:
                           cfg.acc_weighting == "Wk")  # fmt: skip
         self.speed = np.zeros(n)
         self.track_class = np.zeros(n, np.int64)
-        self._args = (self.kind, self.bt, self.params, self.lpr, self.out, self.bk, self.sc)
+        self._args = (self.kind, self.bt, self.params, self.elem, self.lpr, self.out, self.bk,
+                      self.sc)  # fmt: skip
         self._step = compiled_entry(control_step, self._args)
 
     def reset(self, i: int, rng: np.random.Generator, track_class: int,

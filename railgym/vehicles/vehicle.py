@@ -50,9 +50,6 @@ from numba import njit
 
 from railgym.vehicles.vertical import (
     DIVERGENCE_DISPLACEMENT,
-    P_C1,
-    P_C2,
-    P_K1,
     P_K2,
     P_PROG,
     VerticalVehicle,
@@ -168,21 +165,26 @@ def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVe
 
 # ======================================================================= kernel data
 class Params(NamedTuple):
-    """Kernel parameters (SI): masses, inertias, modal data, geometry, element array."""
+    """Scalar kernel parameters (SI): inverse masses and inertias (multiplications keep
+    divisions out of the right-hand side), modal data, geometry, primary and linear
+    secondary suspension. The element array of the nonlinear secondary suspension
+    (:meth:`VerticalVehicle.kernel_params`) travels beside it."""
 
-    m_c: float
-    j_c: float
-    m_q: float
+    inv_m_c: float  # 1 / carbody mass, 1/kg
+    inv_j_c: float  # 1 / carbody pitch inertia, 1/(kg·m²)
+    inv_m_q: float  # 1 / bending modal mass, 1/kg
     k_q: float
     c_q: float
-    m_b: float
-    j_b: float
+    inv_m_b: float  # 1 / bogie mass, 1/kg
+    inv_j_b: float  # 1 / bogie pitch inertia, 1/(kg·m²)
     a: float
     b: float
-    phi_a: float  # mode shape at the bogie centres
-    x_floor: np.ndarray  # (3,) floor-point positions, m
-    phi_floor: np.ndarray  # (3,) mode shape there
-    elem: np.ndarray  # VerticalVehicle.kernel_params() of one bogie
+    phi_a: float  # mode shape at the bogie centres (= front and rear floor points)
+    phi_c: float  # mode shape at the centre floor point (1, or 0 when rigid)
+    k1w: float  # primary stiffness per wheelset, N/m
+    c1w: float  # primary damping per wheelset, N·s/m
+    k2: float  # linear secondary stiffness per bogie, N/m
+    c2: float  # linear secondary damping per bogie, N·s/m
 
 
 class Lpr(NamedTuple):
@@ -219,16 +221,15 @@ def kernel_params(vehicle: WholeVehicle, flexible: bool = True) -> Params:
     """:class:`Params` of a vehicle; ``flexible=False`` decouples the bending mode (rigid)."""
     w = 2.0 * math.pi * vehicle.bending_frequency
     mq = float(vehicle.bending_modal_mass)
-    xf = vehicle.floor_positions
-    phi_f = mode_shape(xf, vehicle.carbody_length) if flexible else np.zeros(3)
     phi_a = float(mode_shape(vehicle.bogie_semi_spacing, vehicle.carbody_length))
+    s = vehicle.suspension
     return Params(
-        m_c=float(vehicle.carbody_mass), j_c=float(vehicle.carbody_pitch_inertia),
-        m_q=mq, k_q=mq * w * w, c_q=2.0 * vehicle.bending_damping * mq * w,
-        m_b=float(vehicle.bogie_mass), j_b=float(vehicle.bogie_pitch_inertia),
+        inv_m_c=1.0 / vehicle.carbody_mass, inv_j_c=1.0 / vehicle.carbody_pitch_inertia,
+        inv_m_q=1.0 / mq, k_q=mq * w * w, c_q=2.0 * vehicle.bending_damping * mq * w,
+        inv_m_b=1.0 / vehicle.bogie_mass, inv_j_b=1.0 / vehicle.bogie_pitch_inertia,
         a=float(vehicle.bogie_semi_spacing), b=float(vehicle.semi_wheelbase),
-        phi_a=phi_a if flexible else 0.0, x_floor=xf, phi_floor=phi_f,
-        elem=vehicle.suspension.kernel_params(),
+        phi_a=phi_a if flexible else 0.0, phi_c=1.0 if flexible else 0.0,
+        k1w=0.5 * s.k1, c1w=0.5 * s.c1, k2=float(s.k2), c2=float(s.c2),
     )  # fmt: skip
 
 
@@ -251,7 +252,7 @@ def wheelset_offsets(vehicle: WholeVehicle, speed: float, dt: float) -> np.ndarr
 
 
 # =========================================================================== kernels
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _hermite(z: np.ndarray, zd: np.ndarray, pos: float, dt: float) -> tuple[float, float]:
     """Cubic Hermite value and rate of the sampled track at fractional index ``pos``."""
     i0 = int(math.floor(pos))
@@ -269,33 +270,26 @@ def _hermite(z: np.ndarray, zd: np.ndarray, pos: float, dt: float) -> tuple[floa
     return val, rate / dt
 
 
-@njit(cache=True)
-def _secondary(kind, i, d, dd, x, p, lpr, u, lw, dx):  # fmt: skip
-    """Secondary force of bogie ``i`` (N) and 1 if the surrogate input is outside its box."""
-    e = p.elem
-    if kind == 0:
-        return e[P_K2] * d + e[P_C2] * dd, 0
-    if kind == 1:
-        fs = e[P_K2] * d * (1.0 + e[P_PROG] * d * d) + bump_stop_force(d, e) + damper_force(dd, e)
-        return fs, 0
-    if kind == 2:
-        j = N_MECH + 3 * i
-        f_air, f_d = _dynamic_element(d, dd, x[j], x[j + 1], x[j + 2], e, dx[j : j + 3])
-        return f_air + f_d + bump_stop_force(d, e), 0
-    u[0] = d
-    u[1] = dd
-    outside = 1 if lpr_is_outside(u, lpr.lo, lpr.up) else 0
-    return lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw), outside
+@njit(cache=True, error_model="numpy")
+def _static_force(d: float, dd: float, e: np.ndarray) -> float:
+    """Static reference secondary force (N): progressive spring, bump stops, damper curve."""
+    return e[P_K2] * d * (1.0 + e[P_PROG] * d * d) + bump_stop_force(d, e) + damper_force(dd, e)
 
 
-@njit(cache=True)
-def _rhs(kind, x, w, fa, p, lpr, u, lw, dx, fs):  # fmt: skip
+@njit(cache=True, error_model="numpy")
+def _dynamic_force(j, d, dd, x, e, rt, dx):  # fmt: skip
+    """Dynamic reference secondary force (N) of the bogie whose element states start at
+    ``x[j]``; their rates go to ``dx[j : j + 3]`` (through the work array ``rt``)."""
+    f_air, f_d = _dynamic_element(d, dd, x[j], x[j + 1], x[j + 2], e, rt)
+    dx[j], dx[j + 1], dx[j + 2] = rt[0], rt[1], rt[2]
+    return f_air + f_d + bump_stop_force(d, e)
+
+
+@njit(cache=True, error_model="numpy")
+def _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, dx, fs):  # fmt: skip
     """State derivative into ``dx`` for wheel inputs ``w`` (4, 2) (height, rate) and actuator
     forces ``fa`` (2,); writes the secondary forces into ``fs`` (2,); returns the number of
-    out-of-domain surrogate evaluations."""
-    e = p.elem
-    k1 = 0.5 * e[P_K1]
-    c1 = 0.5 * e[P_C1]
+    out-of-domain surrogate evaluations. ``u`` (2,), ``rt`` (3,) and ``lw`` are work arrays."""
     outside = 0
     f0 = 0.0
     f1 = 0.0
@@ -304,49 +298,64 @@ def _rhs(kind, x, w, fa, p, lpr, u, lw, dx, fs):  # fmt: skip
         zb, vb = x[3 + 2 * i], x[10 + 2 * i]
         d = zb - (x[0] + xi * x[1] + p.phi_a * x[2])
         dd = vb - (x[7] + xi * x[8] + p.phi_a * x[9])
-        f, o = _secondary(kind, i, d, dd, x, p, lpr, u, lw, dx)
+        if kind == 0:
+            f = p.k2 * d + p.c2 * dd
+        elif kind == 1:
+            f = _static_force(d, dd, e)
+        elif kind == 2:
+            f = _dynamic_force(N_MECH + 3 * i, d, dd, x, e, rt, dx)
+        else:
+            u[0] = d
+            u[1] = dd
+            if lpr_is_outside(u, lpr.lo, lpr.up):
+                outside += 1
+            f = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
         fs[i] = f
-        outside += o
         ftot = f + fa[i]
         if i == 0:
             f0 = ftot
         else:
             f1 = ftot
         tb, wb = x[4 + 2 * i], x[11 + 2 * i]
-        lead = k1 * (w[2 * i, 0] - zb - p.b * tb) + c1 * (w[2 * i, 1] - vb - p.b * wb)
-        trail = k1 * (w[2 * i + 1, 0] - zb + p.b * tb) + c1 * (w[2 * i + 1, 1] - vb + p.b * wb)
+        lead = p.k1w * (w[2 * i, 0] - zb - p.b * tb) + p.c1w * (w[2 * i, 1] - vb - p.b * wb)
+        trail = p.k1w * (w[2 * i + 1, 0] - zb + p.b * tb) + p.c1w * (
+            w[2 * i + 1, 1] - vb + p.b * wb
+        )
         dx[3 + 2 * i] = vb
         dx[4 + 2 * i] = wb
-        dx[10 + 2 * i] = (lead + trail - ftot) / p.m_b
-        dx[11 + 2 * i] = p.b * (lead - trail) / p.j_b
+        dx[10 + 2 * i] = (lead + trail - ftot) * p.inv_m_b
+        dx[11 + 2 * i] = p.b * (lead - trail) * p.inv_j_b
     for j in range(3):
         dx[j] = x[7 + j]
-    dx[7] = (f0 + f1) / p.m_c
-    dx[8] = p.a * (f0 - f1) / p.j_c
-    dx[9] = (p.phi_a * (f0 + f1) - p.k_q * x[2] - p.c_q * x[9]) / p.m_q
+    dx[7] = (f0 + f1) * p.inv_m_c
+    dx[8] = p.a * (f0 - f1) * p.inv_j_c
+    dx[9] = (p.phi_a * (f0 + f1) - p.k_q * x[2] - p.c_q * x[9]) * p.inv_m_q
     return outside
 
 
-@njit(cache=True)
-def _inputs(bt, i, pos, dt, w):
-    """Wheel inputs ``w`` (4, 2) of vehicle ``i`` at fractional sample index ``pos``."""
+@njit(cache=True, error_model="numpy")
+def _inputs(z, zd, off, pos, dt, w):
+    """Wheel inputs ``w`` (4, 2) of one vehicle (track ``z, zd``, wheelset offsets ``off``)
+    at fractional sample index ``pos``."""
     for j in range(4):
-        w[j, 0], w[j, 1] = _hermite(bt.z[i], bt.zdot[i], pos + bt.off[i, j], dt)
+        w[j, 0], w[j, 1] = _hermite(z, zd, pos + off[j], dt)
 
 
-@njit(cache=True)
-def _outputs(x, dx, p, acc, i):
-    """Floor-point and bogie accelerations of vehicle ``i`` from its state derivative."""
-    for j in range(3):
-        acc[i, j] = dx[7] + p.x_floor[j] * dx[8] + p.phi_floor[j] * dx[9]
+@njit(cache=True, error_model="numpy")
+def _outputs(dx, p, acc, i):
+    """Floor-point (front, centre, rear) and bogie accelerations of vehicle ``i``."""
+    acc[i, 0] = dx[7] + p.a * dx[8] + p.phi_a * dx[9]
+    acc[i, 1] = dx[7] + p.phi_c * dx[9]
+    acc[i, 2] = dx[7] - p.a * dx[8] + p.phi_a * dx[9]
     acc[i, 3] = dx[10]
     acc[i, 4] = dx[12]
 
 
-@njit(cache=True)
-def advance(kind, bt, n_sub, dt, p, lpr, out):  # fmt: skip
+@njit(cache=True, error_model="numpy")
+def advance(kind, bt, n_sub, dt, p, e, lpr, out):  # fmt: skip
     """Advance every vehicle of the batch ``bt`` (:class:`Batch`) by ``n_sub`` RK4 steps of
-    ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`).
+    ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``p``:
+    :class:`Params`, ``e``: element array, ``lpr``: :class:`Lpr`.
 
     A vehicle whose state turns non-finite or beyond ``DIVERGENCE_DISPLACEMENT`` is frozen at
     its last finite state, its outputs are zero and ``out.div`` is set.
@@ -362,6 +371,7 @@ def advance(kind, bt, n_sub, dt, p, lpr, out):  # fmt: skip
     wm = np.empty((4, 2))
     fs = np.empty(2)
     u = np.empty(2)
+    rt = np.empty(3)
     lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     h6 = dt / 6.0
     last = bt.z.shape[1] - 1
@@ -370,26 +380,27 @@ def advance(kind, bt, n_sub, dt, p, lpr, out):  # fmt: skip
         if kk < 0 or kk + n_sub + bt.off[i, 0] > last:
             raise ValueError("track index out of range: the profile is too short")
         fa = bt.force[i]
+        z, zd, off = bt.z[i], bt.zdot[i], bt.off[i]
         for j in range(s):
             x[j] = bt.state[i, j]
         contact = 0
         ood = 0
         div = False
-        _inputs(bt, i, float(kk), dt, w)  # then carried from the end of each substep
+        _inputs(z, zd, off, float(kk), dt, w)  # then carried from the end of each substep
         for m in range(n_sub):
             t0 = float(kk + m)
-            ood += _rhs(kind, x, w, fa, p, lpr, u, lw, r1, fs)
-            _inputs(bt, i, t0 + 0.5, dt, wm)
+            ood += _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
+            _inputs(z, zd, off, t0 + 0.5, dt, wm)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r1[j]
-            ood += _rhs(kind, xt, wm, fa, p, lpr, u, lw, r2, fs)
+            ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r2, fs)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r2[j]
-            ood += _rhs(kind, xt, wm, fa, p, lpr, u, lw, r3, fs)
-            _inputs(bt, i, t0 + 1.0, dt, w)
+            ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r3, fs)
+            _inputs(z, zd, off, t0 + 1.0, dt, w)
             for j in range(s):
                 xt[j] = x[j] + dt * r3[j]
-            ood += _rhs(kind, xt, w, fa, p, lpr, u, lw, r4, fs)
+            ood += _rhs(kind, xt, w, fa, p, e, lpr, u, rt, lw, r4, fs)
             ok = True
             for j in range(s):
                 xt[j] = x[j] + h6 * (r1[j] + 2.0 * r2[j] + 2.0 * r3[j] + r4[j])
@@ -405,13 +416,13 @@ def advance(kind, bt, n_sub, dt, p, lpr, out):  # fmt: skip
                 x[j] = xt[j]
             for b in range(2):
                 xb = p.a if b == 0 else -p.a
-                if _in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2], p.elem):
+                if _in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2], e):
                     contact += 1
         for j in range(s):
             bt.state[i, j] = x[j]
         if not div:  # w holds the inputs at the end of the step
-            _rhs(kind, x, w, fa, p, lpr, u, lw, r1, fs)
-            _outputs(x, r1, p, out.acc, i)
+            _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
+            _outputs(r1, p, out.acc, i)
             for j in range(5):
                 if not math.isfinite(out.acc[i, j]):
                     div = True
@@ -475,6 +486,7 @@ def simulate(
     bt.zdot[:] = zdot
     bt.off[:] = np.broadcast_to(np.asarray(offsets, dtype=float), (n, 4))
     p = kernel_params(vehicle, flexible)
+    e = vehicle.suspension.kernel_params()
     lpr = lpr_arrays(surrogate if variant == "surrogate" else None)
     acc = np.zeros((n, n_steps, 5))
     states = np.zeros((n, n_steps, bt.state.shape[1]))
@@ -482,7 +494,7 @@ def simulate(
     totals = np.zeros((n, 2), np.int64)
     div = np.zeros(n, np.bool_)
     for m in range(n_steps):
-        advance(kind, bt, sample_every, float(dt), p, lpr, out)
+        advance(kind, bt, sample_every, float(dt), p, e, lpr, out)
         bt.k[:] += sample_every
         acc[:, m], states[:, m], fs[:, m] = out.acc, bt.state, out.fs
         totals += out.count
@@ -505,13 +517,14 @@ def linear_state_space(
     A (14, 14), B (14, 2), E (14, 8), C (3, 14), D (3, 2)
     """
     p = kernel_params(vehicle, flexible)
+    e = vehicle.suspension.kernel_params()
     lpr = lpr_arrays(None)
 
     def probe(x: np.ndarray, w: np.ndarray, fa: np.ndarray) -> np.ndarray:
         dx = np.zeros(N_MECH)
-        _rhs(0, x, w, fa, p, lpr, np.empty(2), np.empty((1, 1)), dx, np.empty(2))
+        _rhs(0, x, w, fa, p, e, lpr, np.empty(2), np.empty(3), np.empty((1, 1)), dx, np.empty(2))
         acc = np.zeros((1, 5))
-        _outputs(x, dx, p, acc, 0)
+        _outputs(dx, p, acc, 0)
         return np.concatenate([dx, acc[0, :3]])
 
     zx, zw, zf = np.zeros(N_MECH), np.zeros((4, 2)), np.zeros(2)
