@@ -49,6 +49,7 @@ __all__ = [
     "sperling_wz",
     "a_zp95",
     "wb_weighting",
+    "window_rms_p95",
     "weighted_rms",
     "wk_gain",
     "wk_weighting_tf",
@@ -488,9 +489,17 @@ def a_zp95(
     """
     x = _as_signal(a)
     flt = WeightingFilter(fs, "Wb", lowpass)
-    n_win = int(round(float(window) * flt.fs))
-    if not np.isfinite(window) or n_win < 1 or n_win > x.size:
+    return float(window_rms_p95(flt.filter(x), flt.fs, window))
+
+
+def window_rms_p95(y: np.ndarray, fs: float, window: float = EN12299_WINDOW) -> np.ndarray:
+    """95th percentile of the r.m.s. over consecutive ``window``-s blocks of the already
+    weighted signal(s) ``y`` [m/s²] (samples along axis 0; an incomplete last block is
+    dropped), linear interpolation; one value per channel (the core of :func:`a_zp95`)."""
+    y = np.asarray(y, dtype=float)
+    n_win = int(round(float(window) * float(fs)))
+    if not np.isfinite(window) or n_win < 1 or n_win > y.shape[0]:
         raise ValueError(f"window must be > 0 s and not longer than the signal, got {window}")
-    y = flt.filter(x)
-    blocks = y[: (y.size // n_win) * n_win].reshape(-1, n_win)
-    return float(np.percentile(np.sqrt(np.mean(blocks**2, axis=1)), 95.0))
+    n_blocks = y.shape[0] // n_win
+    blocks = y[: n_blocks * n_win].reshape(n_blocks, n_win, *y.shape[1:])
+    return np.percentile(np.sqrt(np.mean(blocks**2, axis=1)), 95.0, axis=0)

@@ -25,13 +25,15 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numba import njit
+from scipy import signal
 
-from railgym.comfort import WeightingFilter, a_zp95, sperling_wz, weighted_rms
+from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.vector import reset_plan
 from railgym.envs.vertical import BACKENDS, _surrogate_arrays
 from railgym.profile import check_profile, profile_time_input, read_profile_csv
 from railgym.track import class_parameters, class_speed, fra_profile_with_slope
 from railgym.vehicles.vehicle import (
+    DEFAULT_DT,
     Lpr,
     WholeVehicle,
     _hermite,
@@ -117,7 +119,7 @@ def make_config(
             f"n_actuators must be 2 (one per bogie; per-side actuators need the roll "
             f"plane), got {n_actuators!r}"
         )
-    dt = 1e-3 if dt is None else float(dt)
+    dt = DEFAULT_DT if dt is None else float(dt)
     if not (math.isfinite(dt) and 0 < dt <= control_dt):
         raise ValueError(f"dt must be positive and at most control_dt, got {dt!r}")
     n_sub = round(control_dt / dt)
@@ -265,12 +267,15 @@ def compiled_entry(fn: Any, args: tuple) -> Any:
     return fn.overloads[sig].entry_point
 
 
-def episode_comfort(rec: np.ndarray, fs: float) -> dict[str, np.ndarray]:
+def episode_comfort(
+    rec: np.ndarray, fs: float, wk: WeightingFilter, wb: WeightingFilter
+) -> dict[str, np.ndarray]:
     """EN 12299 / ISO 2631 / Sperling figures per floor point of a record (n_steps, 3).
 
-    ``a_w``: ISO 2631-1 Wk-weighted r.m.s., m/s²; ``a_ZP95_Wb``: EN 12299 95th percentile of
-    the 5-s Wb r.m.s. (one window of the whole record when it is shorter), m/s²; ``Wz``:
-    Sperling ride index (vertical). Low-pass band limits at 100 Hz are omitted (fs ≤ 200 Hz).
+    ``a_w``: ISO 2631-1 Wk-weighted r.m.s. (filter ``wk``), m/s²; ``a_ZP95_Wb``: EN 12299 95th
+    percentile of the 5-s Wb r.m.s. (filter ``wb``; one window of the whole record when it
+    is shorter), m/s²; ``Wz``: Sperling ride index (vertical). Both filters start at rest
+    (as :func:`~railgym.comfort.weighted_rms` and :func:`~railgym.comfort.a_zp95`).
     Records shorter than ``MIN_COMFORT_SAMPLES`` (an episode ended by divergence at once)
     give zeros.
     """
@@ -278,8 +283,8 @@ def episode_comfort(rec: np.ndarray, fs: float) -> dict[str, np.ndarray]:
         return {k: np.zeros(3) for k in ("a_w", "a_ZP95_Wb", "Wz")}
     window = min(5.0, rec.shape[0] / fs)
     return {
-        "a_w": np.array([weighted_rms(rec[:, j], fs, "Wk", lowpass=False) for j in range(3)]),
-        "a_ZP95_Wb": np.array([a_zp95(rec[:, j], fs, window, lowpass=False) for j in range(3)]),
+        "a_w": np.sqrt(np.mean(signal.sosfilt(wk.sos, rec, axis=0) ** 2, axis=0)),
+        "a_ZP95_Wb": window_rms_p95(signal.sosfilt(wb.sos, rec, axis=0), fs, window),
         "Wz": np.array([sperling_wz(rec[:, j], fs) for j in range(3)]),
     }
 
@@ -333,7 +338,10 @@ class VehicleBatch:
         self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(span / (v_min * cfg.dt)) + 2
         self.bt, self.out = make_batch(n, cfg.variant, self.n_samples)
         n_obs = len(cfg.obs_names)
-        sos = WeightingFilter(1.0 / cfg.control_dt, "Wk", lowpass=False).sos
+        fs = 1.0 / cfg.control_dt
+        self.wk = WeightingFilter(fs, "Wk", lowpass=False)
+        self.wb = WeightingFilter(fs, "Wb", lowpass=False)
+        sos = self.wk.sos
         self.bk = Book(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64),
                        np.zeros((n, 3)), np.zeros((n, cfg.n_steps, 3)), np.zeros((n, n_obs)),
                        np.zeros(n), np.zeros((n, 3, sos.shape[0], 2)))  # fmt: skip
@@ -397,7 +405,7 @@ class VehicleBatch:
     def comfort(self, i: int) -> dict[str, np.ndarray]:
         """:func:`episode_comfort` of vehicle ``i``'s record so far."""
         m = max(int(self.bk.steps[i]), 1)
-        return episode_comfort(self.bk.rec[i, :m], 1.0 / self.cfg.control_dt)
+        return episode_comfort(self.bk.rec[i, :m], 1.0 / self.cfg.control_dt, self.wk, self.wb)
 
     def render_state(self, i: int) -> dict[str, Any]:
         """What :func:`railgym.envs.vehicle_render.render_vehicle` draws for vehicle ``i``:
@@ -439,7 +447,7 @@ class VerticalVehicleEnv(gym.Env[np.ndarray, np.ndarray]):
         ``None`` = the class's maximum passenger speed (class 5: 144 km/h).
     profile : ``None`` (seeded FRA track), a CSV path (columns x, z in m) or ``(x, z)``.
     duration : episode length, s (truncation). control_dt : agent step, s (< 1/60).
-    dt : RK4 step, s (default 1 ms). f_max : force of each actuator at action ±1, N.
+    dt : RK4 step, s (default ``DEFAULT_DT``, 2 ms). f_max : force of each actuator at action ±1, N.
     n_actuators : 2 (front and rear secondary suspension).
     observation : ``"sensors"`` or ``"full"``; sensor_noise : std of the additive noise on
         the normalised observation. reward_weights : ``acceleration``, ``deflection``,
@@ -532,9 +540,12 @@ class VerticalVehicleEnv(gym.Env[np.ndarray, np.ndarray]):
         a = np.asarray(action, dtype=np.float64)
         if a.shape != (2,):
             raise ValueError(f"action must have shape (2,), got {a.shape}")
-        if not (math.isfinite(a[0]) and math.isfinite(a[1])):
+        u0, u1 = float(a[0]), float(a[1])
+        if not (math.isfinite(u0) and math.isfinite(u1)):
             raise ValueError(f"action must be finite, got {action!r}")
-        np.multiply(np.clip(a, -1.0, 1.0), self.cfg.f_max, out=sim.bt.force[0])
+        force, f_max = sim.bt.force, self.cfg.f_max
+        force[0, 0] = min(max(u0, -1.0), 1.0) * f_max
+        force[0, 1] = min(max(u1, -1.0), 1.0) * f_max
         sim.advance()
         diverged = bool(sim.out.div[0])
         truncated = bool(sim.bk.steps[0] >= self.cfg.n_steps) and not diverged
@@ -548,14 +559,16 @@ class VerticalVehicleEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _info(self) -> dict[str, Any]:
         sim = self.sim
+        bk, acc = sim.bk, sim.out.acc[0]
+        steps = int(bk.steps[0])
         return {
-            "time": float(sim.bk.steps[0] * self.cfg.control_dt),
+            "time": steps * self.cfg.control_dt,
             "speed": float(sim.speed[0]),
-            "carbody_acc": sim.out.acc[0, :3].copy(),
-            "bogie_acc": sim.out.acc[0, 3:].copy(),
-            "rms_carbody_acc": sim.rms_acc()[0],
-            "bump_stop_contacts": int(sim.bk.contacts[0]),
-            "out_of_domain": int(sim.bk.ood[0]),
+            "carbody_acc": acc[:3].copy(),
+            "bogie_acc": acc[3:].copy(),
+            "rms_carbody_acc": np.sqrt(bk.acc_sq[0] / max(steps, 1)),
+            "bump_stop_contacts": int(bk.contacts[0]),
+            "out_of_domain": int(bk.ood[0]),
             "actuator_force": sim.bt.force[0].copy(),
         }
 
