@@ -288,7 +288,7 @@ def _dynamic_force(j, d, dd, x, e, rt, dx):  # fmt: skip
     return f_air + f_d + bump_stop_force(d, e)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, dx, fs):  # fmt: skip
     """State derivative into ``dx`` for wheel inputs ``w`` (4, 2) (height, rate) and actuator
     forces ``fa`` (2,); writes the secondary forces into ``fs`` (2,); returns the number of
@@ -354,6 +354,23 @@ def _outputs(dx, p, acc, i):
     acc[i, 4] = dx[12]
 
 
+class Work(NamedTuple):
+    """Work arrays of one kernel call (states, stage rates, wheel inputs, element scratch)."""
+
+    x: np.ndarray
+    xt: np.ndarray
+    r1: np.ndarray
+    r2: np.ndarray
+    r3: np.ndarray
+    r4: np.ndarray
+    w: np.ndarray  # (4, 2) wheel inputs at the start/end of a substep
+    wm: np.ndarray  # (4, 2) at its midpoint
+    fs: np.ndarray  # (2,) secondary forces
+    u: np.ndarray  # (2,) surrogate input
+    rt: np.ndarray  # (3,) dynamic-element rates
+    lw: np.ndarray  # LPR scratch
+
+
 @njit(cache=True, error_model="numpy")
 def advance(kind, bt, n_sub, dt, p, e, lpr, out):  # fmt: skip
     """Advance every vehicle of the batch ``bt`` (:class:`Batch`) by ``n_sub`` RK4 steps of
@@ -364,81 +381,84 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):  # fmt: skip
     its last finite state, its outputs are zero and ``out.div`` is set.
     """
     n, s = bt.state.shape
-    x = np.empty(s)
-    xt = np.empty(s)
-    r1 = np.empty(s)
-    r2 = np.empty(s)
-    r3 = np.empty(s)
-    r4 = np.empty(s)
-    w = np.empty((4, 2))
-    wm = np.empty((4, 2))
-    fs = np.empty(2)
-    u = np.empty(2)
-    rt = np.empty(3)
-    lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
-    h6 = dt / 6.0
+    wk = Work(np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s),
+              np.empty((4, 2)), np.empty((4, 2)), np.empty(2), np.empty(2), np.empty(3),
+              lpr_scratch(lpr.exps, lpr.lo, lpr.up))  # fmt: skip
     last = bt.z.shape[1] - 1
     for i in range(n):
-        kk = bt.k[i]
-        if kk < 0 or kk + n_sub + bt.off[i, 0] > last:
+        if bt.k[i] < 0 or bt.k[i] + n_sub + bt.off[i, 0] > last:
             raise ValueError("track index out of range: the profile is too short")
-        fa = bt.force[i]
-        z, zd, off = bt.z[i], bt.zdot[i], bt.off[i]
+        _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk)
+
+
+# Without the runtime's reference counting (the arrays are owned by the caller, nothing is
+# allocated here): the counting of every array passed on to the element functions would
+# cost more than the arithmetic of a substep.
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):  # fmt: skip
+    """RK4 steps of vehicle ``i`` (see :func:`advance`); ``wk``: :class:`Work`."""
+    s = bt.state.shape[1]
+    x, xt, r1, r2, r3, r4 = wk.x, wk.xt, wk.r1, wk.r2, wk.r3, wk.r4
+    w, wm, fs, u, rt, lw = wk.w, wk.wm, wk.fs, wk.u, wk.rt, wk.lw
+    h6 = dt / 6.0
+    kk = bt.k[i]
+    fa = bt.force[i]
+    z, zd, off = bt.z[i], bt.zdot[i], bt.off[i]
+    for j in range(s):
+        x[j] = bt.state[i, j]
+    contact = 0
+    ood = 0
+    div = False
+    _inputs(z, zd, off, float(kk), dt, w)  # then carried from the end of each substep
+    for m in range(n_sub):
+        t0 = float(kk + m)
+        ood += _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
+        _inputs(z, zd, off, t0 + 0.5, dt, wm)
         for j in range(s):
-            x[j] = bt.state[i, j]
-        contact = 0
-        ood = 0
-        div = False
-        _inputs(z, zd, off, float(kk), dt, w)  # then carried from the end of each substep
-        for m in range(n_sub):
-            t0 = float(kk + m)
-            ood += _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
-            _inputs(z, zd, off, t0 + 0.5, dt, wm)
-            for j in range(s):
-                xt[j] = x[j] + 0.5 * dt * r1[j]
-            ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r2, fs)
-            for j in range(s):
-                xt[j] = x[j] + 0.5 * dt * r2[j]
-            ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r3, fs)
-            _inputs(z, zd, off, t0 + 1.0, dt, w)
-            for j in range(s):
-                xt[j] = x[j] + dt * r3[j]
-            ood += _rhs(kind, xt, w, fa, p, e, lpr, u, rt, lw, r4, fs)
-            ok = True
-            for j in range(s):
-                xt[j] = x[j] + h6 * (r1[j] + 2.0 * r2[j] + 2.0 * r3[j] + r4[j])
-                if not math.isfinite(xt[j]):
-                    ok = False
-            for j in range(7):
-                if abs(xt[j]) > DIVERGENCE_DISPLACEMENT:
-                    ok = False
-            if not ok:
+            xt[j] = x[j] + 0.5 * dt * r1[j]
+        ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r2, fs)
+        for j in range(s):
+            xt[j] = x[j] + 0.5 * dt * r2[j]
+        ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r3, fs)
+        _inputs(z, zd, off, t0 + 1.0, dt, w)
+        for j in range(s):
+            xt[j] = x[j] + dt * r3[j]
+        ood += _rhs(kind, xt, w, fa, p, e, lpr, u, rt, lw, r4, fs)
+        ok = True
+        for j in range(s):
+            xt[j] = x[j] + h6 * (r1[j] + 2.0 * r2[j] + 2.0 * r3[j] + r4[j])
+            if not math.isfinite(xt[j]):
+                ok = False
+        for j in range(7):
+            if abs(xt[j]) > DIVERGENCE_DISPLACEMENT:
+                ok = False
+        if not ok:
+            div = True
+            break
+        for j in range(s):
+            x[j] = xt[j]
+        for b in range(2):
+            xb = p.a if b == 0 else -p.a
+            if _in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2], e):
+                contact += 1
+    for j in range(s):
+        bt.state[i, j] = x[j]
+    if not div:  # w holds the inputs at the end of the step
+        _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
+        _outputs(r1, p, out.acc, i)
+        for j in range(5):
+            if not math.isfinite(out.acc[i, j]):
                 div = True
-                break
-            for j in range(s):
-                x[j] = xt[j]
-            for b in range(2):
-                xb = p.a if b == 0 else -p.a
-                if _in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2], e):
-                    contact += 1
-        for j in range(s):
-            bt.state[i, j] = x[j]
-        if not div:  # w holds the inputs at the end of the step
-            _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
-            _outputs(r1, p, out.acc, i)
-            for j in range(5):
-                if not math.isfinite(out.acc[i, j]):
-                    div = True
-            out.fs[i, 0] = fs[0]
-            out.fs[i, 1] = fs[1]
-        if div:
-            for j in range(5):
-                out.acc[i, j] = 0.0
-            out.fs[i, 0] = 0.0
-            out.fs[i, 1] = 0.0
-        out.count[i, 0] = contact
-        out.count[i, 1] = ood
-        out.div[i] = div
+        out.fs[i, 0] = fs[0]
+        out.fs[i, 1] = fs[1]
+    if div:
+        for j in range(5):
+            out.acc[i, j] = 0.0
+        out.fs[i, 0] = 0.0
+        out.fs[i, 1] = 0.0
+    out.count[i, 0] = contact
+    out.count[i, 1] = ood
+    out.div[i] = div
 
 
 # ======================================================================== utilities
