@@ -159,6 +159,7 @@ class Book(NamedTuple):
     contacts: np.ndarray  # (n,) int64 substeps in bump-stop contact (both bogies)
     ood: np.ndarray  # (n,) int64 out-of-domain surrogate evaluations
     acc_sq: np.ndarray  # (n, 3) sum of squared floor accelerations
+    rms: np.ndarray  # (n, 3) their running r.m.s., m/s²
     rec: np.ndarray  # (n, n_steps, 3) floor accelerations, m/s²
     obs: np.ndarray  # (n, n_obs) normalised observation
     rew: np.ndarray  # (n,) reward
@@ -234,6 +235,7 @@ def control_step(kind, bt, p, e, lpr, out, bk, sc):  # fmt: skip
         for j in range(3):
             a = out.acc[i, j]
             bk.acc_sq[i, j] += a * a
+            bk.rms[i, j] = math.sqrt(bk.acc_sq[i, j] / bk.steps[i])
             if m < bk.rec.shape[1]:
                 bk.rec[i, m, j] = a
             if sc.weighted:
@@ -343,8 +345,9 @@ class VehicleBatch:
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)
         sos = self.wk.sos
         self.bk = Book(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64),
-                       np.zeros((n, 3)), np.zeros((n, cfg.n_steps, 3)), np.zeros((n, n_obs)),
-                       np.zeros(n), np.zeros((n, 3, sos.shape[0], 2)))  # fmt: skip
+                       np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, cfg.n_steps, 3)),
+                       np.zeros((n, n_obs)), np.zeros(n),
+                       np.zeros((n, 3, sos.shape[0], 2)))  # fmt: skip
         self.sc = StepCfg(cfg.n_sub, cfg.dt, cfg.obs_names[0] == "z_c", 1.0 / cfg.obs_scale,
                           np.array(cfg.weights), cfg.free_travel, cfg.f_max, sos,
                           cfg.acc_weighting == "Wk")  # fmt: skip
@@ -381,7 +384,7 @@ class VehicleBatch:
         bt, bk, out = self.bt, self.bk, self.out
         bt.state[i] = 0.0
         bt.k[i] = bk.steps[i] = bk.contacts[i] = bk.ood[i] = 0
-        bk.acc_sq[i] = bk.rec[i] = bk.zi[i] = bk.rew[i] = 0.0
+        bk.acc_sq[i] = bk.rms[i] = bk.rec[i] = bk.zi[i] = bk.rew[i] = 0.0
         out.acc[i] = out.fs[i] = 0.0
         out.div[i] = False
         _observe(bt, out, self.params, self.sc, bk, i)
@@ -398,9 +401,18 @@ class VehicleBatch:
             return (obs + self.cfg.sensor_noise * noise).astype(np.float32)
         return obs.astype(np.float32)
 
+    def observe_one(self, i: int, rng: np.random.Generator) -> np.ndarray:
+        """Observation (n_obs,) float32 of vehicle ``i``, noise from ``rng`` (see observe)."""
+        obs = self.bk.obs[i]
+        if self.cfg.sensor_noise > 0:
+            return (obs + self.cfg.sensor_noise * rng.standard_normal(obs.shape[0])).astype(
+                np.float32
+            )
+        return obs.astype(np.float32)
+
     def rms_acc(self) -> np.ndarray:
         """Running r.m.s. floor accelerations (n, 3), m/s²."""
-        return np.sqrt(self.bk.acc_sq / np.maximum(self.bk.steps, 1)[:, None])
+        return self.bk.rms.copy()
 
     def comfort(self, i: int) -> dict[str, np.ndarray]:
         """:func:`episode_comfort` of vehicle ``i``'s record so far."""
@@ -528,9 +540,8 @@ class VerticalVehicleEnv(gym.Env[np.ndarray, np.ndarray]):
         super().reset(seed=seed)
         self.apply_options(options)
         self.sim.reset(0, self.np_random, self.track_class, self.speeds, self.profile)
-        self._rng1 = [self.np_random]
         self._started = True
-        return self.sim.observe(self._rng1)[0], self._info()
+        return self.sim.observe_one(0, self.np_random), self._info(0)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Advance ``control_dt``; the action is clipped to [−1, 1], non-finite raises."""
@@ -548,25 +559,25 @@ class VerticalVehicleEnv(gym.Env[np.ndarray, np.ndarray]):
         force[0, 1] = min(max(u1, -1.0), 1.0) * f_max
         sim.advance()
         diverged = bool(sim.out.div[0])
-        truncated = bool(sim.bk.steps[0] >= self.cfg.n_steps) and not diverged
-        info = self._info()
+        steps = int(sim.bk.steps[0])
+        truncated = steps >= self.cfg.n_steps and not diverged
+        info = self._info(steps)
         if diverged or truncated:
             self._started = False
             info["comfort"] = sim.comfort(0)
         if diverged:
             info["diverged"] = True
-        return sim.observe(self._rng1)[0], float(sim.bk.rew[0]), diverged, truncated, info
+        return sim.observe_one(0, self.np_random), float(sim.bk.rew[0]), diverged, truncated, info
 
-    def _info(self) -> dict[str, Any]:
+    def _info(self, steps: int) -> dict[str, Any]:
         sim = self.sim
-        bk, acc = sim.bk, sim.out.acc[0]
-        steps = int(bk.steps[0])
+        bk, acc = sim.bk, sim.out.acc[0].copy()
         return {
             "time": steps * self.cfg.control_dt,
             "speed": float(sim.speed[0]),
-            "carbody_acc": acc[:3].copy(),
-            "bogie_acc": acc[3:].copy(),
-            "rms_carbody_acc": np.sqrt(bk.acc_sq[0] / max(steps, 1)),
+            "carbody_acc": acc[:3],
+            "bogie_acc": acc[3:],
+            "rms_carbody_acc": bk.rms[0].copy(),
             "bump_stop_contacts": int(bk.contacts[0]),
             "out_of_domain": int(bk.ood[0]),
             "actuator_force": sim.bt.force[0].copy(),
