@@ -333,7 +333,7 @@ class VehicleBatch:
         self.n, self.cfg, self.vehicle = n, cfg, vehicle
         self.kind = check_variant(cfg.variant)
         self.params = kernel_params(vehicle, cfg.flexible)
-        self.elem = vehicle.suspension.kernel_params()
+        self.elem = vehicle.suspension.kernel_params().record()
         self.lpr = Lpr(*lpr)
         span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)
         self.v_min = v_min

@@ -50,15 +50,15 @@ from numba import njit
 
 from railgym.vehicles.vertical import (
     DIVERGENCE_DISPLACEMENT,
-    P_K2,
-    P_PROG,
     VerticalVehicle,
-    _dynamic_element,
-    _in_contact,
-    bump_stop_force,
-    damper_force,
     load_vehicle,
     surrogate_arrays,
+)
+from railgym.vehicles.vertical.elements import (
+    bump_stop_force,
+    damper_force,
+    dynamic_element,
+    in_contact,
 )
 from surrogates.models.lpr import lpr_eval_into, lpr_is_outside, lpr_scratch
 
@@ -274,16 +274,16 @@ def _hermite(z: np.ndarray, zd: np.ndarray, pos: float, dt: float) -> tuple[floa
 
 
 @njit(cache=True, error_model="numpy")
-def _static_force(d: float, dd: float, e: np.ndarray) -> float:
+def _static_force(d: float, dd: float, e: Any) -> float:
     """Static reference secondary force (N): progressive spring, bump stops, damper curve."""
-    return e[P_K2] * d * (1.0 + e[P_PROG] * d * d) + bump_stop_force(d, e) + damper_force(dd, e)
+    return e.k2 * d * (1.0 + e.progression * d * d) + bump_stop_force(d, e) + damper_force(dd, e)
 
 
 @njit(cache=True, error_model="numpy")
 def _dynamic_force(j, d, dd, x, e, rt, dx):  # fmt: skip
     """Dynamic reference secondary force (N) of the bogie whose element states start at
     ``x[j]``; their rates go to ``dx[j : j + 3]`` (through the work array ``rt``)."""
-    f_air, f_d = _dynamic_element(d, dd, x[j], x[j + 1], x[j + 2], e, rt)
+    f_air, f_d = dynamic_element(d, dd, x[j], x[j + 1], x[j + 2], e, rt)
     dx[j], dx[j + 1], dx[j + 2] = rt[0], rt[1], rt[2]
     return f_air + f_d + bump_stop_force(d, e)
 
@@ -375,7 +375,8 @@ class Work(NamedTuple):
 def advance(kind, bt, n_sub, dt, p, e, lpr, out):  # fmt: skip
     """Advance every vehicle of the batch ``bt`` (:class:`Batch`) by ``n_sub`` RK4 steps of
     ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``p``:
-    :class:`Params`, ``e``: element array, ``lpr``: :class:`Lpr`.
+    :class:`Params`, ``e``: the suspension record (``SuspensionParams.record()``), ``lpr``:
+    :class:`Lpr`.
 
     A vehicle whose state turns non-finite or beyond ``DIVERGENCE_DISPLACEMENT`` is frozen at
     its last finite state, its outputs are zero and ``out.div`` is set.
@@ -388,7 +389,7 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):  # fmt: skip
     for i in range(n):
         if bt.k[i] < 0 or bt.k[i] + n_sub + bt.off[i, 0] > last:
             raise ValueError("track index out of range: the profile is too short")
-        _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk)
+        _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
 
 
 # Without the runtime's reference counting (the arrays are owned by the caller, nothing is
@@ -439,7 +440,7 @@ def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):  # fmt: skip
             x[j] = xt[j]
         for b in range(2):
             xb = p.a if b == 0 else -p.a
-            if _in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2], e):
+            if in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2], e):
                 contact += 1
     for j in range(s):
         bt.state[i, j] = x[j]
@@ -509,7 +510,7 @@ def simulate(
     bt.zdot[:] = zdot
     bt.off[:] = np.broadcast_to(np.asarray(offsets, dtype=float), (n, 4))
     p = kernel_params(vehicle, flexible)
-    e = vehicle.suspension.kernel_params()
+    e = vehicle.suspension.kernel_params().record()
     lpr = lpr_arrays(surrogate if variant == "surrogate" else None)
     acc = np.zeros((n, n_steps, 5))
     states = np.zeros((n, n_steps, bt.state.shape[1]))
@@ -540,12 +541,12 @@ def linear_state_space(
     A (14, 14), B (14, 2), E (14, 8), C (3, 14), D (3, 2)
     """
     p = kernel_params(vehicle, flexible)
-    e = vehicle.suspension.kernel_params()
+    e = vehicle.suspension.kernel_params().record()
     lpr = lpr_arrays(None)
 
     def probe(x: np.ndarray, w: np.ndarray, fa: np.ndarray) -> np.ndarray:
         dx = np.zeros(N_MECH)
-        _rhs(0, x, w, fa, p, e, lpr, np.empty(2), np.empty(3), np.empty((1, 1)), dx, np.empty(2))
+        _rhs(0, x, w, fa, p, e[0], lpr, np.empty(2), np.empty(3), np.empty((1, 1)), dx, np.empty(2))
         acc = np.zeros((1, 5))
         _outputs(dx, p, acc, 0)
         return np.concatenate([dx, acc[0, :3]])
