@@ -2,8 +2,11 @@
 
 Usage::
 
-    python -m agents.train CONFIG.yaml [--out DIR] [--overwrite] [--timesteps N] [--seed S]
+    python -m agents.train CONFIG [--out DIR] [--overwrite] [--timesteps N] [--seed S]
                            [--no-progress] [--debug]
+
+``CONFIG`` is a ``.yaml`` / ``.yml`` file or the name of a packaged config
+(``ppo_vertical``, ``sac_vertical``, ``ppo_crash``; :func:`railgym._validation.resolve_yaml`).
 
 The full training run of the vertical suspension agent (a documented command, not a CI test):
 PPO, 4·10⁶ steps on the surrogate backend, evaluated every 10⁵ steps on the reference model
@@ -20,19 +23,22 @@ Config file: one top-level key, the Gymnasium env id, holding
 ``algo``                ``ppo``, ``sac``, ``td3`` or ``a2c`` (required)
 ``n_timesteps``         total environment steps (all sub-envs together)
 ``policy``              stable-baselines3 policy name, e.g. ``MlpPolicy``
-``n_envs``              sub-envs of the vector env (``gym.make_vec``)
-``seed``                seeds python/numpy/torch and the envs (sub-env ``i``: ``seed + i``);
-                        drawn at random and recorded when absent
+``n_envs``              sub-envs of the vector env (``gym.make_vec``), at most 1024
+                        (``MAX_ENVS``)
+``seed``                seeds python/numpy/torch and the envs (sub-env ``i``: ``seed + i``),
+                        0 … 2³² − 1; drawn at random and recorded when absent
 ``env_kwargs``          passed to ``gym.make_vec`` (e.g. ``backend``, ``duration``)
 ``eval_env_kwargs``     overrides of ``env_kwargs`` for the evaluation env (e.g. ``backend:
                         reference``)
 ``eval_freq``           steps between evaluations; ``n_eval_episodes``: episodes per evaluation
-                        (one per sub-env of the evaluation env); ``eval_seed`` (default
-                        999999, the same for every run): the same evaluation tracks every time
+                        (one per sub-env of the evaluation env, at most ``MAX_ENVS``);
+                        ``eval_seed`` (default 999999, the same for every run): the same
+                        evaluation tracks every time
 ``eval_echo``           ``info`` entries printed with each evaluation (e.g.
                         ``[rms_carbody_acc]``); all of them go to ``eval.csv``
 ``checkpoint_freq``     steps between checkpoints
-``n_threads``           torch CPU threads (default 1: small networks are fastest on one thread)
+``n_threads``           torch CPU threads (default 1: small networks are fastest on one
+                        thread), at most 256
 ``vectorization_mode``  ``vector_entry_point`` (the env's native vector env, default where it
                         has one) or ``sync`` (a ``SAME_STEP`` ``SyncVectorEnv`` of single
                         envs)
@@ -86,6 +92,7 @@ from tqdm import tqdm
 import railgym
 from agents._args import bounded_int
 from agents.policy_io import write_manifest
+from railgym import _validation as val
 from railgym.report.output import atomic_path, prepare_output_dir, write_text_atomic
 
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3, "a2c": A2C}
@@ -101,6 +108,12 @@ VECTORIZATION_MODES = ("vector_entry_point", "sync")
 EVAL_SEED = 999_999
 #: top-level key of the saved config that :func:`load_config` ignores
 RUN_KEY = "run"
+#: most sub-envs of the training or the evaluation vector env
+MAX_ENVS = 1024
+#: most torch CPU threads
+MAX_THREADS = 256
+#: largest seed (numpy and torch accept 32-bit seeds everywhere)
+MAX_SEED = 2**32 - 1
 
 
 def _split_infos(infos: dict[str, Any], n: int) -> list[dict[str, Any]]:
@@ -317,36 +330,18 @@ class TrainConfig:
         return {self.env_id: block}
 
 
-def _positive_int(block: dict[str, Any], name: str, default: int | None = None) -> int:
-    value = block.get(name, default)
-    if value is None:
-        raise ValueError(f"config is missing {name!r}")
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
+def _names(value: Any, field: str) -> list[str]:
+    """A list of names (``eval_echo``); ``None`` is the empty list."""
+    names = list(val.sequence([] if value is None else value, field))
+    for i, name in enumerate(names):
+        if not isinstance(name, str):
+            raise val.FieldTypeError(f"{field}[{i}]", f"must be a name, got {name!r}")
+    return names
 
 
-def _seed(block: dict[str, Any], name: str, default: int | None) -> int | None:
-    value = block.get(name, default)
-    if value is not None and (
-        isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0
-    ):
-        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-    return None if value is None else int(value)
-
-
-def _kwargs(block: dict[str, Any], name: str) -> dict[str, Any]:
-    value = block.get(name) or {}
-    if not isinstance(value, dict):
-        raise ValueError(f"{name} must be a mapping, got {value!r}")
-    return dict(value)
-
-
-def _names(block: dict[str, Any], name: str) -> list[str]:
-    value = block.get(name) or []
-    if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
-        raise ValueError(f"{name} must be a list of names, got {value!r}")
-    return value
+def _kwargs(value: Any, field: str) -> dict[str, Any]:
+    """A mapping of env arguments; ``None`` is the empty mapping."""
+    return dict(val.mapping({} if value is None else value, field))
 
 
 def _hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[str, Any]:
@@ -375,9 +370,7 @@ def _hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[s
         out[key] = value
     pk = out.get("policy_kwargs")
     if pk is not None:
-        if not isinstance(pk, dict):
-            raise ValueError(f"policy_kwargs must be a mapping, got {pk!r}")
-        pk = dict(pk)
+        pk = dict(val.mapping(pk, "policy_kwargs"))
         act = pk.get("activation_fn")
         if isinstance(act, str):
             name = act.lower().removeprefix("nn.").replace("_", "")
@@ -391,69 +384,71 @@ def _hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[s
 
 
 def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
-    """Read and validate a config (path of a YAML file or its content as a dict).
+    """Read and validate a config: path of a ``.yaml`` / ``.yml`` file, the name of a packaged
+    config (``ppo_vertical``, see ``railgym/configs/agents/``) or the content as a dict.
 
     A missing ``seed`` is drawn from the OS entropy, so that it can be recorded.
     """
-    if isinstance(config, (str, Path)):
-        path = Path(config)
-        if not path.is_file():
-            raise ValueError(f"config file {str(path)!r} does not exist or is not a file")
-        try:
-            config = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except UnicodeDecodeError as err:
-            raise ValueError(f"config file {path}: not UTF-8 text ({err.reason})") from None
-        except yaml.YAMLError as err:
-            where = getattr(err, "problem_mark", None)
-            line = f", line {where.line + 1}" if where is not None else ""
-            what = getattr(err, "problem", None) or err
-            raise ValueError(f"config file {path}{line}: invalid YAML ({what})") from None
+    if isinstance(config, str | Path):
+        text, source = val.resolve_yaml(config, "config", "railgym", ("configs", "agents"))
+        config = val.load_yaml(text, source)
     if not isinstance(config, dict):
-        raise ValueError(f"config must be a mapping {{env id: settings}}, got {config!r}")
+        raise val.FieldTypeError(
+            "config", f"must be a mapping {{env id: settings}}, got {config!r}", full=False
+        )
     ids = [k for k in config if k != RUN_KEY]
     if len(ids) != 1:
-        raise ValueError(
+        raise val.FieldError(
+            "config",
             "config must have exactly one top-level key, the env id (e.g. "
-            f"'railgym/VerticalSuspension-v0'), got {ids}"
+            f"'railgym/VerticalSuspension-v0'), got {ids}",
+            full=True,
         )
     env_id = ids[0]
     if env_id not in gym.registry:
-        raise ValueError(f"env id {env_id!r} is not a registered Gymnasium env")
+        raise val.FieldError(
+            "env id", f"env id {env_id!r} is not a registered Gymnasium env", full=True
+        )
     block = config[env_id]
     if not isinstance(block, dict):
-        raise ValueError(f"settings of {env_id!r} must be a mapping, got {block!r}")
-    block = dict(block)
-    algo = block.get("algo")
-    if algo not in ALGOS:
-        raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {algo!r}")
-    policy = block.get("policy", "MlpPolicy")
-    if not isinstance(policy, str):
-        raise ValueError(f"policy must be a policy name, got {policy!r}")
-    mode = block.get("vectorization_mode")
-    if mode not in (None, *VECTORIZATION_MODES):
-        raise ValueError(f"vectorization_mode must be one of {VECTORIZATION_MODES}, got {mode!r}")
-    seed = _seed(block, "seed", None)
+        raise val.FieldTypeError(
+            env_id, f"settings of {env_id!r} must be a mapping, got {block!r}", full=True
+        )
+    f = val.Fields(block, "")
+    algo = val.choice(f.get("algo", None), "algo", sorted(ALGOS))
+    policy = f.get("policy", "MlpPolicy")
+    if not isinstance(policy, str) or not policy:
+        raise val.FieldTypeError("policy", f"must be a policy name, got {policy!r}")
+    mode = f.get("vectorization_mode", None)
+    if mode is not None:
+        mode = val.choice(mode, "vectorization_mode", VECTORIZATION_MODES)
+    seed = f.get("seed", None)
     if seed is None:
         seed = int(np.random.SeedSequence().entropy % 2**31)
-    run_keys = {f.name for f in TrainConfig.__dataclass_fields__.values()} - {"hyperparameters"}
+
+    def count(key: str, default: int | None, lo: int = 1, hi: int | None = None) -> int:
+        raw = f.get(key) if default is None else f.get(key, default)
+        return val.integer(raw, key, min=lo, max=hi)
+
+    run_keys = set(TrainConfig.__dataclass_fields__) - {"env_id", "hyperparameters"}
     hyper = {k: v for k, v in block.items() if k not in run_keys}
     _hyperparameters(ALGOS[algo], hyper)  # validates; applied by train()
     return TrainConfig(
         env_id=env_id,
         algo=algo,
         policy=policy,
-        seed=seed,
-        n_timesteps=_positive_int(block, "n_timesteps"),
-        n_envs=_positive_int(block, "n_envs", 1),
-        env_kwargs=_kwargs(block, "env_kwargs"),
-        eval_env_kwargs=_kwargs(block, "eval_env_kwargs"),
-        eval_freq=_positive_int(block, "eval_freq", 10_000),
-        n_eval_episodes=_positive_int(block, "n_eval_episodes", 4),
-        eval_seed=_seed(block, "eval_seed", EVAL_SEED),
-        checkpoint_freq=_positive_int(block, "checkpoint_freq", 50_000),
-        n_threads=_positive_int(block, "n_threads", 1),
+        seed=val.integer(seed, "seed", min=0, max=MAX_SEED),
+        n_timesteps=count("n_timesteps", None),
+        n_envs=count("n_envs", 1, hi=MAX_ENVS),
+        env_kwargs=_kwargs(f.get("env_kwargs", None), "env_kwargs"),
+        eval_env_kwargs=_kwargs(f.get("eval_env_kwargs", None), "eval_env_kwargs"),
+        eval_freq=count("eval_freq", 10_000),
+        n_eval_episodes=count("n_eval_episodes", 4, hi=MAX_ENVS),
+        eval_seed=count("eval_seed", EVAL_SEED, lo=0, hi=MAX_SEED),
+        checkpoint_freq=count("checkpoint_freq", 50_000),
+        n_threads=count("n_threads", 1, hi=MAX_THREADS),
         vectorization_mode=mode,
-        eval_echo=_names(block, "eval_echo"),
+        eval_echo=_names(f.get("eval_echo", None), "eval_echo"),
         hyperparameters=hyper,
     )
 
@@ -567,9 +562,9 @@ def train(
             raise ValueError("out is required when the config is given as a dict")
         out = Path("runs") / Path(config).stem
     if total_timesteps is not None:
-        cfg.n_timesteps = _positive_int({"total_timesteps": total_timesteps}, "total_timesteps")
+        cfg.n_timesteps = val.integer(total_timesteps, "total_timesteps", min=1)
     if seed is not None:
-        cfg.seed = _seed({"seed": seed}, "seed", None)
+        cfg.seed = val.integer(seed, "seed", min=0, max=MAX_SEED)
     out = prepare_output_dir(out, overwrite)
     run: dict[str, Any] = {"versions": _versions()}
     _write_config(out, cfg, run)
@@ -614,7 +609,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m agents.train", description=__doc__.split("\n\n")[0]
     )
-    parser.add_argument("config", type=Path, help="rl-zoo3-style YAML file")
+    parser.add_argument("config", help="rl-zoo3-style YAML file, or the name of a packaged config")
     parser.add_argument(
         "--out",
         type=Path,
@@ -627,7 +622,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--timesteps", type=bounded_int(1), default=None, help="override n_timesteps"
     )
-    parser.add_argument("--seed", type=bounded_int(0), default=None, help="override seed")
+    parser.add_argument("--seed", type=bounded_int(0, MAX_SEED), default=None, help="override seed")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     args = parser.parse_args(argv)
