@@ -69,12 +69,12 @@ def load_policy(
     if not cfg_path.is_file():
         raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
     check_manifest(path, trust)
-    from agents.train import ALGOS, _hyperparameters, load_config
+    from agents.train_config import ALGOS, hyperparameters, load_config
 
     cfg = load_config(cfg_path)
     if cfg.env_id != env_id:
         raise ValueError(f"{cfg_path}: the policy was trained on {cfg.env_id}, not {env_id}")
-    hyper = _hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
+    hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
     net_kwargs = dict(hyper.get("policy_kwargs") or {})
     if "use_sde" in hyper:
         net_kwargs["use_sde"] = hyper["use_sde"]

@@ -350,6 +350,26 @@ def test_missing_seed_is_drawn_and_recorded():
         (lambda c: c[ENV_ID].update(policy=None) or c, "policy must be a policy name"),
         (lambda c: c[ENV_ID].update(policy_kwargs=[16]) or c, "policy_kwargs must be a mapping"),
         (lambda c: c[ENV_ID].update(env_id="x") or c, "unknown config key 'env_id'"),
+        (lambda c: c[ENV_ID].update(n_steps=0) or c, "n_steps must be at least 1"),
+        (lambda c: c[ENV_ID].update(batch_size="x") or c, "batch_size must be an integer"),
+        (lambda c: c[ENV_ID].update(n_epochs=True) or c, "n_epochs must be an integer"),
+        (lambda c: c[ENV_ID].update(gamma=2.0) or c, r"gamma must be in \[0, 1\]"),
+        (lambda c: c[ENV_ID].update(learning_rate=-1.0) or c, "learning_rate must be positive"),
+        (lambda c: c[ENV_ID].update(learning_rate="nan") or c, "learning_rate must be finite"),
+        (lambda c: c[ENV_ID].update(learning_rate="lin_-3e-4") or c, "learning_rate must be pos"),
+        (lambda c: c[ENV_ID].update(ent_coef="auto") or c, "ent_coef must be a number, got"),
+        (
+            lambda c: {ENV_ID: {"algo": "sac", "n_timesteps": 100, "ent_coef": "fast"}},
+            "ent_coef must be a number or 'auto'",
+        ),
+        (
+            lambda c: c[ENV_ID].update(policy_kwargs={"net_arch": "big"}) or c,
+            "policy_kwargs.net_arch must be a sequence",
+        ),
+        (
+            lambda c: c[ENV_ID].update(policy_kwargs={"net_arch": {"pi": [64, 0]}}) or c,
+            r"policy_kwargs\.net_arch\.pi\[1\] must be at least 1",
+        ),
         (
             lambda c: c[ENV_ID].update(policy_kwargs={"activation_fn": "swish2"}) or c,
             "activation_fn",
@@ -367,6 +387,23 @@ def test_packaged_config_by_name_and_a_same_named_folder_changes_nothing(tmp_pat
     assert load_config("ppo_vertical") == load_config(CONFIGS / "ppo_vertical.yaml")
     with pytest.raises(ValueError, match="unknown config 'ppo_vertica'.*packaged name"):
         load_config("ppo_vertica")
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"env_kwargs": {"duration": 1.0, "speed": -1.0}}, "env_kwargs: speed must be positive"),
+        ({"env_kwargs": {"sped": 3.0}}, "env_kwargs: .*unexpected keyword argument 'sped'"),
+        ({"eval_env_kwargs": {"backend": "simpack"}}, "eval_env_kwargs: backend must be one of"),
+        ({"policy": "CnnPolicyX"}, "ppo settings: Policy CnnPolicyX unknown"),
+    ],
+)
+def test_env_and_algorithm_errors_are_named_and_nothing_is_written(tmp_path, change, message):
+    cfg = _tiny_config()
+    cfg[ENV_ID].update(change)
+    with pytest.raises(ValueError, match=message):
+        train(cfg, tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
 
 
 def test_make_vec_modes():
