@@ -77,8 +77,8 @@ def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
     print(report.format().split("\n   candidate")[0])
     runs: dict[tuple[str, str], dict[str, Any]] = {}
     for backend in ("surrogate", "reference"):
-        element = {"surrogate": model} if backend == "surrogate" else {}
-        env = VerticalSuspensionEnv(backend=backend, **element)
+        surrogate = model if backend == "surrogate" else None  # the others take none
+        env = VerticalSuspensionEnv(backend=backend, surrogate=surrogate)
         env.reset(seed=seed)
         env.step(np.zeros(1, np.float32))  # compile (or load) the kernel outside the timing
         for name, ctrl in (("passive", Passive(env)), ("skyhook", Skyhook(env))):

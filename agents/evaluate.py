@@ -109,7 +109,7 @@ def run_policy(
     ctrl = factory(venv)
     obs, _ = venv.reset(seed=seed)
     acc, defl, contacts = [], [], np.zeros(episodes)
-    base = venv.unwrapped
+    base: Any = venv.unwrapped  # VerticalSuspensionVectorEnv: state, cfg
     while True:
         action, _ = ctrl.predict(obs, deterministic=True)
         obs, _, term, trunc, info = venv.step(np.asarray(action, np.float32).reshape(episodes, 1))

@@ -265,7 +265,7 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
         mode = val.choice(mode, "vectorization_mode", VECTORIZATION_MODES)
     seed = f.get("seed", None)
     if seed is None:
-        seed = int(np.random.SeedSequence().entropy % 2**31)
+        seed = int(np.random.default_rng().integers(2**31))  # OS entropy
 
     def count(key: str, default: int | None, lo: int = 1, hi: int | None = None) -> int:
         raw = f.get(key) if default is None else f.get(key, default)
