@@ -30,10 +30,8 @@ def run() -> list[dict]:
         lpr_eval(u, *arrays)
     ev = (time.perf_counter() - t0) / 10000
     return [
-        row("LPR fit, 101 samples, degree (5,5)", fit * 1e3, "ms", "≤ 1",
-            "paper T_t: 0.08-0.09 s"),  # fmt: skip
-        row("LPR lpr_eval, one point (from Python)", ev * 1e6, "µs", "",
-            "includes numba dispatch"),  # fmt: skip
+        row("LPR fit, 101 samples, degree (5,5)", fit * 1e3, "ms", "≤ 1", "paper T_t: 0.08-0.09 s"),
+        row("LPR lpr_eval, one point (from Python)", ev * 1e6, "µs", "", "includes numba dispatch"),
     ]
 
 

@@ -30,12 +30,11 @@ import numpy as np
 
 from railgym.track import track_time_input
 from railgym.vehicles.vertical import (
-    P_C2,
-    P_K2,
     VerticalVehicle,
     advance_linear,
     load_vehicle,
     simulate,
+    step_outputs,
     surrogate_arrays,
 )
 
@@ -78,16 +77,13 @@ def cosimulate(
         modelIdentifier=md.coSimulation.modelIdentifier,
         instanceName="element",
     )
-    p = vehicle.kernel_params().copy()
-    p[P_K2] = 0.0  # the secondary suspension is the FMU
-    p[P_C2] = 0.0
+    p = vehicle.kernel_params()._replace(k2=0.0, c2=0.0).record()  # the FMU is the suspension
     lpr = surrogate_arrays(None)
     n_comm = (z.size - 1) // every
     H = every * dt
     state = np.zeros((1, 4))
     zz, zd = z[None, :], zdot[None, :]
-    acc, force, count = np.zeros((1, 2)), np.zeros(1), np.zeros((1, 2), np.int64)
-    div = np.zeros(1, np.bool_)
+    res = step_outputs(1)
     t, x2, F = np.arange(n_comm + 1) * H, np.zeros(n_comm + 1), np.zeros(n_comm + 1)
     try:
         slave.instantiate()
@@ -104,10 +100,8 @@ def cosimulate(
             if n == n_comm:
                 break
             k0 = np.array([n * every], np.int64)
-            advance_linear(
-                state, zz, zd, k0, every, dt, F[n : n + 1], p, *lpr, acc, force, count, div
-            )
-            if div[0]:
+            advance_linear(state, zz, zd, k0, every, dt, F[n : n + 1], p, lpr, res)
+            if res.div[0]:
                 raise RuntimeError(f"the co-simulation diverged at t = {(n + 1) * H} s")
         slave.terminate()
     finally:

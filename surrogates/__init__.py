@@ -21,6 +21,7 @@ _LAZY = {
     "build": "surrogates.builder",
     "BuildReport": "surrogates.builder",
     "TimeHistory": "surrogates.features",
+    "ModelFieldError": "surrogates.models.validation",
 }
 
 __all__ = sorted(_LAZY)

@@ -15,8 +15,9 @@ import numpy as np
 
 from surrogates.metrics import paper_error, rms_normalised_error, timer
 from surrogates.models import SurrogateModel
-from surrogates.models.base import as_inputs, as_outputs
-from surrogates.sampling import select
+from surrogates.models.base import as_inputs, as_outputs, check_domain
+from surrogates.models.validation import check_choice, check_int
+from surrogates.sampling import METHODS, select
 from surrogates.selection import (
     SelectionResult,
     candidate_label,
@@ -126,12 +127,30 @@ def build(
     U = as_inputs(U)
     V = as_outputs(V, U.shape[0])
     n = U.shape[0]
-    if selection not in ("oob", "kfold"):
-        raise ValueError(f"selection must be 'oob' or 'kfold', got {selection!r}")
+    check_choice(kind, ("lpr", "kriging"), "kind")
+    check_choice(selection, ("oob", "kfold"), "selection")
+    check_choice(sampling, METHODS, "sampling")
+    m = check_int(m, "m", 1)
     if selection == "oob" and m >= n:
         raise ValueError(f"m = {m} leaves no out-of-bag samples out of n = {n}: use m < n")
+    if m > n:
+        raise ValueError(f"m = {m} exceeds the number of samples n = {n}")
+    if selection == "kfold":
+        check_int(k, "k", 2, m)
+    check_domain(U.min(axis=0), U.max(axis=0), "U column")
+    if not np.isfinite(np.std(V)):
+        raise ValueError("V overflows float64 (its spread is not finite): rescale the output")
     cands = list(candidates) if candidates is not None else default_candidates(kind, U.shape[1])
+    if not cands:
+        raise ValueError("candidates is empty: give at least one degree (LPR) or kernel (Kriging)")
     make = factory_for(kind, extrapolation=extrapolation, **model_params)
+    for cand in cands:
+        try:
+            make(cand)._check_params()
+        except TypeError as exc:  # an unknown keyword in model_params
+            raise ValueError(f"invalid model parameter for kind {kind!r}: {exc}") from None
+        except ValueError as exc:
+            raise type(exc)(f"candidate {candidate_label(cand)}: {exc}") from None
 
     def stage(name: str) -> Callable[[int, int], None] | None:
         return (lambda i, total: progress(name, i, total)) if progress else None

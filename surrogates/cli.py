@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -30,15 +32,33 @@ def _progress_bar() -> Callable[[str, int, int], None]:
     return update
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``surrogates`` command."""
+class UsageError(ValueError):
+    """A bad command-line argument or path (exit code 2, one line on stderr)."""
+
+
+def _check_output(path: str, flag: str, overwrite: bool) -> None:
+    """Fail before the build when ``path`` cannot be written or would be overwritten."""
+    p = Path(path)
+    if p.is_dir():
+        raise UsageError(f"{flag} {path}: is a folder, expected a file name")
+    if not p.parent.is_dir():
+        raise UsageError(f"{flag} {path}: folder {str(p.parent)!r} does not exist")
+    if not os.access(p.parent, os.W_OK):
+        raise UsageError(f"{flag} {path}: folder {str(p.parent)!r} is not writable")
+    if p.exists() and not overwrite:
+        raise UsageError(f"{flag} {path}: exists; pass --overwrite to replace it")
+
+
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="surrogates", description=__doc__)
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     sub = parser.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="build a surrogate element from a CSV file")
     b.add_argument("data", help="CSV file with a header row")
     b.add_argument("--inputs", nargs="+", required=True, help="input column names")
     b.add_argument("--output", required=True, help="output column name")
     b.add_argument("-o", "--model", required=True, help="where to write the model JSON")
+    b.add_argument("--overwrite", action="store_true", help="replace existing output files")
     b.add_argument("--kind", choices=["lpr", "kriging"], default="lpr")
     b.add_argument("--m", type=int, default=101, help="number of training samples")
     b.add_argument("--sampling", choices=["ga", "greedy", "random"], default="ga")
@@ -47,30 +67,44 @@ def main(argv: Sequence[str] | None = None) -> int:
     b.add_argument("--units", nargs="*", default=[], help="NAME=UNIT pairs, e.g. F=N")
     b.add_argument("--report", help="also write the build report as JSON here")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks"
+    )
     e = sub.add_parser("export-fmu", help="export a saved Legendre element as an FMI 2.0 FMU")
     e.add_argument("model", help="model JSON written by 'surrogates build'")
     e.add_argument("-o", "--fmu", required=True, help="where to write the .fmu")
     e.add_argument("--kind", choices=["me", "cs", "both"], default="both")
     e.add_argument("--sources-only", action="store_true", help="do not compile a binary")
     e.add_argument("--overwrite", action="store_true", help="replace an existing FMU")
-    args = parser.parse_args(argv)
-    if args.command == "export-fmu":
-        return _export_fmu(args)
+    return parser
 
-    try:
-        units = dict(u.split("=", 1) for u in args.units)
-    except ValueError:
-        parser.error("--units takes NAME=UNIT pairs")
-    try:
-        cols = io.read_csv(args.data, columns=[*args.inputs, args.output])
-    except (OSError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+
+def _build(args: argparse.Namespace) -> int:
+    """The ``build`` command; :class:`UsageError`, ``ValueError`` or ``OSError`` for bad input."""
+    units: dict[str, str] = {}
+    for pair in args.units:
+        name, sep, unit = pair.partition("=")
+        if not sep or not name or not unit:
+            raise UsageError(f"--units {pair!r}: expected NAME=UNIT, e.g. F=N")
+        units[name] = unit
+    names = [*args.inputs, args.output]
+    dups = sorted({c for c in names if names.count(c) > 1})
+    if dups:
+        raise UsageError(f"--inputs/--output name the column(s) {dups} more than once")
+    if args.m < 1:
+        raise UsageError(f"--m must be >= 1, got {args.m}")
+    if args.seed < 0:
+        raise UsageError(f"--seed must be >= 0, got {args.seed}")
+    _check_output(args.model, "-o", args.overwrite)
+    if args.report:
+        if Path(args.report).resolve() == Path(args.model).resolve():
+            raise UsageError("--report and -o name the same file")
+        _check_output(args.report, "--report", args.overwrite)
+    cols = io.read_csv(args.data, columns=names)
     U = np.column_stack([cols[c] for c in args.inputs])
-    V = cols[args.output]
     model, report = build(
         U,
-        V,
+        cols[args.output],
         kind=args.kind,
         m=args.m,
         sampling=args.sampling,
@@ -78,6 +112,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         seed=args.seed,
         progress=None if args.quiet else _progress_bar(),
     )
+    if args.report:
+        io.write_atomic(args.report, json.dumps(report.to_dict(), indent=1) + "\n")
     io.save(
         model,
         args.model,
@@ -88,9 +124,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     print(report.format())
     print(f"model written to {args.model}")
-    if args.report:
-        with open(args.report, "w") as fh:
-            json.dump(report.to_dict(), fh, indent=1)
     return 0
 
 
@@ -111,6 +144,24 @@ def _export_fmu(args: argparse.Namespace) -> int:
         return 2
     print(f"FMU written to {path}")
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``surrogates`` command.
+
+    Exit code 0 on success and 2 for a user error (bad argument, path, CSV file or data),
+    reported as one line on stderr; ``--debug`` shows the traceback instead.
+    """
+    args = _parser().parse_args(argv)
+    if args.command == "export-fmu":
+        return _export_fmu(args)
+    try:
+        return _build(args)
+    except (ValueError, OSError) as exc:
+        if args.debug:
+            raise
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

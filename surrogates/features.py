@@ -14,6 +14,7 @@ it into surrogate training data ``(U, V)``:
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from numbers import Real
 from types import MappingProxyType
 from typing import Any
 
@@ -22,6 +23,14 @@ import numpy as np
 LOADING = 1
 UNLOADING = -1
 CRASH_KEYS = ("wall_loading", "wall_unloading", "interface_loading", "interface_unloading")
+
+
+def _finite_number(x: Any) -> float | None:
+    """``x`` as a float if it is a finite real number (Python or numpy, not a bool), else None."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, Real):
+        return None
+    value = float(x)
+    return value if np.isfinite(value) else None
 
 
 def _vector(x: Any, name: str, n: int | None = None) -> np.ndarray:
@@ -165,14 +174,15 @@ def vertical_features(
     U : (n, 2) inputs ``[x1 − x2, v1 − v2]`` (m, m/s).
     V : (n,) suspension force on the body ``m2·a2``, N.
     """
-    if not (np.isscalar(m2) and np.isfinite(m2) and m2 > 0):
+    mass = _finite_number(m2)
+    if mass is None or mass <= 0:
         raise ValueError(f"m2 must be a positive finite mass in kg, got {m2!r}")
     x1 = _vector(x1, "x1")
     n = x1.size
     x2, v1, v2, a2 = (
         _vector(a, name, n) for a, name in ((x2, "x2"), (v1, "v1"), (v2, "v2"), (a2, "a2"))
     )
-    return np.column_stack([x1 - x2, v1 - v2]), float(m2) * a2
+    return np.column_stack([x1 - x2, v1 - v2]), mass * a2
 
 
 def vertical_features_from(
@@ -240,7 +250,8 @@ def split_branches(
         raise ValueError(f"min_length must be an integer, got {min_length!r}")
     if min_length < 1:
         raise ValueError(f"min_length must be >= 1, got {min_length}")
-    if not (np.isscalar(tol) and np.isfinite(tol) and tol >= 0):
+    tol_ = _finite_number(tol)
+    if tol_ is None or tol_ < 0:
         raise ValueError(f"tol must be a finite number >= 0, got {tol!r}")
     dt = np.ones(d.size - 1) if t is None else np.diff(_time(t, d.size))
     rate = np.diff(d) / dt
@@ -248,7 +259,7 @@ def split_branches(
     scale = np.quantile(speed, 0.9)
     if scale == 0.0:  # mostly at rest: scale by the fastest move instead
         scale = speed.max()
-    threshold = tol * scale
+    threshold = tol_ * scale
     sign = np.where(rate > threshold, LOADING, np.where(rate < -threshold, UNLOADING, 0))
     moved = np.flatnonzero(sign)
     if moved.size == 0:

@@ -11,7 +11,10 @@ File layout (``schema_version`` 1)::
 from __future__ import annotations
 
 import csv
+import io as _io
 import json
+import os
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -19,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from surrogates.models import SurrogateModel, model_class
+from surrogates.models.validation import ModelFieldError
 
 SCHEMA_VERSION = 1
 FORMAT = "surrogates-model"
@@ -47,47 +51,122 @@ def model_to_document(
 
 
 def model_from_document(doc: Any, source: str = "document") -> SurrogateModel:
-    """Rebuild a model from a document; ``metadata_`` and ``features_`` are attached to it."""
+    """Rebuild a model from a document; ``metadata_`` and ``features_`` are attached to it.
+
+    Raises :class:`~surrogates.models.validation.ModelFieldError` (a ``ValueError``) naming
+    ``source`` and the first invalid field.
+    """
     if not isinstance(doc, dict):
-        raise ValueError(f"{source}: expected a JSON object at the top level")
+        raise ModelFieldError(f"{source}: expected a JSON object at the top level")
     if doc.get("format") != FORMAT:
-        raise ValueError(f"{source}: field 'format' must be {FORMAT!r}, got {doc.get('format')!r}")
+        raise ModelFieldError(
+            f"{source}: field 'format' must be {FORMAT!r}, got {doc.get('format')!r}"
+        )
     if "schema_version" not in doc:
-        raise ValueError(f"{source}: missing field 'schema_version'")
-    if doc["schema_version"] != SCHEMA_VERSION:
-        raise ValueError(
+        raise ModelFieldError(f"{source}: missing field 'schema_version'")
+    if doc["schema_version"] != SCHEMA_VERSION or isinstance(doc["schema_version"], bool):
+        raise ModelFieldError(
             f"{source}: schema_version {doc['schema_version']!r} is not supported "
             f"(this version reads {SCHEMA_VERSION})"
         )
     for key in ("model", "features"):
         if key not in doc:
-            raise ValueError(f"{source}: missing field {key!r}")
+            raise ModelFieldError(f"{source}: missing field {key!r}")
     md = doc["model"]
     if not isinstance(md, dict) or "kind" not in md:
-        raise ValueError(f"{source}: missing field 'model.kind'")
+        raise ModelFieldError(f"{source}: missing field 'model.kind'")
     try:
+        if not isinstance(md["kind"], str):
+            raise ModelFieldError(f"model.kind must be a string, got {md['kind']!r}")
         model = model_class(md["kind"]).from_dict(md)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ValueError(f"{source}: invalid 'model' field: {exc}") from exc
-    model.features_ = doc["features"]
-    model.metadata_ = doc.get("metadata", {})
+    except ValueError as exc:
+        raise ModelFieldError(f"{source}: invalid 'model' field: {exc}") from None
+    model.features_ = _check_features(doc["features"], model.n_features_in_, source)
+    metadata = doc.get("metadata", {})
+    if not isinstance(metadata, dict):
+        raise ModelFieldError(f"{source}: field 'metadata' must be a JSON object")
+    model.metadata_ = metadata
     return model
 
 
-def save(model: SurrogateModel, path: str | Path, **document: Any) -> Path:
-    """Write ``model`` as JSON to ``path``; keyword arguments as in :func:`model_to_document`."""
+def _check_features(feat: Any, n_in: int, source: str) -> dict[str, Any]:
+    """The ``features`` block: ``inputs`` (n_in names), ``output`` (a name), ``units``."""
+    if not isinstance(feat, dict):
+        raise ModelFieldError(f"{source}: field 'features' must be a JSON object")
+    inputs = feat.get("inputs")
+    if (
+        not isinstance(inputs, list)
+        or len(inputs) != n_in
+        or not all(isinstance(x, str) for x in inputs)
+    ):
+        raise ModelFieldError(
+            f"{source}: field 'features.inputs' must list {n_in} input names, got {inputs!r}"
+        )
+    if not isinstance(feat.get("output"), str):
+        raise ModelFieldError(f"{source}: field 'features.output' must be a name (string)")
+    units = feat.get("units", {})
+    if not isinstance(units, dict) or not all(
+        isinstance(k, str) and isinstance(v, str) for k, v in units.items()
+    ):
+        raise ModelFieldError(f"{source}: field 'features.units' must map names to unit strings")
+    return feat
+
+
+def save(
+    model: SurrogateModel, path: str | Path, *, overwrite: bool = True, **document: Any
+) -> Path:
+    """Write ``model`` as JSON to ``path``; keyword arguments as in :func:`model_to_document`.
+
+    The file is written to a temporary file in the same folder and renamed over ``path``
+    (atomic: a reader never sees a half-written model). ``overwrite=False`` raises
+    :class:`FileExistsError` when ``path`` exists; the default ``True`` replaces it (the
+    command line's ``surrogates build -o`` asks for ``--overwrite`` instead).
+    """
     path = Path(path)
-    path.write_text(json.dumps(model_to_document(model, **document), indent=1) + "\n")
+    text = json.dumps(model_to_document(model, **document), indent=1, allow_nan=False) + "\n"
+    if not overwrite and path.exists():
+        raise FileExistsError(f"{path}: exists; pass overwrite=True to replace it")
+    write_atomic(path, text)
     return path
 
 
-def load(path: str | Path) -> SurrogateModel:
-    """Read a model written by :func:`save`; clear ``ValueError`` for bad or foreign files."""
+def write_atomic(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
     path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        doc = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc})") from exc
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+#: largest model file :func:`load` reads, bytes
+MAX_FILE_BYTES = 256 * 2**20
+
+
+def load(path: str | Path) -> SurrogateModel:
+    """Read a model written by :func:`save`.
+
+    A bad or foreign file (not UTF-8 JSON, too deeply nested, larger than
+    ``MAX_FILE_BYTES``, or any invalid field) raises one
+    :class:`~surrogates.models.validation.ModelFieldError` (a ``ValueError``) naming the file.
+    """
+    path = Path(path)
+    if path.stat().st_size > MAX_FILE_BYTES:
+        raise ModelFieldError(f"{path}: larger than {MAX_FILE_BYTES} bytes, not a model file")
+    try:
+        doc = json.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ModelFieldError(
+            f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})"
+        ) from None
+    except ValueError as exc:  # JSONDecodeError, or an integer too long to convert
+        raise ModelFieldError(f"{path}: not valid JSON ({exc})") from None
+    except RecursionError:
+        raise ModelFieldError(f"{path}: JSON nested too deeply to be a model file") from None
     return model_from_document(doc, source=str(path))
 
 
@@ -99,35 +178,53 @@ def read_csv(path: str | Path, columns: Sequence[str] | None = None) -> dict[str
     value (with its line number), or a row with a different number of fields.
     """
     path = Path(path)
-    with path.open(newline="") as fh:
-        reader = csv.reader(fh)
-        try:
-            header = [h.strip() for h in next(reader)]
-        except StopIteration:
-            raise ValueError(f"{path}: empty file, expected a header row") from None
-        wanted = list(columns) if columns is not None else header
-        missing = [c for c in wanted if c not in header]
-        if missing:
-            raise ValueError(f"{path}: missing column(s) {missing}; the header has {header}")
-        pos = [header.index(c) for c in wanted]
-        data: list[list[float]] = [[] for _ in wanted]
-        for lineno, row in enumerate(reader, start=2):
-            if not row or all(not f.strip() for f in row):
-                continue
-            if len(row) != len(header):
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ValueError(f"{path}: line {line}: not UTF-8 text ({exc.reason})") from None
+    reader = csv.reader(_io.StringIO(text, newline=""))
+    try:
+        return _read_rows(reader, path, columns)
+    except csv.Error as exc:
+        raise ValueError(f"{path}: line {reader.line_num}: {exc}") from None
+
+
+def _read_rows(reader: Any, path: Path, columns: Sequence[str] | None) -> dict[str, np.ndarray]:
+    try:
+        header = [h.strip() for h in next(reader)]
+    except StopIteration:
+        raise ValueError(f"{path}: empty file, expected a header row") from None
+    dups = sorted({h for h in header if header.count(h) > 1})
+    if dups:
+        raise ValueError(f"{path}: line 1: duplicate column name(s) {dups}")
+    wanted = list(columns) if columns is not None else header
+    missing = [c for c in wanted if c not in header]
+    if missing:
+        raise ValueError(f"{path}: missing column(s) {missing}; the header has {header}")
+    pos = [header.index(c) for c in wanted]
+    data: list[list[float]] = [[] for _ in wanted]
+    for row in reader:
+        lineno = reader.line_num
+        if not row or all(not f.strip() for f in row):
+            continue
+        if len(row) != len(header):
+            raise ValueError(
+                f"{path}: line {lineno} has {len(row)} fields, the header has {len(header)}"
+            )
+        for j, (name, p) in enumerate(zip(wanted, pos, strict=True)):
+            cell = row[p]
+            try:
+                val = float(cell) if len(cell) <= 64 else float("x")
+            except ValueError:
+                shown = cell if len(cell) <= 64 else cell[:20] + f"... ({len(cell)} characters)"
                 raise ValueError(
-                    f"{path}: line {lineno} has {len(row)} fields, the header has {len(header)}"
-                )
-            for j, (name, p) in enumerate(zip(wanted, pos, strict=True)):
-                try:
-                    val = float(row[p])
-                except ValueError:
-                    raise ValueError(
-                        f"{path}: column {name!r} line {lineno}: {row[p]!r} is not a number"
-                    ) from None
-                if not np.isfinite(val):
-                    raise ValueError(f"{path}: column {name!r} line {lineno}: value is {val}")
-                data[j].append(val)
+                    f"{path}: column {name!r} line {lineno}: {shown!r} is not a number"
+                ) from None
+            if not np.isfinite(val):
+                raise ValueError(f"{path}: column {name!r} line {lineno}: value is {val}")
+            data[j].append(val)
     if not data or not data[0]:
         raise ValueError(f"{path}: no data rows")
     return {name: np.asarray(col) for name, col in zip(wanted, data, strict=True)}

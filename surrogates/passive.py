@@ -32,7 +32,13 @@ from scipy.linalg import qr, solve_triangular
 from scipy.optimize import nnls
 
 from surrogates.models.base import SurrogateModel
-from surrogates.models.lpr import LegendreRegression, _check_degree, _design, _legendre_table
+from surrogates.models.lpr import (
+    LegendreRegression,
+    _design,
+    _legendre_derivative,
+    _legendre_table,
+)
+from surrogates.models.validation import check_degree
 
 #: rounds of adding the violated minima of the slopes as constraints
 MAX_REFINE_ROUNDS = 10
@@ -85,7 +91,7 @@ class PassiveLegendreRegression(LegendreRegression):
     # ------------------------------------------------------------------ fitting
     def _validate(self, d: int) -> tuple[np.ndarray, tuple[bool, ...]]:
         """Check the hyperparameters for ``d`` inputs; returns (exponents, monotone flags)."""
-        E = LegendreRegression(degree=_check_degree(self.degree))._make_exponents(d)
+        E = LegendreRegression(degree=check_degree(self.degree))._make_exponents(d)
         gs = self.grid_size
         if isinstance(gs, bool) or not isinstance(gs, Integral) or gs < 2:
             raise ValueError(f"grid_size must be an integer >= 2, got {gs!r}")
@@ -162,8 +168,7 @@ def _slope_rows(points: list[np.ndarray], E: np.ndarray) -> np.ndarray:
     for j, t in enumerate(points):
         if t.size == 0:
             continue
-        _, dP = _legendre_table(t, max(nmax, 1), derivative=True)
-        assert dP is not None
+        dP = _legendre_derivative(_legendre_table(t, max(nmax, 1)))
         own = np.all(np.delete(E, j, axis=1) == 0, axis=1) & (E[:, j] > 0)
         block = np.zeros((t.size, E.shape[0]))
         block[:, own] = dP[:, E[own, j]]

@@ -77,18 +77,32 @@ def _score(model: SurrogateModel, U: np.ndarray, V: np.ndarray) -> dict[str, flo
     }
 
 
-def _fits(make: Factory, cand: Any, U: np.ndarray, V: np.ndarray) -> SurrogateModel | None:
-    """Fit a candidate; ``None`` when it cannot be fitted (e.g. more terms than samples)."""
+def _fits(make: Factory, cand: Any, U: np.ndarray, V: np.ndarray) -> SurrogateModel | str:
+    """Fit a candidate; the error message when it cannot be fitted (e.g. more terms than
+    samples)."""
     try:
         return make(cand).fit(U, V)
-    except (ValueError, np.linalg.LinAlgError):
-        return None
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        return str(exc) or type(exc).__name__
+
+
+_NAN = {"rms": np.nan, "mae": np.nan, "nrms": np.nan}
 
 
 def _finish(method: str, table: list[dict[str, Any]]) -> SelectionResult:
+    """The result; ``ValueError`` with each candidate's first error when none could be fitted.
+
+    Failed rows carry their cause under ``"error"``."""
+    if not table:
+        raise ValueError("candidates is empty: give at least one degree or kernel")
     finite = [r for r in table if np.isfinite(r["rms"])]
     if not finite:
-        raise ValueError("no candidate could be fitted: too few samples for every candidate")
+        causes = "; ".join(
+            f"{candidate_label(r['candidate'])}: {r.get('error', 'non-finite score')}"
+            for r in table[:5]
+        )
+        more = f" (and {len(table) - 5} more)" if len(table) > 5 else ""
+        raise ValueError(f"no candidate could be fitted: {causes}{more}")
     best = min(finite, key=lambda r: r["rms"])["candidate"]
     return SelectionResult(method=method, table=table, best=best)
 
@@ -111,8 +125,10 @@ def select_oob(
     table = []
     for i, cand in enumerate(cands):
         model = _fits(make, cand, U_train, V_train)
-        nan = {"rms": np.nan, "mae": np.nan, "nrms": np.nan}
-        table.append({"candidate": cand, **(_score(model, U_oob, V_oob) if model else nan)})
+        if isinstance(model, str):
+            table.append({"candidate": cand, **_NAN, "error": model})
+        else:
+            table.append({"candidate": cand, **_score(model, U_oob, V_oob)})
         if progress:
             progress(i + 1, len(cands))
     return _finish("oob", table)
@@ -143,22 +159,23 @@ def select_kfold(
     table = []
     for i, cand in enumerate(cands):
         pred = np.empty_like(V)
-        ok = True
+        error = None
         for fold in folds:
             train = np.setdiff1d(np.arange(U.shape[0]), fold, assume_unique=True)
             model = _fits(make, cand, U[train], V[train])
-            if model is None:
-                ok = False
+            if isinstance(model, str):
+                error = model
                 break
             pred[fold] = model.predict(U[fold])
-        if ok:
+        row: dict[str, Any]
+        if error is None:
             row = {
                 "rms": float(np.sqrt(np.mean((pred - V) ** 2))),
                 "mae": average_absolute_error(pred, V),
                 "nrms": rms_normalised_error(pred, V),
             }
         else:
-            row = {"rms": np.nan, "mae": np.nan, "nrms": np.nan}
+            row = {**_NAN, "error": error}
         table.append({"candidate": cand, **row})
         if progress:
             progress(i + 1, len(cands))

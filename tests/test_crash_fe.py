@@ -97,7 +97,8 @@ def test_elements_from_fe_output_run_traincrash_like_the_direct_ones(fe_files, t
     ref, nodout, rcforc, _ = fe_files
     direct = build_crash_surrogate(ref)
     from_fe = _from_files(nodout, rcforc)
-    assert from_fe.source.startswith("FE: ")
+    assert from_fe.origin.startswith("FE: ")
+    assert from_fe.source == direct.source == "paper"
     for name in ("wall", "interface"):
         a, b = direct.elements[name], from_fe.elements[name]
         u = np.linspace(0.0, a.loading.domain_[1][0], 200)[:, None]

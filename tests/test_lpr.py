@@ -170,8 +170,19 @@ def test_numba_kernels_match_predict(interactions: bool) -> None:
     for u, r in zip(Uq, ref, strict=True):
         assert abs(lpr_eval(u, E, c, lo, hi, mode) - r) < 1e-10
         assert lpr_is_outside(u, lo, hi) == bool(np.any((u < lo) | (u > hi)))
-    # mode 2 ("raise") is evaluated like "linear" by the kernels
-    np.testing.assert_allclose(lpr_eval_batch(Uq, E, c, lo, hi, 2), ref, rtol=0, atol=1e-10)
+    # mode 2 ("raise"): lpr_eval_into extends linearly (its callers check), the others raise
+    work = lpr_scratch(E, lo, hi)
+    for u, r in zip(Uq, ref, strict=True):
+        assert abs(lpr_eval_into(u, E, c, lo, hi, 2, work) - r) < 1e-10
+    outside = np.array([lpr_is_outside(u, lo, hi) for u in Uq])
+    assert outside.any()
+    with pytest.raises(ValueError, match="extrapolation='raise'"):
+        lpr_eval_batch(Uq, E, c, lo, hi, 2)
+    with pytest.raises(ValueError, match="extrapolation='raise'"):
+        lpr_eval(Uq[outside][0], E, c, lo, hi, 2)
+    np.testing.assert_allclose(
+        lpr_eval_batch(Uq[~outside], E, c, lo, hi, 2), ref[~outside], rtol=0, atol=1e-10
+    )
     # clip policy
     clip = LegendreRegression(degree=5, interactions=interactions, extrapolation="clip").fit(U, V)
     E, c, lo, hi, mode = clip.kernel_arrays()
@@ -305,11 +316,11 @@ def test_bad_input() -> None:
     with pytest.raises(ValueError, match="needs at least 9"):
         LegendreRegression(degree=4).fit(U, V)
     with pytest.raises(ValueError, match="degree"):
-        LegendreRegression(degree=-1)
+        LegendreRegression(degree=-1).fit(U, V)
     with pytest.raises(ValueError, match="degree"):
-        LegendreRegression(degree=2.5)
+        LegendreRegression(degree=2.5).fit(U, V)
     with pytest.raises(ValueError, match="interactions"):
-        LegendreRegression(degree=(2, 3), interactions=True)
+        LegendreRegression(degree=(2, 3), interactions=True).fit(U, V)
     with pytest.raises(ValueError, match="degree has 3 entries"):
         LegendreRegression(degree=(1, 2, 3)).fit(U, V)
     x = np.repeat([0.0, 1.0, 2.0], 5)  # 3 distinct values cannot carry degree 4

@@ -166,7 +166,12 @@ def build_envelope_surrogate(
 ) -> CrashSurrogate:
     """One element set fitted on the pooled :func:`envelope_runs` of ``scenario``."""
     runs = envelope_runs(scenario, speeds_kmh, scales)
-    return build_crash_surrogate(runs, variant=variant, seed=seed, degrees=FIT_DEGREES)
+    out = build_crash_surrogate(runs, variant=variant, seed=seed, degrees=FIT_DEGREES)
+    out.origin = (
+        f"reference runs at {', '.join(f'{v:g}' for v in speeds_kmh)} km/h x absorber scales "
+        f"{', '.join(f'{s:g}' for s in scales)}"
+    )
+    return out
 
 
 def packaged_path(name: str) -> Path:

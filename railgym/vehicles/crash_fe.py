@@ -204,7 +204,7 @@ def crash_surrogate_from_fe(
         start_time=start_time,
     )
     out = build_crash_surrogate(result, variant=variant, seed=seed, max_degree=max_degree)
-    out.source = f"FE: {nodout}, {rcforc} ({units})"
+    out.origin = f"FE: {nodout}, {rcforc} ({units})"
     out.build_time = time.perf_counter() - t0
     return out
 
@@ -250,10 +250,11 @@ def save_crash_surrogate(
         "schema_version": SCHEMA_VERSION,
         "variant": surrogate.variant,
         "source": surrogate.source,
+        "origin": surrogate.origin,
         "build_time_s": surrogate.build_time,
         "elements": {k: _element_document(e) for k, e in surrogate.elements.items()},
     }
-    path.write_text(json.dumps(_jsonable(doc), indent=1) + "\n")
+    io.write_atomic(path, json.dumps(_jsonable(doc), indent=1) + "\n")
     return path
 
 
@@ -315,6 +316,7 @@ def load_crash_surrogate(path: str | Path) -> CrashSurrogate:
         elements=els,
         source=str(doc.get("source", path)),
         build_time=float(doc.get("build_time_s", 0.0)),
+        origin=str(doc.get("origin", "reference model")),
     )
 
 

@@ -20,6 +20,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import NamedTuple
 
+import numpy as np
+
 from surrogates.fmi.export import (
     SOURCE_FILES,
     FMUExportError,
@@ -48,21 +50,23 @@ class HystereticLaw(NamedTuple):
 
 
 def _model_arrays(model: LegendreRegression, k: int) -> list[str]:
+    """C arrays of branch ``k``: its coefficients summed per Legendre degree (the packing of
+    railgym's crash kernels, which evaluate the series by Clenshaw as ``hy_series`` does)."""
     exps, coef, lower, upper, mode = model.kernel_arrays()
     if exps.shape[1] != 1:
         raise FMUExportError(f"crash element branch {k} has {exps.shape[1]} inputs, expected 1")
+    dense = np.zeros(int(exps.max()) + 1)
+    np.add.at(dense, exps[:, 0], coef)
 
     def arr(values: Iterable[float]) -> str:
         return ", ".join(repr(float(v)) for v in values)
 
     return [
-        f"#define HY_T{k} {exps.shape[0]}",
-        f"#define HY_NMAX{k} {int(exps.max())}",
+        f"#define HY_N{k} {dense.size - 1}",
         f"#define HY_MODE{k} {mode}",
-        f"static const int hy_e{k}[HY_T{k}] = {{{', '.join(str(int(e)) for e in exps[:, 0])}}};",
-        f"static const double hy_c{k}[HY_T{k}] = {{{arr(coef)}}};",
-        f"static const double hy_lo{k}[1] = {{{arr(lower)}}};",
-        f"static const double hy_up{k}[1] = {{{arr(upper)}}};",
+        f"static const double hy_c{k}[{dense.size}] = {{{arr(dense)}}};",
+        f"#define HY_LO{k} {float(lower[0])!r}",
+        f"#define HY_UP{k} {float(upper[0])!r}",
     ]
 
 
@@ -118,8 +122,6 @@ def export_hysteretic_fmu(
         f"#define HY_KT {float(law.tension_stiffness)!r}",
         f"#define HY_SLACK {float(law.slack)!r}",
         f"#define HY_HAS_UNLOADING {int(len(models) == 2)}",
-        "#define LPR_MAXD 1",
-        f"#define LPR_MAXW {max(int(m.exponents_.max()) for m in models) + 2}",
         'static const char *const el_input_names[2] = {"u", "rate"};',
         "static const double el_start[2] = {0.0, 0.0};",
     ]
@@ -145,7 +147,7 @@ def export_hysteretic_fmu(
     )
     sources = {
         "element_data.h": "\n".join(lines),
-        **{f: template(f) for f in (*SOURCE_FILES, "lpr.h", "hysteretic_element.h")},
+        **{f: template(f) for f in (*SOURCE_FILES, "hysteretic_element.h")},
     }
     resource = {"element.json": text + "\n"}
     return write_fmu(

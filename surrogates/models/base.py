@@ -5,7 +5,9 @@ outside that box are handled by the model's ``extrapolation`` policy:
 
 ``"linear"`` (default)
     value and gradient at the nearest boundary point, extended linearly outwards
-    (``F(u) ≈ F(u_b) + ∇F(u_b)·(u − u_b)``); finite for every finite input.
+    (``F(u) ≈ F(u_b) + ∇F(u_b)·(u − u_b)``); finite wherever that line is representable in
+    float64, otherwise (inputs of order 1e300) :meth:`SurrogateModel.predict` raises a
+    :class:`ValueError` naming the row and column.
 ``"clip"``
     the input is clipped to the box (constant extension).
 ``"raise"``
@@ -16,9 +18,13 @@ Each prediction of a point outside the box increments ``n_out_of_domain_``.
 
 from __future__ import annotations
 
+import inspect
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
+
+from surrogates.models.validation import ModelFieldError, check_choice, field, field_array
 
 EXTRAPOLATION_POLICIES = ("linear", "clip", "raise")
 
@@ -55,29 +61,38 @@ class SurrogateModel:
     """Base class: scikit-learn-like ``fit``/``predict`` with an extrapolation guard.
 
     Subclasses implement ``_fit(U, V)``, ``_predict_inside(U)`` (inputs inside the box),
-    optionally ``_gradient_inside(U)``, and ``_state()`` / ``_set_state(d)`` for persistence.
-    Hyperparameters are set in ``__init__``; learned state ends in an underscore.
+    optionally ``_gradient_inside(U)``, ``_check_params()`` (validates the hyperparameters)
+    and ``_state()`` / ``_set_state(d)`` for persistence.
+
+    scikit-learn contract: ``__init__`` stores every hyperparameter exactly as given (it
+    validates nothing), ``fit`` validates them, :meth:`get_params` / :meth:`set_params` work as
+    in scikit-learn (so ``sklearn.base.clone`` works), and learned state ends in an underscore.
     """
 
     kind: ClassVar[str] = "base"
+    #: feature names and units, attached by :func:`surrogates.io.load`
+    features_: dict[str, Any]
+    #: free-form metadata, attached by :func:`surrogates.io.load`
+    metadata_: dict[str, Any]
 
     def __init__(self, extrapolation: str = "linear") -> None:
         self.extrapolation = extrapolation
 
     # ------------------------------------------------------------------ public API
     def fit(self, U: Any, V: Any) -> SurrogateModel:
-        """Fit on inputs ``U`` (n, d) and outputs ``V`` (n,); returns ``self``."""
-        if self.extrapolation not in EXTRAPOLATION_POLICIES:
-            raise ValueError(
-                f"extrapolation must be one of {EXTRAPOLATION_POLICIES}, got {self.extrapolation!r}"
-            )
+        """Fit on inputs ``U`` (n, d) and outputs ``V`` (n,); returns ``self``.
+
+        Raises :class:`ModelFieldError` (a ``ValueError``) for an invalid hyperparameter and
+        ``ValueError`` for bad data (constant or overflowing input columns, non-finite values).
+        """
+        self._check_params()
         U = as_inputs(U)
         V = as_outputs(V, U.shape[0])
-        self.lower_ = U.min(axis=0)
-        self.upper_ = U.max(axis=0)
-        if np.any(self.upper_ <= self.lower_):
-            col = int(np.nonzero(self.upper_ <= self.lower_)[0][0])
-            raise ValueError(f"U column {col} is constant: the training domain has zero width")
+        lower, upper = U.min(axis=0), U.max(axis=0)
+        check_domain(lower, upper, "U column")
+        if not np.isfinite(np.std(V)):
+            raise ValueError("V overflows float64 (its spread is not finite): rescale the output")
+        self.lower_, self.upper_ = lower, upper
         self.n_features_in_ = U.shape[1]
         self.n_out_of_domain_ = 0
         self._fit(U, V)
@@ -107,7 +122,15 @@ class SurrogateModel:
         if self.extrapolation == "linear":
             Uo, Uco = U[outside], Uc[outside]
             G = self._gradient_inside(Uco)
-            V[outside] += np.sum(G * (Uo - Uco), axis=1)
+            with np.errstate(over="ignore", invalid="ignore"):
+                V[outside] += np.sum(G * (Uo - Uco), axis=1)
+            if not np.all(np.isfinite(V)):
+                row = int(np.nonzero(~np.isfinite(V))[0][0])
+                cols = np.nonzero(Uc[row] != U[row])[0].tolist()
+                raise ValueError(
+                    f"linear extrapolation overflows float64 at row {row} (column(s) {cols}, "
+                    f"U = {U[row].tolist()}): the input is too far outside the training domain"
+                )
         return V
 
     @property
@@ -116,9 +139,23 @@ class SurrogateModel:
         self._check_fitted()
         return self.lower_, self.upper_
 
-    def get_params(self) -> dict[str, Any]:
-        """Hyperparameters as given to ``__init__``."""
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """Hyperparameters as given to ``__init__`` (``deep`` is accepted for scikit-learn;
+        the models have no nested estimators)."""
         return {k: getattr(self, k) for k in self._param_names()}
+
+    def set_params(self, **params: Any) -> SurrogateModel:
+        """Set hyperparameters by name (validated at the next ``fit``); returns ``self``."""
+        names = self._param_names()
+        unknown = sorted(set(params) - set(names))
+        if unknown:
+            raise ValueError(
+                f"invalid parameter(s) {unknown} for {type(self).__name__}; "
+                f"valid parameters: {list(names)}"
+            )
+        for k, v in params.items():
+            setattr(self, k, v)
+        return self
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary of hyperparameters and learned state."""
@@ -131,23 +168,45 @@ class SurrogateModel:
         }
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> SurrogateModel:
-        """Rebuild a fitted model from :meth:`to_dict` output."""
-        for key in ("kind", "params", "domain", "state"):
-            if key not in d:
-                raise ValueError(f"model dictionary is missing the field {key!r}")
-        if d["kind"] != cls.kind:
-            raise ValueError(f"model kind is {d['kind']!r}, expected {cls.kind!r}")
-        params = dict(d["params"])
-        for k, v in params.items():
-            if isinstance(v, list):
-                params[k] = tuple(v)
-        model = cls(**params)
-        model.lower_ = np.asarray(d["domain"]["lower"], dtype=float)
-        model.upper_ = np.asarray(d["domain"]["upper"], dtype=float)
-        model.n_features_in_ = model.lower_.size
+    def from_dict(cls, d: Any) -> SurrogateModel:
+        """Rebuild a fitted model from :meth:`to_dict` output.
+
+        Every field is checked (types, shapes, finiteness, bounds); a bad one raises
+        :class:`ModelFieldError` naming it, e.g. ``model.state.coef``. Hyperparameters missing
+        from older files take their defaults.
+        """
+        kind = field(d, "kind", "model")
+        if kind != cls.kind:
+            raise ModelFieldError(f"model.kind is {kind!r}, expected {cls.kind!r}")
+        raw = field(d, "params", "model")
+        if not isinstance(raw, dict):
+            raise ModelFieldError(f"model.params must be a JSON object, got {type(raw).__name__}")
+        names = inspect.signature(cls.__init__).parameters
+        unknown = sorted(k for k in raw if k not in names or k == "self")
+        if unknown:
+            raise ModelFieldError(f"model.params has unknown field(s) {unknown}")
+        params = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
+        make: Callable[..., SurrogateModel] = cls
+        model = make(**params)
+        try:
+            model._check_params()
+        except ModelFieldError as exc:
+            raise ModelFieldError(f"model.params.{exc}") from None
+        dom = field(d, "domain", "model")
+        lower = field_array(field(dom, "lower", "model.domain"), "model.domain.lower", (None,))
+        upper = field_array(
+            field(dom, "upper", "model.domain"), "model.domain.upper", (lower.size,)
+        )
+        if lower.size == 0:
+            raise ModelFieldError("model.domain.lower must have at least one entry")
+        check_domain(lower, upper, "model.domain column")
+        model.lower_, model.upper_ = lower, upper
+        model.n_features_in_ = lower.size
         model.n_out_of_domain_ = 0
-        model._set_state(d["state"])
+        state = field(d, "state", "model")
+        if not isinstance(state, dict):
+            raise ModelFieldError(f"model.state must be a JSON object, got {type(state).__name__}")
+        model._set_state(state)
         return model
 
     def __repr__(self) -> str:
@@ -155,11 +214,14 @@ class SurrogateModel:
         return f"{type(self).__name__}({args})"
 
     # ------------------------------------------------------------- for subclasses
-    def _param_names(self) -> tuple[str, ...]:
-        import inspect
-
-        sig = inspect.signature(type(self).__init__)
+    @classmethod
+    def _param_names(cls) -> tuple[str, ...]:
+        sig = inspect.signature(cls.__init__)
         return tuple(p for p in sig.parameters if p != "self")
+
+    def _check_params(self) -> None:
+        """Validate the hyperparameters (:class:`ModelFieldError` naming the first bad one)."""
+        check_choice(self.extrapolation, EXTRAPOLATION_POLICIES, "extrapolation")
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "lower_"):
@@ -190,6 +252,26 @@ class SurrogateModel:
 
     def _set_state(self, d: dict[str, Any]) -> None:
         raise NotImplementedError
+
+
+def check_domain(lower: np.ndarray, upper: np.ndarray, what: str) -> None:
+    """Raise ``ValueError`` naming the first column where ``lower >= upper`` or the width
+    ``upper − lower`` overflows float64."""
+    with np.errstate(over="ignore"):
+        width = upper - lower
+    bad = ~(width > 0)
+    if np.any(bad):
+        col = int(np.nonzero(bad)[0][0])
+        raise ModelFieldError(
+            f"{what} {col} has lower {lower[col]!r} >= upper {upper[col]!r}: "
+            "the training domain has zero width (constant column)"
+        )
+    if not np.all(np.isfinite(width)):
+        col = int(np.nonzero(~np.isfinite(width))[0][0])
+        raise ModelFieldError(
+            f"{what} {col} spans [{lower[col]!r}, {upper[col]!r}], a width that overflows "
+            "float64: rescale the input"
+        )
 
 
 def _jsonable(obj: Any) -> Any:

@@ -14,15 +14,22 @@ L-BFGS-B from a few deterministic Latin-hypercube starts.
 
 from __future__ import annotations
 
-from numbers import Real
 from typing import Any, ClassVar
 
 import numpy as np
 from scipy.linalg import LinAlgError, cholesky, qr, solve_triangular
 from scipy.linalg.lapack import dpotri
-from scipy.optimize import minimize
+from scipy.optimize import OptimizeResult, minimize
 
 from surrogates.models.base import SurrogateModel, as_inputs
+from surrogates.models.validation import (
+    ModelFieldError,
+    check_choice,
+    check_float,
+    check_int,
+    field,
+    field_array,
+)
 
 KERNELS = ("gaussian", "matern52")
 TRENDS = ("constant", "linear")
@@ -30,7 +37,11 @@ TRENDS = ("constant", "linear")
 #: bounds of the length scales in units of the training-box width
 LENGTH_SCALE_BOUNDS = (1e-3, 1e2)
 #: bounds of the estimated nugget, relative to the process variance
-NUGGET_BOUNDS = (1e-8, 1.0)
+NUGGET_BOUNDS = (1e-12, 1.0)
+#: relative tolerance of L-BFGS-B on the log-likelihood (its change per iteration)
+LIKELIHOOD_FTOL = 1e-6
+#: default largest training set accepted by :meth:`Kriging.fit`
+MAX_SAMPLES = 2000
 #: first diagonal jitter of an interpolating model (nugget off)
 JITTER = 1e-14
 
@@ -48,12 +59,24 @@ class Kriging(SurrogateModel):
     kernel : {"gaussian", "matern52"}
         Anisotropic correlation function.
     nugget : "auto", float or None
-        ``"auto"``: estimated with the length scales (floor ``NUGGET_BOUNDS[0]``);
+        ``"auto"``: estimated with the length scales by maximum likelihood down to
+        ``NUGGET_BOUNDS[0]``; the interpolating model (nugget off) is a candidate of the same
+        search, so noise-free data keep the accuracy of an interpolating fit;
         a positive float: fixed, relative to the process variance; ``0`` or ``None``:
         interpolating, with a jitter of ``JITTER`` that grows ×10 whenever the
         Cholesky factorisation fails (the final value is kept in ``nugget_``).
     extrapolation : {"linear", "clip", "raise"}
         Policy for inputs outside the training box (see :mod:`surrogates.models.base`).
+    n_starts : int
+        Number of optimiser starts (the first from the centre of the search box, the others
+        from a Latin hypercube).
+    seed : int
+        Seed of the Latin hypercube of starting points.
+    max_samples : int or None
+        Largest number of training samples ``fit`` accepts (each likelihood evaluation costs
+        O(n³) time and O(d·n²) memory); ``None`` removes the check. To fit more points either
+        raise it (``Kriging(max_samples=5000)``) or pick a space-filling subset with
+        :func:`surrogates.select`.
 
     Attributes
     ----------
@@ -74,10 +97,6 @@ class Kriging(SurrogateModel):
     """
 
     kind: ClassVar[str] = "kriging"
-    #: number of optimiser starts (the first from the centre of the search box)
-    n_starts: ClassVar[int] = 4
-    #: seed of the Latin hypercube of starting points
-    seed: ClassVar[int] = 0
 
     def __init__(
         self,
@@ -85,12 +104,17 @@ class Kriging(SurrogateModel):
         kernel: str = "gaussian",
         nugget: str | float | None = "auto",
         extrapolation: str = "linear",
+        n_starts: int = 4,
+        seed: int = 0,
+        max_samples: int | None = MAX_SAMPLES,
     ) -> None:
-        super().__init__(extrapolation=extrapolation)
         self.trend = trend
         self.kernel = kernel
         self.nugget = nugget
-        self._check_params()
+        self.extrapolation = extrapolation
+        self.n_starts = n_starts
+        self.seed = seed
+        self.max_samples = max_samples
 
     # ------------------------------------------------------------------ public API
     def predict_variance(self, U: Any) -> np.ndarray:
@@ -118,12 +142,18 @@ class Kriging(SurrogateModel):
 
     # ------------------------------------------------------------- for the base class
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
-        self._check_params()
         n, d = U.shape
         p = 1 + d if self.trend == "linear" else 1
         if n <= p:
             raise ValueError(
                 f"U has {n} rows; Kriging with trend={self.trend!r} needs more than {p}"
+            )
+        if self.max_samples is not None and n > self.max_samples:
+            raise ValueError(
+                f"Kriging.fit got {n} samples, more than max_samples={self.max_samples} "
+                f"(every likelihood evaluation costs O(n³) time and O(d·n²) memory); pass "
+                f"Kriging(max_samples={n}) or max_samples=None to proceed, or fit on a "
+                f"space-filling subset from surrogates.select"
             )
         self.X_ = U.copy()
         self.y_ = V.copy()
@@ -135,26 +165,40 @@ class Kriging(SurrogateModel):
         D2 = (Xs[:, None, :] - Xs[None, :, :]) ** 2
         D2 = np.ascontiguousarray(np.moveaxis(D2, 2, 0)).reshape(d, n * n)
         auto = self.nugget == "auto"
-        fixed = 0.0 if auto else self._fixed_nugget()
 
-        lo = [np.log(LENGTH_SCALE_BOUNDS[0])] * d + ([np.log(NUGGET_BOUNDS[0])] if auto else [])
-        hi = [np.log(LENGTH_SCALE_BOUNDS[1])] * d + ([np.log(NUGGET_BOUNDS[1])] if auto else [])
-        starts = self._starts(d, auto)
+        def search(estimate: bool, fixed: float, starts: list[np.ndarray]) -> OptimizeResult:
+            bounds = [np.log(LENGTH_SCALE_BOUNDS)] * d + [np.log(NUGGET_BOUNDS)] * estimate
+            best = None
+            for q0 in starts:
+                res = minimize(
+                    _neg_log_likelihood,
+                    q0,
+                    args=(D2, ys, F, self.kernel, estimate, fixed),
+                    jac=True,
+                    method="L-BFGS-B",
+                    bounds=bounds,
+                    options={"ftol": LIKELIHOOD_FTOL},
+                )
+                if best is None or res.fun < best.fun:
+                    best = res
+            assert best is not None  # n_starts >= 1
+            return best
 
-        def objective(q: np.ndarray) -> tuple[float, np.ndarray]:
-            return _neg_log_likelihood(q, D2, ys, F, self.kernel, auto, fixed)
-
-        best = None
-        for q0 in starts:
-            res = minimize(
-                objective, q0, jac=True, method="L-BFGS-B", bounds=list(zip(lo, hi, strict=True))
-            )
-            if best is None or res.fun < best.fun:
-                best = res
+        best = search(auto, 0.0 if auto else self._fixed_nugget(), self._starts(d, auto))
+        nug = float(np.exp(best.x[d])) if auto else self._fixed_nugget()
+        if auto:
+            # noise-free data: the likelihood rises as the nugget falls, and L-BFGS-B stops
+            # on or near the lower bound with length scales that are too short. There the
+            # interpolating model (jitter JITTER, grown x10 while the Cholesky factorisation
+            # fails), searched from the estimate's length scales, is kept when its
+            # likelihood is higher.
+            if nug < 1e3 * NUGGET_BOUNDS[0]:
+                interp = search(False, JITTER, [best.x[:d]])
+                if interp.fun < best.fun:
+                    best, nug = interp, JITTER
         q = best.x
         width = self.upper_ - self.lower_
         self.theta_ = np.exp(q[:d]) * width
-        nug = float(np.exp(q[d])) if auto else fixed
         self._ell = self.theta_ / width
         K, _ = _correlation(Xs, Xs, self._ell, self.kernel)
         L, self.nugget_ = _cholesky(K, nug)
@@ -206,23 +250,45 @@ class Kriging(SurrogateModel):
         }
 
     def _set_state(self, d: dict[str, Any]) -> None:
-        for key in ("theta", "nugget", "beta", "sigma2", "weights", "X", "y", "y_mean", "y_std"):
-            if key not in d:
-                raise ValueError(f"Kriging state is missing the field {key!r}")
-        self.theta_ = np.asarray(d["theta"], dtype=float)
-        self.nugget_ = float(d["nugget"])
-        self.beta_ = np.asarray(d["beta"], dtype=float)
-        self.sigma2_ = float(d["sigma2"])
-        self.weights_ = np.asarray(d["weights"], dtype=float)
-        self.X_ = np.asarray(d["X"], dtype=float).reshape(-1, self.n_features_in_)
-        self.y_ = np.asarray(d["y"], dtype=float)
-        self.y_mean_ = float(d["y_mean"])
-        self.y_std_ = float(d["y_std"])
-        self.log_likelihood_ = float(d.get("log_likelihood", np.nan))
+        d_in = self.n_features_in_
+
+        def get(key: str) -> Any:
+            return field(d, key, "model.state")
+
+        def num(key: str, **kw: Any) -> float:
+            return check_float(get(key), f"model.state.{key}", **kw)
+
+        X = field_array(get("X"), "model.state.X", (None, d_in))
+        n = X.shape[0]
+        p = 1 + d_in if self.trend == "linear" else 1
+        if n <= p:
+            raise ModelFieldError(f"model.state.X has {n} rows, Kriging needs more than {p}")
+        if self.max_samples is not None and n > self.max_samples:
+            raise ModelFieldError(
+                f"model.state.X has {n} rows, more than model.params.max_samples={self.max_samples}"
+            )
+        self.theta_ = field_array(get("theta"), "model.state.theta", (d_in,), low=0, strict=True)
+        self.nugget_ = num("nugget", low=0.0)
+        self.beta_ = field_array(get("beta"), "model.state.beta", (p,))
+        self.sigma2_ = num("sigma2", low=0.0)
+        self.weights_ = field_array(get("weights"), "model.state.weights", (n,))
+        self.X_ = X
+        self.y_ = field_array(get("y"), "model.state.y", (n,))
+        self.y_mean_ = num("y_mean")
+        self.y_std_ = num("y_std", low=0.0, strict=True)
+        self.log_likelihood_ = (
+            num("log_likelihood", nan_ok=True) if "log_likelihood" in d else float("nan")
+        )
         self._ell = self.theta_ / (self.upper_ - self.lower_)
         self._Xs = self._scale(self.X_)
         K, _ = _correlation(self._Xs, self._Xs, self._ell, self.kernel)
-        self._L = cholesky(K + self.nugget_ * np.eye(K.shape[0]), lower=True, check_finite=False)
+        try:
+            self._L = cholesky(K + self.nugget_ * np.eye(n), lower=True, check_finite=False)
+        except LinAlgError:
+            raise ModelFieldError(
+                "model.state.theta / model.state.nugget give a correlation matrix that is "
+                "not positive definite"
+            ) from None
         self._Ft = solve_triangular(
             self._L, _trend_matrix(self._Xs, self.trend), lower=True, check_finite=False
         )
@@ -230,23 +296,25 @@ class Kriging(SurrogateModel):
 
     # ------------------------------------------------------------------ helpers
     def _check_params(self) -> None:
-        if self.trend not in TRENDS:
-            raise ValueError(f"trend must be one of {TRENDS}, got {self.trend!r}")
-        if self.kernel not in KERNELS:
-            raise ValueError(f"kernel must be one of {KERNELS}, got {self.kernel!r}")
+        super()._check_params()
+        check_choice(self.trend, TRENDS, "trend")
+        check_choice(self.kernel, KERNELS, "kernel")
         if self.nugget != "auto":
             self._fixed_nugget()
+        check_int(self.n_starts, "n_starts", 1, 1000)
+        check_int(self.seed, "seed", 0)
+        if self.max_samples is not None:
+            check_int(self.max_samples, "max_samples", 2)
 
     def _fixed_nugget(self) -> float:
         """The fixed nugget, or the starting jitter when the nugget is off."""
         nug = self.nugget
         if nug is None:
             return JITTER
-        if isinstance(nug, bool) or not isinstance(nug, Real):
-            raise ValueError(f"nugget must be 'auto', a number >= 0 or None, got {nug!r}")
-        if not np.isfinite(nug) or nug < 0:
-            raise ValueError(f"nugget must be finite and >= 0, got {nug!r}")
-        return float(nug) if nug > 0 else JITTER
+        if isinstance(nug, str):
+            raise ModelFieldError(f"nugget must be 'auto', a number >= 0 or None, got {nug!r}")
+        value = check_float(nug, "nugget", low=0.0)
+        return value if value > 0 else JITTER
 
     def _scale(self, U: np.ndarray) -> np.ndarray:
         return (U - self.lower_) / (self.upper_ - self.lower_)
@@ -329,8 +397,9 @@ def _neg_log_likelihood(
     sigma2 = max(float(res @ res) / n, 1e-300)
     nll = 0.5 * n * np.log(sigma2) + float(np.sum(np.log(np.diag(L))))
     alpha = solve_triangular(L, res, lower=True, trans="T", check_finite=False)
-    Rinv = dpotri(L, lower=1)[0]
-    Rinv = np.tril(Rinv) + np.tril(Rinv, -1).T
+    Rl = dpotri(L, lower=1)[0]  # lower triangle of R⁻¹; the upper one is L's, zero
+    Rinv = Rl + Rl.T
+    np.fill_diagonal(Rinv, np.diag(Rl))
     W = np.outer(alpha, alpha) / sigma2 - Rinv
     grad = -0.5 * (D2 @ (W * g).ravel()) / ell2
     if auto:

@@ -28,13 +28,22 @@ The module-level numba kernels :func:`lpr_eval`, :func:`lpr_eval_batch` and
 from __future__ import annotations
 
 import itertools
-from numbers import Integral
+import math
 from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
 
 from surrogates.models.base import SurrogateModel
+from surrogates.models.validation import (
+    MAX_DEGREE,
+    ModelFieldError,
+    check_bool,
+    check_degree,
+    check_float,
+    field,
+    field_array,
+)
 
 #: extrapolation policy → integer mode understood by the numba kernels
 EXTRAPOLATION_MODES = {"linear": 0, "clip": 1, "raise": 2}
@@ -74,27 +83,36 @@ class LegendreRegression(SurrogateModel):
         interactions: bool = False,
         extrapolation: str = "linear",
     ) -> None:
-        super().__init__(extrapolation=extrapolation)
-        self.degree = _check_degree(degree)
-        if not isinstance(interactions, (bool, np.bool_)):
-            raise ValueError(f"interactions must be True or False, got {interactions!r}")
-        if interactions and isinstance(self.degree, tuple):
-            raise ValueError(
+        self.degree = degree
+        self.interactions = interactions
+        self.extrapolation = extrapolation
+
+    def _check_params(self) -> None:
+        super()._check_params()
+        degree = check_degree(self.degree)
+        if check_bool(self.interactions, "interactions") and isinstance(degree, tuple):
+            raise ModelFieldError(
                 f"degree must be a single int when interactions=True (total degree), "
                 f"got {self.degree!r}"
             )
-        self.interactions = bool(interactions)
 
     # ------------------------------------------------------------------ fitting
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
         n, d = U.shape
-        E = self._make_exponents(d)
-        T = E.shape[0]
+        degree = check_degree(self.degree)
+        if self.interactions and isinstance(degree, int):  # _check_params rejects a tuple here
+            T = math.comb(degree + d, d)
+        else:
+            degrees = degree if isinstance(degree, tuple) else (degree,) * d
+            if len(degrees) != d:
+                raise ValueError(f"degree has {len(degrees)} entries but U has {d} columns")
+            T = 1 + sum(degrees)
         if n < T:
             raise ValueError(
                 f"U has {n} samples but degree={self.degree!r} "
                 f"(interactions={self.interactions}) needs at least {T} (one per term)"
             )
+        E = self._make_exponents(d)
         A = _design(self._map(U), E)
         norms = np.linalg.norm(A, axis=0)
         coef_scaled, _, rank, s = np.linalg.lstsq(A / norms, V, rcond=None)
@@ -110,24 +128,25 @@ class LegendreRegression(SurrogateModel):
 
     def _make_exponents(self, d: int) -> np.ndarray:
         """Exponent table (T, d) for ``d`` inputs; row 0 is the constant term."""
-        if self.interactions:
+        degree = check_degree(self.degree)
+        if self.interactions and isinstance(degree, int):
             rows = [
                 e
-                for total in range(self.degree + 1)
+                for total in range(degree + 1)
                 for e in itertools.product(range(total + 1), repeat=d)
                 if sum(e) == total
             ]
             return np.array(rows, dtype=np.int64)[:, ::-1].copy()
-        degrees = self.degree if isinstance(self.degree, tuple) else (self.degree,) * d
+        degrees = degree if isinstance(degree, tuple) else (degree,) * d
         if len(degrees) != d:
             raise ValueError(f"degree has {len(degrees)} entries but U has {d} columns")
-        rows = [np.zeros(d, dtype=np.int64)]
+        table = [np.zeros(d, dtype=np.int64)]
         for j, n_j in enumerate(degrees):
             for k in range(1, n_j + 1):
                 e = np.zeros(d, dtype=np.int64)
                 e[j] = k
-                rows.append(e)
-        return np.array(rows, dtype=np.int64)
+                table.append(e)
+        return np.array(table, dtype=np.int64)
 
     # --------------------------------------------------------------- evaluation
     def _map(self, U: np.ndarray) -> np.ndarray:
@@ -142,7 +161,8 @@ class LegendreRegression(SurrogateModel):
         """Analytic gradient (n, d) in output units per input unit."""
         E = self.exponents_
         d = E.shape[1]
-        P, dP = _legendre_table(self._map(U), int(E.max()), derivative=True)
+        P = _legendre_table(self._map(U), int(E.max()))
+        dP = _legendre_derivative(P)
         cols = np.arange(d)[None, :]
         F = P[:, cols, E]  # (n, T, d): P_{e_tj}(t_j)
         D = dP[:, cols, E]
@@ -165,7 +185,8 @@ class LegendreRegression(SurrogateModel):
         lower, upper : float64 (d,)
             Training box in input units.
         mode : int
-            0 linear extrapolation, 1 clip, 2 raise (kernels treat 2 like 0).
+            0 linear extrapolation, 1 clip, 2 raise (:func:`lpr_eval` and
+            :func:`lpr_eval_batch` raise; :func:`lpr_eval_into` leaves it to its caller).
         """
         self._check_fitted()
         return (
@@ -181,45 +202,32 @@ class LegendreRegression(SurrogateModel):
         return {"coef": self.coef_, "exponents": self.exponents_, "cond": self.cond_}
 
     def _set_state(self, d: dict[str, Any]) -> None:
-        for key in ("coef", "exponents", "cond"):
-            if key not in d:
-                raise ValueError(f"LPR state is missing the field {key!r}")
-        coef = np.asarray(d["coef"], dtype=np.float64)
-        E = np.asarray(d["exponents"], dtype=np.int64)
-        if coef.ndim != 1 or E.shape != (coef.size, self.n_features_in_):
-            raise ValueError(
-                f"LPR state field 'exponents' has shape {E.shape}, expected "
-                f"({coef.size}, {self.n_features_in_}) to match 'coef' and the domain"
-            )
+        coef = field_array(field(d, "coef", "model.state"), "model.state.coef", (None,))
+        if coef.size == 0:
+            raise ModelFieldError("model.state.coef must have at least one entry")
+        with np.errstate(over="ignore"):
+            bound = np.abs(coef).sum()  # |P_k| <= 1 on the box: bounds every prediction there
+        if not np.isfinite(bound):
+            raise ModelFieldError("model.state.coef: the sum of magnitudes overflows float64")
+        E = field_array(
+            field(d, "exponents", "model.state"),
+            "model.state.exponents",
+            (coef.size, self.n_features_in_),
+            integer=True,
+            low=0,
+            high=MAX_DEGREE,
+        )
         self.coef_ = coef
         self.exponents_ = E
         self.n_terms_ = coef.size
-        self.cond_ = float(d["cond"])
+        self.cond_ = check_float(field(d, "cond", "model.state"), "model.state.cond", nan_ok=True)
 
 
 # ---------------------------------------------------------------------- helpers
-def _check_degree(degree: Any) -> int | tuple[int, ...]:
-    """Validate ``degree`` (non-negative int or tuple of them)."""
+def _legendre_table(t: np.ndarray, nmax: int) -> np.ndarray:
+    """``P_k(t)`` for k = 0..nmax, shape ``t.shape + (nmax + 1,)``.
 
-    def ok(x: Any) -> bool:
-        return isinstance(x, Integral) and not isinstance(x, (bool, np.bool_)) and x >= 0
-
-    if ok(degree):
-        return int(degree)
-    if isinstance(degree, (tuple, list)) and len(degree) > 0 and all(ok(x) for x in degree):
-        return tuple(int(x) for x in degree)
-    raise ValueError(
-        f"degree must be a non-negative int or a tuple of them (one per input), got {degree!r}"
-    )
-
-
-def _legendre_table(
-    t: np.ndarray, nmax: int, derivative: bool = False
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """``P_k(t)`` (and ``P_k'(t)``) for k = 0..nmax, shape ``t.shape + (nmax + 1,)``.
-
-    Bonnet recurrence ``P_{k+1} = (2k+1)/(k+1)·t·P_k − k/(k+1)·P_{k−1}``;
-    derivative ``P'_{k+1} = P'_{k−1} + (2k+1) P_k``.
+    Bonnet recurrence ``P_{k+1} = (2k+1)/(k+1)·t·P_k − k/(k+1)·P_{k−1}``.
     """
     P = np.empty(t.shape + (nmax + 1,))
     P[..., 0] = 1.0
@@ -228,20 +236,25 @@ def _legendre_table(
     for k in range(1, nmax):
         # same arithmetic as the numba kernels (constants from lpr_scratch)
         P[..., k + 1] = (2 * k + 1) / (k + 1) * t * P[..., k] - k / (k + 1) * P[..., k - 1]
-    if not derivative:
-        return P, None
+    return P
+
+
+def _legendre_derivative(P: np.ndarray) -> np.ndarray:
+    """``P'_k(t)`` from the table ``P`` of :func:`_legendre_table`:
+    ``P'_{k+1} = P'_{k−1} + (2k+1) P_k``."""
+    nmax = P.shape[-1] - 1
     dP = np.empty_like(P)
     dP[..., 0] = 0.0
     if nmax >= 1:
         dP[..., 1] = 1.0
     for k in range(1, nmax):
         dP[..., k + 1] = dP[..., k - 1] + (2 * k + 1) * P[..., k]
-    return P, dP
+    return dP
 
 
 def _design(t: np.ndarray, E: np.ndarray) -> np.ndarray:
     """Design matrix (n, T): column ``t`` is ``Π_j P_{E[t, j]}(t_j)``."""
-    P, _ = _legendre_table(t, int(E.max()))
+    P = _legendre_table(t, int(E.max()))
     return np.prod(P[:, np.arange(E.shape[1])[None, :], E], axis=2)
 
 
@@ -292,13 +305,27 @@ def lpr_eval(
 ) -> float:
     """Evaluate a fitted LPR model at one point ``u`` (d,) in input units.
 
-    Outside the box the value at the clipped point is used; for ``mode`` 0 or 2 it is
-    extended linearly with the gradient there (``mode`` 1: clip only). Arrays as returned by
+    Outside the box the value at the clipped point is used; for ``mode`` 0 it is extended
+    linearly with the gradient there (``mode`` 1: clip only); ``mode`` 2 raises
+    ``ValueError``, as does a linear extension that overflows float64. Arrays as returned by
     :meth:`LegendreRegression.kernel_arrays`. Allocates its work array on every call; loops
     over many points should use :func:`lpr_eval_into` with one :func:`lpr_scratch`.
     """
     work = lpr_scratch(exponents, lower, upper)
-    return lpr_eval_into(u, exponents, coef, lower, upper, mode, work)
+    return _checked(
+        u, lpr_eval_into(u, exponents, coef, lower, upper, mode, work), lower, upper, mode
+    )
+
+
+@njit(cache=True)
+def _checked(u: np.ndarray, value: float, lower: np.ndarray, upper: np.ndarray, mode: int) -> float:
+    """``value`` of :func:`lpr_eval_into` at ``u``, or ``ValueError`` for the ``"raise"``
+    policy outside the box and for an overflowing linear extension."""
+    if mode == 2 and lpr_is_outside(u, lower, upper):
+        raise ValueError("input outside the training domain (extrapolation='raise')")
+    if not np.isfinite(value):
+        raise ValueError("linear extrapolation overflows float64: input too far outside the domain")
+    return value
 
 
 @njit(cache=True, inline="always")
@@ -313,6 +340,10 @@ def lpr_eval_into(
 ) -> float:
     """Allocation-free :func:`lpr_eval`; ``work`` is :func:`lpr_scratch` of the same model
     (its rows ``0..d`` are overwritten, so one work array serves one thread).
+
+    It does not raise for ``mode`` 2 (treated like 0) nor check the result: a caller that
+    honours the ``"raise"`` policy tests :func:`lpr_is_outside` itself, as the vehicle kernels
+    do; the result is ±inf when a linear extension overflows.
 
     Inlined into the calling numba function: as a separate call its array arguments' reference
     counting costs more than the evaluation (measured 4.2 vs 2.5 µs per vehicle control step).
@@ -390,10 +421,11 @@ def lpr_eval_batch(
     upper: np.ndarray,
     mode: int,
 ) -> np.ndarray:
-    """:func:`lpr_eval` for each row of ``U`` (n, d) → (n,)."""
+    """:func:`lpr_eval` for each row of ``U`` (n, d) → (n,), raising like it."""
     n = U.shape[0]
     out = np.empty(n)
     work = lpr_scratch(exponents, lower, upper)
     for r in range(n):
-        out[r] = lpr_eval_into(U[r], exponents, coef, lower, upper, mode, work)
+        value = lpr_eval_into(U[r], exponents, coef, lower, upper, mode, work)
+        out[r] = _checked(U[r], value, lower, upper, mode)
     return out

@@ -100,8 +100,9 @@ class CrashSurrogate:
 
     variant: str
     elements: dict[str, CrashElement]
-    source: str
+    source: str  #: name of the scenario the elements belong to (checked by the env)
     build_time: float
+    origin: str = "reference model"  #: where the training data came from
 
 
 def _degree(model: Any) -> int:

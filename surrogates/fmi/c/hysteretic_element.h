@@ -14,10 +14,10 @@
  *                           u_p = u - env / k_u if trial >= env, else f = trial (elastic);
  *                           if trial <= 0: tension k_t (u - u_p + slack) for u < u_p - slack
  *
- * Constants HY_* and the LPR arrays hy_*0 (loading / envelope) and hy_*1 (unloading, when
- * HY_HAS_UNLOADING) come from element_data.h.
+ * Constants HY_* and the per-degree Legendre coefficients hy_c0 (loading / envelope) and hy_c1
+ * (unloading, when HY_HAS_UNLOADING) come from element_data.h.
  */
-#include "lpr.h"
+#include <stddef.h>
 
 #define EL_NIN 2
 #define EL_NOUT 2
@@ -25,11 +25,37 @@
 
 static void el_init(double *state) { state[0] = 0.0; }
 
+/* sum_{k<=n} c_k P_k(t), t = 2 (u - lo) / (up - lo) - 1, by Clenshaw's recurrence (the
+ * arithmetic of railgym's crash kernels); outside [lo, up] the end value, extended with the
+ * end slope unless mode is 1 (clip): P_k(+-1) = (+-1)^k, P'_k(+-1) = (+-1)^(k+1) k (k+1) / 2. */
+static double hy_series(double u, const double *c, int n, double lo, double up, int mode) {
+    double b0, b1 = 0.0, b2 = 0.0, t, s, value = 0.0, slope = 0.0, sign = 1.0, end;
+    int k;
+    if (lo <= u && u <= up) {
+        t = (u - lo) * (2.0 / (up - lo)) - 1.0;
+        for (k = n; k > 0; k--) {
+            b0 = c[k] + (2.0 * k + 1.0) / (k + 1.0) * t * b1 - (k + 1.0) / (k + 2.0) * b2;
+            b2 = b1;
+            b1 = b0;
+        }
+        return c[0] + t * b1 - 0.5 * b2;
+    }
+    s = u > up ? 1.0 : -1.0;
+    for (k = 0; k <= n; k++) {
+        value += c[k] * sign;
+        slope += c[k] * sign * s * 0.5 * k * (k + 1);
+        sign *= s;
+    }
+    if (mode == 1) return value;
+    end = u > up ? up : lo;
+    return value + slope * (2.0 / (up - lo)) * (u - end);
+}
+
 /* Force at the inputs u with permanent set up; *up_new receives the new permanent set. */
 static double hy_law(const double *u, double up, double *up_new) {
     double x = u[0];
     double f_lpr = 0.0, f_min = 0.0, f_max = 0.0, f, trial, env;
-    int model, column = 0;
+    int model;
     *up_new = up;
     if (HY_UNILATERAL && x <= 0.0) return 0.0;
     if (HY_VARIANT == 0) {
@@ -38,15 +64,13 @@ static double hy_law(const double *u, double up, double *up_new) {
         model = HY_KU * (x - up) > 0.0 ? 0 : -1;
     }
     if (model == 0) {
-        lpr_value(&x, 1, HY_T0, HY_NMAX0, hy_e0, hy_c0, hy_lo0, hy_up0, HY_MODE0, &f_lpr,
-                  &column);
+        f_lpr = hy_series(x, hy_c0, HY_N0, HY_LO0, HY_UP0, HY_MODE0);
         f_min = HY_FMIN0;
         f_max = HY_FMAX0;
     }
 #if HY_HAS_UNLOADING
     if (model == 1) {
-        lpr_value(&x, 1, HY_T1, HY_NMAX1, hy_e1, hy_c1, hy_lo1, hy_up1, HY_MODE1, &f_lpr,
-                  &column);
+        f_lpr = hy_series(x, hy_c1, HY_N1, HY_LO1, HY_UP1, HY_MODE1);
         f_min = HY_FMIN1;
         f_max = HY_FMAX1;
     }

@@ -1,0 +1,140 @@
+"""Checks of hyperparameters and of saved model fields, each error naming its field.
+
+Used by the models' ``fit`` (hyperparameters) and ``from_dict`` (every saved field), so that
+a bad argument or a damaged or hostile model file ends in one :class:`ModelFieldError` that
+says which field is wrong, never in an exception from deep inside numpy or a huge allocation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from numbers import Integral, Real
+from typing import Any
+
+import numpy as np
+
+#: largest Legendre degree accepted in a hyperparameter or a saved exponent (bounds memory)
+MAX_DEGREE = 200
+
+
+class ModelFieldError(ValueError):
+    """A hyperparameter or a saved model field is invalid; the message names the field."""
+
+
+def check_choice(value: Any, choices: Sequence[str], field: str) -> str:
+    """``value`` if it is one of the strings ``choices``, else :class:`ModelFieldError`."""
+    if not isinstance(value, str) or value not in choices:
+        raise ModelFieldError(f"{field} must be one of {tuple(choices)}, got {value!r}")
+    return value
+
+
+def check_bool(value: Any, field: str) -> bool:
+    """``value`` as a bool; only ``True``/``False`` (or numpy bools) are accepted."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ModelFieldError(f"{field} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def check_int(value: Any, field: str, low: int = 0, high: int | None = None) -> int:
+    """An integer (not a bool) in ``[low, high]``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Integral):
+        raise ModelFieldError(f"{field} must be an integer, got {value!r}")
+    v = int(value)
+    if v < low or (high is not None and v > high):
+        bound = f">= {low}" if high is None else f"between {low} and {high}"
+        raise ModelFieldError(f"{field} must be {bound}, got {v}")
+    return v
+
+
+def check_float(
+    value: Any, field: str, low: float | None = None, strict: bool = False, nan_ok: bool = False
+) -> float:
+    """A finite real number (not a bool), optionally ``>= low`` (``> low`` when ``strict``)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real):
+        raise ModelFieldError(f"{field} must be a number, got {value!r}")
+    x = float(value)
+    if nan_ok and np.isnan(x):
+        return x
+    if not np.isfinite(x):
+        raise ModelFieldError(f"{field} must be finite, got {x}")
+    if low is not None and (x <= low if strict else x < low):
+        raise ModelFieldError(f"{field} must be {'>' if strict else '>='} {low}, got {x}")
+    return x
+
+
+def check_degree(degree: Any, field: str = "degree") -> int | tuple[int, ...]:
+    """A degree in ``0..MAX_DEGREE`` or a non-empty tuple/list of them (one per input)."""
+    if isinstance(degree, (tuple, list)):
+        if not degree:
+            raise ModelFieldError(f"{field} must not be empty")
+        return tuple(check_int(x, f"{field}[{i}]", 0, MAX_DEGREE) for i, x in enumerate(degree))
+    if isinstance(degree, (bool, np.bool_)) or not isinstance(degree, Integral):
+        raise ModelFieldError(
+            f"{field} must be a non-negative int or a tuple of them (one per input), got {degree!r}"
+        )
+    return check_int(degree, field, 0, MAX_DEGREE)
+
+
+def field_array(
+    value: Any,
+    field: str,
+    shape: tuple[int | None, ...],
+    integer: bool = False,
+    low: float | None = None,
+    strict: bool = False,
+    high: float | None = None,
+) -> np.ndarray:
+    """A saved array field as float64 (int64 with ``integer``), checked for type and shape.
+
+    ``shape`` gives the expected shape, ``None`` for a free length. Values must be finite
+    numbers (JSON ``NaN``/``Infinity`` and bools are rejected), ``>= low`` (``> low`` with
+    ``strict``) when ``low`` is given and ``<= high`` when ``high`` is given.
+    """
+    if isinstance(value, (str, bytes, dict)) or value is None:
+        raise ModelFieldError(f"{field} must be an array of numbers, got {type(value).__name__}")
+    if _has_bool(value):
+        raise ModelFieldError(f"{field} must hold numbers, got true/false")
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError) as exc:
+        raise ModelFieldError(f"{field} must be a rectangular array of numbers ({exc})") from None
+    if arr.ndim == 0 and len(shape) > 0:
+        raise ModelFieldError(f"{field} must be an array of shape {_shape_text(shape)}")
+    if arr.dtype.kind not in "iuf" or (integer and arr.dtype.kind == "f" and arr.size):
+        want = "integers" if integer else "numbers"
+        raise ModelFieldError(f"{field} must hold {want}, got dtype {arr.dtype}")
+    if arr.ndim != len(shape) or any(
+        s is not None and s != a for s, a in zip(shape, arr.shape, strict=True)
+    ):
+        raise ModelFieldError(f"{field} has shape {arr.shape}, expected {_shape_text(shape)}")
+    out = arr.astype(np.int64 if integer else np.float64)
+    if not integer and not np.all(np.isfinite(out)):
+        raise ModelFieldError(f"{field} has non-finite values (NaN or Inf)")
+    if low is not None and out.size and (np.any(out <= low) if strict else np.any(out < low)):
+        raise ModelFieldError(f"{field} must be {'>' if strict else '>='} {low} everywhere")
+    if high is not None and out.size and np.any(out > high):
+        raise ModelFieldError(f"{field} must be <= {high} everywhere, got {out.max()}")
+    return out
+
+
+def field(d: Any, key: str, path: str) -> Any:
+    """``d[key]`` of a JSON object, :class:`ModelFieldError` naming ``path.key`` if absent."""
+    if not isinstance(d, dict):
+        raise ModelFieldError(f"{path} must be a JSON object, got {type(d).__name__}")
+    if key not in d:
+        raise ModelFieldError(f"{path} is missing the field {key!r}")
+    return d[key]
+
+
+def _has_bool(value: Any) -> bool:
+    """True if the nested lists ``value`` hold a bool (numpy would read it as 0 or 1)."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(_has_bool(v) for v in value)
+    return False
+
+
+def _shape_text(shape: tuple[int | None, ...]) -> str:
+    inner = ", ".join("n" if s is None else str(s) for s in shape)
+    return f"({inner},)" if len(shape) == 1 else f"({inner})"
