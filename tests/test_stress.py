@@ -121,9 +121,12 @@ def test_crash_stays_finite_under_extreme_actions(backend, scenario):
             speed=factor * sc.speed,
         )
         out = _run(venv, seed=7, keep=("energy_error",))
-        # relative energy balance residual (E_0 − kinetic − elastic − zone work − friction −
-        # damping) / E_0 at episode end (docs/envs/crash.md)
-        assert np.max(np.abs(out["energy_error"])) < 1e-6, (scenario, factor)
+        # reference: relative energy balance residual (E_0 − kinetic − elastic − zone work −
+        # friction − damping) / E_0 at episode end; surrogate: work returned beyond the elastic
+        # bound / E_0, sampled at the control steps (docs/envs/crash.md; the energy-creating
+        # "paper" variant reads 0.038 on the passive paper crash)
+        bound = 1e-6 if backend == "reference" else 1e-4
+        assert np.max(np.abs(out["energy_error"])) < bound, (scenario, factor)
         if backend == "reference":
             bad = [p for p, d in zip(out["programmes"], out["diverged"], strict=True) if d]
             assert not bad, f"{scenario} at {factor} × speed: diverged under {bad}"
