@@ -230,7 +230,7 @@ def test_reward_terms_sum_to_the_reward_in_both_envs():
     while True:
         _, r, term, trunc, info = env.step(np.full(2, -1.0, np.float32))
         terms = info["reward_terms"]
-        assert set(terms) == {"decel", "intrusion", "divergence"}
+        assert set(terms) == {"decel", "intrusion", "peak", "divergence"}
         assert sum(terms.values()) == pytest.approx(r, rel=1e-12, abs=1e-15)
         seen |= {k for k, v in terms.items() if v != 0.0}
         if term or trunc:
@@ -239,7 +239,7 @@ def test_reward_terms_sum_to_the_reward_in_both_envs():
     venv = TrainCrashVectorEnv(num_envs=2, backend="surrogate")
     venv.reset(seed=0)
     _, r, *_, infos = venv.step(np.zeros((2, 2), np.float32))
-    total = sum(infos["reward_terms"][k] for k in ("decel", "intrusion", "divergence"))
+    total = sum(infos["reward_terms"][k] for k in ("decel", "intrusion", "peak", "divergence"))
     np.testing.assert_allclose(total, r, rtol=1e-12)
     assert infos["reward_terms"]["_decel"].all() and infos["_crash_over"].all()
 
@@ -287,3 +287,21 @@ def test_envelope_evaluation_fixes_speed_and_payload_and_summarises():
     assert s["speed-adaptive"]["peak_g"] < 0.9 * s["passive"]["peak_g"]
     assert s["speed-adaptive"]["intrusion_m"] == 0.0
     assert "| speed-adaptive |" in envelope_table(rows)
+
+
+def test_peak_term_pays_the_worst_car_peak_once():
+    """The ``peak`` term charges each growth of the worst car's peak deceleration: over an
+    episode it sums to −w · max_k peak_k / 1 g; with weight 0 the reward is unchanged."""
+    weighted = TrainCrashEnv(backend="reference", reward_weights={"peak": 2.0})
+    plain = TrainCrashEnv(backend="reference")
+    for env in (weighted, plain):
+        env.reset(seed=0)
+    total = 0.0
+    while True:
+        *_, r, term, trunc, info = weighted.step(np.zeros(2, np.float32))
+        _, r0, *_ = plain.step(np.zeros(2, np.float32))
+        total += info["reward_terms"]["peak"]
+        assert r == pytest.approx(r0 + info["reward_terms"]["peak"], rel=1e-12, abs=1e-12)
+        if term or trunc:
+            break
+    assert total == pytest.approx(-2.0 * info["peak_decel_g"].max(), rel=1e-12)

@@ -65,7 +65,7 @@ __all__ = [
 ]
 
 BACKENDS = ("surrogate", "reference")
-DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0}
+DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0, "peak": 0.0}
 #: largest control step, s: the statistics and the reward sample the state once per step, so
 #: a coarser step misses the deceleration peaks of a crash lasting a few hundred ms
 MAX_CONTROL_DT = 0.01
@@ -158,7 +158,7 @@ def make_config(
         absorber_range=float(absorber_range),
         max_scale_change=absorber_rate * control_dt,
         speed_jitter=float(speed_jitter),
-        weights=(weights["decel"], weights["intrusion"]),
+        weights=(weights["decel"], weights["intrusion"], weights["peak"]),
         absorber_stroke=stroke,
         obs_names=tuple(names),
         obs_scale=scale,
@@ -343,7 +343,7 @@ class TrainCrashEnv(_CrashShell, BatchEnv):
     control_dt : agent step, s. max_duration : truncation, s.
     absorber_range : action ±1 sets the absorber force to (1 ± range) × nominal.
     absorber_rate : largest change of the force scale, 1/s.
-    reward_weights : ``decel`` and ``intrusion`` weights.
+    reward_weights : ``decel``, ``intrusion`` and ``peak`` weights (``peak`` 0 by default).
     surrogate : :class:`CrashSurrogate` elements, or ``None`` for the packaged ones of the
         scenario (else fitted on a reference run, cached per process). surrogate_variant :
         ``"hysteretic"`` or ``"paper"`` (creates energy at rebound, see docs/envs/crash.md).

@@ -45,7 +45,7 @@ class CrashConfig:
     absorber_range: float
     max_scale_change: float
     speed_jitter: float
-    weights: tuple[float, float]
+    weights: tuple[float, float, float]
     absorber_stroke: np.ndarray
     obs_names: tuple[str, ...]
     obs_scale: np.ndarray
@@ -115,6 +115,7 @@ class CrashBatch:
             inv_scale=1.0 / cfg.obs_scale,
             w_decel=cfg.weights[0],
             w_intrusion=cfg.weights[1],
+            w_peak=cfg.weights[2],
             gravity=sc.gravity,
             control_dt=cfg.control_dt,
             absorber_range=cfg.absorber_range,

@@ -32,6 +32,7 @@ __all__ = [
     "F_STOP",
     "INFO_FIELDS",
     "INTRUSION_REF",
+    "PEAK_REF_G",
     "STATE_LIMIT",
     "TIME_REF",
     "V_STOP",
@@ -50,6 +51,8 @@ DECEL_REF_G = 5.0
 TIME_REF = 1e-3
 #: crush beyond the absorber stroke that costs 1 (reward term ``intrusion``), m
 INTRUSION_REF = 1e-3
+#: growth of the worst car's peak deceleration that costs 1 (reward term ``peak``), g
+PEAK_REF_G = 1.0
 DIVERGENCE_PENALTY = 100.0
 #: the crash is over when no zone carries more than F_STOP (N) and none closes faster than
 #: V_STOP (m/s): every car at rest or rebounding away (as ``simulate_reference``'s stop)
@@ -89,7 +92,7 @@ INFO_FIELDS = (
 #: first column of each ``info`` key in the flat info row (:func:`info_layout`)
 InfoColumns = NamedTuple("InfoColumns", [(key, int) for key, _ in INFO_FIELDS])
 #: the reward terms (``info["reward_terms"]``), summing to the reward
-REWARD_TERMS = ("decel", "intrusion", "divergence")
+REWARD_TERMS = ("decel", "intrusion", "peak", "divergence")
 
 
 class Criteria(NamedTuple):
@@ -119,7 +122,7 @@ class EnvConsts(NamedTuple):
     ----------
     zones : (zones,) model zone of each controlled zone, front to back.
     stroke : (zones,) absorber stroke, m. inv_scale : (obs,) 1 / observation scale.
-    w_decel, w_intrusion : reward weights. gravity : m/s². control_dt : s.
+    w_decel, w_intrusion, w_peak : reward weights. gravity : m/s². control_dt : s.
     absorber_range : action ±1 sets the scale 1 ± range. max_change : largest scale change
         per step. unloading_k, tension_k : (model zones,) unloading and coupler tension
         stiffness of each surrogate element, N/m, for its energy check (empty for the
@@ -132,6 +135,7 @@ class EnvConsts(NamedTuple):
     inv_scale: np.ndarray
     w_decel: float
     w_intrusion: float
+    w_peak: float
     gravity: float
     control_dt: float
     absorber_range: float
@@ -328,6 +332,9 @@ def _post_step(out, ep, c, active, init):
         else:
             ep.steps[i] += 1
             cost = 0.0
+            worst = 0.0
+            for k in range(n_cars):
+                worst = max(worst, ep.peak[i, k])
             for k in range(n_cars):
                 d = -out.a[i, k] / g
                 ep.peak[i, k] = max(ep.peak[i, k], d)
@@ -342,14 +349,21 @@ def _post_step(out, ep, c, active, init):
                 r -= c.w_intrusion * (new - ep.intrusion[i, z]) / INTRUSION_REF
                 t_intrusion -= c.w_intrusion * (new - ep.intrusion[i, z]) / INTRUSION_REF
                 ep.intrusion[i, z] = new
+            growth = 0.0  # of the worst car's peak deceleration over the step, g
+            for k in range(n_cars):
+                growth = max(growth, ep.peak[i, k] - worst)
+            t_peak = -c.w_peak * growth / PEAK_REF_G
+            r += t_peak
             if not math.isfinite(r):  # a state too violent to score counts as diverged
                 ep.div[i] = True
             if ep.div[i]:
                 ep.reward[i] = -DIVERGENCE_PENALTY
-                ep.terms[i, 0], ep.terms[i, 1], ep.terms[i, 2] = 0.0, 0.0, -DIVERGENCE_PENALTY
+                ep.terms[i] = 0.0
+                ep.terms[i, 3] = -DIVERGENCE_PENALTY
             else:
                 ep.reward[i] = r
-                ep.terms[i, 0], ep.terms[i, 1], ep.terms[i, 2] = t_decel, t_intrusion, 0.0
+                ep.terms[i, 0], ep.terms[i, 1], ep.terms[i, 2] = t_decel, t_intrusion, t_peak
+                ep.terms[i, 3] = 0.0
             done = True
             for k in range(out.force.shape[1]):
                 if out.force[i, k] > F_STOP or out.rate[i, k] > V_STOP:
