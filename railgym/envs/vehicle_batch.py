@@ -314,7 +314,16 @@ class VehicleBatch:
         """Views and the compiled entry point (re-made after a copy: not picklable)."""
         self.reward = self.bk.rew
         self._flags = {"diverged": self.out.div, "extrapolated": self.extrapolated}
-        self._args = (self.kind, self.bt, self.params, self.elem, self.lpr, self.out, self.bk, self.sc)
+        self._args = (
+            self.kind,
+            self.bt,
+            self.params,
+            self.elem,
+            self.lpr,
+            self.out,
+            self.bk,
+            self.sc,
+        )
         self._step = compiled_entry(control_step, self._args)
 
     def __getstate__(self) -> dict[str, Any]:
