@@ -69,7 +69,7 @@ def _real_array(value: Any, label: str) -> np.ndarray:
     if arr.dtype.kind not in "iuf":
         raise val.FieldTypeError(
             label,
-            f"{label} must be an array of real numbers, got {type(value).__name__}",
+            f"{label} must be an array of real numbers, got dtype {arr.dtype}",
             full=True,
         )
     return arr.astype(np.float64)
