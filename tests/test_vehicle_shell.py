@@ -15,6 +15,8 @@ from railgym.envs.vehicle import (
     VerticalVehicleEnv,
     VerticalVehicleVectorEnv,
 )
+from railgym.vehicles.vertical import load_vehicle
+from surrogates import LegendreRegression
 
 COPIES = {
     "pickle": lambda e: pickle.loads(pickle.dumps(e)),
@@ -134,3 +136,30 @@ def test_vector_info_masks_and_accessors():
     _, _, term, trunc, info = venv.step(acts)  # the autoreset step
     assert not (term | trunc).any() and "comfort" not in info
     assert info["time"].tolist() == [0.0, 0.0]
+
+
+def _box_lpr(extrapolation):
+    """LPR of the linear suspension on a small box (±5 mm, ±0.05 m/s)."""
+    veh = load_vehicle()
+    g = np.meshgrid(np.linspace(-0.005, 0.005, 9), np.linspace(-0.05, 0.05, 9))
+    u = np.c_[g[0].ravel(), g[1].ravel()]
+    return LegendreRegression(degree=1, extrapolation=extrapolation).fit(
+        u, veh.k2 * u[:, 0] + veh.c2 * u[:, 1]
+    )
+
+
+def test_raise_policy_terminates_with_a_flag_and_linear_does_not():
+    runs = {}
+    for policy in ("raise", "linear"):
+        env = VerticalVehicleEnv(surrogate=_box_lpr(policy), track_class=4, duration=2.0)
+        env.reset(seed=0)
+        for k in range(200):  # noqa: B007 (k is read after the loop)
+            _, r, term, trunc, info = env.step(np.ones(2, np.float32))
+            if term or trunc:
+                break
+        runs[policy] = (k, term, r, info)
+    k, term, r, info = runs["raise"]
+    assert term and info["extrapolated"] and info["out_of_domain"] > 0 and k < 199
+    assert r == sum(info["reward_terms"].values()) and info["reward_terms"]["divergence"] == 0
+    k, term, r, info = runs["linear"]
+    assert not term and "extrapolated" not in info and info["out_of_domain"] > 0

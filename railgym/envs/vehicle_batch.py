@@ -325,10 +325,11 @@ class VehicleBatch:
             self.sc,
         )
         self._step = compiled_entry(control_step, self._args)
+        self._raise = self.lpr.mode == RAISE_MODE
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("reward", "_flags", "_args", "_step"):
+        for key in ("reward", "_flags", "_args", "_step", "_raise"):
             del state[key]
         return state
 
@@ -379,7 +380,7 @@ class VehicleBatch:
     def advance(self) -> None:
         """One control step of every vehicle with the forces in ``bt.force`` (N)."""
         self._step(*self._args)
-        if self.lpr.mode == RAISE_MODE:
+        if self._raise:
             np.greater(self.out.count[:, 1], 0, out=self.extrapolated)
 
     def flags(self) -> dict[str, np.ndarray]:
@@ -394,22 +395,31 @@ class VehicleBatch:
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers and (k,) arrays) or of all
         (arrays with a leading axis n); copies."""
-        sel: Any = slice(None) if i is None else i
-        bk, acc = self.bk, self.out.acc
-        values = (
-            bk.steps[sel] * self.cfg.control_dt,
-            self.speed[sel],
-            acc[sel, :3],
-            acc[sel, 3:],
-            bk.rms[sel],
-            bk.contacts[sel],
-            bk.ood[sel],
-            self.bt.force[sel],
-        )
-        return {
-            key: v.item() if np.ndim(v) == 0 else np.array(v)
-            for key, v in zip(INFO_KEYS, values, strict=True)
-        }
+        bk, acc, force = self.bk, self.out.acc, self.bt.force
+        if i is None:
+            values = (
+                bk.steps * self.cfg.control_dt,
+                self.speed.copy(),
+                acc[:, :3].copy(),
+                acc[:, 3:].copy(),
+                bk.rms.copy(),
+                bk.contacts.copy(),
+                bk.ood.copy(),
+                force.copy(),
+            )
+        else:  # Python scalars and small copies: the single env's step reads this each step
+            row = acc[i]
+            values = (
+                int(bk.steps[i]) * self.cfg.control_dt,
+                float(self.speed[i]),
+                row[:3].copy(),
+                row[3:].copy(),
+                bk.rms[i].copy(),
+                int(bk.contacts[i]),
+                int(bk.ood[i]),
+                force[i].copy(),
+            )
+        return dict(zip(INFO_KEYS, values, strict=True))
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:
         """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to
