@@ -46,9 +46,7 @@ def test_skyhooks_from_sensors_and_full_state_agree():
         of, *_ = full.step(u)
     for cls in (BogieSkyhook, ModalSkyhook):
         np.testing.assert_allclose(
-            cls(
-                sens,
-            ).force(np.atleast_2d(os_) * sens.obs_scale),
+            cls(sens).force(np.atleast_2d(os_) * sens.obs_scale),
             cls(full).force(np.atleast_2d(of) * full.obs_scale),
             rtol=1e-5,
             atol=1e-3,
