@@ -1,12 +1,15 @@
-"""Classical baselines for ``railgym/VerticalSuspension-v0``: passive, skyhook, groundhook, LQR.
+"""Classical baselines for ``railgym/VerticalSuspension-v0``: passive, skyhook, groundhook, LQR;
+for ``railgym/VerticalVehicle-v0`` (two actuators): passive, skyhook per bogie, modal skyhook
+and LQR on the full linear model (:class:`BogieSkyhook`, :class:`ModalSkyhook`,
+:class:`VehicleLQR`, at the end of the module).
 
 Every controller reads the env's observation (physical value = obs × ``obs_scale``, SI) and
-returns the normalised actuator command ``F_a / f_max`` clipped to [−1, 1] with
-stable-baselines3's ``predict`` signature, for one observation (n_obs,) → action (1,) or a
-batch from the vector env (n, n_obs) → (n, 1), float32. Sign convention of the env (see
-:mod:`railgym.vehicles.vertical`): velocities are upward, ``F_a > 0`` pushes the carbody up
-and the bogie down (``m2·ẍ2 = F_s + F_a``, ``m1·ẍ1 = … − F_s − F_a``), and the
-deflection rate is ``δ̇ = ẋ1 − ẋ2``.
+returns the normalised actuator commands ``F_a / f_max`` clipped to [−1, 1] with
+stable-baselines3's ``predict`` signature, for one observation (n_obs,) → action (n_act,) or
+a batch from the vector env (n, n_obs) → (n, n_act), float32 (``n_act`` = 1 or 2). Sign
+convention of the env (see :mod:`railgym.vehicles.vertical`): velocities are upward,
+``F_a > 0`` pushes the carbody up and the bogie down (``m2·ẍ2 = F_s + F_a``,
+``m1·ẍ1 = … − F_s − F_a``), and the deflection rate is ``δ̇ = ẋ1 − ẋ2``.
 
 Default gains are chosen for the Manchester vehicle (``m2`` = 16 t, ``k2`` = 860 kN/m,
 ``c2`` = 40 kN·s/m: body bounce 1.17 Hz, passive damping ratio 0.17) and the env's default
@@ -20,7 +23,9 @@ from typing import Any
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
+from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical import ACC_REF
+from railgym.vehicles.vehicle import linear_state_space
 from railgym.vehicles.vertical import P_C1, P_C2, P_K1, P_K2, P_M1, P_M2
 
 #: skyhook gain, N·s/m: ``c_sky·σ(ẋ2)`` ≈ f_max/2 at the passive carbody velocity RMS on the
@@ -45,6 +50,7 @@ class _Controller:
         self.obs_names: tuple[str, ...] = tuple(base.obs_names)
         self.obs_scale = np.asarray(base.obs_scale, dtype=np.float64)
         self.f_max = float(base.cfg.f_max)
+        self.n_act = int(getattr(base, "single_action_space", base.action_space).shape[-1])
         self._base = base
 
     def _index(self, name: str) -> int:
@@ -79,8 +85,11 @@ class _Controller:
             raise ValueError(
                 f"observation must have shape ({n_obs},) or (n, {n_obs}), got {obs.shape}"
             )
+        if not np.all(np.isfinite(obs)):
+            raise ValueError("observation has non-finite values (NaN or inf)")
         x = np.atleast_2d(obs) * self.obs_scale
-        u = np.clip(self.force(x) / self.f_max, -1.0, 1.0).astype(np.float32)[:, None]
+        u = np.clip(self.force(x) / self.f_max, -1.0, 1.0).astype(np.float32)
+        u = u.reshape(x.shape[0], self.n_act)
         return (u[0] if obs.ndim == 1 else u), None
 
 
@@ -88,8 +97,8 @@ class Passive(_Controller):
     """Zero actuator force: the passive suspension alone."""
 
     def force(self, x: np.ndarray) -> np.ndarray:
-        """Zero force (n,), N."""
-        return np.zeros(x.shape[0])
+        """Zero force (n, n_actuators), N."""
+        return np.zeros((x.shape[0], self.n_act))
 
 
 class Skyhook(_Controller):
@@ -176,6 +185,24 @@ def linear_model(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return a, b, a[3].copy(), 1.0 / m2
 
 
+def _lqr_weights(
+    cfg: Any, acc_ref: float, q_acc: float | None, q_defl: float | None, r_force: float | None
+) -> tuple[float, float, float]:
+    """LQR weights in SI; ``None`` = the reward's: ``1/acc_ref²``, ``1/free_travel²``,
+    ``0.1/f_max²``. ValueError names a negative or non-finite weight, or ``r_force <= 0``."""
+    weights = {
+        "q_acc": 1.0 / acc_ref**2 if q_acc is None else q_acc,
+        "q_defl": 1.0 / cfg.free_travel**2 if q_defl is None else q_defl,
+        "r_force": 0.1 / cfg.f_max**2 if r_force is None else r_force,
+    }
+    for name, value in weights.items():
+        if not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a non-negative number, got {value!r}")
+    if weights["r_force"] <= 0:
+        raise ValueError(f"r_force must be positive, got {weights['r_force']!r}")
+    return float(weights["q_acc"]), float(weights["q_defl"]), float(weights["r_force"])
+
+
 class LQR(_Controller):
     """Linear-quadratic regulator on the linearised vertical model (needs ``observation="full"``).
 
@@ -212,18 +239,9 @@ class LQR(_Controller):
                 "observation must be 'full' for LQR (it needs the states x1, v1, x2, v2); "
                 f"the env observes {list(self.obs_names)}"
             )
-        cfg = self._base.cfg
-        weights = {
-            "q_acc": 1.0 / ACC_REF**2 if q_acc is None else q_acc,
-            "q_defl": 1.0 / cfg.free_travel**2 if q_defl is None else q_defl,
-            "r_force": 0.1 / cfg.f_max**2 if r_force is None else r_force,
-        }
-        for name, value in weights.items():
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
-        if weights["r_force"] <= 0:
-            raise ValueError(f"r_force must be positive, got {weights['r_force']!r}")
-        self.q_acc, self.q_defl, self.r_force = weights.values()
+        self.q_acc, self.q_defl, self.r_force = _lqr_weights(
+            self._base.cfg, ACC_REF, q_acc, q_defl, r_force
+        )
         self.A, self.B, c, d = linear_model(self._base.sim.params)
         c_d = np.array([1.0, 0.0, -1.0, 0.0])
         q = self.q_acc * np.outer(c, c) + self.q_defl * np.outer(c_d, c_d)
@@ -240,3 +258,140 @@ class LQR(_Controller):
     def force(self, x: np.ndarray) -> np.ndarray:
         """State feedback ``−K·x`` (n,), N."""
         return -(x[:, :4] @ self.K[0])
+
+
+# ============================================================ VerticalVehicle-v0 (2 actuators)
+class _VehicleController(_Controller):
+    """Plumbing for the whole-vehicle env: carbody velocities over the two bogies."""
+
+    def __init__(self, env: Any) -> None:
+        super().__init__(env)
+        if not hasattr(self._base, "vehicle") or self.n_act != 2:
+            raise ValueError(
+                f"env must be a railgym VerticalVehicle env, got {type(self._base).__name__}"
+            )
+        self.vehicle = self._base.vehicle
+        self.params = self._base.sim.params
+
+    def _body_velocities(self, x: np.ndarray) -> np.ndarray:
+        """Absolute carbody velocities over the front and rear bogie (n, 2), m/s."""
+        if "carbody_vel_front" in self.obs_names:
+            return x[:, [self._index("carbody_vel_front"), self._index("carbody_vel_rear")]]
+        p = self.params
+        v, w, qd = (x[:, self._index(n)] for n in ("z_c_dot", "theta_c_dot", "q_dot"))
+        return np.stack([v + s * p.a * w + p.phi_a * qd for s in (1.0, -1.0)], axis=1)
+
+
+class BogieSkyhook(_VehicleController):
+    """Skyhook damper at each bogie: ``F_i = −c_sky·v_i``, ``v_i`` the carbody's absolute
+    velocity over bogie ``i`` (m/s).
+
+    Default ``c_sky`` = ``DEFAULT_C_SKY`` (47 kN·s/m): each bogie carries half the carbody
+    (16 t on 860 kN/m), as the one-bogie model for which that gain was chosen (skyhook
+    damping ratio 0.2 of bounce). Works with both observation modes.
+    """
+
+    def __init__(self, env: Any, c_sky: float = DEFAULT_C_SKY) -> None:
+        super().__init__(env)
+        if not (np.isfinite(c_sky) and c_sky >= 0):
+            raise ValueError(f"c_sky must be a non-negative number in N·s/m, got {c_sky!r}")
+        self.c_sky = float(c_sky)
+
+    def force(self, x: np.ndarray) -> np.ndarray:
+        """Skyhook forces (n, 2), N."""
+        return -self.c_sky * self._body_velocities(x)
+
+
+class ModalSkyhook(_VehicleController):
+    """Skyhook on the carbody's rigid modes: bounce force ``−c_bounce·ż_c`` and pitch moment
+    ``−c_pitch·θ̇_c`` shared by the two actuators ``a`` from the centre.
+
+    ``ż_c = (v_0 + v_1)/2`` and ``θ̇_c = (v_0 − v_1)/(2a)`` from the carbody velocities over
+    the bogies; ``F_0,1 = −c_bounce·ż_c/2 ∓ c_pitch·θ̇_c/(2a)``. Defaults: damping ratio
+    ``zeta`` (0.2, as :class:`Skyhook`) of each mode's critical damping on the secondary
+    springs, ``c_bounce = 2ζ·√(2·k2·m_c)`` (94 kN·s/m) and
+    ``c_pitch = 2ζ·√(2·k2·a²·J_c)`` (7.0 MN·m·s). Works with both observation modes.
+    """
+
+    def __init__(
+        self,
+        env: Any,
+        c_bounce: float | None = None,
+        c_pitch: float | None = None,
+        zeta: float = 0.2,
+    ) -> None:
+        super().__init__(env)
+        v = self.vehicle
+        k2, a = v.suspension.k2, v.bogie_semi_spacing
+        if not (np.isfinite(zeta) and zeta >= 0):
+            raise ValueError(f"zeta must be a non-negative number, got {zeta!r}")
+        if c_bounce is None:
+            c_bounce = 2 * zeta * np.sqrt(2 * k2 * v.carbody_mass)
+        if c_pitch is None:
+            c_pitch = 2 * zeta * np.sqrt(2 * k2 * a * a * v.carbody_pitch_inertia)
+        gains = {"c_bounce": c_bounce, "c_pitch": c_pitch}
+        for name, value in gains.items():
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
+        if a <= 0:
+            raise ValueError("ModalSkyhook needs a positive bogie semi-spacing")
+        self.c_bounce, self.c_pitch = float(gains["c_bounce"]), float(gains["c_pitch"])
+        self.a = float(a)
+
+    def force(self, x: np.ndarray) -> np.ndarray:
+        """Actuator forces (n, 2), N."""
+        v = self._body_velocities(x)
+        bounce = -0.5 * self.c_bounce * 0.5 * (v[:, 0] + v[:, 1])
+        pitch = -self.c_pitch * (v[:, 0] - v[:, 1]) / (2 * self.a) / (2 * self.a)
+        return np.stack([bounce + pitch, bounce - pitch], axis=1)
+
+
+class VehicleLQR(_VehicleController):
+    """LQR on the full linear whole-vehicle model (needs ``observation="full"``).
+
+    Model :func:`railgym.vehicles.vehicle.linear_state_space` (14 states, linear secondary,
+    track input as unmodelled disturbance). Minimises the continuous version of the env's
+    reward, ``J = ∫ (q_acc·mean_p a_p² + q_defl·mean_i δ_i² + r_force·mean_i F_i²) dt``
+    with the floor accelerations ``a = C·x + D·F``: ``Q = q_acc·CᵀC/3 + q_defl·Σ c_iᵀc_i/2``,
+    ``N = q_acc·CᵀD/3``, ``R = r_force·I/2 + q_acc·DᵀD/3``; ``F = −K·x``. Defaults: the
+    reward weights in SI, ``q_acc = 1/ACC_REF²``, ``q_defl = 1/free_travel²``,
+    ``r_force = 0.1/f_max²``. The ±f_max limit is ignored by the design (the command is
+    clipped).
+    """
+
+    def __init__(
+        self,
+        env: Any,
+        q_acc: float | None = None,
+        q_defl: float | None = None,
+        r_force: float | None = None,
+    ) -> None:
+        super().__init__(env)
+        if self.obs_names[0] != "z_c":
+            raise ValueError(
+                "observation must be 'full' for VehicleLQR (it needs the 14 states); "
+                f"the env observes {list(self.obs_names)}"
+            )
+        cfg = self._base.cfg
+        self.q_acc, self.q_defl, self.r_force = _lqr_weights(
+            cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force
+        )
+        self.A, self.B, _, c, d = linear_state_space(self.vehicle, cfg.flexible)
+        p = self.params
+        q = self.q_acc * c.T @ c / 3.0
+        for s in (1.0, -1.0):  # δ_i = z_b,i − z_c − x_i·θ_c − φ(a)·q
+            c_d = np.zeros(self.A.shape[0])
+            c_d[[3 if s > 0 else 5, 0, 1, 2]] = 1.0, -1.0, -s * p.a, -p.phi_a
+            q += 0.5 * self.q_defl * np.outer(c_d, c_d)
+        n = self.q_acc * c.T @ d / 3.0
+        r = 0.5 * self.r_force * np.eye(2) + self.q_acc * d.T @ d / 3.0
+        self.P = solve_continuous_are(self.A, self.B, q, r, s=n)
+        self.K = np.linalg.solve(r, self.B.T @ self.P + n.T)
+
+    def closed_loop_poles(self) -> np.ndarray:
+        """Eigenvalues of ``A − B·K`` (1/s), unsaturated actuators."""
+        return np.linalg.eigvals(self.A - self.B @ self.K)
+
+    def force(self, x: np.ndarray) -> np.ndarray:
+        """State feedback ``−K·x`` (n, 2), N."""
+        return -(x[:, :14] @ self.K.T)

@@ -17,7 +17,6 @@ runs ``episodes`` episodes in one native vector env, sub-env ``i`` on the track 
 from __future__ import annotations
 
 import argparse
-import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -29,6 +28,7 @@ import railgym  # noqa: F401  (registers the environments)
 from agents._args import MAX_SPEED_KMH, bounded_int, speed_kmh
 from agents.controllers import LQR, Groundhook, Passive, Skyhook
 from agents.policy_io import check_manifest, load_policy_weights
+from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 
 ENV_ID = "railgym/VerticalSuspension-v0"
@@ -44,14 +44,6 @@ CONTROLLERS = {
 }
 
 
-def _check_int(name: str, value: Any, lo: int, hi: int | None = None) -> None:
-    """``lo <= value (<= hi)`` for an int or numpy integer (bools rejected)."""
-    ok = not isinstance(value, bool) and isinstance(value, (int, np.integer))
-    if not (ok and value >= lo and (hi is None or value <= hi)):
-        span = f">= {lo}" if hi is None else f"in {lo}..{hi}"
-        raise ValueError(f"{name} must be an integer {span}, got {value!r}")
-
-
 def load_policy(
     policy: str, env_id: str = ENV_ID, trust: bool = False
 ) -> tuple[Any, dict[str, Any], str]:
@@ -61,6 +53,9 @@ def load_policy(
     writes beside it (or ``trust`` given, with a warning); only its network weights are read
     (:func:`agents.policy_io.load_policy_weights`), nothing in it is unpickled or run.
     """
+    if not isinstance(policy, str | Path):
+        raise val.FieldTypeError("policy", f"must be a controller name or a path, got {policy!r}")
+    policy = str(policy)
     if policy in CONTROLLERS:
         cls, kwargs, env_kwargs = CONTROLLERS[policy]
         return (lambda env: cls(env, **kwargs)), env_kwargs, policy
@@ -74,12 +69,12 @@ def load_policy(
     if not cfg_path.is_file():
         raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
     check_manifest(path, trust)
-    from agents.train import ALGOS, _hyperparameters, load_config
+    from agents.train_config import ALGOS, hyperparameters, load_config
 
     cfg = load_config(cfg_path)
     if cfg.env_id != env_id:
         raise ValueError(f"{cfg_path}: the policy was trained on {cfg.env_id}, not {env_id}")
-    hyper = _hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
+    hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
     net_kwargs = dict(hyper.get("policy_kwargs") or {})
     if "use_sde" in hyper:
         net_kwargs["use_sde"] = hyper["use_sde"]
@@ -114,19 +109,20 @@ def run_policy(
     ctrl = factory(venv)
     obs, _ = venv.reset(seed=seed)
     acc, defl, contacts = [], [], np.zeros(episodes)
-    sim = venv.unwrapped.sim
+    base: Any = venv.unwrapped  # VerticalSuspensionVectorEnv: state, cfg
     while True:
         action, _ = ctrl.predict(obs, deterministic=True)
         obs, _, term, trunc, info = venv.step(np.asarray(action, np.float32).reshape(episodes, 1))
         acc.append(info["carbody_acc"].copy())
-        defl.append(sim.state[:, 0] - sim.state[:, 2])
+        state = base.state
+        defl.append(state[:, 0] - state[:, 2])
         contacts = np.maximum(contacts, info["bump_stop_contacts"])
         if np.any(term):
             raise RuntimeError(f"an episode diverged (sub-envs {np.flatnonzero(term).tolist()})")
         if np.all(trunc):
             break
     a = np.array(acc)  # (steps, episodes)
-    fs = 1.0 / venv.unwrapped.cfg.control_dt
+    fs = 1.0 / base.cfg.control_dt
     return {
         "rms_acc": float(np.mean(np.sqrt(np.mean(a**2, axis=0)))),
         "a_w": float(
@@ -150,12 +146,14 @@ def evaluate(
 ) -> list[dict[str, Any]]:
     """One row per (track class, policy): mean RMS ẍ2, Wk a_w, Sperling Wz over episodes
     (``trust``: see :func:`load_policy`)."""
-    _check_int("episodes", episodes, 1, MAX_EPISODES)
-    _check_int("seed", seed, 0)
-    for tc in track_classes:
-        _check_int("track_classes", tc, 1, 6)
+    episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
+    seed = val.integer(seed, "seed", min=0)
+    track_classes = [
+        val.integer(tc, "track_classes", min=1, max=6)
+        for tc in val.sequence(track_classes, "track_classes")
+    ]
     rows = []
-    loaded = [load_policy(p, trust=trust) for p in policies]
+    loaded = [load_policy(p, trust=trust) for p in val.sequence(policies, "policies")]
     for tc in track_classes:
         passive = None
         for factory, env_kwargs, label in loaded:
@@ -192,15 +190,16 @@ def evaluate_crash(
 ) -> list[dict[str, Any]]:
     """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v0``
     (``trust``: see :func:`load_policy`)."""
+    speeds_kmh = [val.real(v, "speeds_kmh") for v in val.sequence(speeds_kmh, "speeds_kmh")]
     for v in speeds_kmh:
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-            raise ValueError(f"speeds_kmh must be numbers in km/h, got {v!r}")
-        if not (math.isfinite(v) and 0 < v <= MAX_SPEED_KMH):
-            raise ValueError(f"speeds_kmh must be in (0, {MAX_SPEED_KMH:g}] km/h, got {v!r} km/h")
+        if not 0 < v <= MAX_SPEED_KMH:
+            raise val.FieldError(
+                "speeds_kmh", f"must be in (0, {MAX_SPEED_KMH:g}] km/h, got {v!r} km/h"
+            )
     rows = []
     loaded = [
         load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")
-        for p in policies
+        for p in val.sequence(policies, "policies")
     ]
     for v in speeds_kmh:
         passive = None

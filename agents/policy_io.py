@@ -131,7 +131,7 @@ def load_policy_weights(
     -------
     An SB3 ``BasePolicy`` in evaluation mode; ``predict(obs, deterministic=True)`` as a model.
     """
-    from agents.train import ALGOS
+    from agents.train_config import ALGOS
 
     path = Path(path)
     aliases = ALGOS[algo].policy_aliases

@@ -2,8 +2,11 @@
 
 Usage::
 
-    python -m agents.train CONFIG.yaml [--out DIR] [--overwrite] [--timesteps N] [--seed S]
+    python -m agents.train CONFIG [--out DIR] [--overwrite] [--timesteps N] [--seed S]
                            [--no-progress] [--debug]
+
+``CONFIG`` is a ``.yaml`` / ``.yml`` file or the name of a packaged config
+(``ppo_vertical``, ``sac_vertical``, ``ppo_crash``; :func:`railgym._validation.resolve_yaml`).
 
 The full training run of the vertical suspension agent (a documented command, not a CI test):
 PPO, 4·10⁶ steps on the surrogate backend, evaluated every 10⁵ steps on the reference model
@@ -14,32 +17,8 @@ PPO, 4·10⁶ steps on the surrogate backend, evaluated every 10⁵ steps on the
 ``configs/agents/sac_vertical.yaml`` is the off-policy alternative (3·10⁵ steps),
 ``configs/agents/ppo_crash.yaml`` trains the absorbers of ``railgym/TrainCrash-v0``.
 
-Config file: one top-level key, the Gymnasium env id, holding
-
-======================  ==========================================================================
-``algo``                ``ppo``, ``sac``, ``td3`` or ``a2c`` (required)
-``n_timesteps``         total environment steps (all sub-envs together)
-``policy``              stable-baselines3 policy name, e.g. ``MlpPolicy``
-``n_envs``              sub-envs of the vector env (``gym.make_vec``)
-``seed``                seeds python/numpy/torch and the envs (sub-env ``i``: ``seed + i``);
-                        drawn at random and recorded when absent
-``env_kwargs``          passed to ``gym.make_vec`` (e.g. ``backend``, ``duration``)
-``eval_env_kwargs``     overrides of ``env_kwargs`` for the evaluation env (e.g. ``backend:
-                        reference``)
-``eval_freq``           steps between evaluations; ``n_eval_episodes``: episodes per evaluation
-                        (one per sub-env of the evaluation env); ``eval_seed`` (default
-                        999999, the same for every run): the same evaluation tracks every time
-``eval_echo``           ``info`` entries printed with each evaluation (e.g.
-                        ``[rms_carbody_acc]``); all of them go to ``eval.csv``
-``checkpoint_freq``     steps between checkpoints
-``n_threads``           torch CPU threads (default 1: small networks are fastest on one thread)
-``vectorization_mode``  ``vector_entry_point`` (the env's native vector env, default where it
-                        has one) or ``sync`` (a ``SAME_STEP`` ``SyncVectorEnv`` of single
-                        envs)
-everything else         hyperparameters of the algorithm (``learning_rate``, ``n_steps``,
-                        ``policy_kwargs`` with ``net_arch`` and ``activation_fn`` as a name, …);
-                        ``lin_<v>`` is a schedule falling linearly from ``v`` to 0 (rl-zoo3)
-======================  ==========================================================================
+Config file: one top-level key, the Gymnasium env id; the fields and their limits are in
+:mod:`agents.train_config`.
 
 Output folder (``--out``; default ``runs/<config-stem>/`` in the working directory; an existing
 non-empty folder only with ``--overwrite``): ``model.zip`` (the final policy),
@@ -59,13 +38,11 @@ from __future__ import annotations
 
 import argparse
 import csv
-import inspect
 import platform
 import sys
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -75,32 +52,26 @@ import stable_baselines3 as sb3
 import torch
 import yaml
 from gymnasium.vector import AutoresetMode, VectorEnv
-from stable_baselines3 import A2C, PPO, SAC, TD3
-from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 from stable_baselines3.common.logger import configure
-from stable_baselines3.common.utils import LinearSchedule, set_random_seed
+from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from tqdm import tqdm
 
 import railgym
 from agents._args import bounded_int
 from agents.policy_io import write_manifest
+from agents.train_config import (
+    ALGOS,
+    MAX_SEED,
+    RUN_KEY,
+    VECTORIZATION_MODES,
+    TrainConfig,
+    hyperparameters,
+    load_config,
+)
+from railgym import _validation as val
 from railgym.report.output import atomic_path, prepare_output_dir, write_text_atomic
-
-ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3, "a2c": A2C}
-ACTIVATIONS = {
-    "tanh": torch.nn.Tanh,
-    "relu": torch.nn.ReLU,
-    "elu": torch.nn.ELU,
-    "leakyrelu": torch.nn.LeakyReLU,
-    "silu": torch.nn.SiLU,
-}
-VECTORIZATION_MODES = ("vector_entry_point", "sync")
-#: default seed of the evaluation env: every run is evaluated on the same tracks
-EVAL_SEED = 999_999
-#: top-level key of the saved config that :func:`load_config` ignores
-RUN_KEY = "run"
 
 
 def _split_infos(infos: dict[str, Any], n: int) -> list[dict[str, Any]]:
@@ -230,21 +201,34 @@ class GymVecToSB3(VecEnv):
 
 
 def make_vec(
-    env_id: str, num_envs: int, env_kwargs: dict[str, Any], mode: str | None = None
+    env_id: str,
+    num_envs: int,
+    env_kwargs: dict[str, Any],
+    mode: str | None = None,
+    field: str = "env_kwargs",
 ) -> VectorEnv:
     """The env's native vector env (``mode="vector_entry_point"``, the default where the env
-    has one) or a ``SAME_STEP`` ``SyncVectorEnv`` of single envs (``mode="sync"``)."""
+    has one) or a ``SAME_STEP`` ``SyncVectorEnv`` of single envs (``mode="sync"``).
+
+    A bad env argument is a ``ValueError`` that starts with ``field`` (the config key the
+    arguments come from).
+    """
     if mode not in (None, *VECTORIZATION_MODES):
         raise ValueError(f"vectorization_mode must be one of {VECTORIZATION_MODES}, got {mode!r}")
     native = gym.spec(env_id).vector_entry_point is not None
     if mode == "vector_entry_point" and not native:
         raise ValueError(f"vectorization_mode: {env_id} has no native vector env")
     if mode != "sync" and native:
-        return gym.make_vec(env_id, num_envs, vectorization_mode="vector_entry_point", **env_kwargs)
-    same_step = {"autoreset_mode": AutoresetMode.SAME_STEP}
-    return gym.make_vec(
-        env_id, num_envs, vectorization_mode="sync", vector_kwargs=same_step, **env_kwargs
-    )
+        options: dict[str, Any] = {"vectorization_mode": "vector_entry_point"}
+    else:
+        options = {
+            "vectorization_mode": "sync",
+            "vector_kwargs": {"autoreset_mode": AutoresetMode.SAME_STEP},
+        }
+    try:
+        return gym.make_vec(env_id, num_envs, **options, **env_kwargs)
+    except (TypeError, ValueError) as err:  # the env's own argument errors, or unknown names
+        raise val.FieldError(field, f"{field}: {err}", full=True) from None
 
 
 def evaluate(policy: Any, venv: VectorEnv, seed: int) -> dict[str, float]:
@@ -286,176 +270,6 @@ def evaluate(policy: Any, venv: VectorEnv, seed: int) -> dict[str, float]:
         else:
             stats.update({f"mean_{key}_{j}": float(m) for j, m in enumerate(mean)})
     return stats
-
-
-@dataclass
-class TrainConfig:
-    """A validated training config (see the module docstring for the fields)."""
-
-    env_id: str
-    algo: str
-    n_timesteps: int
-    policy: str
-    n_envs: int
-    seed: int
-    env_kwargs: dict[str, Any] = field(default_factory=dict)
-    eval_env_kwargs: dict[str, Any] = field(default_factory=dict)
-    eval_freq: int = 10_000
-    n_eval_episodes: int = 4
-    eval_seed: int = EVAL_SEED
-    checkpoint_freq: int = 50_000
-    n_threads: int = 1
-    vectorization_mode: str | None = None
-    eval_echo: list[str] = field(default_factory=list)
-    hyperparameters: dict[str, Any] = field(default_factory=dict)
-
-    def to_yaml_dict(self) -> dict[str, Any]:
-        """The config-file form: ``{env_id: {...}}``."""
-        block = asdict(self)
-        del block["env_id"]
-        block.update(block.pop("hyperparameters"))
-        return {self.env_id: block}
-
-
-def _positive_int(block: dict[str, Any], name: str, default: int | None = None) -> int:
-    value = block.get(name, default)
-    if value is None:
-        raise ValueError(f"config is missing {name!r}")
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
-
-
-def _seed(block: dict[str, Any], name: str, default: int | None) -> int | None:
-    value = block.get(name, default)
-    if value is not None and (
-        isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0
-    ):
-        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-    return None if value is None else int(value)
-
-
-def _kwargs(block: dict[str, Any], name: str) -> dict[str, Any]:
-    value = block.get(name) or {}
-    if not isinstance(value, dict):
-        raise ValueError(f"{name} must be a mapping, got {value!r}")
-    return dict(value)
-
-
-def _names(block: dict[str, Any], name: str) -> list[str]:
-    value = block.get(name) or []
-    if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
-        raise ValueError(f"{name} must be a list of names, got {value!r}")
-    return value
-
-
-def _hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[str, Any]:
-    """Check names against the algorithm's signature; numbers written as strings (YAML reads
-    ``3e-4`` as text) become floats, rl-zoo3's ``lin_<v>`` a schedule from ``v`` down to 0,
-    ``policy_kwargs.activation_fn`` (a name) a torch module."""
-    allowed = set(inspect.signature(algo.__init__).parameters) - {"self", "policy", "env"}
-    out: dict[str, Any] = {}
-    for key, value in hyper.items():
-        if key not in allowed:
-            raise ValueError(
-                f"unknown config key {key!r}: not a run setting nor a "
-                f"hyperparameter of {algo.__name__}"
-            )
-        if isinstance(value, str) and value.startswith("lin_"):
-            try:
-                value = LinearSchedule(float(value[4:]), 0.0, 1.0)
-            except ValueError:
-                msg = f"{key} must be a number or 'lin_<number>', got {value!r}"
-                raise ValueError(msg) from None
-        elif isinstance(value, str):
-            try:
-                value = float(value)
-            except ValueError:
-                pass
-        out[key] = value
-    pk = out.get("policy_kwargs")
-    if pk is not None:
-        if not isinstance(pk, dict):
-            raise ValueError(f"policy_kwargs must be a mapping, got {pk!r}")
-        pk = dict(pk)
-        act = pk.get("activation_fn")
-        if isinstance(act, str):
-            name = act.lower().removeprefix("nn.").replace("_", "")
-            if name not in ACTIVATIONS:
-                raise ValueError(
-                    f"policy_kwargs.activation_fn must be one of {sorted(ACTIVATIONS)}, got {act!r}"
-                )
-            pk["activation_fn"] = ACTIVATIONS[name]
-        out["policy_kwargs"] = pk
-    return out
-
-
-def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
-    """Read and validate a config (path of a YAML file or its content as a dict).
-
-    A missing ``seed`` is drawn from the OS entropy, so that it can be recorded.
-    """
-    if isinstance(config, (str, Path)):
-        path = Path(config)
-        if not path.is_file():
-            raise ValueError(f"config file {str(path)!r} does not exist or is not a file")
-        try:
-            config = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except UnicodeDecodeError as err:
-            raise ValueError(f"config file {path}: not UTF-8 text ({err.reason})") from None
-        except yaml.YAMLError as err:
-            where = getattr(err, "problem_mark", None)
-            line = f", line {where.line + 1}" if where is not None else ""
-            what = getattr(err, "problem", None) or err
-            raise ValueError(f"config file {path}{line}: invalid YAML ({what})") from None
-    if not isinstance(config, dict):
-        raise ValueError(f"config must be a mapping {{env id: settings}}, got {config!r}")
-    ids = [k for k in config if k != RUN_KEY]
-    if len(ids) != 1:
-        raise ValueError(
-            "config must have exactly one top-level key, the env id (e.g. "
-            f"'railgym/VerticalSuspension-v0'), got {ids}"
-        )
-    env_id = ids[0]
-    if env_id not in gym.registry:
-        raise ValueError(f"env id {env_id!r} is not a registered Gymnasium env")
-    block = config[env_id]
-    if not isinstance(block, dict):
-        raise ValueError(f"settings of {env_id!r} must be a mapping, got {block!r}")
-    block = dict(block)
-    algo = block.get("algo")
-    if algo not in ALGOS:
-        raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {algo!r}")
-    policy = block.get("policy", "MlpPolicy")
-    if not isinstance(policy, str):
-        raise ValueError(f"policy must be a policy name, got {policy!r}")
-    mode = block.get("vectorization_mode")
-    if mode not in (None, *VECTORIZATION_MODES):
-        raise ValueError(f"vectorization_mode must be one of {VECTORIZATION_MODES}, got {mode!r}")
-    seed = _seed(block, "seed", None)
-    if seed is None:
-        seed = int(np.random.SeedSequence().entropy % 2**31)
-    run_keys = {f.name for f in TrainConfig.__dataclass_fields__.values()} - {"hyperparameters"}
-    hyper = {k: v for k, v in block.items() if k not in run_keys}
-    _hyperparameters(ALGOS[algo], hyper)  # validates; applied by train()
-    return TrainConfig(
-        env_id=env_id,
-        algo=algo,
-        policy=policy,
-        seed=seed,
-        n_timesteps=_positive_int(block, "n_timesteps"),
-        n_envs=_positive_int(block, "n_envs", 1),
-        env_kwargs=_kwargs(block, "env_kwargs"),
-        eval_env_kwargs=_kwargs(block, "eval_env_kwargs"),
-        eval_freq=_positive_int(block, "eval_freq", 10_000),
-        n_eval_episodes=_positive_int(block, "n_eval_episodes", 4),
-        eval_seed=_seed(block, "eval_seed", EVAL_SEED),
-        checkpoint_freq=_positive_int(block, "checkpoint_freq", 50_000),
-        n_threads=_positive_int(block, "n_threads", 1),
-        vectorization_mode=mode,
-        eval_echo=_names(block, "eval_echo"),
-        hyperparameters=hyper,
-    )
 
 
 class _ProgressBar(BaseCallback):
@@ -567,22 +381,30 @@ def train(
             raise ValueError("out is required when the config is given as a dict")
         out = Path("runs") / Path(config).stem
     if total_timesteps is not None:
-        cfg.n_timesteps = _positive_int({"total_timesteps": total_timesteps}, "total_timesteps")
+        cfg.n_timesteps = val.integer(total_timesteps, "total_timesteps", min=1)
     if seed is not None:
-        cfg.seed = _seed({"seed": seed}, "seed", None)
-    out = prepare_output_dir(out, overwrite)
-    run: dict[str, Any] = {"versions": _versions()}
-    _write_config(out, cfg, run)
-
+        cfg.seed = val.integer(seed, "seed", min=0, max=MAX_SEED)
     torch.set_num_threads(cfg.n_threads)
     set_random_seed(cfg.seed)
     mode = cfg.vectorization_mode
     env = VecMonitor(GymVecToSB3(make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)))
-    eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}
-    eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes, eval_kwargs, mode)
-    hyper = _hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
-    hyper = {"device": "cpu", "verbose": 0, **hyper}
-    model = ALGOS[cfg.algo](cfg.policy, env, seed=cfg.seed, **hyper)
+    opened: list[Any] = [env]
+    try:  # evaluation env, model and output folder before anything is written
+        eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}
+        eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes, eval_kwargs, mode, "eval_env_kwargs")
+        opened.append(eval_venv)
+        hyper = {"device": "cpu", **hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)}
+        try:
+            model = ALGOS[cfg.algo](cfg.policy, env, seed=cfg.seed, **hyper)
+        except (TypeError, ValueError, AssertionError) as err:  # SB3's own checks
+            raise ValueError(f"{cfg.algo} settings: {err}") from None
+        out = prepare_output_dir(out, overwrite)
+    except ValueError:
+        for venv in opened:
+            venv.close()
+        raise
+    run: dict[str, Any] = {"versions": _versions()}
+    _write_config(out, cfg, run)
     model.set_logger(configure(str(out), ["csv"]))
     echo = cfg.eval_echo if progress else None
     every = max(cfg.checkpoint_freq // cfg.n_envs, 1)
@@ -614,7 +436,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m agents.train", description=__doc__.split("\n\n")[0]
     )
-    parser.add_argument("config", type=Path, help="rl-zoo3-style YAML file")
+    parser.add_argument("config", help="rl-zoo3-style YAML file, or the name of a packaged config")
     parser.add_argument(
         "--out",
         type=Path,
@@ -627,7 +449,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--timesteps", type=bounded_int(1), default=None, help="override n_timesteps"
     )
-    parser.add_argument("--seed", type=bounded_int(0), default=None, help="override seed")
+    parser.add_argument("--seed", type=bounded_int(0, MAX_SEED), default=None, help="override seed")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     args = parser.parse_args(argv)

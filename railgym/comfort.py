@@ -14,6 +14,8 @@ in the Laplace variable ``s = j 2 pi f``:
 with ``w_i = 2 pi f_i``. Wk (vertical, seated) and Wd (horizontal) use f1 = 0.4 Hz, f2 = 100 Hz;
 Wk: f3 = f4 = 12.5 Hz, Q4 = 0.63, f5 = 2.37 Hz, Q5 = 0.91, f6 = 3.35 Hz, Q6 = 0.91;
 Wd: f3 = f4 = 2 Hz, Q4 = 0.63 and no upward step (H_s = 1).
+Wb (EN 12299 vertical comfort, ISO 2631-4:2001 Table A.1, parameters as in ISO 8041):
+f3 = f4 = 16 Hz, Q4 = 0.55, f5 = 2.5 Hz, Q5 = 0.9, f6 = 4 Hz, Q6 = 0.95, times K = 1.024.
 
 Discretisation: each analog section becomes one second-order section. H_h, H_l and H_s use
 the bilinear transform pre-warped at the section's own frequency (f1, f2, sqrt(f5 f6)). H_t
@@ -27,6 +29,12 @@ cannot be represented when ``fs <= 2 f2`` (at the 100 Hz control rate of the env
 whole band above 50 Hz is missing anyway); it is then omitted. Its analog gain is
 ``1/sqrt(1 + (f/f2)⁴)``, so omitting it changes the weighting by less than 0.5 % below 30 Hz
 and by 3 % at 50 Hz.
+
+Check against tabulated values: ``wb_weighting`` reproduces the Wb design-goal weighting
+factors of ISO 8041-1:2017 Annex B, Table B.1 (one-third-octave band centres 0.1 to 398 Hz,
+band limiting included) to their printed four significant figures
+(``tests/test_vehicle_comfort.py``; table as transcribed in the phonometry project,
+github.com/jmrplens/phonometry, ``tests/reference_data/vibration.py``).
 """
 
 from __future__ import annotations
@@ -45,6 +53,9 @@ __all__ = [
     "sperling_b",
     "sperling_label",
     "sperling_wz",
+    "a_zp95",
+    "wb_weighting",
+    "window_rms_p95",
     "weighted_rms",
     "wk_gain",
     "wk_weighting_tf",
@@ -67,11 +78,15 @@ class _Params:
     q5: float | None
     f6: float | None
     q6: float | None
+    k: float = 1.0  # overall gain factor K (ISO 8041; 1 except for Wb)
 
 
 _PARAMS = {
     "Wk": _Params(0.4, 100.0, 12.5, 12.5, 0.63, 2.37, 0.91, 3.35, 0.91),
     "Wd": _Params(0.4, 100.0, 2.0, 2.0, 0.63, None, None, None, None),
+    # EN 12299 / ISO 2631-4:2001 vertical weighting for rail passengers, parameters and gain
+    # factor K = 1.024 as in ISO 8041 (Q1 = Q2 = 1/sqrt(2) exactly)
+    "Wb": _Params(0.4, 100.0, 16.0, 16.0, 0.55, 2.5, 0.9, 4.0, 0.95, 1.024),
 }
 
 #: Sperling ride-index scale (lower bound of Wz, description).
@@ -100,8 +115,8 @@ def _sections(kind: str, lowpass: bool) -> list[tuple[str, np.ndarray, np.ndarra
     denominator coefficient 1) and the section's reference frequency [Hz]."""
     p = _params(kind)
     w1, w2, w3, w4 = (2.0 * np.pi * f for f in (p.f1, p.f2, p.f3, p.f4))
-    # H_h = s² / (s² + s w1/Q + w1²)
-    secs = [("h", np.array([1.0, 0.0, 0.0]), np.array([1.0, w1 / _Q_BUTTER, w1**2]), p.f1)]
+    # K·H_h = K·s² / (s² + s w1/Q + w1²)
+    secs = [("h", np.array([p.k, 0.0, 0.0]), np.array([1.0, w1 / _Q_BUTTER, w1**2]), p.f1)]
     if lowpass:
         # H_l = w2² / (s² + s w2/Q + w2²)
         secs.append(
@@ -447,3 +462,50 @@ class RunningComfort:
             "vdv": (self._sum4 / self.filter.fs) ** 0.25,
             "duration": self._n / self.filter.fs,
         }
+
+
+# --------------------------------------------------------------------- EN 12299 (vertical)
+#: EN 12299 averaging window of the r.m.s. values that enter the comfort indices, s
+EN12299_WINDOW = 5.0
+
+
+def wb_weighting(f: float | np.ndarray, lowpass: bool = True) -> np.ndarray:
+    """EN 12299 vertical weighting ``|W_b(j 2 pi f)|`` [-] at frequency ``f`` [Hz].
+
+    The ISO 2631-4 / ISO 8041 filter (band limits 0.4 and 100 Hz, a-v transition at 16 Hz,
+    upward step 2.5 -> 4 Hz, gain K = 1.024; parameters in the module docstring). Use
+    ``WeightingFilter(fs, "Wb")`` or ``weighted_rms(a, fs, "Wb")`` to weight signals.
+    """
+    return wk_gain(f, "Wb", lowpass)
+
+
+def a_zp95(
+    a: np.ndarray,
+    fs: float,
+    window: float = EN12299_WINDOW,
+    lowpass: bool | None = None,
+) -> float:
+    """95th percentile of the ``window``-s r.m.s. of the Wb-weighted vertical acceleration.
+
+    EN 12299's ``a_ZP95^Wb`` [m/s²], the vertical term of the mean comfort index
+    ``N_MV = 6 sqrt(a_XP95² + a_YP95² + a_ZP95²)``: the signal [m/s²] sampled at ``fs`` [Hz]
+    is Wb-weighted (filter from rest), cut into consecutive windows (an incomplete last one
+    is dropped) and the percentile of their r.m.s. values taken with linear interpolation.
+    The standard evaluates 60 windows (5 min); shorter records give fewer windows.
+    """
+    x = _as_signal(a)
+    flt = WeightingFilter(fs, "Wb", lowpass)
+    return float(window_rms_p95(flt.filter(x), flt.fs, window))
+
+
+def window_rms_p95(y: np.ndarray, fs: float, window: float = EN12299_WINDOW) -> np.ndarray:
+    """95th percentile of the r.m.s. over consecutive ``window``-s blocks of the already
+    weighted signal(s) ``y`` [m/s²] (samples along axis 0; an incomplete last block is
+    dropped), linear interpolation; one value per channel (the core of :func:`a_zp95`)."""
+    y = np.asarray(y, dtype=float)
+    n_win = int(round(float(window) * float(fs)))
+    if not np.isfinite(window) or n_win < 1 or n_win > y.shape[0]:
+        raise ValueError(f"window must be > 0 s and not longer than the signal, got {window}")
+    n_blocks = y.shape[0] // n_win
+    blocks = y[: n_blocks * n_win].reshape(n_blocks, n_win, *y.shape[1:])
+    return np.percentile(np.sqrt(np.mean(blocks**2, axis=1)), 95.0, axis=0)

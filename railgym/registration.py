@@ -9,6 +9,10 @@ ENVS = {
         "railgym.envs.vertical:VerticalSuspensionEnv",
         "railgym.envs.vertical:VerticalSuspensionVectorEnv",
     ),
+    "railgym/VerticalVehicle-v0": (
+        "railgym.envs.vehicle:VerticalVehicleEnv",
+        "railgym.envs.vehicle:VerticalVehicleVectorEnv",
+    ),
     "railgym/TrainCrash-v0": (
         "railgym.envs.crash:TrainCrashEnv",
         "railgym.envs.crash:TrainCrashVectorEnv",

@@ -62,7 +62,7 @@ ROWS = [
     ("train", "{nonempty}", "nonempty"),
     ("train", "{cfg_n_envs}", "n_envs"),
     ("train", "{cfg_unknown}", "learning_rat"),
-    ("train", "{cfg_broken}", "broken.yaml, line"),
+    ("train", "{cfg_broken}", r"broken\.yaml.*line 2"),
     ("train", "{cfg_list}", "mapping"),
     ("train", "{cfg} --timesteps 0", "--timesteps"),
     ("train", "{cfg} --timesteps abc", "--timesteps"),

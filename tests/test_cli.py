@@ -78,3 +78,36 @@ def test_railgym_command_has_demo_paper_evaluate():
     with pytest.raises(SystemExit) as exc:
         railgym_main(["--help"])
     assert exc.value.code == 0
+
+
+def test_demo_passes_the_surrogate_only_to_its_backend_and_warns_nothing(
+    tmp_path, monkeypatch, capsys
+):
+    """Every warning is an error: the reference runs get no ``surrogate=``; skyhook lowers the
+    weighted carbody acceleration on both models, and the plots are written."""
+    import warnings
+
+    from agents import cli
+    from railgym.vehicles.collect import build_vertical_surrogate
+
+    def quick_build(m, **kwargs):  # a smaller, faster build of the same element
+        return build_vertical_surrogate(m=41, sampling="greedy", **kwargs)
+
+    monkeypatch.setattr(cli, "build_vertical_surrogate", quick_build)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cli.main(["demo", "--out", str(tmp_path / "d"), "--seed", "2"]) == 0
+    out = capsys.readouterr().out
+    a_w = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 8 and parts[0] in ("surrogate", "reference"):
+            a_w[parts[0], parts[1]] = float(parts[3])
+    assert len(a_w) == 4
+    for backend in ("surrogate", "reference"):
+        assert 0 < a_w[backend, "skyhook"] < a_w[backend, "passive"]
+    pytest.importorskip("matplotlib")
+    assert {p.name for p in (tmp_path / "d").iterdir()} == {
+        "samples_and_oob.png",
+        "carbody_acceleration.png",
+    }

@@ -137,8 +137,16 @@ def test_primitives_clip_far_coordinates(far):
 # --------------------------------------------------------------------------- vertical scene
 def vertical_state(**kw):
     tx = np.linspace(100.0, 130.0, 301)
-    state = dict(x1=0.0, x2=0.0, z=0.0, track_x=tx, track_z=np.zeros_like(tx), time=2.0,
-                 force_a=0.0, f_max=5e3)
+    state = dict(
+        x1=0.0,
+        x2=0.0,
+        z=0.0,
+        track_x=tx,
+        track_z=np.zeros_like(tx),
+        time=2.0,
+        force_a=0.0,
+        f_max=5e3,
+    )
     state.update(kw)
     return state
 
@@ -195,8 +203,9 @@ def test_vertical_track_profile_exaggerated_and_placed():
 def test_vertical_actuator_arrow_and_gauge(ratio):
     img = render_vertical(vertical_state(force_a=ratio * 5e3))
     c = VERTICAL_COLORS
-    on, off = ("actuator_push", "actuator_pull") if ratio > 0 else ("actuator_pull",
-                                                                    "actuator_push")
+    on, off = (
+        ("actuator_push", "actuator_pull") if ratio > 0 else ("actuator_pull", "actuator_push")
+    )
     assert not mask_of(img, c[off]).any()
     m = mask_of(img, c[on])
     arrow_rows = np.nonzero(m[20:].any(axis=1))[0]
@@ -217,8 +226,9 @@ def test_vertical_force_saturates_and_progress_bar():
 
 def test_vertical_is_deterministic_and_leaves_state_alone():
     tx = np.linspace(0.0, 30.0, 301)
-    state = vertical_state(x1=0.002, x2=-0.004, z=0.001, track_x=tx,
-                           track_z=0.003 * np.sin(tx), force_a=-1.2e3)
+    state = vertical_state(
+        x1=0.002, x2=-0.004, z=0.001, track_x=tx, track_z=0.003 * np.sin(tx), force_a=-1.2e3
+    )
     before = state["track_z"].copy()
     np.testing.assert_array_equal(render_vertical(state), render_vertical(state))
     np.testing.assert_array_equal(state["track_z"], before)
@@ -255,8 +265,14 @@ def test_scenes_survive_absurd_states():
 
 # --------------------------------------------------------------------------- crash scene
 def crash_state(**kw):
-    state = dict(positions=np.array([0.0]), lengths=np.array([10.0]), crush=np.array([0.5]),
-                 stroke=np.array([2.0]), wall_x=0.0, view=(-11.0, 1.0))
+    state = dict(
+        positions=np.array([0.0]),
+        lengths=np.array([10.0]),
+        crush=np.array([0.5]),
+        stroke=np.array([2.0]),
+        wall_x=0.0,
+        view=(-11.0, 1.0),
+    )
     state.update(kw)
     return state
 
@@ -289,8 +305,13 @@ def test_crash_overloaded_zone_turns_red():
 
 
 def test_crash_interface_zone_and_default_view():
-    state = dict(positions=np.array([0.2, -27.5]), lengths=np.array([27.6, 24.5]),
-                 crush=np.array([0.2, 0.1]), stroke=np.array([0.9, 0.6]), wall_x=0.0)
+    state = dict(
+        positions=np.array([0.2, -27.5]),
+        lengths=np.array([27.6, 24.5]),
+        crush=np.array([0.2, 0.1]),
+        stroke=np.array([0.9, 0.6]),
+        wall_x=0.0,
+    )
     img = render_crash(state)
     zone = mask_of(img, CRASH_COLORS["zone"])
     labels = np.diff(np.concatenate(([0], zone.any(axis=0).astype(int)))) == 1
@@ -303,9 +324,13 @@ def test_crash_interface_zone_and_default_view():
 
 
 def test_crash_is_deterministic():
-    state = crash_state(positions=np.array([0.3, -10.4]), lengths=np.array([10.0, 9.0]),
-                        crush=np.array([0.3, 0.2]), stroke=np.array([1.0, 0.5]),
-                        view=(-21.0, 2.0))
+    state = crash_state(
+        positions=np.array([0.3, -10.4]),
+        lengths=np.array([10.0, 9.0]),
+        crush=np.array([0.3, 0.2]),
+        stroke=np.array([1.0, 0.5]),
+        view=(-21.0, 2.0),
+    )
     np.testing.assert_array_equal(render_crash(state), render_crash(state))
 
 

@@ -348,6 +348,36 @@ def test_missing_seed_is_drawn_and_recorded():
         (lambda c: c[ENV_ID].update(learning_rat=0.1) or c, "learning_rat"),
         (lambda c: c[ENV_ID].update(learning_rate="lin_fast") or c, "learning_rate"),
         (lambda c: c[ENV_ID].update(vectorization_mode="async") or c, "vectorization_mode"),
+        (lambda c: c[ENV_ID].update(n_envs=5000) or c, "n_envs must be at most 1024"),
+        (lambda c: c[ENV_ID].update(n_eval_episodes=2.0) or c, "n_eval_episodes must be an int"),
+        (lambda c: c[ENV_ID].update(seed=2**32) or c, "seed must be at most"),
+        (lambda c: c[ENV_ID].update(eval_seed="1") or c, "eval_seed must be an integer"),
+        (lambda c: c[ENV_ID].update(n_threads=True) or c, "n_threads must be an integer"),
+        (lambda c: c[ENV_ID].update(eval_echo="rms") or c, "eval_echo must be a sequence"),
+        (lambda c: c[ENV_ID].update(eval_echo=["rms", 3]) or c, r"eval_echo\[1\] must be a name"),
+        (lambda c: c[ENV_ID].update(policy=None) or c, "policy must be a policy name"),
+        (lambda c: c[ENV_ID].update(policy_kwargs=[16]) or c, "policy_kwargs must be a mapping"),
+        (lambda c: c[ENV_ID].update(env_id="x") or c, "unknown config key 'env_id'"),
+        (lambda c: c[ENV_ID].update(n_steps=0) or c, "n_steps must be at least 1"),
+        (lambda c: c[ENV_ID].update(batch_size="x") or c, "batch_size must be an integer"),
+        (lambda c: c[ENV_ID].update(n_epochs=True) or c, "n_epochs must be an integer"),
+        (lambda c: c[ENV_ID].update(gamma=2.0) or c, r"gamma must be in \[0, 1\]"),
+        (lambda c: c[ENV_ID].update(learning_rate=-1.0) or c, "learning_rate must be positive"),
+        (lambda c: c[ENV_ID].update(learning_rate="nan") or c, "learning_rate must be finite"),
+        (lambda c: c[ENV_ID].update(learning_rate="lin_-3e-4") or c, "learning_rate must be pos"),
+        (lambda c: c[ENV_ID].update(ent_coef="auto") or c, "ent_coef must be a number, got"),
+        (
+            lambda c: {ENV_ID: {"algo": "sac", "n_timesteps": 100, "ent_coef": "fast"}},
+            "ent_coef must be a number or 'auto'",
+        ),
+        (
+            lambda c: c[ENV_ID].update(policy_kwargs={"net_arch": "big"}) or c,
+            "policy_kwargs.net_arch must be a sequence",
+        ),
+        (
+            lambda c: c[ENV_ID].update(policy_kwargs={"net_arch": {"pi": [64, 0]}}) or c,
+            r"policy_kwargs\.net_arch\.pi\[1\] must be at least 1",
+        ),
         (
             lambda c: c[ENV_ID].update(policy_kwargs={"activation_fn": "swish2"}) or c,
             "activation_fn",
@@ -357,6 +387,31 @@ def test_missing_seed_is_drawn_and_recorded():
 def test_bad_config_raises_naming_the_field(change, field):
     with pytest.raises(ValueError, match=field):
         load_config(change(_tiny_config()))
+
+
+def test_packaged_config_by_name_and_a_same_named_folder_changes_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ppo_vertical").mkdir()  # a folder named like the packaged config
+    assert load_config("ppo_vertical") == load_config(CONFIGS / "ppo_vertical.yaml")
+    with pytest.raises(ValueError, match="unknown config 'ppo_vertica'.*packaged name"):
+        load_config("ppo_vertica")
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"env_kwargs": {"duration": 1.0, "speed": -1.0}}, "env_kwargs: speed must be positive"),
+        ({"env_kwargs": {"sped": 3.0}}, "env_kwargs: .*unexpected keyword argument 'sped'"),
+        ({"eval_env_kwargs": {"backend": "simpack"}}, "eval_env_kwargs: backend must be one of"),
+        ({"policy": "CnnPolicyX"}, "ppo settings: Policy CnnPolicyX unknown"),
+    ],
+)
+def test_env_and_algorithm_errors_are_named_and_nothing_is_written(tmp_path, change, message):
+    cfg = _tiny_config()
+    cfg[ENV_ID].update(change)
+    with pytest.raises(ValueError, match=message):
+        train(cfg, tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
 
 
 def test_make_vec_modes():
@@ -374,7 +429,11 @@ def test_dict_config_needs_out_and_file_must_exist(tmp_path):
 
 @pytest.mark.parametrize(
     ("text", "match"),
-    [("a: [1,\n", "line 2: invalid YAML"), ("- 1\n", "mapping"), (b"\xff\xfe", "not UTF-8")],
+    [
+        ("a: [1,\n", r"c\.yaml is not valid YAML, line 2"),
+        ("- 1\n", "config must be a mapping"),
+        (b"\xff\xfe", r"c\.yaml.* cannot be read.*utf-8"),
+    ],
 )
 def test_unreadable_config_file_is_one_clear_error(tmp_path, text, match):
     path = tmp_path / "c.yaml"

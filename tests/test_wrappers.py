@@ -123,6 +123,13 @@ def test_ride_comfort_on_the_vertical_env_and_reset_clears():
         ({"acc_ref": 0.0}, "acc_ref"),
         ({"kind": "Wx"}, "kind"),
         ({"fs": 20.0}, "fs"),
+        ({"fs": True}, "fs must be a number"),
+        ({"fs": "100"}, "fs must be a number"),
+        ({"reward_weight": float("nan")}, "reward_weight must be finite"),
+        ({"acc_ref": np.float32(-0.5)}, "acc_ref must be positive"),
+        ({"tau": "1s"}, "tau must be a number"),
+        ({"discard": -1.0}, "discard must be non-negative"),
+        ({"acc_key": 3}, "acc_key"),
     ],
 )
 def test_ride_comfort_bad_arguments(kwargs, message):

@@ -81,8 +81,12 @@ CRASH_COLORS: dict[str, tuple[int, int, int]] = {
 
 # --------------------------------------------------------------------------- primitives
 def _check_img(img: np.ndarray) -> None:
-    if not (isinstance(img, np.ndarray) and img.ndim == 3 and img.shape[2] == 3
-            and img.dtype == np.uint8):
+    if not (
+        isinstance(img, np.ndarray)
+        and img.ndim == 3
+        and img.shape[2] == 3
+        and img.dtype == np.uint8
+    ):
         raise ValueError("img must be a numpy uint8 array of shape (H, W, 3)")
 
 
@@ -191,9 +195,7 @@ def draw_line(
     _raster_segments(img, c[0:1], c[1:2], c[2:3], c[3:4], color, width)
 
 
-def draw_polyline(
-    img: np.ndarray, xs: Any, ys: Any, color: Color, width: int = 1
-) -> None:
+def draw_polyline(img: np.ndarray, xs: Any, ys: Any, color: Color, width: int = 1) -> None:
     """Open polyline through the points ``(xs[k], ys[k])`` (px), all segments in one pass."""
     _check_img(img)
     x = np.asarray(xs, dtype=float)
@@ -229,8 +231,9 @@ def draw_spring(
     n = 2 * int(coils)
     swing = np.arange(n)
     frac = np.concatenate(([0.0, 0.1], 0.1 + 0.8 * (swing + 0.5) / n, [0.9, 1.0]))
-    offset = np.concatenate(([0.0, 0.0], np.where(swing % 2 == 0, -amplitude, amplitude),
-                             [0.0, 0.0]))
+    offset = np.concatenate(
+        ([0.0, 0.0], np.where(swing % 2 == 0, -amplitude, amplitude), [0.0, 0.0])
+    )
     draw_polyline(img, xc + offset, yt + frac * (yb - yt), color, width)
 
 
@@ -290,12 +293,26 @@ def _fill_spans(
     img[j0 : j1 + 1][mask] = _rgb(color)
 
 
-def _box(img: np.ndarray, xc: float, yc: float, bw: float, bh: float, fill: Color,
-         outline: Color, border: float = 2.0) -> None:
+def _box(
+    img: np.ndarray,
+    xc: float,
+    yc: float,
+    bw: float,
+    bh: float,
+    fill: Color,
+    outline: Color,
+    border: float = 2.0,
+) -> None:
     """Filled box centred at ``(xc, yc)`` of ``bw`` x ``bh`` px with a ``border`` px outline."""
     fill_rect(img, xc - bw / 2, yc - bh / 2, xc + bw / 2, yc + bh / 2, outline)
-    fill_rect(img, xc - bw / 2 + border, yc - bh / 2 + border,
-              xc + bw / 2 - border, yc + bh / 2 - border, fill)
+    fill_rect(
+        img,
+        xc - bw / 2 + border,
+        yc - bh / 2 + border,
+        xc + bw / 2 - border,
+        yc + bh / 2 - border,
+        fill,
+    )
 
 
 def _progress_bar(img: np.ndarray, state: Mapping[str, Any], colors: Mapping[str, Color]) -> None:
@@ -417,9 +434,14 @@ def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 40
     # Secondary suspension: air spring (two lobes), damper, actuator arrow.
     ds = 0.10 * w
     lobe = 0.025 * w
-    _fill_spans(img, xc - ds, body_bottom, bogie_top,
-                lambda u: lobe * (0.55 + 0.45 * np.abs(np.sin(2 * np.pi * u))),
-                col["air_spring"])
+    _fill_spans(
+        img,
+        xc - ds,
+        body_bottom,
+        bogie_top,
+        lambda u: lobe * (0.55 + 0.45 * np.abs(np.sin(2 * np.pi * u))),
+        col["air_spring"],
+    )
     draw_damper(img, xc + ds, body_bottom, bogie_top, col["damper"], 0.6 * lobe)
     ratio = float(np.clip(force / f_max, -1.0, 1.0))
     length = 0.45 * 0.14 * h * ratio
@@ -499,8 +521,7 @@ def render_crash(state: Mapping[str, Any], width: int = 800, height: int = 300) 
         zone_start = pos[i] - stroke[i]
         fill_rect(img, px(rear), car_top, px(min(zone_start, front)), car_bottom, col["car"])
         if crush[i] > stroke[i]:
-            fill_rect(img, px(front) - 3, car_top, px(front), car_bottom,
-                      col["zone_overloaded"])
+            fill_rect(img, px(front) - 3, car_top, px(front), car_bottom, col["zone_overloaded"])
         else:
             fill_rect(img, px(zone_start), car_top, px(front), car_bottom, col["zone"])
         for xw in (rear + 0.12 * lengths[i], pos[i] - 0.12 * lengths[i]):

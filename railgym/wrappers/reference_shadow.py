@@ -17,6 +17,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from railgym import _validation as val
 from railgym.envs.vertical import BACKENDS, DEFAULT_WEIGHTS, OBSERVATIONS, VerticalSuspensionEnv
 from surrogates.metrics import average_absolute_error, paper_error
 
@@ -107,10 +108,7 @@ class ReferenceShadow(gym.Wrapper):
                 "env: ReferenceShadow supports railgym/VerticalSuspension-v0 "
                 f"(VerticalSuspensionEnv) only, got {type(base).__name__}"
             )
-        if reference_backend not in BACKENDS:
-            raise ValueError(
-                f"reference_backend must be one of {sorted(BACKENDS)}, got {reference_backend!r}"
-            )
+        reference_backend = val.choice(reference_backend, "reference_backend", BACKENDS)
         self.base = base
         self.reference_backend = reference_backend
         self.shadow = _shadow_of(base, reference_backend, vehicle)

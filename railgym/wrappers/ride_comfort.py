@@ -17,6 +17,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from railgym import _validation as val
 from railgym.comfort import RunningComfort, sperling_label, sperling_wz
 
 #: low-pass corner of ISO 2631-1 (f2), Hz; representable only above 2·f2
@@ -78,14 +79,12 @@ class RideComfort(gym.Wrapper):
         tau: float = 1.0,
     ) -> None:
         super().__init__(env)
-        fs = _control_rate(env) if fs is None else fs
-        if not (isinstance(fs, int | float) and math.isfinite(fs) and fs > 0):
-            raise ValueError(f"fs must be a positive sample rate in Hz, got {fs!r}")
-        for name, value in (("reward_weight", reward_weight), ("acc_ref", acc_ref)):
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
-        if acc_ref == 0:
-            raise ValueError("acc_ref must be positive, got 0")
+        fs = _control_rate(env) if fs is None else val.positive(fs, "fs")
+        reward_weight = val.non_negative(reward_weight, "reward_weight")
+        acc_ref = val.positive(acc_ref, "acc_ref")
+        tau, discard = val.positive(tau, "tau"), val.non_negative(discard, "discard")
+        if not isinstance(acc_key, str):
+            raise val.FieldTypeError("acc_key", f"must be an info key (str), got {acc_key!r}")
         lowpass = fs > 2.0 * _F2
         self.comfort = RunningComfort(fs, kind, tau=tau, discard=discard, lowpass=lowpass)
         # the same sections, run sample by sample in Python floats (a scipy call per

@@ -1,0 +1,121 @@
+"""``rgb_array`` frame of ``VerticalVehicle-v0``: bending carbody, two pitching bogies, four
+wheelsets on the track profile (primitives of :mod:`railgym.envs.rendering`)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from railgym.envs.rendering import (
+    DISPLACEMENT_PX_PER_M,
+    VERTICAL_COLORS,
+    canvas,
+    draw_line,
+    draw_polyline,
+    draw_spring,
+    fill_circle,
+    fill_rect,
+)
+
+_KEYS = (
+    "track_x",
+    "track_z",
+    "body_x",
+    "body_z",
+    "bogie_x",
+    "bogie_z",
+    "bogie_pitch",
+    "wheel_x",
+    "wheel_z",
+    "force",
+    "f_max",
+)
+
+
+def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400) -> np.ndarray:
+    """Frame ``(height, width, 3)`` uint8 of the whole vehicle.
+
+    ``state`` (from ``VehicleBatch.render_state``): positions from the carbody centre (m)
+    ``track_x`` (increasing, spans the frame), ``body_x``, ``bogie_x`` (2,), ``wheel_x`` (4,);
+    heights (m, up) ``track_z``, ``body_z`` (carbody floor line, bending and pitch
+    included), ``bogie_z`` (2,), ``wheel_z`` (4,); ``bogie_pitch`` (2,) rad; actuator
+    ``force`` (2,) N and ``f_max`` N; optional ``time`` and ``duration`` s (progress bar).
+    Horizontal scale: ``track_x`` over the width; heights and displacements at
+    ``DISPLACEMENT_PX_PER_M · height/400`` (exaggerated), each part drawn at its nominal
+    height plus its displacement. Actuator bars above the bogies: green pushing the carbody
+    up, red pulling, length ``|force|/f_max``.
+    """
+    for key in _KEYS:
+        if key not in state:
+            raise ValueError(f"render state is missing {key!r}")
+    arr = {k: np.asarray(state[k], dtype=float) for k in _KEYS}
+    for k, v in arr.items():
+        if not np.all(np.isfinite(v)):
+            raise ValueError(f"render state {k!r} must be finite")
+    if int(width) < 64 or int(height) < 64:
+        raise ValueError(f"width and height must be >= 64 px, got {width} x {height}")
+    w, h = int(width), int(height)
+    col = VERTICAL_COLORS
+    k = DISPLACEMENT_PX_PER_M * h / 400.0
+    tx = arr["track_x"]
+    sx = w / (tx[-1] - tx[0])
+
+    def px(x: Any) -> Any:
+        return (np.asarray(x) - tx[0]) * sx
+
+    img = canvas(w, h, col["background"])
+    if "time" in state and "duration" in state and float(state["duration"]) > 0:
+        frac = min(max(float(state["time"]) / float(state["duration"]), 0.0), 1.0)
+        fill_rect(img, 4, 4, w - 4, 8, col["bar_back"])
+        fill_rect(img, 4, 4, 4 + frac * (w - 8), 8, col["bar_front"])
+
+    # track: ground under the exaggerated profile, rail on top
+    y_rail = 0.85 * h
+    cols = np.arange(w) + 0.5
+    y_prof = y_rail - k * np.interp(tx[0] + cols / sx, tx, arr["track_z"])
+    rows = np.arange(h)[:, None] + 0.5
+    img[rows >= y_prof[None, :]] = col["ground"]
+    img[(rows >= y_prof[None, :]) & (rows < y_prof[None, :] + 3)] = col["rail"]
+
+    r_wheel = 0.04 * h
+    y_bogie0 = y_rail - 2 * r_wheel - 0.08 * h
+    y_floor0 = y_bogie0 - 0.14 * h
+    for j, (xw, zw) in enumerate(zip(px(arr["wheel_x"]), arr["wheel_z"], strict=True)):
+        yw = y_rail - r_wheel - k * zw
+        fill_circle(img, xw, yw, r_wheel, col["wheel"])
+        i = j // 2
+        e = 1.0 if j % 2 == 0 else -1.0
+        xb_m = arr["wheel_x"][j] - arr["bogie_x"][i]
+        yb = y_bogie0 - k * (arr["bogie_z"][i] + xb_m * arr["bogie_pitch"][i])
+        draw_spring(
+            img, xw - 0.15 * e * r_wheel, yb, yw, col["primary_spring"], 4, 0.25 * r_wheel, 2
+        )
+    # bogie frames: beams through the wheelset points, pitched
+    b = 0.5 * abs(arr["wheel_x"][0] - arr["wheel_x"][1])
+    for i in range(2):
+        xs = arr["bogie_x"][i] + np.array([-1.3 * b, 1.3 * b])
+        ys = y_bogie0 - k * (arr["bogie_z"][i] + (xs - arr["bogie_x"][i]) * arr["bogie_pitch"][i])
+        draw_polyline(img, px(xs), ys, col["bogie"], int(0.035 * h))
+    # carbody: a band above the (bent, pitched) floor line
+    bx = arr["body_x"]
+    floor = y_floor0 - k * np.interp(tx[0] + cols / sx, bx, arr["body_z"])
+    inside = (tx[0] + cols / sx >= bx[0]) & (tx[0] + cols / sx <= bx[-1])
+    body_h = 0.3 * h
+    mask = inside[None, :] & (rows <= floor[None, :]) & (rows >= floor[None, :] - body_h)
+    img[mask] = col["carbody"]
+    draw_polyline(img, px(bx), y_floor0 - k * arr["body_z"], col["outline"], 2)
+    # secondary suspension and actuators at each bogie
+    f_max = float(arr["f_max"])
+    for i in range(2):
+        xb = float(px(arr["bogie_x"][i]))
+        yb = y_bogie0 - k * arr["bogie_z"][i] - 0.02 * h
+        yf = y_floor0 - k * np.interp(arr["bogie_x"][i], bx, arr["body_z"])
+        draw_spring(img, xb - 0.02 * w, yf, yb, col["air_spring"], 3, 0.01 * w, 2)
+        ratio = float(np.clip(arr["force"][i] / f_max, -1.0, 1.0)) if f_max > 0 else 0.0
+        color = col["actuator_push"] if ratio > 0 else col["actuator_pull"]
+        draw_line(img, xb + 0.02 * w, yb, xb + 0.02 * w, yf, col["damper"], 2)
+        if ratio != 0.0:
+            fill_rect(img, xb - 0.04 * w, 14, xb - 0.04 * w + ratio * 0.08 * w, 20, color)
+    return img

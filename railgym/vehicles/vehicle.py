@@ -1,0 +1,597 @@
+"""Whole railway vehicle in the vertical plane: carbody bounce, pitch and first bending on
+two bogies (bounce and pitch), four wheelsets following the track.
+
+Coordinates (SI, ``configs/vehicles/manchester_whole.yaml``): ``x`` along the vehicle,
+forward positive, origin at the carbody centre; displacements upward from the loaded static
+equilibrium; pitch positive nose up (the point at ``x`` moves by ``z + x·θ``). Bogie ``i``
+(0 front, 1 rear) sits at ``x_i = ±a``, its wheelsets at ``x_i ± b``. The carbody's first
+vertical bending mode is the free–free Euler–Bernoulli beam mode ``φ(x)`` of a uniform body
+of length ``L``, normalised to ``φ(0) = 1``, with modal coordinate ``q`` (centre deflection),
+modal mass ``m_q``, stiffness ``m_q·ω_b²`` and damping ``2ζ·m_q·ω_b``.
+
+Equations (``F_i = F_s(δ_i, δ̇_i) + F_a,i`` the secondary plus actuator force at bogie ``i``,
+pushing the carbody up and the bogie down; ``δ_i = z_b,i − (z_c + x_i·θ_c + φ(x_i)·q)``,
+``> 0`` compression, as ``δ = x1 − x2`` of :mod:`railgym.vehicles.vertical`)::
+
+    m_c·z̈_c = F_0 + F_1                 J_c·θ̈_c = a·(F_0 − F_1)
+    m_q·(q̈ + 2ζω_b·q̇ + ω_b²·q) = φ(a)·(F_0 + F_1)
+    m_b·z̈_b,i = P_i,lead + P_i,trail − F_i      J_b·θ̈_b,i = b·(P_i,lead − P_i,trail)
+
+with the primary force of each wheelset ``P = k1/2·(w − z_b ∓ b·θ_b) + c1/2·(ẇ − ż_b ∓ b·θ̇_b)``
+(``k1, c1`` of one bogie split over its two wheelsets) and ``w`` the track height under the
+wheelset. The secondary suspension of each bogie is one of the variants of
+:mod:`railgym.vehicles.vertical` (``"linear"``, ``"static"``, ``"dynamic"``, ``"surrogate"``),
+whose compiled force laws are reused as they are (air spring with reservoir and Maxwell
+damper, damper curve, bump stops, LPR element). With ``a = b = 0``, no bending coupling and
+two bogies carrying half the carbody each, the model reduces to the one-bogie model.
+
+State per vehicle: positions ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]``, then their rates;
+``"dynamic"`` appends ``[Δp_b, Δp_r, y]`` of bogie 0 and then of bogie 1.
+
+Track input: one profile per vehicle sampled on the time grid of the rear wheelset,
+``Z[k] = z(v·k·dt)`` and ``Ż[k] = v·z'(v·k·dt)``; wheelset ``j`` sees it shifted by the
+constant fractional index ``off_j = s_j/(v·dt)``, ``s_j`` its distance ahead of the rear
+wheelset, evaluated by cubic Hermite interpolation of ``(Z, Ż)`` (exact at integer
+offsets; at half a sample the RK4 midpoint rule of :mod:`railgym.vehicles.vertical`).
+Integration: classic RK4 with fixed ``dt``; one compiled kernel steps a batch.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+
+from railgym import _validation as val
+from railgym.vehicles.vertical import (
+    DIVERGENCE_DISPLACEMENT,
+    VerticalVehicle,
+    load_vehicle,
+    surrogate_arrays,
+)
+from railgym.vehicles.vertical.elements import (
+    bump_stop_force,
+    damper_force,
+    dynamic_element,
+    in_contact,
+)
+from surrogates.models.lpr import lpr_eval_into, lpr_is_outside, lpr_scratch
+
+VARIANTS = ("linear", "static", "dynamic", "surrogate")
+_KIND = {"linear": 0, "static": 1, "dynamic": 2, "surrogate": 3}
+N_MECH = 14
+STATE_SIZE = {"linear": N_MECH, "static": N_MECH, "dynamic": N_MECH + 6, "surrogate": N_MECH}
+#: floor points where the carbody acceleration is reported: over the front bogie, centre,
+#: over the rear bogie (multiples of the bogie semi-spacing ``a``)
+FLOOR_POINTS = (1.0, 0.0, -1.0)
+#: default RK4 step, s: every mode lies below 12 Hz (ω·dt < 0.15) and the shortest track
+#: wavelength (1 m) spans 9 samples at 200 km/h; measured accuracy in docs/envs/vehicle_vertical.md
+DEFAULT_DT = 2e-3
+#: whole-vehicle fields that may be zero (the others must be positive)
+_NON_NEGATIVE = ("bogie_semi_spacing", "semi_wheelbase", "bending_damping")
+#: root of cos(βL)·cosh(βL) = 1 of the first free–free beam mode
+BETA_L = 4.730040744862704
+
+
+def mode_shape(x: Any, length: float) -> np.ndarray:
+    """First free–free bending mode ``φ(x)`` of a uniform beam, ``φ(0) = 1`` (x from centre, m)."""
+    bl = BETA_L
+    sigma = (math.cosh(bl) - math.cos(bl)) / (math.sinh(bl) - math.sin(bl))
+
+    def raw(s: np.ndarray) -> np.ndarray:
+        u = bl * s
+        return np.cosh(u) + np.cos(u) - sigma * (np.sinh(u) + np.sin(u))
+
+    s = np.asarray(x, dtype=float) / length + 0.5
+    return raw(s) / raw(np.asarray(0.5))
+
+
+@dataclass(frozen=True)
+class WholeVehicle:
+    """Whole-vehicle data (SI), see ``configs/vehicles/manchester_whole.yaml``.
+
+    ``suspension`` is the one-bogie model whose primary/secondary suspension data apply to
+    each bogie; its ``m2`` is set to half the carbody (the air-spring preload).
+    """
+
+    name: str
+    carbody_mass: float
+    carbody_pitch_inertia: float
+    carbody_length: float
+    bending_frequency: float
+    bending_damping: float
+    bending_modal_mass: float
+    bogie_mass: float
+    bogie_pitch_inertia: float
+    bogie_semi_spacing: float
+    semi_wheelbase: float
+    suspension: VerticalVehicle
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            if f.name in ("name", "suspension"):
+                continue
+            check = val.non_negative if f.name in _NON_NEGATIVE else val.positive
+            object.__setattr__(
+                self, f.name, check(getattr(self, f.name), f"whole_vehicle.{f.name}")
+            )
+        if 2.0 * self.bogie_semi_spacing >= self.carbody_length:
+            raise val.FieldError(
+                "whole_vehicle.bogie_semi_spacing",
+                f"must lie within the carbody (2·a < carbody_length = {self.carbody_length} m), "
+                f"got {self.bogie_semi_spacing!r}",
+            )
+
+    @property
+    def wheelset_positions(self) -> np.ndarray:
+        """Wheelset positions from the carbody centre, front to rear, m (4,)."""
+        a, b = self.bogie_semi_spacing, self.semi_wheelbase
+        return np.array([a + b, a - b, -a + b, -a - b])
+
+    @property
+    def floor_positions(self) -> np.ndarray:
+        """Floor points of :data:`FLOOR_POINTS`, m (3,)."""
+        return self.bogie_semi_spacing * np.array(FLOOR_POINTS)
+
+
+_WHOLE_FIELDS = tuple(f.name for f in fields(WholeVehicle) if f.name not in ("name", "suspension"))
+
+
+def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVehicle:
+    """Load a whole vehicle: a packaged name or the path of a ``.yaml`` file with the
+    sections ``base`` (name or path of the one-bogie vehicle) and ``whole_vehicle``.
+
+    The "name or path" rule is :func:`railgym._validation.resolve_yaml`'s; errors in a file
+    name the file and the field.
+    """
+    text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))
+    try:
+        top = val.Fields(val.load_yaml(text, source), "")
+        base = load_vehicle(top.get("base"))
+        sec = top.section("whole_vehicle")
+        values = {name: sec.get(name) for name in _WHOLE_FIELDS}
+        sec.done()
+        top.done()
+        mass = val.positive(values["carbody_mass"], "whole_vehicle.carbody_mass")
+        suspension = replace(base, m2=0.5 * mass)
+        return WholeVehicle(name=str(name_or_path), suspension=suspension, **values)
+    except val.FieldError as exc:
+        if str(exc).startswith(source):
+            raise
+        raise type(exc)(exc.field, f"{source}: {exc}", full=True) from None
+
+
+# ======================================================================= kernel data
+class Params(NamedTuple):
+    """Scalar kernel parameters (SI): inverse masses and inertias (multiplications keep
+    divisions out of the right-hand side), modal data, geometry, primary and linear
+    secondary suspension. The element array of the nonlinear secondary suspension
+    (:meth:`VerticalVehicle.kernel_params`) travels beside it."""
+
+    inv_m_c: float  # 1 / carbody mass, 1/kg
+    inv_j_c: float  # 1 / carbody pitch inertia, 1/(kg·m²)
+    inv_m_q: float  # 1 / bending modal mass, 1/kg
+    k_q: float
+    c_q: float
+    inv_m_b: float  # 1 / bogie mass, 1/kg
+    inv_j_b: float  # 1 / bogie pitch inertia, 1/(kg·m²)
+    a: float
+    b: float
+    phi_a: float  # mode shape at the bogie centres (= front and rear floor points)
+    phi_c: float  # mode shape at the centre floor point (1, or 0 when rigid)
+    k1w: float  # primary stiffness per wheelset, N/m
+    c1w: float  # primary damping per wheelset, N·s/m
+    k2: float  # linear secondary stiffness per bogie, N/m
+    c2: float  # linear secondary damping per bogie, N·s/m
+
+
+class Lpr(NamedTuple):
+    """Arrays of the LPR surrogate element (:func:`railgym.vehicles.vertical.surrogate_arrays`)."""
+
+    exps: np.ndarray
+    coef: np.ndarray
+    lo: np.ndarray
+    up: np.ndarray
+    mode: int
+
+
+class Batch(NamedTuple):
+    """Per-vehicle arrays the kernel works on (``n`` vehicles)."""
+
+    state: np.ndarray  # (n, s), updated in place
+    z: np.ndarray  # (n, M) track height on the rear wheelset's time grid, m
+    zdot: np.ndarray  # (n, M) its time derivative, m/s
+    k: np.ndarray  # (n,) int64 current sample index
+    off: np.ndarray  # (n, 4) fractional sample offset of each wheelset
+    force: np.ndarray  # (n, 2) actuator forces at the front / rear bogie, N
+
+
+class Out(NamedTuple):
+    """Kernel outputs at the end of a control step."""
+
+    acc: np.ndarray  # (n, 5) floor points front/centre/rear, bogies front/rear, m/s²
+    fs: np.ndarray  # (n, 2) secondary-suspension forces, N
+    count: np.ndarray  # (n, 2) int64 substeps in bump-stop contact, out-of-domain evaluations
+    div: np.ndarray  # (n,) bool diverged
+
+
+def kernel_params(vehicle: WholeVehicle, flexible: bool = True) -> Params:
+    """:class:`Params` of a vehicle; ``flexible=False`` decouples the bending mode (rigid)."""
+    w = 2.0 * math.pi * vehicle.bending_frequency
+    mq = float(vehicle.bending_modal_mass)
+    phi_a = float(mode_shape(vehicle.bogie_semi_spacing, vehicle.carbody_length))
+    s = vehicle.suspension
+    return Params(
+        inv_m_c=1.0 / vehicle.carbody_mass,
+        inv_j_c=1.0 / vehicle.carbody_pitch_inertia,
+        inv_m_q=1.0 / mq,
+        k_q=mq * w * w,
+        c_q=2.0 * vehicle.bending_damping * mq * w,
+        inv_m_b=1.0 / vehicle.bogie_mass,
+        inv_j_b=1.0 / vehicle.bogie_pitch_inertia,
+        a=float(vehicle.bogie_semi_spacing),
+        b=float(vehicle.semi_wheelbase),
+        phi_a=phi_a if flexible else 0.0,
+        phi_c=1.0 if flexible else 0.0,
+        k1w=0.5 * s.k1,
+        c1w=0.5 * s.c1,
+        k2=float(s.k2),
+        c2=float(s.c2),
+    )
+
+
+def lpr_arrays(surrogate: Any = None) -> Lpr:
+    """:class:`Lpr` of a fitted LPR model (or its ``kernel_arrays()``); placeholders for None."""
+    return Lpr(*surrogate_arrays(surrogate))
+
+
+def check_variant(variant: str) -> int:
+    """Kernel code of ``variant``; ValueError naming the choices."""
+    if variant not in _KIND:
+        raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+    return _KIND[variant]
+
+
+def wheelset_offsets(vehicle: WholeVehicle, speed: float, dt: float) -> np.ndarray:
+    """Sample offsets of the four wheelsets (front to rear) ahead of the rear one (4,)."""
+    s = vehicle.wheelset_positions - vehicle.wheelset_positions[-1]
+    return s / (speed * dt)
+
+
+# =========================================================================== kernels
+@njit(cache=True, error_model="numpy")
+def _hermite(z: np.ndarray, zd: np.ndarray, pos: float, dt: float) -> tuple[float, float]:
+    """Cubic Hermite value and rate of the sampled track at fractional index ``pos``."""
+    i0 = int(math.floor(pos))
+    u = pos - i0
+    if u == 0.0:
+        return z[i0], zd[i0]
+    z0, z1 = z[i0], z[i0 + 1]
+    d0, d1 = zd[i0] * dt, zd[i0 + 1] * dt
+    u2 = u * u
+    u3 = u2 * u
+    val = (
+        (2 * u3 - 3 * u2 + 1) * z0
+        + (u3 - 2 * u2 + u) * d0
+        + (-2 * u3 + 3 * u2) * z1
+        + (u3 - u2) * d1
+    )
+    rate = (6 * u2 - 6 * u) * z0 + (3 * u2 - 4 * u + 1) * d0 + (6 * u - 6 * u2) * z1
+    rate += (3 * u2 - 2 * u) * d1
+    return val, rate / dt
+
+
+@njit(cache=True, error_model="numpy")
+def _static_force(d: float, dd: float, e: Any) -> float:
+    """Static reference secondary force (N): progressive spring, bump stops, damper curve."""
+    return e.k2 * d * (1.0 + e.progression * d * d) + bump_stop_force(d, e) + damper_force(dd, e)
+
+
+@njit(cache=True, error_model="numpy")
+def _dynamic_force(j, d, dd, x, e, rt, dx):
+    """Dynamic reference secondary force (N) of the bogie whose element states start at
+    ``x[j]``; their rates go to ``dx[j : j + 3]`` (through the work array ``rt``)."""
+    f_air, f_d = dynamic_element(d, dd, x[j], x[j + 1], x[j + 2], e, rt)
+    dx[j], dx[j + 1], dx[j + 2] = rt[0], rt[1], rt[2]
+    return f_air + f_d + bump_stop_force(d, e)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, dx, fs):
+    """State derivative into ``dx`` for wheel inputs ``w`` (4, 2) (height, rate) and actuator
+    forces ``fa`` (2,); writes the secondary forces into ``fs`` (2,); returns the number of
+    out-of-domain surrogate evaluations. ``u`` (2,), ``rt`` (3,) and ``lw`` are work arrays."""
+    outside = 0
+    f0 = 0.0
+    f1 = 0.0
+    for i in range(2):
+        xi = p.a if i == 0 else -p.a
+        zb, vb = x[3 + 2 * i], x[10 + 2 * i]
+        d = zb - (x[0] + xi * x[1] + p.phi_a * x[2])
+        dd = vb - (x[7] + xi * x[8] + p.phi_a * x[9])
+        if kind == 0:
+            f = p.k2 * d + p.c2 * dd
+        elif kind == 1:
+            f = _static_force(d, dd, e)
+        elif kind == 2:
+            f = _dynamic_force(N_MECH + 3 * i, d, dd, x, e, rt, dx)
+        else:
+            u[0] = d
+            u[1] = dd
+            if lpr_is_outside(u, lpr.lo, lpr.up):
+                outside += 1
+            f = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+        fs[i] = f
+        ftot = f + fa[i]
+        if i == 0:
+            f0 = ftot
+        else:
+            f1 = ftot
+        tb, wb = x[4 + 2 * i], x[11 + 2 * i]
+        lead = p.k1w * (w[2 * i, 0] - zb - p.b * tb) + p.c1w * (w[2 * i, 1] - vb - p.b * wb)
+        trail = p.k1w * (w[2 * i + 1, 0] - zb + p.b * tb) + p.c1w * (
+            w[2 * i + 1, 1] - vb + p.b * wb
+        )
+        dx[3 + 2 * i] = vb
+        dx[4 + 2 * i] = wb
+        dx[10 + 2 * i] = (lead + trail - ftot) * p.inv_m_b
+        dx[11 + 2 * i] = p.b * (lead - trail) * p.inv_j_b
+    for j in range(3):
+        dx[j] = x[7 + j]
+    dx[7] = (f0 + f1) * p.inv_m_c
+    dx[8] = p.a * (f0 - f1) * p.inv_j_c
+    dx[9] = (p.phi_a * (f0 + f1) - p.k_q * x[2] - p.c_q * x[9]) * p.inv_m_q
+    return outside
+
+
+@njit(cache=True, error_model="numpy")
+def _inputs(z, zd, off, pos, dt, w):
+    """Wheel inputs ``w`` (4, 2) of one vehicle (track ``z, zd``, wheelset offsets ``off``)
+    at fractional sample index ``pos``."""
+    for j in range(4):
+        w[j, 0], w[j, 1] = _hermite(z, zd, pos + off[j], dt)
+
+
+@njit(cache=True, error_model="numpy")
+def _outputs(dx, p, acc, i):
+    """Floor-point (front, centre, rear) and bogie accelerations of vehicle ``i``."""
+    acc[i, 0] = dx[7] + p.a * dx[8] + p.phi_a * dx[9]
+    acc[i, 1] = dx[7] + p.phi_c * dx[9]
+    acc[i, 2] = dx[7] - p.a * dx[8] + p.phi_a * dx[9]
+    acc[i, 3] = dx[10]
+    acc[i, 4] = dx[12]
+
+
+class Work(NamedTuple):
+    """Work arrays of one kernel call (states, stage rates, wheel inputs, element scratch)."""
+
+    x: np.ndarray
+    xt: np.ndarray
+    r1: np.ndarray
+    r2: np.ndarray
+    r3: np.ndarray
+    r4: np.ndarray
+    w: np.ndarray  # (4, 2) wheel inputs at the start/end of a substep
+    wm: np.ndarray  # (4, 2) at its midpoint
+    fs: np.ndarray  # (2,) secondary forces
+    u: np.ndarray  # (2,) surrogate input
+    rt: np.ndarray  # (3,) dynamic-element rates
+    lw: np.ndarray  # LPR scratch
+
+
+@njit(cache=True, error_model="numpy")
+def advance(kind, bt, n_sub, dt, p, e, lpr, out):
+    """Advance every vehicle of the batch ``bt`` (:class:`Batch`) by ``n_sub`` RK4 steps of
+    ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``p``:
+    :class:`Params`, ``e``: the suspension record (``SuspensionParams.record()``), ``lpr``:
+    :class:`Lpr`.
+
+    A vehicle whose state turns non-finite or beyond ``DIVERGENCE_DISPLACEMENT`` is frozen at
+    its last finite state, its outputs are zero and ``out.div`` is set.
+    """
+    n, s = bt.state.shape
+    wk = Work(
+        np.empty(s),
+        np.empty(s),
+        np.empty(s),
+        np.empty(s),
+        np.empty(s),
+        np.empty(s),
+        np.empty((4, 2)),
+        np.empty((4, 2)),
+        np.empty(2),
+        np.empty(2),
+        np.empty(3),
+        lpr_scratch(lpr.exps, lpr.lo, lpr.up),
+    )
+    last = bt.z.shape[1] - 1
+    for i in range(n):
+        if bt.k[i] < 0 or bt.k[i] + n_sub + bt.off[i, 0] > last:
+            raise ValueError("track index out of range: the profile is too short")
+        _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
+
+
+# Without the runtime's reference counting (the arrays are owned by the caller, nothing is
+# allocated here): the counting of every array passed on to the element functions would
+# cost more than the arithmetic of a substep.
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):
+    """RK4 steps of vehicle ``i`` (see :func:`advance`); ``wk``: :class:`Work`."""
+    s = bt.state.shape[1]
+    x, xt, r1, r2, r3, r4 = wk.x, wk.xt, wk.r1, wk.r2, wk.r3, wk.r4
+    w, wm, fs, u, rt, lw = wk.w, wk.wm, wk.fs, wk.u, wk.rt, wk.lw
+    h6 = dt / 6.0
+    kk = bt.k[i]
+    fa = bt.force[i]
+    z, zd, off = bt.z[i], bt.zdot[i], bt.off[i]
+    for j in range(s):
+        x[j] = bt.state[i, j]
+    contact = 0
+    ood = 0
+    div = False
+    _inputs(z, zd, off, float(kk), dt, w)  # then carried from the end of each substep
+    for m in range(n_sub):
+        t0 = float(kk + m)
+        ood += _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
+        _inputs(z, zd, off, t0 + 0.5, dt, wm)
+        for j in range(s):
+            xt[j] = x[j] + 0.5 * dt * r1[j]
+        ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r2, fs)
+        for j in range(s):
+            xt[j] = x[j] + 0.5 * dt * r2[j]
+        ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r3, fs)
+        _inputs(z, zd, off, t0 + 1.0, dt, w)
+        for j in range(s):
+            xt[j] = x[j] + dt * r3[j]
+        ood += _rhs(kind, xt, w, fa, p, e, lpr, u, rt, lw, r4, fs)
+        ok = True
+        for j in range(s):
+            xt[j] = x[j] + h6 * (r1[j] + 2.0 * r2[j] + 2.0 * r3[j] + r4[j])
+            if not math.isfinite(xt[j]):
+                ok = False
+        for j in range(7):
+            if abs(xt[j]) > DIVERGENCE_DISPLACEMENT:
+                ok = False
+        if not ok:
+            div = True
+            break
+        for j in range(s):
+            x[j] = xt[j]
+        for b in range(2):
+            xb = p.a if b == 0 else -p.a
+            if in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2], e):
+                contact += 1
+    for j in range(s):
+        bt.state[i, j] = x[j]
+    if not div:  # w holds the inputs at the end of the step
+        _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
+        _outputs(r1, p, out.acc, i)
+        for j in range(5):
+            if not math.isfinite(out.acc[i, j]):
+                div = True
+        out.fs[i, 0] = fs[0]
+        out.fs[i, 1] = fs[1]
+    if div:
+        for j in range(5):
+            out.acc[i, j] = 0.0
+        out.fs[i, 0] = 0.0
+        out.fs[i, 1] = 0.0
+    out.count[i, 0] = contact
+    out.count[i, 1] = ood
+    out.div[i] = div
+
+
+# ======================================================================== utilities
+def make_batch(n: int, variant: str, n_samples: int) -> tuple[Batch, Out]:
+    """Zeroed :class:`Batch` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples."""
+    check_variant(variant)
+    s = STATE_SIZE[variant]
+    bt = Batch(
+        np.zeros((n, s)),
+        np.zeros((n, n_samples)),
+        np.zeros((n, n_samples)),
+        np.zeros(n, np.int64),
+        np.zeros((n, 4)),
+        np.zeros((n, 2)),
+    )
+    out = Out(np.zeros((n, 5)), np.zeros((n, 2)), np.zeros((n, 2), np.int64), np.zeros(n, np.bool_))
+    return bt, out
+
+
+def simulate(
+    variant: str,
+    vehicle: WholeVehicle,
+    z: Any,
+    zdot: Any,
+    offsets: Any,
+    dt: float,
+    n_steps: int,
+    sample_every: int = 1,
+    surrogate: Any = None,
+    flexible: bool = True,
+) -> dict[str, np.ndarray]:
+    """Simulate vehicles over sampled track inputs (passive; for tests and data).
+
+    Parameters
+    ----------
+    z, zdot : (n, M) track height (m) and rate (m/s) on the rear wheelset's grid ``k·dt``.
+    offsets : (n, 4) or (4,) wheelset sample offsets (:func:`wheelset_offsets`).
+    n_steps : number of recorded intervals of ``sample_every`` RK4 steps of ``dt`` (s).
+
+    Returns
+    -------
+    dict
+        ``acc`` (n, n_steps, 5) floor points front/centre/rear and bogies, m/s²;
+        ``states`` (n, n_steps, s); ``fs`` (n, n_steps, 2) N; ``contacts``, ``out_of_domain``
+        (n,) totals; ``diverged`` (n,) bool.
+    """
+    kind = check_variant(variant)
+    z = np.atleast_2d(np.asarray(z, dtype=float))
+    zdot = np.atleast_2d(np.asarray(zdot, dtype=float))
+    n = z.shape[0]
+    bt, out = make_batch(n, variant, z.shape[1])
+    bt.z[:] = z
+    bt.zdot[:] = zdot
+    bt.off[:] = np.broadcast_to(np.asarray(offsets, dtype=float), (n, 4))
+    p = kernel_params(vehicle, flexible)
+    e = vehicle.suspension.kernel_params().record()
+    lpr = lpr_arrays(surrogate if variant == "surrogate" else None)
+    acc = np.zeros((n, n_steps, 5))
+    states = np.zeros((n, n_steps, bt.state.shape[1]))
+    fs = np.zeros((n, n_steps, 2))
+    totals = np.zeros((n, 2), np.int64)
+    div = np.zeros(n, np.bool_)
+    for m in range(n_steps):
+        advance(kind, bt, sample_every, float(dt), p, e, lpr, out)
+        bt.k[:] += sample_every
+        acc[:, m], states[:, m], fs[:, m] = out.acc, bt.state, out.fs
+        totals += out.count
+        div |= out.div
+    return {
+        "acc": acc,
+        "states": states,
+        "fs": fs,
+        "contacts": totals[:, 0],
+        "out_of_domain": totals[:, 1],
+        "diverged": div,
+    }
+
+
+def linear_state_space(
+    vehicle: WholeVehicle, flexible: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Linear model ``ẋ = A·x + B·F_a + E·w`` of the 14 mechanical states, linear secondary.
+
+    ``w = [w_0..w_3, ẇ_0..ẇ_3]`` (m, m/s) are the wheelset inputs front to rear; the outputs
+    ``y = C·x + D·F_a`` are the floor-point accelerations front/centre/rear (m/s²). Built by
+    probing the compiled right-hand side with unit vectors (exact: it is linear).
+
+    Returns
+    -------
+    A (14, 14), B (14, 2), E (14, 8), C (3, 14), D (3, 2)
+    """
+    p = kernel_params(vehicle, flexible)
+    e = vehicle.suspension.kernel_params().record()
+    lpr = lpr_arrays(None)
+
+    def probe(x: np.ndarray, w: np.ndarray, fa: np.ndarray) -> np.ndarray:
+        dx = np.zeros(N_MECH)
+        _rhs(0, x, w, fa, p, e[0], lpr, np.empty(2), np.empty(3), np.empty((1, 1)), dx, np.empty(2))
+        acc = np.zeros((1, 5))
+        _outputs(dx, p, acc, 0)
+        return np.concatenate([dx, acc[0, :3]])
+
+    zx, zw, zf = np.zeros(N_MECH), np.zeros((4, 2)), np.zeros(2)
+    cols_x = [probe(np.eye(N_MECH)[j], zw, zf) for j in range(N_MECH)]
+    cols_f = [probe(zx, zw, np.eye(2)[j]) for j in range(2)]
+    cols_w = []
+    for j in range(8):
+        w = np.zeros((4, 2))
+        w[j % 4, j // 4] = 1.0
+        cols_w.append(probe(zx, w, zf))
+    mx, mf, mw = (np.array(c).T for c in (cols_x, cols_f, cols_w))
+    return mx[:N_MECH], mf[:N_MECH], mw[:N_MECH], mx[N_MECH:], mf[N_MECH:]
