@@ -16,7 +16,8 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
-from agents.evaluate import MAX_EPISODES, _check_int, load_policy, run_policy
+from agents.evaluate import MAX_EPISODES, load_policy, run_policy
+from railgym import _validation as val
 from railgym.parallel import run_tasks
 
 
@@ -59,8 +60,8 @@ def controller_sweep(
     """Comfort indices of ``factory``'s controller for each env setting of ``cases`` (keyword
     arguments of ``railgym/VerticalSuspension-v0``, e.g. ``{"backend": "reference",
     "track_class": 4}``), in the order of ``cases``."""
-    _check_int("episodes", episodes, 1)
-    _check_int("seed", seed, 0)
+    episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
+    seed = val.integer(seed, "seed", min=0)
     tasks = [ControllerTask(factory, dict(kw), episodes, seed) for kw in cases]
     return run_tasks(_run_controller, tasks, workers, address)
 
@@ -77,10 +78,13 @@ def evaluate_sweep(
 ) -> list[dict[str, Any]]:
     """:func:`agents.evaluate.evaluate` (same arguments and rows) with one task per
     (track class, policy)."""
-    _check_int("episodes", episodes, 1, MAX_EPISODES)
-    _check_int("seed", seed, 0)
-    for tc in track_classes:
-        _check_int("track_classes", tc, 1, 6)
+    episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
+    seed = val.integer(seed, "seed", min=0)
+    track_classes = [
+        val.integer(tc, "track_classes", min=1, max=6)
+        for tc in val.sequence(track_classes, "track_classes")
+    ]
+    policies = val.sequence(policies, "policies")
     labels = [load_policy(p, trust=trust)[2] for p in policies]  # bad names fail here
     tasks = [
         PolicyTask(p, trust, {"backend": backend, "track_class": tc}, episodes, seed)

@@ -73,7 +73,9 @@ from ray.tune.registry import register_env
 import railgym
 from agents._args import bounded_int
 from agents.policy_io import sha256
-from agents.train import EVAL_SEED, RUN_KEY, _kwargs, _positive_int, _seed, evaluate, make_vec
+from agents.train import evaluate, make_vec
+from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, _kwargs
+from railgym import _validation as val
 from railgym.report.output import prepare_output_dir, write_text_atomic
 
 ALGOS = ("ppo",)
@@ -116,61 +118,56 @@ def _training_keys() -> set[str]:
     return names - {"self", "kwargs"}
 
 
-def _check_names(value: dict[str, Any], name: str, allowed: set[str]) -> dict[str, Any]:
+def _check_names(value: Any, name: str, allowed: set[str]) -> dict[str, Any]:
     unknown = sorted(set(value) - allowed)
     if unknown:
-        raise ValueError(f"{name}: unknown keys {unknown} (allowed: {sorted(allowed)})")
-    return value
+        raise val.FieldError(name, f"has unknown keys {unknown} (allowed: {sorted(allowed)})")
+    return dict(value)
 
 
 def load_rllib_config(config: str | Path | dict[str, Any]) -> RLlibConfig:
-    """Read and validate a config (a YAML path or its content); errors name the field."""
-    if isinstance(config, (str, Path)):
-        path = Path(config)
-        if not path.is_file():
-            raise ValueError(f"config file {str(path)!r} does not exist or is not a file")
-        try:
-            config = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except (UnicodeDecodeError, yaml.YAMLError) as err:
-            mark = getattr(err, "problem_mark", None)
-            line = f", line {mark.line + 1}" if mark is not None else ""
-            raise ValueError(f"config file {path}{line}: not a valid YAML file ({err})") from None
+    """Read and validate a config: a ``.yaml`` / ``.yml`` path, the name of a packaged config
+    (``ppo_vertical_rllib``) or the content as a dict; errors name the field."""
+    if isinstance(config, str | Path):
+        text, source = val.resolve_yaml(config, "config", "railgym", ("configs", "agents"))
+        config = val.load_yaml(text, source)
     if not isinstance(config, dict):
-        raise ValueError(f"config must be a mapping {{env id: settings}}, got {config!r}")
+        raise val.FieldTypeError(
+            "config", f"must be a mapping {{env id: settings}}, got {config!r}"
+        )
     ids = [k for k in config if k != RUN_KEY]
     if len(ids) != 1 or ids[0] not in gym.registry:
-        raise ValueError(f"config must have one top-level key, a registered env id, got {ids}")
+        raise val.FieldError("config", f"must have one top-level key, a registered env id: {ids}")
     env_id = ids[0]
-    block = config[env_id]
-    if not isinstance(block, dict):
-        raise ValueError(f"settings of {env_id!r} must be a mapping, got {block!r}")
-    fields = {f.name for f in dataclasses.fields(RLlibConfig)} - {"env_id"}
-    _check_names(block, env_id, fields)
-    if block.get("trainer") != "rllib":
-        raise ValueError(
-            f"trainer must be 'rllib' for agents.train_rllib, got {block.get('trainer')!r}"
-        )
-    if block.get("algo", "ppo") not in ALGOS:
-        raise ValueError(f"algo must be one of {list(ALGOS)}, got {block.get('algo')!r}")
-    runners = block.get("num_env_runners", 2)
-    if isinstance(runners, bool) or not isinstance(runners, int) or runners < 0:
-        raise ValueError(f"num_env_runners must be an integer >= 0, got {runners!r}")
-    seed = _seed(block, "seed", None)
+    f = val.Fields(config[env_id], env_id)
+    fields = {x.name for x in dataclasses.fields(RLlibConfig)} - {"env_id"}
+    _check_names(f.data, env_id, fields)
+    if f.get("trainer", None) != "rllib":
+        raise val.FieldError(f.field("trainer"), f"must be 'rllib', got {f.get('trainer', None)!r}")
+    algo = val.choice(f.get("algo", "ppo"), f.field("algo"), ALGOS)
+    seed = f.get("seed", None)
     if seed is None:
-        seed = int(np.random.SeedSequence().entropy % 2**31)
-    model_fields = {f.name for f in dataclasses.fields(DefaultModelConfig)}
+        seed = int(np.random.default_rng().integers(2**31))  # OS entropy, recorded
+    model_fields = {x.name for x in dataclasses.fields(DefaultModelConfig)}
+    training = _kwargs(f.get("training", None), f.field("training"))
+    model = _kwargs(f.get("model", None), f.field("model"))
     return RLlibConfig(
         env_id=env_id,
-        iterations=_positive_int(block, "iterations"),
-        seed=seed,
-        num_env_runners=runners,
-        num_envs_per_env_runner=_positive_int(block, "num_envs_per_env_runner", 8),
-        env_kwargs=_kwargs(block, "env_kwargs"),
-        eval_env_kwargs=_kwargs(block, "eval_env_kwargs"),
-        n_eval_episodes=_positive_int(block, "n_eval_episodes", 4),
-        eval_seed=_seed(block, "eval_seed", EVAL_SEED),
-        training=_check_names(_kwargs(block, "training"), "training", _training_keys()),
-        model=_check_names(_kwargs(block, "model"), "model", model_fields),
+        iterations=f.integer("iterations", min=1),
+        seed=val.integer(seed, f.field("seed"), min=0, max=MAX_SEED),
+        algo=algo,
+        num_env_runners=val.integer(f.get("num_env_runners", 2), f.field("num_env_runners"), 0),
+        num_envs_per_env_runner=val.integer(
+            f.get("num_envs_per_env_runner", 8), f.field("num_envs_per_env_runner"), 1, MAX_ENVS
+        ),
+        env_kwargs=_kwargs(f.get("env_kwargs", None), f.field("env_kwargs")),
+        eval_env_kwargs=_kwargs(f.get("eval_env_kwargs", None), f.field("eval_env_kwargs")),
+        n_eval_episodes=val.integer(
+            f.get("n_eval_episodes", 4), f.field("n_eval_episodes"), 1, MAX_ENVS
+        ),
+        eval_seed=val.integer(f.get("eval_seed", EVAL_SEED), f.field("eval_seed"), 0, MAX_SEED),
+        training=_check_names(training, f.field("training"), _training_keys()),
+        model=_check_names(model, f.field("model"), model_fields),
     )
 
 
@@ -329,9 +326,9 @@ def train_rllib(
             raise ValueError("out is required when the config is given as a dict")
         out = Path("runs") / Path(config).stem
     if iterations is not None:
-        cfg.iterations = _positive_int({"iterations": iterations}, "iterations")
+        cfg.iterations = val.integer(iterations, "iterations", min=1)
     if seed is not None:
-        cfg.seed = _seed({"seed": seed}, "seed", None)
+        cfg.seed = val.integer(seed, "seed", min=0, max=MAX_SEED)
     out = prepare_output_dir(out, overwrite)
     run: dict[str, Any] = {"versions": _versions()}
     _write_config(out, cfg, run)

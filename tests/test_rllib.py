@@ -53,11 +53,13 @@ def local_ray():
     [
         ({"trainer": "sb3"}, "trainer must be 'rllib'"),
         ({"algo": "sac"}, "algo must be one of"),
-        ({"num_env_runners": -1}, "num_env_runners"),
+        ({"num_env_runners": -1}, "num_env_runners must be at least 0"),
+        ({"seed": 2**40}, "seed must be at most"),
+        ({"env_kwargs": [1]}, "env_kwargs"),
         ({"iterations": 0}, "iterations"),
         ({"n_steps": 64}, "unknown keys \\['n_steps'\\]"),
-        ({"training": {"learning_rate": 1e-3}}, "training: unknown keys \\['learning_rate'\\]"),
-        ({"model": {"net_arch": [64]}}, "model: unknown keys"),
+        ({"training": {"learning_rate": 1e-3}}, "training has unknown keys \\['learning_rate'\\]"),
+        ({"model": {"net_arch": [64]}}, "model has unknown keys"),
     ],
 )
 def test_bad_config_names_the_field(over, match):
