@@ -72,6 +72,7 @@ from ray.tune.registry import register_env
 
 import railgym
 from agents._args import bounded_int
+from agents.evaluate import RLLIB_MODULE_PATH
 from agents.policy_io import sha256
 from agents.train import evaluate, make_vec
 from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, _kwargs
@@ -82,7 +83,7 @@ ALGOS = ("ppo",)
 #: RLlib's name of the native vector env creator (registered by :func:`_register`)
 RLLIB_ENV = "railgym-native-vector"
 #: where ``Algorithm.save_to_path`` puts the policy module
-MODULE_PATH = Path("learner_group") / "learner" / "rl_module" / "default_policy"
+MODULE_PATH = RLLIB_MODULE_PATH
 MANIFEST = "manifest.json"
 FORMAT = "railgym-rllib-manifest/1"
 

@@ -13,6 +13,7 @@ pytest.importorskip(
 import gymnasium as gym  # noqa: E402
 import ray  # noqa: E402
 
+from agents.evaluate import load_policy  # noqa: E402
 from agents.train_rllib import (  # noqa: E402
     RLlibPolicy,
     build_algo_config,
@@ -93,6 +94,9 @@ def test_checkpoint_round_trip_and_deterministic_action_is_the_mean(local_ray, t
     obs = np.random.default_rng(0).normal(size=(8, gym.make(ENV).observation_space.shape[0]))
     a_live, _ = live.predict(obs)
     np.testing.assert_array_equal(loaded.predict(obs)[0], a_live)
+    factory, _, label = load_policy(str(checkpoint), ENV)  # what railgym evaluate loads
+    np.testing.assert_array_equal(factory(None).predict(obs)[0], a_live)
+    assert label == "rllib:checkpoint"
     assert a_live.shape == (8, 1) and np.all(np.abs(a_live) <= 1.0)
     # stochastic actions scatter around the deterministic one (the Gaussian mean) where it
     # is inside the bounds

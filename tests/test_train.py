@@ -450,3 +450,8 @@ def test_numpy_integers_are_accepted_and_bools_rejected():
     cfg[ENV_ID]["n_envs"] = True
     with pytest.raises(ValueError, match="n_envs"):
         load_config(cfg)
+
+
+def test_rllib_config_is_pointed_to_its_trainer():
+    with pytest.raises(ValueError, match="agents.train_rllib"):
+        load_config("ppo_vertical_rllib")
