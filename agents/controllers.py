@@ -85,6 +85,8 @@ class _Controller:
             raise ValueError(
                 f"observation must have shape ({n_obs},) or (n, {n_obs}), got {obs.shape}"
             )
+        if not np.all(np.isfinite(obs)):
+            raise ValueError("observation has non-finite values (NaN or inf)")
         x = np.atleast_2d(obs) * self.obs_scale
         u = np.clip(self.force(x) / self.f_max, -1.0, 1.0).astype(np.float32)
         u = u.reshape(x.shape[0], self.n_act)

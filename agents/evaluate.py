@@ -44,6 +44,22 @@ CONTROLLERS = {
 }
 
 
+#: where an RLlib algorithm checkpoint keeps its policy module (see :mod:`agents.train_rllib`)
+RLLIB_MODULE_PATH = Path("learner_group") / "learner" / "rl_module" / "default_policy"
+
+
+def _rllib_policy(path: Path, env_id: str, trust: bool) -> tuple[Any, dict[str, Any], str]:
+    """:func:`load_policy` for an RLlib checkpoint folder (needs the ``rllib`` extra)."""
+    try:
+        from agents.train_rllib import load_rllib_policy
+    except ImportError as err:
+        raise ValueError(
+            f"policy {path} is an RLlib checkpoint: install the 'rllib' extra to load it ({err})"
+        ) from err
+    policy = load_rllib_policy(path, env_id, trust)
+    return (lambda env: policy), {}, f"rllib:{path.name}"
+
+
 def load_policy(
     policy: str, env_id: str = ENV_ID, trust: bool = False
 ) -> tuple[Any, dict[str, Any], str]:
@@ -60,10 +76,12 @@ def load_policy(
         cls, kwargs, env_kwargs = CONTROLLERS[policy]
         return (lambda env: cls(env, **kwargs)), env_kwargs, policy
     path = Path(policy)
+    if path.is_dir() and (path / RLLIB_MODULE_PATH).is_dir():
+        return _rllib_policy(path, env_id, trust)
     if path.suffix != ".zip" or not path.is_file():
         raise ValueError(
-            f"policy must be one of {sorted(CONTROLLERS)} or an existing stable-baselines3 .zip, "
-            f"got {policy!r}"
+            f"policy must be one of {sorted(CONTROLLERS)}, an existing stable-baselines3 .zip "
+            f"or an RLlib checkpoint folder, got {policy!r}"
         )
     cfg_path = path.parent / "config.yaml"
     if not cfg_path.is_file():

@@ -1,4 +1,4 @@
-"""Train stable-baselines3 agents on railgym environments from rl-zoo3-style YAML files.
+"""Train stable-baselines3 agents on railgym environments from YAML files (agents.train format).
 
 Usage::
 
@@ -436,7 +436,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m agents.train", description=__doc__.split("\n\n")[0]
     )
-    parser.add_argument("config", help="rl-zoo3-style YAML file, or the name of a packaged config")
+    parser.add_argument(
+        "config", help="YAML file (agents.train format), or the name of a packaged config"
+    )
     parser.add_argument(
         "--out",
         type=Path,

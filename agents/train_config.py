@@ -255,6 +255,10 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
         raise val.FieldTypeError(
             env_id, f"settings of {env_id!r} must be a mapping, got {block!r}", full=True
         )
+    if block.get("trainer", "sb3") == "rllib":
+        raise val.FieldError(
+            "trainer", "is 'rllib': train this file with python -m agents.train_rllib"
+        )
     f = val.Fields(block, "")
     algo = val.choice(f.get("algo", None), "algo", sorted(ALGOS))
     policy = f.get("policy", "MlpPolicy")

@@ -25,36 +25,55 @@ def run() -> list[dict]:
     """
     cart = gym.make("CartPole-v1")
     zero = np.zeros(2, np.float32)
-    envs = {b: gym.make("railgym/VerticalVehicle-v0", backend=b)
-            for b in ("surrogate", "reference", "linear")}  # fmt: skip
+    envs = {
+        b: gym.make("railgym/VerticalVehicle-v0", backend=b)
+        for b in ("surrogate", "reference", "linear")
+    }
     t_cart, t_env = [], {b: [] for b in envs}
     for _ in range(ROUNDS):
         for b, env in envs.items():
             t_cart.append(_single_step_us(cart, lambda k: k % 2, 4000))
             t_env[b].append(_single_step_us(env, lambda k: zero, 4000) / t_cart[-1])
-    rows = [row("CartPole-v1 step (anchor)", float(np.median(t_cart)), "µs",
-                context="gym.make, same run, median")]  # fmt: skip
+    rows = [
+        row(
+            "CartPole-v1 step (anchor)",
+            float(np.median(t_cart)),
+            "µs",
+            context="gym.make, same run, median",
+        )
+    ]
     for b, ratios in t_env.items():
         t = float(np.median(ratios)) * float(np.median(t_cart))
         rows += [
             row(f"VerticalVehicle step ({b})", t, "µs", context="5 RK4 substeps of 2 ms"),
-            row(f"  ratio to CartPole ({b})", float(np.median(ratios)), "×",
-                "≤ 2" if b == "surrogate" else "", f"median of {ROUNDS} interleaved rounds"),
-        ]  # fmt: skip
+            row(
+                f"  ratio to CartPole ({b})",
+                float(np.median(ratios)),
+                "×",
+                "≤ 2" if b == "surrogate" else "",
+                f"median of {ROUNDS} interleaved rounds",
+            ),
+        ]
     n = 1024
-    v0 = gym.make_vec("railgym/VerticalSuspension-v0", num_envs=n,
-                      vectorization_mode="vector_entry_point")  # fmt: skip
+    v0 = gym.make_vec(
+        "railgym/VerticalSuspension-v0", num_envs=n, vectorization_mode="vector_entry_point"
+    )
     r_v0 = _vector_rate(v0, np.zeros((n, 1), np.float32), 30)
     del v0
-    venv = gym.make_vec("railgym/VerticalVehicle-v0", num_envs=n,
-                        vectorization_mode="vector_entry_point")  # fmt: skip
+    venv = gym.make_vec(
+        "railgym/VerticalVehicle-v0", num_envs=n, vectorization_mode="vector_entry_point"
+    )
     r = _vector_rate(venv, np.zeros((n, 2), np.float32), 30)
     rows += [
-        row(f"VerticalSuspension vector ({n}) (anchor)", r_v0 / 1e6, "M steps/s",
-            context="surrogate, same run"),
+        row(
+            f"VerticalSuspension vector ({n}) (anchor)",
+            r_v0 / 1e6,
+            "M steps/s",
+            context="surrogate, same run",
+        ),
         row(f"VerticalVehicle vector ({n}, surrogate)", r / 1e6, "M steps/s"),
         row("  share of VerticalSuspension's", r / r_v0, "×", "≥ 1/3"),
-    ]  # fmt: skip
+    ]
     return rows
 
 

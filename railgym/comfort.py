@@ -29,6 +29,12 @@ cannot be represented when ``fs <= 2 f2`` (at the 100 Hz control rate of the env
 whole band above 50 Hz is missing anyway); it is then omitted. Its analog gain is
 ``1/sqrt(1 + (f/f2)⁴)``, so omitting it changes the weighting by less than 0.5 % below 30 Hz
 and by 3 % at 50 Hz.
+
+Check against tabulated values: ``wb_weighting`` reproduces the Wb design-goal weighting
+factors of ISO 8041-1:2017 Annex B, Table B.1 (one-third-octave band centres 0.1 to 398 Hz,
+band limiting included) to their printed four significant figures
+(``tests/test_vehicle_comfort.py``; table as transcribed in the phonometry project,
+github.com/jmrplens/phonometry, ``tests/reference_data/vibration.py``).
 """
 
 from __future__ import annotations

@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from railgym import _validation as val
+
 #: fewest points accepted in a profile
 MIN_POINTS = 4
 
@@ -31,7 +33,7 @@ def read_profile_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"profile file {str(path)!r} does not exist")
+        raise val.FieldError("profile", f"profile file {str(path)!r} does not exist", full=True)
     xs: list[float] = []
     zs: list[float] = []
     lines: list[int] = []
@@ -58,19 +60,37 @@ def read_profile_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return x_arr, z_arr
 
 
+def _real_array(value: Any, label: str) -> np.ndarray:
+    """``value`` as a float64 array; bools, strings, complex and ragged data are type errors."""
+    try:
+        arr = np.asarray(value) if not isinstance(value, str | bytes) else np.asarray(value, object)
+    except ValueError:  # ragged nesting
+        arr = np.asarray(None, object)
+    if arr.dtype.kind not in "iuf":
+        raise val.FieldTypeError(
+            label,
+            f"{label} must be an array of real numbers, got dtype {arr.dtype}",
+            full=True,
+        )
+    return arr.astype(np.float64)
+
+
 def check_profile(
     x: Any, z: Any, source: str = "profile", lines: list[int] | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Validate a profile; ValueError names ``source`` and the line (or index) at fault."""
-    try:
-        x = np.asarray(x, dtype=float)
-        z = np.asarray(z, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{source}: x and z must be arrays of numbers") from None
+    """Validate a profile; the error (a ``ValueError``; a ``TypeError`` too for data that are
+    not real numbers) names ``source`` and the line (or index) at fault."""
+    x, z = (_real_array(v, f"{source}: {name}") for name, v in (("x", x), ("z", z)))
     if x.ndim != 1 or x.shape != z.shape:
-        raise ValueError(f"{source}: x and z must be 1-D of equal length, got {x.shape}, {z.shape}")
+        raise val.FieldError(
+            source,
+            f"{source}: x and z must be 1-D of equal length, got {x.shape}, {z.shape}",
+            full=True,
+        )
     if x.size < MIN_POINTS:
-        raise ValueError(f"{source}: needs at least {MIN_POINTS} points, got {x.size}")
+        raise val.FieldError(
+            source, f"{source}: needs at least {MIN_POINTS} points, got {x.size}", full=True
+        )
 
     def where(i: int) -> str:
         return f"line {lines[i]}" if lines is not None else f"index {i}"

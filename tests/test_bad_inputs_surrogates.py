@@ -65,6 +65,10 @@ def _drop_exponent_row(doc: dict[str, Any]) -> None:
     doc["model"]["state"]["exponents"].pop()
 
 
+def _drop_coefficient(doc: dict[str, Any]) -> None:
+    doc["model"]["state"]["coef"].pop()
+
+
 # (row id, base document, mutation, text the message must contain)
 DOC_ROWS: list[tuple[str, dict[str, Any], Mutation, str]] = [
     ("lpr-domain-swapped", LPR_DOC, _swap_domain, "model.domain column 0"),
@@ -89,6 +93,7 @@ DOC_ROWS: list[tuple[str, dict[str, Any], Mutation, str]] = [
     ("lpr-coef-empty", LPR_DOC, _set("model.state.coef", []), "model.state.coef"),
     ("lpr-coef-dict", LPR_DOC, _set("model.state.coef", {"a": 1}), "model.state.coef"),
     ("lpr-coef-null", LPR_DOC, _set("model.state.coef", None), "model.state.coef"),
+    ("lpr-coef-missing-one", LPR_DOC, _drop_coefficient, "model.state.coef has"),
     ("lpr-exp-negative", LPR_DOC, _set("model.state.exponents.1", [-1, 0]), "exponents"),
     ("lpr-exp-huge", LPR_DOC, _set("model.state.exponents.1", [10**9, 0]), "exponents"),
     ("lpr-exp-float", LPR_DOC, _set("model.state.exponents.1", [1.5, 0]), "exponents"),
@@ -260,6 +265,13 @@ API_ROWS: list[tuple[str, Callable[[], Any], type[Exception], str]] = [
     ("predict-raise", lambda: _raising().predict([[3.0]]), ValueError, "column(s) [0]"),
     ("predict-overflow", lambda: _steep().predict([[1e306]]), ValueError, "overflows float64"),
     ("predict-columns", lambda: _steep().predict(np.zeros((2, 3))), ValueError, "3 columns"),
+    (
+        "predict-strings",
+        lambda: _steep().predict([["a"]]),
+        ValueError,
+        "U must be an array of real",
+    ),
+    ("predict-complex", lambda: _steep().predict([[1j]]), ValueError, "U must be an array of real"),
     ("set-params", lambda: Kriging().set_params(degree=3), ValueError, "degree"),
     ("build-const-col", lambda: build(U_CONST, V_LIN, m=20), ValueError, "U column 1"),
     ("build-wide-col", lambda: build(U_WIDE, V_LIN, m=20), ValueError, "overflows"),

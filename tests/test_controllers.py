@@ -216,5 +216,7 @@ def test_bad_input_raises():
         LQR(lqr_env(), q_defl=-1.0)
     with pytest.raises(ValueError, match="observation must have shape"):
         Passive(sensors).predict(np.zeros(8))
+    with pytest.raises(ValueError, match="observation has non-finite"):
+        Skyhook(sensors).predict(np.full(sensors.observation_space.shape, np.nan))
     with pytest.raises(ValueError, match="env must be a railgym"):
         Passive(gym.make("CartPole-v1"))

@@ -1,6 +1,7 @@
 import base64
 import json
 import pickle
+import sys
 import zipfile
 from pathlib import Path
 
@@ -9,7 +10,7 @@ import pytest
 import yaml
 
 from agents.cli import main
-from agents.evaluate import evaluate, evaluate_crash, format_rows, load_policy
+from agents.evaluate import RLLIB_MODULE_PATH, evaluate, evaluate_crash, format_rows, load_policy
 from agents.policy_io import write_manifest
 
 
@@ -111,3 +112,10 @@ def test_a_zip_that_is_no_zip_is_one_clear_error(tmp_path):
 def test_bad_evaluate_arguments_name_the_argument(call, name):
     with pytest.raises(ValueError, match=name):
         call()
+
+
+def test_rllib_checkpoint_without_the_extra_is_a_clear_error(tmp_path, monkeypatch):
+    (tmp_path / "ckpt" / RLLIB_MODULE_PATH).mkdir(parents=True)
+    monkeypatch.setitem(sys.modules, "agents.train_rllib", None)  # as if ray were absent
+    with pytest.raises(ValueError, match="install the 'rllib' extra"):
+        load_policy(str(tmp_path / "ckpt"))

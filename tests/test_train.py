@@ -312,7 +312,15 @@ def test_short_sac_run_with_schedule_reloads(tmp_path, capsys):
     )
 
 
-@pytest.mark.parametrize("path", sorted(CONFIGS.glob("*.yaml")), ids=lambda p: p.name)
+#: the agents.train configs (``trainer: rllib`` files are agents.train_rllib's, tests/test_rllib.py)
+SB3_CONFIGS = [
+    p
+    for p in sorted(CONFIGS.glob("*.yaml"))
+    if next(iter(yaml.safe_load(p.read_text()).values())).get("trainer") != "rllib"
+]
+
+
+@pytest.mark.parametrize("path", SB3_CONFIGS, ids=lambda p: p.name)
 def test_shipped_configs_are_valid(path):
     cfg = load_config(path)
     assert cfg.algo == path.stem.split("_")[0]
@@ -442,3 +450,8 @@ def test_numpy_integers_are_accepted_and_bools_rejected():
     cfg[ENV_ID]["n_envs"] = True
     with pytest.raises(ValueError, match="n_envs"):
         load_config(cfg)
+
+
+def test_rllib_config_is_pointed_to_its_trainer():
+    with pytest.raises(ValueError, match="agents.train_rllib"):
+        load_config("ppo_vertical_rllib")

@@ -7,6 +7,50 @@ from railgym.comfort import WeightingFilter, a_zp95, wb_weighting, weighted_rms
 
 #: ISO 8041 reference value of Wb at its reference frequency 100 rad/s (15.915 Hz)
 WB_REFERENCE = (100.0 / (2.0 * np.pi), 0.8126)
+#: Wb design-goal weighting factors of ISO 8041-1:2017 Annex B, Table B.1 (the weighting of
+#: ISO 2631-4:2001 Annex A and EN 12299, band limiting included) at the one-third-octave
+#: band centres 10^(n/10) Hz, n = -10 ... 26 (0.1 to 398 Hz), 4 significant figures; as
+#: transcribed in the phonometry project (github.com/jmrplens/phonometry,
+#: tests/reference_data/vibration.py, ``ISO8041_1_ANNEX_B_FACTORS["Wb"]``)
+WB_TABLE_B1 = (
+    0.02494,
+    0.03941,
+    0.06198,
+    0.09645,
+    0.1464,
+    0.2113,
+    0.28,
+    0.3347,
+    0.3666,
+    0.3808,
+    0.3853,
+    0.3864,
+    0.3916,
+    0.4168,
+    0.496,
+    0.6653,
+    0.885,
+    1.026,
+    1.054,
+    1.026,
+    0.9745,
+    0.9042,
+    0.8144,
+    0.7088,
+    0.5973,
+    0.4906,
+    0.395,
+    0.3118,
+    0.2389,
+    0.1734,
+    0.1154,
+    0.06929,
+    0.03818,
+    0.01999,
+    0.0102,
+    0.005154,
+    0.002591,
+)
 
 
 def iso_wb(f):
@@ -28,6 +72,14 @@ def test_wb_gain_matches_the_tabulated_reference_value_and_the_formula():
     np.testing.assert_allclose(wb_weighting(f), iso_wb(f), rtol=1e-12)
     # shape: attenuates below the 2.5–4 Hz step (≈ (2.5/4)² · K at low frequency)
     assert wb_weighting(1.0) < 0.45 < 0.95 < wb_weighting(6.0)
+
+
+def test_wb_gain_matches_the_standard_table_at_every_third_octave_band():
+    f = 10.0 ** (np.arange(-10, 27) / 10.0)
+    assert len(WB_TABLE_B1) == f.size
+    np.testing.assert_allclose(wb_weighting(f), WB_TABLE_B1, rtol=0.02)
+    # the table is printed to 4 significant figures: the formula agrees to that rounding
+    np.testing.assert_allclose(wb_weighting(f), WB_TABLE_B1, rtol=1e-3)
 
 
 def test_digital_wb_filter_follows_the_analog_gain_at_the_env_rate():

@@ -45,9 +45,12 @@ def test_skyhooks_from_sensors_and_full_state_agree():
         os_, *_ = sens.step(u)
         of, *_ = full.step(u)
     for cls in (BogieSkyhook, ModalSkyhook):
-        np.testing.assert_allclose(cls(sens, ).force(np.atleast_2d(os_) * sens.obs_scale),
-                                   cls(full).force(np.atleast_2d(of) * full.obs_scale),
-                                   rtol=1e-5, atol=1e-3)  # fmt: skip
+        np.testing.assert_allclose(
+            cls(sens).force(np.atleast_2d(os_) * sens.obs_scale),
+            cls(full).force(np.atleast_2d(of) * full.obs_scale),
+            rtol=1e-5,
+            atol=1e-3,
+        )
 
 
 def test_modal_skyhook_splits_bounce_and_pitch():
@@ -72,8 +75,10 @@ def test_lqr_is_stabilising_and_beats_passive_and_skyhook_on_the_linear_model():
     lqr = VehicleLQR(env)
     assert lqr.K.shape == (2, 14)
     assert np.max(lqr.closed_loop_poles().real) < 0
-    rms = {name: episode_rms(env, ctrl, seed=1)[0] for name, ctrl in
-           (("passive", Passive(env)), ("skyhook", BogieSkyhook(env)), ("lqr", lqr))}  # fmt: skip
+    rms = {
+        name: episode_rms(env, ctrl, seed=1)[0]
+        for name, ctrl in (("passive", Passive(env)), ("skyhook", BogieSkyhook(env)), ("lqr", lqr))
+    }
     assert np.mean(rms["skyhook"]) < np.mean(rms["passive"])
     assert np.all(rms["lqr"] < rms["passive"])
     with pytest.raises(ValueError, match="full"):

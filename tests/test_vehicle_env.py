@@ -183,10 +183,14 @@ def test_profile_file_errors_name_file_line_and_problem(tmp_path, text, match):
 
 
 def test_bad_arguments_name_the_argument():
-    for kw, match in [({"backend": "x"}, "backend"), ({"n_actuators": 4}, "n_actuators"),
-                      ({"speed": (50.0, 30.0)}, "v_min"), ({"control_dt": 0.05}, "control_dt"),
-                      ({"acc_weighting": "Wx"}, "acc_weighting"),
-                      ({"profile": "/no/such.csv"}, "does not exist")]:  # fmt: skip
+    for kw, match in [
+        ({"backend": "x"}, "backend"),
+        ({"n_actuators": 4}, "n_actuators"),
+        ({"speed": (50.0, 30.0)}, "v_min"),
+        ({"control_dt": 0.05}, "control_dt"),
+        ({"acc_weighting": "Wx"}, "acc_weighting"),
+        ({"profile": "/no/such.csv"}, "does not exist"),
+    ]:
         with pytest.raises(ValueError, match=match):
             VerticalVehicleEnv(**kw)
     env = VerticalVehicleEnv(**SHORT)
@@ -195,8 +199,9 @@ def test_bad_arguments_name_the_argument():
 
 
 def test_wk_weighted_reward_and_rendering():
-    env = VerticalVehicleEnv(backend="linear", duration=1.0, acc_weighting="Wk",
-                             render_mode="rgb_array")  # fmt: skip
+    env = VerticalVehicleEnv(
+        backend="linear", duration=1.0, acc_weighting="Wk", render_mode="rgb_array"
+    )
     raw = VerticalVehicleEnv(backend="linear", duration=1.0)
     env.reset(seed=2)
     raw.reset(seed=2)

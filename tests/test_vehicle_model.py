@@ -40,8 +40,17 @@ def matrices(v: WholeVehicle):
     wq = 2 * np.pi * v.bending_frequency
     mq = v.bending_modal_mass
     phi_a = beam_mode(a, v.carbody_length)
-    m = np.diag([v.carbody_mass, v.carbody_pitch_inertia, mq, v.bogie_mass,
-                 v.bogie_pitch_inertia, v.bogie_mass, v.bogie_pitch_inertia])  # fmt: skip
+    m = np.diag(
+        [
+            v.carbody_mass,
+            v.carbody_pitch_inertia,
+            mq,
+            v.bogie_mass,
+            v.bogie_pitch_inertia,
+            v.bogie_mass,
+            v.bogie_pitch_inertia,
+        ]
+    )
     k = np.zeros((7, 7))
     c = np.zeros((7, 7))
     k[2, 2] = mq * wq**2
@@ -129,8 +138,9 @@ def test_frequency_response_matches_transfer_function_with_delays(vehicle):
     keep = t > 8.0
     for i, f in enumerate(freqs):
         expect = analytic_floor_response(vehicle, f, SPEED) * -1e-3j  # sin = Re(−j·e^{jωt})
-        got = np.array([steady_phasor(res["acc"][i, keep, p], t[keep], 2 * np.pi * f)
-                        for p in range(3)])  # fmt: skip
+        got = np.array(
+            [steady_phasor(res["acc"][i, keep, p], t[keep], 2 * np.pi * f) for p in range(3)]
+        )
         scale = np.max(np.abs(expect))
         np.testing.assert_allclose(got, expect, atol=1e-2 * scale, err_msg=f"f = {f} Hz")
         big = np.abs(expect) > 0.1 * scale
@@ -162,13 +172,14 @@ def test_geometric_filtering_of_bogie_spacing(vehicle, mult):
 def test_rigid_zero_spacing_reproduces_one_bogie_model(vehicle, variant):
     """a = b = 0, huge pitch inertia, bending decoupled: each bogie is the v0 model.
     Tolerance: 1e-9 of the RMS (the two kernels add the same terms in another order)."""
-    rigid = replace(vehicle, bogie_semi_spacing=0.0, semi_wheelbase=0.0,
-                    carbody_pitch_inertia=1e12)  # fmt: skip
+    rigid = replace(vehicle, bogie_semi_spacing=0.0, semi_wheelbase=0.0, carbody_pitch_inertia=1e12)
     rng = np.random.default_rng(3)
     n = 3001
     t = np.arange(n) * DT
-    z = sum(1e-3 * rng.uniform() * np.sin(2 * np.pi * f * t + rng.uniform(0, 6)) for f in
-            (0.9, 1.7, 4.0, 8.5))  # fmt: skip
+    z = sum(
+        1e-3 * rng.uniform() * np.sin(2 * np.pi * f * t + rng.uniform(0, 6))
+        for f in (0.9, 1.7, 4.0, 8.5)
+    )
     zd = np.gradient(z, DT)
     ref = simulate_v0(variant, vehicle.suspension, z, zd, DT)
     res = simulate(variant, rigid, z, zd, np.zeros(4), DT, n - 1, flexible=False)
@@ -177,8 +188,9 @@ def test_rigid_zero_spacing_reproduces_one_bogie_model(vehicle, variant):
         scale = np.sqrt(np.mean(ref["a2"][1:] ** 2))
         np.testing.assert_allclose(got, ref["a2"][1:], atol=1e-9 * scale)
     for p in (3, 4):
-        np.testing.assert_allclose(res["acc"][0, :, p], ref["a1"][1:],
-                                   atol=1e-9 * np.sqrt(np.mean(ref["a1"] ** 2)))  # fmt: skip
+        np.testing.assert_allclose(
+            res["acc"][0, :, p], ref["a1"][1:], atol=1e-9 * np.sqrt(np.mean(ref["a1"] ** 2))
+        )
 
 
 def test_kernel_freezes_a_diverging_vehicle(vehicle):

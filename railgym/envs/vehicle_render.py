@@ -19,8 +19,19 @@ from railgym.envs.rendering import (
     fill_rect,
 )
 
-_KEYS = ("track_x", "track_z", "body_x", "body_z", "bogie_x", "bogie_z", "bogie_pitch",
-         "wheel_x", "wheel_z", "force", "f_max")  # fmt: skip
+_KEYS = (
+    "track_x",
+    "track_z",
+    "body_x",
+    "body_z",
+    "bogie_x",
+    "bogie_z",
+    "bogie_pitch",
+    "wheel_x",
+    "wheel_z",
+    "force",
+    "f_max",
+)
 
 
 def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400) -> np.ndarray:
@@ -78,8 +89,9 @@ def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400
         e = 1.0 if j % 2 == 0 else -1.0
         xb_m = arr["wheel_x"][j] - arr["bogie_x"][i]
         yb = y_bogie0 - k * (arr["bogie_z"][i] + xb_m * arr["bogie_pitch"][i])
-        draw_spring(img, xw - 0.15 * e * r_wheel, yb, yw, col["primary_spring"], 4,
-                    0.25 * r_wheel, 2)  # fmt: skip
+        draw_spring(
+            img, xw - 0.15 * e * r_wheel, yb, yw, col["primary_spring"], 4, 0.25 * r_wheel, 2
+        )
     # bogie frames: beams through the wheelset points, pitched
     b = 0.5 * abs(arr["wheel_x"][0] - arr["wheel_x"][1])
     for i in range(2):

@@ -40,14 +40,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-import yaml
 from numba import njit
 
+from railgym import _validation as val
 from railgym.vehicles.vertical import (
     DIVERGENCE_DISPLACEMENT,
     VerticalVehicle,
@@ -72,6 +71,8 @@ FLOOR_POINTS = (1.0, 0.0, -1.0)
 #: default RK4 step, s: every mode lies below 12 Hz (ω·dt < 0.15) and the shortest track
 #: wavelength (1 m) spans 9 samples at 200 km/h; measured accuracy in docs/envs/vehicle_vertical.md
 DEFAULT_DT = 2e-3
+#: whole-vehicle fields that may be zero (the others must be positive)
+_NON_NEGATIVE = ("bogie_semi_spacing", "semi_wheelbase", "bending_damping")
 #: root of cos(βL)·cosh(βL) = 1 of the first free–free beam mode
 BETA_L = 4.730040744862704
 
@@ -114,15 +115,16 @@ class WholeVehicle:
         for f in fields(self):
             if f.name in ("name", "suspension"):
                 continue
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.number)):
-                raise ValueError(f"whole_vehicle.{f.name} must be a number, got {v!r}")
-            nonneg = f.name in ("bogie_semi_spacing", "semi_wheelbase", "bending_damping")
-            if not (math.isfinite(v) and (v >= 0 if nonneg else v > 0)):
-                sign = "non-negative" if nonneg else "positive"
-                raise ValueError(f"whole_vehicle.{f.name} must be {sign} and finite, got {v!r}")
+            check = val.non_negative if f.name in _NON_NEGATIVE else val.positive
+            object.__setattr__(
+                self, f.name, check(getattr(self, f.name), f"whole_vehicle.{f.name}")
+            )
         if 2.0 * self.bogie_semi_spacing >= self.carbody_length:
-            raise ValueError("whole_vehicle.bogie_semi_spacing must lie within the carbody")
+            raise val.FieldError(
+                "whole_vehicle.bogie_semi_spacing",
+                f"must lie within the carbody (2·a < carbody_length = {self.carbody_length} m), "
+                f"got {self.bogie_semi_spacing!r}",
+            )
 
     @property
     def wheelset_positions(self) -> np.ndarray:
@@ -136,34 +138,31 @@ class WholeVehicle:
         return self.bogie_semi_spacing * np.array(FLOOR_POINTS)
 
 
+_WHOLE_FIELDS = tuple(f.name for f in fields(WholeVehicle) if f.name not in ("name", "suspension"))
+
+
 def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVehicle:
-    """Load a whole vehicle: a packaged name or a YAML path (``base`` + ``whole_vehicle``)."""
-    text = str(name_or_path)
-    if isinstance(name_or_path, Path) or text.endswith((".yaml", ".yml")) or "/" in text:
-        path = Path(text)
-        if not path.is_file():
-            raise ValueError(f"vehicle file {text!r} does not exist")
-        raw = yaml.safe_load(path.read_text())
-    else:
-        res = resources.files("railgym").joinpath("configs", "vehicles", f"{text}.yaml")
-        if not res.is_file():
-            raise ValueError(f"unknown vehicle {text!r}; no packaged file {text}.yaml")
-        raw = yaml.safe_load(res.read_text())
-    if not isinstance(raw, dict) or set(raw) != {"base", "whole_vehicle"}:
-        raise ValueError(f"{text}: expected exactly the sections 'base' and 'whole_vehicle'")
-    sec = raw["whole_vehicle"]
-    names = [f.name for f in fields(WholeVehicle) if f.name not in ("name", "suspension")]
-    if not isinstance(sec, dict):
-        raise ValueError(f"{text}: whole_vehicle must be a mapping")
-    for key in sec:
-        if key not in names:
-            raise ValueError(f"{text}: unknown field whole_vehicle.{key}")
-    missing = [n for n in names if n not in sec]
-    if missing:
-        raise ValueError(f"{text}: whole_vehicle.{missing[0]} is missing")
-    base = load_vehicle(raw["base"])
-    suspension = replace(base, m2=0.5 * float(sec["carbody_mass"]))
-    return WholeVehicle(name=text, suspension=suspension, **{n: sec[n] for n in names})
+    """Load a whole vehicle: a packaged name or the path of a ``.yaml`` file with the
+    sections ``base`` (name or path of the one-bogie vehicle) and ``whole_vehicle``.
+
+    The "name or path" rule is :func:`railgym._validation.resolve_yaml`'s; errors in a file
+    name the file and the field.
+    """
+    text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))
+    try:
+        top = val.Fields(val.load_yaml(text, source), "")
+        base = load_vehicle(top.get("base"))
+        sec = top.section("whole_vehicle")
+        values = {name: sec.get(name) for name in _WHOLE_FIELDS}
+        sec.done()
+        top.done()
+        mass = val.positive(values["carbody_mass"], "whole_vehicle.carbody_mass")
+        suspension = replace(base, m2=0.5 * mass)
+        return WholeVehicle(name=str(name_or_path), suspension=suspension, **values)
+    except val.FieldError as exc:
+        if str(exc).startswith(source):
+            raise
+        raise type(exc)(exc.field, f"{source}: {exc}", full=True) from None
 
 
 # ======================================================================= kernel data
@@ -227,13 +226,22 @@ def kernel_params(vehicle: WholeVehicle, flexible: bool = True) -> Params:
     phi_a = float(mode_shape(vehicle.bogie_semi_spacing, vehicle.carbody_length))
     s = vehicle.suspension
     return Params(
-        inv_m_c=1.0 / vehicle.carbody_mass, inv_j_c=1.0 / vehicle.carbody_pitch_inertia,
-        inv_m_q=1.0 / mq, k_q=mq * w * w, c_q=2.0 * vehicle.bending_damping * mq * w,
-        inv_m_b=1.0 / vehicle.bogie_mass, inv_j_b=1.0 / vehicle.bogie_pitch_inertia,
-        a=float(vehicle.bogie_semi_spacing), b=float(vehicle.semi_wheelbase),
-        phi_a=phi_a if flexible else 0.0, phi_c=1.0 if flexible else 0.0,
-        k1w=0.5 * s.k1, c1w=0.5 * s.c1, k2=float(s.k2), c2=float(s.c2),
-    )  # fmt: skip
+        inv_m_c=1.0 / vehicle.carbody_mass,
+        inv_j_c=1.0 / vehicle.carbody_pitch_inertia,
+        inv_m_q=1.0 / mq,
+        k_q=mq * w * w,
+        c_q=2.0 * vehicle.bending_damping * mq * w,
+        inv_m_b=1.0 / vehicle.bogie_mass,
+        inv_j_b=1.0 / vehicle.bogie_pitch_inertia,
+        a=float(vehicle.bogie_semi_spacing),
+        b=float(vehicle.semi_wheelbase),
+        phi_a=phi_a if flexible else 0.0,
+        phi_c=1.0 if flexible else 0.0,
+        k1w=0.5 * s.k1,
+        c1w=0.5 * s.c1,
+        k2=float(s.k2),
+        c2=float(s.c2),
+    )
 
 
 def lpr_arrays(surrogate: Any = None) -> Lpr:
@@ -266,8 +274,12 @@ def _hermite(z: np.ndarray, zd: np.ndarray, pos: float, dt: float) -> tuple[floa
     d0, d1 = zd[i0] * dt, zd[i0 + 1] * dt
     u2 = u * u
     u3 = u2 * u
-    val = ((2 * u3 - 3 * u2 + 1) * z0 + (u3 - 2 * u2 + u) * d0 + (-2 * u3 + 3 * u2) * z1
-           + (u3 - u2) * d1)  # fmt: skip
+    val = (
+        (2 * u3 - 3 * u2 + 1) * z0
+        + (u3 - 2 * u2 + u) * d0
+        + (-2 * u3 + 3 * u2) * z1
+        + (u3 - u2) * d1
+    )
     rate = (6 * u2 - 6 * u) * z0 + (3 * u2 - 4 * u + 1) * d0 + (6 * u - 6 * u2) * z1
     rate += (3 * u2 - 2 * u) * d1
     return val, rate / dt
@@ -280,7 +292,7 @@ def _static_force(d: float, dd: float, e: Any) -> float:
 
 
 @njit(cache=True, error_model="numpy")
-def _dynamic_force(j, d, dd, x, e, rt, dx):  # fmt: skip
+def _dynamic_force(j, d, dd, x, e, rt, dx):
     """Dynamic reference secondary force (N) of the bogie whose element states start at
     ``x[j]``; their rates go to ``dx[j : j + 3]`` (through the work array ``rt``)."""
     f_air, f_d = dynamic_element(d, dd, x[j], x[j + 1], x[j + 2], e, rt)
@@ -289,7 +301,7 @@ def _dynamic_force(j, d, dd, x, e, rt, dx):  # fmt: skip
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, dx, fs):  # fmt: skip
+def _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, dx, fs):
     """State derivative into ``dx`` for wheel inputs ``w`` (4, 2) (height, rate) and actuator
     forces ``fa`` (2,); writes the secondary forces into ``fs`` (2,); returns the number of
     out-of-domain surrogate evaluations. ``u`` (2,), ``rt`` (3,) and ``lw`` are work arrays."""
@@ -372,7 +384,7 @@ class Work(NamedTuple):
 
 
 @njit(cache=True, error_model="numpy")
-def advance(kind, bt, n_sub, dt, p, e, lpr, out):  # fmt: skip
+def advance(kind, bt, n_sub, dt, p, e, lpr, out):
     """Advance every vehicle of the batch ``bt`` (:class:`Batch`) by ``n_sub`` RK4 steps of
     ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``p``:
     :class:`Params`, ``e``: the suspension record (``SuspensionParams.record()``), ``lpr``:
@@ -382,9 +394,20 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):  # fmt: skip
     its last finite state, its outputs are zero and ``out.div`` is set.
     """
     n, s = bt.state.shape
-    wk = Work(np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s),
-              np.empty((4, 2)), np.empty((4, 2)), np.empty(2), np.empty(2), np.empty(3),
-              lpr_scratch(lpr.exps, lpr.lo, lpr.up))  # fmt: skip
+    wk = Work(
+        np.empty(s),
+        np.empty(s),
+        np.empty(s),
+        np.empty(s),
+        np.empty(s),
+        np.empty(s),
+        np.empty((4, 2)),
+        np.empty((4, 2)),
+        np.empty(2),
+        np.empty(2),
+        np.empty(3),
+        lpr_scratch(lpr.exps, lpr.lo, lpr.up),
+    )
     last = bt.z.shape[1] - 1
     for i in range(n):
         if bt.k[i] < 0 or bt.k[i] + n_sub + bt.off[i, 0] > last:
@@ -396,7 +419,7 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):  # fmt: skip
 # allocated here): the counting of every array passed on to the element functions would
 # cost more than the arithmetic of a substep.
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):  # fmt: skip
+def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):
     """RK4 steps of vehicle ``i`` (see :func:`advance`); ``wk``: :class:`Work`."""
     s = bt.state.shape[1]
     x, xt, r1, r2, r3, r4 = wk.x, wk.xt, wk.r1, wk.r2, wk.r3, wk.r4
@@ -467,10 +490,15 @@ def make_batch(n: int, variant: str, n_samples: int) -> tuple[Batch, Out]:
     """Zeroed :class:`Batch` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples."""
     check_variant(variant)
     s = STATE_SIZE[variant]
-    bt = Batch(np.zeros((n, s)), np.zeros((n, n_samples)), np.zeros((n, n_samples)),
-               np.zeros(n, np.int64), np.zeros((n, 4)), np.zeros((n, 2)))  # fmt: skip
-    out = Out(np.zeros((n, 5)), np.zeros((n, 2)), np.zeros((n, 2), np.int64),
-              np.zeros(n, np.bool_))  # fmt: skip
+    bt = Batch(
+        np.zeros((n, s)),
+        np.zeros((n, n_samples)),
+        np.zeros((n, n_samples)),
+        np.zeros(n, np.int64),
+        np.zeros((n, 4)),
+        np.zeros((n, 2)),
+    )
+    out = Out(np.zeros((n, 5)), np.zeros((n, 2)), np.zeros((n, 2), np.int64), np.zeros(n, np.bool_))
     return bt, out
 
 
@@ -523,8 +551,14 @@ def simulate(
         acc[:, m], states[:, m], fs[:, m] = out.acc, bt.state, out.fs
         totals += out.count
         div |= out.div
-    return {"acc": acc, "states": states, "fs": fs, "contacts": totals[:, 0],
-            "out_of_domain": totals[:, 1], "diverged": div}  # fmt: skip
+    return {
+        "acc": acc,
+        "states": states,
+        "fs": fs,
+        "contacts": totals[:, 0],
+        "out_of_domain": totals[:, 1],
+        "diverged": div,
+    }
 
 
 def linear_state_space(

@@ -31,6 +31,11 @@ EXTRAPOLATION_POLICIES = ("linear", "clip", "raise")
 
 def as_inputs(U: Any, name: str = "U") -> np.ndarray:
     """Return ``U`` as a finite float array of shape (n, d); 1-D input means d = 1."""
+    kind = np.asarray(U).dtype.kind
+    if kind not in "iuf":
+        raise ValueError(
+            f"{name} must be an array of real numbers, got dtype {np.asarray(U).dtype}"
+        )
     U = np.asarray(U, dtype=float)
     if U.ndim == 1:
         U = U[:, None]

@@ -212,11 +212,16 @@ class LegendreRegression(SurrogateModel):
         E = field_array(
             field(d, "exponents", "model.state"),
             "model.state.exponents",
-            (coef.size, self.n_features_in_),
+            (None, self.n_features_in_),
             integer=True,
             low=0,
             high=MAX_DEGREE,
         )
+        if E.shape[0] != coef.size:
+            raise ModelFieldError(
+                f"model.state.coef has {coef.size} entries but model.state.exponents has "
+                f"{E.shape[0]} rows: one coefficient per term is needed"
+            )
         self.coef_ = coef
         self.exponents_ = E
         self.n_terms_ = coef.size

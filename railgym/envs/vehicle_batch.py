@@ -1,0 +1,471 @@
+"""The batch of :mod:`railgym.envs.vehicle`: ``n`` whole vehicles stepped by one compiled call.
+
+:class:`VehicleBatch` implements the batch contract of :mod:`railgym.envs.base`: it holds the
+arrays the kernel of :mod:`railgym.vehicles.vehicle` works on, and a compiled control step
+(:func:`control_step`) turns each kernel call into observation, reward, reward terms and the
+counters behind the ``info`` values, whose keys are declared once (:data:`INFO_KEYS`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+from scipy import signal
+
+from railgym import _validation as val
+from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
+from railgym.envs.vertical_batch import LIMITS, OBS_LIMIT
+from railgym.profile import profile_time_input
+from railgym.track import fra_profile_with_slope
+from railgym.vehicles.vehicle import (
+    Lpr,
+    WholeVehicle,
+    _hermite,
+    advance,
+    check_variant,
+    kernel_params,
+    make_batch,
+    mode_shape,
+    wheelset_offsets,
+)
+from railgym.vehicles.vertical import RAISE_MODE
+
+__all__ = [
+    "ACC_REF",
+    "DIVERGENCE_PENALTY",
+    "INFO_KEYS",
+    "MIN_COMFORT_SAMPLES",
+    "REWARD_TERMS",
+    "VehicleBatch",
+    "VehicleConfig",
+    "compiled_entry",
+    "control_step",
+    "episode_comfort",
+]
+
+#: reference floor acceleration of the reward, m/s²: passive mean-square over the three
+#: floor points on the training case (class 5, 144 km/h, reference backend) is ≈ ACC_REF²
+ACC_REF = 0.6
+DIVERGENCE_PENALTY = 100.0
+#: fewest recorded control steps for which the end-of-episode comfort figures are computed
+MIN_COMFORT_SAMPLES = 8
+#: the ``info`` keys of the single and the vector env (values in :meth:`VehicleBatch.info`)
+INFO_KEYS = (
+    "time",  # s
+    "speed",  # m/s
+    "carbody_acc",  # (3,) floor points front, centre, rear, m/s²
+    "bogie_acc",  # (2,) front, rear bogie, m/s²
+    "rms_carbody_acc",  # (3,) running r.m.s. of carbody_acc, m/s²
+    "bump_stop_contacts",  # substeps in bump-stop contact, both bogies
+    "out_of_domain",  # out-of-domain surrogate evaluations
+    "actuator_force",  # (2,) N
+)
+#: columns of ``Book.terms``, the keys of ``info["reward_terms"]``
+REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    """Validated settings shared by the single and the vector env (SI units)."""
+
+    variant: str
+    dt: float
+    n_sub: int
+    n_steps: int
+    control_dt: float
+    duration: float
+    f_max: float
+    free_travel: float
+    obs_names: tuple[str, ...]
+    obs_scale: np.ndarray
+    weights: tuple[float, float, float]
+    acc_weighting: str
+    sensor_noise: float
+    band: tuple[float, float]
+    flexible: bool
+
+
+class Book(NamedTuple):
+    """Per-vehicle bookkeeping of the env (``n`` vehicles)."""
+
+    steps: np.ndarray  # (n,) int64 control steps done
+    contacts: np.ndarray  # (n,) int64 substeps in bump-stop contact (both bogies)
+    ood: np.ndarray  # (n,) int64 out-of-domain surrogate evaluations
+    acc_sq: np.ndarray  # (n, 3) sum of squared floor accelerations
+    rms: np.ndarray  # (n, 3) their running r.m.s., m/s²
+    rec: np.ndarray  # (n, n_steps, 3) floor accelerations, m/s²
+    obs: np.ndarray  # (n, n_obs) normalised observation
+    rew: np.ndarray  # (n,) reward
+    terms: np.ndarray  # (n, len(REWARD_TERMS)) weighted reward terms, summing to rew
+    zi: np.ndarray  # (n, 3, n_sec, 2) Wk filter state of the reward
+
+
+class StepCfg(NamedTuple):
+    """Constants of :func:`control_step`."""
+
+    n_sub: int
+    dt: float
+    full: bool
+    inv_scale: np.ndarray
+    weights: np.ndarray  # (3,) acceleration, deflection, force
+    free_travel: float
+    f_max: float
+    sos: np.ndarray  # (n_sec, 6) Wk sections at the control rate
+    weighted: bool
+
+
+@njit(cache=True, error_model="numpy")
+def _observe(bt, out, p, sc, bk, i):
+    """Normalised observation of vehicle ``i`` into ``bk.obs[i]``."""
+    x = bt.state[i]
+    o = bk.obs[i]
+    inv = sc.inv_scale
+    if sc.full:
+        for j in range(14):
+            o[j] = x[j] * inv[j]
+        for j in range(5):
+            o[14 + j] = out.acc[i, j] * inv[14 + j]
+        kk = min(float(bt.k[i]), bt.z.shape[1] - 1 - bt.off[i, 0])
+        for j in range(4):
+            zw, zdw = _hermite(bt.z[i], bt.zdot[i], kk + bt.off[i, j], sc.dt)
+            o[19 + j] = zw * inv[19 + j]
+            o[23 + j] = zdw * inv[23 + j]
+        return
+    for j in range(5):
+        o[j] = out.acc[i, j] * inv[j]
+    for b in range(2):
+        xb = p.a if b == 0 else -p.a
+        o[5 + b] = (x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]) * inv[5 + b]
+        vel = x[7] + xb * x[8] + p.phi_a * x[9]
+        o[7 + b] = (x[10 + 2 * b] - vel) * inv[7 + b]
+        o[9 + b] = vel * inv[9 + b]
+
+
+@njit(cache=True, error_model="numpy")
+def _weigh(sos, zi, v):
+    """One sample ``v`` through the cascade ``sos`` (transposed direct form II, state zi)."""
+    y = v
+    for s in range(sos.shape[0]):
+        b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
+        out = b0 * y + zi[s, 0]
+        zi[s, 0] = b1 * y - a1 * out + zi[s, 1]
+        zi[s, 1] = b2 * y - a2 * out
+        y = out
+    return y
+
+
+@njit(cache=True, error_model="numpy")
+def control_step(kind, bt, p, e, lpr, out, bk, sc):
+    """One control step of every vehicle: kernel, counters, observation, reward and terms.
+
+    A step whose reward is not finite or whose observation exceeds ``OBS_LIMIT`` counts as
+    diverged (``out.div``), like a non-finite state in the kernel.
+    """
+    advance(kind, bt, sc.n_sub, sc.dt, p, e, lpr, out)
+    w_a, w_d, w_f = sc.weights[0], sc.weights[1], sc.weights[2]
+    for i in range(bt.state.shape[0]):
+        bt.k[i] += sc.n_sub
+        m = bk.steps[i]
+        bk.steps[i] += 1
+        bk.contacts[i] += out.count[i, 0]
+        bk.ood[i] += out.count[i, 1]
+        r_acc = 0.0
+        for j in range(3):
+            a = out.acc[i, j]
+            bk.acc_sq[i, j] += a * a
+            bk.rms[i, j] = math.sqrt(bk.acc_sq[i, j] / bk.steps[i])
+            if m < bk.rec.shape[1]:
+                bk.rec[i, m, j] = a
+            if sc.weighted:
+                a = _weigh(sc.sos, bk.zi[i, j], a)
+            r_acc += (a / ACC_REF) ** 2
+        _observe(bt, out, p, sc, bk, i)
+        r_defl = 0.0
+        r_force = 0.0
+        x = bt.state[i]
+        for b in range(2):
+            xb = p.a if b == 0 else -p.a
+            d = (x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]) / sc.free_travel
+            f = bt.force[i, b] / sc.f_max
+            r_defl += d * d
+            r_force += f * f
+        t_a = -(w_a * r_acc / 3.0)
+        t_d = -(0.5 * w_d * r_defl)
+        t_f = -(0.5 * w_f * r_force)
+        r = t_a + t_d + t_f
+        big = False
+        for j in range(bk.obs.shape[1]):
+            if not abs(bk.obs[i, j]) <= OBS_LIMIT:
+                big = True
+        if out.div[i] or big or not math.isfinite(r):
+            out.div[i] = True
+            for j in range(bk.obs.shape[1]):
+                bk.obs[i, j] = min(max(bk.obs[i, j], -OBS_LIMIT), OBS_LIMIT)
+            t_a = t_d = t_f = 0.0
+            r = -DIVERGENCE_PENALTY
+        bk.terms[i, 0] = t_a
+        bk.terms[i, 1] = t_d
+        bk.terms[i, 2] = t_f
+        bk.terms[i, 3] = -DIVERGENCE_PENALTY if out.div[i] else 0.0
+        bk.rew[i] = r
+
+
+def compiled_entry(fn: Any, args: tuple) -> Any:
+    """Compiled entry point of the numba function ``fn`` for the types of ``args``.
+
+    Calling it skips numba's per-call type dispatch, which for the named tuples of arrays
+    of the kernels costs more than the step itself; the arrays passed later must keep the
+    dtypes, dimensions and layouts of ``args`` (the batch holds them for its lifetime).
+    """
+    sig = tuple(fn.typeof_pyval(a) for a in args)
+    if sig not in fn.overloads:
+        fn.compile(sig)
+    return fn.overloads[sig].entry_point
+
+
+def episode_comfort(
+    rec: np.ndarray, fs: float, wk: WeightingFilter, wb: WeightingFilter
+) -> dict[str, np.ndarray]:
+    """EN 12299 / ISO 2631 / Sperling figures per floor point of a record (n_steps, 3).
+
+    ``a_w``: ISO 2631-1 Wk-weighted r.m.s. (filter ``wk``), m/s²; ``a_ZP95_Wb``: EN 12299 95th
+    percentile of the 5-s Wb r.m.s. (filter ``wb``; one window of the whole record when it
+    is shorter), m/s²; ``Wz``: Sperling ride index (vertical). Both filters start at rest
+    (as :func:`~railgym.comfort.weighted_rms` and :func:`~railgym.comfort.a_zp95`).
+    Records shorter than ``MIN_COMFORT_SAMPLES`` (an episode ended by divergence at once)
+    give zeros.
+    """
+    if rec.shape[0] < MIN_COMFORT_SAMPLES:
+        return {k: np.zeros(3) for k in ("a_w", "a_ZP95_Wb", "Wz")}
+    window = min(5.0, rec.shape[0] / fs)
+    return {
+        "a_w": np.sqrt(np.mean(signal.sosfilt(wk.sos, rec, axis=0) ** 2, axis=0)),
+        "a_ZP95_Wb": window_rms_p95(signal.sosfilt(wb.sos, rec, axis=0), fs, window),
+        "Wz": np.array([sperling_wz(rec[:, j], fs) for j in range(3)]),
+    }
+
+
+class VehicleBatch:
+    """``n`` whole vehicles, each on its own track, stepped by one compiled call.
+
+    Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there).
+    It holds the arrays of the kernel and computes observation, reward, its terms and the
+    ``info`` quantities of :class:`~railgym.envs.vehicle.VerticalVehicleEnv`. The track
+    arrays are sized for speeds down to ``v_min`` (m/s).
+    """
+
+    def __init__(
+        self, n: int, cfg: VehicleConfig, vehicle: WholeVehicle, lpr: Lpr, v_min: float
+    ) -> None:
+        self.n, self.cfg, self.vehicle = n, cfg, vehicle
+        self.kind = check_variant(cfg.variant)
+        self.params = kernel_params(vehicle, cfg.flexible)
+        self.elem = vehicle.suspension.kernel_params().record()
+        self.lpr = Lpr(*lpr)
+        span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)
+        self.v_min = v_min
+        self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(span / (v_min * cfg.dt)) + 2
+        size = n * (16 * self.n_samples + 24 * cfg.n_steps)
+        if size > LIMITS["track_bytes"]:
+            raise val.FieldError(
+                "num_envs",
+                f"× duration/dt needs {size / 2**30:.1f} GiB of track and record arrays "
+                f"(num_envs={n}, {self.n_samples} samples each); the limit is "
+                f"{LIMITS['track_bytes'] / 2**30:g} GiB",
+            )
+        self.bt, self.out = make_batch(n, cfg.variant, self.n_samples)
+        fs = 1.0 / cfg.control_dt
+        self.wk = WeightingFilter(fs, "Wk", lowpass=False)
+        self.wb = WeightingFilter(fs, "Wb", lowpass=False)
+        sos = self.wk.sos
+        self.bk = Book(
+            steps=np.zeros(n, np.int64),
+            contacts=np.zeros(n, np.int64),
+            ood=np.zeros(n, np.int64),
+            acc_sq=np.zeros((n, 3)),
+            rms=np.zeros((n, 3)),
+            rec=np.zeros((n, cfg.n_steps, 3)),
+            obs=np.zeros((n, len(cfg.obs_names))),
+            rew=np.zeros(n),
+            terms=np.zeros((n, len(REWARD_TERMS))),
+            zi=np.zeros((n, 3, sos.shape[0], 2)),
+        )
+        self.sc = StepCfg(
+            n_sub=cfg.n_sub,
+            dt=cfg.dt,
+            full=cfg.obs_names[0] == "z_c",
+            inv_scale=1.0 / cfg.obs_scale,
+            weights=np.array(cfg.weights),
+            free_travel=cfg.free_travel,
+            f_max=cfg.f_max,
+            sos=sos,
+            weighted=cfg.acc_weighting == "Wk",
+        )
+        self.speed = np.zeros(n)
+        self.track_class = np.zeros(n, np.int64)
+        self.extrapolated = np.zeros(n, np.bool_)
+        self._link()
+
+    def _link(self) -> None:
+        """Views and the compiled entry point (re-made after a copy: not picklable)."""
+        self.reward = self.bk.rew
+        self._flags = {"diverged": self.out.div, "extrapolated": self.extrapolated}
+        self._args = (
+            self.kind,
+            self.bt,
+            self.params,
+            self.elem,
+            self.lpr,
+            self.out,
+            self.bk,
+            self.sc,
+        )
+        self._step = compiled_entry(control_step, self._args)
+        self._raise = self.lpr.mode == RAISE_MODE
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        for key in ("reward", "_flags", "_args", "_step", "_raise"):
+            del state[key]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._link()
+
+    def reset(
+        self, i: int, rng: np.random.Generator, episode: tuple[int, tuple[float, float], Any]
+    ) -> None:
+        """New track for vehicle ``i``; ``episode`` is ``(track_class, (v_min, v_max),
+        profile)``: speed drawn uniformly in the range (when not a single value), then a
+        seeded FRA profile (``profile=None``) or the given ``(x, z)``; state at rest."""
+        cfg = self.cfg
+        track_class, (lo, hi), profile = episode
+        v = lo if lo == hi else float(rng.uniform(lo, hi))
+        if v < self.v_min:
+            raise val.FieldError(
+                "speed", f"{v} m/s is below the {self.v_min} m/s the env was made for"
+            )
+        m = self.n_samples
+        if profile is None:
+            seed = int(rng.integers(2**63 - 1))
+            dx = v * cfg.dt
+            _, z, slope = fra_profile_with_slope(track_class, (m - 1) * dx, dx, seed, cfg.band)
+            self.bt.z[i], self.bt.zdot[i] = z[:m], v * slope[:m]
+        else:
+            self.bt.z[i], self.bt.zdot[i] = profile_time_input(profile, v, cfg.dt, m)
+        self.bt.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
+        self.speed[i], self.track_class[i] = v, track_class
+        self.bt.force[i] = 0.0
+        self.reset_state(i)
+
+    def reset_state(self, i: int) -> None:
+        """Vehicle ``i`` at rest at the start of its track, counters cleared."""
+        bt, bk, out = self.bt, self.bk, self.out
+        bt.state[i] = 0.0
+        bt.k[i] = bk.steps[i] = bk.contacts[i] = bk.ood[i] = 0
+        bk.acc_sq[i] = bk.rms[i] = bk.rec[i] = bk.zi[i] = bk.rew[i] = bk.terms[i] = 0.0
+        out.acc[i] = out.fs[i] = 0.0
+        out.div[i] = self.extrapolated[i] = False
+        _observe(bt, out, self.params, self.sc, bk, i)
+
+    def set_action(self, actions: np.ndarray) -> None:
+        """Actuator forces from the clipped actions (n, 2): ``action · f_max``, N."""
+        np.multiply(actions, self.cfg.f_max, out=self.bt.force)
+
+    def advance(self) -> None:
+        """One control step of every vehicle with the forces in ``bt.force`` (N)."""
+        self._step(*self._args)
+        if self._raise:
+            np.greater(self.out.count[:, 1], 0, out=self.extrapolated)
+
+    def flags(self) -> dict[str, np.ndarray]:
+        """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of
+        its box under the ``"raise"`` extrapolation policy)."""
+        return self._flags
+
+    def truncated(self) -> np.ndarray:
+        """True where the episode reached ``duration``."""
+        return self.bk.steps >= self.cfg.n_steps
+
+    def info(self, i: int | None = None) -> dict[str, Any]:
+        """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers and (k,) arrays) or of all
+        (arrays with a leading axis n); copies."""
+        bk, acc, force = self.bk, self.out.acc, self.bt.force
+        if i is None:
+            values = (
+                bk.steps * self.cfg.control_dt,
+                self.speed.copy(),
+                acc[:, :3].copy(),
+                acc[:, 3:].copy(),
+                bk.rms.copy(),
+                bk.contacts.copy(),
+                bk.ood.copy(),
+                force.copy(),
+            )
+        else:  # Python scalars and small copies: the single env's step reads this each step
+            row = acc[i]
+            values = (
+                int(bk.steps[i]) * self.cfg.control_dt,
+                float(self.speed[i]),
+                row[:3].copy(),
+                row[3:].copy(),
+                bk.rms[i].copy(),
+                int(bk.contacts[i]),
+                int(bk.ood[i]),
+                force[i].copy(),
+            )
+        return dict(zip(INFO_KEYS, values, strict=True))
+
+    def reward_terms(self, i: int | None = None) -> dict[str, Any]:
+        """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to
+        the reward."""
+        if i is not None:
+            return dict(zip(REWARD_TERMS, self.bk.terms[i].tolist(), strict=True))
+        return {key: self.bk.terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
+
+    def observe(self, rngs: list[np.random.Generator]) -> np.ndarray:
+        """Observations (n, n_obs) float32, plus sensor noise from the per-env ``rngs``."""
+        obs = self.bk.obs
+        if self.cfg.sensor_noise > 0:
+            noise = np.stack([g.standard_normal(obs.shape[1]) for g in rngs])
+            return (obs + self.cfg.sensor_noise * noise).astype(np.float32)
+        return obs.astype(np.float32)
+
+    def comfort(self, i: int) -> dict[str, np.ndarray]:
+        """:func:`episode_comfort` of vehicle ``i``'s record so far."""
+        m = max(int(self.bk.steps[i]), 1)
+        return episode_comfort(self.bk.rec[i, :m], 1.0 / self.cfg.control_dt, self.wk, self.wb)
+
+    def render_state(self, i: int) -> dict[str, Any]:
+        """What :func:`railgym.envs.vehicle_render.render_vehicle` draws for vehicle ``i``:
+        positions from the carbody centre (m), heights (m), forces (N)."""
+        bt, v = self.bt, self.vehicle
+        dx = self.speed[i] * self.cfg.dt
+        kk = int(bt.k[i])
+        centre = kk * dx - v.wheelset_positions[-1]  # track position of the carbody centre
+        half = 0.75 * v.carbody_length
+        xs = np.linspace(-half, half, 301)
+        grid = np.arange(self.n_samples)
+        x = bt.state[i]
+        xb = np.linspace(-0.5 * v.carbody_length, 0.5 * v.carbody_length, 41)
+        bend = mode_shape(xb, v.carbody_length) * x[2] if self.cfg.flexible else 0.0
+        return {
+            "track_x": xs,
+            "track_z": np.interp((centre + xs) / dx, grid, bt.z[i]),
+            "body_x": xb,
+            "body_z": x[0] + xb * x[1] + bend,
+            "bogie_x": v.floor_positions[[0, 2]],
+            "bogie_z": x[[3, 5]].copy(),
+            "bogie_pitch": x[[4, 6]].copy(),
+            "wheel_x": v.wheelset_positions,
+            "wheel_z": np.interp(kk + bt.off[i], grid, bt.z[i]),
+            "force": bt.force[i].copy(),
+            "f_max": self.cfg.f_max,
+            "time": float(self.bk.steps[i] * self.cfg.control_dt),
+            "duration": self.cfg.duration,
+        }

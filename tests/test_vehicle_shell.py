@@ -1,0 +1,165 @@
+"""VerticalVehicle-v0 on the shared env shell: copies, reward terms, accessors, info masks."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+
+import cloudpickle
+import numpy as np
+import pytest
+
+from railgym.envs.vehicle import (
+    ACC_REF,
+    REWARD_TERMS,
+    VerticalVehicleEnv,
+    VerticalVehicleVectorEnv,
+)
+from railgym.vehicles.vertical import load_vehicle
+from surrogates import LegendreRegression
+
+COPIES = {
+    "pickle": lambda e: pickle.loads(pickle.dumps(e)),
+    "cloudpickle": lambda e: cloudpickle.loads(cloudpickle.dumps(e)),
+    "deepcopy": copy.deepcopy,
+}
+
+
+def _actions(n, shape, seed=0):
+    rng = np.random.default_rng(seed)
+    return [rng.uniform(-1.2, 1.2, shape).astype(np.float32) for _ in range(n)]
+
+
+def _run(env, actions):
+    out = []
+    for a in actions:
+        obs, r, term, trunc, info = env.step(a)
+        row = [obs.copy(), np.copy(r), np.copy(term), np.copy(trunc), info["carbody_acc"]]
+        row += [info["rms_carbody_acc"], info["actuator_force"]]
+        if "comfort" in info:
+            row += list(info["comfort"].values())
+        out.append(row)
+    return out
+
+
+def _assert_same(a, b):
+    assert len(a) == len(b)
+    for x, y in zip(a, b, strict=True):
+        for u, v in zip(x, y, strict=True):
+            np.testing.assert_array_equal(u, v)
+
+
+@pytest.mark.parametrize("how", COPIES)
+@pytest.mark.parametrize("mid", [0, 17])
+def test_single_env_copy_continues_bit_identically(how, mid):
+    env = VerticalVehicleEnv(backend="reference", duration=0.3, sensor_noise=0.05)
+    env.reset(seed=4)
+    _run(env, _actions(mid, (2,), seed=1))
+    twin = COPIES[how](env)
+    acts = _actions(30 - mid, (2,), seed=2)  # to the end of the episode (comfort figures)
+    a, b = _run(env, acts), _run(twin, acts)
+    assert a[-1][3] and len(a[-1]) == 10  # truncated: the last step carries the comfort figures
+    _assert_same(a, b)
+    assert twin.sim.bt.z is not env.sim.bt.z and twin.sim.reward is twin.sim.bk.rew
+    _assert_same(_run(env, []), _run(twin, []))
+    np.testing.assert_array_equal(env.reset(seed=5)[0], twin.reset(seed=5)[0])
+
+
+@pytest.mark.parametrize("how", COPIES)
+@pytest.mark.parametrize("mid", [0, 12])
+def test_vector_env_copy_continues_bit_identically(how, mid):
+    kw = {"backend": "surrogate", "duration": 0.2, "sensor_noise": 0.05, "speed": (30.0, 50.0)}
+    venv = VerticalVehicleVectorEnv(num_envs=3, **kw)
+    venv.reset(seed=9)
+    _run(venv, _actions(mid, (3, 2), seed=3))
+    twin = COPIES[how](venv)
+    acts = _actions(45, (3, 2), seed=4)  # crosses two autoresets
+    _assert_same(_run(venv, acts), _run(twin, acts))
+
+
+def test_reward_terms_sum_to_the_reward_and_follow_the_definition():
+    w = {"acceleration": 1.5, "deflection": 0.5, "force": 0.2}
+    env = VerticalVehicleEnv(backend="reference", duration=0.5, reward_weights=w)
+    env.reset(seed=0)
+    free, f_max = env.cfg.free_travel, env.cfg.f_max
+    p = env.vehicle_params
+    for u in _actions(50, (2,)):
+        _, r, *_, info = env.step(u)
+        t = info["reward_terms"]
+        assert tuple(t) == REWARD_TERMS
+        assert t["acceleration"] + t["deflection"] + t["force"] + t["divergence"] == r
+        acc = info["carbody_acc"]
+        assert env.carbody_acceleration.tolist() == acc.tolist()
+        assert t["acceleration"] == pytest.approx(-1.5 * np.mean((acc / ACC_REF) ** 2))
+        x = env.state
+        defl = [x[3 + 2 * b] - x[0] - s * p.a * x[1] - p.phi_a * x[2] for b, s in ((0, 1), (1, -1))]
+        assert t["deflection"] == pytest.approx(-0.5 * np.mean((np.array(defl) / free) ** 2))
+        force = np.clip(u.astype(float), -1, 1) * f_max
+        np.testing.assert_array_equal(env.actuator_force, force)
+        np.testing.assert_array_equal(info["actuator_force"], force)
+        assert t["force"] == pytest.approx(-0.2 * np.mean((force / f_max) ** 2))
+        assert t["divergence"] == 0.0
+        assert env.out_of_domain == info["out_of_domain"] == 0
+
+
+def test_divergence_has_its_own_term_and_ends_the_episode():
+    env = VerticalVehicleEnv(backend="linear", duration=0.5, f_max=1e9)
+    env.reset(seed=0)
+    for _ in range(50):
+        _, r, term, trunc, info = env.step(np.array([1.0, -1.0], np.float32))
+        if term:
+            break
+    assert term and not trunc and info["diverged"] is True
+    t = info["reward_terms"]
+    assert r == t["divergence"] == -100.0 and t["acceleration"] == t["force"] == 0.0
+    assert set(info["comfort"]) == {"a_w", "a_ZP95_Wb", "Wz"}
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(np.zeros(2, np.float32))
+
+
+def test_vector_info_masks_and_accessors():
+    venv = VerticalVehicleVectorEnv(num_envs=2, backend="linear", duration=0.05)
+    _, info = venv.reset(seed=0)
+    assert "reward_terms" not in info and info["_time"].all()
+    acts = np.array([[0.5, -0.5], [-2.0, 0.25]], np.float32)
+    for _ in range(5):
+        _, r, term, trunc, info = venv.step(acts)
+    assert trunc.all() and not term.any()
+    assert info["_comfort"].all() and info["comfort"]["a_w"].shape == (2, 3)
+    terms = info["reward_terms"]
+    assert info["_reward_terms"].all() and all(terms[f"_{k}"].all() for k in REWARD_TERMS)
+    np.testing.assert_array_equal(sum(terms[k] for k in REWARD_TERMS), r)
+    assert not info["diverged"].any() and info["_diverged"].all()
+    np.testing.assert_array_equal(venv.actuator_force, np.clip(acts, -1, 1) * 8000.0)
+    np.testing.assert_array_equal(venv.carbody_acceleration, info["carbody_acc"])
+    assert venv.state.shape == (2, 14) and venv.out_of_domain.tolist() == [0, 0]
+    _, _, term, trunc, info = venv.step(acts)  # the autoreset step
+    assert not (term | trunc).any() and "comfort" not in info
+    assert info["time"].tolist() == [0.0, 0.0]
+
+
+def _box_lpr(extrapolation):
+    """LPR of the linear suspension on a small box (±5 mm, ±0.05 m/s)."""
+    veh = load_vehicle()
+    g = np.meshgrid(np.linspace(-0.005, 0.005, 9), np.linspace(-0.05, 0.05, 9))
+    u = np.c_[g[0].ravel(), g[1].ravel()]
+    return LegendreRegression(degree=1, extrapolation=extrapolation).fit(
+        u, veh.k2 * u[:, 0] + veh.c2 * u[:, 1]
+    )
+
+
+def test_raise_policy_terminates_with_a_flag_and_linear_does_not():
+    runs = {}
+    for policy in ("raise", "linear"):
+        env = VerticalVehicleEnv(surrogate=_box_lpr(policy), track_class=4, duration=2.0)
+        env.reset(seed=0)
+        for k in range(200):  # noqa: B007 (k is read after the loop)
+            _, r, term, trunc, info = env.step(np.ones(2, np.float32))
+            if term or trunc:
+                break
+        runs[policy] = (k, term, r, info)
+    k, term, r, info = runs["raise"]
+    assert term and info["extrapolated"] and info["out_of_domain"] > 0 and k < 199
+    assert r == sum(info["reward_terms"].values()) and info["reward_terms"]["divergence"] == 0
+    k, term, r, info = runs["linear"]
+    assert not term and "extrapolated" not in info and info["out_of_domain"] > 0
