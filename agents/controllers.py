@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
+from agents.feedback import ObservationController
 from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical import ACC_REF
 from railgym.vehicles.vehicle import linear_state_space
@@ -36,22 +37,16 @@ DEFAULT_C_SKY = 4.7e4
 DEFAULT_C_GND = 4.0e4
 
 
-class _Controller:
-    """Shared plumbing: env checks, observation decoding and the ``predict`` shape rules."""
+class _Controller(ObservationController):
+    """Vertical-env baselines: a demanded actuator force, normalised by ``f_max``."""
+
+    env_name = "VerticalSuspension"
 
     def __init__(self, env: Any) -> None:
-        base = getattr(env, "unwrapped", env)
-        for attr in ("obs_names", "obs_scale", "cfg"):
-            if not hasattr(base, attr):
-                raise ValueError(
-                    f"env must be a railgym VerticalSuspension env (no attribute {attr!r}), "
-                    f"got {type(base).__name__}"
-                )
-        self.obs_names: tuple[str, ...] = tuple(base.obs_names)
-        self.obs_scale = np.asarray(base.obs_scale, dtype=np.float64)
+        super().__init__(env)
+        base = self._base
         self.f_max = float(base.cfg.f_max)
         self.n_act = int(getattr(base, "single_action_space", base.action_space).shape[-1])
-        self._base = base
 
     def _index(self, name: str) -> int:
         return self.obs_names.index(name)
@@ -67,30 +62,9 @@ class _Controller:
         """Demanded actuator force (n,), N, from the physical observation (n, n_obs)."""
         raise NotImplementedError
 
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, None]:
-        """Action ``F_a / f_max`` clipped to [−1, 1]: (1,) for one obs, (n, 1) for a batch.
-
-        ``state``, ``episode_start`` and ``deterministic`` exist for SB3 compatibility; the
-        controllers are memoryless and deterministic.
-        """
-        obs = np.asarray(observation, dtype=np.float64)
-        n_obs = len(self.obs_names)
-        if obs.ndim not in (1, 2) or obs.shape[-1] != n_obs:
-            raise ValueError(
-                f"observation must have shape ({n_obs},) or (n, {n_obs}), got {obs.shape}"
-            )
-        if not np.all(np.isfinite(obs)):
-            raise ValueError("observation has non-finite values (NaN or inf)")
-        x = np.atleast_2d(obs) * self.obs_scale
-        u = np.clip(self.force(x) / self.f_max, -1.0, 1.0).astype(np.float32)
-        u = u.reshape(x.shape[0], self.n_act)
-        return (u[0] if obs.ndim == 1 else u), None
+    def action(self, x: np.ndarray) -> np.ndarray:
+        """``F_a / f_max`` (n, n_act) from the physical observation (n, n_obs)."""
+        return (self.force(x) / self.f_max).reshape(x.shape[0], self.n_act)
 
 
 class Passive(_Controller):
@@ -175,12 +149,14 @@ def linear_model(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
     """
     m1, m2, k1, c1 = params[P_M1], params[P_M2], params[P_K1], params[P_C1]
     k2, c2 = params[P_K2], params[P_C2]
-    a = np.array([
-        [0.0, 1.0, 0.0, 0.0],
-        [-(k1 + k2) / m1, -(c1 + c2) / m1, k2 / m1, c2 / m1],
-        [0.0, 0.0, 0.0, 1.0],
-        [k2 / m2, c2 / m2, -k2 / m2, -c2 / m2],
-    ])  # fmt: skip
+    a = np.array(
+        [
+            [0.0, 1.0, 0.0, 0.0],
+            [-(k1 + k2) / m1, -(c1 + c2) / m1, k2 / m1, c2 / m1],
+            [0.0, 0.0, 0.0, 1.0],
+            [k2 / m2, c2 / m2, -k2 / m2, -c2 / m2],
+        ]
+    )
     b = np.array([[0.0], [-1.0 / m1], [0.0], [1.0 / m2]])
     return a, b, a[3].copy(), 1.0 / m2
 

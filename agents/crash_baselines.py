@@ -8,7 +8,7 @@ observation (n_obs,) → (zones,) or a batch from the vector env (n, n_obs) → 
 float32; as :mod:`agents.controllers` does for the vertical env.
 
 :func:`rollout` runs a controller on the vector env and records the histories that
-:mod:`railgym.vehicles.crash_criteria` evaluates; :func:`search_constant` is the search for
+:mod:`railgym.vehicles.crash.criteria` evaluates; :func:`search_constant` is the search for
 the best constant setting over an impact envelope (``docs/envs/crash_baselines.md``).
 """
 
@@ -19,30 +19,26 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from agents.feedback import ObservationController
 from railgym.envs.crash import TrainCrashVectorEnv
 from railgym.vehicles.crash import CrushZone
-from railgym.vehicles.crash_criteria import CrashCriteria, crash_criteria
+from railgym.vehicles.crash.criteria import CrashCriteria, crash_criteria
 
 #: constant absorber action (wall, interface) found by :func:`search_constant` on the
 #: reference over 25–50 km/h, levels −1 … 1 in steps of 0.25 (docs/envs/crash_baselines.md)
 BEST_CONSTANT_ACTION = (0.0, -1.0)
 
 
-class _CrashController:
-    """Shared plumbing: env checks, observation decoding and the ``predict`` shape rules."""
+class _CrashController(ObservationController):
+    """Crash-env baselines: one absorber action per crush zone."""
+
+    env_name = "TrainCrash"
 
     def __init__(self, env: Any) -> None:
-        base = getattr(env, "unwrapped", env)
-        for attr in ("obs_names", "obs_scale", "cfg"):
-            if not hasattr(base, attr):
-                raise ValueError(
-                    f"env must be a railgym TrainCrash env (no attribute {attr!r}), got "
-                    f"{type(base).__name__}"
-                )
+        super().__init__(env)
+        base = self._base
         if not hasattr(base.cfg, "absorber_stroke"):
             raise ValueError(f"env must be a railgym TrainCrash env, got {type(base).__name__}")
-        self.obs_names: tuple[str, ...] = tuple(base.obs_names)
-        self.obs_scale = np.asarray(base.obs_scale, dtype=np.float64)
         self.cfg = base.cfg
         self.n_zones = int(np.asarray(base.cfg.absorber_stroke).size)
 
@@ -53,28 +49,6 @@ class _CrashController:
     def action(self, x: np.ndarray) -> np.ndarray:
         """Action (n, zones) from the physical observation (n, n_obs)."""
         raise NotImplementedError
-
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, None]:
-        """Action in [−1, 1]: (zones,) for one obs, (n, zones) for a batch.
-
-        ``state``, ``episode_start`` and ``deterministic`` exist for SB3 compatibility; the
-        controllers are memoryless and deterministic.
-        """
-        obs = np.asarray(observation, dtype=np.float64)
-        n_obs = len(self.obs_names)
-        if obs.ndim not in (1, 2) or obs.shape[-1] != n_obs:
-            raise ValueError(
-                f"observation must have shape ({n_obs},) or (n, {n_obs}), got {obs.shape}"
-            )
-        u = np.clip(self.action(np.atleast_2d(obs) * self.obs_scale), -1.0, 1.0)
-        u = u.astype(np.float32)
-        return (u[0] if obs.ndim == 1 else u), None
 
 
 class CrashPassive(_CrashController):
@@ -168,7 +142,7 @@ class Rollout(NamedTuple):
     gravity: float
 
     def criteria(self, **kwargs: Any) -> CrashCriteria:
-        """:func:`railgym.vehicles.crash_criteria.crash_criteria` of this crash."""
+        """:func:`railgym.vehicles.crash.criteria.crash_criteria` of this crash."""
         args = (self.t, self.v, self.a, self.crush, self.absorber_stroke)
         return crash_criteria(*args, g=self.gravity, **kwargs)
 

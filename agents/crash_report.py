@@ -2,7 +2,7 @@
 
 ``python -m agents.crash_report`` prints the markdown tables of
 ``docs/envs/crash_baselines.md`` (``--matrix``: the surrogate-vs-reference matrix of
-``docs/envs/crash.md``): the crash criteria (:mod:`railgym.vehicles.crash_criteria`)
+``docs/envs/crash.md``): the crash criteria (:mod:`railgym.vehicles.crash.criteria`)
 of the passive train, the best constant setting and the speed-adaptive rule on the reference
 backend at the envelope speeds, the constant-setting search, and the surrogate's error against
 the reference with constant actions −1 / 0 / +1.
@@ -28,7 +28,7 @@ from agents.crash_baselines import (
 from agents.evaluate import CRASH_ID, load_policy
 from railgym.envs.crash import TrainCrashVectorEnv, default_surrogate, env_surrogate
 from railgym.vehicles.crash import load_scenario
-from railgym.vehicles.crash_elements import MatrixRow, validation_matrix
+from railgym.vehicles.crash.elements import MatrixRow, validation_matrix
 
 #: envelope speeds of the tables, km/h
 SPEEDS_KMH = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
@@ -252,7 +252,7 @@ def error_table(rows: list[dict[str, Any]]) -> str:
 
 
 def matrix_table(rows: list[MatrixRow]) -> str:
-    """Markdown table of :func:`railgym.vehicles.crash_elements.validation_matrix` rows:
+    """Markdown table of :func:`railgym.vehicles.crash.elements.validation_matrix` rows:
     each car's peak deceleration and each zone's largest crush, reference → surrogate (error),
     and the largest absolute errors."""
     lines = [

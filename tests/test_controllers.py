@@ -19,9 +19,12 @@ DURATION = 5.0
 def rollout(ctrl_factory, observation: str = "sensors", track_class: int = 5) -> dict:
     """One episode per seed 0..SEEDS-1 in the vector env on the linear backend."""
     env = VerticalSuspensionVectorEnv(
-        num_envs=SEEDS, backend="linear", track_class=track_class, duration=DURATION,
+        num_envs=SEEDS,
+        backend="linear",
+        track_class=track_class,
+        duration=DURATION,
         observation=observation,
-    )  # fmt: skip
+    )
     ctrl = ctrl_factory(env)
     obs, _ = env.reset(seed=0)
     bogie_sq = np.zeros(SEEDS)
@@ -164,8 +167,9 @@ def test_lqr_limits():
     zero = LQR(env, q_acc=0.0, q_defl=0.0)
     np.testing.assert_allclose(zero.K, 0.0, atol=1e-9)
     passive_poles = np.linalg.eigvals(zero.A)
-    np.testing.assert_allclose(np.sort_complex(zero.closed_loop_poles()),
-                               np.sort_complex(passive_poles))  # fmt: skip
+    np.testing.assert_allclose(
+        np.sort_complex(zero.closed_loop_poles()), np.sort_complex(passive_poles)
+    )
     # a cheaper force buys more action
     cheap, dear = LQR(env, r_force=1e-9), LQR(env, r_force=1e-7)
     assert np.linalg.norm(cheap.K) > np.linalg.norm(dear.K)
@@ -177,11 +181,17 @@ def test_lqr_lowers_carbody_acceleration(passive):
 
 
 def test_predict_batches_from_make_vec():
-    vec = gym.make_vec("railgym/VerticalSuspension-v0", num_envs=3,
-                       vectorization_mode="vector_entry_point", backend="linear",
-                       duration=1.0, observation="full")  # fmt: skip
-    single = gym.make("railgym/VerticalSuspension-v0", backend="linear", duration=1.0,
-                      observation="full")  # fmt: skip
+    vec = gym.make_vec(
+        "railgym/VerticalSuspension-v0",
+        num_envs=3,
+        vectorization_mode="vector_entry_point",
+        backend="linear",
+        duration=1.0,
+        observation="full",
+    )
+    single = gym.make(
+        "railgym/VerticalSuspension-v0", backend="linear", duration=1.0, observation="full"
+    )
     obs, _ = vec.reset(seed=1)
     for _ in range(20):
         obs, *_ = vec.step(np.full((3, 1), 0.3, np.float32))

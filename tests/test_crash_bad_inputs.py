@@ -29,9 +29,18 @@ def _set(raw: dict, dotted: str, value) -> dict:
     return raw
 
 
-OBSTACLE = {"type": "obstacle", "mass_t": 15.0, "face_mass_t": 2.0, "friction": 0.0,
-            "zone": {"stroke_mm": [10, 600], "force_kN": [400, 400], "absorber_stroke_mm": 600,
-                     "unloading_stiffness_kN_per_mm": 80}}  # fmt: skip
+OBSTACLE = {
+    "type": "obstacle",
+    "mass_t": 15.0,
+    "face_mass_t": 2.0,
+    "friction": 0.0,
+    "zone": {
+        "stroke_mm": [10, 600],
+        "force_kN": [400, 400],
+        "absorber_stroke_mm": 600,
+        "unloading_stiffness_kN_per_mm": 80,
+    },
+}
 
 
 @pytest.mark.parametrize(
@@ -48,22 +57,40 @@ OBSTACLE = {"type": "obstacle", "mass_t": 15.0, "face_mass_t": 2.0, "friction": 
         ("cars.lead.n_nodes", True, r"crash\.cars\.lead\.n_nodes must be an integer"),
         ("cars.lead.n_nodes", 10_000, r"crash\.cars\.lead\.n_nodes must be in"),
         ("cars.lead.length_m", True, r"crash\.cars\.lead\.length_m must be a number"),
-        ("zones.wall.force_kN", [1e306, 600, 600, 2200, 2200, 3000, 3000],
-         r"crash\.zones\.wall\.force_kN\[0\] must be in"),
-        ("zones.wall.stroke_mm", [3, 87, 587, 617, 2050, 2080, 1e300],
-         r"crash\.zones\.wall\.stroke_mm\[6\] must be in"),
-        ("zones.wall.unloading_stiffness_kN_per_mm", 1e300,
-         r"crash\.zones\.wall\.unloading_stiffness_kN_per_mm must be in"),
-        ("zones.interface.coupler.stiffness_kN_per_mm", 1e300,
-         r"crash\.zones\.interface\.coupler\.stiffness_kN_per_mm must be in"),
-        ("zones.interface.coupler.slack_mm", 1e9,
-         r"crash\.zones\.interface\.coupler\.slack_mm must be in"),
-        ("zones.wall.fold_wavelength_mm", 1e-9,
-         r"crash\.zones\.wall\.fold_wavelength_mm must be in"),
+        (
+            "zones.wall.force_kN",
+            [1e306, 600, 600, 2200, 2200, 3000, 3000],
+            r"crash\.zones\.wall\.force_kN\[0\] must be in",
+        ),
+        (
+            "zones.wall.stroke_mm",
+            [3, 87, 587, 617, 2050, 2080, 1e300],
+            r"crash\.zones\.wall\.stroke_mm\[6\] must be in",
+        ),
+        (
+            "zones.wall.unloading_stiffness_kN_per_mm",
+            1e300,
+            r"crash\.zones\.wall\.unloading_stiffness_kN_per_mm must be in",
+        ),
+        (
+            "zones.interface.coupler.stiffness_kN_per_mm",
+            1e300,
+            r"crash\.zones\.interface\.coupler\.stiffness_kN_per_mm must be in",
+        ),
+        (
+            "zones.interface.coupler.slack_mm",
+            1e9,
+            r"crash\.zones\.interface\.coupler\.slack_mm must be in",
+        ),
+        (
+            "zones.wall.fold_wavelength_mm",
+            1e-9,
+            r"crash\.zones\.wall\.fold_wavelength_mm must be in",
+        ),
         ("barrier", dict(OBSTACLE, face_mass_t=1e-9), r"crash\.barrier\.face_mass_t must be in"),
         ("barrier", dict(OBSTACLE, mass_t=1e307), r"crash\.barrier\.mass_t must be in"),
     ],
-)  # fmt: skip
+)
 def test_scenario_numbers_out_of_range_name_the_field(field, value, message):
     with pytest.raises(ValueError, match=message):
         parse_scenario(_set(_paper_raw(), field, value))
@@ -107,16 +134,21 @@ def test_numpy_scalars_in_a_raw_scenario_are_numbers():
         ({"reward_weights": [1.0, 2.0]}, r"reward_weights must be a dict"),
         ({"surrogate_variant": "lpr"}, r"surrogate_variant must be one of"),
     ],
-)  # fmt: skip
+)
 def test_env_arguments_name_the_field(kwargs, message):
     with pytest.raises(ValueError, match=message):
         TrainCrashEnv(**kwargs)
 
 
 def test_numpy_scalars_are_accepted_as_env_arguments():
-    env = TrainCrashEnv(backend="reference", absorber_range=np.float32(0.3), n_cars=np.int64(2),
-                        speed=np.float64(10.0), control_dt=np.float32(0.005),
-                        max_duration=np.int64(1))  # fmt: skip
+    env = TrainCrashEnv(
+        backend="reference",
+        absorber_range=np.float32(0.3),
+        n_cars=np.int64(2),
+        speed=np.float64(10.0),
+        control_dt=np.float32(0.005),
+        max_duration=np.int64(1),
+    )
     assert env.cfg.absorber_range == pytest.approx(0.3) and env.cfg.n_steps == 200
     assert env.cfg.scenario.speed == 10.0
 
@@ -158,8 +190,9 @@ def test_bad_actions_are_rejected_by_step(action, message):
         env.step(action)
 
 
-@pytest.mark.parametrize("actions", [np.full((2, 2), "0.1"), np.ones((2, 2), bool),
-                                     np.full((2, 2), 1j)])  # fmt: skip
+@pytest.mark.parametrize(
+    "actions", [np.full((2, 2), "0.1"), np.ones((2, 2), bool), np.full((2, 2), 1j)]
+)
 def test_bad_actions_are_rejected_by_the_vector_env(actions):
     venv = TrainCrashVectorEnv(num_envs=2, backend="reference", max_duration=0.01)
     venv.reset(seed=0)

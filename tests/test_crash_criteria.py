@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from railgym.vehicles.crash import CrushZone, load_scenario, simulate_reference
-from railgym.vehicles.crash_criteria import (
+from railgym.vehicles.crash.criteria import (
     CriteriaLimits,
     G,
     crash_criteria,

@@ -8,7 +8,7 @@ import pytest
 
 from railgym.envs.crash import TrainCrashEnv, env_surrogate
 from railgym.vehicles.crash import build_crash_surrogate, load_scenario, simulate_reference
-from railgym.vehicles.crash_elements import (
+from railgym.vehicles.crash.elements import (
     FIT_SCALES,
     FIT_SPEEDS_KMH,
     build_envelope_surrogate,

@@ -12,7 +12,7 @@ from railgym.vehicles.crash import (
     simulate_reference,
     simulate_surrogate,
 )
-from railgym.vehicles.crash_energy import (
+from railgym.vehicles.crash.energy import (
     element_force_history,
     element_work,
     is_passive,

@@ -1,7 +1,5 @@
 """railgym/TrainCrash-v0: checkers, seeding, vector env = singles, physics of the control."""
 
-import copy
-
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -75,8 +73,14 @@ def test_recorder_equals_the_env(backend):
 
 def test_absorber_scale_multiplies_the_envelope_only_within_the_stroke():
     z = load_scenario("paper").wall
-    args = (np.array(z.stroke), np.array(z.force), len(z.stroke), z.fold_amplitude,
-            z.fold_wavelength, z.unloading_stiffness)  # fmt: skip
+    args = (
+        np.array(z.stroke),
+        np.array(z.force),
+        len(z.stroke),
+        z.fold_amplitude,
+        z.fold_wavelength,
+        z.unloading_stiffness,
+    )
     for d in (0.3, 1.0, 2.0, 2.5):
         f1, dp1 = zone_force(d, 0.0, *args)  # virgin loading: on the envelope
         assert absorber_zone_force(d, 0.0, *args, z.absorber_stroke, 1.0) == (f1, dp1)
@@ -103,7 +107,7 @@ def test_reset_is_deterministic_and_speed_jitter_is_seeded():
 
 
 @pytest.mark.parametrize("max_duration", [2.0, 0.1])  # autoreset after termination / truncation
-def test_vector_env_equals_single_envs_with_autoreset(max_duration):
+def test_vector_env_equals_single_envs_with_autoreset(next_step_autoreset, max_duration):
     n, kw = 3, {"backend": "surrogate", "speed_jitter": 0.2, "max_duration": max_duration}
     venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
     singles = [TrainCrashEnv(**kw) for _ in range(n)]
@@ -111,21 +115,15 @@ def test_vector_env_equals_single_envs_with_autoreset(max_duration):
     obs_s = [e.reset(seed=5 + i)[0] for i, e in enumerate(singles)]
     np.testing.assert_array_equal(obs_v, np.stack(obs_s))
     rng = np.random.default_rng(0)
-    done, ends = np.zeros(n, bool), 0
+    steps, ends = next_step_autoreset(singles), 0
     for _ in range(900 if max_duration > 1 else 250):
         act = rng.uniform(-1.2, 1.2, (n, 2)).astype(np.float32)
         obs_v, rew_v, term_v, trunc_v, info_v = venv.step(act)
-        for i, e in enumerate(singles):
-            if done[i]:  # next-step autoreset of the vector env
-                o, info = e.reset()
-                r, te, tr = 0.0, False, False
-            else:
-                o, r, te, tr, info = e.step(act[i])
+        for i, (o, r, te, tr, info, _) in enumerate(steps.step(act)):
             np.testing.assert_array_equal(obs_v[i], o)
             assert rew_v[i] == r and term_v[i] == te and trunc_v[i] == tr
             np.testing.assert_array_equal(info_v["peak_decel_g"][i], info["peak_decel_g"])
             assert info_v["energy_error"][i] == info["energy_error"]
-            done[i] = te or tr
             ends += te if max_duration > 1 else tr
     assert ends >= n  # every sub-env ended (terminated / truncated) at least once
 
@@ -158,15 +156,22 @@ def test_absorber_force_is_rate_limited():
 
 def test_bad_scenario_file_and_arguments_name_the_field(tmp_path):
     bad = tmp_path / "bad.yaml"
-    bad.write_text("crash:\n  base: paper\n  name: bad\n  zones:\n    wall:\n"
-                   "      force_kN: [600, -5, 600, 2200, 2200, 3000, 3000]\n")  # fmt: skip
+    bad.write_text(
+        "crash:\n  base: paper\n  name: bad\n  zones:\n    wall:\n"
+        "      force_kN: [600, -5, 600, 2200, 2200, 3000, 3000]\n"
+    )
     with pytest.raises(ValueError, match=r"crash\.zones\.wall\.force_kN\[1\]"):
         gym.make(ENV_ID, scenario=str(bad))
-    for kwargs, field in [({"backend": "fe"}, "backend"), ({"control_dt": -1.0}, "control_dt"),
-                          ({"absorber_range": 1.5}, "absorber_range"), ({"n_cars": 0}, "n_cars"),
-                          ({"reward_weights": {"comfort": 1}}, "reward_weights"),
-                          ({"speed": float("nan")}, "speed"), ({"surrogate": "x"}, "surrogate"),
-                          ({"scenario": "nowhere"}, "scenario")]:  # fmt: skip
+    for kwargs, field in [
+        ({"backend": "fe"}, "backend"),
+        ({"control_dt": -1.0}, "control_dt"),
+        ({"absorber_range": 1.5}, "absorber_range"),
+        ({"n_cars": 0}, "n_cars"),
+        ({"reward_weights": {"comfort": 1}}, "reward_weights"),
+        ({"speed": float("nan")}, "speed"),
+        ({"surrogate": "x"}, "surrogate"),
+        ({"scenario": "nowhere"}, "scenario"),
+    ]:
         with pytest.raises(ValueError, match=field):
             TrainCrashEnv(**kwargs)
 
@@ -250,16 +255,26 @@ def test_surrogate_is_cached_or_given_and_render():
     env.step(np.zeros(2, np.float32))
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.shape == (300, 800, 3)
-    venv = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point",
-                        render_mode="rgb_array", n_cars=3, backend="reference")  # fmt: skip
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        render_mode="rgb_array",
+        n_cars=3,
+        backend="reference",
+    )
     obs, _ = venv.reset(seed=0)
     assert obs.shape == (2, 18) and venv.action_space.shape == (2, 3)
     assert len(venv.render()) == 2
 
 
 def test_vector_partial_reset_mask_keeps_the_other_crashes():
-    venv = gym.make_vec("railgym/TrainCrash-v0", num_envs=2,
-                        vectorization_mode="vector_entry_point", backend="reference")  # fmt: skip
+    venv = gym.make_vec(
+        "railgym/TrainCrash-v0",
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        backend="reference",
+    )
     venv.reset(seed=0)
     for _ in range(20):
         obs, *_ = venv.step(np.zeros((2, venv.unwrapped.sim.n_zones), np.float32))
@@ -269,47 +284,34 @@ def test_vector_partial_reset_mask_keeps_the_other_crashes():
     np.testing.assert_array_equal(obs_reset[0], first)  # sub-env 0 starts its crash again
 
 
-def _copies(env):
-    import pickle
-
-    import cloudpickle
-
-    return [pickle.loads(pickle.dumps(env)), cloudpickle.loads(cloudpickle.dumps(env)),
-            copy.deepcopy(env)]  # fmt: skip
-
-
 @pytest.mark.parametrize("backend", ["reference", "surrogate"])
 @pytest.mark.parametrize("steps_before", [0, 40])  # copied at reset and mid-episode
-def test_copies_continue_exactly_like_the_original(backend, steps_before):
+def test_copies_continue_exactly_like_the_original(copy_env, backend, steps_before):
     env = TrainCrashEnv(backend=backend, speed_jitter=0.1)
     env.reset(seed=3)
     rng = np.random.default_rng(0)
     actions = rng.uniform(-1, 1, (steps_before + 60, 2)).astype(np.float32)
     for a in actions[:steps_before]:
         env.step(a)
-    copies = _copies(env)
+    twin = copy_env(env)
     for a in actions[steps_before:]:
-        want = env.step(a)
-        for c in copies:
-            got = c.step(a)
-            np.testing.assert_array_equal(got[0], want[0])
-            assert got[1:4] == want[1:4]
-            np.testing.assert_array_equal(got[4]["force_N"], want[4]["force_N"])
+        want, got = env.step(a), twin.step(a)
+        np.testing.assert_array_equal(got[0], want[0])
+        assert got[1:4] == want[1:4]
+        np.testing.assert_array_equal(got[4]["force_N"], want[4]["force_N"])
     assert not want[2]  # still in the crash: the copies did not end early
 
 
-def test_vector_env_copies_continue_exactly_like_the_original():
+def test_vector_env_copies_continue_exactly_like_the_original(copy_env):
     venv = TrainCrashVectorEnv(num_envs=3, backend="surrogate", speed_jitter=0.2, max_duration=0.1)
     venv.reset(seed=1)
     rng = np.random.default_rng(2)
     actions = rng.uniform(-1, 1, (150, 3, 2)).astype(np.float32)
     for a in actions[:30]:
         venv.step(a)
-    copies = _copies(venv)
+    twin = copy_env(venv)
     for a in actions[30:]:  # across the autoresets at truncation
-        want = venv.step(a)
-        for c in copies:
-            got = c.step(a)
-            for g, w in zip(got[:4], want[:4], strict=True):
-                np.testing.assert_array_equal(g, w)
-            np.testing.assert_array_equal(got[4]["peak_decel_g"], want[4]["peak_decel_g"])
+        want, got = venv.step(a), twin.step(a)
+        for g, w in zip(got[:4], want[:4], strict=True):
+            np.testing.assert_array_equal(g, w)
+        np.testing.assert_array_equal(got[4]["peak_decel_g"], want[4]["peak_decel_g"])

@@ -14,7 +14,7 @@ import yaml
 from agents.crash_baselines import CrashPassive, rollout
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv
 from railgym.vehicles.crash import CrushZone, load_scenario, parse_scenario
-from railgym.vehicles.crash_criteria import crash_pulse, moving_average_peak
+from railgym.vehicles.crash.criteria import crash_pulse, moving_average_peak
 
 KMH = 1 / 3.6
 
@@ -53,7 +53,7 @@ def test_envelope_draws_are_seeded_and_within_the_ranges():
 
 
 @pytest.mark.parametrize("backend", ["surrogate", "reference"])
-def test_vector_envelope_sub_envs_equal_single_envs(backend):
+def test_vector_envelope_sub_envs_equal_single_envs(next_step_autoreset, backend):
     kw = {"backend": backend, "scenario": "envelope", "max_duration": 0.2}
     venv = TrainCrashVectorEnv(num_envs=3, **kw)
     singles = [TrainCrashEnv(**kw) for _ in range(3)]
@@ -64,19 +64,14 @@ def test_vector_envelope_sub_envs_equal_single_envs(backend):
         np.testing.assert_array_equal(info_v["payload_kg"][i], info["payload_kg"])
         assert info_v["initial_speed"][i] == info["initial_speed"]
     rng = np.random.default_rng(0)
-    done = np.zeros(3, bool)
+    steps = next_step_autoreset(singles)
     for _ in range(260):  # across the autoresets at truncation: new draws from each generator
         act = rng.uniform(-1, 1, (3, 2)).astype(np.float32)
         obs_v, rew_v, term_v, trunc_v, info_v = venv.step(act)
-        for i, e in enumerate(singles):
-            if done[i]:  # next-step autoreset of the vector env
-                (o, info), r, te, tr = e.reset(), 0.0, False, False
-            else:
-                o, r, te, tr, info = e.step(act[i])
+        for i, (o, r, te, tr, info, _) in enumerate(steps.step(act)):
             np.testing.assert_array_equal(obs_v[i], o)
             assert rew_v[i] == r and term_v[i] == te and trunc_v[i] == tr
             assert info_v["initial_speed"][i] == info["initial_speed"]
-            done[i] = te or tr
 
 
 def test_options_fix_each_quantity_and_the_draws_are_made_all_the_same():

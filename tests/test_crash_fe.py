@@ -8,7 +8,7 @@ import pytest
 
 import railgym  # noqa: F401  (registers the environments)
 from railgym.vehicles.crash import build_crash_surrogate, simulate_reference
-from railgym.vehicles.crash_fe import (
+from railgym.vehicles.crash.fe import (
     crash_result_from_fe,
     crash_surrogate_from_fe,
     load_crash_surrogate,
@@ -209,7 +209,7 @@ def test_crash_element_fmu_with_memory_reproduces_the_native_kernel(fe_files, tm
     from fmpy.validation import validate_fmu
 
     from railgym.vehicles.crash import simulate_surrogate
-    from railgym.vehicles.crash_fe import export_crash_element_fmu
+    from railgym.vehicles.crash.fe import export_crash_element_fmu
 
     ref = fe_files[0]
     sur = build_crash_surrogate(ref, variant=variant)

@@ -93,26 +93,41 @@ def _set(raw: dict, dotted: str, value) -> None:
 @pytest.mark.parametrize(
     "field, value, message",
     [
-        ("zones.wall.force_kN", [600, 600, -5, 2200, 2200, 3000, 3000],
-         r"crash\.zones\.wall\.force_kN\[2\] must be positive"),
-        ("zones.wall.stroke_mm", [3, 87, 587, 587, 2050, 2080, 3930],
-         r"crash\.zones\.wall\.stroke_mm\[3\] must be larger"),
+        (
+            "zones.wall.force_kN",
+            [600, 600, -5, 2200, 2200, 3000, 3000],
+            r"crash\.zones\.wall\.force_kN\[2\] must be positive",
+        ),
+        (
+            "zones.wall.stroke_mm",
+            [3, 87, 587, 587, 2050, 2080, 3930],
+            r"crash\.zones\.wall\.stroke_mm\[3\] must be larger",
+        ),
         ("zones.wall.force_kN", [600, 600], r"crash\.zones\.wall\.force_kN has 2 points"),
-        ("zones.interface.force_kN", [1000, float("inf"), 1000, 2200, 2200, 3000, 3000],
-         r"crash\.zones\.interface\.force_kN\[1\] must be finite"),
+        (
+            "zones.interface.force_kN",
+            [1000, float("inf"), 1000, 2200, 2200, 3000, 3000],
+            r"crash\.zones\.interface\.force_kN\[1\] must be finite",
+        ),
         ("cars.lead.mass_t", 0, r"crash\.cars\.lead\.mass_t must be positive"),
         ("cars.passenger.mass_t", "heavy", r"crash\.cars\.passenger\.mass_t must be a number"),
         ("speed_kmh", float("nan"), r"crash\.speed_kmh must be finite"),
         ("cars.lead.n_nodes", 1, r"crash\.cars\.lead\.n_nodes must be an integer ≥ 2"),
-        ("zones.interface.unloading_stiffness_kN_per_mm", 50,
-         r"crash\.zones\.interface\.unloading_stiffness_kN_per_mm must be at least"),
-        ("zones.wall.coupler", {"slack_mm": 0, "stiffness_kN_per_mm": 10},
-         r"crash\.zones\.wall\.coupler is not allowed"),
+        (
+            "zones.interface.unloading_stiffness_kN_per_mm",
+            50,
+            r"crash\.zones\.interface\.unloading_stiffness_kN_per_mm must be at least",
+        ),
+        (
+            "zones.wall.coupler",
+            {"slack_mm": 0, "stiffness_kN_per_mm": 10},
+            r"crash\.zones\.wall\.coupler is not allowed",
+        ),
         ("zones.wall.fold_amplitude", 0.7, r"crash\.zones\.wall\.fold_amplitude must be below"),
         ("cars.lead.mas_t", 30, r"crash\.cars\.lead\.mas_t is not a known field"),
         ("barrier.type", "tree", r"crash\.barrier\.type must be"),
     ],
-)  # fmt: skip
+)
 def test_scenario_validation_names_the_field(field, value, message):
     raw = paper_raw()
     _set(raw, field, value)
@@ -184,8 +199,10 @@ def test_time_step_from_the_stiffest_element():
     assert n_sub * dt == pytest.approx(1e-3)
     # ω² = 2 Σ k / m at each car's end nodes (the stiffest rows of M⁻¹K)
     cands = []
-    for car, k_ends in ((sc.lead, (sc.wall.unloading_stiffness, sc.interface.unloading_stiffness)),
-                        (sc.passenger, (sc.interface.unloading_stiffness, 0.0))):  # fmt: skip
+    for car, k_ends in (
+        (sc.lead, (sc.wall.unloading_stiffness, sc.interface.unloading_stiffness)),
+        (sc.passenger, (sc.interface.unloading_stiffness, 0.0)),
+    ):
         n = car.n_nodes
         k_link = car.axial_rigidity * (n - 1) / car.length
         m_end, m_in = car.mass / (2 * (n - 1)), car.mass / (n - 1)
@@ -198,11 +215,21 @@ def _elastic_contact_raw() -> dict:
     raw = paper_raw()
     raw.update(n_cars=1, friction=0.0, speed_kmh=5.0)
     raw["cars"]["lead"].update(n_nodes=2, damping_ratio=0.0)
-    stiff = {"stroke_mm": [100, 200], "force_kN": [10_000, 10_000], "absorber_stroke_mm": 200,
-             "unloading_stiffness_kN_per_mm": 100, "fold_amplitude": 0.0}  # fmt: skip
+    stiff = {
+        "stroke_mm": [100, 200],
+        "force_kN": [10_000, 10_000],
+        "absorber_stroke_mm": 200,
+        "unloading_stiffness_kN_per_mm": 100,
+        "fold_amplitude": 0.0,
+    }
     raw["zones"]["wall"] = dict(stiff)
-    raw["barrier"] = {"type": "obstacle", "mass_t": 20.0, "face_mass_t": 2.0, "friction": 0.0,
-                      "zone": dict(stiff)}  # fmt: skip
+    raw["barrier"] = {
+        "type": "obstacle",
+        "mass_t": 20.0,
+        "face_mass_t": 2.0,
+        "friction": 0.0,
+        "zone": dict(stiff),
+    }
     return raw
 
 
@@ -222,9 +249,13 @@ def test_single_mass_into_plateau_absorber_stops_at_analytic_distance():
     force, v0, mass = 1.0e6, 10.0, 30.0e3
     raw.update(n_cars=1, friction=0.0, speed_kmh=v0 * 3.6)
     raw["cars"]["lead"].update(mass_t=mass / 1e3, n_nodes=2, EA_MN=1e6, damping_ratio=0.0)
-    raw["zones"]["wall"] = {"stroke_mm": [1, 5000], "force_kN": [force / 1e3] * 2,
-                            "absorber_stroke_mm": 5000, "unloading_stiffness_kN_per_mm": 1000,
-                            "fold_amplitude": 0.0}  # fmt: skip
+    raw["zones"]["wall"] = {
+        "stroke_mm": [1, 5000],
+        "force_kN": [force / 1e3] * 2,
+        "absorber_stroke_mm": 5000,
+        "unloading_stiffness_kN_per_mm": 1000,
+        "fold_amplitude": 0.0,
+    }
     r = simulate_reference(parse_scenario(raw), duration=1.0, sample_dt=1e-4)
     distance = v0**2 * mass / (2 * force)  # 1.5 m
     assert r.x[:, 0].max() == pytest.approx(distance, rel=5e-3)

@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-import copy
-import pickle
-
-import cloudpickle
 import numpy as np
 import pytest
 
@@ -15,19 +11,6 @@ from railgym.envs.vehicle import (
     VerticalVehicleEnv,
     VerticalVehicleVectorEnv,
 )
-from railgym.vehicles.vertical import load_vehicle
-from surrogates import LegendreRegression
-
-COPIES = {
-    "pickle": lambda e: pickle.loads(pickle.dumps(e)),
-    "cloudpickle": lambda e: cloudpickle.loads(cloudpickle.dumps(e)),
-    "deepcopy": copy.deepcopy,
-}
-
-
-def _actions(n, shape, seed=0):
-    rng = np.random.default_rng(seed)
-    return [rng.uniform(-1.2, 1.2, shape).astype(np.float32) for _ in range(n)]
 
 
 def _run(env, actions):
@@ -42,48 +25,43 @@ def _run(env, actions):
     return out
 
 
-def _assert_same(a, b):
-    assert len(a) == len(b)
-    for x, y in zip(a, b, strict=True):
-        for u, v in zip(x, y, strict=True):
-            np.testing.assert_array_equal(u, v)
-
-
-@pytest.mark.parametrize("how", COPIES)
 @pytest.mark.parametrize("mid", [0, 17])
-def test_single_env_copy_continues_bit_identically(how, mid):
+def test_single_env_copy_continues_bit_identically(
+    copy_env, mid, random_actions, assert_same_rollouts
+):
     env = VerticalVehicleEnv(backend="reference", duration=0.3, sensor_noise=0.05)
     env.reset(seed=4)
-    _run(env, _actions(mid, (2,), seed=1))
-    twin = COPIES[how](env)
-    acts = _actions(30 - mid, (2,), seed=2)  # to the end of the episode (comfort figures)
+    _run(env, random_actions(mid, (2,), seed=1))
+    twin = copy_env(env)
+    acts = random_actions(30 - mid, (2,), seed=2)  # to the end of the episode (comfort figures)
     a, b = _run(env, acts), _run(twin, acts)
     assert a[-1][3] and len(a[-1]) == 10  # truncated: the last step carries the comfort figures
-    _assert_same(a, b)
+    assert_same_rollouts(a, b)
     assert twin.sim.bt.z is not env.sim.bt.z and twin.sim.reward is twin.sim.bk.rew
-    _assert_same(_run(env, []), _run(twin, []))
+    assert_same_rollouts(_run(env, []), _run(twin, []))
     np.testing.assert_array_equal(env.reset(seed=5)[0], twin.reset(seed=5)[0])
 
 
-@pytest.mark.parametrize("how", COPIES)
 @pytest.mark.parametrize("mid", [0, 12])
-def test_vector_env_copy_continues_bit_identically(how, mid):
+def test_vector_env_copy_continues_bit_identically(
+    copy_env, mid, random_actions, assert_same_rollouts
+):
     kw = {"backend": "surrogate", "duration": 0.2, "sensor_noise": 0.05, "speed": (30.0, 50.0)}
     venv = VerticalVehicleVectorEnv(num_envs=3, **kw)
     venv.reset(seed=9)
-    _run(venv, _actions(mid, (3, 2), seed=3))
-    twin = COPIES[how](venv)
-    acts = _actions(45, (3, 2), seed=4)  # crosses two autoresets
-    _assert_same(_run(venv, acts), _run(twin, acts))
+    _run(venv, random_actions(mid, (3, 2), seed=3))
+    twin = copy_env(venv)
+    acts = random_actions(45, (3, 2), seed=4)  # crosses two autoresets
+    assert_same_rollouts(_run(venv, acts), _run(twin, acts))
 
 
-def test_reward_terms_sum_to_the_reward_and_follow_the_definition():
+def test_reward_terms_sum_to_the_reward_and_follow_the_definition(random_actions):
     w = {"acceleration": 1.5, "deflection": 0.5, "force": 0.2}
     env = VerticalVehicleEnv(backend="reference", duration=0.5, reward_weights=w)
     env.reset(seed=0)
     free, f_max = env.cfg.free_travel, env.cfg.f_max
     p = env.vehicle_params
-    for u in _actions(50, (2,)):
+    for u in random_actions(50, (2,)):
         _, r, *_, info = env.step(u)
         t = info["reward_terms"]
         assert tuple(t) == REWARD_TERMS
@@ -138,20 +116,10 @@ def test_vector_info_masks_and_accessors():
     assert info["time"].tolist() == [0.0, 0.0]
 
 
-def _box_lpr(extrapolation):
-    """LPR of the linear suspension on a small box (±5 mm, ±0.05 m/s)."""
-    veh = load_vehicle()
-    g = np.meshgrid(np.linspace(-0.005, 0.005, 9), np.linspace(-0.05, 0.05, 9))
-    u = np.c_[g[0].ravel(), g[1].ravel()]
-    return LegendreRegression(degree=1, extrapolation=extrapolation).fit(
-        u, veh.k2 * u[:, 0] + veh.c2 * u[:, 1]
-    )
-
-
-def test_raise_policy_terminates_with_a_flag_and_linear_does_not():
+def test_raise_policy_terminates_with_a_flag_and_linear_does_not(box_lpr):
     runs = {}
     for policy in ("raise", "linear"):
-        env = VerticalVehicleEnv(surrogate=_box_lpr(policy), track_class=4, duration=2.0)
+        env = VerticalVehicleEnv(surrogate=box_lpr(policy), track_class=4, duration=2.0)
         env.reset(seed=0)
         for k in range(200):  # noqa: B007 (k is read after the loop)
             _, r, term, trunc, info = env.step(np.ones(2, np.float32))

@@ -38,7 +38,7 @@ def test_same_seed_same_episode_other_seed_differs():
     assert not np.allclose(np.array(a[1:]), np.array(c[1:]))
 
 
-def test_vector_env_equals_single_envs_with_autoreset():
+def test_vector_env_equals_single_envs_with_autoreset(next_step_autoreset):
     n, duration = 3, 0.5  # 50 steps per episode: the run crosses one autoreset
     venv = gym.make_vec(
         ENV_ID,
@@ -52,20 +52,15 @@ def test_vector_env_equals_single_envs_with_autoreset():
     obs_s = [e.reset(seed=11 + i)[0] for i, e in enumerate(singles)]
     np.testing.assert_array_equal(obs_v, np.stack(obs_s))
     rng = np.random.default_rng(0)
-    done = np.zeros(n, bool)
+    steps = next_step_autoreset(singles)
     for _ in range(80):
         act = rng.uniform(-1, 1, (n, 1)).astype(np.float32)
         obs_v, rew_v, term_v, trunc_v, info_v = venv.step(act)
-        for i, e in enumerate(singles):
-            if done[i]:  # next-step autoreset of the vector env
-                o, _ = e.reset()
-                r, te, tr = 0.0, False, False
-            else:
-                o, r, te, tr, info = e.step(act[i])
+        for i, (o, r, te, tr, info, was_reset) in enumerate(steps.step(act)):
+            if not was_reset:
                 assert info["carbody_acc"] == info_v["carbody_acc"][i]
             np.testing.assert_array_equal(obs_v[i], o)
             assert rew_v[i] == pytest.approx(r, abs=0) and term_v[i] == te and trunc_v[i] == tr
-            done[i] = te or tr
     assert venv.unwrapped.sim.steps.max() < 50  # an autoreset happened
 
 

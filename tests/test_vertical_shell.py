@@ -3,10 +3,6 @@ extrapolation policy, bounded outputs under extreme settings, and "name or path"
 
 from __future__ import annotations
 
-import copy
-import pickle
-
-import cloudpickle
 import numpy as np
 import pytest
 
@@ -17,18 +13,6 @@ from railgym.envs.vertical import (
     VerticalSuspensionVectorEnv,
 )
 from railgym.vehicles.vertical import load_vehicle
-from surrogates import LegendreRegression
-
-COPIES = {
-    "pickle": lambda e: pickle.loads(pickle.dumps(e)),
-    "cloudpickle": lambda e: cloudpickle.loads(cloudpickle.dumps(e)),
-    "deepcopy": copy.deepcopy,
-}
-
-
-def _actions(n, shape, seed=0):
-    rng = np.random.default_rng(seed)
-    return [rng.uniform(-1.2, 1.2, shape).astype(np.float32) for _ in range(n)]
 
 
 def _run(env, actions):
@@ -39,41 +23,37 @@ def _run(env, actions):
     return out
 
 
-def _assert_same(a, b):
-    for x, y in zip(a, b, strict=True):
-        for u, v in zip(x, y, strict=True):
-            np.testing.assert_array_equal(u, v)
-
-
-@pytest.mark.parametrize("how", COPIES)
 @pytest.mark.parametrize("mid", [0, 37])
-def test_single_env_copy_continues_bit_identically(how, mid):
+def test_single_env_copy_continues_bit_identically(
+    copy_env, mid, random_actions, assert_same_rollouts
+):
     env = VerticalSuspensionEnv(duration=0.6, sensor_noise=0.05)
     env.reset(seed=4)
-    _run(env, _actions(mid, (1,), seed=1))
-    twin = COPIES[how](env)
-    acts = _actions(23, (1,), seed=2)  # runs to the end of the 60-step episode (mid=37)
+    _run(env, random_actions(mid, (1,), seed=1))
+    twin = copy_env(env)
+    acts = random_actions(23, (1,), seed=2)  # runs to the end of the 60-step episode (mid=37)
     a, b = _run(env, acts), _run(twin, acts)
-    _assert_same(a, b)
+    assert_same_rollouts(a, b)
     assert twin.sim.z is not env.sim.z and twin.sim.obs is twin.sim.res.obs
 
 
-@pytest.mark.parametrize("how", COPIES)
 @pytest.mark.parametrize("mid", [0, 25])
-def test_vector_env_copy_continues_bit_identically(how, mid):
+def test_vector_env_copy_continues_bit_identically(
+    copy_env, mid, random_actions, assert_same_rollouts
+):
     venv = VerticalSuspensionVectorEnv(num_envs=3, duration=0.3, sensor_noise=0.05)
     venv.reset(seed=9)
-    _run(venv, _actions(mid, (3, 1), seed=3))
-    twin = COPIES[how](venv)
-    acts = _actions(45, (3, 1), seed=4)  # crosses an autoreset
-    _assert_same(_run(venv, acts), _run(twin, acts))
+    _run(venv, random_actions(mid, (3, 1), seed=3))
+    twin = copy_env(venv)
+    acts = random_actions(45, (3, 1), seed=4)  # crosses an autoreset
+    assert_same_rollouts(_run(venv, acts), _run(twin, acts))
 
 
-def test_reward_terms_sum_to_the_reward_and_follow_the_definition():
+def test_reward_terms_sum_to_the_reward_and_follow_the_definition(random_actions):
     w = {"acceleration": 1.5, "deflection": 0.5, "force": 0.2}
     env = VerticalSuspensionEnv(backend="reference", duration=0.5, reward_weights=w)
     env.reset(seed=0)
-    for a in _actions(50, (1,)):
+    for a in random_actions(50, (1,)):
         _, r, *_, info = env.step(a)
         t = info["reward_terms"]
         assert t["acceleration"] + t["deflection"] + t["force"] + t["divergence"] == r
@@ -88,10 +68,10 @@ def test_reward_terms_sum_to_the_reward_and_follow_the_definition():
         assert t["divergence"] == 0.0
 
 
-def test_vector_reward_terms_are_arrays_that_sum_to_the_reward():
+def test_vector_reward_terms_are_arrays_that_sum_to_the_reward(random_actions):
     venv = VerticalSuspensionVectorEnv(num_envs=4, duration=0.2)
     venv.reset(seed=1)
-    for a in _actions(30, (4, 1)):
+    for a in random_actions(30, (4, 1)):
         _, r, *_, info = venv.step(a)
         t = info["reward_terms"]
         total = t["acceleration"] + t["deflection"] + t["force"] + t["divergence"]
@@ -119,20 +99,10 @@ def test_divergence_term_and_accessors_are_copies():
     }
 
 
-def _box_lpr(extrapolation):
-    """LPR of the linear suspension on a small box (±5 mm, ±0.05 m/s)."""
-    veh = load_vehicle()
-    g = np.meshgrid(np.linspace(-0.005, 0.005, 9), np.linspace(-0.05, 0.05, 9))
-    u = np.c_[g[0].ravel(), g[1].ravel()]
-    return LegendreRegression(degree=1, extrapolation=extrapolation).fit(
-        u, veh.k2 * u[:, 0] + veh.c2 * u[:, 1]
-    )
-
-
-def test_raise_policy_terminates_with_a_flag_and_linear_does_not():
+def test_raise_policy_terminates_with_a_flag_and_linear_does_not(box_lpr):
     runs = {}
     for policy in ("raise", "linear"):
-        env = VerticalSuspensionEnv(surrogate=_box_lpr(policy), track_class=4, duration=2.0)
+        env = VerticalSuspensionEnv(surrogate=box_lpr(policy), track_class=4, duration=2.0)
         env.reset(seed=0)
         for k in range(200):  # noqa: B007 (k is read after the loop)
             _, r, term, trunc, info = env.step(np.ones(1, np.float32))
@@ -145,7 +115,7 @@ def test_raise_policy_terminates_with_a_flag_and_linear_does_not():
     assert not term and "extrapolated" not in info and info["out_of_domain"] > 0
 
 
-def test_extreme_documented_settings_keep_step_finite():
+def test_extreme_documented_settings_keep_step_finite(random_actions):
     w = {k: LIMITS["reward_weight"] for k in ("acceleration", "deflection", "force")}
     env = VerticalSuspensionEnv(
         backend="linear",
@@ -158,7 +128,7 @@ def test_extreme_documented_settings_keep_step_finite():
         speed=2 * 4.47,
     )
     env.reset(seed=0)
-    for a in _actions(100, (1,), seed=5):
+    for a in random_actions(100, (1,), seed=5):
         obs, r, term, trunc, info = env.step(a * 100)
         assert np.all(np.isfinite(obs)) and np.isfinite(r)
         assert all(np.isfinite(v) for v in info["reward_terms"].values())

@@ -15,7 +15,7 @@ with surrogate elements (packaged ones, else fitted on a reference run of the sc
 single env and the native vector env are the shells of :mod:`railgym.envs.base` around
 :class:`~railgym.envs.crash_batch.CrashBatch`, which steps any number of trains in one
 compiled call. ``info`` carries the crash criteria of
-:mod:`railgym.vehicles.crash_criteria` with the scenario's limits. See ``docs/envs/crash.md``.
+:mod:`railgym.vehicles.crash.criteria` with the scenario's limits. See ``docs/envs/crash.md``.
 """
 
 from __future__ import annotations
@@ -45,8 +45,8 @@ from railgym.vehicles.crash import (
     load_scenario,
     simulate_reference,
 )
-from railgym.vehicles.crash_criteria import ONSET_G, WINDOW
-from railgym.vehicles.crash_elements import packaged_surrogate
+from railgym.vehicles.crash.criteria import ONSET_G, WINDOW
+from railgym.vehicles.crash.elements import packaged_surrogate
 
 __all__ = [
     "BACKENDS",
@@ -183,7 +183,7 @@ def default_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> C
 @functools.lru_cache(maxsize=16)
 def env_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> CrashSurrogate:
     """The elements ``gym.make`` uses without ``surrogate=``: the packaged envelope elements
-    of the scenario's train (:func:`railgym.vehicles.crash_elements.packaged_surrogate`), else
+    of the scenario's train (:func:`railgym.vehicles.crash.elements.packaged_surrogate`), else
     :func:`default_surrogate` (fitted once per process); cached per scenario and process."""
     packaged = packaged_surrogate(scenario, variant)
     return packaged if packaged is not None else default_surrogate(scenario, variant)

@@ -22,7 +22,7 @@ from railgym.vehicles.crash import (
     reference_batch_step,
     surrogate_batch_step,
 )
-from railgym.vehicles.crash_criteria import zero_crossing
+from railgym.vehicles.crash.criteria import zero_crossing
 
 __all__ = [
     "COLUMNS",

@@ -5,7 +5,7 @@ Per car: the peak and the time-averaged deceleration (in g, from the per-step
 ``info["crush_m"]``), the energy absorbed (J) and the fraction of the absorber stroke used;
 plus the share of the train's initial kinetic energy the zones absorbed. With an env that
 reports them (``TrainCrash-v0`` does), the crash criteria of
-:mod:`railgym.vehicles.crash_criteria` and their pass/fail against the scenario's limits
+:mod:`railgym.vehicles.crash.criteria` and their pass/fail against the scenario's limits
 (the crash scenarios are only inspired by EN 15227; see ``docs/envs/crash.md``).
 """
 

@@ -9,12 +9,44 @@ Pure physics (no gymnasium), one module per concept:
 * :mod:`~railgym.vehicles.crash.reference` — the lumped-mass reference model;
 * :mod:`~railgym.vehicles.crash.surrogate` — the surrogate elements of paper eq. (4), fitted;
 * :mod:`~railgym.vehicles.crash.surrogate_model` — the compiled surrogate model;
-* :mod:`~railgym.vehicles.crash.batch` — batch stepping of many trains for the envs.
+* :mod:`~railgym.vehicles.crash.batch` — batch stepping of many trains for the envs;
+* :mod:`~railgym.vehicles.crash.criteria` — crash criteria (decelerations, pulses, intrusion);
+* :mod:`~railgym.vehicles.crash.energy` — energy consistency of the elements;
+* :mod:`~railgym.vehicles.crash.fe` — elements from a user's LS-DYNA run, their JSON files
+  (``python -m railgym.vehicles.crash.fe``);
+* :mod:`~railgym.vehicles.crash.elements` — the packaged element sets and their validation
+  matrix (``python -m railgym.vehicles.crash.elements``).
 
-Every public name is re-exported here.
+Every public name is re-exported here, except those of the two command-line modules ``fe`` and
+``elements``: importing them here would load them before ``python -m`` runs them. Import those
+from their modules.
 """
 
 from railgym.vehicles.crash.batch import BATCH_BACKENDS, CrashBatchModel, crash_batch_model
+from railgym.vehicles.crash.criteria import (
+    ONSET_G,
+    WINDOW,
+    CrashCriteria,
+    CriteriaLimits,
+    G,
+    Pulse,
+    crash_criteria,
+    crash_pulse,
+    intrusion,
+    moving_average_peak,
+    peak_deceleration,
+    result_criteria,
+    zero_crossing,
+    zone_absorber_strokes,
+)
+from railgym.vehicles.crash.energy import (
+    CycleWork,
+    element_force_history,
+    element_work,
+    is_passive,
+    rebound_energy_ratio,
+    repaired_paper_history,
+)
 from railgym.vehicles.crash.outputs import V_EPS, BatchOutputs, CrashResult, Record, StopRule
 from railgym.vehicles.crash.reference import (
     MIN_REFERENCE_DT,
@@ -64,20 +96,27 @@ __all__ = [
     "LIMITS",
     "MAX_SPEED",
     "MIN_REFERENCE_DT",
+    "ONSET_G",
     "VARIANTS",
     "V_EPS",
+    "WINDOW",
     "BatchOutputs",
     "CarSpec",
     "Coupler",
     "CrashBatchModel",
+    "CrashCriteria",
     "CrashElement",
     "CrashResult",
     "CrashScenario",
     "CrashSurrogate",
+    "CriteriaLimits",
     "CrushZone",
+    "CycleWork",
     "ElementTypes",
+    "G",
     "LprModels",
     "Obstacle",
+    "Pulse",
     "Record",
     "ReferenceParams",
     "ReferenceState",
@@ -91,16 +130,29 @@ __all__ = [
     "check_int",
     "check_real",
     "crash_batch_model",
+    "crash_criteria",
     "crash_errors",
+    "crash_pulse",
     "crash_training_data",
+    "element_force_history",
+    "element_work",
+    "intrusion",
+    "is_passive",
     "load_scenario",
+    "moving_average_peak",
     "parse_scenario",
+    "peak_deceleration",
+    "rebound_energy_ratio",
     "reference_batch_step",
     "reference_time_step",
+    "repaired_paper_history",
+    "result_criteria",
     "scenario_names",
     "simulate_reference",
     "simulate_surrogate",
     "surrogate_batch_step",
     "virgin_loading",
+    "zero_crossing",
+    "zone_absorber_strokes",
     "zone_force",
 ]

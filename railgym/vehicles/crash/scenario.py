@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from railgym import _validation as val
+from railgym.vehicles.crash.criteria import CriteriaLimits
 from railgym.vehicles.crash.zone import _envelope
-from railgym.vehicles.crash_criteria import CriteriaLimits
 
 __all__ = [
     "LIMITS",
@@ -243,7 +243,7 @@ class CrashScenario:
     obstacle : ``None`` for a rigid wall, else the free obstacle.
     envelope : the impact envelope the env draws from (``None``: every episode at ``speed``).
     criteria : acceptance limits of the crash criteria
-        (:class:`~railgym.vehicles.crash_criteria.CriteriaLimits`).
+        (:class:`~railgym.vehicles.crash.criteria.CriteriaLimits`).
     """
 
     name: str

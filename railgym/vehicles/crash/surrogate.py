@@ -225,7 +225,7 @@ def build_crash_surrogate(
     Parameters
     ----------
     reference : output of :func:`simulate_reference`, or a list of reference results of one
-        scenario (e.g. :func:`railgym.vehicles.crash_elements.envelope_runs`) pooled into one
+        scenario (e.g. :func:`railgym.vehicles.crash.elements.envelope_runs`) pooled into one
         element set. A run with absorber scale ``s`` (``result.extra["absorber_scale"]``)
         contributes its loading forces divided by ``s`` within the absorber stroke, i.e. the
         nominal envelope the element scales at run time; unloading samples (``k̂_u``) as they

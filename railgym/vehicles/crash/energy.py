@@ -31,8 +31,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from railgym.vehicles.crash import VARIANTS, CrashElement
+from railgym.vehicles.crash.surrogate import VARIANTS, CrashElement
 from railgym.vehicles.crash.surrogate_model import _element_force, _element_model
+
+__all__ = [
+    "CycleWork",
+    "element_force_history",
+    "element_work",
+    "is_passive",
+    "rebound_energy_ratio",
+    "repaired_paper_history",
+]
 
 
 class CycleWork(NamedTuple):

@@ -9,7 +9,7 @@ files live in ``railgym/data/crash_elements_<scenario>.json`` with the train's c
 its scenario (:func:`packaged_surrogate`), so every packaged scenario of that train (``paper``,
 ``envelope``, ``speed25``, ``speed50``, ...) shares it. Regenerate with::
 
-    python -m railgym.vehicles.crash_elements --scenario paper --overwrite
+    python -m railgym.vehicles.crash.elements --scenario paper --overwrite
 
 :func:`validation_matrix` runs surrogate and reference side by side at speeds × absorber
 scales and returns each car's peak deceleration and each zone's largest crush on both.
@@ -28,16 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from railgym.vehicles.crash import (
-    CrashBatchModel,
-    CrashResult,
-    CrashScenario,
-    CrashSurrogate,
-    build_crash_surrogate,
-    crash_batch_model,
-    load_scenario,
-)
-from railgym.vehicles.crash_fe import load_crash_surrogate, save_crash_surrogate
+from railgym.vehicles.crash.batch import CrashBatchModel, crash_batch_model
+from railgym.vehicles.crash.fe import load_crash_surrogate, save_crash_surrogate
+from railgym.vehicles.crash.outputs import CrashResult
+from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
+from railgym.vehicles.crash.surrogate import CrashSurrogate, build_crash_surrogate
 
 __all__ = [
     "FIT_DEGREES",
@@ -49,6 +44,7 @@ __all__ = [
     "batch_runs",
     "build_envelope_surrogate",
     "envelope_runs",
+    "main",
     "packaged_path",
     "packaged_surrogate",
     "train_key",
@@ -255,7 +251,7 @@ def validation_matrix(
 def main(argv: Sequence[str] | None = None) -> int:
     """Fit the envelope elements of a scenario and write its packaged file."""
     parser = argparse.ArgumentParser(
-        prog="python -m railgym.vehicles.crash_elements", description=__doc__.split("\n")[0]
+        prog="python -m railgym.vehicles.crash.elements", description=__doc__.split("\n")[0]
     )
     parser.add_argument("--scenario", default="paper", help="packaged scenario (default paper)")
     parser.add_argument("--out", type=Path, default=None, help="default: the packaged file")
@@ -273,7 +269,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "speeds_kmh": list(FIT_SPEEDS_KMH),
         "absorber_scales": list(FIT_SCALES),
         "degrees": list(FIT_DEGREES),
-        "command": f"python -m railgym.vehicles.crash_elements --scenario {sc.name} --overwrite",
+        "command": f"python -m railgym.vehicles.crash.elements --scenario {sc.name} --overwrite",
     }
     save_crash_surrogate(sur, out, overwrite=True, metadata=meta)
     print(f"wrote {out} (train key {meta['train_key']})")

@@ -30,7 +30,7 @@ co-simulation FMU (see ``docs/fmi.md``).
 :class:`~railgym.vehicles.crash.CrashSurrogate` as JSON (each LPR as a
 :func:`surrogates.io.model_to_document`). Command line::
 
-    python -m railgym.vehicles.crash_fe --nodout nodout --rcforc rcforc --units mm-ms-kg-kN \\
+    python -m railgym.vehicles.crash.fe --nodout nodout --rcforc rcforc --units mm-ms-kg-kN \\
         --car-nodes 1001 2001 --wall-contact 1 --interface-contacts 2 -o elements.json \\
         [--fmu-dir fmus/]
 """
@@ -48,18 +48,25 @@ from typing import Any
 
 import numpy as np
 
-from railgym.vehicles.crash import (
-    CrashElement,
-    CrashResult,
-    CrashScenario,
-    CrashSurrogate,
-    build_crash_surrogate,
-    load_scenario,
-)
+from railgym.vehicles.crash.outputs import CrashResult
+from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
+from railgym.vehicles.crash.surrogate import CrashElement, CrashSurrogate, build_crash_surrogate
 from surrogates import io
 from surrogates.features import TimeHistory
 from surrogates.models.base import _jsonable
 from surrogates.selection import SelectionResult
+
+__all__ = [
+    "AXES",
+    "FORMAT",
+    "SCHEMA_VERSION",
+    "crash_result_from_fe",
+    "crash_surrogate_from_fe",
+    "export_crash_element_fmu",
+    "load_crash_surrogate",
+    "main",
+    "save_crash_surrogate",
+]
 
 AXES = ("x", "y", "z")
 FORMAT = "railgym-crash-surrogate"
@@ -351,9 +358,9 @@ def export_crash_element_fmu(
 
 # ------------------------------------------------------------------------------ command line
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m railgym.vehicles.crash_fe``: crash elements from LS-DYNA nodout/rcforc."""
+    """``python -m railgym.vehicles.crash.fe``: crash elements from LS-DYNA nodout/rcforc."""
     p = argparse.ArgumentParser(
-        prog="python -m railgym.vehicles.crash_fe", description=main.__doc__
+        prog="python -m railgym.vehicles.crash.fe", description=main.__doc__
     )
     p.add_argument("--nodout", required=True, help="LS-DYNA ASCII nodout file")
     p.add_argument("--rcforc", required=True, help="LS-DYNA ASCII rcforc file")

@@ -49,7 +49,24 @@ import numpy as np
 from numba import njit
 
 if TYPE_CHECKING:
-    from railgym.vehicles.crash import CrashResult
+    from railgym.vehicles.crash.outputs import CrashResult
+
+__all__ = [
+    "ONSET_G",
+    "WINDOW",
+    "CrashCriteria",
+    "CriteriaLimits",
+    "G",
+    "Pulse",
+    "crash_criteria",
+    "crash_pulse",
+    "intrusion",
+    "moving_average_peak",
+    "peak_deceleration",
+    "result_criteria",
+    "zero_crossing",
+    "zone_absorber_strokes",
+]
 
 #: moving-average window of :func:`moving_average_peak`, s
 WINDOW = 0.01

@@ -1,0 +1,118 @@
+"""Fixtures shared by several test files: env copies, seeded actions, rollout comparison, a small
+fitted LPR of the linear suspension and the bad-input error check."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import cloudpickle
+import numpy as np
+import pytest
+
+from railgym.vehicles.vertical import load_vehicle
+from surrogates import LegendreRegression
+
+COPIES: dict[str, Callable[[Any], Any]] = {
+    "pickle": lambda e: pickle.loads(pickle.dumps(e)),
+    "cloudpickle": lambda e: cloudpickle.loads(cloudpickle.dumps(e)),
+    "deepcopy": copy.deepcopy,
+}
+
+
+@pytest.fixture(params=list(COPIES))
+def copy_env(request: pytest.FixtureRequest) -> Callable[[Any], Any]:
+    """Each way an env is copied (pickle, cloudpickle, deepcopy), one test each."""
+    return COPIES[request.param]
+
+
+@pytest.fixture
+def random_actions() -> Callable[..., list[np.ndarray]]:
+    """``make(n, shape, seed=0)``: ``n`` seeded float32 actions uniform in [-1.2, 1.2] (a little
+    outside the action box, so that clipping is exercised)."""
+
+    def make(n: int, shape: tuple[int, ...], seed: int = 0) -> list[np.ndarray]:
+        rng = np.random.default_rng(seed)
+        return [rng.uniform(-1.2, 1.2, shape).astype(np.float32) for _ in range(n)]
+
+    return make
+
+
+@pytest.fixture
+def assert_same_rollouts() -> Callable[[list, list], None]:
+    """``check(a, b)``: two rollouts (lists of rows of arrays) are bit identical."""
+
+    def check(a: list, b: list) -> None:
+        assert len(a) == len(b)
+        for x, y in zip(a, b, strict=True):
+            for u, v in zip(x, y, strict=True):
+                np.testing.assert_array_equal(u, v)
+
+    return check
+
+
+@pytest.fixture
+def box_lpr() -> Callable[[str], LegendreRegression]:
+    """``fit(extrapolation)``: LPR (degree 1) of the linear suspension of the packaged vehicle,
+    fitted on a small box (±5 mm, ±0.05 m/s), so that a run leaves its domain."""
+    veh = load_vehicle()
+    g = np.meshgrid(np.linspace(-0.005, 0.005, 9), np.linspace(-0.05, 0.05, 9))
+    u = np.c_[g[0].ravel(), g[1].ravel()]
+    f = veh.k2 * u[:, 0] + veh.c2 * u[:, 1]
+
+    def fit(extrapolation: str) -> LegendreRegression:
+        return LegendreRegression(degree=1, extrapolation=extrapolation).fit(u, f)
+
+    return fit
+
+
+@pytest.fixture
+def assert_names_the_field(tmp_path: Path) -> Callable[[Callable, type, str], None]:
+    """``check(call, error, field)``: ``call(tmp_path)`` raises ``error`` (also a ValueError)
+    with a message naming ``field`` and no leaked numpy/Python internals."""
+
+    def check(call: Callable[[Path], Any], error: type[Exception], field: str) -> None:
+        with pytest.raises(error, match=field) as info:
+            call(tmp_path)
+        assert isinstance(info.value, ValueError)  # every project error is also a ValueError
+        assert not re.search(r"ufunc|object has no attribute|could not convert", str(info.value))
+
+    return check
+
+
+class NextStepAutoreset:
+    """Single envs stepped the way a gymnasium vector env with next-step autoreset steps its
+    sub-envs: a sub-env that ended is reset on the following step, which then reports reward
+    0, not terminated and not truncated (with the reset's observation and info).
+
+    Parameters
+    ----------
+    envs : the single envs, already reset.
+    """
+
+    def __init__(self, envs: list[Any]) -> None:
+        self.envs = envs
+        self.done = np.zeros(len(envs), bool)
+
+    def step(self, actions: np.ndarray) -> list[tuple[Any, float, bool, bool, dict, bool]]:
+        """``(obs, reward, terminated, truncated, info, was_reset)`` of each env."""
+        out = []
+        for i, env in enumerate(self.envs):
+            was_reset = bool(self.done[i])
+            if was_reset:
+                (o, info), r, te, tr = env.reset(), 0.0, False, False
+            else:
+                o, r, te, tr, info = env.step(actions[i])
+            self.done[i] = te or tr
+            out.append((o, r, te, tr, info, was_reset))
+        return out
+
+
+@pytest.fixture
+def next_step_autoreset() -> type[NextStepAutoreset]:
+    """:class:`NextStepAutoreset`: single envs stepped as the vector env steps its sub-envs."""
+    return NextStepAutoreset
