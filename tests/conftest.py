@@ -7,12 +7,14 @@ import copy
 import pickle
 import re
 from collections.abc import Callable
+from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
 import cloudpickle
 import numpy as np
 import pytest
+import yaml
 
 from railgym.vehicles.vertical import load_vehicle
 from surrogates import LegendreRegression
@@ -116,3 +118,31 @@ class NextStepAutoreset:
 def next_step_autoreset() -> type[NextStepAutoreset]:
     """:class:`NextStepAutoreset`: single envs stepped as the vector env steps its sub-envs."""
     return NextStepAutoreset
+
+
+@pytest.fixture(scope="session")
+def crash_raw() -> Callable[..., dict]:
+    """``raw(name="paper")``: a fresh copy of the raw ``crash`` mapping of a packaged crash
+    scenario file (``railgym/configs/crash/<name>.yaml``), to edit and parse."""
+
+    def raw(name: str = "paper") -> dict:
+        text = files("railgym").joinpath("configs", "crash", f"{name}.yaml").read_text("utf-8")
+        return copy.deepcopy(yaml.safe_load(text)["crash"])
+
+    return raw
+
+
+@pytest.fixture(scope="session")
+def set_field() -> Callable[[dict, str, Any], dict]:
+    """``set(raw, "cars.lead.mass_t", value)``: set a dotted field of a raw mapping in place
+    and return the mapping."""
+
+    def set_(raw: dict, dotted: str, value: Any) -> dict:
+        *head, last = dotted.split(".")
+        node = raw
+        for key in head:
+            node = node[key]
+        node[last] = value
+        return raw
+
+    return set_

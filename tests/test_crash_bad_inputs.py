@@ -5,29 +5,12 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from importlib.resources import files
 
 import numpy as np
 import pytest
-import yaml
 
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
 from railgym.vehicles.crash import crash_batch_model, load_scenario, parse_scenario
-
-
-def _paper_raw() -> dict:
-    text = files("railgym").joinpath("configs", "crash", "paper.yaml").read_text("utf-8")
-    return copy.deepcopy(yaml.safe_load(text)["crash"])
-
-
-def _set(raw: dict, dotted: str, value) -> dict:
-    *head, last = dotted.split(".")
-    node = raw
-    for key in head:
-        node = node[key]
-    node[last] = value
-    return raw
-
 
 OBSTACLE = {
     "type": "obstacle",
@@ -91,21 +74,21 @@ OBSTACLE = {
         ("barrier", dict(OBSTACLE, mass_t=1e307), r"crash\.barrier\.mass_t must be in"),
     ],
 )
-def test_scenario_numbers_out_of_range_name_the_field(field, value, message):
+def test_scenario_numbers_out_of_range_name_the_field(crash_raw, set_field, field, value, message):
     with pytest.raises(ValueError, match=message):
-        parse_scenario(_set(_paper_raw(), field, value))
+        parse_scenario(set_field(crash_raw(), field, value))
 
 
-def test_a_chain_too_light_and_stiff_for_a_stable_step_is_rejected():
-    raw = _paper_raw()
+def test_a_chain_too_light_and_stiff_for_a_stable_step_is_rejected(crash_raw):
+    raw = crash_raw()
     raw["cars"]["lead"].update(mass_t=1.0, length_m=1.0, n_nodes=100, EA_MN=1e6)
     sc = parse_scenario(raw)  # every field is within its limits ...
     with pytest.raises(ValueError, match=r"stable time step .*crash\.cars\.\*\.mass_t"):
         crash_batch_model(sc, "reference")  # ... but the combination is not
 
 
-def test_numpy_scalars_in_a_raw_scenario_are_numbers():
-    raw = _set(_paper_raw(), "cars.lead.mass_t", np.float32(30.39))
+def test_numpy_scalars_in_a_raw_scenario_are_numbers(crash_raw, set_field):
+    raw = set_field(crash_raw(), "cars.lead.mass_t", np.float32(30.39))
     raw["n_cars"] = np.int64(3)
     sc = parse_scenario(raw)
     assert sc.n_cars == 3 and sc.lead.mass == pytest.approx(30_390.0, rel=1e-6)

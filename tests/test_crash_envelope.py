@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import copy
 from dataclasses import replace
-from importlib.resources import files
 
 import numpy as np
 import pytest
@@ -17,11 +16,6 @@ from railgym.vehicles.crash import CrushZone, load_scenario, parse_scenario
 from railgym.vehicles.crash.criteria import crash_pulse, moving_average_peak
 
 KMH = 1 / 3.6
-
-
-def _raw(name: str = "paper") -> dict:
-    text = files("railgym").joinpath("configs", "crash", f"{name}.yaml").read_text("utf-8")
-    return copy.deepcopy(yaml.safe_load(text)["crash"])
 
 
 def _run(env, action=(0.0, 0.0), **reset):
@@ -136,15 +130,15 @@ def test_bad_options_name_the_option(options, message):
         ({"speed": [25, 50]}, r"crash\.envelope\.speed is not a known field"),
     ],
 )
-def test_bad_envelope_ranges_name_the_field(envelope, message):
-    raw = _raw()
+def test_bad_envelope_ranges_name_the_field(crash_raw, envelope, message):
+    raw = crash_raw()
     raw["envelope"] = envelope
     with pytest.raises(ValueError, match=message):
         parse_scenario(raw)
 
 
-def test_an_envelope_speed_alone_is_fixed_and_the_speed_argument_fixes_it():
-    raw = _raw()
+def test_an_envelope_speed_alone_is_fixed_and_the_speed_argument_fixes_it(crash_raw):
+    raw = crash_raw()
     raw["envelope"] = {"speed_kmh": 30}
     sc = parse_scenario(raw)
     assert sc.envelope.speed == (30 / 3.6, 30 / 3.6) and sc.envelope.payload_lead == (0.0, 0.0)
@@ -201,8 +195,8 @@ def test_env_pulse_mean_of_a_constant_force_crash_is_analytic():
     assert info["mean_decel_passed"][0] and not info["criteria_passed"]
 
 
-def test_scenario_criteria_limits_decide_pass_and_fail(tmp_path):
-    raw = _raw()
+def test_scenario_criteria_limits_decide_pass_and_fail(crash_raw, tmp_path):
+    raw = crash_raw()
     raw["criteria"] = {"mean_decel_g": 3.0, "intrusion_mm": 10.0, "peak_decel_g": 7.5}
     path = tmp_path / "strict.yaml"
     path.write_text(yaml.safe_dump({"crash": raw}), encoding="utf-8")

@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import copy
 import math
-from importlib.resources import files
 
 import numpy as np
 import pytest
-import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.polynomial import legendre
@@ -26,12 +23,6 @@ from railgym.vehicles.crash import (
     zone_force,
 )
 from railgym.vehicles.crash.surrogate_model import _legendre_series
-
-
-def paper_raw() -> dict:
-    """The raw ``crash`` mapping of the packaged paper scenario (a fresh copy)."""
-    text = files("railgym").joinpath("configs", "crash", "paper.yaml").read_text("utf-8")
-    return copy.deepcopy(yaml.safe_load(text)["crash"])
 
 
 @pytest.fixture(scope="module")
@@ -82,14 +73,6 @@ def test_scenario_file_with_base(tmp_path):
     assert sc.lead == load_scenario("paper").lead
 
 
-def _set(raw: dict, dotted: str, value) -> None:
-    *head, last = dotted.split(".")
-    node = raw
-    for key in head:
-        node = node[key]
-    node[last] = value
-
-
 @pytest.mark.parametrize(
     "field, value, message",
     [
@@ -128,9 +111,8 @@ def _set(raw: dict, dotted: str, value) -> None:
         ("barrier.type", "tree", r"crash\.barrier\.type must be"),
     ],
 )
-def test_scenario_validation_names_the_field(field, value, message):
-    raw = paper_raw()
-    _set(raw, field, value)
+def test_scenario_validation_names_the_field(crash_raw, set_field, field, value, message):
+    raw = set_field(crash_raw(), field, value)
     with pytest.raises(ValueError, match=message):
         parse_scenario(raw)
 
@@ -211,8 +193,7 @@ def test_time_step_from_the_stiffest_element():
     assert dt <= 0.2 * 2 / omega < dt * (n_sub + 1) / n_sub
 
 
-def _elastic_contact_raw() -> dict:
-    raw = paper_raw()
+def _elastic_contact_raw(raw: dict) -> dict:
     raw.update(n_cars=1, friction=0.0, speed_kmh=5.0)
     raw["cars"]["lead"].update(n_nodes=2, damping_ratio=0.0)
     stiff = {
@@ -233,8 +214,8 @@ def _elastic_contact_raw() -> dict:
     return raw
 
 
-def test_momentum_conserved_in_frictionless_elastic_contact():
-    sc = parse_scenario(_elastic_contact_raw())
+def test_momentum_conserved_in_frictionless_elastic_contact(crash_raw):
+    sc = parse_scenario(_elastic_contact_raw(crash_raw()))
     r = simulate_reference(sc, duration=0.3, stop_when_over=False)
     assert r.body_names == ["lead", "obstacle"]
     p = r.v[:, 0] * sc.lead.mass + r.v[:, 1] * sc.obstacle.mass
@@ -244,8 +225,8 @@ def test_momentum_conserved_in_frictionless_elastic_contact():
     assert r.v[-1, 1] > r.v[-1, 0]  # the obstacle moves ahead of the car afterwards
 
 
-def test_single_mass_into_plateau_absorber_stops_at_analytic_distance():
-    raw = paper_raw()
+def test_single_mass_into_plateau_absorber_stops_at_analytic_distance(crash_raw):
+    raw = crash_raw()
     force, v0, mass = 1.0e6, 10.0, 30.0e3
     raw.update(n_cars=1, friction=0.0, speed_kmh=v0 * 3.6)
     raw["cars"]["lead"].update(mass_t=mass / 1e3, n_nodes=2, EA_MN=1e6, damping_ratio=0.0)
