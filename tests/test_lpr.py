@@ -201,6 +201,8 @@ def test_numba_kernels_match_predict(interactions: bool) -> None:
         (2, {"degree": (2, 9)}),
         (3, {"degree": 4, "interactions": True}),
         (3, {"degree": (3, 1, 5), "extrapolation": "clip"}),
+        (3, {"degree": (3, 1, 5)}),
+        (4, {"degree": (2, 3, 1, 2)}),
     ],
 )
 def test_eval_into_reuses_one_work_array(d: int, params: dict) -> None:

@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 
 from railgym.vehicles.vertical.elements import LprArrays, in_contact, rhs
+from surrogates.memory import FEATURE_FORMS, element_form
 from surrogates.models.lpr import EXTRAPOLATION_MODES, lpr_scratch
 
 __all__ = [
@@ -37,7 +38,7 @@ __all__ = [
 
 VARIANTS = ("linear", "static", "dynamic", "surrogate")
 #: number of state variables per variant
-STATE_SIZE = {"linear": 4, "static": 4, "dynamic": 7, "surrogate": 4}
+STATE_SIZE = {"linear": 4, "static": 4, "dynamic": 7, "surrogate": 5}
 #: recommended integration step per variant, s
 DEFAULT_DT = {"linear": 1e-3, "static": 1e-3, "dynamic": 1e-3, "surrogate": 1e-3}
 #: |x1| or |x2| above this (m) counts as divergence
@@ -75,7 +76,7 @@ def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     r2 = np.empty(s)
     r3 = np.empty(s)
     r4 = np.empty(s)
-    u = np.empty(2)
+    u = np.empty(lpr.lo.shape[0])
     lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     h6 = dt / 6.0
     dt8 = 0.125 * dt  # cubic Hermite midpoint of the track samples (package docstring)
@@ -187,7 +188,9 @@ def advance_dynamic(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
 
 @njit(cache=True)
 def advance_surrogate(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
-    """:func:`advance_linear` with the LPR surrogate ``F̂(δ, δ̇)`` as secondary suspension."""
+    """:func:`advance_linear` with the LPR surrogate as secondary suspension: ``F̂(δ, δ̇)``
+    (static form) or ``F̂(δ, δ̇, δ − s)`` with the Maxwell state ``s = state[:, 4]``
+    (``ṡ = (δ − s)/τ``), plus the bump-stop law where ``lpr.bump`` is set."""
     _advance(3, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
@@ -199,31 +202,45 @@ KERNELS = {
 }
 
 
-def surrogate_arrays(surrogate: Any = None) -> LprArrays:
+def surrogate_arrays(surrogate: Any = None, dt: float | None = None) -> LprArrays:
     """:class:`LprArrays` from a fitted LPR model (or its ``kernel_arrays()`` tuple).
 
-    ``None`` gives placeholder arrays for the variants that ignore them. A model whose input
-    count is not 2 (δ, δ̇) is rejected.
+    The feature form, ``τ`` and the known physics come from the model's ``features_``
+    (set by :func:`surrogates.io.load`; absent: the static form, as for a bare
+    ``kernel_arrays()`` tuple). ``None`` gives placeholder arrays for the variants that ignore
+    them. ``dt`` (s), when given, must not exceed ``2τ`` (RK4 stability of the Maxwell
+    state). A model whose input count does not match its form (2 static, 3 maxwell) is
+    rejected.
     """
     if surrogate is None:
-        return LprArrays(np.zeros((1, 2), np.int64), np.zeros(1), np.zeros(2), np.ones(2), 0)
+        return LprArrays(
+            np.zeros((1, 2), np.int64), np.zeros(1), np.zeros(2), np.ones(2), 0, 0.0, False
+        )
     arrays = surrogate.kernel_arrays() if hasattr(surrogate, "kernel_arrays") else surrogate
     if not isinstance(arrays, tuple | list) or len(arrays) != 5:
         raise ValueError("surrogate must be a fitted LPR model or its kernel_arrays() tuple")
+    form = element_form(getattr(surrogate, "features_", None))
     exps, coef, lo, up, mode = arrays
     exps = np.ascontiguousarray(exps, dtype=np.int64)
     coef = np.ascontiguousarray(coef, dtype=np.float64)
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     up = np.ascontiguousarray(up, dtype=np.float64)
-    if exps.ndim != 2 or exps.shape[1] != 2 or lo.shape != (2,) or up.shape != (2,):
+    d = len(FEATURE_FORMS[form.form])
+    if exps.ndim != 2 or exps.shape[1] != d or lo.shape != (d,) or up.shape != (d,):
         raise ValueError(
-            f"surrogate must have 2 inputs (δ, δ̇); got exponents of shape {exps.shape}"
+            f"surrogate of feature form {form.form!r} must have {d} inputs "
+            f"{FEATURE_FORMS[form.form]}; got exponents of shape {exps.shape}"
         )
     if coef.shape != (exps.shape[0],):
         raise ValueError(f"surrogate coef has shape {coef.shape}, expected ({exps.shape[0]},)")
     if int(mode) not in EXTRAPOLATION_MODES.values():
         raise ValueError(f"surrogate extrapolation mode must be one of {EXTRAPOLATION_MODES}")
-    return LprArrays(exps, coef, lo, up, int(mode))
+    tau = form.tau if form.form == "maxwell" else 0.0
+    if dt is not None and tau > 0.0 and dt > 2.0 * tau:
+        raise ValueError(
+            f"surrogate features.tau = {tau} s is below half the integration step dt = {dt} s"
+        )
+    return LprArrays(exps, coef, lo, up, int(mode), tau, "bump_stop" in form.known_physics)
 
 
 def check_variant(variant: str) -> int:
