@@ -54,7 +54,8 @@ def element_form(
 
     Raises :class:`~surrogates.models.validation.ModelFieldError` naming ``features.form``,
     ``features.tau`` or ``features.known_physics`` (prefixed by ``source``); ``n_inputs``,
-    when given, must match the form's input count.
+    when given, must be 3 for ``"maxwell"`` (``"static"`` is any memoryless map; the vertical
+    kernels take it with the 2 inputs δ, δ̇).
     """
     features = features or {}
     form = features.get("form", "static")
@@ -76,7 +77,7 @@ def element_form(
             f"{source}: field 'features.known_physics' must list entries of "
             f"{list(KNOWN_PHYSICS)}, got {known!r}"
         )
-    if n_inputs is not None and n_inputs != len(FEATURE_FORMS[form]):
+    if form == "maxwell" and n_inputs is not None and n_inputs != len(FEATURE_FORMS[form]):
         raise ModelFieldError(
             f"{source}: feature form {form!r} has {len(FEATURE_FORMS[form])} inputs "
             f"{FEATURE_FORMS[form]}, the model has {n_inputs}"
