@@ -261,13 +261,19 @@ _FEATURES = {
 
 
 def save_vertical_surrogate(
-    model: SurrogateModel, report: BuildReport | TauSelection, path: str | Path, source: str
+    model: SurrogateModel,
+    report: BuildReport | TauSelection | None,
+    path: str | Path,
+    source: str,
 ) -> Path:
-    """Write a vertical element with its feature form, names, units and build report."""
+    """Write a vertical element with its feature form, names, units and build report
+    (``None``: no report, e.g. a refined element)."""
     feat = getattr(model, "features_", {})
     form = feat.get("form", "static")
     inputs, units = _FEATURES[form]
-    if isinstance(report, BuildReport):
+    if report is None:
+        summary: dict[str, Any] = {}
+    elif isinstance(report, BuildReport):
         summary = report.to_dict()
     else:
         chosen = report.results[[r["tau"] for r in report.table].index(report.best[0])]
