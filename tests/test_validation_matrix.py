@@ -42,8 +42,9 @@ def test_closed_loop_with_zero_force_equals_the_compiled_passive_run():
     model = default_vertical_surrogate()
     rec = simulate("surrogate", VEH, z, zdot, 1e-3, surrogate=model, sample_every=10)
     loop = _closed_loop("surrogate", VEH, z, zdot, lambda x: 0.0, model, 10, 1e-3, 8e3)
-    np.testing.assert_array_equal(loop["a2"], rec["a2"][1:])
-    np.testing.assert_array_equal(loop["x2"], rec["x2"][1:])
+    # the same RK4 step compiled at two call sites: equal to rounding
+    np.testing.assert_allclose(loop["a2"], rec["a2"][1:], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(loop["x2"], rec["x2"][1:], rtol=0, atol=1e-15)
 
 
 def test_matrix_rows_equal_an_independent_error_computation():

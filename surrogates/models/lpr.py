@@ -445,6 +445,71 @@ def lpr_eval_into(
     return value
 
 
+def additive_table(exponents: np.ndarray, coef: np.ndarray) -> np.ndarray | None:
+    """Coefficients of an additive model as a table (d, nmax + 1): entry ``[j, k]`` multiplies
+    ``P_k(t_j)`` (the constant term in ``[0, 0]``), for :func:`lpr_additive_inside`; ``None``
+    when a term couples two inputs (``interactions=True``)."""
+    E = np.asarray(exponents, dtype=np.int64)
+    if np.any(np.count_nonzero(E, axis=1) > 1):
+        return None
+    table = np.zeros((E.shape[1], int(E.max()) + 1))
+    for e, c in zip(E, coef, strict=True):
+        j = int(np.argmax(e)) if e.any() else 0
+        table[j, e[j]] += c
+    return table
+
+
+@njit(cache=True, inline="always")
+def lpr_additive_inside(
+    u: np.ndarray, table: np.ndarray, lower: np.ndarray, work: np.ndarray
+) -> float:
+    """Value of an additive model at a point ``u`` (d,) inside its box, summing
+    ``table[j, k]·P_k(t_j)`` along the Legendre recurrence (no work array written, no term
+    loop); ``table`` from :func:`additive_table`, ``work`` from :func:`lpr_scratch` (its
+    recurrence constants and scales are read). Equal to :func:`lpr_eval_into` up to rounding.
+    """
+    d = u.shape[0]
+    n = table.shape[1]
+    if d == 3:
+        # the vehicle's memory element: three interleaved recurrences (independent chains)
+        t0 = (u[0] - lower[0]) * work[6, 0] - 1.0
+        t1 = (u[1] - lower[1]) * work[6, 1] - 1.0
+        t2 = (u[2] - lower[2]) * work[6, 2] - 1.0
+        s0 = table[0, 0] + table[1, 0] + table[2, 0]
+        s1 = 0.0
+        s2 = 0.0
+        if n > 1:
+            s0 += table[0, 1] * t0
+            s1 += table[1, 1] * t1
+            s2 += table[2, 1] * t2
+        a0, a1, a2, b0, b1, b2 = 1.0, 1.0, 1.0, t0, t1, t2
+        for k in range(1, n - 1):
+            ck = work[4, k]
+            ek = work[5, k]
+            n0 = ck * t0 * b0 - ek * a0
+            n1 = ck * t1 * b1 - ek * a1
+            n2 = ck * t2 * b2 - ek * a2
+            s0 += table[0, k + 1] * n0
+            s1 += table[1, k + 1] * n1
+            s2 += table[2, k + 1] * n2
+            a0, b0, a1, b1, a2, b2 = b0, n0, b1, n1, b2, n2
+        return s0 + s1 + s2
+    value = 0.0
+    for j in range(d):
+        t = (u[j] - lower[j]) * work[d + 3, j] - 1.0
+        a = 1.0
+        b = t
+        value += table[j, 0]
+        if n > 1:
+            value += table[j, 1] * t
+        for k in range(1, n - 1):
+            nb = work[d + 1, k] * t * b - work[d + 2, k] * a
+            value += table[j, k + 1] * nb
+            a = b
+            b = nb
+    return value
+
+
 @njit(cache=True)
 def lpr_eval_batch(
     U: np.ndarray,

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from surrogates.models.lpr import lpr_eval_into, lpr_is_outside
+from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside
 
 __all__ = [
     "LprArrays",
@@ -34,6 +34,8 @@ class LprArrays(NamedTuple):
     mode: int  #: extrapolation mode (``surrogates.models.lpr.EXTRAPOLATION_MODES``)
     tau: float  #: Maxwell time constant τ of the state ``ṡ = (δ − s)/τ``, s (0: static form)
     bump: bool  #: known physics: add :func:`bump_stop_force` of the vehicle to ``F̂``
+    table: np.ndarray  #: float64 (d, nmax + 1) additive coefficient table (``additive_table``)
+    additive: bool  #: ``table`` holds the model (no coupled terms): fast path inside the box
 
 
 @njit(cache=True)
@@ -167,7 +169,11 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
             dx[4] = 0.0
         if lpr_is_outside(u, lpr.lo, lpr.up):
             outside = 1
-        fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+            fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+        elif lpr.additive:
+            fs = lpr_additive_inside(u, lpr.table, lpr.lo, lw)
+        else:
+            fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
         if lpr.bump:
             fs += bump_stop_force(d, p)
     dx[0] = x[1]

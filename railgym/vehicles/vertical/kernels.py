@@ -16,7 +16,7 @@ from numba import njit
 
 from railgym.vehicles.vertical.elements import LprArrays, in_contact, rhs
 from surrogates.memory import FEATURE_FORMS, element_form
-from surrogates.models.lpr import EXTRAPOLATION_MODES, lpr_scratch
+from surrogates.models.lpr import EXTRAPOLATION_MODES, additive_table, lpr_scratch
 
 __all__ = [
     "DEFAULT_DT",
@@ -214,7 +214,15 @@ def surrogate_arrays(surrogate: Any = None, dt: float | None = None) -> LprArray
     """
     if surrogate is None:
         return LprArrays(
-            np.zeros((1, 2), np.int64), np.zeros(1), np.zeros(2), np.ones(2), 0, 0.0, False
+            np.zeros((1, 2), np.int64),
+            np.zeros(1),
+            np.zeros(2),
+            np.ones(2),
+            0,
+            0.0,
+            False,
+            np.zeros((2, 1)),
+            False,
         )
     arrays = surrogate.kernel_arrays() if hasattr(surrogate, "kernel_arrays") else surrogate
     if not isinstance(arrays, tuple | list) or len(arrays) != 5:
@@ -240,7 +248,11 @@ def surrogate_arrays(surrogate: Any = None, dt: float | None = None) -> LprArray
         raise ValueError(
             f"surrogate features.tau = {tau} s is below half the integration step dt = {dt} s"
         )
-    return LprArrays(exps, coef, lo, up, int(mode), tau, "bump_stop" in form.known_physics)
+    table = additive_table(exps, coef)
+    bump = "bump_stop" in form.known_physics
+    if table is None:
+        return LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
+    return LprArrays(exps, coef, lo, up, int(mode), tau, bump, table, True)
 
 
 def check_variant(variant: str) -> int:
