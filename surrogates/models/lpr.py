@@ -112,8 +112,8 @@ class LegendreRegression(SurrogateModel):
                 f"U has {n} samples but degree={self.degree!r} "
                 f"(interactions={self.interactions}) needs at least {T} (one per term)"
             )
-        E = self._make_exponents(d)
-        A = _design(self._map(U), E)
+        E = self.make_exponents(d)
+        A = design_matrix(self._map(U), E)
         norms = np.linalg.norm(A, axis=0)
         coef_scaled, _, rank, s = np.linalg.lstsq(A / norms, V, rcond=None)
         if rank < T:
@@ -126,7 +126,7 @@ class LegendreRegression(SurrogateModel):
         self.n_terms_ = T
         self.cond_ = float(s[0] / s[-1])
 
-    def _make_exponents(self, d: int) -> np.ndarray:
+    def make_exponents(self, d: int) -> np.ndarray:
         """Exponent table (T, d) for ``d`` inputs; row 0 is the constant term."""
         degree = check_degree(self.degree)
         if self.interactions and isinstance(degree, int):
@@ -155,14 +155,14 @@ class LegendreRegression(SurrogateModel):
         return (U - self.lower_) * (2.0 / (self.upper_ - self.lower_)) - 1.0
 
     def _predict_inside(self, U: np.ndarray) -> np.ndarray:
-        return _design(self._map(U), self.exponents_) @ self.coef_
+        return design_matrix(self._map(U), self.exponents_) @ self.coef_
 
     def _gradient_inside(self, U: np.ndarray) -> np.ndarray:
         """Analytic gradient (n, d) in output units per input unit."""
         E = self.exponents_
         d = E.shape[1]
-        P = _legendre_table(self._map(U), int(E.max()))
-        dP = _legendre_derivative(P)
+        P = legendre_table(self._map(U), int(E.max()))
+        dP = legendre_derivative(P)
         cols = np.arange(d)[None, :]
         F = P[:, cols, E]  # (n, T, d): P_{e_tj}(t_j)
         D = dP[:, cols, E]
@@ -224,7 +224,7 @@ class LegendreRegression(SurrogateModel):
 
 
 # ---------------------------------------------------------------------- helpers
-def _legendre_table(t: np.ndarray, nmax: int) -> np.ndarray:
+def legendre_table(t: np.ndarray, nmax: int) -> np.ndarray:
     """``P_k(t)`` for k = 0..nmax, shape ``t.shape + (nmax + 1,)``.
 
     Bonnet recurrence ``P_{k+1} = (2k+1)/(k+1)·t·P_k − k/(k+1)·P_{k−1}``.
@@ -239,8 +239,8 @@ def _legendre_table(t: np.ndarray, nmax: int) -> np.ndarray:
     return P
 
 
-def _legendre_derivative(P: np.ndarray) -> np.ndarray:
-    """``P'_k(t)`` from the table ``P`` of :func:`_legendre_table`:
+def legendre_derivative(P: np.ndarray) -> np.ndarray:
+    """``P'_k(t)`` from the table ``P`` of :func:`legendre_table`:
     ``P'_{k+1} = P'_{k−1} + (2k+1) P_k``."""
     nmax = P.shape[-1] - 1
     dP = np.empty_like(P)
@@ -252,9 +252,9 @@ def _legendre_derivative(P: np.ndarray) -> np.ndarray:
     return dP
 
 
-def _design(t: np.ndarray, E: np.ndarray) -> np.ndarray:
+def design_matrix(t: np.ndarray, E: np.ndarray) -> np.ndarray:
     """Design matrix (n, T): column ``t`` is ``Π_j P_{E[t, j]}(t_j)``."""
-    P = _legendre_table(t, int(E.max()))
+    P = legendre_table(t, int(E.max()))
     return np.prod(P[:, np.arange(E.shape[1])[None, :], E], axis=2)
 
 
