@@ -22,6 +22,9 @@ Both take the data-collection design (``design="paper"``: that single passive ru
     python -m railgym.vehicles.collect --features maxwell
     python -m railgym.vehicles.collect --features static
 
+:func:`refine` adds reference samples where an element is worst under a given policy and
+refits it (``railgym refine POLICY``; ``docs/refine.md``).
+
 """
 
 from __future__ import annotations
