@@ -162,14 +162,24 @@ class TauSelection:
     best: tuple[float, Any] = (np.nan, None)
     results: list[SelectionResult] = field(default_factory=list)
 
+    def best_result(self) -> SelectionResult:
+        """The degree scores of the best ``τ``."""
+        return self.results[[r["tau"] for r in self.table].index(self.best[0])]
+
     def format(self) -> str:
-        """The score table as aligned text."""
+        """The score table as aligned text; a last line flags a degree at the search cap."""
         lines = [f"{'tau [ms]':>9} {'degree':>10} {'rms':>12} {'rel. rms':>10}"]
         for row in self.table:
             mark = "  <- best" if (row["tau"], row["degree"]) == self.best else ""
             lines.append(
                 f"{1e3 * row['tau']:9.3g} {row['degree']!s:>10} {row['rms']:12.4g} "
                 f"{row['nrms']:10.3g}{mark}"
+            )
+        cap = self.best_result().at_cap() if self.results else []
+        if cap:
+            lines.append(
+                f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "
+                "widen the search range"
             )
         return "\n".join(lines)
 

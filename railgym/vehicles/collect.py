@@ -279,12 +279,11 @@ def save_vertical_surrogate(
     elif isinstance(report, BuildReport):
         summary = report.to_dict()
     else:
-        chosen = report.results[[r["tau"] for r in report.table].index(report.best[0])]
         summary = {
             "selection": "kfold",
             "tau_scores": [{**r, "degree": candidate_label(r["degree"])} for r in report.table],
             "chosen": {"tau": report.best[0], "degree": candidate_label(report.best[1])},
-            "at_cap": chosen.at_cap(),
+            "at_cap": report.best_result().at_cap(),
         }
     return io.save(
         model,
@@ -542,13 +541,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
     else:
         model, report, _ = build_memory_surrogate(design=args.design)
-        text = (
-            report.format()
-            + "\n"
-            + report.results[[r["tau"] for r in report.table].index(report.best[0])]
-            .format()
-            .splitlines()[-1]
-        )
+        text = report.format()
         source = (
             f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
             "F_s - F_bump with the Maxwell state"
