@@ -9,7 +9,14 @@ import pytest
 
 from railgym.envs.vertical import VerticalSuspensionEnv
 from railgym.track import track_time_input
-from railgym.vehicles.vertical import load_vehicle, simulate, surrogate_arrays
+from railgym.vehicles.vertical import (
+    KERNELS,
+    load_vehicle,
+    simulate,
+    state_size,
+    step_outputs,
+    surrogate_arrays,
+)
 from surrogates import io
 from surrogates.memory import element_form
 from surrogates.models import model_class
@@ -100,16 +107,28 @@ def test_memory_element_in_the_kernel_equals_an_independent_numpy_rk4():
     assert np.abs(zeta).max() < 0.5 * np.abs(rec["x1"] - rec["x2"]).max()
 
 
-def test_static_form_keeps_the_maxwell_state_still():
-    """A 2-input element: s stays at its start, F̂ ignores it (the paper's static element)."""
+def test_static_form_integrates_four_states_and_holds_a_fifth_still():
+    """A 2-input element (the paper's static one) needs no Maxwell state; a 5-state array is
+    accepted by the kernel, its fifth state held still; a memory element needs 5 states."""
     rng = np.random.default_rng(0)
     U = np.array([0.06, 0.6]) * rng.uniform(-1, 1, (300, 2))
     model = LegendreRegression(degree=(3, 3)).fit(U, 3e5 * U[:, 0] + 2e4 * U[:, 1])
     _, z, zdot = track_time_input(5, 40.0, 0.5, DT, 1)
-    rec = simulate("surrogate", VEH, z, zdot, DT, surrogate=model, x0=[0, 0, 0, 0, 1e-3])
-    np.testing.assert_array_equal(rec["states"][:, 4], 1e-3)
+    rec = simulate("surrogate", VEH, z, zdot, DT, surrogate=model)
     lpr = surrogate_arrays(model)
-    assert lpr.tau == 0.0 and not lpr.bump
+    assert lpr.tau == 0.0 and not lpr.bump and state_size("surrogate", lpr) == 4
+    assert rec["states"].shape[1] == 4
+    p, out = VEH.kernel_params().record(), step_outputs(1)
+    s5 = np.array([[0.0, 0.0, 0.0, 0.0, 1e-3]])
+    k0 = np.zeros(1, np.int64)
+    KERNELS["surrogate"](s5, z[None], zdot[None], k0, 100, DT, np.zeros(1), p, lpr, out)
+    np.testing.assert_allclose(s5[0, :4], rec["states"][100], rtol=1e-12, atol=1e-15)
+    assert s5[0, 4] == 1e-3
+    memory = surrogate_arrays(_element())
+    with pytest.raises(ValueError, match="5 states"):
+        KERNELS["surrogate"](
+            s5[:, :4].copy(), z[None], zdot[None], k0, 1, DT, np.zeros(1), p, memory, out
+        )
 
 
 def test_tau_below_half_the_step_is_rejected():

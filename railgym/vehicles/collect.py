@@ -348,7 +348,7 @@ def _run_policy(
     lpr = surrogate_arrays(element if variant == "surrogate" else None, dt)
     kernel = KERNELS[variant]
     p = veh.kernel_params().record()
-    state = initial_state(variant)
+    state = initial_state(variant, lpr=lpr)
     out = step_outputs(1)
     k0 = np.zeros(1, np.int64)
     fa = np.zeros(1)

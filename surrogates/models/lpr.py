@@ -375,39 +375,6 @@ def lpr_eval_into(
             a0, b0, a1, b1 = b0, n0, b1, n1
         for i in range(T):
             value += coef[i] * work[0, exponents[i, 0]] * work[1, exponents[i, 1]]
-    elif d == 3:
-        # three inputs (the vehicle's memory element (δ, δ̇, ζ)): as d == 2
-        u0 = min(max(u[0], lower[0]), upper[0])
-        u1 = min(max(u[1], lower[1]), upper[1])
-        u2 = min(max(u[2], lower[2]), upper[2])
-        outside = u0 != u[0] or u1 != u[1] or u2 != u[2]
-        t0 = (u0 - lower[0]) * work[6, 0] - 1.0
-        t1 = (u1 - lower[1]) * work[6, 1] - 1.0
-        t2 = (u2 - lower[2]) * work[6, 2] - 1.0
-        work[0, 0] = 1.0
-        work[1, 0] = 1.0
-        work[2, 0] = 1.0
-        work[0, 1] = t0
-        work[1, 1] = t1
-        work[2, 1] = t2
-        a0, a1, a2, b0, b1, b2 = 1.0, 1.0, 1.0, t0, t1, t2
-        for k in range(1, nmax):
-            ck = work[4, k]
-            ek = work[5, k]
-            n0 = ck * t0 * b0 - ek * a0
-            n1 = ck * t1 * b1 - ek * a1
-            n2 = ck * t2 * b2 - ek * a2
-            work[0, k + 1] = n0
-            work[1, k + 1] = n1
-            work[2, k + 1] = n2
-            a0, b0, a1, b1, a2, b2 = b0, n0, b1, n1, b2, n2
-        for i in range(T):
-            value += (
-                coef[i]
-                * work[0, exponents[i, 0]]
-                * work[1, exponents[i, 1]]
-                * work[2, exponents[i, 2]]
-            )
     else:
         for j in range(d):
             uc = min(max(u[j], lower[j]), upper[j])
@@ -470,6 +437,25 @@ def lpr_additive_inside(
     """
     d = u.shape[0]
     n = table.shape[1]
+    if d == 2:
+        # the vehicle's static element: two interleaved recurrences
+        t0 = (u[0] - lower[0]) * work[5, 0] - 1.0
+        t1 = (u[1] - lower[1]) * work[5, 1] - 1.0
+        s0 = table[0, 0] + table[1, 0]
+        s1 = 0.0
+        if n > 1:
+            s0 += table[0, 1] * t0
+            s1 += table[1, 1] * t1
+        a0, a1, b0, b1 = 1.0, 1.0, t0, t1
+        for k in range(1, n - 1):
+            ck = work[3, k]
+            ek = work[4, k]
+            n0 = ck * t0 * b0 - ek * a0
+            n1 = ck * t1 * b1 - ek * a1
+            s0 += table[0, k + 1] * n0
+            s1 += table[1, k + 1] * n1
+            a0, b0, a1, b1 = b0, n0, b1, n1
+        return s0 + s1
     if d == 3:
         # the vehicle's memory element: three interleaved recurrences (independent chains)
         t0 = (u[0] - lower[0]) * work[6, 0] - 1.0

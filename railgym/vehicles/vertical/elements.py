@@ -145,8 +145,8 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
     """State derivative ``dx`` of variant ``kind``; returns (F_s, 1 if any surrogate input is
     outside its box). ``zc, zdc``: track input (m, m/s); ``fa``: actuator force, N.
 
-    The surrogate's state ``x[4]`` is the Maxwell state ``s`` (``ṡ = (δ − s)/τ``, held at its
-    value for a static element). ``u`` (d,) and ``lw``
+    The surrogate's state ``x[4]`` is the Maxwell state ``s`` (``ṡ = (δ − s)/τ``) of a memory
+    element; a static element integrates 4 states (a fifth one is held still). ``u`` (d,) and ``lw``
     (:func:`~surrogates.models.lpr.lpr_scratch`) are work arrays.
     """
     d = x[0] - x[2]
@@ -165,12 +165,11 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
         if lpr.tau > 0.0:
             u[2] = d - x[4]
             dx[4] = (d - x[4]) / lpr.tau
-        else:
+        elif dx.shape[0] > 4:
             dx[4] = 0.0
         if lpr_is_outside(u, lpr.lo, lpr.up):
             outside = 1
-            fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
-        elif lpr.additive:
+        if lpr.additive and outside == 0:
             fs = lpr_additive_inside(u, lpr.table, lpr.lo, lw)
         else:
             fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)

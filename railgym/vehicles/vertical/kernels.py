@@ -32,12 +32,14 @@ __all__ = [
     "advance_surrogate",
     "check_variant",
     "initial_state",
+    "state_size",
     "step_outputs",
     "surrogate_arrays",
 ]
 
 VARIANTS = ("linear", "static", "dynamic", "surrogate")
-#: number of state variables per variant
+#: number of state variables per variant (surrogate: with a memory element; a static element
+#: integrates the first 4, see :func:`state_size`)
 STATE_SIZE = {"linear": 4, "static": 4, "dynamic": 7, "surrogate": 5}
 #: recommended integration step per variant, s
 DEFAULT_DT = {"linear": 1e-3, "static": 1e-3, "dynamic": 1e-3, "surrogate": 1e-3}
@@ -70,6 +72,8 @@ def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`)."""
     q = p[0]
     n, s = state.shape
+    if kind == 3 and lpr.tau > 0.0 and s < 5:
+        raise ValueError("a memory surrogate element needs 5 states [x1, v1, x2, v2, s]")
     x = np.empty(s)
     xt = np.empty(s)
     r1 = np.empty(s)
@@ -262,7 +266,15 @@ def check_variant(variant: str) -> int:
     return _KIND[variant]
 
 
-def initial_state(variant: str, n: int = 1) -> np.ndarray:
-    """Static equilibrium state(s), float64 (n, STATE_SIZE[variant]) of zeros."""
+def state_size(variant: str, lpr: LprArrays | None = None) -> int:
+    """State variables of ``variant``; for ``"surrogate"`` 5 with a memory element ``lpr``
+    (or none given), 4 with a static one."""
     check_variant(variant)
-    return np.zeros((n, STATE_SIZE[variant]))
+    if variant == "surrogate" and lpr is not None and lpr.tau == 0.0:
+        return 4
+    return STATE_SIZE[variant]
+
+
+def initial_state(variant: str, n: int = 1, lpr: LprArrays | None = None) -> np.ndarray:
+    """Static equilibrium state(s), float64 (n, :func:`state_size`) of zeros."""
+    return np.zeros((n, state_size(variant, lpr)))

@@ -20,10 +20,10 @@ from railgym.vehicles.vertical.elements import (
 )
 from railgym.vehicles.vertical.kernels import (
     RAISE_MODE,
-    STATE_SIZE,
     _advance,
     check_variant,
     initial_state,
+    state_size,
     step_outputs,
     surrogate_arrays,
 )
@@ -105,9 +105,9 @@ def simulate(
     sample_every
         Record every ``sample_every``-th step (the substeps of one kernel call).
     x0
-        Initial state (``STATE_SIZE[variant]``,); default the static equilibrium. For
-        ``"surrogate"`` the 4 mechanical states are enough: the Maxwell state then starts
-        relaxed, ``s = x1 − x2``.
+        Initial state (``state_size(variant, element)``,); default the static equilibrium.
+        For a memory surrogate element the 4 mechanical states are enough: the Maxwell state
+        then starts relaxed, ``s = x1 − x2``.
 
     Returns
     -------
@@ -141,11 +141,11 @@ def simulate(
     if variant == "surrogate" and surrogate is None:
         raise ValueError("surrogate is required for variant 'surrogate'")
     lpr = surrogate_arrays(surrogate if variant == "surrogate" else None, dt)
-    s = STATE_SIZE[variant]
-    state = initial_state(variant)
+    s = state_size(variant, lpr)
+    state = initial_state(variant, lpr=lpr)
     if x0 is not None:
         x0 = val.numeric_array(x0, "x0")
-        if variant == "surrogate" and x0.shape == (4,):
+        if s == 5 and variant == "surrogate" and x0.shape == (4,):
             x0 = np.append(x0, x0[0] - x0[2])  # Maxwell state started relaxed, s = δ
         state[0] = val.numeric_array(x0, "x0", (s,))
     rec = _Record(
