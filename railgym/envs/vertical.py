@@ -10,8 +10,8 @@ the argument limits.
 
 The physics is in :mod:`railgym.vehicles.vertical` (numba RK4 kernels); the single env
 and the native vector env are the shells of :mod:`railgym.envs.base` around
-:class:`~railgym.envs.vertical_batch.VerticalBatch`, which steps any number of vehicles, each on its own track, in one
-compiled call.
+:class:`~railgym.envs.vertical_batch.VerticalBatch`, which steps any number of vehicles, each
+on its own track, in one compiled call.
 """
 
 from __future__ import annotations
