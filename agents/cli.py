@@ -8,6 +8,8 @@
   (:func:`railgym.report.make_report`).
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies
   (:mod:`agents.evaluate`).
+- ``railgym refine POLICY ...``: refine the surrogate element for a policy
+  (:mod:`agents.refine`).
 
 Every subcommand takes ``--debug``. Arguments and output folders are checked before any work;
 a user error (bad value, existing output without ``--overwrite``, unreadable file) is one line
@@ -206,18 +208,24 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_arguments(
         sub.add_parser("evaluate", parents=[common], help="comfort indices of policies")
     )
+    from agents import refine
+
+    refine.add_arguments(
+        sub.add_parser("refine", parents=[common], help="refine the element for a policy")
+    )
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``railgym`` command; returns the exit status."""
     args = build_parser().parse_args(argv)
-    from agents import evaluate
+    from agents import evaluate, refine
 
     command = {
         "demo": lambda a: demo(a.out, a.seed, a.overwrite),
         "paper": paper,
         "evaluate": evaluate.run,
+        "refine": refine.run,
     }[args.command]
     try:
         return command(args)

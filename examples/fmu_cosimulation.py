@@ -148,7 +148,7 @@ def main() -> int:
     from railgym.vehicles.collect import default_vertical_surrogate
     from surrogates.fmi import export_fmu
 
-    model = default_vertical_surrogate()
+    model = default_vertical_surrogate("static")  # the exported element is memoryless
     with tempfile.TemporaryDirectory() as tmp:
         fmu = export_fmu(model, Path(tmp) / "vertical_element.fmu", kind="cs")
         rows = coupling_errors(fmu, model)

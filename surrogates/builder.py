@@ -70,6 +70,7 @@ class BuildReport:
             "m": self.m,
             "n": self.n,
             "chosen": candidate_label(self.chosen),
+            "at_cap": self.scores.at_cap(),
             "training_time_s": self.training_time_s,
             "fit_time_s": self.fit_time_s,
             "oob_error": self.oob_error,

@@ -1,11 +1,15 @@
 """Persistence of fitted surrogates (JSON, no pickle) and reading training data from CSV.
 
-File layout (``schema_version`` 1)::
+File layout (``schema_version`` 2)::
 
-    {"schema_version": 1, "format": "surrogates-model",
+    {"schema_version": 2, "format": "surrogates-model",
      "model": {"kind", "params", "domain", "state"},
-     "features": {"inputs": [...], "output": "...", "units": {...}},
+     "features": {"inputs": [...], "output": "...", "units": {...},
+                  "form": "static" | "maxwell", "tau": null | s, "known_physics": [...]},
      "metadata": {...}}
+
+``form``, ``tau`` and ``known_physics`` are the element's feature form
+(:mod:`surrogates.memory`); version 1 files (without them) load as the static form.
 """
 
 from __future__ import annotations
@@ -21,10 +25,13 @@ from typing import Any
 
 import numpy as np
 
+from surrogates.memory import element_form
 from surrogates.models import SurrogateModel, model_class
 from surrogates.models.validation import ModelFieldError
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: schema versions this module reads
+READABLE_VERSIONS = (1, 2)
 FORMAT = "surrogates-model"
 
 
@@ -34,18 +41,29 @@ def model_to_document(
     output: str | None = None,
     units: dict[str, str] | None = None,
     metadata: dict[str, Any] | None = None,
+    form: str = "static",
+    tau: float | None = None,
+    known_physics: Sequence[str] = (),
 ) -> dict[str, Any]:
-    """The JSON document :func:`save` writes."""
+    """The JSON document :func:`save` writes; ``form``, ``tau`` (s), ``known_physics`` as in
+    :func:`surrogates.memory.element_form`."""
     d = model.to_dict()
     n_in = len(d["domain"]["lower"])
     inputs = list(inputs) if inputs is not None else [f"u{i + 1}" for i in range(n_in)]
     if len(inputs) != n_in:
         raise ValueError(f"inputs names {len(inputs)} features, the model has {n_in}")
+    shape = {"form": form, "tau": tau, "known_physics": list(known_physics)}
+    element_form(shape, n_in, "features")
     return {
         "schema_version": SCHEMA_VERSION,
         "format": FORMAT,
         "model": d,
-        "features": {"inputs": inputs, "output": output or "v", "units": dict(units or {})},
+        "features": {
+            "inputs": inputs,
+            "output": output or "v",
+            "units": dict(units or {}),
+            **shape,
+        },
         "metadata": dict(metadata or {}),
     }
 
@@ -64,10 +82,12 @@ def model_from_document(doc: Any, source: str = "document") -> SurrogateModel:
         )
     if "schema_version" not in doc:
         raise ModelFieldError(f"{source}: missing field 'schema_version'")
-    if doc["schema_version"] != SCHEMA_VERSION or isinstance(doc["schema_version"], bool):
+    version = doc["schema_version"]
+    if isinstance(version, bool) or version not in READABLE_VERSIONS:
         raise ModelFieldError(
-            f"{source}: schema_version {doc['schema_version']!r} is not supported "
-            f"(this version reads {SCHEMA_VERSION})"
+            f"{source}: schema_version {version!r} is not supported "
+            f"(this version reads {list(READABLE_VERSIONS)}; a newer file needs a newer "
+            "surrogates)"
         )
     for key in ("model", "features"):
         if key not in doc:
@@ -109,7 +129,13 @@ def _check_features(feat: Any, n_in: int, source: str) -> dict[str, Any]:
         isinstance(k, str) and isinstance(v, str) for k, v in units.items()
     ):
         raise ModelFieldError(f"{source}: field 'features.units' must map names to unit strings")
-    return feat
+    shape = element_form(feat, n_in, source)
+    return {
+        **feat,
+        "form": shape.form,
+        "tau": shape.tau,
+        "known_physics": list(shape.known_physics),
+    }
 
 
 def save(

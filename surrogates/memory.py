@@ -20,18 +20,69 @@ cross-validation (:func:`select_tau`, built on :func:`surrogates.selection.selec
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from surrogates.features import _time, _vector
 from surrogates.models import SurrogateModel
+from surrogates.models.validation import ModelFieldError
 from surrogates.selection import SelectionResult, select_kfold
 
 #: documented feature forms: name → input names
 FEATURE_FORMS = {"static": ("delta", "delta_dot"), "maxwell": ("delta", "delta_dot", "zeta")}
+#: known physics a vehicle kernel may add to the fitted element (``"bump_stop"``: the
+#: vehicle's bump-stop law beyond the free travel, the element fitted on ``F − F_bump``)
+KNOWN_PHYSICS = ("bump_stop",)
+
+
+class ElementForm(NamedTuple):
+    """Feature form of a fitted element (the ``features`` block of a model file)."""
+
+    form: str  #: a key of :data:`FEATURE_FORMS`
+    tau: float | None  #: Maxwell time constant, s (``None`` for ``"static"``)
+    known_physics: tuple[str, ...]  #: entries of :data:`KNOWN_PHYSICS`
+
+
+def element_form(
+    features: Mapping[str, Any] | None, n_inputs: int | None = None, source: str = "model"
+) -> ElementForm:
+    """Validated :class:`ElementForm` of a ``features`` mapping (``None`` or no ``form``
+    key: the static form, as in schema version 1 files).
+
+    Raises :class:`~surrogates.models.validation.ModelFieldError` naming ``features.form``,
+    ``features.tau`` or ``features.known_physics`` (prefixed by ``source``); ``n_inputs``,
+    when given, must be 3 for ``"maxwell"`` (``"static"`` is any memoryless map; the vertical
+    kernels take it with the 2 inputs δ, δ̇).
+    """
+    features = features or {}
+    form = features.get("form", "static")
+    if not isinstance(form, str) or form not in FEATURE_FORMS:
+        raise ModelFieldError(
+            f"{source}: field 'features.form' must be one of {sorted(FEATURE_FORMS)}, got {form!r}"
+        )
+    tau = features.get("tau")
+    if form == "maxwell":
+        try:
+            tau = _tau(tau)
+        except ValueError as exc:
+            raise ModelFieldError(f"{source}: field 'features.tau': {exc}") from None
+    elif tau is not None:
+        raise ModelFieldError(f"{source}: field 'features.tau' must be null for form 'static'")
+    known = features.get("known_physics", [])
+    if not isinstance(known, list | tuple) or not all(k in KNOWN_PHYSICS for k in known):
+        raise ModelFieldError(
+            f"{source}: field 'features.known_physics' must list entries of "
+            f"{list(KNOWN_PHYSICS)}, got {known!r}"
+        )
+    if form == "maxwell" and n_inputs is not None and n_inputs != len(FEATURE_FORMS[form]):
+        raise ModelFieldError(
+            f"{source}: feature form {form!r} has {len(FEATURE_FORMS[form])} inputs "
+            f"{FEATURE_FORMS[form]}, the model has {n_inputs}"
+        )
+    return ElementForm(form, tau, tuple(known))
 
 
 def _tau(tau: Any) -> float:
@@ -111,14 +162,24 @@ class TauSelection:
     best: tuple[float, Any] = (np.nan, None)
     results: list[SelectionResult] = field(default_factory=list)
 
+    def best_result(self) -> SelectionResult:
+        """The degree scores of the best ``τ``."""
+        return self.results[[r["tau"] for r in self.table].index(self.best[0])]
+
     def format(self) -> str:
-        """The score table as aligned text."""
+        """The score table as aligned text; a last line flags a degree at the search cap."""
         lines = [f"{'tau [ms]':>9} {'degree':>10} {'rms':>12} {'rel. rms':>10}"]
         for row in self.table:
             mark = "  <- best" if (row["tau"], row["degree"]) == self.best else ""
             lines.append(
                 f"{1e3 * row['tau']:9.3g} {row['degree']!s:>10} {row['rms']:12.4g} "
                 f"{row['nrms']:10.3g}{mark}"
+            )
+        cap = self.best_result().at_cap() if self.results else []
+        if cap:
+            lines.append(
+                f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "
+                "widen the search range"
             )
         return "\n".join(lines)
 

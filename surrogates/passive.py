@@ -34,9 +34,9 @@ from scipy.optimize import nnls
 from surrogates.models.base import SurrogateModel
 from surrogates.models.lpr import (
     LegendreRegression,
-    _design,
-    _legendre_derivative,
-    _legendre_table,
+    design_matrix,
+    legendre_derivative,
+    legendre_table,
 )
 from surrogates.models.validation import check_degree
 
@@ -91,7 +91,7 @@ class PassiveLegendreRegression(LegendreRegression):
     # ------------------------------------------------------------------ fitting
     def _validate(self, d: int) -> tuple[np.ndarray, tuple[bool, ...]]:
         """Check the hyperparameters for ``d`` inputs; returns (exponents, monotone flags)."""
-        E = LegendreRegression(degree=check_degree(self.degree))._make_exponents(d)
+        E = LegendreRegression(degree=check_degree(self.degree)).make_exponents(d)
         gs = self.grid_size
         if isinstance(gs, bool) or not isinstance(gs, Integral) or gs < 2:
             raise ValueError(f"grid_size must be an integer >= 2, got {gs!r}")
@@ -114,7 +114,7 @@ class PassiveLegendreRegression(LegendreRegression):
             raise ValueError(
                 f"U has {n} samples but degree={self.degree!r} needs at least {T} (one per term)"
             )
-        A = _design(self._map(U), E)
+        A = design_matrix(self._map(U), E)
         norms = np.linalg.norm(A, axis=0)
         Q, R = qr(A / norms, mode="economic")
         s = np.linalg.svd(R, compute_uv=False)
@@ -168,7 +168,7 @@ def _slope_rows(points: list[np.ndarray], E: np.ndarray) -> np.ndarray:
     for j, t in enumerate(points):
         if t.size == 0:
             continue
-        dP = _legendre_derivative(_legendre_table(t, max(nmax, 1)))
+        dP = legendre_derivative(legendre_table(t, max(nmax, 1)))
         own = np.all(np.delete(E, j, axis=1) == 0, axis=1) & (E[:, j] > 0)
         block = np.zeros((t.size, E.shape[0]))
         block[:, own] = dP[:, E[own, j]]

@@ -30,8 +30,24 @@ class SelectionResult:
     table: list[dict[str, Any]] = field(default_factory=list)
     best: Any = None
 
+    def at_cap(self) -> list[int]:
+        """Inputs whose winning degree is the largest candidate degree of that input (the
+        search range may be too small there); empty for non-degree candidates."""
+        degrees = [
+            np.atleast_1d(np.asarray(r["candidate"]))
+            for r in self.table
+            if isinstance(r["candidate"], int | tuple) and not isinstance(r["candidate"], bool)
+        ]
+        if self.best is None or not degrees or len({d.size for d in degrees}) != 1:
+            return []
+        top = np.max(degrees, axis=0)
+        best = np.atleast_1d(np.asarray(self.best))
+        if best.size != top.size:
+            return []
+        return [int(j) for j in np.flatnonzero(best == top)]
+
     def format(self) -> str:
-        """The score table as aligned text."""
+        """The score table as aligned text; a last line flags a winner at the search cap."""
         lines = [f"{'candidate':>12} {'rms':>12} {'mae (eq.9)':>12} {'rel. rms':>10}"]
         for row in self.table:
             mark = "  <- best" if row["candidate"] == self.best else ""
@@ -39,15 +55,28 @@ class SelectionResult:
                 f"{candidate_label(row['candidate']):>12} {row['rms']:12.4g} {row['mae']:12.4g} "
                 f"{row['nrms']:10.3g}{mark}"
             )
+        cap = self.at_cap()
+        if cap:
+            lines.append(
+                f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "
+                "widen the search range"
+            )
         return "\n".join(lines)
 
 
-def default_candidates(kind: str, n_inputs: int, max_degree: int = 10) -> list[Any]:
+#: largest default LPR degree per input for d ≤ 2 (and for d > 2)
+DEFAULT_MAX_DEGREE = {2: 16, 3: 10}
+
+
+def default_candidates(kind: str, n_inputs: int, max_degree: int | None = None) -> list[Any]:
     """Candidates searched by default.
 
-    LPR: every per-input degree tuple up to ``max_degree`` for d ≤ 2 (cheap: one lstsq each),
-    equal degrees 1..max_degree otherwise. Kriging: the two correlation kernels.
+    LPR: every per-input degree tuple up to ``max_degree`` (default 16) for d ≤ 2 (cheap: one
+    lstsq each), equal degrees 1..max_degree (default 10) otherwise. Kriging: the two
+    correlation kernels. :meth:`SelectionResult.at_cap` flags a winner at the top.
     """
+    if max_degree is None:
+        max_degree = DEFAULT_MAX_DEGREE[2 if n_inputs <= 2 else 3]
     if kind == "lpr":
         if n_inputs <= 2:
             return list(itertools.product(range(1, max_degree + 1), repeat=n_inputs))

@@ -85,3 +85,24 @@ def test_bad_design_name_and_sample_rate():
         collect_design("everything")
     with pytest.raises(ValueError, match="sample_rate"):
         collect_design(CollectionDesign(sample_rate=300.0, duration=1.0))
+
+
+def test_paper_figures_are_parameters_of_the_build():
+    """1001 samples / 101 training points are the paper's 20 s × 50 Hz and M; both change."""
+    from railgym.vehicles.collect import build_vertical_surrogate
+
+    model, report, data = build_vertical_surrogate(
+        m=31, duration=5.0, sample_rate=20.0, sampling="greedy", candidates=[(2, 2), (3, 3)]
+    )
+    assert data["U"].shape == (101, 2) and report.m == 31 and report.n == 101
+    env, _, edata = build_vertical_surrogate(
+        m=31,
+        design="envelope",
+        duration=1.0,
+        sample_rate=20.0,
+        sampling="greedy",
+        candidates=[(2, 2)],
+    )
+    # 4 classes × 2 speeds × (passive + excited) runs of 21 samples each
+    assert edata["U"].shape == (16 * 21, 2) and len(edata["runs"]) == 16
+    assert any(r["excited"] for r in edata["runs"])

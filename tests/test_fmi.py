@@ -225,7 +225,7 @@ def test_cosimulation_with_fmpy_converges_to_the_native_embedded_run(tmp_path):
     """
     from railgym.vehicles.collect import default_vertical_surrogate
 
-    model = default_vertical_surrogate()
+    model = default_vertical_surrogate("static")  # the FMU element is memoryless
     fmu = export_fmu(model, tmp_path / "vertical.fmu", kind="cs")
     rows = _example().coupling_errors(fmu, model, steps=(8, 4, 2), duration=2.0)
     for name in ("x2", "a2"):

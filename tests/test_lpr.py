@@ -13,6 +13,8 @@ import surrogates
 from surrogates.models import model_class
 from surrogates.models.lpr import (
     LegendreRegression,
+    additive_table,
+    lpr_additive_inside,
     lpr_eval,
     lpr_eval_batch,
     lpr_eval_into,
@@ -201,6 +203,8 @@ def test_numba_kernels_match_predict(interactions: bool) -> None:
         (2, {"degree": (2, 9)}),
         (3, {"degree": 4, "interactions": True}),
         (3, {"degree": (3, 1, 5), "extrapolation": "clip"}),
+        (3, {"degree": (3, 1, 5)}),
+        (4, {"degree": (2, 3, 1, 2)}),
     ],
 )
 def test_eval_into_reuses_one_work_array(d: int, params: dict) -> None:
@@ -332,3 +336,23 @@ def test_bad_input() -> None:
         LegendreRegression.from_dict(state)
     with pytest.raises(RuntimeError, match="not fitted"):
         LegendreRegression().kernel_arrays()
+
+
+@pytest.mark.parametrize("degree", [(4,), (2, 9), (14, 14, 9), (3, 0, 5), (2, 3, 1, 2)])
+def test_additive_fast_path_equals_predict_inside_the_box(degree) -> None:
+    """The vehicle kernels' additive path (coefficient table summed along the recurrence)."""
+    d = len(degree)
+    rng = np.random.default_rng(d)
+    lo, hi = -np.linspace(0.1, 0.3, d), np.linspace(0.2, 0.5, d)
+    U = lo + (hi - lo) * rng.random((400, d))
+    V = np.sin(4 * U).sum(axis=1) + np.exp(U[:, 0])
+    model = LegendreRegression(degree=degree).fit(U, V)
+    E, c, lo, hi, _ = model.kernel_arrays()
+    table = additive_table(E, c)
+    work = lpr_scratch(E, lo, hi)
+    Uq = lo + (hi - lo) * rng.random((100, d))
+    got = np.array([lpr_additive_inside(u, table, lo, work) for u in Uq])
+    np.testing.assert_allclose(got, model.predict(Uq), rtol=0, atol=1e-12 * np.abs(V).max())
+    if d >= 2:
+        coupled = LegendreRegression(degree=3, interactions=True).fit(U[:, :2], V)
+        assert additive_table(*coupled.kernel_arrays()[:2]) is None

@@ -187,3 +187,18 @@ def test_make_report_checks_seed_and_folder_before_work(tmp_path):
     with pytest.raises(ValueError, match="not empty"):
         make_report(tmp_path, quick=True)
     assert [p.name for p in tmp_path.iterdir()] == ["x"]
+
+
+def test_quick_report_has_the_validation_matrix(quick):
+    """4 classes × 3 controllers × {static, memory}; the memory element is the closer one on
+    every cell of the quick run (2 unseen tracks of 5 s), as in docs/validation.md."""
+    folder, r = quick
+    v = r["validation"]
+    assert v["settings"]["n_seeds"] == 2 and v["settings"]["duration"] == 5.0
+    cells = {(x["element"], x["class"], x["controller"]): x for x in v["rows"]}
+    assert len(cells) == 2 * 4 * 3
+    for (element, cls, ctrl), row in cells.items():
+        assert row["diverged"] == 0 and 0 < row["median"] <= row["p90"] <= row["max"]
+        if element == "memory":
+            assert row["median"] < cells["static", cls, ctrl]["median"]
+    assert "## Validation matrix" in (folder / "report.md").read_text()

@@ -1,7 +1,14 @@
 import numpy as np
 import pytest
 
-from surrogates.selection import factory_for, kfold_indices, select_kfold, select_oob
+from surrogates.selection import (
+    DEFAULT_MAX_DEGREE,
+    default_candidates,
+    factory_for,
+    kfold_indices,
+    select_kfold,
+    select_oob,
+)
 
 
 def _noisy_poly(n, seed):
@@ -44,3 +51,24 @@ def test_kfold_indices_partition():
     np.testing.assert_array_equal(np.concatenate(kfold_indices(23, 5, 1)), np.concatenate(folds))
     with pytest.raises(ValueError, match="k must be"):
         kfold_indices(5, k=10)
+
+
+def test_default_degree_search_is_not_capped_at_10_for_two_inputs():
+    cands = default_candidates("lpr", 2)
+    assert max(max(c) for c in cands) == DEFAULT_MAX_DEGREE[2] > 10
+    assert len(cands) == DEFAULT_MAX_DEGREE[2] ** 2
+    assert default_candidates("lpr", 3) == list(range(1, 11))
+
+
+def test_a_winner_at_the_search_cap_is_flagged():
+    """A degree-7 polynomial in u1 searched up to 5 wins at the cap of input 0 only."""
+    rng = np.random.default_rng(0)
+    U = rng.uniform(-1, 1, (400, 2))
+    V = np.polynomial.legendre.legval(U[:, 0], [0, 1, 0.5, 0.3, 0.2, 0.2, 0.1, 0.3]) + U[:, 1]
+    V += rng.normal(0.0, 1e-3, V.size)
+    cands = [(a, b) for a in range(1, 6) for b in range(1, 4)]
+    res = select_kfold(factory_for("lpr"), cands, U, V, k=5)
+    assert res.best[0] == 5 and res.at_cap() == [0]
+    assert "largest candidate degree of input(s) [0]" in res.format()
+    wide = select_kfold(factory_for("lpr"), [(a, 1) for a in range(5, 14)], U, V, k=5)
+    assert 7 <= wide.best[0] < 13 and wide.at_cap() == [1]  # u2 had a single candidate

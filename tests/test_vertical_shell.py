@@ -78,7 +78,8 @@ def test_vector_reward_terms_are_arrays_that_sum_to_the_reward(random_actions):
         np.testing.assert_array_equal(total, r)
         assert info["_reward_terms"].all() and t["_force"].all()
         np.testing.assert_array_equal(venv.carbody_acceleration, info["carbody_acc"])
-        assert venv.state.shape == (4, 4) and venv.actuator_force.shape == (4,)
+        # surrogate backend: [x1, v1, x2, v2, s] with the Maxwell state s of the element
+        assert venv.state.shape == (4, 5) and venv.actuator_force.shape == (4,)
 
 
 def test_divergence_term_and_accessors_are_copies():

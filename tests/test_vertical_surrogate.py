@@ -1,13 +1,15 @@
-"""The packaged surrogate element and its accuracy against the reference model (eq. 9)."""
+"""The packaged surrogate elements and their accuracy against the reference model (eq. 9)."""
 
 import numpy as np
 import pytest
 
 from railgym.vehicles.collect import (
+    build_memory_surrogate,
     build_vertical_surrogate,
     collect_vertical,
     default_vertical_surrogate,
 )
+from surrogates.memory import element_form
 from surrogates.metrics import average_absolute_error, rms_normalised_error
 
 
@@ -16,14 +18,34 @@ def packaged():
     return default_vertical_surrogate()
 
 
-def test_rebuilding_the_packaged_surrogate_gives_the_same_model(packaged):
+@pytest.fixture(scope="module")
+def static():
+    return default_vertical_surrogate("static")
+
+
+def test_rebuilding_the_packaged_static_element_gives_the_same_model(static):
     model, report, data = build_vertical_surrogate(m=101)
-    assert model.degree == packaged.degree
+    assert model.degree == static.degree
     U = data["U"]
     # the same element up to rounding of the least-squares solve on another machine
-    np.testing.assert_allclose(model.predict(U), packaged.predict(U), rtol=1e-8, atol=1e-6)
-    assert packaged.metadata_["report"]["chosen"] == report.to_dict()["chosen"]
+    np.testing.assert_allclose(model.predict(U), static.predict(U), rtol=1e-8, atol=1e-6)
+    assert static.metadata_["report"]["chosen"] == report.to_dict()["chosen"]
     assert data["U"].shape == (1001, 2)  # 20 s at 50 Hz, as in the paper
+    assert element_form(static.features_).form == "static"
+
+
+def test_rebuilding_the_packaged_memory_element_gives_the_same_model(packaged):
+    """The recipe at its chosen τ and degrees (the full search is the regeneration command)."""
+    form = element_form(packaged.features_)
+    chosen = packaged.metadata_["report"]["chosen"]
+    assert form == ("maxwell", chosen["tau"], ("bump_stop",))
+    degree = tuple(packaged.degree)
+    model, sel, data = build_memory_surrogate(taus=(form.tau,), degrees=[degree])
+    assert sel.best == (form.tau, degree)
+    U = data["U_memory"]
+    assert U.shape == (3981, 3)  # 20 s at 200 Hz from the 0.1 s warm-up on
+    scale = np.abs(data["V_memory"]).max()
+    np.testing.assert_allclose(model.predict(U), packaged.predict(U), rtol=0, atol=1e-8 * scale)
 
 
 def _errors(track_class, model, seed=1, duration=20.0):
@@ -38,25 +60,30 @@ def _errors(track_class, model, seed=1, duration=20.0):
     }
 
 
-def test_surrogate_matches_reference_on_the_training_class(packaged):
-    # unseen track (seed 1) of the training class 5 at 144 km/h; stated bounds
+def test_memory_element_matches_reference_on_the_training_class(packaged, static):
+    """Unseen track (seed 1) of the training class 5 at 144 km/h: the memory element is
+    about 3× closer to the reference than the static one (measured 2.0 % vs 5.5 % relative
+    RMS carbody acceleration; eq. 9 errors 0.14 mm / 0.9 mm/s / 0.013 m/s²)."""
     e = _errors(5, packaged)
-    assert e["x2"] < 1.0e-3  # m   (measured 0.6 mm against a 11 mm mean |x2|)
-    assert e["v2"] < 8.0e-3  # m/s
-    assert e["a2"] < 0.06  # m/s²
-    assert e["nrms_a2"] < 0.10
+    assert e["x2"] < 2.5e-4  # m
+    assert e["v2"] < 1.5e-3  # m/s
+    assert e["a2"] < 0.02  # m/s²
+    assert e["nrms_a2"] < 0.03
+    assert _errors(5, static)["nrms_a2"] > 2 * e["nrms_a2"]
 
 
-@pytest.mark.parametrize("track_class, bound", [(6, 0.2), (3, 1.0), (4, 1.5)])
-def test_surrogate_stays_finite_on_other_track_classes(packaged, track_class, bound):
+@pytest.mark.parametrize(
+    "track_class, bound_memory, bound_static", [(6, 0.05, 0.15), (3, 0.06, 0.16), (4, 0.3, 0.5)]
+)
+def test_elements_on_other_track_classes(packaged, static, track_class, bound_memory, bound_static):
     """Paper table 8: trained on class 5, run on classes 3, 4, 6 (at their own speeds).
 
-    Class 6 is smoother and stays inside the training box. Classes 3 and 4 drive the
-    reference into its bump stops, which the class-5 data never showed: the element
-    extrapolates linearly (no blow-up like the paper's Kriging on class 4), but its
-    acceleration error there is of the order of the signal (measured 0.55 and 0.84 relative
-    RMS) — the same loss of accuracy the paper reports for class 4.
+    Classes 3 and 4 drive the reference into its bump stops, which the class-5 data never
+    showed: the memory element carries the vehicle's bump-stop law, the static one
+    extrapolates linearly. Measured relative RMS errors (seed 1), memory / static: class 6
+    3.0 / 10.9 %, class 3 3.9 / 11.8 %, class 4 22.7 / 40.1 %.
     """
-    e = _errors(track_class, packaged)
-    assert all(np.isfinite(v) for v in e.values())
-    assert e["nrms_a2"] < bound
+    m, s = _errors(track_class, packaged), _errors(track_class, static)
+    assert all(np.isfinite(v) for v in (*m.values(), *s.values()))
+    assert m["nrms_a2"] < bound_memory and s["nrms_a2"] < bound_static
+    assert m["nrms_a2"] < s["nrms_a2"]

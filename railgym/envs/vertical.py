@@ -138,11 +138,12 @@ def make_config(
     )
 
 
-def _surrogate_arrays(backend: str, surrogate: Any) -> LprArrays:
+def _surrogate_arrays(backend: str, surrogate: Any, dt: float) -> LprArrays:
     """Kernel arrays of the surrogate element: packaged default, a JSON path or a model.
 
     ``surrogate=`` for a backend that does not use it gives a ``UserWarning`` (it is ignored);
-    a model with other than two inputs (δ, δ̇) is rejected.
+    a model whose inputs do not match its feature form (static: δ, δ̇; maxwell: δ, δ̇, δ − s)
+    or whose ``τ`` is below ``dt/2`` (s) is rejected.
     """
     if backend != "surrogate":
         if surrogate is not None:
@@ -168,7 +169,7 @@ def _surrogate_arrays(backend: str, surrogate: Any) -> LprArrays:
             f"got {type(surrogate).__name__}",
         )
     try:
-        return surrogate_arrays(surrogate)
+        return surrogate_arrays(surrogate, dt)
     except ValueError as exc:
         raise val.FieldError("surrogate", str(exc), full=True) from None
 
@@ -196,7 +197,8 @@ class _VerticalAccessors:
 
     @property
     def state(self) -> np.ndarray:
-        """Copy of the state(s) ``[x1, v1, x2, v2, …]`` (m, m/s; dynamic: Pa, Pa, m)."""
+        """Copy of the state(s) ``[x1, v1, x2, v2, …]`` (m, m/s; dynamic: Pa, Pa, m;
+        surrogate: the element's Maxwell state ``s``, m)."""
         return self.sim.state.copy()
 
     @property
@@ -283,7 +285,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         self.speed_limit = None if speed_limit is None else val.positive(speed_limit, "speed_limit")
         self.track_class, self.speed = _check_track(track_class, speed, self.speed_limit)
         self._speed_arg = speed
-        sim = VerticalBatch(1, self.cfg, veh, _surrogate_arrays(backend, surrogate))
+        sim = VerticalBatch(1, self.cfg, veh, _surrogate_arrays(backend, surrogate, self.cfg.dt))
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         n_obs = len(self.obs_names)
         self._init_shell(
@@ -316,7 +318,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
 
     @property
     def state(self) -> np.ndarray:
-        """Copy of the state ``[x1, v1, x2, v2, …]`` (m, m/s; dynamic also Pa, Pa, m)."""
+        """Copy of the state ``[x1, v1, x2, v2, …]`` (m, m/s; dynamic also Pa, Pa, m;
+        surrogate the element's Maxwell state ``s``, m)."""
         return self.sim.state[0].copy()
 
     @property

@@ -239,7 +239,7 @@ class VerticalBatch:
             )
         self.z = np.zeros((n, n_samples))
         self.zdot = np.zeros((n, n_samples))
-        self.state = initial_state(cfg.variant, n)
+        self.state = initial_state(cfg.variant, n, lpr)
         self.force = np.zeros(n)
         self.out = step_outputs(n)
         self.acc, self.fs, self.count, self.div = self.out

@@ -19,8 +19,19 @@ from railgym.report.figures import write_figures
 from railgym.report.output import prepare_output_dir, write_text_atomic
 from railgym.report.published import PAPER, PAPER_LABEL
 from railgym.report.tables import markdown
+from railgym.report.validation import check_targets, validation_matrix
+from railgym.vehicles.collect import default_vertical_surrogate
 
-__all__ = ["FULL", "PAPER", "PAPER_LABEL", "QUICK", "Plan", "make_report"]
+__all__ = [
+    "FULL",
+    "PAPER",
+    "PAPER_LABEL",
+    "QUICK",
+    "Plan",
+    "check_targets",
+    "make_report",
+    "validation_matrix",
+]
 
 
 def make_report(
@@ -30,7 +41,8 @@ def make_report(
     progress: bool = True,
     overwrite: bool = False,
 ) -> dict[str, Any]:
-    """Regenerate the paper's tables 3, 5, 6, 8, 10, 11 and figures 7–15 on our models.
+    """Regenerate the paper's tables 3, 5, 6, 8, 10, 11, figures 7–15 and the validation
+    matrix on our models.
 
     Parameters
     ----------
@@ -45,6 +57,8 @@ def make_report(
     -------
     dict of plain data: ``plan``, ``table3``, ``table5``, ``table6``, ``table8``, ``table10``,
     ``table11`` (each with the paper's numbers under ``"published"`` where the text has them),
+    ``validation`` (:func:`~railgym.report.validation.validation_matrix` of the packaged
+    static and memory elements, ``plan.validation_seeds`` tracks per class),
     ``figures`` (file names), ``elapsed_s``.
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -59,6 +73,13 @@ def make_report(
         bar.update(1)
 
     result, art = compute(plan, seed, step)
+    elements = {
+        "static": default_vertical_surrogate("static"),
+        "memory": default_vertical_surrogate("maxwell"),
+    }
+    result["validation"] = validation_matrix(
+        elements, n_seeds=plan.validation_seeds, duration=plan.duration, progress=step
+    )
     result["plan"]["quick"] = quick
     result["figures"] = write_figures(out, art, plan, result["table5"])
     step("figures")

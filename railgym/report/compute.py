@@ -29,6 +29,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from railgym.report.published import PAPER
+from railgym.report.validation import CLASSES
 from railgym.track import track_time_input
 from railgym.vehicles.collect import TRAINING_CASE, collect_vertical
 from railgym.vehicles.crash import (
@@ -81,6 +82,7 @@ class Plan:
     tolerance_m : M of the LPR in the track-class tolerance test (table 8).
     duration : length of each vertical simulation, s.
     crash_variants : surrogate crash element variants (tables 10–11).
+    validation_seeds : unseen tracks per class of the validation matrix.
     """
 
     sizes: tuple[int, ...]
@@ -88,10 +90,11 @@ class Plan:
     tolerance_m: int
     duration: float
     crash_variants: tuple[str, ...]
+    validation_seeds: int = 20
 
 
 FULL = Plan((51, 101, 201), 101, 101, 20.0, ("paper", "hysteretic"))
-QUICK = Plan((51, 101), 101, 51, 5.0, ("paper",))
+QUICK = Plan((51, 101), 101, 51, 5.0, ("paper",), validation_seeds=2)
 
 
 class TrackCase(NamedTuple):
@@ -119,7 +122,7 @@ class Artifacts(NamedTuple):
 def n_steps(plan: Plan) -> int:
     """Number of progress steps of :func:`compute` (one per build, run or crash variant)."""
     vertical = 1 + 2 * len(plan.sizes) + 1 + len(plan.sizes) + 2 * len(TOLERANCE_CASES)
-    return vertical + 1 + len(plan.crash_variants)
+    return vertical + 1 + len(plan.crash_variants) + len(CLASSES)
 
 
 # ========================================================================= vertical case

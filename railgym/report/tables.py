@@ -263,6 +263,45 @@ def markdown(r: dict[str, Any]) -> str:
         _table8(r["table8"]),
         _table10(r["table10"], variants),
         _table11(r["table11"], variants),
+        validation_markdown(r["validation"]),
         "\n## Figures\n\n" + figures + "\n",
     ]
     return "\n".join(parts)
+
+
+def validation_markdown(v: dict[str, Any]) -> str:
+    """The validation matrix (:func:`railgym.report.validation.validation_matrix`)."""
+    st = v["settings"]
+    rows = [
+        [
+            r["element"],
+            str(r["class"]),
+            r["controller"],
+            f"{100 * r['median']:.1f}",
+            f"{100 * r['p90']:.1f}",
+            f"{100 * r['max']:.1f}",
+            *(_e(x) for x in r["eq9"]),
+            str(r["diverged"]),
+        ]
+        for r in sorted(v["rows"], key=lambda r: (r["element"], r["class"], r["controller"]))
+    ]
+    head = [
+        "element",
+        "class",
+        "controller",
+        "median %",
+        "90th %",
+        "max %",
+        "eq. 9 x2 (m)",
+        "eq. 9 v2 (m/s)",
+        "eq. 9 a2 (m/s²)",
+        "diverged",
+    ]
+    return (
+        f"\n## Validation matrix: relative RMS error of the carbody acceleration against the "
+        f"reference ({st['n_seeds']} unseen tracks per class, {st['duration']:g} s at each "
+        "class's maximum speed, closed loop)\n\n"
+        + table(head, rows)
+        + f"\n{PAPER_LABEL}, table 8 (eq. 9, trained on class 5):\n\n"
+        + _published_errors(v["published"], (3, 4, 6), "class ")
+    )

@@ -7,7 +7,11 @@ from typing import Any
 
 from surrogates.models.base import EXTRAPOLATION_POLICIES, SurrogateModel
 
-_LAZY = {"LegendreRegression": "surrogates.models.lpr", "Kriging": "surrogates.models.kriging"}
+_LAZY = {
+    "LegendreRegression": "surrogates.models.lpr",
+    "Kriging": "surrogates.models.kriging",
+    "PassiveLegendreRegression": "surrogates.passive",
+}
 
 __all__ = ["EXTRAPOLATION_POLICIES", "SurrogateModel", *_LAZY]
 
@@ -19,8 +23,13 @@ def __getattr__(name: str) -> Any:
 
 
 def model_class(kind: str) -> type[SurrogateModel]:
-    """Return the model class registered under ``kind`` (``"lpr"`` or ``"kriging"``)."""
-    names = {"lpr": "LegendreRegression", "kriging": "Kriging"}
+    """Return the model class registered under ``kind`` (``"lpr"``, ``"lpr_passive"`` or
+    ``"kriging"``)."""
+    names = {
+        "lpr": "LegendreRegression",
+        "lpr_passive": "PassiveLegendreRegression",
+        "kriging": "Kriging",
+    }
     if kind not in names:
         raise ValueError(f"unknown model kind {kind!r}; expected one of {sorted(names)}")
     return __getattr__(names[kind])

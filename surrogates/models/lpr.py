@@ -112,8 +112,8 @@ class LegendreRegression(SurrogateModel):
                 f"U has {n} samples but degree={self.degree!r} "
                 f"(interactions={self.interactions}) needs at least {T} (one per term)"
             )
-        E = self._make_exponents(d)
-        A = _design(self._map(U), E)
+        E = self.make_exponents(d)
+        A = design_matrix(self._map(U), E)
         norms = np.linalg.norm(A, axis=0)
         coef_scaled, _, rank, s = np.linalg.lstsq(A / norms, V, rcond=None)
         if rank < T:
@@ -126,7 +126,7 @@ class LegendreRegression(SurrogateModel):
         self.n_terms_ = T
         self.cond_ = float(s[0] / s[-1])
 
-    def _make_exponents(self, d: int) -> np.ndarray:
+    def make_exponents(self, d: int) -> np.ndarray:
         """Exponent table (T, d) for ``d`` inputs; row 0 is the constant term."""
         degree = check_degree(self.degree)
         if self.interactions and isinstance(degree, int):
@@ -155,14 +155,14 @@ class LegendreRegression(SurrogateModel):
         return (U - self.lower_) * (2.0 / (self.upper_ - self.lower_)) - 1.0
 
     def _predict_inside(self, U: np.ndarray) -> np.ndarray:
-        return _design(self._map(U), self.exponents_) @ self.coef_
+        return design_matrix(self._map(U), self.exponents_) @ self.coef_
 
     def _gradient_inside(self, U: np.ndarray) -> np.ndarray:
         """Analytic gradient (n, d) in output units per input unit."""
         E = self.exponents_
         d = E.shape[1]
-        P = _legendre_table(self._map(U), int(E.max()))
-        dP = _legendre_derivative(P)
+        P = legendre_table(self._map(U), int(E.max()))
+        dP = legendre_derivative(P)
         cols = np.arange(d)[None, :]
         F = P[:, cols, E]  # (n, T, d): P_{e_tj}(t_j)
         D = dP[:, cols, E]
@@ -229,7 +229,7 @@ class LegendreRegression(SurrogateModel):
 
 
 # ---------------------------------------------------------------------- helpers
-def _legendre_table(t: np.ndarray, nmax: int) -> np.ndarray:
+def legendre_table(t: np.ndarray, nmax: int) -> np.ndarray:
     """``P_k(t)`` for k = 0..nmax, shape ``t.shape + (nmax + 1,)``.
 
     Bonnet recurrence ``P_{k+1} = (2k+1)/(k+1)·t·P_k − k/(k+1)·P_{k−1}``.
@@ -244,8 +244,8 @@ def _legendre_table(t: np.ndarray, nmax: int) -> np.ndarray:
     return P
 
 
-def _legendre_derivative(P: np.ndarray) -> np.ndarray:
-    """``P'_k(t)`` from the table ``P`` of :func:`_legendre_table`:
+def legendre_derivative(P: np.ndarray) -> np.ndarray:
+    """``P'_k(t)`` from the table ``P`` of :func:`legendre_table`:
     ``P'_{k+1} = P'_{k−1} + (2k+1) P_k``."""
     nmax = P.shape[-1] - 1
     dP = np.empty_like(P)
@@ -257,9 +257,9 @@ def _legendre_derivative(P: np.ndarray) -> np.ndarray:
     return dP
 
 
-def _design(t: np.ndarray, E: np.ndarray) -> np.ndarray:
+def design_matrix(t: np.ndarray, E: np.ndarray) -> np.ndarray:
     """Design matrix (n, T): column ``t`` is ``Π_j P_{E[t, j]}(t_j)``."""
-    P = _legendre_table(t, int(E.max()))
+    P = legendre_table(t, int(E.max()))
     return np.prod(P[:, np.arange(E.shape[1])[None, :], E], axis=2)
 
 
@@ -414,6 +414,90 @@ def lpr_eval_into(
                     term *= work[m, exponents[i, m]]
             g += term
         value += g * work[d + 3, j] * (u[j] - uc)
+    return value
+
+
+def additive_table(exponents: np.ndarray, coef: np.ndarray) -> np.ndarray | None:
+    """Coefficients of an additive model as a table (d, nmax + 1): entry ``[j, k]`` multiplies
+    ``P_k(t_j)`` (the constant term in ``[0, 0]``), for :func:`lpr_additive_inside`; ``None``
+    when a term couples two inputs (``interactions=True``)."""
+    E = np.asarray(exponents, dtype=np.int64)
+    if np.any(np.count_nonzero(E, axis=1) > 1):
+        return None
+    table = np.zeros((E.shape[1], int(E.max()) + 1))
+    for e, c in zip(E, coef, strict=True):
+        j = int(np.argmax(e)) if e.any() else 0
+        table[j, e[j]] += c
+    return table
+
+
+@njit(cache=True, inline="always")
+def lpr_additive_inside(
+    u: np.ndarray, table: np.ndarray, lower: np.ndarray, work: np.ndarray
+) -> float:
+    """Value of an additive model at a point ``u`` (d,) inside its box, summing
+    ``table[j, k]·P_k(t_j)`` along the Legendre recurrence (no work array written, no term
+    loop); ``table`` from :func:`additive_table`, ``work`` from :func:`lpr_scratch` (its
+    recurrence constants and scales are read). Equal to :func:`lpr_eval_into` up to rounding.
+    """
+    d = u.shape[0]
+    n = table.shape[1]
+    if d == 2:
+        # the vehicle's static element: two interleaved recurrences
+        t0 = (u[0] - lower[0]) * work[5, 0] - 1.0
+        t1 = (u[1] - lower[1]) * work[5, 1] - 1.0
+        s0 = table[0, 0] + table[1, 0]
+        s1 = 0.0
+        if n > 1:
+            s0 += table[0, 1] * t0
+            s1 += table[1, 1] * t1
+        a0, a1, b0, b1 = 1.0, 1.0, t0, t1
+        for k in range(1, n - 1):
+            ck = work[3, k]
+            ek = work[4, k]
+            n0 = ck * t0 * b0 - ek * a0
+            n1 = ck * t1 * b1 - ek * a1
+            s0 += table[0, k + 1] * n0
+            s1 += table[1, k + 1] * n1
+            a0, b0, a1, b1 = b0, n0, b1, n1
+        return s0 + s1
+    if d == 3:
+        # the vehicle's memory element: three interleaved recurrences (independent chains)
+        t0 = (u[0] - lower[0]) * work[6, 0] - 1.0
+        t1 = (u[1] - lower[1]) * work[6, 1] - 1.0
+        t2 = (u[2] - lower[2]) * work[6, 2] - 1.0
+        s0 = table[0, 0] + table[1, 0] + table[2, 0]
+        s1 = 0.0
+        s2 = 0.0
+        if n > 1:
+            s0 += table[0, 1] * t0
+            s1 += table[1, 1] * t1
+            s2 += table[2, 1] * t2
+        a0, a1, a2, b0, b1, b2 = 1.0, 1.0, 1.0, t0, t1, t2
+        for k in range(1, n - 1):
+            ck = work[4, k]
+            ek = work[5, k]
+            n0 = ck * t0 * b0 - ek * a0
+            n1 = ck * t1 * b1 - ek * a1
+            n2 = ck * t2 * b2 - ek * a2
+            s0 += table[0, k + 1] * n0
+            s1 += table[1, k + 1] * n1
+            s2 += table[2, k + 1] * n2
+            a0, b0, a1, b1, a2, b2 = b0, n0, b1, n1, b2, n2
+        return s0 + s1 + s2
+    value = 0.0
+    for j in range(d):
+        t = (u[j] - lower[j]) * work[d + 3, j] - 1.0
+        a = 1.0
+        b = t
+        value += table[j, 0]
+        if n > 1:
+            value += table[j, 1] * t
+        for k in range(1, n - 1):
+            nb = work[d + 1, k] * t * b - work[d + 2, k] * a
+            value += table[j, k + 1] * nb
+            a = b
+            b = nb
     return value
 
 

@@ -87,6 +87,7 @@ from railgym.vehicles.vertical.kernels import (
     advance_static,
     advance_surrogate,
     initial_state,
+    state_size,
     step_outputs,
     surrogate_arrays,
 )
@@ -139,6 +140,7 @@ __all__ = [
     "initial_state",
     "load_vehicle",
     "simulate",
+    "state_size",
     "step_outputs",
     "surrogate_arrays",
     "vehicle_from_dict",

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from surrogates.models.lpr import lpr_eval_into, lpr_is_outside
+from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside
 
 __all__ = [
     "LprArrays",
@@ -23,13 +23,19 @@ __all__ = [
 
 
 class LprArrays(NamedTuple):
-    """A fitted LPR element as plain arrays (:meth:`LegendreRegression.kernel_arrays`)."""
+    """A fitted LPR element as plain arrays (:meth:`LegendreRegression.kernel_arrays`) with
+    its feature form: ``d = 2`` inputs (δ, δ̇) for ``"static"``, ``d = 3`` (δ, δ̇, δ − s) for
+    ``"maxwell"`` (``surrogates.memory``)."""
 
-    exps: np.ndarray  #: int64 (L, 2) exponents
+    exps: np.ndarray  #: int64 (L, d) exponents
     coef: np.ndarray  #: float64 (L,) coefficients
-    lo: np.ndarray  #: float64 (2,) lower corner of the training box
-    up: np.ndarray  #: float64 (2,) upper corner
+    lo: np.ndarray  #: float64 (d,) lower corner of the training box
+    up: np.ndarray  #: float64 (d,) upper corner
     mode: int  #: extrapolation mode (``surrogates.models.lpr.EXTRAPOLATION_MODES``)
+    tau: float  #: Maxwell time constant τ of the state ``ṡ = (δ − s)/τ``, s (0: static form)
+    bump: bool  #: known physics: add :func:`bump_stop_force` of the vehicle to ``F̂``
+    table: np.ndarray  #: float64 (d, nmax + 1) additive coefficient table (``additive_table``)
+    additive: bool  #: ``table`` holds the model (no coupled terms): fast path inside the box
 
 
 @njit(cache=True)
@@ -136,10 +142,12 @@ def dynamic_element(d, dd, dpb, dpr, y, p, rates):
 
 @njit(cache=True)
 def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
-    """State derivative ``dx`` of variant ``kind``; returns (F_s, 1 if the surrogate input is
+    """State derivative ``dx`` of variant ``kind``; returns (F_s, 1 if any surrogate input is
     outside its box). ``zc, zdc``: track input (m, m/s); ``fa``: actuator force, N.
 
-    ``u`` (2,) and ``lw`` (:func:`~surrogates.models.lpr.lpr_scratch`) are work arrays.
+    The surrogate's state ``x[4]`` is the Maxwell state ``s`` (``ṡ = (δ − s)/τ``) of a memory
+    element; a static element integrates 4 states (a fifth one is held still). ``u`` (d,) and ``lw``
+    (:func:`~surrogates.models.lpr.lpr_scratch`) are work arrays.
     """
     d = x[0] - x[2]
     dd = x[1] - x[3]
@@ -154,9 +162,19 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
     else:
         u[0] = d
         u[1] = dd
+        if lpr.tau > 0.0:
+            u[2] = d - x[4]
+            dx[4] = (d - x[4]) / lpr.tau
+        elif dx.shape[0] > 4:
+            dx[4] = 0.0
         if lpr_is_outside(u, lpr.lo, lpr.up):
             outside = 1
-        fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+        if lpr.additive and outside == 0:
+            fs = lpr_additive_inside(u, lpr.table, lpr.lo, lw)
+        else:
+            fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+        if lpr.bump:
+            fs += bump_stop_force(d, p)
     dx[0] = x[1]
     dx[1] = (p.k1 * (zc - x[0]) + p.c1 * (zdc - x[1]) - fs - fa) / p.m1
     dx[2] = x[3]

@@ -20,10 +20,10 @@ from railgym.vehicles.vertical.elements import (
 )
 from railgym.vehicles.vertical.kernels import (
     RAISE_MODE,
-    STATE_SIZE,
     _advance,
     check_variant,
     initial_state,
+    state_size,
     step_outputs,
     surrogate_arrays,
 )
@@ -48,7 +48,7 @@ def _simulate_loop(kind, state, z, zdot, every, dt, fa, p, lpr, rec, out):
     number of completed steps (fewer if the run diverged)."""
     s = state.shape[1]
     dx = np.empty(s)
-    u = np.empty(2)
+    u = np.empty(lpr.lo.shape[0])
     lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     fs, _ = rhs(
         kind, state[0], z[0, 0], zdot[0, 0], fa[0] if fa.size > 0 else 0.0, p[0], lpr, u, lw, dx
@@ -105,7 +105,9 @@ def simulate(
     sample_every
         Record every ``sample_every``-th step (the substeps of one kernel call).
     x0
-        Initial state (``STATE_SIZE[variant]``,); default the static equilibrium.
+        Initial state (``state_size(variant, element)``,); default the static equilibrium.
+        For a memory surrogate element the 4 mechanical states are enough: the Maxwell state
+        then starts relaxed, ``s = x1 − x2``.
 
     Returns
     -------
@@ -138,10 +140,13 @@ def simulate(
             raise ValueError(f"force_a must be a scalar or have shape ({n_int},), got {fa.shape}")
     if variant == "surrogate" and surrogate is None:
         raise ValueError("surrogate is required for variant 'surrogate'")
-    lpr = surrogate_arrays(surrogate if variant == "surrogate" else None)
-    s = STATE_SIZE[variant]
-    state = initial_state(variant)
+    lpr = surrogate_arrays(surrogate if variant == "surrogate" else None, dt)
+    s = state_size(variant, lpr)
+    state = initial_state(variant, lpr=lpr)
     if x0 is not None:
+        x0 = val.numeric_array(x0, "x0")
+        if s == 5 and variant == "surrogate" and x0.shape == (4,):
+            x0 = np.append(x0, x0[0] - x0[2])  # Maxwell state started relaxed, s = δ
         state[0] = val.numeric_array(x0, "x0", (s,))
     rec = _Record(
         np.zeros((n_int + 1, s)),

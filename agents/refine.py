@@ -1,0 +1,110 @@
+"""``railgym refine POLICY``: refine a vertical surrogate element for a policy.
+
+The loop a user runs after training an agent: the reference model is driven by the policy,
+reference samples are added where the element's force error is largest (or its inputs leave
+the training box), the element is refitted, and the held-out error is printed per round
+(:func:`railgym.vehicles.collect.refine`). The refined element is written as model JSON and
+used with ``VerticalSuspensionEnv(surrogate=PATH)``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents._args import bounded_int
+from agents.evaluate import CONTROLLERS, load_policy
+from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.vehicles.collect import (
+    RAW_OBSERVATION,
+    default_vertical_surrogate,
+    refine,
+    save_vertical_surrogate,
+)
+from surrogates import io
+
+#: env observation channel → entry of the raw observation of ``refine``
+_CHANNELS = {
+    "x1": "x1",
+    "v1": "v1",
+    "x2": "x2",
+    "v2": "v2",
+    "bogie_acc": "a1",
+    "carbody_acc": "a2",
+    "z": "z",
+    "zdot": "zdot",
+}
+
+
+def observation_map(env: VerticalSuspensionEnv) -> Any:
+    """``raw (8,) → env observation`` (float32, normalised like the env, no sensor noise)."""
+    index = {name: i for i, name in enumerate(RAW_OBSERVATION)}
+    inv = 1.0 / np.asarray(env.obs_scale, dtype=np.float64)
+    names = list(env.obs_names)
+
+    def observe(raw: np.ndarray) -> np.ndarray:
+        values = []
+        for name in names:
+            if name == "deflection":
+                values.append(raw[index["x1"]] - raw[index["x2"]])
+            elif name == "deflection_rate":
+                values.append(raw[index["v1"]] - raw[index["v2"]])
+            elif name == "carbody_vel":
+                values.append(raw[index["v2"]])
+            else:
+                values.append(raw[index[_CHANNELS[name]]])
+        return (np.asarray(values) * inv).astype(np.float32)
+
+    return observe
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``railgym refine``."""
+    parser.add_argument("policy", help=f"{', '.join(CONTROLLERS)} or a policy .zip")
+    parser.add_argument("--model", type=Path, help="element JSON (default: the packaged one)")
+    parser.add_argument("--rounds", type=bounded_int(0, 50), default=3, help="rounds K")
+    parser.add_argument("--track-class", type=bounded_int(1, 6), default=5, help="FRA class")
+    parser.add_argument("--duration", type=float, default=10.0, help="s per track")
+    parser.add_argument("--tracks", type=bounded_int(1, 100), default=2, help="tracks per round")
+    parser.add_argument(
+        "--add", type=bounded_int(1, 10**6), default=400, help="samples added per round"
+    )
+    parser.add_argument("--seed", type=bounded_int(0), default=0, help="seed of the tracks")
+    parser.add_argument("--out", type=Path, help="write the refined element (model JSON)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    parser.add_argument(
+        "--trust", action="store_true", help="load a policy .zip not listed in its manifest"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """``railgym refine``: print the error per round, write ``--out`` if given."""
+    if args.out is not None and args.out.exists() and not args.overwrite:
+        raise ValueError(f"--out {args.out}: exists; pass --overwrite to replace it")
+    if not (np.isfinite(args.duration) and 1.0 <= args.duration <= 600.0):
+        raise ValueError(f"--duration must be between 1 and 600 s, got {args.duration}")
+    model = default_vertical_surrogate() if args.model is None else io.load(args.model)
+    factory, env_kwargs, label = load_policy(args.policy, trust=args.trust)
+    env = VerticalSuspensionEnv(backend="reference", **env_kwargs)
+    print(f"refining the element for policy {label} on FRA class {args.track_class}")
+    refined, _ = refine(
+        model,
+        factory(env),
+        rounds=args.rounds,
+        track_class=args.track_class,
+        duration=args.duration,
+        n_tracks=args.tracks,
+        n_add=args.add,
+        control_dt=env.cfg.control_dt,
+        f_max=env.cfg.f_max,
+        observe=observation_map(env),
+        seed=args.seed,
+    )
+    if args.out is not None:
+        source = f"railgym refine {args.policy}: {args.rounds} rounds on class {args.track_class}"
+        save_vertical_surrogate(refined, None, args.out, source)
+        print(f"written to {args.out}")
+    return 0
