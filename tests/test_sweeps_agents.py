@@ -28,7 +28,7 @@ def test_controller_sweep_keeps_case_order():
 
 
 def test_bad_policy_fails_before_any_task():
-    with pytest.raises(ValueError, match="policy must be"):
+    with pytest.raises(ValueError, match="policy must be one of"):
         evaluate_sweep(["nonsense"], workers=2)
     with pytest.raises(ValueError, match="episodes"):
         evaluate_sweep(["passive"], episodes=0)
