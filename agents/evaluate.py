@@ -357,7 +357,7 @@ def format_vehicle_rows(rows: list[dict[str, Any]]) -> str:
 
     head = (
         f"{'class':>5} {'km/h':>5} {'policy':<14} {'RMS acc m/s²':>16} {'a_w Wk m/s²':>16} "
-        f"{'Δa_w %':>17} {'a_ZP95 Wb m/s²':>16} {'Wz':>14} {'contacts':>8}"
+        f"{'Δa_w %':>17} {'a_ZP95 Wb m/s²':>16} {'Wz':>14} {'contacts':>8} {'out-dom':>8}"
     )
     lines = [head]
     for r in rows:
@@ -366,7 +366,7 @@ def format_vehicle_rows(rows: list[dict[str, Any]]) -> str:
             f"{three(r['rms_acc'], '{:.3f}'):>16} {three(r['a_w'], '{:.3f}'):>16} "
             f"{three(r['a_w_reduction_%'], '{:.1f}'):>17} "
             f"{three(r['a_ZP95_Wb'], '{:.3f}'):>16} {three(r['Wz'], '{:.2f}'):>14} "
-            f"{r['contacts']:8.0f}"
+            f"{r['contacts']:8.0f} {r['ood']:8.0f}"
         )
     return "\n".join(lines)
 
