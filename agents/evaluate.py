@@ -235,9 +235,7 @@ def format_rows(rows: list[dict[str, Any]]) -> str:
 
 
 # ================================================ railgym/VerticalVehicle-v0: the whole vehicle
-#: floor points of the vehicle rows (each index an array of 3: front, centre, rear)
-POINTS = ("front", "centre", "rear")
-#: comfort keys of the vehicle's ``info["comfort"]`` (m/s², m/s², Sperling) per floor point
+#: keys of the vehicle's ``info["comfort"]``, each (3,): front, centre, rear floor point
 VEHICLE_COMFORT = ("a_w", "a_ZP95_Wb", "Wz")
 
 
@@ -256,9 +254,10 @@ def run_vehicle_policy(
 ) -> dict[str, Any]:
     """Run ``episodes`` episodes of ``railgym/VerticalVehicle-v0`` (one per sub-env, tracks of
     seeds ``seed + i``) and return the means over them, each an array (3,) per floor point:
-    ``rms_acc`` (RMS floor acceleration, m/s²) and the env's end-of-episode EN 12299 comfort
-    ``a_w`` (Wk RMS, m/s²), ``a_ZP95_Wb`` (m/s²), ``Wz``; with ``speed_kmh`` and the totals
-    ``contacts`` (bump-stop substeps) and ``ood`` (surrogate evaluations outside its box)."""
+    ``rms_acc`` (RMS floor acceleration, m/s²) and the env's end-of-episode comfort ``a_w``
+    (ISO 2631-1 Wk RMS, m/s²), ``a_ZP95_Wb`` (EN 12299, m/s²), ``Wz`` (Sperling); with
+    ``speed_kmh`` and the totals ``contacts`` (bump-stop substeps) and ``ood`` (surrogate
+    evaluations outside its box)."""
     venv = gym.make_vec(
         VEHICLE_ID, num_envs=episodes, vectorization_mode="vector_entry_point", **env_kwargs
     )
