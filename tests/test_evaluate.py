@@ -143,6 +143,34 @@ def test_envelope_evaluation_of_the_baselines_at_one_speed(capsys):
     assert envelope_table(rows) in out and out.count("| 40 |") == 6
 
 
+def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    from agents.train import train
+
+    block = {
+        "algo": "ppo",
+        "n_timesteps": 64,
+        "n_envs": 1,
+        "seed": 0,
+        "vectorization_mode": "sync",
+        "env_kwargs": {"backend": "surrogate", "scenario": "envelope", "control_dt": 0.005},
+        "eval_freq": 10**6,
+        "n_eval_episodes": 1,
+        "checkpoint_freq": 10**6,
+        "n_steps": 64,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "policy_kwargs": {"net_arch": [8]},
+    }
+    out = train({"railgym/TrainCrash-v0": block}, tmp_path / "ppo_crash", progress=False)
+    rows = evaluate_envelope([str(out / "model.zip"), "passive"], speeds_kmh=(30.0,))
+    names = ("passive", "best constant", "speed-adaptive", "ppo_crash")
+    assert [r["controller"] for r in rows] == list(names) * 2
+    for r in rows:
+        c = r["criteria"]
+        assert np.all(np.isfinite(c.peak_decel_g)) and np.all(c.intrusion_m >= 0.0)
+
+
 def test_vehicle_policy_zip_is_loaded_with_the_manifest(tmp_path, capsys):
     pytest.importorskip("stable_baselines3")
     from agents.train import train
