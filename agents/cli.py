@@ -6,8 +6,10 @@
   indices and write plots.
 - ``railgym paper [--quick] [--out DIR]``: the paper's tables and figures on our models
   (:func:`railgym.report.make_report`).
-- ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies
-  (:mod:`agents.evaluate`).
+- ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies on the
+  vertical env and the whole vehicle (``--env vehicle``), crash indices (``--env crash``, the
+  held-out impact envelope with ``--envelope``); ``--workers N`` / ``--address ADDR`` run the
+  cases in parallel (:mod:`agents.evaluate`).
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
   (:mod:`agents.refine`).
 

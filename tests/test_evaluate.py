@@ -5,13 +5,27 @@ import sys
 import zipfile
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import yaml
 
 from agents.cli import main
-from agents.evaluate import RLLIB_MODULE_PATH, evaluate, evaluate_crash, format_rows, load_policy
+from agents.controllers import BogieSkyhook
+from agents.crash_report import envelope_table
+from agents.evaluate import (
+    RLLIB_MODULE_PATH,
+    VEHICLE_ID,
+    evaluate,
+    evaluate_crash,
+    evaluate_envelope,
+    evaluate_vehicle,
+    format_rows,
+    format_vehicle_rows,
+    load_policy,
+)
 from agents.policy_io import write_manifest
+from railgym.track import class_speed
 
 
 def test_evaluate_vertical_skyhook_beats_passive_on_the_same_tracks():
@@ -29,6 +43,163 @@ def test_evaluate_crash_passive_row():
     (row,) = evaluate_crash(["passive"], backend="surrogate", speeds_kmh=(40.0,))
     assert len(row["peak_decel_g"]) == 2 and np.all(np.asarray(row["peak_decel_g"]) > 1.0)
     assert row["peak_reduction_%"] == 0.0
+
+
+def _single_vehicle_runs(kwargs: dict, seeds: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """RMS floor accelerations (from every step's ``carbody_acc``) and the end-of-episode
+    Wk a_w of single envs under skyhook per bogie, one row per seed."""
+    rms, a_w = [], []
+    for seed in seeds:
+        env = gym.make(VEHICLE_ID, **kwargs)
+        ctrl = BogieSkyhook(env)
+        obs, _ = env.reset(seed=seed)
+        acc = []
+        while True:
+            obs, _, term, trunc, info = env.step(ctrl.predict(obs)[0])
+            acc.append(info["carbody_acc"])
+            if term or trunc:
+                break
+        rms.append(np.sqrt(np.mean(np.square(acc), axis=0)))
+        a_w.append(info["comfort"]["a_w"])
+    return np.array(rms), np.array(a_w)
+
+
+def test_evaluate_vehicle_rows_are_the_means_of_single_envs_per_floor_point():
+    kw = {"backend": "linear", "track_classes": (6,), "episodes": 2, "seed": 3, "duration": 6.0}
+    rows = evaluate_vehicle(["passive", "skyhook"], speeds_kmh=(None, 100.0), **kw)
+    assert [(r["policy"], round(r["speed_kmh"], 6)) for r in rows] == [
+        ("passive", round(class_speed(6) * 3.6, 6)),
+        ("skyhook", round(class_speed(6) * 3.6, 6)),
+        ("passive", 100.0),
+        ("skyhook", 100.0),
+    ]
+    env_kw = {"backend": "linear", "track_class": 6, "speed": 100 / 3.6, "duration": 6.0}
+    rms, a_w = _single_vehicle_runs(env_kw, [3, 4])  # sub-env i = single env of seed 3 + i
+    np.testing.assert_allclose(rows[3]["rms_acc"], rms.mean(axis=0), rtol=1e-9)
+    np.testing.assert_allclose(rows[3]["a_w"], a_w.mean(axis=0), rtol=1e-9)
+    passive, sky = rows[0], rows[1]
+    # the bogie spacing filters the track: the centre rides better than both ends (passive)
+    assert passive["rms_acc"][1] < 0.7 * min(passive["rms_acc"][0], passive["rms_acc"][2])
+    assert np.all(sky["a_w"] < passive["a_w"])  # skyhook helps at every floor point
+    np.testing.assert_allclose(sky["a_w_reduction_%"], 100 * (1 - sky["a_w"] / passive["a_w"]))
+    np.testing.assert_array_equal(passive["a_w_reduction_%"], 0.0)
+    for r in rows:
+        assert r["rms_acc"].shape == r["a_ZP95_Wb"].shape == r["Wz"].shape == (3,)
+        assert np.all(r["Wz"] > 0) and r["contacts"] == 0.0
+    assert "skyhook" in format_vehicle_rows(rows)
+
+
+def test_evaluate_vehicle_same_rows_on_one_and_two_workers():
+    kw = {"backend": "linear", "track_classes": (5, 6), "episodes": 1, "seed": 11, "duration": 5.0}
+    one = evaluate_vehicle(["passive", "modal-skyhook"], **kw)
+    two = evaluate_vehicle(["passive", "modal-skyhook"], **kw, workers=2)
+    assert [(r["track_class"], r["policy"]) for r in two] == [
+        (5, "passive"),
+        (5, "modal-skyhook"),
+        (6, "passive"),
+        (6, "modal-skyhook"),
+    ]
+    for a, b in zip(one, two, strict=True):
+        assert a.keys() == b.keys()
+        for key in a:
+            np.testing.assert_array_equal(a[key], b[key])  # bit for bit
+
+
+def test_cli_evaluate_same_table_on_one_and_two_workers(capsys):
+    argv = ["evaluate", "passive", "--backend", "linear", "--track-class", "6", "--episodes", "1"]
+    assert main([*argv, "--env", "vehicle", "--duration", "5", "--speed", "90"]) == 0
+    one = capsys.readouterr().out
+    assert (
+        main([*argv, "--env", "vehicle", "--duration", "5", "--speed", "90", "--workers", "2"]) == 0
+    )
+    assert capsys.readouterr().out == one
+    assert "   90 skyhook" in one and "   90 passive" in one  # passive and skyhook always run
+    assert main([*argv, "--workers", "2"]) == 0
+    two = capsys.readouterr().out
+    assert main(argv) == 0
+    assert capsys.readouterr().out == two
+
+
+def test_address_without_ray_is_exit_2_naming_the_extra(monkeypatch, capsys):
+    monkeypatch.setattr("railgym.parallel.ray_available", lambda: False)
+    for env in ("vertical", "vehicle"):
+        assert main(["evaluate", "skyhook", "--env", env, "--address", "10.0.0.5:6379"]) == 2
+        err = capsys.readouterr().err
+        assert "--address" in err and "railgym[ray]" in err and "Traceback" not in err
+
+
+def test_envelope_evaluation_of_the_baselines_at_one_speed(capsys):
+    rows = evaluate_envelope(["passive"], speeds_kmh=(40.0,))
+    assert [(r["controller"], r["payload_t"]) for r in rows] == [
+        (name, payload)
+        for payload in ((0.0, 0.0), (2.0, 8.0))
+        for name in ("passive", "best constant", "speed-adaptive")
+    ]
+    empty, loaded = (r["criteria"] for r in rows if r["controller"] == "passive")
+    assert not np.array_equal(loaded.peak_decel_g, empty.peak_decel_g)  # the payload is applied
+    assert empty.all_passed  # the EN 15227 design case passes on the passive train
+    assert main(["evaluate", "passive", "--env", "crash", "--envelope", "--speed", "40"]) == 0
+    out = capsys.readouterr().out
+    assert envelope_table(rows) in out and out.count("| 40 |") == 6
+
+
+def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    from agents.train import train
+
+    block = {
+        "algo": "ppo",
+        "n_timesteps": 64,
+        "n_envs": 1,
+        "seed": 0,
+        "vectorization_mode": "sync",
+        "env_kwargs": {"backend": "surrogate", "scenario": "envelope", "control_dt": 0.005},
+        "eval_freq": 10**6,
+        "n_eval_episodes": 1,
+        "checkpoint_freq": 10**6,
+        "n_steps": 64,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "policy_kwargs": {"net_arch": [8]},
+    }
+    out = train({"railgym/TrainCrash-v0": block}, tmp_path / "ppo_crash", progress=False)
+    rows = evaluate_envelope([str(out / "model.zip"), "passive"], speeds_kmh=(30.0,))
+    names = ("passive", "best constant", "speed-adaptive", "ppo_crash")
+    assert [r["controller"] for r in rows] == list(names) * 2
+    for r in rows:
+        c = r["criteria"]
+        assert np.all(np.isfinite(c.peak_decel_g)) and np.all(c.intrusion_m >= 0.0)
+
+
+def test_vehicle_policy_zip_is_loaded_with_the_manifest(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    from agents.train import train
+
+    block = {
+        "algo": "ppo",
+        "n_timesteps": 128,
+        "n_envs": 2,
+        "seed": 0,
+        "env_kwargs": {"backend": "linear", "duration": 1.0},
+        "eval_freq": 10**6,
+        "n_eval_episodes": 1,
+        "checkpoint_freq": 10**6,
+        "n_steps": 64,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "policy_kwargs": {"net_arch": [8]},
+    }
+    out = train({VEHICLE_ID: block}, tmp_path / "ppo_vehicle", progress=False)
+    zip_path = str(out / "model.zip")
+    with pytest.raises(ValueError, match="trained on railgym/VerticalVehicle-v0"):
+        load_policy(zip_path)  # not a vertical-env policy
+    (row,) = evaluate_vehicle(
+        [zip_path], backend="linear", track_classes=(6,), episodes=1, duration=5.0
+    )
+    assert row["policy"] == "ppo_vehicle" and np.all(np.isfinite(row["a_w"]))
+    (out / "manifest.json").unlink()
+    assert main(["evaluate", zip_path, "--env", "vehicle", "--episodes", "1"]) == 2
+    assert "manifest.json" in capsys.readouterr().err
 
 
 def test_unknown_policy_is_a_clear_error():

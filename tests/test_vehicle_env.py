@@ -215,3 +215,13 @@ def test_wk_weighted_reward_and_rendering():
     frame = env.render()
     assert frame.shape == (400, 800, 3) and frame.dtype == np.uint8
     assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 5
+
+
+def test_memory_element_is_rejected_and_static_is_the_default():
+    from railgym.vehicles.collect import default_vertical_surrogate
+
+    with pytest.raises(ValueError, match="static"):
+        gym.make("railgym/VerticalVehicle-v0", surrogate=default_vertical_surrogate("maxwell"))
+    env = gym.make("railgym/VerticalVehicle-v0", backend="surrogate", duration=0.2)
+    static = default_vertical_surrogate("static").kernel_arrays()[1]
+    np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, static)

@@ -37,6 +37,7 @@ from railgym.envs.vertical import BACKENDS, _surrogate_arrays
 from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import check_profile, read_profile_csv
 from railgym.track import class_parameters, class_speed
+from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -210,6 +211,25 @@ def _load_profile(profile: Any) -> tuple[np.ndarray, np.ndarray] | None:
     return check_profile(profile[0], profile[1], source="profile")
 
 
+def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
+    """Kernel arrays of the secondary-suspension element, the same at both bogies.
+
+    The whole vehicle runs static (δ, δ̇) elements: its default is the paper's packaged static
+    element, and a memory (Maxwell-state) element is rejected, because the kernel carries no
+    element state per bogie.
+    """
+    if backend == "surrogate" and surrogate is None:
+        surrogate = default_vertical_surrogate("static")
+    lpr = _surrogate_arrays(backend, surrogate, dt)
+    if lpr.tau > 0.0 or lpr.exps.shape[1] != 2:
+        raise val.FieldError(
+            "surrogate",
+            "must be a static (δ, δ̇) element for VerticalVehicle-v0 (memory elements run in "
+            "VerticalSuspension-v0 only); build one with features='static'",
+        )
+    return lpr
+
+
 class _VehicleAccessors:
     """Public read-only accessors of the simulated vehicles (arrays over the sub-envs)."""
 
@@ -316,7 +336,7 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         self.track_class = int(track_class)
         self._speed_arg = speed
         self.profile = _load_profile(profile)
-        lpr = _surrogate_arrays(backend, surrogate)
+        lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
         sim = VehicleBatch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED))
         self.vehicle = veh
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale

@@ -265,7 +265,7 @@ class VehicleBatch:
         self.kind = check_variant(cfg.variant)
         self.params = kernel_params(vehicle, cfg.flexible)
         self.elem = vehicle.suspension.kernel_params().record()
-        self.lpr = Lpr(*lpr)
+        self.lpr = Lpr(*lpr[:5])
         span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)
         self.v_min = v_min
         self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(span / (v_min * cfg.dt)) + 2

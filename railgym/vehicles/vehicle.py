@@ -246,7 +246,7 @@ def kernel_params(vehicle: WholeVehicle, flexible: bool = True) -> Params:
 
 def lpr_arrays(surrogate: Any = None) -> Lpr:
     """:class:`Lpr` of a fitted LPR model (or its ``kernel_arrays()``); placeholders for None."""
-    return Lpr(*surrogate_arrays(surrogate))
+    return Lpr(*surrogate_arrays(surrogate)[:5])
 
 
 def check_variant(variant: str) -> int:
