@@ -21,6 +21,7 @@ from railgym.vehicles.crash import (
     ZoneTypes,
     reference_batch_step,
     surrogate_batch_step,
+    surrogate_batch_step_parallel,
 )
 from railgym.vehicles.crash_criteria import zero_crossing
 
@@ -521,15 +522,11 @@ def _advance_reference(buf, fields, flags, params, stepping, consts, actions, ac
     return True
 
 
-@njit(cache=True)
-def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
-    """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    c = _named_consts(consts)
-    out, ep = _views(buf, fields, flags)
-    if not init and not _set_scale(actions, ep.scale, active, c):
-        return False
+@njit(cache=True, inline="always")
+def _surrogate_state(buf, fields):
+    """The :class:`SurrogateState` of a :class:`CrashBatch` buffer, as views."""
     k = _STATE
-    state = SurrogateState(
+    return SurrogateState(
         _field(buf, fields, k),
         _field(buf, fields, k + 1),
         _field(buf, fields, k + 2),
@@ -538,8 +535,36 @@ def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, ac
         _field(buf, fields, k + 5),
         _field(buf, fields, k + 6),
     )
-    p = _named_surrogate(params)
+
+
+@njit(cache=True)
+def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
+    """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
+    c = _named_consts(consts)
+    out, ep = _views(buf, fields, flags)
+    if not init and not _set_scale(actions, ep.scale, active, c):
+        return False
+    state, p = _surrogate_state(buf, fields), _named_surrogate(params)
     dt, n_sub = stepping
     surrogate_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
+    _post_step(out, ep, c, active, init)
+    return True
+
+
+# Not cached: it calls the uncached parallel kernel.
+@njit
+def _advance_surrogate_parallel(
+    buf, fields, flags, params, stepping, consts, actions, active, init
+):
+    """:func:`_advance_surrogate` with :func:`surrogate_batch_step_parallel` (all threads)."""
+    c = _named_consts(consts)
+    out, ep = _views(buf, fields, flags)
+    if not init and not _set_scale(actions, ep.scale, active, c):
+        return False
+    state, p = _surrogate_state(buf, fields), _named_surrogate(params)
+    dt, n_sub = stepping
+    surrogate_batch_step_parallel(
+        state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div
+    )
     _post_step(out, ep, c, active, init)
     return True

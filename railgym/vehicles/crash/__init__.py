@@ -15,7 +15,14 @@ Every public name is re-exported here.
 """
 
 from railgym.vehicles.crash.batch import BATCH_BACKENDS, CrashBatchModel, crash_batch_model
-from railgym.vehicles.crash.outputs import V_EPS, BatchOutputs, CrashResult, Record, StopRule
+from railgym.vehicles.crash.outputs import (
+    PARALLEL_MIN,
+    V_EPS,
+    BatchOutputs,
+    CrashResult,
+    Record,
+    StopRule,
+)
 from railgym.vehicles.crash.reference import (
     MIN_REFERENCE_DT,
     ReferenceParams,
@@ -56,6 +63,7 @@ from railgym.vehicles.crash.surrogate_model import (
     SurrogateState,
     simulate_surrogate,
     surrogate_batch_step,
+    surrogate_batch_step_parallel,
 )
 from railgym.vehicles.crash.zone import absorber_zone_force, zone_force
 
@@ -64,6 +72,7 @@ __all__ = [
     "LIMITS",
     "MAX_SPEED",
     "MIN_REFERENCE_DT",
+    "PARALLEL_MIN",
     "VARIANTS",
     "V_EPS",
     "BatchOutputs",
@@ -101,6 +110,7 @@ __all__ = [
     "simulate_reference",
     "simulate_surrogate",
     "surrogate_batch_step",
+    "surrogate_batch_step_parallel",
     "virgin_loading",
     "zone_force",
 ]

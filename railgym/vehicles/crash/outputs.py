@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import get_num_threads, njit
 
 from railgym.vehicles.crash.scenario import CrashScenario
 
@@ -23,6 +23,10 @@ __all__ = [
     "new_record",
 ]
 
+#: batches of at least this many trains are stepped on all threads (``*_batch_step_parallel``)
+PARALLEL_MIN = 256
+#: chunks per thread of a parallel batch step (load balance of inactive trains)
+_CHUNKS_PER_THREAD = 4
 #: friction regularisation velocity of tanh(v / v_ε), m/s
 V_EPS = 0.01
 
@@ -93,6 +97,21 @@ def new_record(n: int, n_bodies: int, n_zones: int, energies: bool) -> Record:
     zone = [np.zeros((n, n_zones)) for _ in range(3)]
     m = n if energies else 0
     return Record(*body, *zone, np.zeros((m, 5)), np.zeros((m, n_zones)))
+
+
+@njit(cache=True)
+def chunk_mask(active, c, chunks):
+    """``active`` restricted to chunk ``c`` of ``chunks`` equal runs of trains."""
+    n = active.shape[0]
+    part = np.zeros(n, np.bool_)
+    part[c * n // chunks : (c + 1) * n // chunks] = active[c * n // chunks : (c + 1) * n // chunks]
+    return part
+
+
+@njit(cache=True)
+def n_chunks(n):
+    """Chunks of a parallel batch step of ``n`` trains (:data:`_CHUNKS_PER_THREAD`)."""
+    return min(n, _CHUNKS_PER_THREAD * get_num_threads())
 
 
 @njit(cache=True)

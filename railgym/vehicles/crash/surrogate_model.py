@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from railgym.vehicles.crash.outputs import (
     V_EPS,
@@ -20,6 +20,8 @@ from railgym.vehicles.crash.outputs import (
     _crash_over,
     _healthy,
     _steps,
+    chunk_mask,
+    n_chunks,
     new_outputs,
     new_record,
 )
@@ -34,6 +36,7 @@ __all__ = [
     "SurrogateState",
     "simulate_surrogate",
     "surrogate_batch_step",
+    "surrogate_batch_step_parallel",
 ]
 
 
@@ -323,6 +326,26 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
             crush[i, e], force[i, e], work_done[i, e] = ul[e], fl[e], wl[e]
             fr = el_front[e]
             rate_out[i, e] = vl[el_back[e]] - (vl[fr] if fr >= 0 else 0.0)
+
+
+# Not cached: numba does not cache a parallel loop that rebuilds NamedTuples (dynamic globals).
+@njit(parallel=True)
+def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n_sub, limit, div):
+    """:func:`surrogate_batch_step` on all numba threads: ``prange`` over chunks of trains
+    (:func:`chunk_mask`), each chunk one serial call on its trains: bit-identical results.
+
+    The parameters are taken apart and rebuilt inside the loop: numba's parallel loop cannot
+    capture a NamedTuple that nests NamedTuples of arrays.
+    """
+    m, mu, g, v_eps = params.m, params.mu, params.gravity, params.v_eps
+    front, back, kind = params.front, params.back, params.kind
+    types, lpr = ElementTypes(*params.types), LprModels(*params.lpr)
+    chunks = n_chunks(active.shape[0])
+    for c in prange(chunks):
+        p = SurrogateParams(m, mu, g, v_eps, front, back, kind, types, lpr)
+        surrogate_batch_step(
+            state, out, p, scale, chunk_mask(active, c, chunks), init, dt, n_sub, limit, div
+        )
 
 
 @njit(cache=True)
