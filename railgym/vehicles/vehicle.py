@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import get_num_threads, njit, prange
+from numba import njit, prange
 
 from railgym import _validation as val
 from railgym.vehicles.vertical import (
@@ -73,8 +73,9 @@ FLOOR_POINTS = (1.0, 0.0, -1.0)
 DEFAULT_DT = 2e-3
 #: batches of at least this many vehicles are advanced on all threads (:func:`advance`)
 PARALLEL_MIN = 256
-#: chunks per thread of a parallel :func:`advance` (load balance of vehicles that diverge)
-_CHUNKS_PER_THREAD = 4
+#: chunks of vehicles of a parallel :func:`advance`, each with its own scratch; numba's
+#: scheduler spreads them over the threads
+PARALLEL_CHUNKS = 64
 #: whole-vehicle fields that may be zero (the others must be positive)
 _NON_NEGATIVE = ("bogie_semi_spacing", "semi_wheelbase", "bending_damping")
 #: root of cos(βL)·cosh(βL) = 1 of the first free–free beam mode
@@ -448,7 +449,7 @@ def advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out):
     its own scratch running the same :func:`_advance_one` as :func:`advance_serial`."""
     _check_track(bt, n_sub)
     n = bt.state.shape[0]
-    chunks = min(n, _CHUNKS_PER_THREAD * get_num_threads())
+    chunks = min(n, PARALLEL_CHUNKS)
     for c in prange(chunks):
         wk = _work(bt.state.shape[1], lpr)
         for i in range(c * n // chunks, (c + 1) * n // chunks):

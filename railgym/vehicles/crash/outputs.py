@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import get_num_threads, njit
+from numba import njit
 
 from railgym.vehicles.crash.scenario import CrashScenario
 
@@ -25,8 +25,9 @@ __all__ = [
 
 #: batches of at least this many trains are stepped on all threads (``*_batch_step_parallel``)
 PARALLEL_MIN = 256
-#: chunks per thread of a parallel batch step (load balance of inactive trains)
-_CHUNKS_PER_THREAD = 4
+#: chunks of trains of a parallel batch step (:func:`chunk_mask`); numba's scheduler spreads
+#: them over the threads
+PARALLEL_CHUNKS = 64
 #: friction regularisation velocity of tanh(v / v_ε), m/s
 V_EPS = 0.01
 
@@ -106,12 +107,6 @@ def chunk_mask(active, c, chunks):
     part = np.zeros(n, np.bool_)
     part[c * n // chunks : (c + 1) * n // chunks] = active[c * n // chunks : (c + 1) * n // chunks]
     return part
-
-
-@njit(cache=True)
-def n_chunks(n):
-    """Chunks of a parallel batch step of ``n`` trains (:data:`_CHUNKS_PER_THREAD`)."""
-    return min(n, _CHUNKS_PER_THREAD * get_num_threads())
 
 
 @njit(cache=True)

@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit, prange
 
 from railgym.vehicles.crash.outputs import (
+    PARALLEL_CHUNKS,
     V_EPS,
     CrashResult,
     StopRule,
@@ -21,7 +22,6 @@ from railgym.vehicles.crash.outputs import (
     _healthy,
     _steps,
     chunk_mask,
-    n_chunks,
     new_outputs,
     new_record,
 )
@@ -328,7 +328,7 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
             rate_out[i, e] = vl[el_back[e]] - (vl[fr] if fr >= 0 else 0.0)
 
 
-# Not cached: numba does not cache a parallel loop that rebuilds NamedTuples (dynamic globals).
+# Not cached: a cached parallel loop called from a cached caller crashed on loading.
 @njit(parallel=True)
 def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n_sub, limit, div):
     """:func:`surrogate_batch_step` on all numba threads: ``prange`` over chunks of trains
@@ -340,7 +340,7 @@ def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n
     m, mu, g, v_eps = params.m, params.mu, params.gravity, params.v_eps
     front, back, kind = params.front, params.back, params.kind
     types, lpr = ElementTypes(*params.types), LprModels(*params.lpr)
-    chunks = n_chunks(active.shape[0])
+    chunks = min(active.shape[0], PARALLEL_CHUNKS)
     for c in prange(chunks):
         p = SurrogateParams(m, mu, g, v_eps, front, back, kind, types, lpr)
         surrogate_batch_step(
