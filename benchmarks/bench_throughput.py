@@ -13,12 +13,15 @@ default thread count, and GFLOP/s from an estimated flop count per env-step:
 
 The peak is a numba FMA loop over float64 arrays (``a*b+c`` written in place, cache-resident,
 SIMD-vectorised by LLVM) on one thread. The env kernels run one sub-env after another (a
-per-env loop with branches, which LLVM does not vectorise across sub-envs); large batches of
-the whole-vehicle kernel are spread over threads by ``prange`` over chunks of vehicles.
+per-env loop with branches, which LLVM does not vectorise across sub-envs); large batches are
+spread over threads by ``prange`` over chunks of sub-envs. :func:`packed_share` recompiles the
+whole-vehicle per-vehicle kernel (the cached one keeps no assembly) and counts packed
+(``…pd``) against scalar (``…sd``) double arithmetic in its assembly.
 """
 
 from __future__ import annotations
 
+import re
 import time
 
 import gymnasium as gym
@@ -73,6 +76,27 @@ def _rate(venv: gym.vector.VectorEnv, n: int) -> float:
     return venv.num_envs * n / best
 
 
+def packed_share() -> tuple[int, int]:
+    """Packed and scalar double arithmetic instructions in the assembly of a fresh compile of
+    the whole-vehicle per-vehicle kernel (surrogate variant; callees linked in)."""
+    from railgym.vehicles import vehicle as vh
+    from railgym.vehicles.collect import default_vertical_surrogate
+
+    veh = vh.load_whole_vehicle()
+    bt, out = vh.make_batch(1, "surrogate", 10)
+    lpr = vh.lpr_arrays(default_vertical_surrogate())
+    e = veh.suspension.kernel_params().record()[0]
+    s = bt.state.shape[1]
+    wk = vh._work(s, lpr)
+    args = (3, bt, 0, 1, 2e-3, vh.kernel_params(veh), e, lpr, out, wk)
+    fresh = njit(error_model="numpy", _nrt=False)(vh._advance_one.py_func)
+    sig = tuple(fresh.typeof_pyval(a) for a in args)
+    fresh.compile(sig)
+    asm = fresh.inspect_asm(sig)
+    ops = r"\tv?(?:add|sub|mul|div|fmadd\d*|fnmadd\d*|fmsub\d*|max|min|sqrt)"
+    return len(re.findall(ops + r"pd\t", asm)), len(re.findall(ops + r"sd\t", asm))
+
+
 def run() -> list[dict]:
     """Rows of measurements (see ``benchmarks/__main__.py``)."""
     peak = peak_gflops()
@@ -99,6 +123,16 @@ def run() -> list[dict]:
             ),
             row(f"  share of CartPoleVectorEnv ({name})", 100 * r_all / r_cart, "%"),
         ]
+    packed, scalar = packed_share()
+    rows.append(
+        row(
+            "  packed share of double arithmetic",
+            100 * packed / max(packed + scalar, 1),
+            "%",
+            context=f"VerticalVehicle per-vehicle kernel asm: {packed} packed, {scalar} scalar "
+            "(short state loops vectorise; branchy RHS and LPR scalar; none across vehicles)",
+        )
+    )
     return rows
 
 

@@ -493,18 +493,21 @@ def _views(buf, fields, flags):
 # One compiled call per control step (absorber scales, physics, bookkeeping) per backend, and
 # every per-train float array in one buffer (:meth:`CrashBatch._pack`): each array passed from
 # Python into a compiled function has a fixed cost, a sizeable part of a single-env step.
-@njit(cache=True)
-def _advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
-    """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
-    :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
-    non-finite action. ``params``, ``consts``: :func:`plain` tuples of
-    :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
+@njit(cache=True, inline="always")
+def _begin(buf, fields, flags, consts, actions, active, init):
+    """Named constants, the buffer's views and, unless ``init``, the absorber scales
+    (:func:`_set_scale`); ``ok`` is False for a non-finite action."""
     c = _named_consts(consts)
     out, ep = _views(buf, fields, flags)
-    if not init and not _set_scale(actions, ep.scale, active, c):
-        return False
+    ok = init or _set_scale(actions, ep.scale, active, c)
+    return c, out, ep, ok
+
+
+@njit(cache=True, inline="always")
+def _reference_state(buf, fields):
+    """The :class:`ReferenceState` of a :class:`CrashBatch` buffer, as views."""
     k = _STATE
-    state = ReferenceState(
+    return ReferenceState(
         _field(buf, fields, k),
         _field(buf, fields, k + 1),
         _field(buf, fields, k + 2),
@@ -515,11 +518,6 @@ def _advance_reference(buf, fields, flags, params, stepping, consts, actions, ac
         _field(buf, fields, k + 7),
         _field(buf, fields, k + 8),
     )
-    p = _named_reference(params)
-    dt, n_sub = stepping
-    reference_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
-    _post_step(out, ep, c, active, init)
-    return True
 
 
 @njit(cache=True, inline="always")
@@ -538,11 +536,26 @@ def _surrogate_state(buf, fields):
 
 
 @njit(cache=True)
+def _advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
+    """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
+    :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
+    non-finite action. ``params``, ``consts``: :func:`plain` tuples of
+    :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
+    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    if not ok:
+        return False
+    state, p = _reference_state(buf, fields), _named_reference(params)
+    dt, n_sub = stepping
+    reference_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
+    _post_step(out, ep, c, active, init)
+    return True
+
+
+@njit(cache=True)
 def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
     """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    c = _named_consts(consts)
-    out, ep = _views(buf, fields, flags)
-    if not init and not _set_scale(actions, ep.scale, active, c):
+    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    if not ok:
         return False
     state, p = _surrogate_state(buf, fields), _named_surrogate(params)
     dt, n_sub = stepping
@@ -557,9 +570,8 @@ def _advance_surrogate_parallel(
     buf, fields, flags, params, stepping, consts, actions, active, init
 ):
     """:func:`_advance_surrogate` with :func:`surrogate_batch_step_parallel` (all threads)."""
-    c = _named_consts(consts)
-    out, ep = _views(buf, fields, flags)
-    if not init and not _set_scale(actions, ep.scale, active, c):
+    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    if not ok:
         return False
     state, p = _surrogate_state(buf, fields), _named_surrogate(params)
     dt, n_sub = stepping
