@@ -189,6 +189,27 @@ class CrashResult:
         return out
 
 
+def recorded_result(
+    rec: Record, n: int, sample_dt: float, system: Any, **fields: Any
+) -> CrashResult:
+    """The :class:`CrashResult` of the first ``n`` samples of ``rec`` (sampled every
+    ``sample_dt``, s); ``system`` (a reference chain or surrogate system: ``params.m``, ``v0``,
+    names) gives the names and the initial kinetic energy, ``fields`` the other attributes."""
+    return CrashResult(
+        t=np.arange(n) * sample_dt,
+        x=rec.x[:n],
+        v=rec.v[:n],
+        a=rec.a[:n],
+        body_names=system.body_names,
+        zone_names=system.zone_names,
+        crush=rec.crush[:n],
+        force=rec.force[:n],
+        permanent_set=rec.permanent_set[:n],
+        initial_kinetic_energy=float(0.5 * np.sum(system.params.m * system.v0**2)),
+        **fields,
+    )
+
+
 def _steps(sample_dt: float, dt_max: float) -> tuple[float, int]:
     n_sub = max(1, math.ceil(sample_dt / dt_max - 1e-9))
     return sample_dt / n_sub, n_sub

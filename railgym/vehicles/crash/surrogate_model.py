@@ -24,6 +24,7 @@ from railgym.vehicles.crash.outputs import (
     chunk_mask,
     new_outputs,
     new_record,
+    recorded_result,
 )
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import VARIANTS, CrashSurrogate
@@ -501,18 +502,12 @@ def simulate_surrogate(
     t0 = time.perf_counter()
     n = _record_surrogate(state, out, sy.params, dt, n_sub, stop, rec)
     wall = time.perf_counter() - t0
-    return CrashResult(
-        t=np.arange(n) * sample_dt,
-        x=rec.x[:n],
-        v=rec.v[:n],
-        a=rec.a[:n],
-        body_names=sy.body_names,
-        zone_names=sy.zone_names,
-        crush=rec.crush[:n],
-        force=rec.force[:n],
-        permanent_set=rec.permanent_set[:n],
+    return recorded_result(
+        rec,
+        n,
+        sample_dt,
+        sy,
         energy={},
-        initial_kinetic_energy=float(0.5 * np.sum(sy.params.m * sy.v0**2)),
         dt=dt,
         wall_time=wall,
         scenario=sc,
