@@ -3,7 +3,8 @@
 Targets (issue 4): surrogate ≥ 100 × faster than our reference for the default scenario (the
 paper: LS-DYNA 51 548 s vs 8 s); one full crash episode on the surrogate env ≤ 5 ms; vector
 env env-steps/s at 1024 sub-envs and the single-env step, both against CartPole. Every time is
-the minimum over repeats (the machine is shared), after a warm-up call.
+the minimum over repeats (the machine is shared), after a warm-up call. Issue 13: the
+compiled surrogate episode ≤ 0.08 ms; the vector env ≥ 50 % of CartPoleVectorEnv.
 
 Our reference is a lumped-mass chain of 16 masses, not a finite-element model: it is only a few
 times slower than the 2-mass surrogate, so the paper's ratio is out of reach by construction.
@@ -95,6 +96,7 @@ def run() -> list[dict]:
                 f"crash surrogate run ({variant})",
                 t_sur * 1e3,
                 "ms",
+                "≤ 0.08" if variant == "hysteretic" else "",
                 context=f"{res.t[-1]:.3f} s simulated, dt {res.dt:.1e} s",
             ),
             row(
@@ -139,7 +141,7 @@ def run() -> list[dict]:
             "M steps/s",
             context="autoreset included",
         ),
-        row("  share of CartPoleVectorEnv", 100 * r_crash / r_cart, "%"),
+        row("  share of CartPoleVectorEnv", 100 * r_crash / r_cart, "%", "≥ 50"),
     ]
     return rows
 

@@ -9,6 +9,7 @@ import railgym  # noqa: F401  (registers the environments)
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
 from railgym.envs.crash_step import STATE_LIMIT
 from railgym.vehicles.crash import (
+    PARALLEL_MIN,
     absorber_zone_force,
     load_scenario,
     simulate_reference,
@@ -126,6 +127,31 @@ def test_vector_env_equals_single_envs_with_autoreset(next_step_autoreset, max_d
             assert info_v["energy_error"][i] == info["energy_error"]
             ends += te if max_duration > 1 else tr
     assert ends >= n  # every sub-env ended (terminated / truncated) at least once
+
+
+def test_large_vector_env_on_all_threads_equals_single_envs():
+    """From ``PARALLEL_MIN`` sub-envs the vector env steps on all threads; its sub-envs still
+    reproduce the single envs (autoreset after truncation included)."""
+    n, kw = PARALLEL_MIN, {"backend": "surrogate", "speed_jitter": 0.2, "max_duration": 0.05}
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    watched = (0, 77, n - 1)
+    singles = {i: TrainCrashEnv(**kw) for i in watched}
+    obs_v, _ = venv.reset(seed=5)
+    for i, e in singles.items():
+        np.testing.assert_array_equal(obs_v[i], e.reset(seed=5 + i)[0])
+    rng = np.random.default_rng(0)
+    done = dict.fromkeys(watched, False)
+    for _ in range(120):
+        act = rng.uniform(-1.2, 1.2, (n, 2)).astype(np.float32)
+        obs_v, rew_v, term_v, trunc_v, _ = venv.step(act)
+        for i, e in singles.items():
+            if done[i]:
+                o, r, te, tr = e.reset()[0], 0.0, False, False
+            else:
+                o, r, te, tr, _ = e.step(act[i])
+            np.testing.assert_array_equal(obs_v[i], o)
+            assert rew_v[i] == r and term_v[i] == te and trunc_v[i] == tr
+            done[i] = te or tr
 
 
 def test_bad_actions_raise_and_large_actions_are_clipped():

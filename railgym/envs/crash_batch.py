@@ -22,10 +22,11 @@ from railgym.envs.crash_step import (
     InfoColumns,
     _advance_reference,
     _advance_surrogate,
+    _advance_surrogate_parallel,
     info_layout,
     plain,
 )
-from railgym.vehicles.crash import BatchOutputs, CrashBatchModel, CrashScenario
+from railgym.vehicles.crash import PARALLEL_MIN, BatchOutputs, CrashBatchModel, CrashScenario
 
 __all__ = ["CrashBatch", "CrashConfig"]
 
@@ -160,7 +161,12 @@ class CrashBatch:
         self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
         self.state = self._state_type(*views[_STATE:])
         model = self.model
-        self._kernel = _advance_reference if model.backend == "reference" else _advance_surrogate
+        if model.backend == "reference":
+            self._kernel = _advance_reference
+        elif self.n >= PARALLEL_MIN:
+            self._kernel = _advance_surrogate_parallel
+        else:
+            self._kernel = _advance_surrogate
         flags = (self.div, self.over, self.steps)
         stepping = (model.dt, model.n_sub)
         self._args = (

@@ -21,6 +21,7 @@ from railgym.vehicles.crash import (
     ZoneTypes,
     reference_batch_step,
     surrogate_batch_step,
+    surrogate_batch_step_parallel,
 )
 from railgym.vehicles.crash.criteria import zero_crossing
 
@@ -96,7 +97,7 @@ REWARD_TERMS = ("decel", "intrusion", "peak", "divergence")
 
 
 class Criteria(NamedTuple):
-    """Crash criteria of the env's bookkeeping (:mod:`railgym.vehicles.crash_criteria`).
+    """Crash criteria of the env's bookkeeping (:mod:`railgym.vehicles.crash.criteria`).
 
     Attributes
     ----------
@@ -246,7 +247,7 @@ def _set_scale(actions, scale, active, c):
 @njit(cache=True, inline="always")
 def _pulse_sample(ep, i, k, t, v, a, c):
     """Car ``k`` of train ``i`` at time ``t`` (s), velocity ``v``, acceleration ``a``: update
-    its crash pulse as :func:`railgym.vehicles.crash_criteria.crash_pulse` defines it, one
+    its crash pulse as :func:`railgym.vehicles.crash.criteria.crash_pulse` defines it, one
     sample at a time; returns the pulse mean deceleration so far, g."""
     g = c.gravity
     if ep.stopped[i, k] == 0.0:
@@ -492,18 +493,21 @@ def _views(buf, fields, flags):
 # One compiled call per control step (absorber scales, physics, bookkeeping) per backend, and
 # every per-train float array in one buffer (:meth:`CrashBatch._pack`): each array passed from
 # Python into a compiled function has a fixed cost, a sizeable part of a single-env step.
-@njit(cache=True)
-def _advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
-    """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
-    :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
-    non-finite action. ``params``, ``consts``: :func:`plain` tuples of
-    :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
+@njit(cache=True, inline="always")
+def _begin(buf, fields, flags, consts, actions, active, init):
+    """Named constants, the buffer's views and, unless ``init``, the absorber scales
+    (:func:`_set_scale`); ``ok`` is False for a non-finite action."""
     c = _named_consts(consts)
     out, ep = _views(buf, fields, flags)
-    if not init and not _set_scale(actions, ep.scale, active, c):
-        return False
+    ok = init or _set_scale(actions, ep.scale, active, c)
+    return c, out, ep, ok
+
+
+@njit(cache=True, inline="always")
+def _reference_state(buf, fields):
+    """The :class:`ReferenceState` of a :class:`CrashBatch` buffer, as views."""
     k = _STATE
-    state = ReferenceState(
+    return ReferenceState(
         _field(buf, fields, k),
         _field(buf, fields, k + 1),
         _field(buf, fields, k + 2),
@@ -514,7 +518,33 @@ def _advance_reference(buf, fields, flags, params, stepping, consts, actions, ac
         _field(buf, fields, k + 7),
         _field(buf, fields, k + 8),
     )
-    p = _named_reference(params)
+
+
+@njit(cache=True, inline="always")
+def _surrogate_state(buf, fields):
+    """The :class:`SurrogateState` of a :class:`CrashBatch` buffer, as views."""
+    k = _STATE
+    return SurrogateState(
+        _field(buf, fields, k),
+        _field(buf, fields, k + 1),
+        _field(buf, fields, k + 2),
+        _field(buf, fields, k + 3),
+        _field(buf, fields, k + 4),
+        _field(buf, fields, k + 5),
+        _field(buf, fields, k + 6),
+    )
+
+
+@njit(cache=True)
+def _advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
+    """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
+    :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
+    non-finite action. ``params``, ``consts``: :func:`plain` tuples of
+    :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
+    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    if not ok:
+        return False
+    state, p = _reference_state(buf, fields), _named_reference(params)
     dt, n_sub = stepping
     reference_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
     _post_step(out, ep, c, active, init)
@@ -524,22 +554,29 @@ def _advance_reference(buf, fields, flags, params, stepping, consts, actions, ac
 @njit(cache=True)
 def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
     """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    c = _named_consts(consts)
-    out, ep = _views(buf, fields, flags)
-    if not init and not _set_scale(actions, ep.scale, active, c):
+    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    if not ok:
         return False
-    k = _STATE
-    state = SurrogateState(
-        _field(buf, fields, k),
-        _field(buf, fields, k + 1),
-        _field(buf, fields, k + 2),
-        _field(buf, fields, k + 3),
-        _field(buf, fields, k + 4),
-        _field(buf, fields, k + 5),
-        _field(buf, fields, k + 6),
-    )
-    p = _named_surrogate(params)
+    state, p = _surrogate_state(buf, fields), _named_surrogate(params)
     dt, n_sub = stepping
     surrogate_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
+    _post_step(out, ep, c, active, init)
+    return True
+
+
+# Not cached: it calls the uncached parallel kernel.
+@njit
+def _advance_surrogate_parallel(
+    buf, fields, flags, params, stepping, consts, actions, active, init
+):
+    """:func:`_advance_surrogate` with :func:`surrogate_batch_step_parallel` (all threads)."""
+    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    if not ok:
+        return False
+    state, p = _surrogate_state(buf, fields), _named_surrogate(params)
+    dt, n_sub = stepping
+    surrogate_batch_step_parallel(
+        state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div
+    )
     _post_step(out, ep, c, active, init)
     return True

@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from railgym import _validation as val
 from railgym.vehicles.vertical import (
@@ -71,6 +71,11 @@ FLOOR_POINTS = (1.0, 0.0, -1.0)
 #: default RK4 step, s: every mode lies below 12 Hz (ω·dt < 0.15) and the shortest track
 #: wavelength (1 m) spans 9 samples at 200 km/h; measured accuracy in docs/envs/vehicle_vertical.md
 DEFAULT_DT = 2e-3
+#: batches of at least this many vehicles are advanced on all threads (:func:`advance`)
+PARALLEL_MIN = 256
+#: chunks of vehicles of a parallel :func:`advance`, each with its own scratch; numba's
+#: scheduler spreads them over the threads
+PARALLEL_CHUNKS = 64
 #: whole-vehicle fields that may be zero (the others must be positive)
 _NON_NEGATIVE = ("bogie_semi_spacing", "semi_wheelbase", "bending_damping")
 #: root of cos(βL)·cosh(βL) = 1 of the first free–free beam mode
@@ -391,10 +396,29 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):
     :class:`Lpr`.
 
     A vehicle whose state turns non-finite or beyond ``DIVERGENCE_DISPLACEMENT`` is frozen at
-    its last finite state, its outputs are zero and ``out.div`` is set.
+    its last finite state, its outputs are zero and ``out.div`` is set. Batches of
+    ``PARALLEL_MIN`` vehicles or more run :func:`advance_parallel`, smaller ones
+    :func:`advance_serial`; both give bit-identical results.
     """
-    n, s = bt.state.shape
-    wk = Work(
+    if bt.state.shape[0] >= PARALLEL_MIN:
+        advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out)
+    else:
+        advance_serial(kind, bt, n_sub, dt, p, e, lpr, out)
+
+
+@njit(cache=True, error_model="numpy")
+def _check_track(bt, n_sub):
+    """Raise unless every vehicle's track window of ``n_sub`` samples lies in its profile."""
+    last = bt.z.shape[1] - 1
+    for i in range(bt.state.shape[0]):
+        if bt.k[i] < 0 or bt.k[i] + n_sub + bt.off[i, 0] > last:
+            raise ValueError("track index out of range: the profile is too short")
+
+
+@njit(cache=True, error_model="numpy")
+def _work(s, lpr):
+    """Scratch :class:`Work` of one vehicle with ``s`` states."""
+    return Work(
         np.empty(s),
         np.empty(s),
         np.empty(s),
@@ -408,11 +432,28 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):
         np.empty(3),
         lpr_scratch(lpr.exps, lpr.lo, lpr.up),
     )
-    last = bt.z.shape[1] - 1
-    for i in range(n):
-        if bt.k[i] < 0 or bt.k[i] + n_sub + bt.off[i, 0] > last:
-            raise ValueError("track index out of range: the profile is too short")
+
+
+@njit(cache=True, error_model="numpy")
+def advance_serial(kind, bt, n_sub, dt, p, e, lpr, out):
+    """:func:`advance` on one thread: :func:`_advance_one` for each vehicle in turn."""
+    _check_track(bt, n_sub)
+    wk = _work(bt.state.shape[1], lpr)
+    for i in range(bt.state.shape[0]):
         _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out):
+    """:func:`advance` on all numba threads: ``prange`` over chunks of vehicles, each chunk with
+    its own scratch running the same :func:`_advance_one` as :func:`advance_serial`."""
+    _check_track(bt, n_sub)
+    n = bt.state.shape[0]
+    chunks = min(n, PARALLEL_CHUNKS)
+    for c in prange(chunks):
+        wk = _work(bt.state.shape[1], lpr)
+        for i in range(c * n // chunks, (c + 1) * n // chunks):
+            _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
 
 
 # Without the runtime's reference counting (the arrays are owned by the caller, nothing is

@@ -47,7 +47,14 @@ from railgym.vehicles.crash.energy import (
     rebound_energy_ratio,
     repaired_paper_history,
 )
-from railgym.vehicles.crash.outputs import V_EPS, BatchOutputs, CrashResult, Record, StopRule
+from railgym.vehicles.crash.outputs import (
+    PARALLEL_MIN,
+    V_EPS,
+    BatchOutputs,
+    CrashResult,
+    Record,
+    StopRule,
+)
 from railgym.vehicles.crash.reference import (
     MIN_REFERENCE_DT,
     ReferenceParams,
@@ -88,6 +95,7 @@ from railgym.vehicles.crash.surrogate_model import (
     SurrogateState,
     simulate_surrogate,
     surrogate_batch_step,
+    surrogate_batch_step_parallel,
 )
 from railgym.vehicles.crash.zone import absorber_zone_force, zone_force
 
@@ -95,6 +103,7 @@ __all__ = [
     "BATCH_BACKENDS",
     "LIMITS",
     "MAX_SPEED",
+    "PARALLEL_MIN",
     "MIN_REFERENCE_DT",
     "ONSET_G",
     "VARIANTS",
@@ -151,6 +160,7 @@ __all__ = [
     "simulate_reference",
     "simulate_surrogate",
     "surrogate_batch_step",
+    "surrogate_batch_step_parallel",
     "virgin_loading",
     "zero_crossing",
     "zone_absorber_strokes",

@@ -155,37 +155,28 @@ def crash_batch_model(
             raise ValueError(
                 "surrogate is only used by backend='surrogate', got one for 'reference'"
             )
-        ch = _build_chain(sc)
-        step, n_sub = _reference_steps(ch, sample_dt, safety)
-        return CrashBatchModel(
-            backend=backend,
-            scenario=sc,
-            sample_dt=float(sample_dt),
-            dt=step,
-            n_sub=n_sub,
-            params=ch.params,
-            masses=ch.params.m,
-            v_unit=ch.v0 / sc.speed,
-            car_nodes=np.column_stack([ch.params.body_start, ch.params.body_end])[: sc.n_cars],
-            body_names=ch.body_names,
-            zone_names=ch.zone_names,
-        )
-    if surrogate is None:
-        raise ValueError("surrogate is required for backend='surrogate'")
-    if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
-    sy = _surrogate_system(sc, surrogate)
-    step, n_sub = _steps(sample_dt, dt)
+        system = _build_chain(sc)
+        step, n_sub = _reference_steps(system, sample_dt, safety)
+        p = system.params
+        car_nodes = np.column_stack([p.body_start, p.body_end])[: sc.n_cars]
+    else:
+        if surrogate is None:
+            raise ValueError("surrogate is required for backend='surrogate'")
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
+        system = _surrogate_system(sc, surrogate)
+        step, n_sub = _steps(sample_dt, dt)
+        car_nodes = np.column_stack([np.arange(sc.n_cars), np.arange(1, sc.n_cars + 1)])
     return CrashBatchModel(
         backend=backend,
         scenario=sc,
         sample_dt=float(sample_dt),
         dt=step,
         n_sub=n_sub,
-        params=sy.params,
-        masses=sy.params.m,
-        v_unit=sy.v0 / sc.speed,
-        car_nodes=np.column_stack([np.arange(sc.n_cars), np.arange(1, sc.n_cars + 1)]),
-        body_names=sy.body_names,
-        zone_names=sy.zone_names,
+        params=system.params,
+        masses=system.params.m,
+        v_unit=system.v0 / sc.speed,
+        car_nodes=car_nodes,
+        body_names=system.body_names,
+        zone_names=system.zone_names,
     )

@@ -23,6 +23,11 @@ __all__ = [
     "new_record",
 ]
 
+#: batches of at least this many trains are stepped on all threads (``*_batch_step_parallel``)
+PARALLEL_MIN = 256
+#: chunks of trains of a parallel batch step (:func:`chunk_mask`); numba's scheduler spreads
+#: them over the threads
+PARALLEL_CHUNKS = 64
 #: friction regularisation velocity of tanh(v / v_ε), m/s
 V_EPS = 0.01
 
@@ -93,6 +98,15 @@ def new_record(n: int, n_bodies: int, n_zones: int, energies: bool) -> Record:
     zone = [np.zeros((n, n_zones)) for _ in range(3)]
     m = n if energies else 0
     return Record(*body, *zone, np.zeros((m, 5)), np.zeros((m, n_zones)))
+
+
+@njit(cache=True)
+def chunk_mask(active, c, chunks):
+    """``active`` restricted to chunk ``c`` of ``chunks`` equal runs of trains."""
+    n = active.shape[0]
+    part = np.zeros(n, np.bool_)
+    part[c * n // chunks : (c + 1) * n // chunks] = active[c * n // chunks : (c + 1) * n // chunks]
+    return part
 
 
 @njit(cache=True)
@@ -173,6 +187,27 @@ class CrashResult:
             zone = zones.get(name, sc.interface)
             out[name] = max(0.0, float(self.permanent_set[:, j].max()) - zone.absorber_stroke)
         return out
+
+
+def recorded_result(
+    rec: Record, n: int, sample_dt: float, system: Any, **fields: Any
+) -> CrashResult:
+    """The :class:`CrashResult` of the first ``n`` samples of ``rec`` (sampled every
+    ``sample_dt``, s); ``system`` (a reference chain or surrogate system: ``params.m``, ``v0``,
+    names) gives the names and the initial kinetic energy, ``fields`` the other attributes."""
+    return CrashResult(
+        t=np.arange(n) * sample_dt,
+        x=rec.x[:n],
+        v=rec.v[:n],
+        a=rec.a[:n],
+        body_names=system.body_names,
+        zone_names=system.zone_names,
+        crush=rec.crush[:n],
+        force=rec.force[:n],
+        permanent_set=rec.permanent_set[:n],
+        initial_kinetic_energy=float(0.5 * np.sum(system.params.m * system.v0**2)),
+        **fields,
+    )
 
 
 def _steps(sample_dt: float, dt_max: float) -> tuple[float, int]:

@@ -46,6 +46,7 @@ from railgym.vehicles.crash.outputs import (
     _steps,
     new_outputs,
     new_record,
+    recorded_result,
 )
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.zone import absorber_zone_force
@@ -531,16 +532,11 @@ def simulate_reference(
     )
     wall = time.perf_counter() - t0
     e = rec.energy
-    return CrashResult(
-        t=np.arange(n) * sample_dt,
-        x=rec.x[:n],
-        v=rec.v[:n],
-        a=rec.a[:n],
-        body_names=ch.body_names,
-        zone_names=ch.zone_names,
-        crush=rec.crush[:n],
-        force=rec.force[:n],
-        permanent_set=rec.permanent_set[:n],
+    return recorded_result(
+        rec,
+        n,
+        sample_dt,
+        ch,
         energy={
             "kinetic": e[:n, 0],
             "elastic": e[:n, 1] + e[:n, 2],
@@ -550,7 +546,6 @@ def simulate_reference(
             "friction": e[:n, 3],
             "damping": e[:n, 4],
         },
-        initial_kinetic_energy=float(0.5 * np.sum(ch.params.m * ch.v0**2)),
         dt=dt,
         wall_time=wall,
         scenario=sc,

@@ -10,9 +10,10 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from railgym.vehicles.crash.outputs import (
+    PARALLEL_CHUNKS,
     V_EPS,
     CrashResult,
     StopRule,
@@ -20,8 +21,10 @@ from railgym.vehicles.crash.outputs import (
     _crash_over,
     _healthy,
     _steps,
+    chunk_mask,
     new_outputs,
     new_record,
+    recorded_result,
 )
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import VARIANTS, CrashSurrogate
@@ -34,6 +37,7 @@ __all__ = [
     "SurrogateState",
     "simulate_surrogate",
     "surrogate_batch_step",
+    "surrogate_batch_step_parallel",
 ]
 
 
@@ -325,6 +329,26 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
             rate_out[i, e] = vl[el_back[e]] - (vl[fr] if fr >= 0 else 0.0)
 
 
+# Not cached: a cached parallel loop called from a cached caller crashed on loading.
+@njit(parallel=True)
+def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n_sub, limit, div):
+    """:func:`surrogate_batch_step` on all numba threads: ``prange`` over chunks of trains
+    (:func:`chunk_mask`), each chunk one serial call on its trains: bit-identical results.
+
+    The parameters are taken apart and rebuilt inside the loop: numba's parallel loop cannot
+    capture a NamedTuple that nests NamedTuples of arrays.
+    """
+    m, mu, g, v_eps = params.m, params.mu, params.gravity, params.v_eps
+    front, back, kind = params.front, params.back, params.kind
+    types, lpr = ElementTypes(*params.types), LprModels(*params.lpr)
+    chunks = min(active.shape[0], PARALLEL_CHUNKS)
+    for c in prange(chunks):
+        p = SurrogateParams(m, mu, g, v_eps, front, back, kind, types, lpr)
+        surrogate_batch_step(
+            state, out, p, scale, chunk_mask(active, c, chunks), init, dt, n_sub, limit, div
+        )
+
+
 @njit(cache=True)
 def _record_surrogate(state, out, params, dt, n_sub, stop, rec):
     """Record simulation 0 of ``state`` sample by sample with :func:`surrogate_batch_step`
@@ -478,18 +502,12 @@ def simulate_surrogate(
     t0 = time.perf_counter()
     n = _record_surrogate(state, out, sy.params, dt, n_sub, stop, rec)
     wall = time.perf_counter() - t0
-    return CrashResult(
-        t=np.arange(n) * sample_dt,
-        x=rec.x[:n],
-        v=rec.v[:n],
-        a=rec.a[:n],
-        body_names=sy.body_names,
-        zone_names=sy.zone_names,
-        crush=rec.crush[:n],
-        force=rec.force[:n],
-        permanent_set=rec.permanent_set[:n],
+    return recorded_result(
+        rec,
+        n,
+        sample_dt,
+        sy,
         energy={},
-        initial_kinetic_energy=float(0.5 * np.sum(sy.params.m * sy.v0**2)),
         dt=dt,
         wall_time=wall,
         scenario=sc,
