@@ -60,6 +60,19 @@ def read_profile_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return x_arr, z_arr
 
 
+def load_profile(profile: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """A profile argument checked: ``None`` (no profile), a CSV path or an ``(x, z)`` pair (m)."""
+    if profile is None:
+        return None
+    if isinstance(profile, str | Path):
+        return read_profile_csv(profile)
+    if not (isinstance(profile, tuple | list) and len(profile) == 2):
+        raise val.FieldTypeError(
+            "profile", "must be None, a CSV path or a pair (x, z) of arrays in m", full=False
+        )
+    return check_profile(profile[0], profile[1], source="profile")
+
+
 def _real_array(value: Any, label: str) -> np.ndarray:
     """``value`` as a float64 array; bools, strings, complex and ragged data are type errors."""
     try:

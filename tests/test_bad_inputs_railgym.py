@@ -54,6 +54,15 @@ def _reset(options, vector=False):
         VerticalSuspensionEnv(backend="linear", duration=0.1).reset(seed=0, options=options)
 
 
+X = np.arange(0.0, 100.0, 0.5)  # profile positions, m: covers 0.1 s at 2 × 40 m/s
+
+
+def _profile_file(tmp_path, text):
+    path = tmp_path / "track.csv"
+    path.write_text(text)
+    VerticalSuspensionEnv(backend="linear", duration=0.1, profile=str(path)).reset(seed=0)
+
+
 def _vehicle(section, field, value):
     d = copy.deepcopy(RAW)
     if field is None:
@@ -142,6 +151,26 @@ ROWS = [
     ("surrogate object", lambda p: _env(surrogate=object()), T, "surrogate"),
     ("surrogate 3 inputs", lambda p: _env(surrogate=_lpr3()), V, "surrogate"),
     ("surrogate no file", lambda p: _env(surrogate=str(p / "m.json")), V, "surrogate"),
+    # --- track profiles
+    ("profile missing file", lambda p: _env(profile=str(p / "no.csv")), V, "no.csv"),
+    ("profile a number", lambda p: _env(profile=3.0), T, "profile"),
+    ("profile one array", lambda p: _env(profile=(X,)), T, "profile"),
+    ("profile z strings", lambda p: _env(profile=(X, ["0"] * X.size)), T, "profile: z"),
+    ("profile x bools", lambda p: _env(profile=(X > 0, X)), T, "profile: x"),
+    ("profile z nan", lambda p: _env(profile=(X, np.where(X > 3, np.nan, 0))), V, "index 7"),
+    ("profile x inf", lambda p: _env(profile=(np.append(X[:-1], np.inf), X)), V, "not finite"),
+    ("profile x decreasing", lambda p: _env(profile=(X[::-1], X)), V, "strictly increasing"),
+    ("profile lengths differ", lambda p: _env(profile=(X, X[:-1])), V, "equal length"),
+    ("profile 3 points", lambda p: _env(profile=(X[:3], X[:3])), V, "at least 4"),
+    ("profile with wheelbase", lambda p: _env(profile=(X, X), wheelbase=2.5), V, "wheelbase"),
+    ("profile too short", lambda p: _reset({"profile": (X[:8], X[:8])}), V, "too short"),
+    ("profile too short vector", lambda p: _reset({"profile": (X[:8], X[:8])}, True), V, "short"),
+    ("profile option a dict", lambda p: _reset({"profile": {"x": X}}), T, "profile"),
+    ("profile file nan", lambda p: _profile_file(p, "x,z\n0,0\n1,nan\n2,0\n3,0\n"), V, "line 3"),
+    ("profile file x repeated", lambda p: _profile_file(p, "0,0\n1,0\n1,0\n3,0\n"), V, "line 3"),
+    ("profile file 3 columns", lambda p: _profile_file(p, "0,0\n1,0,5\n"), V, r"track\.csv:2"),
+    ("profile file not a number", lambda p: _profile_file(p, "0,0\n1,a\n"), V, "csv:2: not a"),
+    ("profile file too short", lambda p: _profile_file(p, "0,0\n1,0\n2,0\n3,0\n"), V, "short"),
     # --- vector env
     ("num_envs bool", lambda p: _venv(num_envs=True), T, "num_envs"),
     ("num_envs zero", lambda p: _venv(num_envs=0), V, "num_envs"),

@@ -15,7 +15,6 @@ compiled call (the single env is a batch of one).
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -35,7 +34,7 @@ from railgym.envs.vehicle_batch import (
 )
 from railgym.envs.vertical import BACKENDS, _surrogate_arrays
 from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
-from railgym.profile import check_profile, read_profile_csv
+from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
@@ -198,19 +197,6 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     return lo, hi
 
 
-def _load_profile(profile: Any) -> tuple[np.ndarray, np.ndarray] | None:
-    """None, a CSV path or an ``(x, z)`` pair, checked."""
-    if profile is None:
-        return None
-    if isinstance(profile, str | Path):
-        return read_profile_csv(profile)
-    if not (isinstance(profile, tuple | list) and len(profile) == 2):
-        raise val.FieldTypeError(
-            "profile", "must be None, a CSV path or a pair (x, z) of arrays in m", full=False
-        )
-    return check_profile(profile[0], profile[1], source="profile")
-
-
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
     """Kernel arrays of the secondary-suspension element, the same at both bogies.
 
@@ -335,7 +321,7 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         self.speeds = _speed_range(track_class, speed, self.speed_limit)
         self.track_class = int(track_class)
         self._speed_arg = speed
-        self.profile = _load_profile(profile)
+        self.profile = load_profile(profile)
         lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
         sim = VehicleBatch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED))
         self.vehicle = veh
@@ -365,7 +351,7 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
                 "with that speed",
             )
         if "profile" in options:
-            self.profile = _load_profile(options["profile"])
+            self.profile = load_profile(options["profile"])
         self.track_class, self.speeds, self._speed_arg = int(tc), speeds, sp
 
     def _episode(self) -> tuple[int, tuple[float, float], Any]:

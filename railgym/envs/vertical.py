@@ -1,7 +1,8 @@
-"""``railgym/VerticalSuspension-v0``: active secondary suspension on random FRA track.
+"""``railgym/VerticalSuspension-v0``: active secondary suspension on FRA or measured track.
 
 A bogie (m1) and its share of the carbody (m2) ride on the primary suspension over a
-seeded FRA track profile (paper eq. 1/2); the secondary suspension is either a surrogate
+seeded FRA track profile (paper eq. 1/2) or a measured/user profile
+(:mod:`railgym.profile`); the secondary suspension is either a surrogate
 element F̂(δ, δ̇) (``backend="surrogate"``, paper eq. 2), the high-fidelity reference
 (``"reference"``: air spring with reservoir + Maxwell damper + bump stops) or the linear
 suspension (``"linear"``). The agent commands an actuator force between bogie and carbody.
@@ -32,6 +33,7 @@ from railgym.envs.vertical_batch import (
     VerticalBatch,
     VerticalConfig,
 )
+from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vertical import (
@@ -234,6 +236,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
     speed : m/s; ``None`` = the class's maximum passenger speed (class 5: 144 km/h); at most
         ``speed_limit``.
     speed_limit : m/s; ``None`` = 2 × the class's maximum speed.
+    profile : ``None`` (seeded FRA track), a CSV path (columns x, z in m) or ``(x, z)``;
+        it must cover speed × duration; not combined with ``wheelbase``.
     duration : episode length, s (truncation), at most 600 s. control_dt : agent step, s.
     dt : integration step, s (default the kernel's ``DEFAULT_DT``).
     f_max : actuator force at action ±1, N (at most 1 MN).
@@ -254,6 +258,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         surrogate: Any = None,
         track_class: int = 5,
         speed: float | None = None,
+        profile: Any = None,
         duration: float = 20.0,
         control_dt: float = 0.01,
         dt: float | None = None,
@@ -285,6 +290,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         self.speed_limit = None if speed_limit is None else val.positive(speed_limit, "speed_limit")
         self.track_class, self.speed = _check_track(track_class, speed, self.speed_limit)
         self._speed_arg = speed
+        self.profile = self._check_profile(profile)
         sim = VerticalBatch(1, self.cfg, veh, _surrogate_arrays(backend, surrogate, self.cfg.dt))
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         n_obs = len(self.obs_names)
@@ -295,21 +301,36 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
             spaces.Box(-1.0, 1.0, (1,), np.float32),
         )
 
+    def _check_profile(self, profile: Any) -> tuple[np.ndarray, np.ndarray] | None:
+        """``profile`` checked by :func:`railgym.profile.load_profile`; not with ``wheelbase``."""
+        checked = load_profile(profile)
+        if checked is not None and self.cfg.wheelbase is not None:
+            raise val.FieldError(
+                "profile",
+                "cannot be combined with wheelbase= (the two-wheel average is for FRA track); "
+                "give wheelbase=None",
+                full=False,
+            )
+        return checked
+
     def _apply_options(self, options: dict[str, Any]) -> None:
-        """``track_class`` and ``speed`` (kept for later episodes; a new class without a
-        speed uses that class's speed)."""
+        """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
+        without a speed uses that class's speed; ``profile=None`` returns to FRA track)."""
         if not options:
             return
-        unknown = set(options) - {"track_class", "speed"}
+        unknown = set(options) - {"track_class", "speed", "profile"}
         if unknown:
             raise ValueError(f"unknown reset option(s) {sorted(unknown)}")
         tc = options.get("track_class", self.track_class)
         sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
-        self.track_class, self.speed = _check_track(tc, sp, self.speed_limit)
+        track_class, speed = _check_track(tc, sp, self.speed_limit)
+        if "profile" in options:
+            self.profile = self._check_profile(options["profile"])
+        self.track_class, self.speed = track_class, speed
         self._speed_arg = options.get("speed", self._speed_arg)
 
-    def _episode(self) -> tuple[int, float]:
-        return self.track_class, self.speed
+    def _episode(self) -> tuple[int, float, tuple[np.ndarray, np.ndarray] | None]:
+        return self.track_class, self.speed, self.profile
 
     def _frame(self, state: dict[str, Any]) -> np.ndarray:
         from railgym.envs.rendering import render_vertical

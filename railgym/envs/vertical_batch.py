@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from railgym import _validation as val
+from railgym.profile import profile_time_input
 from railgym.track import track_time_input
 from railgym.vehicles.vertical import (
     KERNELS,
@@ -286,15 +287,25 @@ class VerticalBatch:
         self.reward = self.rew
         self._flags = {"diverged": self.div, "extrapolated": self.extrapolated}
 
-    def reset(self, i: int, rng: np.random.Generator, episode: tuple[int, float]) -> None:
-        """New seeded track for vehicle ``i`` (seed drawn from ``rng``), state at rest;
-        ``episode`` is ``(track_class, speed)``."""
+    def reset(self, i: int, rng: np.random.Generator, episode: tuple[int, float, Any]) -> None:
+        """New track for vehicle ``i``, state at rest; ``episode`` is ``(track_class, speed,
+        profile)``: a seeded FRA track (seed drawn from ``rng``) for ``profile=None``, else
+        the given ``(x, z)`` (m) from its first point on."""
         cfg = self.cfg
-        track_class, speed = episode
-        seed = int(rng.integers(2**63 - 1))
-        _, z, zdot = track_time_input(
-            track_class, speed, cfg.duration, cfg.dt, seed, band=cfg.band, wheelbase=cfg.wheelbase
-        )
+        track_class, speed, profile = episode
+        if profile is None:
+            seed = int(rng.integers(2**63 - 1))
+            _, z, zdot = track_time_input(
+                track_class,
+                speed,
+                cfg.duration,
+                cfg.dt,
+                seed,
+                band=cfg.band,
+                wheelbase=cfg.wheelbase,
+            )
+        else:
+            z, zdot = profile_time_input(profile, speed, cfg.dt, self.z.shape[1])
         self.z[i], self.zdot[i] = z, zdot
         self.track_class[i], self.speed[i] = track_class, speed
         self.reset_state(i)
