@@ -86,7 +86,7 @@ def packed_share() -> tuple[int, int]:
 
     veh = vh.load_whole_vehicle()
     bt, out = vh.make_batch(1, "surrogate", 10)
-    lpr = vh.lpr_arrays(default_vertical_surrogate())
+    lpr = vh.lpr_arrays(default_vertical_surrogate("static"))
     e = veh.suspension.kernel_params().record()[0]
     s = bt.state.shape[1]
     wk = vh._work(s, lpr)
