@@ -69,7 +69,7 @@ from gymnasium.vector.utils import batch_space
 from railgym import _validation as val
 from railgym.envs.vector import reset_plan
 
-__all__ = ["Batch", "BatchEnv", "BatchVectorEnv", "check_actions"]
+__all__ = ["Batch", "BatchEnv", "BatchVectorEnv", "check_actions", "step_grid"]
 
 
 class Batch(Protocol):
@@ -97,6 +97,22 @@ class Batch(Protocol):
     def truncated(self) -> np.ndarray: ...
 
     def render_state(self, i: int) -> dict[str, Any]: ...
+
+
+def step_grid(dt: float, control_dt: float, duration: float) -> tuple[int, int]:
+    """``(n_sub, n_steps)``: integration steps ``dt`` (s) per control step ``control_dt`` (s),
+    and control steps per episode of ``duration`` (s); each must divide the next exactly."""
+    if dt > control_dt:
+        raise val.FieldError("dt", f"must be at most control_dt ({control_dt} s), got {dt!r}")
+    n_sub = round(control_dt / dt)
+    if abs(n_sub * dt - control_dt) > 1e-9 * control_dt:
+        raise val.FieldError(
+            "control_dt", f"({control_dt} s) must be a whole multiple of dt ({dt} s)", full=False
+        )
+    n_steps = round(duration / control_dt)
+    if n_steps < 1 or abs(n_steps * control_dt - duration) > 1e-9 * duration:
+        raise val.FieldError("duration", f"({duration} s) must be a whole multiple of control_dt")
+    return n_sub, n_steps
 
 
 def check_actions(

@@ -25,7 +25,7 @@ import numpy as np
 from gymnasium import spaces
 
 from railgym import _validation as val
-from railgym.envs.base import BatchEnv, BatchVectorEnv
+from railgym.envs.base import BatchEnv, BatchVectorEnv, step_grid
 from railgym.envs.vertical_batch import (
     ACC_REF,
     INFO_KEYS,
@@ -93,16 +93,7 @@ def make_config(
     control_dt = val.positive(control_dt, "control_dt")
     f_max = val.positive(f_max, "f_max", LIMITS["f_max"])
     dt = DEFAULT_DT[variant] if dt is None else val.positive(dt, "dt")
-    if dt > control_dt:
-        raise val.FieldError("dt", f"must be at most control_dt ({control_dt} s), got {dt!r}")
-    n_sub = round(control_dt / dt)
-    if abs(n_sub * dt - control_dt) > 1e-9 * control_dt:
-        raise val.FieldError(
-            "control_dt", f"({control_dt} s) must be a whole multiple of dt ({dt} s)", full=False
-        )
-    n_steps = round(duration / control_dt)
-    if n_steps < 1 or abs(n_steps * control_dt - duration) > 1e-9 * duration:
-        raise val.FieldError("duration", f"({duration} s) must be a whole multiple of control_dt")
+    n_sub, n_steps = step_grid(dt, control_dt, duration)
     observation = val.choice(observation, "observation", OBSERVATIONS)
     sensor_noise = val.non_negative(sensor_noise, "sensor_noise", LIMITS["sensor_noise"])
     weights = dict(DEFAULT_WEIGHTS)
