@@ -33,7 +33,9 @@ from railgym.vehicles.vertical.lanes import (
 
 P = load_vehicle("manchester").kernel_params().record()
 N_SUB, DT = 10, 1e-3
-ELEMENTS = {form: surrogate_arrays(default_vertical_surrogate(form)) for form in ("maxwell", "static")}
+ELEMENTS = {
+    form: surrogate_arrays(default_vertical_surrogate(form)) for form in ("maxwell", "static")
+}
 
 
 def _batch(n: int, seed: int, severity: float) -> tuple:
