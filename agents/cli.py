@@ -155,7 +155,20 @@ def _plots(out: Path, model: Any, report: Any, data: dict, runs: dict) -> None:
 
 def paper(args: argparse.Namespace) -> int:
     """``railgym paper``: write the report, print where and the table 3 headline."""
-    result = make_report(args.out, quick=args.quick, seed=args.seed, overwrite=args.overwrite)
+    from railgym.parallel import choose_backend
+
+    try:  # e.g. --address without Ray: refused before any work
+        choose_backend(args.workers, args.address)
+    except ValueError as err:
+        raise ValueError(f"{'--address' if args.address else '--workers'}: {err}") from None
+    result = make_report(
+        args.out,
+        quick=args.quick,
+        seed=args.seed,
+        overwrite=args.overwrite,
+        workers=args.workers,
+        address=args.address,
+    )
     t3 = result["table3"]
     print(
         f"report written to {Path(args.out) / 'report.md'} with {len(result['figures'])} "
@@ -205,6 +218,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="reduced sizes (CI): M = 51, 101; 5 s runs; one crash variant",
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures")
+    p.add_argument(
+        "--workers",
+        type=bounded_int(1, 1024),
+        default=1,
+        help="run the validation matrix on N processes (or a local Ray instance with the ray "
+        "extra); the report does not depend on N",
+    )
+    p.add_argument(
+        "--address", help="run the validation matrix on the Ray cluster at HOST:PORT (or 'auto')"
+    )
     from agents import evaluate
 
     evaluate.add_arguments(

@@ -3,8 +3,10 @@
 For each env at 1024 sub-envs: env-steps/s with ``numba.set_num_threads(1)`` and with the
 default thread count, and GFLOP/s from an estimated flop count per env-step:
 
-* ``VerticalSuspension-v0``: 10 RK4 substeps, 4 right-hand sides each with a degree-(10,10)
-  LPR element (~2 kflop per step, issue 13's estimate).
+* ``VerticalSuspension-v0``: 10 RK4 substeps, 4 right-hand sides each with the packaged
+  memory element: additive Legendre sums of degrees (14, 14, 9), 6 flop per recurrence step,
+  plus ~60 flop of dynamics, bump stops and stage updates (:func:`vertical_flop`, ~11 kflop;
+  issue 13 estimated ~2 kflop for a degree-(10,10) element).
 * ``VerticalVehicle-v0``: 5 RK4 substeps, 4 right-hand sides each with two degree-(10,10) LPR
   elements (~2 × 121 × 2 multiply-adds) and the 14-state rigid/flexible dynamics (~150
   flop): ~12 kflop per step.
@@ -12,17 +14,19 @@ default thread count, and GFLOP/s from an estimated flop count per env-step:
   LPR element (~200 flop each) and the per-step criteria bookkeeping (~200 flop): ~0.6 kflop.
 
 The peak is a numba FMA loop over float64 arrays (``a*b+c`` written in place, cache-resident,
-SIMD-vectorised by LLVM) on one thread. The env kernels run one sub-env after another (a
-per-env loop with branches, which LLVM does not vectorise across sub-envs); large batches are
-spread over threads by ``prange`` over chunks of sub-envs. :func:`packed_share` recompiles the
-whole-vehicle per-vehicle kernel (the cached one keeps no assembly) and counts packed
-(``…pd``) against scalar (``…sd``) double arithmetic in its assembly.
+SIMD-vectorised by LLVM) on one thread. The vertical surrogate runs the lane kernel
+(``railgym.vehicles.vertical.lanes``: loops over blocks of sub-envs innermost, vectorised);
+the whole-vehicle and crash kernels run one sub-env after another (per-env code with
+branches), large batches spread over threads by ``prange``. :func:`packed_share` recompiles a
+kernel function (the cached one keeps no assembly) and counts packed (``…pd``) against
+scalar (``…sd``) double arithmetic in its assembly.
 """
 
 from __future__ import annotations
 
 import re
 import time
+from typing import Any
 
 import gymnasium as gym
 import numba
@@ -36,8 +40,23 @@ N_VEC = 1024
 #: estimated flop per env-step (module docstring)
 #: issue 13's share of CartPoleVectorEnv's env-steps/s at 1024 sub-envs, %
 TARGET_SHARE = {"railgym/VerticalSuspension-v0": "≥ 25", "railgym/TrainCrash-v0": "≥ 50"}
+
+
+def vertical_flop(n_sub: int = 10) -> float:
+    """Flop per VerticalSuspension-v0 env-step with the packaged memory element: per
+    right-hand side 6 flop per Legendre recurrence step of each input (degree − 1 steps) and
+    ~60 flop for the rest."""
+    from railgym.vehicles.collect import default_vertical_surrogate
+    from railgym.vehicles.vertical import surrogate_arrays
+
+    table = surrogate_arrays(default_vertical_surrogate()).table
+    degrees = [int(np.flatnonzero(r).max()) if r.any() else 0 for r in table]
+    per_rhs = 6 * sum(max(d - 1, 0) for d in degrees) + 60
+    return 4 * n_sub * per_rhs
+
+
 FLOP_PER_STEP = {
-    "railgym/VerticalSuspension-v0": 2e3,
+    "railgym/VerticalSuspension-v0": vertical_flop(),
     "railgym/VerticalVehicle-v0": 12e3,
     "railgym/TrainCrash-v0": 0.6e3,
 }
@@ -78,9 +97,19 @@ def _rate(venv: gym.vector.VectorEnv, n: int) -> float:
     return venv.num_envs * n / best
 
 
-def packed_share() -> tuple[int, int]:
+def packed_share(fn: Any, args: tuple) -> tuple[int, int]:
     """Packed and scalar double arithmetic instructions in the assembly of a fresh compile of
-    the whole-vehicle per-vehicle kernel (surrogate variant; callees linked in)."""
+    the numba function ``fn`` for ``args`` (callees linked in)."""
+    fresh = njit(error_model="numpy", _nrt=False)(fn.py_func)
+    sig = tuple(fresh.typeof_pyval(a) for a in args)
+    fresh.compile(sig)
+    asm = fresh.inspect_asm(sig)
+    ops = r"\tv?(?:add|sub|mul|div|fmadd\d*|fnmadd\d*|fmsub\d*|max|min|sqrt)"
+    return len(re.findall(ops + r"pd\t", asm)), len(re.findall(ops + r"sd\t", asm))
+
+
+def _vehicle_kernel_args() -> tuple[Any, tuple]:
+    """The whole-vehicle per-vehicle kernel and arguments for one vehicle (surrogate)."""
     from railgym.vehicles import vehicle as vh
     from railgym.vehicles.collect import default_vertical_surrogate
 
@@ -88,15 +117,20 @@ def packed_share() -> tuple[int, int]:
     bt, out = vh.make_batch(1, "surrogate", 10)
     lpr = vh.lpr_arrays(default_vertical_surrogate("static"))
     e = veh.suspension.kernel_params().record()[0]
-    s = bt.state.shape[1]
-    wk = vh._work(s, lpr)
-    args = (3, bt, 0, 1, 2e-3, vh.kernel_params(veh), e, lpr, out, wk)
-    fresh = njit(error_model="numpy", _nrt=False)(vh._advance_one.py_func)
-    sig = tuple(fresh.typeof_pyval(a) for a in args)
-    fresh.compile(sig)
-    asm = fresh.inspect_asm(sig)
-    ops = r"\tv?(?:add|sub|mul|div|fmadd\d*|fnmadd\d*|fmsub\d*|max|min|sqrt)"
-    return len(re.findall(ops + r"pd\t", asm)), len(re.findall(ops + r"sd\t", asm))
+    wk = vh._work(bt.state.shape[1], lpr)
+    return vh._advance_one, (3, bt, 0, 1, 2e-3, vh.kernel_params(veh), e, lpr, out, wk)
+
+
+def _lane_element_args() -> tuple[Any, tuple]:
+    """The vertical lane kernel's element evaluation and arguments for one block."""
+    from railgym.vehicles.collect import default_vertical_surrogate
+    from railgym.vehicles.vertical import lanes, surrogate_arrays
+    from surrogates.models.lpr import lpr_scratch
+
+    lpr = surrogate_arrays(default_vertical_surrogate())
+    w = np.zeros((lanes._ROWS, lanes.LANES))
+    lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
+    return lanes._element, (w, lpr, lw, np.zeros(lpr.lo.shape[0]), lanes.LANES)
 
 
 def run() -> list[dict]:
@@ -131,16 +165,28 @@ def run() -> list[dict]:
                 f"{threads} threads",
             ),
         ]
-    packed, scalar = packed_share()
-    rows.append(
-        row(
-            "  packed share of double arithmetic",
-            100 * packed / max(packed + scalar, 1),
-            "%",
-            context=f"VerticalVehicle per-vehicle kernel asm: {packed} packed, {scalar} scalar "
-            "(short state loops vectorise; branchy RHS and LPR scalar; none across vehicles)",
+    for what, (fn, args), note in (
+        (
+            "VerticalSuspension lane kernel, element",
+            _lane_element_args(),
+            "Legendre recurrences over a block of sub-envs vectorise; each loop keeps a scalar "
+            "remainder, and the out-of-box fallback is scalar",
+        ),
+        (
+            "VerticalVehicle per-vehicle kernel",
+            _vehicle_kernel_args(),
+            "short state loops vectorise; branchy RHS and LPR scalar; none across vehicles",
+        ),
+    ):
+        packed, scalar = packed_share(fn, args)
+        rows.append(
+            row(
+                f"  packed share of double arithmetic ({what.split()[0]})",
+                100 * packed / max(packed + scalar, 1),
+                "%",
+                context=f"{what} asm: {packed} packed, {scalar} scalar ({note})",
+            )
         )
-    )
     return rows
 
 

@@ -5,8 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from agents.cli import main
 from agents.controllers import LQR, Skyhook
 from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.parallel import ray_available
 from railgym.report.validation import (
     TARGETS,
     _closed_loop,
@@ -88,3 +90,19 @@ def test_the_paper_static_element_is_not_passive():
     """The negative slopes issue 10 measured on the old default (for contrast)."""
     check = passivity_check(default_vertical_surrogate("static"), scale=3.0, n=201)
     assert check["min_slope"].min() < 0.0
+
+
+def test_matrix_does_not_depend_on_the_number_of_workers():
+    memory = default_vertical_surrogate()
+    kwargs = {"classes": (4,), "n_seeds": 2, "duration": 1.0}
+    serial = validation_matrix({"memory": memory}, **kwargs)
+    pooled = validation_matrix({"memory": memory}, **kwargs, workers=2)
+    assert pooled == serial  # floats compared exactly, rows in the same order
+    assert len(serial["rows"]) == 3  # passive, skyhook and LQR cross the process boundary
+
+
+def test_paper_cli_refuses_a_ray_address_without_ray(capsys):
+    if ray_available():
+        pytest.skip("ray is installed")
+    assert main(["paper", "--quick", "--address", "auto"]) == 2
+    assert "--address" in capsys.readouterr().err

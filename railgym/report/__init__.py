@@ -40,6 +40,8 @@ def make_report(
     seed: int = 0,
     progress: bool = True,
     overwrite: bool = False,
+    workers: int = 1,
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Regenerate the paper's tables 3, 5, 6, 8, 10, 11, figures 7–15 and the validation
     matrix on our models.
@@ -52,6 +54,9 @@ def make_report(
         simulations run on track seed ``seed + 1``.
     progress : show a progress bar.
     overwrite : allow an existing non-empty ``out`` (its report files are replaced).
+    workers, address : run the validation matrix's tracks on ``workers`` processes (a local
+        Ray instance with the ``ray`` extra) or on the Ray cluster at ``address``
+        (:func:`railgym.parallel.run_tasks`); the report does not depend on them.
 
     Returns
     -------
@@ -78,7 +83,12 @@ def make_report(
         "memory": default_vertical_surrogate("maxwell"),
     }
     result["validation"] = validation_matrix(
-        elements, n_seeds=plan.validation_seeds, duration=plan.duration, progress=step
+        elements,
+        n_seeds=plan.validation_seeds,
+        duration=plan.duration,
+        progress=step,
+        workers=workers,
+        address=address,
     )
     result["plan"]["quick"] = quick
     result["figures"] = write_figures(out, art, plan, result["table5"])

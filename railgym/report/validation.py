@@ -21,11 +21,12 @@ trained on class 5, run on 3, 4, 6) is returned beside them.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
+from railgym.parallel import run_tasks
 from railgym.report.published import PAPER
 from railgym.track import class_speed, track_time_input
 from railgym.vehicles.vertical import (
@@ -78,9 +79,27 @@ def seed_of(k: int) -> int:
     return int(np.random.default_rng(SEED_BASE + k).integers(2**63 - 1))
 
 
+class _Skyhook(NamedTuple):
+    """Skyhook force law (a named tuple, so that it pickles to worker processes)."""
+
+    c_sky: float
+
+    def __call__(self, x: np.ndarray) -> float:
+        return -self.c_sky * float(x[3])
+
+
+class _StateFeedback(NamedTuple):
+    """Linear state feedback ``F_a = −gain·x[:4]`` (pickles to worker processes)."""
+
+    gain: np.ndarray
+
+    def __call__(self, x: np.ndarray) -> float:
+        return -float(self.gain @ x[:4])
+
+
 def skyhook_law(c_sky: float = C_SKY) -> ForceLaw:
     """``F_a = −c_sky·ẋ2`` (N) from the state ``[x1, v1, x2, v2, …]``."""
-    return lambda x: -c_sky * float(x[3])
+    return _Skyhook(c_sky)
 
 
 def lqr_law(vehicle: VerticalVehicle, f_max: float = 8000.0) -> ForceLaw:
@@ -107,7 +126,7 @@ def lqr_law(vehicle: VerticalVehicle, f_max: float = 8000.0) -> ForceLaw:
     r = np.array([[0.1 / f_max**2 + q_acc * d * d]])
     n = q_acc * d * c[:, None]
     gain = np.linalg.solve(r, b.T @ solve_continuous_are(a, b, q, r, s=n) + n.T)[0]
-    return lambda x: -float(gain @ x[:4])
+    return _StateFeedback(gain)
 
 
 def _closed_loop(
@@ -169,6 +188,39 @@ def _errors(sur: dict[str, np.ndarray], ref: dict[str, np.ndarray]) -> tuple[flo
     return (float(rel), *(average_absolute_error(sur[k], ref[k]) for k in ("x2", "v2", "a2")))
 
 
+class _Cell(NamedTuple):
+    """One track of :func:`validation_matrix`: every controller and element on it."""
+
+    cls: int
+    seed: int
+    elements: Mapping[str, Any]
+    controllers: Mapping[str, ForceLaw | None]
+    vehicle: VerticalVehicle
+    duration: float
+    n_sub: int
+    f_max: float
+
+
+def _cell(c: _Cell) -> list[tuple[str, str, tuple[float, ...]]]:
+    """``(element, controller, errors)`` of one track (:func:`_errors`)."""
+    dt = DEFAULT_DT["dynamic"]
+    veh, n_sub = c.vehicle, c.n_sub
+    _, z, zdot = track_time_input(c.cls, class_speed(c.cls), c.duration, dt, c.seed)
+    rows = []
+    for cname, law in c.controllers.items():
+        if law is None:
+            ref = _passive("dynamic", veh, z, zdot, None, n_sub, dt)
+        else:
+            ref = _closed_loop("dynamic", veh, z, zdot, law, None, n_sub, dt, c.f_max)
+        for ename, element in c.elements.items():
+            if law is None:
+                sur = _passive("surrogate", veh, z, zdot, element, n_sub, dt)
+            else:
+                sur = _closed_loop("surrogate", veh, z, zdot, law, element, n_sub, dt, c.f_max)
+            rows.append((ename, cname, _errors(sur, ref)))
+    return rows
+
+
 def validation_matrix(
     elements: Mapping[str, Any],
     classes: tuple[int, ...] = CLASSES,
@@ -179,6 +231,8 @@ def validation_matrix(
     f_max: float = 8000.0,
     vehicle: str = "manchester",
     progress: Callable[[str], None] | None = None,
+    workers: int = 1,
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Errors of each surrogate element against the reference across classes, seeds, laws.
 
@@ -188,9 +242,13 @@ def validation_matrix(
     classes : FRA classes, each run at its maximum speed.
     n_seeds : unseen tracks per class (:func:`seed_of`).
     controllers : name → force law ``x → F_a`` (N) on the state ``[x1, v1, x2, v2, …]``
-        (``None``: passive); default passive, skyhook and LQR.
+        (``None``: passive); default passive, skyhook and LQR. With ``workers > 1`` or an
+        ``address`` they must pickle (module-level functions or objects).
     duration, control_dt : s. f_max : actuator limit, N.
     progress : optional callback with a label after each class.
+    workers, address : the tracks of a class run as tasks of
+        :func:`railgym.parallel.run_tasks` (processes, a local Ray instance or the Ray
+        cluster at ``address``); the result does not depend on them.
 
     Returns
     -------
@@ -213,21 +271,13 @@ def validation_matrix(
     seeds = [seed_of(k) for k in range(n_seeds)]
     errs: dict[tuple[str, int, str], list[tuple[float, ...]]] = {}
     for cls in classes:
-        for seed in seeds:
-            _, z, zdot = track_time_input(cls, class_speed(cls), duration, dt, seed)
-            for cname, law in controllers.items():
-                if law is None:
-                    ref = _passive("dynamic", veh, z, zdot, None, n_sub, dt)
-                else:
-                    ref = _closed_loop("dynamic", veh, z, zdot, law, None, n_sub, dt, f_max)
-                for ename, element in elements.items():
-                    if law is None:
-                        sur = _passive("surrogate", veh, z, zdot, element, n_sub, dt)
-                    else:
-                        sur = _closed_loop(
-                            "surrogate", veh, z, zdot, law, element, n_sub, dt, f_max
-                        )
-                    errs.setdefault((ename, cls, cname), []).append(_errors(sur, ref))
+        cells = [
+            _Cell(cls, seed, dict(elements), dict(controllers), veh, duration, n_sub, f_max)
+            for seed in seeds
+        ]
+        for rows in run_tasks(_cell, cells, workers, address):
+            for ename, cname, e in rows:
+                errs.setdefault((ename, cls, cname), []).append(e)
         if progress is not None:
             progress(f"validation class {cls}")
     rows = []

@@ -38,19 +38,19 @@ class LprArrays(NamedTuple):
     additive: bool  #: ``table`` holds the model (no coupled terms): fast path inside the box
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _ramp(x: float, eps: float) -> float:
     """Hyperbolic smooth ramp ``(x + √(x² + ε²))/2``."""
     return 0.5 * (x + math.sqrt(x * x + eps * eps))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _damper_branch(v: float, c: float, vk: float, r: float, eps: float) -> float:
     """Force of one damper branch for ``v ≥ 0``: slope ``c`` then ``r·c`` past the knee."""
     return c * (v - (1.0 - r) * (_ramp(v - vk, eps) - _ramp(-vk, eps)))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _damper_branch_inv(f: float, c: float, vk: float, r: float, eps: float) -> float:
     """Closed-form inverse of :func:`_damper_branch` for ``f ≥ 0`` (exactly 0 at ``f = 0``).
 
@@ -67,7 +67,7 @@ def _damper_branch_inv(f: float, c: float, vk: float, r: float, eps: float) -> f
     return (w - w0) / r
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def damper_force(v, p):
     """Damper force (N) at relative velocity ``v`` (m/s, > 0 compression)."""
     if v >= 0.0:
@@ -75,7 +75,7 @@ def damper_force(v, p):
     return -_damper_branch(-v, p.c_r, p.vk_r, p.blowoff, p.knee)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def damper_velocity(f, p):
     """Inverse of :func:`damper_force`: velocity (m/s) that produces force ``f`` (N)."""
     if f >= 0.0:
@@ -83,36 +83,36 @@ def damper_velocity(f, p):
     return -_damper_branch_inv(-f, p.c_r, p.vk_r, p.blowoff, p.knee)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _contact_ramp(e: float, s: float) -> float:
-    """C1 ramp: 0 for e ≤ 0, e²/(2s) up to s, then e − s/2."""
-    if e <= 0.0:
-        return 0.0
-    if e < s:
-        return 0.5 * e * e / s
-    return e - 0.5 * s
+    """C1 ramp: 0 for e ≤ 0, e²/(2s) up to s, then e − s/2 (branch-free: a select)."""
+    ep = max(e, 0.0)
+    quad = 0.5 * ep * ep / s
+    lin = ep - 0.5 * s
+    return quad if ep < s else lin
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def bump_stop_force(d, p):
-    """Bump-stop (δ > free travel) and rebound-stop (δ < −free travel) force, N."""
-    ec = d - p.free_c
-    er = -d - p.free_r
-    f = 0.0
-    if ec > 0.0:
-        f += p.k_bs * _contact_ramp(ec, p.bs_smooth) + p.k_bs3 * ec * ec * ec
-    if er > 0.0:
-        f -= p.k_bs * _contact_ramp(er, p.bs_smooth) + p.k_bs3 * er * er * er
-    return f
+    """Bump-stop (δ > free travel) and rebound-stop (δ < −free travel) force, N.
+
+    Branch-free (the ramps of the free side are exactly 0), so that the lane kernels
+    vectorise it.
+    """
+    ec = max(d - p.free_c, 0.0)
+    er = max(-d - p.free_r, 0.0)
+    fc = p.k_bs * _contact_ramp(ec, p.bs_smooth) + p.k_bs3 * ec * ec * ec
+    fr = p.k_bs * _contact_ramp(er, p.bs_smooth) + p.k_bs3 * er * er * er
+    return 0.0 + fc - fr
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def in_contact(d, p):
     """True where the deflection ``d`` (m) is beyond either free travel."""
     return d > p.free_c or d < -p.free_r
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def dynamic_element(d, dd, dpb, dpr, y, p, rates):
     """Air spring and Maxwell damper of the dynamic reference.
 
@@ -140,7 +140,7 @@ def dynamic_element(d, dd, dpb, dpr, y, p, rates):
     return f_air, f_d
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
     """State derivative ``dx`` of variant ``kind``; returns (F_s, 1 if any surrogate input is
     outside its box). ``zc, zdc``: track input (m, m/s); ``fa``: actuator force, N.

@@ -15,6 +15,12 @@ import numpy as np
 from numba import njit
 
 from railgym.vehicles.vertical.elements import LprArrays, in_contact, rhs
+from railgym.vehicles.vertical.lanes import (
+    LANES_MIN,
+    PARALLEL_MIN,
+    advance_lanes,
+    advance_lanes_parallel,
+)
 from surrogates.memory import FEATURE_FORMS, element_form
 from surrogates.models.lpr import EXTRAPOLATION_MODES, additive_table, lpr_scratch
 
@@ -32,6 +38,7 @@ __all__ = [
     "advance_surrogate",
     "check_variant",
     "initial_state",
+    "kernel_for",
     "state_size",
     "step_outputs",
     "surrogate_arrays",
@@ -67,9 +74,22 @@ def step_outputs(n: int) -> StepOutputs:
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
-    """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`)."""
+    """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`):
+    the lane kernel (:mod:`~railgym.vehicles.vertical.lanes`) for an additive surrogate
+    element and at least ``LANES_MIN`` vehicles, else :func:`_advance_scalar` (the same
+    results)."""
+    d = lpr.lo.shape[0]
+    if kind == 3 and lpr.additive and (d == 2 or d == 3) and state.shape[0] >= LANES_MIN:
+        advance_lanes(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    else:
+        _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+
+
+@njit(cache=True, error_model="numpy")
+def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+    """RK4 of one vehicle after another (see :func:`advance_linear`)."""
     q = p[0]
     n, s = state.shape
     if kind == 3 and lpr.tau > 0.0 and s < 5:
@@ -148,7 +168,7 @@ def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
         out.div[i] = div
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance_linear(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """Advance ``n`` envs by ``n_sub`` RK4 substeps of ``dt`` (s), linear secondary suspension.
 
@@ -178,19 +198,19 @@ def advance_linear(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     _advance(0, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance_static(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_linear` with the static nonlinear reference suspension."""
     _advance(1, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance_dynamic(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_linear` with the dynamic reference (air spring + Maxwell damper)."""
     _advance(2, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance_surrogate(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_linear` with the LPR surrogate as secondary suspension: ``F̂(δ, δ̇)``
     (static form) or ``F̂(δ, δ̇, δ − s)`` with the Maxwell state ``s = state[:, 4]``
@@ -257,6 +277,18 @@ def surrogate_arrays(surrogate: Any = None, dt: float | None = None) -> LprArray
     if table is None:
         return LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
     return LprArrays(exps, coef, lo, up, int(mode), tau, bump, table, True)
+
+
+def kernel_for(variant: str, lpr: LprArrays, n: int) -> Any:
+    """The compiled ``advance`` function for ``n`` vehicles of ``variant``:
+    :func:`~railgym.vehicles.vertical.lanes.advance_lanes_parallel` for an additive surrogate
+    element and ``n >= PARALLEL_MIN`` (all numba threads, the same results), else
+    ``KERNELS[variant]``. Same signature for all."""
+    check_variant(variant)
+    d = lpr.lo.shape[0]
+    if variant == "surrogate" and lpr.additive and d in (2, 3) and n >= PARALLEL_MIN:
+        return advance_lanes_parallel
+    return KERNELS[variant]
 
 
 def check_variant(variant: str) -> int:
