@@ -16,10 +16,10 @@ default thread count, and GFLOP/s from an estimated flop count per env-step:
 The peak is a numba FMA loop over float64 arrays (``a*b+c`` written in place, cache-resident,
 SIMD-vectorised by LLVM) on one thread. The vertical surrogate runs the lane kernel
 (``railgym.vehicles.vertical.lanes``: loops over blocks of sub-envs innermost, vectorised);
-the whole-vehicle and crash kernels run one sub-env after another (per-env code with
-branches), large batches spread over threads by ``prange``. :func:`packed_share` recompiles a
-kernel function (the cached one keeps no assembly) and counts packed (``…pd``) against
-scalar (``…sd``) double arithmetic in its assembly.
+the whole-vehicle surrogate likewise (``railgym.vehicles.vehicle_lanes``); the crash kernels
+run one sub-env after another. Large batches spread over threads by ``prange``.
+:func:`packed_share` recompiles a kernel function (the cached one keeps no assembly) and
+counts packed (``…pd``) against scalar (``…sd``) double arithmetic in its assembly.
 """
 
 from __future__ import annotations
@@ -108,17 +108,18 @@ def packed_share(fn: Any, args: tuple) -> tuple[int, int]:
     return len(re.findall(ops + r"pd\t", asm)), len(re.findall(ops + r"sd\t", asm))
 
 
-def _vehicle_kernel_args() -> tuple[Any, tuple]:
-    """The whole-vehicle per-vehicle kernel and arguments for one vehicle (surrogate)."""
-    from railgym.vehicles import vehicle as vh
+def _vehicle_element_args() -> tuple[Any, tuple]:
+    """The whole-vehicle lane kernel's element evaluation and arguments for one block."""
+    from railgym.vehicles import vehicle_lanes as vl
     from railgym.vehicles.collect import default_vertical_surrogate
+    from railgym.vehicles.vehicle import lpr_arrays
+    from surrogates.models.lpr import lpr_scratch
 
-    veh = vh.load_whole_vehicle()
-    bt, out = vh.make_batch(1, "surrogate", 10)
-    lpr = vh.lpr_arrays(default_vertical_surrogate("static"))
-    e = veh.suspension.kernel_params().record()[0]
-    wk = vh._work(bt.state.shape[1], lpr)
-    return vh._advance_one, (3, bt, 0, 1, 2e-3, vh.kernel_params(veh), e, lpr, out, wk)
+    lpr = lpr_arrays(default_vertical_surrogate("static"))
+    lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
+    w = np.zeros((vl._ROWS, vl.LANES))
+    pt = np.zeros((2, lw.shape[1], vl.LANES))
+    return vl._element, (w, pt, lpr, lw, np.zeros(2), vl.LANES)
 
 
 def _lane_element_args() -> tuple[Any, tuple]:
@@ -173,9 +174,10 @@ def run() -> list[dict]:
             "remainder, and the out-of-box fallback is scalar",
         ),
         (
-            "VerticalVehicle per-vehicle kernel",
-            _vehicle_kernel_args(),
-            "short state loops vectorise; branchy RHS and LPR scalar; none across vehicles",
+            "VerticalVehicle lane kernel, element",
+            _vehicle_element_args(),
+            "recurrences and term sums over a block vectorise; scalar remainders and the "
+            "out-of-box fallback",
         ),
     ):
         packed, scalar = packed_share(fn, args)

@@ -12,6 +12,7 @@ from railgym.vehicles.vehicle import (
     N_MECH,
     PARALLEL_MIN,
     WholeVehicle,
+    advance,
     advance_parallel,
     advance_serial,
     check_variant,
@@ -23,6 +24,7 @@ from railgym.vehicles.vehicle import (
     simulate,
     wheelset_offsets,
 )
+from railgym.vehicles.vehicle_lanes import LANES, LANES_MIN
 from railgym.vehicles.vertical import simulate as simulate_v0
 
 DT = 1e-3
@@ -226,15 +228,49 @@ def test_parallel_kernel_is_bit_identical_to_serial(vehicle, variant):
     e = vehicle.suspension.kernel_params().record()
     lpr = lpr_arrays(default_vertical_surrogate("static") if variant == "surrogate" else None)
     runs = []
-    for advance in (advance_serial, advance_parallel):
+    for step in (advance_serial, advance_parallel):
         bt, out = make_batch(n, variant, samples)
         bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
         bt.off[:] = off
         bt.force[:] = force
         for _ in range(3):
-            advance(check_variant(variant), bt, n_sub, DT, p, e, lpr, out)
+            step(check_variant(variant), bt, n_sub, DT, p, e, lpr, out)
             bt.k[:] += n_sub
         runs.append((bt.state, out.acc, out.fs, out.count, out.div))
     assert runs[0][4][5] and np.isfinite(runs[0][0]).all()
     for a, b in zip(*runs, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("n", [LANES_MIN + 3, 2 * LANES + 5, PARALLEL_MIN + 37])
+def test_lane_kernel_is_bit_identical_to_the_per_vehicle_kernel(vehicle, n):
+    """``advance`` of the surrogate variant (the lane kernel, serial below ``PARALLEL_MIN``,
+    on all threads above) equals ``advance_serial`` (one vehicle after another) bit for bit,
+    through bump-stop contact, element inputs outside the box and divergence."""
+    off = wheelset_offsets(vehicle, SPEED, DT)
+    n_sub = 25
+    samples = int(off.max()) + 4 * n_sub + 2
+    rng = np.random.default_rng(n)
+    z = rng.uniform(5e-3, 4e-2, (n, 1)) * np.cumsum(rng.standard_normal((n, samples)), axis=1)
+    z[5, 1:] = 50.0  # an impossible step: this vehicle diverges
+    force = rng.uniform(-2e4, 2e4, (n, 2))
+    p = kernel_params(vehicle)
+    e = vehicle.suspension.kernel_params().record()
+    lpr = lpr_arrays(default_vertical_surrogate("static"))
+    runs = []
+    for step in (advance_serial, advance):
+        bt, out = make_batch(n, "surrogate", samples)
+        bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
+        bt.off[:] = off
+        bt.force[:] = force
+        rows = []
+        for _ in range(4):
+            step(check_variant("surrogate"), bt, n_sub, DT, p, e, lpr, out)
+            bt.k[:] += n_sub
+            rows += [bt.state.copy(), *(a.copy() for a in out)]
+        runs.append(rows)
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a, b)
+    counts = sum(runs[0][3::5])
+    assert counts[:, 0].sum() > 0 and counts[:, 1].sum() > 0  # contact and extrapolation
+    assert runs[0][-1][5] and not runs[0][-1][4]

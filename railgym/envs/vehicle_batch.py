@@ -24,9 +24,9 @@ from railgym.track import fra_profile_with_slope
 from railgym.vehicles.vehicle import (
     Lpr,
     WholeVehicle,
-    _hermite,
     advance,
     check_variant,
+    hermite,
     kernel_params,
     make_batch,
     mode_shape,
@@ -131,7 +131,7 @@ def _observe(bt, out, p, sc, bk, i):
             o[14 + j] = out.acc[i, j] * inv[14 + j]
         kk = min(float(bt.k[i]), bt.z.shape[1] - 1 - bt.off[i, 0])
         for j in range(4):
-            zw, zdw = _hermite(bt.z[i], bt.zdot[i], kk + bt.off[i, j], sc.dt)
+            zw, zdw = hermite(bt.z[i], bt.zdot[i], kk + bt.off[i, j], sc.dt)
             o[19 + j] = zw * inv[19 + j]
             o[23 + j] = zdw * inv[23 + j]
         return

@@ -43,10 +43,12 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
+import numba
 import numpy as np
 from numba import njit, prange
 
 from railgym import _validation as val
+from railgym.vehicles.vehicle_lanes import LANES, LANES_MIN, hermite, lanes_block
 from railgym.vehicles.vertical import (
     DIVERGENCE_DISPLACEMENT,
     VerticalVehicle,
@@ -73,6 +75,9 @@ FLOOR_POINTS = (1.0, 0.0, -1.0)
 DEFAULT_DT = 2e-3
 #: batches of at least this many vehicles are advanced on all threads (:func:`advance`)
 PARALLEL_MIN = 256
+# Start numba's threading layer now: the cached kernels that call the parallel ones link
+# against its symbols when they are loaded.
+numba.get_num_threads()
 #: chunks of vehicles of a parallel :func:`advance`, each with its own scratch; numba's
 #: scheduler spreads them over the threads
 PARALLEL_CHUNKS = 64
@@ -269,28 +274,6 @@ def wheelset_offsets(vehicle: WholeVehicle, speed: float, dt: float) -> np.ndarr
 
 # =========================================================================== kernels
 @njit(cache=True, error_model="numpy")
-def _hermite(z: np.ndarray, zd: np.ndarray, pos: float, dt: float) -> tuple[float, float]:
-    """Cubic Hermite value and rate of the sampled track at fractional index ``pos``."""
-    i0 = int(math.floor(pos))
-    u = pos - i0
-    if u == 0.0:
-        return z[i0], zd[i0]
-    z0, z1 = z[i0], z[i0 + 1]
-    d0, d1 = zd[i0] * dt, zd[i0 + 1] * dt
-    u2 = u * u
-    u3 = u2 * u
-    val = (
-        (2 * u3 - 3 * u2 + 1) * z0
-        + (u3 - 2 * u2 + u) * d0
-        + (-2 * u3 + 3 * u2) * z1
-        + (u3 - u2) * d1
-    )
-    rate = (6 * u2 - 6 * u) * z0 + (3 * u2 - 4 * u + 1) * d0 + (6 * u - 6 * u2) * z1
-    rate += (3 * u2 - 2 * u) * d1
-    return val, rate / dt
-
-
-@njit(cache=True, error_model="numpy")
 def _static_force(d: float, dd: float, e: Any) -> float:
     """Static reference secondary force (N): progressive spring, bump stops, damper curve."""
     return e.k2 * d * (1.0 + e.progression * d * d) + bump_stop_force(d, e) + damper_force(dd, e)
@@ -358,7 +341,7 @@ def _inputs(z, zd, off, pos, dt, w):
     """Wheel inputs ``w`` (4, 2) of one vehicle (track ``z, zd``, wheelset offsets ``off``)
     at fractional sample index ``pos``."""
     for j in range(4):
-        w[j, 0], w[j, 1] = _hermite(z, zd, pos + off[j], dt)
+        w[j, 0], w[j, 1] = hermite(z, zd, pos + off[j], dt)
 
 
 @njit(cache=True, error_model="numpy")
@@ -398,9 +381,19 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):
     A vehicle whose state turns non-finite or beyond ``DIVERGENCE_DISPLACEMENT`` is frozen at
     its last finite state, its outputs are zero and ``out.div`` is set. Batches of
     ``PARALLEL_MIN`` vehicles or more run :func:`advance_parallel`, smaller ones
-    :func:`advance_serial`; both give bit-identical results.
+    :func:`advance_serial`; the surrogate variant with ``LANES_MIN`` vehicles or more runs the
+    lane kernel (:mod:`railgym.vehicles.vehicle_lanes`, on all threads from
+    ``PARALLEL_MIN``). All give bit-identical results.
     """
-    if bt.state.shape[0] >= PARALLEL_MIN:
+    n = bt.state.shape[0]
+    if kind == 3 and lpr.lo.shape[0] == 2 and n >= LANES_MIN:
+        _check_track(bt, n_sub)
+        if n >= PARALLEL_MIN:
+            _lanes_parallel(bt, n_sub, dt, p, e, lpr, out)
+        else:
+            for i0 in range(0, n, LANES):
+                lanes_block(bt, i0, n_sub, dt, p, e, lpr, out)
+    elif n >= PARALLEL_MIN:
         advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out)
     else:
         advance_serial(kind, bt, n_sub, dt, p, e, lpr, out)
@@ -454,6 +447,14 @@ def advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out):
         wk = _work(bt.state.shape[1], lpr)
         for i in range(c * n // chunks, (c + 1) * n // chunks):
             _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def _lanes_parallel(bt, n_sub, dt, p, e, lpr, out):
+    """The lane kernel's blocks on all numba threads (``prange``)."""
+    blocks = (bt.state.shape[0] + LANES - 1) // LANES
+    for c in prange(blocks):
+        lanes_block(bt, c * LANES, n_sub, dt, p, e, lpr, out)
 
 
 # Without the runtime's reference counting (the arrays are owned by the caller, nothing is

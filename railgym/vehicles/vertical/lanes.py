@@ -14,6 +14,7 @@ Blocks are independent: batches of ``PARALLEL_MIN`` vehicles or more run on all 
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -26,6 +27,9 @@ __all__ = ["LANES", "LANES_MIN", "PARALLEL_MIN", "advance_lanes", "advance_lanes
 LANES = 64
 #: batches of fewer vehicles run the scalar kernel (same results, less loop overhead)
 LANES_MIN = 8
+# Start numba's threading layer now: a cached parallel kernel links against its symbols when
+# it is loaded.
+numba.get_num_threads()
 #: batches of at least this many vehicles run on all numba threads
 PARALLEL_MIN = 256
 #: |x1| or |x2| above this (m) counts as divergence (``kernels.DIVERGENCE_DISPLACEMENT``)
@@ -237,10 +241,7 @@ def _block(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, i0):
         out.div[i] = div
 
 
-# Not cached: loaded from numba's cache this function ran several times slower than compiled
-# (and a cached caller of it crashed on loading), so it compiles on first use in a process
-# and is called from Python (``kernels.kernel_for``).
-@njit(error_model="numpy", parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True)
 def advance_lanes_parallel(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_lanes` on all numba threads (``prange`` over the blocks), with the same
     results."""
