@@ -87,13 +87,14 @@ def _element(w, lpr, lw, u, nb):
             for l in range(nb):
                 w[_S + j, l] += c1 * w[_T + j, l]
     for j in range(d):
+        older, newer = _A + j, _B + j  # rows of P_{k-1}, P_k; P_{k+1} overwrites P_{k-1}
         for k in range(1, n - 1):
             ck, ek, ct = lw[d + 1, k], lw[d + 2, k], table[j, k + 1]
             for l in range(nb):
-                nx = ck * w[_T + j, l] * w[_B + j, l] - ek * w[_A + j, l]
+                nx = ck * w[_T + j, l] * w[newer, l] - ek * w[older, l]
                 w[_S + j, l] += ct * nx
-                w[_A + j, l] = w[_B + j, l]
-                w[_B + j, l] = nx
+                w[older, l] = nx
+            older, newer = newer, older
     for l in range(nb):
         w[_FS, l] = w[_S, l]
     for j in range(1, d):
