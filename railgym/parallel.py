@@ -49,8 +49,10 @@ def spawn_seeds(root_seed: int, n: int) -> list[int]:
 
 
 def ray_available() -> bool:
-    """Whether the optional ``ray`` package is installed."""
-    return find_spec("ray") is not None
+    """Whether the optional ``ray`` package is installed (a module, not a bare folder named
+    ``ray`` on the path, such as Ray's own session folder in the working directory)."""
+    spec = find_spec("ray")
+    return spec is not None and spec.origin is not None
 
 
 def choose_backend(workers: int = 1, address: str | None = None, backend: str | None = None) -> str:

@@ -119,3 +119,14 @@ def test_task_runner_and_sweeps_need_neither_gymnasium_nor_ray_nor_torch():
     code = "import sys, railgym.sweeps; print([m for m in ('ray', 'torch') if m in sys.modules])"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_a_bare_ray_folder_on_the_path_is_not_ray(tmp_path, monkeypatch):
+    """A folder called ``ray`` (Ray's session folder under /tmp, say) is a namespace package,
+    not the extra: the runner must not pick the Ray backend for it."""
+    if ray_available():
+        pytest.skip("ray is installed")
+    (tmp_path / "ray").mkdir()
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert not ray_available()
+    assert choose_backend(workers=2) == "process"

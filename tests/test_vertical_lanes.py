@@ -17,7 +17,6 @@ from railgym.track import track_time_input
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vertical import (
     initial_state,
-    kernel_for,
     load_vehicle,
     step_outputs,
     surrogate_arrays,
@@ -110,13 +109,17 @@ def test_lanes_equal_scalar_for_any_batch_size(n, seed):
         np.testing.assert_array_equal(a, b)
 
 
-def test_kernel_for_picks_the_parallel_lanes_only_where_they_apply():
+def test_surrogate_kernel_takes_the_parallel_lanes_above_the_threshold():
+    """``advance_surrogate`` (what the envs call) equals the scalar kernel on a batch that runs
+    the parallel lane kernel."""
     lpr = ELEMENTS["maxwell"]
-    assert kernel_for("surrogate", lpr, PARALLEL_MIN) is advance_lanes_parallel
-    assert kernel_for("surrogate", lpr, PARALLEL_MIN - 1) is KERNELS["surrogate"]
-    assert kernel_for("dynamic", surrogate_arrays(None), 4096) is KERNELS["dynamic"]
-    with pytest.raises(ValueError, match="variant"):
-        kernel_for("bogus", lpr, 1)
+    z, zdot, fa = _batch(PARALLEL_MIN + 9, seed=7, severity=10.0)
+    for a, b in zip(
+        _run(KERNELS["surrogate"], lpr, z, zdot, fa, steps=3),
+        _run(_scalar, lpr, z, zdot, fa, steps=3),
+        strict=True,
+    ):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_lane_kernel_checks_the_track_window_and_the_memory_state():

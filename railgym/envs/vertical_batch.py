@@ -19,12 +19,12 @@ from railgym import _validation as val
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
 from railgym.vehicles.vertical import (
+    KERNELS,
     RAISE_MODE,
     LprArrays,
     SuspensionParams,
     VerticalVehicle,
     initial_state,
-    kernel_for,
     step_outputs,
 )
 
@@ -228,7 +228,7 @@ class VerticalBatch:
         self.vehicle = vehicle
         self.params: SuspensionParams = vehicle.kernel_params()
         self.params_record = self.params.record()
-        self.kernel = kernel_for(cfg.variant, lpr, n)
+        self.kernel = KERNELS[cfg.variant]
         self.lpr = lpr
         n_samples = cfg.n_steps * cfg.n_sub + 1
         if n * n_samples * 16 > LIMITS["track_bytes"]:

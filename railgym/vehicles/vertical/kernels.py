@@ -38,7 +38,6 @@ __all__ = [
     "advance_surrogate",
     "check_variant",
     "initial_state",
-    "kernel_for",
     "state_size",
     "step_outputs",
     "surrogate_arrays",
@@ -78,10 +77,13 @@ def step_outputs(n: int) -> StepOutputs:
 def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`):
     the lane kernel (:mod:`~railgym.vehicles.vertical.lanes`) for an additive surrogate
-    element and at least ``LANES_MIN`` vehicles, else :func:`_advance_scalar` (the same
-    results)."""
+    element and at least ``LANES_MIN`` vehicles (on all threads from ``PARALLEL_MIN``), else
+    :func:`_advance_scalar` (the same results)."""
     d = lpr.lo.shape[0]
-    if kind == 3 and lpr.additive and (d == 2 or d == 3) and state.shape[0] >= LANES_MIN:
+    n = state.shape[0]
+    if kind == 3 and lpr.additive and (d == 2 or d == 3) and n >= PARALLEL_MIN:
+        advance_lanes_parallel(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    elif kind == 3 and lpr.additive and (d == 2 or d == 3) and n >= LANES_MIN:
         advance_lanes(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
     else:
         _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
@@ -277,18 +279,6 @@ def surrogate_arrays(surrogate: Any = None, dt: float | None = None) -> LprArray
     if table is None:
         return LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
     return LprArrays(exps, coef, lo, up, int(mode), tau, bump, table, True)
-
-
-def kernel_for(variant: str, lpr: LprArrays, n: int) -> Any:
-    """The compiled ``advance`` function for ``n`` vehicles of ``variant``:
-    :func:`~railgym.vehicles.vertical.lanes.advance_lanes_parallel` for an additive surrogate
-    element and ``n >= PARALLEL_MIN`` (all numba threads, the same results), else
-    ``KERNELS[variant]``. Same signature for all."""
-    check_variant(variant)
-    d = lpr.lo.shape[0]
-    if variant == "surrogate" and lpr.additive and d in (2, 3) and n >= PARALLEL_MIN:
-        return advance_lanes_parallel
-    return KERNELS[variant]
 
 
 def check_variant(variant: str) -> int:
