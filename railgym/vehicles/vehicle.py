@@ -371,7 +371,7 @@ class Work(NamedTuple):
     lw: np.ndarray  # LPR scratch
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def advance(kind, bt, n_sub, dt, p, e, lpr, out):
     """Advance every vehicle of the batch ``bt`` (:class:`Batch`) by ``n_sub`` RK4 steps of
     ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``p``:
@@ -408,7 +408,7 @@ def _check_track(bt, n_sub):
             raise ValueError("track index out of range: the profile is too short")
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def _work(s, lpr):
     """Scratch :class:`Work` of one vehicle with ``s`` states."""
     return Work(
@@ -427,7 +427,7 @@ def _work(s, lpr):
     )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def advance_serial(kind, bt, n_sub, dt, p, e, lpr, out):
     """:func:`advance` on one thread: :func:`_advance_one` for each vehicle in turn."""
     _check_track(bt, n_sub)
@@ -436,7 +436,7 @@ def advance_serial(kind, bt, n_sub, dt, p, e, lpr, out):
         _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
 
 
-@njit(cache=True, error_model="numpy", parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
 def advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out):
     """:func:`advance` on all numba threads: ``prange`` over chunks of vehicles, each chunk with
     its own scratch running the same :func:`_advance_one` as :func:`advance_serial`."""
@@ -449,7 +449,7 @@ def advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out):
             _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
 
 
-@njit(cache=True, error_model="numpy", parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
 def _lanes_parallel(bt, n_sub, dt, p, e, lpr, out):
     """The lane kernel's blocks on all numba threads (``prange``)."""
     blocks = (bt.state.shape[0] + LANES - 1) // LANES

@@ -159,7 +159,7 @@ def _stage(w, src, scale, nb):
             w[_XT + j, l] = w[_X + j, l] + scale * w[src + j, l]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def lanes_block(bt, i0, n_sub, dt, p, e, lpr, out):
     """Advance vehicles ``i0 .. i0 + LANES − 1`` (clipped to ``n``) of the batch ``bt`` by
     ``n_sub`` RK4 steps of ``dt`` (s); arguments as for ``vehicle.advance`` with the

@@ -73,7 +73,7 @@ def step_outputs(n: int) -> StepOutputs:
     )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`):
     the lane kernel (:mod:`~railgym.vehicles.vertical.lanes`) for an additive surrogate
@@ -89,7 +89,7 @@ def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
         _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """RK4 of one vehicle after another (see :func:`advance_linear`)."""
     q = p[0]

@@ -150,7 +150,7 @@ def _stage(w, src, scale, nb):
             w[_XT + j, l] = w[_X + j, l] + scale * w[src + j, l]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def _block(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, i0):
     """One block of vehicles ``i0 .. i0 + LANES − 1`` (clipped to ``n``), see
     :func:`advance_lanes`."""
@@ -242,7 +242,7 @@ def _block(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, i0):
         out.div[i] = div
 
 
-@njit(cache=True, error_model="numpy", parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
 def advance_lanes_parallel(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_lanes` on all numba threads (``prange`` over the blocks), with the same
     results."""
@@ -264,7 +264,7 @@ def _check(state, z, k0, n_sub, lpr):
             raise ValueError("track index out of range: need 0 <= k0 and k0 + n_sub <= N")
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=True)
 def advance_lanes(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """Advance ``n`` vehicles by ``n_sub`` RK4 substeps of ``dt`` (s) with an additive
     surrogate element, in place, one block after another; arguments as for
