@@ -1,12 +1,19 @@
-"""VerticalVehicle-v0 on the shared env shell: copies, reward terms, accessors, info masks."""
+"""VerticalVehicle-v0 on the shared env shell: copies, reward terms, accessors, info masks,
+fresh single-env info arrays, and the cached compiled step in a new process."""
 
 from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from railgym.envs.vehicle import (
     ACC_REF,
+    INFO_KEYS,
     REWARD_TERMS,
     VerticalVehicleEnv,
     VerticalVehicleVectorEnv,
@@ -131,3 +138,47 @@ def test_raise_policy_terminates_with_a_flag_and_linear_does_not(box_lpr):
     assert r == sum(info["reward_terms"].values()) and info["reward_terms"]["divergence"] == 0
     k, term, r, info = runs["linear"]
     assert not term and "extrapolated" not in info and info["out_of_domain"] > 0
+
+
+def test_single_env_info_arrays_are_fresh_and_match_the_vector_env(random_actions):
+    env = VerticalVehicleEnv(backend="reference", duration=0.1)
+    venv = VerticalVehicleVectorEnv(num_envs=1, backend="reference", duration=0.1)
+    env.reset(seed=2)
+    venv.reset(seed=2)
+    arrays = ("carbody_acc", "bogie_acc", "rms_carbody_acc", "actuator_force")
+    for a in random_actions(10, (2,), seed=5):
+        *_, info = env.step(a)
+        *_, vinfo = venv.step(a[None])
+        assert tuple(info)[: len(INFO_KEYS)] == INFO_KEYS
+        for key in INFO_KEYS:
+            np.testing.assert_array_equal(info[key], vinfo[key][0])
+        for key in arrays:
+            assert info[key].dtype == np.float64 and info[key].shape == vinfo[key][0].shape
+            info[key][:] = np.nan  # the caller's arrays: the env and other entries unchanged
+        assert np.isfinite(env.carbody_acceleration).all()
+        assert np.isfinite(env.actuator_force).all() and info["speed"] == env.speeds[0]
+
+
+def test_a_fresh_process_loads_the_cached_step_and_reproduces_it():
+    """The compiled step links numba's parallel scheduler; loaded from numba's cache in a new
+    process it must run (and give the same bits)."""
+    code = (
+        "import numpy as np\n"
+        "from railgym.envs.vehicle import VerticalVehicleEnv\n"
+        "env = VerticalVehicleEnv(backend='surrogate', duration=0.1)\n"
+        "env.reset(seed=1)\n"
+        "print(env.step(np.full(2, 0.5, np.float32))[0].tobytes().hex())\n"
+    )
+    env = VerticalVehicleEnv(backend="surrogate", duration=0.1)
+    env.reset(seed=1)
+    obs = env.step(np.full(2, 0.5, np.float32))[0]
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        cwd=root,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == obs.tobytes().hex()
