@@ -18,6 +18,7 @@ from railgym.envs.vehicle import (
     VerticalVehicleEnv,
     VerticalVehicleVectorEnv,
 )
+from railgym.envs.vertical import VerticalSuspensionEnv
 
 
 def _run(env, actions):
@@ -159,26 +160,42 @@ def test_single_env_info_arrays_are_fresh_and_match_the_vector_env(random_action
         assert np.isfinite(env.actuator_force).all() and info["speed"] == env.speeds[0]
 
 
-def test_a_fresh_process_loads_the_cached_step_and_reproduces_it():
-    """The compiled step links numba's parallel scheduler; loaded from numba's cache in a new
-    process it must run (and give the same bits)."""
-    code = (
-        "import numpy as np\n"
-        "from railgym.envs.vehicle import VerticalVehicleEnv\n"
-        "env = VerticalVehicleEnv(backend='surrogate', duration=0.1)\n"
-        "env.reset(seed=1)\n"
-        "print(env.step(np.full(2, 0.5, np.float32))[0].tobytes().hex())\n"
-    )
-    env = VerticalVehicleEnv(backend="surrogate", duration=0.1)
+_FRESH = """
+import numpy as np
+from numba.core.runtime import rtsys
+from railgym.envs.vehicle import VerticalVehicleEnv
+from railgym.envs.vertical import VerticalSuspensionEnv
+for env, m in ((VerticalVehicleEnv(duration=0.1), 2), (VerticalSuspensionEnv(duration=0.1), 1)):
     env.reset(seed=1)
-    obs = env.step(np.full(2, 0.5, np.float32))[0]
+    before = rtsys.get_allocation_stats()
+    for _ in range(10):
+        obs = env.step(np.full(m, 0.5, np.float32))[0]
+    after = rtsys.get_allocation_stats()
+    print(obs.tobytes().hex(), after.alloc - before.alloc, after.free - before.free)
+"""
+
+
+def test_a_fresh_process_loads_the_cached_steps_reproduces_them_and_frees_their_scratch():
+    """The compiled steps (the whole-vehicle one links numba's parallel scheduler) loaded from
+    numba's cache in a new process run, give the same bits, and free every array the kernels
+    allocate (they run without the runtime's reference counting)."""
+    expected = []
+    for env, m in ((VerticalVehicleEnv(duration=0.1), 2), (VerticalSuspensionEnv(duration=0.1), 1)):
+        env.reset(seed=1)
+        for _ in range(10):
+            obs = env.step(np.full(m, 0.5, np.float32))[0]
+        expected.append(obs.tobytes().hex())
     root = Path(__file__).resolve().parents[1]
     run = subprocess.run(
-        [sys.executable, "-c", code],
+        [sys.executable, "-c", _FRESH],
         capture_output=True,
         text=True,
         cwd=root,
-        env={**os.environ, "PYTHONPATH": str(root)},
+        env={**os.environ, "PYTHONPATH": str(root), "NUMBA_NRT_STATS": "1"},
     )
     assert run.returncode == 0, run.stderr
-    assert run.stdout.strip() == obs.tobytes().hex()
+    lines = run.stdout.strip().split("\n")
+    assert len(lines) == len(expected)
+    for line, obs in zip(lines, expected, strict=True):
+        got, alloc, free = line.split()
+        assert got == obs and int(alloc) == int(free)  # the kernels may allocate nothing

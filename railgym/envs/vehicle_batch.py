@@ -167,7 +167,12 @@ def _weigh(sos, zi, v):
     return y
 
 
-@njit(cache=True, error_model="numpy")
+# Without the runtime's reference counting: the arrays come from the batch, which owns them
+# for the call, so the entry point unboxes them without runtime records and the kernel's
+# counting of every array it passes on (per RK4 stage) is skipped. The kernel's own scratch
+# arrays are still allocated and freed by the runtime (tests/test_vehicle_shell.py checks the
+# balance).
+@njit(cache=True, error_model="numpy", _nrt=False)
 def control_step(kind, bt, p, e, lpr, out, bk, sc):
     """One control step of every vehicle: actuator forces ``bk.action · f_max`` (N), kernel,
     counters, observation, reward and terms, info row and the truncated and extrapolated flags.
