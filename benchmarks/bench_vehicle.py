@@ -11,7 +11,7 @@ import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
 from benchmarks import row
-from benchmarks.bench_vertical import _single_step_us, _vector_rate
+from benchmarks.bench_vertical import _single_step_us, _split_us, _vector_rate
 
 #: interleaved rounds of the single-env timing (the machine's load changes between them)
 ROUNDS = 7
@@ -54,6 +54,11 @@ def run() -> list[dict]:
                 f"median of {ROUNDS} interleaved rounds",
             ),
         ]
+    compiled, shell = _split_us(envs["surrogate"], zero)
+    rows += [
+        row("  of which the compiled call", compiled, "µs", context="surrogate, kernel + book"),
+        row("  of which the Python shell", shell, "µs", context="check, info, obs, wrappers"),
+    ]
     n = 1024
     v0 = gym.make_vec(
         "railgym/VerticalSuspension-v0", num_envs=n, vectorization_mode="vector_entry_point"

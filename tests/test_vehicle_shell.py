@@ -1,16 +1,24 @@
-"""VerticalVehicle-v0 on the shared env shell: copies, reward terms, accessors, info masks."""
+"""VerticalVehicle-v0 on the shared env shell: copies, reward terms, accessors, info masks,
+fresh single-env info arrays, and the cached compiled step in a new process."""
 
 from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from railgym.envs.vehicle import (
     ACC_REF,
+    INFO_KEYS,
     REWARD_TERMS,
     VerticalVehicleEnv,
     VerticalVehicleVectorEnv,
 )
+from railgym.envs.vertical import VerticalSuspensionEnv
 
 
 def _run(env, actions):
@@ -131,3 +139,63 @@ def test_raise_policy_terminates_with_a_flag_and_linear_does_not(box_lpr):
     assert r == sum(info["reward_terms"].values()) and info["reward_terms"]["divergence"] == 0
     k, term, r, info = runs["linear"]
     assert not term and "extrapolated" not in info and info["out_of_domain"] > 0
+
+
+def test_single_env_info_arrays_are_fresh_and_match_the_vector_env(random_actions):
+    env = VerticalVehicleEnv(backend="reference", duration=0.1)
+    venv = VerticalVehicleVectorEnv(num_envs=1, backend="reference", duration=0.1)
+    env.reset(seed=2)
+    venv.reset(seed=2)
+    arrays = ("carbody_acc", "bogie_acc", "rms_carbody_acc", "actuator_force")
+    for a in random_actions(10, (2,), seed=5):
+        *_, info = env.step(a)
+        *_, vinfo = venv.step(a[None])
+        assert tuple(info)[: len(INFO_KEYS)] == INFO_KEYS
+        for key in INFO_KEYS:
+            np.testing.assert_array_equal(info[key], vinfo[key][0])
+        for key in arrays:
+            assert info[key].dtype == np.float64 and info[key].shape == vinfo[key][0].shape
+            info[key][:] = np.nan  # the caller's arrays: the env and other entries unchanged
+        assert np.isfinite(env.carbody_acceleration).all()
+        assert np.isfinite(env.actuator_force).all() and info["speed"] == env.speeds[0]
+
+
+_FRESH = """
+import numpy as np
+from numba.core.runtime import rtsys
+from railgym.envs.vehicle import VerticalVehicleEnv
+from railgym.envs.vertical import VerticalSuspensionEnv
+for env, m in ((VerticalVehicleEnv(duration=0.1), 2), (VerticalSuspensionEnv(duration=0.1), 1)):
+    env.reset(seed=1)
+    before = rtsys.get_allocation_stats()
+    for _ in range(10):
+        obs = env.step(np.full(m, 0.5, np.float32))[0]
+    after = rtsys.get_allocation_stats()
+    print(obs.tobytes().hex(), after.alloc - before.alloc, after.free - before.free)
+"""
+
+
+def test_a_fresh_process_loads_the_cached_steps_reproduces_them_and_frees_their_scratch():
+    """The compiled steps (the whole-vehicle one links numba's parallel scheduler) loaded from
+    numba's cache in a new process run, give the same bits, and free every array the kernels
+    allocate (they run without the runtime's reference counting)."""
+    expected = []
+    for env, m in ((VerticalVehicleEnv(duration=0.1), 2), (VerticalSuspensionEnv(duration=0.1), 1)):
+        env.reset(seed=1)
+        for _ in range(10):
+            obs = env.step(np.full(m, 0.5, np.float32))[0]
+        expected.append(obs.tobytes().hex())
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run(
+        [sys.executable, "-c", _FRESH],
+        capture_output=True,
+        text=True,
+        cwd=root,
+        env={**os.environ, "PYTHONPATH": str(root), "NUMBA_NRT_STATS": "1"},
+    )
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.strip().split("\n")
+    assert len(lines) == len(expected)
+    for line, obs in zip(lines, expected, strict=True):
+        got, alloc, free = line.split()
+        assert got == obs and int(alloc) == int(free)  # the kernels may allocate nothing

@@ -1,17 +1,25 @@
 """The env shell of the vertical envs: copies, reward terms, accessors, the "raise"
-extrapolation policy, bounded outputs under extreme settings, and "name or path" loading."""
+extrapolation policy, bounded outputs under extreme settings, "name or path" loading, the
+single env's action check and ``info`` layout."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from railgym.envs.base import _check_small, check_actions
 from railgym.envs.vertical import (
     ACC_REF,
+    INFO_KEYS,
     LIMITS,
     VerticalSuspensionEnv,
     VerticalSuspensionVectorEnv,
 )
+from railgym.envs.vertical_batch import REWARD_TERMS
 from railgym.vehicles.vertical import load_vehicle
 
 
@@ -152,3 +160,63 @@ def test_packaged_name_wins_over_a_folder_or_file_of_that_name(tmp_path, monkeyp
     assert load_vehicle("mine.yaml").m2 == 15000.0
     with pytest.raises(ValueError, match="unknown vehicle 'mine'"):
         load_vehicle("mine")  # a bare name never reads the working directory
+
+
+_VALUES = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True, width=64),
+    st.sampled_from([-1.0, 1.0, -0.0, 2.0, -0.5, 1e-300]),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    values=st.lists(_VALUES, min_size=1, max_size=3),
+    dtype=st.sampled_from([np.float16, np.float32, np.float64]),
+    box=st.sampled_from([(-1.0, 1.0), (-0.5, 2.0)]),
+)
+def test_single_env_action_check_is_check_actions(values, dtype, box):
+    """The element-wise check of the single env gives the bits and errors of check_actions."""
+    m = len(values)
+    with np.errstate(over="ignore"):
+        action = np.array(values).astype(dtype)
+    low, high = np.full(m, box[0]), np.full(m, box[1])
+    out = np.full((1, m), 7.0)
+    try:
+        expected = check_actions(action, (m,), low, high)
+    except ValueError as exc:
+        with pytest.raises(ValueError, match=re.escape(str(exc))):
+            _check_small(action, (m,), (low.tolist(), high.tolist()), out)
+        return
+    assert _check_small(action, (m,), (low.tolist(), high.tolist()), out)
+    assert out.tobytes() == expected.reshape(1, m).tobytes()
+
+
+def test_fast_action_check_leaves_other_inputs_to_check_actions():
+    out = np.zeros((1, 2))
+    bounds = ([-1.0, -1.0], [1.0, 1.0])
+    for other in ([0.5, 0.5], np.zeros(2, np.int64), np.zeros(3), np.zeros(2)[None]):
+        assert not _check_small(other, (2,), bounds, out)
+    assert not out.any()
+
+
+def test_single_env_info_follows_the_declared_layout_and_the_vector_env(random_actions):
+    env = VerticalSuspensionEnv(backend="reference", duration=0.2)
+    venv = VerticalSuspensionVectorEnv(num_envs=1, backend="reference", duration=0.2)
+    env.reset(seed=3)
+    venv.reset(seed=3)
+    keys = [k for k, _ in INFO_KEYS]
+    infos = []
+    for n, a in enumerate(random_actions(20, (1,), seed=7), start=1):
+        obs, r, term, trunc, info = env.step(a)
+        vobs, vr, vterm, vtrunc, vinfo = venv.step(a[None])
+        assert list(info) == [*keys, "reward_terms"]
+        for key, is_int in INFO_KEYS:
+            assert type(info[key]) is (int if is_int else float)
+            assert info[key] == vinfo[key][0]
+        assert tuple(info["reward_terms"]) == REWARD_TERMS
+        assert info["reward_terms"] == {k: vinfo["reward_terms"][k][0] for k in REWARD_TERMS}
+        assert type(r) is float and r == vr[0] and obs.tobytes() == vobs[0].tobytes()
+        assert info["time"] == n * env.cfg.control_dt and trunc is bool(vtrunc[0]) is (n == 20)
+        infos.append(info)
+    infos[0]["time"] = -1.0  # each step's dict is its own
+    assert infos[1]["time"] == 2 * env.cfg.control_dt

@@ -142,25 +142,21 @@ _SMALL = 8
 
 def _check_small(
     actions: Any, shape: tuple[int, ...], bounds: tuple[list[float], list[float]], out: np.ndarray
-) -> np.ndarray:
-    """:func:`check_actions` written into ``out`` (float64 of ``shape``), element by element for
-    a small float array (the same checks, messages and clipping, fewer numpy calls); any other
-    input goes through :func:`check_actions`."""
-    if (
-        type(actions) is np.ndarray
-        and actions.dtype.char in "efd"
-        and actions.shape == shape
-        and actions.size <= _SMALL
-    ):
-        flat = out.reshape(-1)
-        for j, (v, lo, hi) in enumerate(zip(actions.ravel().tolist(), *bounds, strict=True)):
+) -> bool:
+    """:func:`check_actions` of a float array of the 1-D ``shape`` written into ``out[0]``
+    (``out`` float64 (1, m)) element by element: the same checks, messages and clipping with
+    fewer numpy calls. False (nothing done) for any other input."""
+    if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.char not in "efd":
+        return False
+    low, high = bounds
+    for j, v in enumerate(actions.tolist()):
+        lo, hi = low[j], high[j]
+        if not lo <= v <= hi:  # NaN and ±Inf fail this too
             if not math.isfinite(v):
                 raise val.FieldError("action", "must be finite; got NaN or Inf")
-            flat[j] = min(max(v, lo), hi)
-        return out
-    low, high = (np.reshape(b, shape) for b in bounds)
-    out[...] = check_actions(actions, shape, low, high)
-    return out
+            v = min(max(v, lo), hi)
+        out[0, j] = v
+    return True
 
 
 def _render_mode(render_mode: Any, modes: list[str]) -> str | None:
@@ -188,6 +184,8 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         self.action_space = action_space
         self._bounds = (action_space.low.astype(np.float64), action_space.high.astype(np.float64))
         self._flat_bounds = (self._bounds[0].ravel().tolist(), self._bounds[1].ravel().tolist())
+        self._shape = action_space.shape
+        self._small = len(self._shape) == 1 and self._shape[0] <= _SMALL
         self._action = np.zeros((1, *action_space.shape))
         self._rng1: list[np.random.Generator] = []
         self._started = False
@@ -222,9 +220,9 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         """Advance one control step; the action is clipped to the action space."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
-        sim = self.sim
-        buf = self._action
-        _check_small(action, buf.shape[1:], self._flat_bounds, buf[0])
+        sim, buf = self.sim, self._action
+        if not (self._small and _check_small(action, self._shape, self._flat_bounds, buf)):
+            buf[0] = check_actions(action, self._shape, *self._bounds)
         sim.set_action(buf)
         sim.advance()
         info = self._info()
@@ -236,7 +234,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         truncated = not terminated and bool(sim.truncated()[0])
         if terminated or truncated:
             self._started = False
-        return sim.observe(self._rng1)[0], sim.reward[0].item(), terminated, truncated, info
+        return sim.observe(self._rng1)[0], float(sim.reward[0]), terminated, truncated, info
 
     def _info(self) -> dict[str, Any]:
         return self.sim.info(0)

@@ -18,6 +18,7 @@ from scipy import signal
 
 from railgym import _validation as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
+from railgym.envs.compiled import compiled_entry
 from railgym.envs.vertical_batch import LIMITS, OBS_LIMIT
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_with_slope
@@ -42,7 +43,6 @@ __all__ = [
     "REWARD_TERMS",
     "VehicleBatch",
     "VehicleConfig",
-    "compiled_entry",
     "control_step",
     "episode_comfort",
 ]
@@ -66,6 +66,9 @@ INFO_KEYS = (
 )
 #: columns of ``Book.terms``, the keys of ``info["reward_terms"]``
 REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
+#: first columns of ``Book.info``, the array-valued info entries of a step (one row is copied
+#: per single-env step): ``out.acc`` (floor points, then bogies), ``Book.rms``, actuator forces
+_C_ACC, _C_RMS, _C_FORCE, INFO_ROW = 0, 5, 8, 10
 
 
 @dataclass(frozen=True)
@@ -102,6 +105,10 @@ class Book(NamedTuple):
     rew: np.ndarray  # (n,) reward
     terms: np.ndarray  # (n, len(REWARD_TERMS)) weighted reward terms, summing to rew
     zi: np.ndarray  # (n, 3, n_sec, 2) Wk filter state of the reward
+    action: np.ndarray  # (n, 2) clipped actions of the step
+    info: np.ndarray  # (n, INFO_ROW) the array-valued info entries of the step (_C_ACC…)
+    truncated: np.ndarray  # (n,) bool episode reached duration
+    extrapolated: np.ndarray  # (n,) bool out-of-domain evaluations under the "raise" policy
 
 
 class StepCfg(NamedTuple):
@@ -116,6 +123,8 @@ class StepCfg(NamedTuple):
     f_max: float
     sos: np.ndarray  # (n_sec, 6) Wk sections at the control rate
     weighted: bool
+    n_steps: int  # control steps per episode (truncation)
+    flag_ood: bool  # "raise" policy: flag steps with out-of-domain surrogate evaluations
 
 
 @njit(cache=True, error_model="numpy")
@@ -158,13 +167,22 @@ def _weigh(sos, zi, v):
     return y
 
 
-@njit(cache=True, error_model="numpy")
+# Without the runtime's reference counting: the arrays come from the batch, which owns them
+# for the call, so the entry point unboxes them without runtime records and the kernel's
+# counting of every array it passes on (per RK4 stage) is skipped. The kernel's own scratch
+# arrays are still allocated and freed by the runtime (tests/test_vehicle_shell.py checks the
+# balance).
+@njit(cache=True, error_model="numpy", _nrt=False)
 def control_step(kind, bt, p, e, lpr, out, bk, sc):
-    """One control step of every vehicle: kernel, counters, observation, reward and terms.
+    """One control step of every vehicle: actuator forces ``bk.action · f_max`` (N), kernel,
+    counters, observation, reward and terms, info row and the truncated and extrapolated flags.
 
     A step whose reward is not finite or whose observation exceeds ``OBS_LIMIT`` counts as
     diverged (``out.div``), like a non-finite state in the kernel.
     """
+    for i in range(bt.state.shape[0]):
+        for b in range(2):
+            bt.force[i, b] = bk.action[i, b] * sc.f_max
     advance(kind, bt, sc.n_sub, sc.dt, p, e, lpr, out)
     w_a, w_d, w_f = sc.weights[0], sc.weights[1], sc.weights[2]
     for i in range(bt.state.shape[0]):
@@ -212,19 +230,15 @@ def control_step(kind, bt, p, e, lpr, out, bk, sc):
         bk.terms[i, 2] = t_f
         bk.terms[i, 3] = -DIVERGENCE_PENALTY if out.div[i] else 0.0
         bk.rew[i] = r
-
-
-def compiled_entry(fn: Any, args: tuple) -> Any:
-    """Compiled entry point of the numba function ``fn`` for the types of ``args``.
-
-    Calling it skips numba's per-call type dispatch, which for the named tuples of arrays
-    of the kernels costs more than the step itself; the arrays passed later must keep the
-    dtypes, dimensions and layouts of ``args`` (the batch holds them for its lifetime).
-    """
-    sig = tuple(fn.typeof_pyval(a) for a in args)
-    if sig not in fn.overloads:
-        fn.compile(sig)
-    return fn.overloads[sig].entry_point
+        for j in range(5):
+            bk.info[i, _C_ACC + j] = out.acc[i, j]
+        for j in range(3):
+            bk.info[i, _C_RMS + j] = bk.rms[i, j]
+        for b in range(2):
+            bk.info[i, _C_FORCE + b] = bt.force[i, b]
+        bk.truncated[i] = bk.steps[i] >= sc.n_steps
+        if sc.flag_ood:
+            bk.extrapolated[i] = out.count[i, 1] > 0
 
 
 def episode_comfort(
@@ -293,6 +307,10 @@ class VehicleBatch:
             rew=np.zeros(n),
             terms=np.zeros((n, len(REWARD_TERMS))),
             zi=np.zeros((n, 3, sos.shape[0], 2)),
+            action=np.zeros((n, 2)),
+            info=np.zeros((n, INFO_ROW)),
+            truncated=np.zeros(n, np.bool_),
+            extrapolated=np.zeros(n, np.bool_),
         )
         self.sc = StepCfg(
             n_sub=cfg.n_sub,
@@ -304,15 +322,17 @@ class VehicleBatch:
             f_max=cfg.f_max,
             sos=sos,
             weighted=cfg.acc_weighting == "Wk",
+            n_steps=cfg.n_steps,
+            flag_ood=self.lpr.mode == RAISE_MODE,
         )
         self.speed = np.zeros(n)
         self.track_class = np.zeros(n, np.int64)
-        self.extrapolated = np.zeros(n, np.bool_)
         self._link()
 
     def _link(self) -> None:
         """Views and the compiled entry point (re-made after a copy: not picklable)."""
         self.reward = self.bk.rew
+        self.extrapolated = self.bk.extrapolated
         self._flags = {"diverged": self.out.div, "extrapolated": self.extrapolated}
         self._args = (
             self.kind,
@@ -325,11 +345,10 @@ class VehicleBatch:
             self.sc,
         )
         self._step = compiled_entry(control_step, self._args)
-        self._raise = self.lpr.mode == RAISE_MODE
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("reward", "_flags", "_args", "_step", "_raise"):
+        for key in ("reward", "extrapolated", "_flags", "_args", "_step"):
             del state[key]
         return state
 
@@ -369,19 +388,17 @@ class VehicleBatch:
         bt.state[i] = 0.0
         bt.k[i] = bk.steps[i] = bk.contacts[i] = bk.ood[i] = 0
         bk.acc_sq[i] = bk.rms[i] = bk.rec[i] = bk.zi[i] = bk.rew[i] = bk.terms[i] = 0.0
-        out.acc[i] = out.fs[i] = 0.0
-        out.div[i] = self.extrapolated[i] = False
+        bk.info[i] = bt.force[i] = out.acc[i] = out.fs[i] = 0.0
+        out.div[i] = bk.extrapolated[i] = bk.truncated[i] = False
         _observe(bt, out, self.params, self.sc, bk, i)
 
     def set_action(self, actions: np.ndarray) -> None:
-        """Actuator forces from the clipped actions (n, 2): ``action · f_max``, N."""
-        np.multiply(actions, self.cfg.f_max, out=self.bt.force)
+        """Store the clipped actions (n, 2); :meth:`advance` applies ``action · f_max`` (N)."""
+        self.bk.action[...] = actions
 
     def advance(self) -> None:
-        """One control step of every vehicle with the forces in ``bt.force`` (N)."""
+        """One control step of every vehicle with the stored actions (one compiled call)."""
         self._step(*self._args)
-        if self._raise:
-            np.greater(self.out.count[:, 1], 0, out=self.extrapolated)
 
     def flags(self) -> dict[str, np.ndarray]:
         """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of
@@ -390,13 +407,14 @@ class VehicleBatch:
 
     def truncated(self) -> np.ndarray:
         """True where the episode reached ``duration``."""
-        return self.bk.steps >= self.cfg.n_steps
+        return self.bk.truncated
 
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers and (k,) arrays) or of all
         (arrays with a leading axis n); copies."""
-        bk, acc, force = self.bk, self.out.acc, self.bt.force
+        bk = self.bk
         if i is None:
+            acc, force = self.out.acc, self.bt.force
             values = (
                 bk.steps * self.cfg.control_dt,
                 self.speed.copy(),
@@ -407,25 +425,26 @@ class VehicleBatch:
                 bk.ood.copy(),
                 force.copy(),
             )
-        else:  # Python scalars and small copies: the single env's step reads this each step
-            row = acc[i]
-            values = (
-                int(bk.steps[i]) * self.cfg.control_dt,
-                float(self.speed[i]),
-                row[:3].copy(),
-                row[3:].copy(),
-                bk.rms[i].copy(),
-                int(bk.contacts[i]),
-                int(bk.ood[i]),
-                force[i].copy(),
-            )
-        return dict(zip(INFO_KEYS, values, strict=True))
+            return dict(zip(INFO_KEYS, values, strict=True))
+        # the single env's step: Python scalars, and views of one fresh copy of the info row
+        row = bk.info[i].copy()
+        return {
+            "time": int(bk.steps[i]) * self.cfg.control_dt,
+            "speed": float(self.speed[i]),
+            "carbody_acc": row[_C_ACC : _C_ACC + 3],
+            "bogie_acc": row[_C_ACC + 3 : _C_RMS],
+            "rms_carbody_acc": row[_C_RMS:_C_FORCE],
+            "bump_stop_contacts": int(bk.contacts[i]),
+            "out_of_domain": int(bk.ood[i]),
+            "actuator_force": row[_C_FORCE:],
+        }
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:
         """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to
         the reward."""
-        if i is not None:
-            return dict(zip(REWARD_TERMS, self.bk.terms[i].tolist(), strict=True))
+        if i is not None:  # a dict display: the single env builds this every step
+            acc, defl, force, div = self.bk.terms[i].tolist()
+            return {"acceleration": acc, "deflection": defl, "force": force, "divergence": div}
         return {key: self.bk.terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
 
     def observe(self, rngs: list[np.random.Generator]) -> np.ndarray:

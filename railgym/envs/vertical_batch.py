@@ -1,9 +1,10 @@
-"""The batch of :mod:`railgym.envs.vertical`: ``n`` vertical vehicles stepped by one kernel call.
+"""The batch of :mod:`railgym.envs.vertical`: ``n`` vertical vehicles stepped by one compiled call.
 
 :class:`VerticalBatch` implements the batch contract of :mod:`railgym.envs.base`: it holds the
-arrays the kernels of :mod:`railgym.vehicles.vertical` work on, and a compiled post-step turns
-each kernel call into observation, reward, reward terms and the ``info`` values, whose layout
-is declared once (:data:`INFO_KEYS`).
+arrays the kernels of :mod:`railgym.vehicles.vertical` work on, and a compiled control step
+(:func:`control_step`) runs the kernel of the variant and turns its outputs into observation,
+reward, reward terms, the ``info`` values (layout declared in :data:`INFO_KEYS`) and the
+episode flags.
 """
 
 from __future__ import annotations
@@ -16,17 +17,22 @@ import numpy as np
 from numba import njit
 
 from railgym import _validation as val
+from railgym.envs.compiled import compiled_entry
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
 from railgym.vehicles.vertical import (
-    KERNELS,
     RAISE_MODE,
     LprArrays,
     SuspensionParams,
     VerticalVehicle,
+    advance_dynamic,
+    advance_linear,
+    advance_static,
+    advance_surrogate,
     initial_state,
     step_outputs,
 )
+from railgym.vehicles.vertical.kernels import check_variant
 
 __all__ = [
     "ACC_REF",
@@ -35,6 +41,7 @@ __all__ = [
     "REWARD_TERMS",
     "VerticalBatch",
     "VerticalConfig",
+    "control_step",
 ]
 
 #: reference carbody acceleration of the reward, m/s²: passive RMS on the training case
@@ -87,32 +94,34 @@ class Counters(NamedTuple):
     acc_sq: np.ndarray  #: float64 (n,) sum of ẍ2², m²/s⁴
 
 
-class StepSpec(NamedTuple):
-    """Reward weights and normalisers and the control step (SI); the post-step takes it as
-    a structured record array (:meth:`record`), read by field name."""
+class StepCfg(NamedTuple):
+    """Constants of :func:`control_step` (SI units)."""
 
+    kind: int  #: kernel variant number (:func:`~railgym.vehicles.vertical.kernels.check_variant`)
+    n_sub: int  #: RK4 substeps per control step
+    dt: float  #: integration step, s
+    n_steps: int  #: control steps per episode (truncation)
+    control_dt: float  #: s
+    f_max: float  #: actuator force at action ±1, N
+    free_travel: float  #: m
     w_acc: float
     w_defl: float
     w_force: float
-    acc_ref: float  #: m/s²
-    free_travel: float  #: m
-    f_max: float  #: N
-    penalty: float  #: reward of a diverged step (negated)
-    control_dt: float  #: s
-
-    def record(self) -> np.ndarray:
-        """The values as a structured float64 array (1,) with these field names."""
-        return np.array([tuple(self)], [(name, np.float64) for name in self._fields])
+    inv_scale: np.ndarray  #: float64 (n_obs,) 1/scale of each observation channel
+    flag_ood: bool  #: "raise" policy: flag steps with out-of-domain surrogate evaluations
 
 
 class StepResult(NamedTuple):
     """Outputs of :func:`_post_step` per vehicle: observation (n, n_obs), reward (n,), its
-    terms (n, len(REWARD_TERMS)) and the info values (n, len(INFO_KEYS))."""
+    terms (n, len(REWARD_TERMS)), the info values (n, len(INFO_KEYS)), and the truncated and
+    extrapolated flags (n,)."""
 
     obs: np.ndarray
     reward: np.ndarray
     terms: np.ndarray
     info: np.ndarray
+    truncated: np.ndarray
+    extrapolated: np.ndarray
 
 
 #: the ``info`` layout of the single and the vector env, declared once: key, integer-valued
@@ -137,6 +146,8 @@ I_TIME, I_ACC, I_OOD, I_CONTACTS, I_RMS, I_FORCE = (
     )
 )
 _INT_INFO = tuple(j for j, (_, is_int) in enumerate(INFO_KEYS) if is_int)
+
+_LINEAR, _STATIC, _DYNAMIC = (check_variant(v) for v in ("linear", "static", "dynamic"))
 
 #: columns of :attr:`StepResult.terms`, the keys of ``info["reward_terms"]``
 REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
@@ -169,26 +180,26 @@ def _observe(state, acc, z, zdot, k, s, i, obs):
 
 
 @njit(cache=True)
-def _post_step(state, z, zdot, out, force, n_sub, cnt, inv_scale, spec, res):
-    """Bookkeeping after a kernel call: counters, observation, reward and its terms.
+def _post_step(state, z, zdot, out, force, cnt, res, sc):
+    """Bookkeeping after a kernel call: counters, observation, reward and its terms, info
+    values and the truncated and extrapolated flags.
 
     A step whose reward is not finite or whose observation exceeds ``OBS_LIMIT`` counts as
     diverged (``out.div``), like a non-finite state in the kernel.
     """
-    rw = spec[0]
     for i in range(state.shape[0]):
-        cnt.k[i] += n_sub
+        cnt.k[i] += sc.n_sub
         cnt.steps[i] += 1
         cnt.contacts[i] += out.count[i, 0]
         cnt.ood[i] += out.count[i, 1]
         cnt.acc_sq[i] += out.acc[i, 1] * out.acc[i, 1]
-        _observe(state, out.acc, z, zdot, cnt.k, inv_scale, i, res.obs)
-        defl = (state[i, 0] - state[i, 2]) / rw.free_travel
-        fa = force[i] / rw.f_max
-        a2 = out.acc[i, 1] / rw.acc_ref
-        t_a = -(rw.w_acc * a2 * a2)
-        t_d = -(rw.w_defl * defl * defl)
-        t_f = -(rw.w_force * fa * fa)
+        _observe(state, out.acc, z, zdot, cnt.k, sc.inv_scale, i, res.obs)
+        defl = (state[i, 0] - state[i, 2]) / sc.free_travel
+        fa = force[i] / sc.f_max
+        a2 = out.acc[i, 1] / ACC_REF
+        t_a = -(sc.w_acc * a2 * a2)
+        t_d = -(sc.w_defl * defl * defl)
+        t_f = -(sc.w_force * fa * fa)
         r = t_a + t_d + t_f
         big = False
         for j in range(res.obs.shape[1]):
@@ -199,18 +210,45 @@ def _post_step(state, z, zdot, out, force, n_sub, cnt, inv_scale, spec, res):
             for j in range(res.obs.shape[1]):
                 res.obs[i, j] = min(max(res.obs[i, j], -OBS_LIMIT), OBS_LIMIT)
             t_a = t_d = t_f = 0.0
-            r = -rw.penalty
+            r = -DIVERGENCE_PENALTY
         res.terms[i, 0] = t_a
         res.terms[i, 1] = t_d
         res.terms[i, 2] = t_f
-        res.terms[i, 3] = -rw.penalty if out.div[i] else 0.0
+        res.terms[i, 3] = -DIVERGENCE_PENALTY if out.div[i] else 0.0
         res.reward[i] = r
-        res.info[i, I_TIME] = cnt.steps[i] * rw.control_dt
+        res.info[i, I_TIME] = cnt.steps[i] * sc.control_dt
         res.info[i, I_ACC] = out.acc[i, 1]
         res.info[i, I_OOD] = cnt.ood[i]
         res.info[i, I_CONTACTS] = cnt.contacts[i]
         res.info[i, I_RMS] = math.sqrt(cnt.acc_sq[i] / max(cnt.steps[i], 1))
         res.info[i, I_FORCE] = force[i]
+        res.truncated[i] = cnt.steps[i] >= sc.n_steps
+        if sc.flag_ood:
+            res.extrapolated[i] = out.count[i, 1] > 0
+
+
+# Without the runtime's reference counting: the arrays come from the batch, which owns them
+# for the call, so the entry point unboxes them without runtime records and the kernel's
+# counting of every array it passes on (per RK4 stage) is skipped. The kernel's own scratch
+# arrays are still allocated and freed by the runtime (tests/test_vehicle_shell.py checks the
+# balance).
+@njit(cache=True, _nrt=False)
+def control_step(state, z, zdot, action, force, p, lpr, out, cnt, res, sc):
+    """One control step of every vehicle: actuator forces ``action[:, 0] · f_max`` (N), the
+    kernel of variant ``sc.kind`` (arguments as :func:`~railgym.vehicles.vertical.advance_linear`
+    with ``k0 = cnt.k``), then :func:`_post_step`."""
+    for i in range(state.shape[0]):
+        force[i] = action[i, 0] * sc.f_max
+    k, n_sub, dt = cnt.k, sc.n_sub, sc.dt
+    if sc.kind == _LINEAR:
+        advance_linear(state, z, zdot, k, n_sub, dt, force, p, lpr, out)
+    elif sc.kind == _STATIC:
+        advance_static(state, z, zdot, k, n_sub, dt, force, p, lpr, out)
+    elif sc.kind == _DYNAMIC:
+        advance_dynamic(state, z, zdot, k, n_sub, dt, force, p, lpr, out)
+    else:
+        advance_surrogate(state, z, zdot, k, n_sub, dt, force, p, lpr, out)
+    _post_step(state, z, zdot, out, force, cnt, res, sc)
 
 
 class VerticalBatch:
@@ -228,7 +266,6 @@ class VerticalBatch:
         self.vehicle = vehicle
         self.params: SuspensionParams = vehicle.kernel_params()
         self.params_record = self.params.record()
-        self.kernel = KERNELS[cfg.variant]
         self.lpr = lpr
         n_samples = cfg.n_steps * cfg.n_sub + 1
         if n * n_samples * 16 > LIMITS["track_bytes"]:
@@ -241,9 +278,9 @@ class VerticalBatch:
         self.z = np.zeros((n, n_samples))
         self.zdot = np.zeros((n, n_samples))
         self.state = initial_state(cfg.variant, n, lpr)
+        self.action = np.zeros((n, 1))
         self.force = np.zeros(n)
         self.out = step_outputs(n)
-        self.acc, self.fs, self.count, self.div = self.out
         self.cnt = Counters(
             np.zeros(n, np.int64),
             np.zeros(n, np.int64),
@@ -251,41 +288,65 @@ class VerticalBatch:
             np.zeros(n, np.int64),
             np.zeros(n),
         )
-        self.k, self.steps, self.contacts, self.ood, self.acc_sq = self.cnt
         self.track_class = np.zeros(n, np.int64)
         self.speed = np.zeros(n)
         self.inv_scale = 1.0 / cfg.obs_scale
         w = cfg.weights
-        self.step_spec = StepSpec(
-            w[0],
-            w[1],
-            w[2],
-            ACC_REF,
-            cfg.free_travel,
-            cfg.f_max,
-            DIVERGENCE_PENALTY,
-            cfg.control_dt,
+        self.sc = StepCfg(
+            kind=check_variant(cfg.variant),
+            n_sub=cfg.n_sub,
+            dt=cfg.dt,
+            n_steps=cfg.n_steps,
+            control_dt=cfg.control_dt,
+            f_max=cfg.f_max,
+            free_travel=cfg.free_travel,
+            w_acc=w[0],
+            w_defl=w[1],
+            w_force=w[2],
+            inv_scale=self.inv_scale,
+            flag_ood=lpr.mode == RAISE_MODE,
         )
-        self.step_record = self.step_spec.record()
         self.res = StepResult(
             np.zeros((n, len(cfg.obs_names))),
             np.zeros(n),
             np.zeros((n, len(REWARD_TERMS))),
             np.zeros((n, len(INFO_KEYS))),
+            np.zeros(n, np.bool_),
+            np.zeros(n, np.bool_),
         )
-        self.obs, self.rew, self.terms, self.info_rows = self.res
-        self.reward = self.rew
-        self.extrapolated = np.zeros(n, np.bool_)
-        self._flags = {"diverged": self.div, "extrapolated": self.extrapolated}
+        self._link()
 
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        """Re-link the views (named tuples, column views) after a copy."""
-        self.__dict__.update(state)
+    def _link(self) -> None:
+        """Short names of the arrays, the flags and the compiled entry point of
+        :func:`control_step` (made again after a copy: it is not picklable)."""
         self.acc, self.fs, self.count, self.div = self.out
         self.k, self.steps, self.contacts, self.ood, self.acc_sq = self.cnt
-        self.obs, self.rew, self.terms, self.info_rows = self.res
+        self.obs, self.rew, self.terms, self.info_rows, self.trunc, self.extrapolated = self.res
         self.reward = self.rew
         self._flags = {"diverged": self.div, "extrapolated": self.extrapolated}
+        self._args = (
+            self.state,
+            self.z,
+            self.zdot,
+            self.action,
+            self.force,
+            self.params_record,
+            self.lpr,
+            self.out,
+            self.cnt,
+            self.res,
+            self.sc,
+        )
+        self._step = compiled_entry(control_step, self._args)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        del state["_args"], state["_step"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._link()
 
     def reset(self, i: int, rng: np.random.Generator, episode: tuple[int, float, Any]) -> None:
         """New track for vehicle ``i``, state at rest; ``episode`` is ``(track_class, speed,
@@ -316,42 +377,16 @@ class VerticalBatch:
         self.k[i] = self.steps[i] = self.contacts[i] = self.ood[i] = 0
         self.acc[i] = self.force[i] = self.fs[i] = self.acc_sq[i] = self.rew[i] = 0.0
         self.terms[i] = self.info_rows[i] = 0.0
-        self.div[i] = self.extrapolated[i] = False
+        self.div[i] = self.extrapolated[i] = self.trunc[i] = False
         _observe(self.state, self.acc, self.z, self.zdot, self.k, self.inv_scale, i, self.obs)
 
     def set_action(self, actions: np.ndarray) -> None:
-        """Actuator forces from the clipped actions (n, 1): ``action · f_max``, N."""
-        np.multiply(actions[:, 0], self.cfg.f_max, out=self.force)
+        """Store the clipped actions (n, 1); :meth:`advance` applies ``action · f_max`` (N)."""
+        self.action[...] = actions
 
     def advance(self) -> None:
-        """One control step of every vehicle with the actuator forces in ``self.force``, N."""
-        cfg = self.cfg
-        self.kernel(
-            self.state,
-            self.z,
-            self.zdot,
-            self.k,
-            cfg.n_sub,
-            cfg.dt,
-            self.force,
-            self.params_record,
-            self.lpr,
-            self.out,
-        )
-        _post_step(
-            self.state,
-            self.z,
-            self.zdot,
-            self.out,
-            self.force,
-            cfg.n_sub,
-            self.cnt,
-            self.inv_scale,
-            self.step_record,
-            self.res,
-        )
-        if self.lpr.mode == RAISE_MODE:
-            np.greater(self.count[:, 1], 0, out=self.extrapolated)
+        """One control step of every vehicle with the stored actions (one compiled call)."""
+        self._step(*self._args)
 
     def flags(self) -> dict[str, np.ndarray]:
         """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of
@@ -360,15 +395,20 @@ class VerticalBatch:
 
     def truncated(self) -> np.ndarray:
         """True where the episode reached ``duration``."""
-        return self.steps >= self.cfg.n_steps
+        return self.trunc
 
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers), or of all ((n,) arrays)."""
-        if i is not None:
+        if i is not None:  # a dict display: the single env builds this every step
             row = self.info_rows[i].tolist()
-            for j in _INT_INFO:
-                row[j] = int(row[j])
-            return dict(zip(_INFO, row, strict=True))
+            return {
+                "time": row[I_TIME],
+                "carbody_acc": row[I_ACC],
+                "out_of_domain": int(row[I_OOD]),
+                "bump_stop_contacts": int(row[I_CONTACTS]),
+                "rms_carbody_acc": row[I_RMS],
+                "actuator_force": row[I_FORCE],
+            }
         out = {key: self.info_rows[:, j].copy() for j, key in enumerate(_INFO)}
         for j in _INT_INFO:
             out[_INFO[j]] = out[_INFO[j]].astype(np.int64)
@@ -377,8 +417,9 @@ class VerticalBatch:
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:
         """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to
         the reward."""
-        if i is not None:
-            return dict(zip(REWARD_TERMS, self.terms[i].tolist(), strict=True))
+        if i is not None:  # a dict display: the single env builds this every step
+            acc, defl, force, div = self.terms[i].tolist()
+            return {"acceleration": acc, "deflection": defl, "force": force, "divergence": div}
         return {key: self.terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
 
     def observe(self, rngs: list[np.random.Generator]) -> np.ndarray:
