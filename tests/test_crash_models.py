@@ -26,7 +26,7 @@ from railgym.vehicles.crash import (
     surrogate_batch_step_parallel,
     zone_force,
 )
-from railgym.vehicles.crash.surrogate_model import _legendre_series
+from railgym.vehicles.crash.surrogate_model import LprModels, _legendre_rows, _series_ends
 
 
 @pytest.fixture(scope="module")
@@ -344,21 +344,39 @@ def test_hysteretic_surrogate_recovers_coupler_tension():
 @settings(max_examples=200, deadline=None)
 @given(
     coef=st.lists(st.floats(-1e6, 1e6), min_size=1, max_size=31),
-    x=st.floats(-0.5, 1.5),
+    xs=st.lists(st.floats(-0.5, 1.5), min_size=1, max_size=9),
     mode=st.sampled_from([0, 1]),
 )
-def test_legendre_series_equals_numpy_legval_and_extends_linearly(coef, x, mode):
+def test_legendre_rows_equal_numpy_legval_and_extend_linearly(coef, xs, mode):
+    """Every lane of the Clenshaw evaluation equals numpy's ``legval`` (inside the domain) or
+    its linear extension (outside, unless clipped), and does not depend on the other lanes."""
     c = np.array(coef)
     lower, upper = 0.2, 1.2  # m
-    u = lower + x * (upper - lower)
-    got = _legendre_series(u, c, c.size - 1, lower, upper, mode)
-    t = 2 * (min(max(u, lower), upper) - lower) / (upper - lower) - 1
-    want = legendre.legval(t, c)
-    if mode == 0 and not lower <= u <= upper:  # slope dP/dt · dt/du at the nearer end
-        end = upper if u > upper else lower
-        want += legendre.legval(t, legendre.legder(c)) * 2 / (upper - lower) * (u - end)
+    ends = _series_ends(c, c.size - 1)[None]
+    lpr = LprModels(
+        c[None],
+        np.array([c.size - 1]),
+        np.array([lower]),
+        np.array([upper]),
+        np.array([mode]),
+        np.zeros((1, 2)),
+        ends,
+    )
+    u = lower + np.array(xs) * (upper - lower)
+    n = u.size
+    rows = np.zeros((4, n))
+    _legendre_rows(u, 0, lpr, n, *rows)
     scale = np.abs(c).sum() * (1 + 0.5 * c.size**2)
-    assert got == pytest.approx(want, abs=1e-13 * scale)
+    for k in range(n):
+        t = 2 * (min(max(u[k], lower), upper) - lower) / (upper - lower) - 1
+        want = legendre.legval(t, c)
+        if mode == 0 and not lower <= u[k] <= upper:  # slope dP/dt · dt/du at the nearer end
+            end = upper if u[k] > upper else lower
+            want += legendre.legval(t, legendre.legder(c)) * 2 / (upper - lower) * (u[k] - end)
+        assert rows[3, k] == pytest.approx(want, abs=1e-13 * scale)
+        alone = np.zeros((4, 1))
+        _legendre_rows(u[k : k + 1], 0, lpr, 1, *alone)
+        assert alone[3, 0] == rows[3, k]
 
 
 @pytest.mark.parametrize("variant", VARIANTS)

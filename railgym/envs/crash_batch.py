@@ -102,10 +102,12 @@ class CrashBatch:
         self.div = np.zeros(n, np.bool_)
         self.over = np.zeros(n, np.bool_)
         self.steps = np.zeros(n, np.int64)
-        self._info_fields = [
-            (key, _KINDS[size], self.layout[key][0].start, self.layout[key][0].stop)
-            for key, size in INFO_FIELDS
-        ]
+        # (key, kind, index) of each info entry; kinds 0–3 pick from (values, bools, row,
+        # bit row) of :meth:`info`, the index is a column (0, 1) or a slice of columns (2, 3)
+        self._info_fields = []
+        for key, size in INFO_FIELDS:
+            cols, kind = self.layout[key][0], _KINDS[size]
+            self._info_fields.append((key, kind, cols.start if kind < 2 else cols))
         columns = InfoColumns(*(sl.start for sl, _ in self.layout.values()))
         surrogate = model.backend == "surrogate"
         types = model.params.types if surrogate else None
@@ -129,6 +131,7 @@ class CrashBatch:
         self._bind()
         self._actions = np.zeros((n, self.n_zones))
         self._all = np.ones(n, np.bool_)
+        self._one = np.zeros(n, np.bool_)  # the train of reset_state
         # undeformed front end of each car at first contact (lead car at the wall), m
         lengths = [sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1)
         self.lengths = np.array(lengths)
@@ -162,11 +165,11 @@ class CrashBatch:
         self.state = self._state_type(*views[_STATE:])
         model = self.model
         if model.backend == "reference":
-            self._kernel = _advance_reference
-        elif self.n >= PARALLEL_MIN:
-            self._kernel = _advance_surrogate_parallel
-        else:
-            self._kernel = _advance_surrogate
+            self._kernel = self._init_kernel = _advance_reference
+        else:  # a reset (one train) always runs serially
+            self._init_kernel = _advance_surrogate
+            parallel = self.n >= PARALLEL_MIN
+            self._kernel = _advance_surrogate_parallel if parallel else _advance_surrogate
         flags = (self.div, self.over, self.steps)
         stepping = (model.dt, model.n_sub)
         self._args = (
@@ -179,7 +182,7 @@ class CrashBatch:
         )
         self._flags = {"crash_over": self.over, "diverged": self.div}
 
-    _VIEWS = ("out", "episode", "state", "_kernel", "_args", "_flags")
+    _VIEWS = ("out", "episode", "state", "_kernel", "_init_kernel", "_args", "_flags")
 
     # per-train arrays under their short names (views of the buffer)
     scale = property(lambda self: self.episode.scale)
@@ -231,9 +234,9 @@ class CrashBatch:
         self.model.reset(self.state, self.out, i, float(self.speed[i]), payload)
         self.scale[i] = 1.0
         self.div[i] = False
-        mask = np.zeros(self.n, np.bool_)
-        mask[i] = True
-        self._kernel(*self._args, self._actions, mask, True)
+        self._one[i] = True
+        self._init_kernel(*self._args, self._actions, self._one, True)
+        self._one[i] = False
 
     def set_action(self, actions: np.ndarray) -> None:
         """Store the clipped actions (n, zones)."""
@@ -261,13 +264,13 @@ class CrashBatch:
         the train), from one fresh copy of the flat rows (``docs/envs/crash.md``)."""
         if i is None:
             rows = self.episode.info.copy()
-            return {key: _decode(rows[:, a:b], kind, True) for key, kind, a, b in self._info_fields}
+            bits = rows != 0.0
+            srcs = (rows, bits, rows, bits)
+            return {key: srcs[kind][:, ix] for key, kind, ix in self._info_fields}
         row = self.episode.info[i].copy()
-        vals = row.tolist()
-        return {
-            key: vals[a] if kind == 0 else vals[a] != 0.0 if kind == 1 else _decode(row[a:b], kind)
-            for key, kind, a, b in self._info_fields
-        }
+        bits = row != 0.0
+        srcs = (row.tolist(), bits.tolist(), row, bits)
+        return {key: srcs[kind][ix] for key, kind, ix in self._info_fields}
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:
         """Reward terms (:data:`REWARD_TERMS`) of train ``i`` (floats) or of all ((n,)
@@ -290,10 +293,3 @@ class CrashBatch:
             "time": float(self.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.n_steps * self.cfg.control_dt,
         }
-
-
-def _decode(cols: np.ndarray, kind: int, batch: bool = False) -> Any:
-    """Info columns of one kind (:data:`_KINDS`) as the env returns them."""
-    if batch and kind in (0, 1):
-        cols = cols[:, 0]
-    return cols != 0.0 if kind in (1, 3) else cols

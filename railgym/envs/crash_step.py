@@ -302,7 +302,7 @@ def _returned_excess(out, ep, i, c, init):
     return worst
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _post_step(out, ep, c, active, init):
     """Bookkeeping after a kernel call: episode statistics, crash criteria, observation,
     reward and its terms, and the flat ``info`` row (:data:`INFO_FIELDS`) of every active

@@ -19,9 +19,7 @@ from railgym.vehicles.crash.outputs import (
     StopRule,
     _check_run,
     _crash_over,
-    _healthy,
     _steps,
-    chunk_mask,
     new_outputs,
     new_record,
     recorded_result,
@@ -54,6 +52,8 @@ class LprModels(NamedTuple):
         1 clips, 0 extends the series linearly beyond the domain; ``"raise"`` (2) is rejected
         when the models are packed (:func:`_pack_models`), the kernels cannot raise.
     force_range : (models, 2) lowest and highest training force of each model, N.
+    ends : (models, 2, 2) value and slope ``df/dt`` (both N) of each model at ``t = −1``
+        (row 0) and ``t = +1`` (row 1), for the linear extension (:func:`_series_ends`).
     """
 
     coef: np.ndarray
@@ -62,6 +62,7 @@ class LprModels(NamedTuple):
     upper: np.ndarray
     mode: np.ndarray
     force_range: np.ndarray
+    ends: np.ndarray
 
 
 class ElementTypes(NamedTuple):
@@ -137,31 +138,52 @@ def _new_surrogate_state(n: int, masses: np.ndarray, n_elements: int) -> Surroga
     return SurrogateState(*body, *el, np.zeros((n, n_bodies)), np.tile(masses, (n, 1)))
 
 
-@njit(cache=True, inline="always")
-def _legendre_series(u, c, n, lower, upper, mode):
-    """``Σ_{k≤n} c_k P_k(t)`` at ``t = 2 (u − lower) / (upper − lower) − 1`` by Clenshaw's
-    recurrence; outside ``[lower, upper]`` the value at the nearer end, extended linearly with
-    the slope there (``P_k(±1) = (±1)^k``, ``P'_k(±1) = (±1)^{k+1} k (k + 1) / 2``) unless
-    ``mode`` is 1 (clip)."""
-    if lower <= u <= upper:
-        t = (u - lower) * (2.0 / (upper - lower)) - 1.0
-        b1 = b2 = 0.0
-        for k in range(n, 0, -1):
-            b0 = c[k] + (2.0 * k + 1.0) / (k + 1.0) * t * b1 - (k + 1.0) / (k + 2.0) * b2
-            b2 = b1
-            b1 = b0
-        return c[0] + t * b1 - 0.5 * b2
-    s = 1.0 if u > upper else -1.0
-    value = slope = 0.0
-    sign = 1.0
-    for k in range(n + 1):
-        value += c[k] * sign
-        slope += c[k] * sign * s * 0.5 * k * (k + 1)
-        sign *= s
-    if mode == 1:
-        return value
-    end = upper if u > upper else lower
-    return value + slope * (2.0 / (upper - lower)) * (u - end)
+@njit(cache=True, error_model="numpy")
+def _series_ends(c, n):
+    """Value and slope ``dΣ/dt`` of ``Σ_{k≤n} c_k P_k(t)`` at ``t = −1`` and ``t = +1``
+    (``P_k(±1) = (±1)^k``, ``P'_k(±1) = (±1)^{k+1} k (k + 1) / 2``), as ``(value, slope)``
+    rows of a (2, 2) array."""
+    ends = np.zeros((2, 2))
+    for row, s in enumerate((-1.0, 1.0)):
+        value = slope = 0.0
+        sign = 1.0
+        for k in range(n + 1):
+            value += c[k] * sign
+            slope += c[k] * sign * s * 0.5 * k * (k + 1)
+            sign *= s
+        ends[row, 0], ends[row, 1] = value, slope
+    return ends
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _legendre_rows(u, q, lpr, nb, t, b1, b2, f):
+    """``f[:nb]`` = model ``q`` of ``lpr`` (:class:`LprModels`) at each ``u[:nb]`` (m):
+    ``Σ_k c_k P_k(t)`` at ``t = 2 (u − lower) / (upper − lower) − 1`` by Clenshaw's recurrence,
+    all lanes at once (the loop over lanes innermost); outside ``[lower, upper]`` the value at
+    the nearer end, extended linearly with the slope there unless the mode is 1 (clip).
+    ``t``, ``b1``, ``b2`` are scratch rows."""
+    lower, upper, n, c = lpr.lower[q], lpr.upper[q], lpr.degree[q], lpr.coef[q]
+    scale = 2.0 / (upper - lower)
+    for b in range(nb):
+        t[b] = (u[b] - lower) * scale - 1.0
+        b1[b] = 0.0
+        b2[b] = 0.0
+    for k in range(n, 0, -1):
+        ck, alpha, beta = c[k], (2.0 * k + 1.0) / (k + 1.0), (k + 1.0) / (k + 2.0)
+        for b in range(nb):
+            b0 = ck + alpha * t[b] * b1[b] - beta * b2[b]
+            b2[b] = b1[b]
+            b1[b] = b0
+    clip = lpr.mode[q] == 1
+    for b in range(nb):
+        x = u[b]
+        if lower <= x <= upper:
+            f[b] = c[0] + t[b] * b1[b] - 0.5 * b2[b]
+            continue
+        side = 1 if x > upper else 0
+        value = lpr.ends[q, side, 0]
+        end = upper if side == 1 else lower
+        f[b] = value if clip else value + lpr.ends[q, side, 1] * scale * (x - end)
 
 
 @njit(cache=True, inline="always")
@@ -205,135 +227,205 @@ def _element_force(u, up, f_lpr, f_min, f_max, s, variant, unilateral, ku, kt, s
     return 0.0, up
 
 
-# The element evaluation sits in the kernel's loop body (arrays unpacked once per call): behind
-# a helper taking the packed arrays, numba's reference counting of those arrays costs more
-# than the physics.
-@njit(cache=True)
-def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, limit, div):
-    """:func:`reference_batch_step` for the surrogate model (paper eq. 4).
+@njit(cache=True, inline="always")
+def _tanh(x):
+    """``math.tanh(x)``, without calling it where it rounds to ±1 (from |x| ≥ 22)."""
+    if x >= 22.0:
+        return 1.0
+    if x <= -22.0:
+        return -1.0
+    return math.tanh(x)
 
-    ``state`` is a :class:`SurrogateState`, ``params`` :class:`SurrogateParams`. No dampers:
-    ``dissipated[:, 1]`` stays 0.
-    """
-    x, v, a, up, fel, ff = state.x, state.v, state.a, state.up, state.fz, state.ff
+
+class _Scratch(NamedTuple):
+    """Working rows of :func:`_step_block`, ``BLOCK`` lanes (trains) each: ``body`` (9,
+    bodies, lanes), ``element`` (7, elements, lanes), ``lane`` (7, lanes), ``idx`` (lanes,) the
+    train of each lane."""
+
+    body: np.ndarray
+    element: np.ndarray
+    lane: np.ndarray
+    idx: np.ndarray
+
+
+#: trains stepped together by :func:`_step_block` (the lanes of its inner loops)
+BLOCK = 64
+
+
+@njit(cache=True)
+def _scratch(n_bodies, n_elements, lanes):
+    """A :class:`_Scratch` of ``lanes`` lanes."""
+    return _Scratch(
+        np.zeros((9, n_bodies, lanes)),
+        np.zeros((7, n_elements, lanes)),
+        np.zeros((7, lanes)),
+        np.zeros(lanes, np.int64),
+    )
+
+
+# Structure of arrays: the trains of a block are the lanes of every inner loop, so the Legendre
+# sums (the bulk of the work) run over contiguous rows; without reference counting (_nrt=False,
+# nothing allocated) the NamedTuple arguments cost nothing per call.
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
+    """Step the trains ``w.idx[:nb]`` as :func:`surrogate_batch_step` does, with scratch ``w``
+    (:class:`_Scratch`)."""
+    x, v, a, up, fel, ff, mass = state
     mu, g, veps = params.mu, params.gravity, params.v_eps
     el_front, el_back, el_type = params.front, params.back, params.kind
-    ty_ = params.types
-    variant, i_load, i_unload, unilateral = (
-        ty_.variant,
-        ty_.load_model,
-        ty_.unload_model,
-        ty_.unilateral,
+    ty_, lpr = params.types, params.lpr
+    FR = lpr.force_range
+    N, ne = mu.shape[0], el_front.shape[0]
+    idx = w.idx
+    bw, ew, lw = w.body, w.element, w.lane
+    xl, vl, al, ffl, vp, F, dx, ff_o, m = (
+        bw[0],
+        bw[1],
+        bw[2],
+        bw[3],
+        bw[4],
+        bw[5],
+        bw[6],
+        bw[7],
+        bw[8],
     )
-    ku, kt, slack, absorber = (
-        ty_.unloading_stiffness,
-        ty_.tension_stiffness,
-        ty_.slack,
-        ty_.absorber,
-    )
-    lpr = params.lpr
-    C, DEG, LO, UP, MODE, FR = (
-        lpr.coef,
-        lpr.degree,
-        lpr.lower,
-        lpr.upper,
-        lpr.mode,
-        lpr.force_range,
-    )
-    N = mu.shape[0]
-    ne = el_front.shape[0]
-    nodes = np.empty((8, N))
-    xl, vl, al, vp = nodes[0], nodes[1], nodes[2], nodes[3]
-    F, dx, ffl, ff_o = nodes[4], nodes[5], nodes[6], nodes[7]
-    els = np.empty((6, ne))
-    upl, fl, f_o, ul, u_o, wl = els[0], els[1], els[2], els[3], els[4], els[5]
+    upl, fl, f_o, ul, u_o, wl, rate = ew[0], ew[1], ew[2], ew[3], ew[4], ew[5], ew[6]
+    t, b1, b2, fa, fb, zero, w_fric = lw[0], lw[1], lw[2], lw[3], lw[4], lw[5], lw[6]
     ox, ov, oa, crush, force, rate_out = out.x, out.v, out.a, out.crush, out.force, out.rate
     work_done, dissipated, stored = out.work, out.dissipated, out.stored
-    # rows are copied element by element: a row view per array and train costs two atomic
-    # reference-count operations
-    for i in range(x.shape[0]):
-        if not active[i]:
-            continue
-        m = state.m[i]
+    for b in range(nb):
+        i = idx[b]
         for j in range(N):
-            xl[j], vl[j], al[j], ffl[j] = x[i, j], v[i, j], a[i, j], ff[i, j]
+            xl[j, b], vl[j, b], al[j, b], ffl[j, b] = x[i, j], v[i, j], a[i, j], ff[i, j]
+            m[j, b] = mass[i, j]
         for e in range(ne):
-            upl[e], fl[e], ul[e], wl[e] = up[i, e], fel[i, e], crush[i, e], work_done[i, e]
-        w_fric = dissipated[i, 0]
-        # init: forces at the current state; else n_sub velocity-Verlet steps
-        for _ in range(1 if init else n_sub):
+            upl[e, b], fl[e, b] = up[i, e], fel[i, e]
+            ul[e, b], wl[e, b] = crush[i, e], work_done[i, e]
+        w_fric[b] = dissipated[i, 0]
+        zero[b] = 0.0
+    # init: forces at the current state; else n_sub velocity-Verlet steps
+    for _ in range(1 if init else n_sub):
+        for j in range(N):
             if init:
-                vp[:] = vl
+                for b in range(nb):
+                    vp[j, b] = vl[j, b]
             else:
-                f_o[:], ff_o[:], u_o[:] = fl, ffl, ul
-                for j in range(N):
-                    dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
-                    xl[j] += dx[j]
-                    vp[j] = vl[j] + al[j] * dt
-            for j in range(N):
-                ffl[j] = mu[j] * m[j] * g * math.tanh(vp[j] / veps)
-                F[j] = -ffl[j]
-            for e in range(ne):
-                fr, bk, ty = el_front[e], el_back[e], el_type[e]
-                u = xl[bk] - (xl[fr] if fr >= 0 else 0.0)
-                rate = vp[bk] - (vp[fr] if fr >= 0 else 0.0)
+                for b in range(nb):
+                    ff_o[j, b] = ffl[j, b]
+                    dx[j, b] = vl[j, b] * dt + 0.5 * al[j, b] * dt * dt
+                    xl[j, b] += dx[j, b]
+                    vp[j, b] = vl[j, b] + al[j, b] * dt
+            for b in range(nb):
+                ffl[j, b] = mu[j] * m[j, b] * g * _tanh(vp[j, b] / veps)
+                F[j, b] = -ffl[j, b]
+        for e in range(ne):
+            fr, bk, ty = el_front[e], el_back[e], el_type[e]
+            x_fr, v_fr = (xl[fr], vp[fr]) if fr >= 0 else (zero, zero)
+            u_e = ul[e]
+            for b in range(nb):
+                f_o[e, b], u_o[e, b] = fl[e, b], u_e[b]
+                u_e[b] = xl[bk, b] - x_fr[b]
+                rate[e, b] = vp[bk, b] - v_fr[b]
+            variant, unilateral, ku = (
+                ty_.variant[ty],
+                ty_.unilateral[ty],
+                ty_.unloading_stiffness[ty],
+            )
+            q_load, q_unload = ty_.load_model[ty], ty_.unload_model[ty]
+            use_load = use_unload = False
+            for b in range(nb):
                 mdl = _element_model(
-                    u, rate, upl[e], variant[ty], unilateral[ty], ku[ty], i_load[ty], i_unload[ty]
+                    u_e[b], rate[e, b], upl[e, b], variant, unilateral, ku, q_load, q_unload
+                )
+                use_load = use_load or mdl == q_load
+                use_unload = use_unload or (mdl >= 0 and mdl != q_load)
+            if use_load:
+                _legendre_rows(u_e, q_load, lpr, nb, t, b1, b2, fa)
+            if use_unload:
+                _legendre_rows(u_e, q_unload, lpr, nb, t, b1, b2, fb)
+            absorber, kt, slack = ty_.absorber[ty], ty_.tension_stiffness[ty], ty_.slack[ty]
+            for b in range(nb):
+                u = u_e[b]
+                mdl = _element_model(
+                    u, rate[e, b], upl[e, b], variant, unilateral, ku, q_load, q_unload
                 )
                 f_lpr = f_min = f_max = 0.0
                 if mdl >= 0:
-                    f_lpr = _legendre_series(u, C[mdl], DEG[mdl], LO[mdl], UP[mdl], MODE[mdl])
+                    f_lpr = fa[b] if mdl == q_load else fb[b]
                     f_min, f_max = FR[mdl, 0], FR[mdl, 1]
-                s = scale[i, e] if u <= absorber[ty] else 1.0
-                f, upl[e] = _element_force(
-                    u,
-                    upl[e],
-                    f_lpr,
-                    f_min,
-                    f_max,
-                    s,
-                    variant[ty],
-                    unilateral[ty],
-                    ku[ty],
-                    kt[ty],
-                    slack[ty],
+                s = scale[idx[b], e] if u <= absorber else 1.0
+                f, upl[e, b] = _element_force(
+                    u, upl[e, b], f_lpr, f_min, f_max, s, variant, unilateral, ku, kt, slack
                 )
-                fl[e] = f
-                ul[e] = u
+                fl[e, b] = f
                 if fr >= 0:
-                    F[fr] += f
-                F[bk] -= f
-            for j in range(N):
-                a_new = F[j] / m[j]
+                    F[fr, b] += f
+                F[bk, b] -= f
+        for j in range(N):
+            for b in range(nb):
+                a_new = F[j, b] / m[j, b]
                 if not init:
-                    vl[j] += 0.5 * (al[j] + a_new) * dt
-                    w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
-                al[j] = a_new
-            if not init:
-                for e in range(ne):
-                    wl[e] += 0.5 * (f_o[e] + fl[e]) * (ul[e] - u_o[e])
-        if not _healthy(xl, vl, al, limit):
+                    vl[j, b] += 0.5 * (al[j, b] + a_new) * dt
+                    w_fric[b] += 0.5 * (ff_o[j, b] + ffl[j, b]) * dx[j, b]
+                al[j, b] = a_new
+        if not init:
+            for e in range(ne):
+                for b in range(nb):
+                    wl[e, b] += 0.5 * (f_o[e, b] + fl[e, b]) * (ul[e, b] - u_o[e, b])
+    for b in range(nb):
+        i = idx[b]
+        healthy = True
+        for j in range(N):
+            if not (abs(xl[j, b]) <= limit and abs(vl[j, b]) <= limit and math.isfinite(al[j, b])):
+                healthy = False
+        if not healthy:
             div[i] = True
             continue
         energy = 0.0
         for j in range(N):
-            x[i, j], v[i, j], a[i, j], ff[i, j] = xl[j], vl[j], al[j], ffl[j]
-            ox[i, j], ov[i, j], oa[i, j] = xl[j], vl[j], al[j]
-            energy += 0.5 * m[j] * vl[j] * vl[j]
+            x[i, j], v[i, j], a[i, j], ff[i, j] = xl[j, b], vl[j, b], al[j, b], ffl[j, b]
+            ox[i, j], ov[i, j], oa[i, j] = xl[j, b], vl[j, b], al[j, b]
+            energy += 0.5 * m[j, b] * vl[j, b] * vl[j, b]
         stored[i] = energy
-        dissipated[i, 0] = w_fric
+        dissipated[i, 0] = w_fric[b]
         for e in range(ne):
-            up[i, e], fel[i, e] = upl[e], fl[e]
-            crush[i, e], force[i, e], work_done[i, e] = ul[e], fl[e], wl[e]
+            up[i, e], fel[i, e] = upl[e, b], fl[e, b]
+            crush[i, e], force[i, e], work_done[i, e] = ul[e, b], fl[e, b], wl[e, b]
             fr = el_front[e]
-            rate_out[i, e] = vl[el_back[e]] - (vl[fr] if fr >= 0 else 0.0)
+            rate_out[i, e] = vl[el_back[e], b] - (vl[fr, b] if fr >= 0 else 0.0)
 
 
-# Not cached: a cached parallel loop called from a cached caller crashed on loading.
-@njit(parallel=True)
+@njit(cache=True, error_model="numpy")
+def _step_range(state, out, params, scale, active, first, last, init, dt, n_sub, limit, div):
+    """Step the active trains among ``first`` ≤ i < ``last`` in blocks of :data:`BLOCK`."""
+    w = _scratch(params.mu.shape[0], params.front.shape[0], BLOCK)
+    nb = 0
+    for i in range(first, last):
+        if active[i]:
+            w.idx[nb] = i
+            nb += 1
+        if nb == BLOCK or (i == last - 1 and nb > 0):
+            _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb)
+            nb = 0
+
+
+@njit(cache=True, error_model="numpy")
+def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, limit, div):
+    """:func:`reference_batch_step` for the surrogate model (paper eq. 4).
+
+    ``state`` is a :class:`SurrogateState`, ``params`` :class:`SurrogateParams`. No dampers:
+    ``dissipated[:, 1]`` stays 0. The active trains are stepped in blocks of :data:`BLOCK`,
+    each train on its own: the results do not depend on the blocking.
+    """
+    n = active.shape[0]
+    _step_range(state, out, params, scale, active, 0, n, init, dt, n_sub, limit, div)
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
 def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n_sub, limit, div):
-    """:func:`surrogate_batch_step` on all numba threads: ``prange`` over chunks of trains
-    (:func:`chunk_mask`), each chunk one serial call on its trains: bit-identical results.
+    """:func:`surrogate_batch_step` on all numba threads: ``prange`` over
+    :data:`PARALLEL_CHUNKS` equal runs of trains, each stepped as the serial kernel steps
+    them: bit-identical results.
 
     The parameters are taken apart and rebuilt inside the loop: numba's parallel loop cannot
     capture a NamedTuple that nests NamedTuples of arrays.
@@ -341,23 +433,23 @@ def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n
     m, mu, g, v_eps = params.m, params.mu, params.gravity, params.v_eps
     front, back, kind = params.front, params.back, params.kind
     types, lpr = ElementTypes(*params.types), LprModels(*params.lpr)
-    chunks = min(active.shape[0], PARALLEL_CHUNKS)
+    n = active.shape[0]
+    chunks = min(n, PARALLEL_CHUNKS)
     for c in prange(chunks):
         p = SurrogateParams(m, mu, g, v_eps, front, back, kind, types, lpr)
-        surrogate_batch_step(
-            state, out, p, scale, chunk_mask(active, c, chunks), init, dt, n_sub, limit, div
-        )
+        first, last = c * n // chunks, (c + 1) * n // chunks
+        _step_range(state, out, p, scale, active, first, last, init, dt, n_sub, limit, div)
 
 
 @njit(cache=True)
 def _record_surrogate(state, out, params, dt, n_sub, stop, rec):
-    """Record simulation 0 of ``state`` sample by sample with :func:`surrogate_batch_step`
-    into ``rec`` (:class:`Record`); returns the number of samples taken."""
+    """Record simulation 0 of ``state`` sample by sample (:func:`surrogate_batch_step`) into
+    ``rec`` (:class:`Record`); returns the number of samples taken."""
     scale = np.ones((1, params.front.shape[0]))
-    active = np.ones(1, np.bool_)
     div = np.zeros(1, np.bool_)
+    w = _scratch(params.mu.shape[0], params.front.shape[0], 1)
     for k in range(rec.x.shape[0]):
-        surrogate_batch_step(state, out, params, scale, active, k == 0, dt, n_sub, math.inf, div)
+        _step_block(state, out, params, scale, k == 0, dt, n_sub, math.inf, div, w, 1)
         rec.x[k], rec.v[k], rec.a[k] = out.x[0], out.v[0], out.a[0]
         rec.crush[k], rec.force[k], rec.permanent_set[k] = out.crush[0], out.force[0], state.up[0]
         if stop.enabled and k > 0 and _crash_over(out, state.fz, stop):
@@ -386,7 +478,8 @@ def _pack_models(models: list[Any], ranges: list[tuple[float, float]]) -> LprMod
         np.add.at(C[i], e[:, 0], c)
         LO[i], UP[i], MODE[i] = lo[0], up[0], mode
     FR = np.array(ranges, dtype=np.float64).reshape(len(arrays), 2)
-    return LprModels(C, degree, LO, UP, MODE, FR)
+    ends = np.array([_series_ends(C[i], degree[i]) for i in range(len(arrays))])
+    return LprModels(C, degree, LO, UP, MODE, FR, ends)
 
 
 @dataclass
