@@ -96,12 +96,8 @@ def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     n, s = state.shape
     if kind == 3 and lpr.tau > 0.0 and s < 5:
         raise ValueError("a memory surrogate element needs 5 states [x1, v1, x2, v2, s]")
-    x = np.empty(s)
-    xt = np.empty(s)
-    r1 = np.empty(s)
-    r2 = np.empty(s)
-    r3 = np.empty(s)
-    r4 = np.empty(s)
+    buf = np.empty((6, s))  # one allocation: state, stage state, the four stage rates
+    x, xt, r1, r2, r3, r4 = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
     u = np.empty(lpr.lo.shape[0])
     lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     h6 = dt / 6.0
