@@ -6,7 +6,7 @@ import argparse
 import math
 from collections.abc import Callable
 
-__all__ = ["bounded_int", "speed_kmh"]
+__all__ = ["add_parallel_arguments", "bounded_int", "check_parallel", "speed_kmh"]
 
 #: highest speed accepted by ``--speed``, km/h: a sanity bound above twice the FRA class 6
 #: limit of 177 km/h
@@ -40,3 +40,32 @@ def speed_kmh(text: str) -> float:
             f"must be a speed in km/h with 0 < v <= {MAX_SPEED_KMH:g}, got {text} km/h"
         )
     return value
+
+
+def add_parallel_arguments(
+    parser: argparse.ArgumentParser, scope: str, what: str, result: str
+) -> None:
+    """``--workers N`` and ``--address ADDR`` (:func:`railgym.parallel.run_tasks`): ``scope``
+    prefixes both helps, ``what`` runs on them, ``result`` does not depend on N."""
+    parser.add_argument(
+        "--workers",
+        type=bounded_int(1, 1024),
+        default=1,
+        help=f"{scope}run {what} on N processes (or a local Ray instance with the ray extra); "
+        f"{result} not depend on N",
+    )
+    parser.add_argument(
+        "--address",
+        help=f"{scope}join the Ray cluster at HOST:PORT (or 'auto'; needs the ray extra)",
+    )
+
+
+def check_parallel(args: argparse.Namespace) -> None:
+    """Refuse ``--workers``/``--address`` that the task runner cannot serve (e.g. an address
+    without Ray) before any work, naming the flag."""
+    from railgym.parallel import choose_backend
+
+    try:
+        choose_backend(args.workers, args.address)
+    except ValueError as err:
+        raise ValueError(f"{'--address' if args.address else '--workers'}: {err}") from None

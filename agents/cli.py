@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import bounded_int
+from agents._args import add_parallel_arguments, bounded_int, check_parallel
 from agents.controllers import Passive, Skyhook
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
@@ -155,12 +155,7 @@ def _plots(out: Path, model: Any, report: Any, data: dict, runs: dict) -> None:
 
 def paper(args: argparse.Namespace) -> int:
     """``railgym paper``: write the report, print where and the table 3 headline."""
-    from railgym.parallel import choose_backend
-
-    try:  # e.g. --address without Ray: refused before any work
-        choose_backend(args.workers, args.address)
-    except ValueError as err:
-        raise ValueError(f"{'--address' if args.address else '--workers'}: {err}") from None
+    check_parallel(args)
     result = make_report(
         args.out,
         quick=args.quick,
@@ -218,16 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="reduced sizes (CI): M = 51, 101; 5 s runs; one crash variant",
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures")
-    p.add_argument(
-        "--workers",
-        type=bounded_int(1, 1024),
-        default=1,
-        help="run the validation matrix on N processes (or a local Ray instance with the ray "
-        "extra); the report does not depend on N",
-    )
-    p.add_argument(
-        "--address", help="run the validation matrix on the Ray cluster at HOST:PORT (or 'auto')"
-    )
+    add_parallel_arguments(p, "", "the validation matrix", "the report does")
     from agents import evaluate
 
     evaluate.add_arguments(

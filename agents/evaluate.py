@@ -33,7 +33,13 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import MAX_SPEED_KMH, bounded_int, speed_kmh
+from agents._args import (
+    MAX_SPEED_KMH,
+    add_parallel_arguments,
+    bounded_int,
+    check_parallel,
+    speed_kmh,
+)
 from agents.controllers import (
     LQR,
     BogieSkyhook,
@@ -518,18 +524,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="crash: the held-out envelope evaluation on the reference (speeds × two payloads) "
         "of passive, best constant, speed-adaptive and the given policy .zip files",
     )
-    parser.add_argument(
-        "--workers",
-        type=bounded_int(1, 1024),
-        default=1,
-        help="vertical, vehicle: run the cases on N processes (or a local Ray instance with "
-        "the ray extra); the rows do not depend on N",
-    )
-    parser.add_argument(
-        "--address",
-        help="vertical, vehicle: join the Ray cluster at HOST:PORT (or 'auto'; needs the ray "
-        "extra)",
-    )
+    add_parallel_arguments(parser, "vertical, vehicle: ", "the cases", "the rows do")
     parser.add_argument(
         "--trust",
         action="store_true",
@@ -582,12 +577,7 @@ def run(args: argparse.Namespace) -> int:
         print(format_crash_rows(rows))
         return 0
     _only_for(args, {"--envelope": args.envelope}, "--env crash")
-    from railgym.parallel import choose_backend
-
-    try:  # e.g. --address without Ray: refused before any work
-        choose_backend(args.workers, args.address)
-    except ValueError as err:
-        raise ValueError(f"{'--address' if args.address else '--workers'}: {err}") from None
+    check_parallel(args)
     policies = ["passive", "skyhook"] + [p for p in args.policy if p not in ("passive", "skyhook")]
     if args.env == "vehicle":
         rows = evaluate_vehicle(

@@ -81,9 +81,10 @@ def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     :func:`_advance_scalar` (the same results)."""
     d = lpr.lo.shape[0]
     n = state.shape[0]
-    if kind == 3 and lpr.additive and (d == 2 or d == 3) and n >= PARALLEL_MIN:
+    lanes = kind == 3 and lpr.additive and (d == 2 or d == 3)
+    if lanes and n >= PARALLEL_MIN:
         advance_lanes_parallel(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
-    elif kind == 3 and lpr.additive and (d == 2 or d == 3) and n >= LANES_MIN:
+    elif lanes and n >= LANES_MIN:
         advance_lanes(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
     else:
         _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
