@@ -162,7 +162,7 @@ class PassiveLegendreRegression(LegendreRegression):
             raise ModelFieldError(f"model.params.{exc}") from None
         dt_du = 2.0 / (self.upper_ - self.lower_)
         min_slope = np.full(self.n_features_in_, np.nan)
-        for j in np.flatnonzero(mono):
+        for j in (i for i, m in enumerate(mono) if m):
             _, slope = _slope_minima(self.coef_, self.exponents_, j)
             own = (self.exponents_[:, j] > 0) & (
                 self.exponents_.sum(axis=1) == self.exponents_[:, j]
