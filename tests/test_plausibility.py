@@ -56,3 +56,39 @@ def test_the_vector_env_flags_a_train_crushed_through(kmh, flagged):
         _, _, _, _, info = venv.step(np.zeros(venv.action_space.shape, np.float32))
         seen |= info["diverged"]
     assert seen.tolist() == [flagged, flagged]
+
+
+def _element_file(tmp_path, **document):
+    from surrogates import LegendreRegression, io
+
+    u = np.random.default_rng(0).uniform(-1.0, 1.0, (200, 2))  # another problem: [-1, 1]²
+    model = LegendreRegression(degree=3).fit(u, u.sum(axis=1))
+    return str(io.save(model, tmp_path / "element.json", **document))
+
+
+@pytest.mark.parametrize("env_id", ["railgym/VerticalSuspension-v0", "railgym/VerticalVehicle-v0"])
+@pytest.mark.parametrize(
+    ("document", "message"),
+    [
+        ({}, r"input 'u1' has no unit in features\.units"),
+        (
+            {"inputs": ["d", "v"], "output": "F", "units": {"d": "mm", "v": "m/s", "F": "N"}},
+            r"input 'd' has unit 'mm'",
+        ),
+        (
+            {"inputs": ["d", "v"], "output": "F", "units": {"d": "m", "v": "m/s", "F": "kN"}},
+            r"output 'F' has unit 'kN'",
+        ),
+    ],
+    ids=["no units", "mm", "kN"],
+)
+def test_an_element_in_other_units_is_refused(tmp_path, env_id, document, message):
+    with pytest.raises(ValueError, match=rf"^surrogate .*{message}"):
+        gym.make(env_id, surrogate=_element_file(tmp_path, **document))
+
+
+def test_an_element_in_si_units_is_taken(tmp_path):
+    units = {"d": "m", "v": "m/s", "F": "N"}
+    path = _element_file(tmp_path, inputs=["d", "v"], output="F", units=units)
+    env = gym.make("railgym/VerticalSuspension-v0", surrogate=path, duration=0.1)
+    env.reset(seed=0)
