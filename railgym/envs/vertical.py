@@ -193,7 +193,7 @@ def _check_element_units(surrogate: Any, d: int) -> None:
                 "surrogate",
                 f"{'output' if name == output else 'input'} {name!r} has {found} in "
                 "features.units; the suspension element "
-                f"takes {', '.join(f'{n!r} in {u}' for n, u in zip(names, ELEMENT_UNITS))} "
+                f"takes {', '.join(f'{n!r} in {u}' for n, u in wanted[:-1])} "
                 f"and gives {output!r} in {ELEMENT_OUTPUT_UNIT} (save it with those units)",
             )
 
