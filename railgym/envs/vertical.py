@@ -198,12 +198,23 @@ def _check_element_units(surrogate: Any, d: int) -> None:
             )
 
 
+def check_speed(speed: Any, field: str = "speed") -> float:
+    """A speed in m/s, at least ``LIMITS["speed_min"]``."""
+    v = val.positive(speed, field)
+    if v < LIMITS["speed_min"]:
+        raise val.FieldError(
+            field,
+            f"must be at least {LIMITS['speed_min']:g} m/s (the env's lowest speed), got {speed!r}",
+        )
+    return v
+
+
 def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[int, float]:
     """Validated ``(track_class, speed)``; speed at most ``speed_limit`` (m/s, default
     ``LIMITS["speed_factor"]`` × the class's maximum speed)."""
     class_parameters(track_class)  # raises ValueError naming track_class
     v_max = class_speed(track_class)
-    v = v_max if speed is None else val.positive(speed, "speed")
+    v = v_max if speed is None else check_speed(speed)
     limit = LIMITS["speed_factor"] * v_max if speed_limit is None else speed_limit
     if v > limit:
         raise val.FieldError(
