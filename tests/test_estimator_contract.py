@@ -84,7 +84,9 @@ def test_every_hyperparameter_round_trips_through_json(cls, params):
 def test_kriging_seed_and_n_starts_change_the_search_and_are_saved():
     a = Kriging(n_starts=1, seed=0).fit(U, V)
     b = Kriging(n_starts=3, seed=5).fit(U, V)
-    assert b.log_likelihood_ >= a.log_likelihood_ - 1e-9  # more starts: never a worse optimum
+    # more starts: no worse an optimum, up to the optimizer's stopping tolerance (the starts
+    # differ by seed, and where each stops depends on the CPU's rounding)
+    assert b.log_likelihood_ >= a.log_likelihood_ - 1e-4 * abs(a.log_likelihood_)
     saved = a.to_dict()["params"]
     assert saved["n_starts"] == 1 and saved["seed"] == 0 and saved["max_samples"] == 2000
     c = Kriging(n_starts=3, seed=5).fit(U, V)

@@ -162,9 +162,51 @@ def _surrogate_arrays(backend: str, surrogate: Any, dt: float) -> LprArrays:
             f"got {type(surrogate).__name__}",
         )
     try:
-        return surrogate_arrays(surrogate, dt)
+        lpr = surrogate_arrays(surrogate, dt)
     except ValueError as exc:
         raise val.FieldError("surrogate", str(exc), full=True) from None
+    _check_element_units(surrogate, lpr.exps.shape[1])
+    return lpr
+
+
+#: units of the suspension element's inputs (deflection, its rate, Maxwell state) and output
+ELEMENT_UNITS = ("m", "m/s", "m")
+ELEMENT_OUTPUT_UNIT = "N"
+
+
+def _check_element_units(surrogate: Any, d: int) -> None:
+    """A model read from a file (``features_``) must give the units the kernel assumes:
+    deflection m, velocity m/s (and the Maxwell state m) in, force N out; an element fitted on
+    another problem, or in mm or kN, is refused. A model fitted in this session carries no
+    units and is taken as SI."""
+    features = getattr(surrogate, "features_", None)
+    if not features:
+        return
+    units, names = features.get("units") or {}, list(features.get("inputs") or [])
+    output = features.get("output")
+    wanted = [*zip(names[:d], ELEMENT_UNITS[:d], strict=True), (output, ELEMENT_OUTPUT_UNIT)]
+    for name, unit in wanted:
+        got = units.get(name)
+        if got != unit:
+            found = "no unit" if got is None else f"unit {got!r}"
+            raise val.FieldError(
+                "surrogate",
+                f"{'output' if name == output else 'input'} {name!r} has {found} in "
+                "features.units; the suspension element "
+                f"takes {', '.join(f'{n!r} in {u}' for n, u in wanted[:-1])} "
+                f"and gives {output!r} in {ELEMENT_OUTPUT_UNIT} (save it with those units)",
+            )
+
+
+def check_speed(speed: Any, field: str = "speed") -> float:
+    """A speed in m/s, at least ``LIMITS["speed_min"]``."""
+    v = val.positive(speed, field)
+    if v < LIMITS["speed_min"]:
+        raise val.FieldError(
+            field,
+            f"must be at least {LIMITS['speed_min']:g} m/s (the env's lowest speed), got {speed!r}",
+        )
+    return v
 
 
 def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[int, float]:
@@ -172,7 +214,7 @@ def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     ``LIMITS["speed_factor"]`` × the class's maximum speed)."""
     class_parameters(track_class)  # raises ValueError naming track_class
     v_max = class_speed(track_class)
-    v = v_max if speed is None else val.positive(speed, "speed")
+    v = v_max if speed is None else check_speed(speed)
     limit = LIMITS["speed_factor"] * v_max if speed_limit is None else speed_limit
     if v > limit:
         raise val.FieldError(
