@@ -71,11 +71,19 @@ def _indices(run: dict[str, Any], fs: float) -> dict[str, float]:
     }
 
 
+#: the files ``railgym demo`` writes into its folder, with what each shows
+DEMO_FILES = {
+    "samples_and_oob.png": "training samples and out-of-bag prediction (paper figs. 7, 8)",
+    "carbody_acceleration.png": "carbody acceleration, surrogate vs reference (paper fig. 9)",
+}
+
+
 def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
-    """Build the surrogate, compare surrogate and reference under skyhook, write plots into
-    ``out`` (an existing non-empty folder only with ``overwrite``)."""
+    """Build the surrogate, compare surrogate and reference under skyhook, write the plots of
+    :data:`DEMO_FILES` into ``out``. A folder holding only these files is reused (a re-run
+    replaces them); one holding other files only with ``overwrite``."""
     seed = val.integer(seed, "seed", min=0)
-    out = prepare_output_dir(out, overwrite)
+    out = prepare_output_dir(out, overwrite, own=DEMO_FILES)
     print("1-3. collect (dynamic reference, FRA class 5, 144 km/h, 20 s at 50 Hz), sample, fit")
     model, report, data = build_vertical_surrogate(m=101, seed=seed, track_seed=seed)
     print(report.format().split("\n   candidate")[0])
@@ -202,8 +210,18 @@ def build_parser() -> argparse.ArgumentParser:
     common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     parser = argparse.ArgumentParser(prog="railgym", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    written = "\n".join(f"  {name}: {what}" for name, what in DEMO_FILES.items())
     d = sub.add_parser(
-        "demo", parents=[common], help="build a surrogate, run surrogate vs reference, plot"
+        "demo",
+        parents=[common],
+        help="build a surrogate, run surrogate vs reference, plot",
+        description="Build the surrogate element from the reference model, run one episode\n"
+        "each on the surrogate and the reference, passive and with skyhook, print the\n"
+        "paper's indices and write the plots.",
+        epilog=f"writes into --out (default railgym-demo/):\n{written}\nA folder that holds "
+        "only these files is reused and they are replaced, so the command\ncan be run "
+        "again; a folder with other files needs --overwrite.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _out_arguments(d, "railgym-demo", "the plots")
     p = sub.add_parser("paper", parents=[common], help="the paper's tables and figures")

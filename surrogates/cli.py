@@ -132,6 +132,7 @@ def _export_fmu(args: argparse.Namespace) -> int:
     from surrogates.fmi import FMUExportError, export_fmu
 
     try:
+        _check_output(args.fmu, "-o", args.overwrite)
         path = export_fmu(
             args.model,
             args.fmu,

@@ -1,4 +1,5 @@
 import json
+from functools import partial
 
 import numpy as np
 import pytest
@@ -111,3 +112,41 @@ def test_demo_passes_the_surrogate_only_to_its_backend_and_warns_nothing(
         "samples_and_oob.png",
         "carbody_acceleration.png",
     }
+
+
+def test_demo_runs_twice_as_written_and_keeps_foreign_folders(tmp_path, monkeypatch, capsys):
+    """README command 1 (``railgym demo``, default folder) run a second time replaces its own
+    plots; a folder holding another file is still refused (exit 2) and left alone."""
+    from agents import cli
+    from railgym.envs.vertical import VerticalSuspensionEnv
+    from railgym.vehicles.collect import build_vertical_surrogate
+
+    monkeypatch.setattr(
+        cli,
+        "build_vertical_surrogate",
+        lambda m, **kw: build_vertical_surrogate(m=41, sampling="greedy", **kw),
+    )
+    # 4 s episodes: the folder logic is under test here, not the physics
+    monkeypatch.setattr(cli, "VerticalSuspensionEnv", partial(VerticalSuspensionEnv, duration=4.0))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["demo"]) == 0
+    first = {p.name: p.stat().st_mtime_ns for p in (tmp_path / "railgym-demo").iterdir()}
+    assert cli.main(["demo"]) == 0
+    again = {p.name: p.stat().st_mtime_ns for p in (tmp_path / "railgym-demo").iterdir()}
+    assert set(first) == set(again) == set(cli.DEMO_FILES)
+    assert all(again[name] > first[name] for name in first)  # replaced, not kept
+    (tmp_path / "railgym-demo" / "notes.txt").write_text("mine")
+    capsys.readouterr()
+    assert cli.main(["demo"]) == 2
+    err = capsys.readouterr().err
+    assert "holds 'notes.txt'" in err and "--overwrite" in err
+    assert (tmp_path / "railgym-demo" / "notes.txt").read_text() == "mine"
+
+
+def test_demo_help_lists_the_files_it_writes(capsys):
+    from agents import cli
+
+    with pytest.raises(SystemExit):
+        cli.main(["demo", "--help"])
+    out = capsys.readouterr().out
+    assert all(name in out for name in cli.DEMO_FILES) and "run again" in out
