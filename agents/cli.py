@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from agents._args import add_parallel_arguments, bounded_int, check_parallel
+from agents._extras import MissingExtraError, report_missing
 from agents.controllers import Passive, Skyhook
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
@@ -258,6 +259,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     }[args.command]
     try:
         return command(args)
+    except MissingExtraError as err:
+        if args.debug:
+            raise
+        return report_missing(err, f"railgym {args.command}", args.command)
     except (ValueError, OSError) as err:
         if args.debug:
             raise

@@ -40,6 +40,7 @@ from agents._args import (
     check_parallel,
     speed_kmh,
 )
+from agents._extras import require
 from agents.controllers import (
     LQR,
     BogieSkyhook,
@@ -120,6 +121,7 @@ def load_policy(
             f"policy must be {names}an existing stable-baselines3 .zip or an RLlib checkpoint "
             f"folder, got {policy!r}"
         )
+    require("loading a stable-baselines3 policy", "torch", "stable_baselines3")
     cfg_path = path.parent / "config.yaml"
     if not cfg_path.is_file():
         raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
