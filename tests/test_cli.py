@@ -150,3 +150,91 @@ def test_demo_help_lists_the_files_it_writes(capsys):
         cli.main(["demo", "--help"])
     out = capsys.readouterr().out
     assert all(name in out for name in cli.DEMO_FILES) and "run again" in out
+
+
+def _build_args(tmp_path, *extra):
+    return [
+        "build",
+        str(tmp_path / "d.csv"),
+        "--inputs",
+        "du",
+        "dv",
+        "--output",
+        "F",
+        "-o",
+        str(tmp_path / "m.json"),
+        "--m",
+        "61",
+        "--sampling",
+        "greedy",
+        "--quiet",
+        "--overwrite",
+        *extra,
+    ]
+
+
+def test_build_degree_options_fix_or_widen_the_search(tmp_path, capsys):
+    _write_csv(tmp_path / "d.csv")
+    assert main(_build_args(tmp_path, "--degree", "3", "2")) == 0
+    out = capsys.readouterr().out
+    assert io.load(tmp_path / "m.json").degree == (3, 2)
+    assert "warning" not in out  # one fixed degree: no search range to widen
+    assert main(_build_args(tmp_path, "--max-degree", "2")) == 0
+    out = capsys.readouterr().out
+    rows = [line for line in out.splitlines() if line.strip()[:3] in {"1,1", "1,2", "2,1", "2,2"}]
+    assert len(rows) == 4  # the candidates (1..2) × (1..2)
+    # the cubic force needs degree 3 in du: the winner sits at the cap, and the warning says
+    # which option widens the range
+    assert "widen the search range (--max-degree on the command line" in out
+    assert main(_build_args(tmp_path, "--max-degree", "5", "1")) == 0
+    degree = io.load(tmp_path / "m.json").degree
+    assert degree[0] >= 3 and degree[1] == 1  # the search reached the cubic in du
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--degree", "1", "2", "3"], "--degree takes 1 or 2 values"),
+        (["--max-degree", "0"], "--max-degree values must be in 1..200"),
+        (["--degree", "2", "--kind", "kriging"], "apply to --kind lpr only"),
+    ],
+)
+def test_build_degree_options_bad_values(tmp_path, capsys, extra, message):
+    _write_csv(tmp_path / "d.csv")
+    assert main(_build_args(tmp_path, *extra)) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_collect_command_takes_the_degree_options(tmp_path, capsys):
+    from railgym.vehicles import collect
+
+    out = tmp_path / "static.json"
+    argv = ["--features", "static", "--m", "51", "--output", str(out), "--quiet"]
+    assert collect.main([*argv, "--degree", "3", "4"]) == 0
+    assert io.load(out).degree == (3, 4)
+    assert collect.main([*argv, "--max-degree", "2"]) == 0
+    assert "--max-degree on the command line" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        collect.main(["--features", "maxwell", "--max-degree", "8", "14", "9"])
+    assert exc.value.code == 2
+    assert "max_degree[0] must be at least 10" in capsys.readouterr().err
+    assert collect.memory_degrees((12, 6, 3)) == [(10, 6, 3), (12, 6, 3)]
+
+
+def test_progress_bars_only_on_a_terminal(monkeypatch):
+    import io as stdio
+    import sys
+
+    from surrogates.cli import progress_bar
+
+    class Terminal(stdio.StringIO):
+        def isatty(self):
+            return True
+
+    for stream, shown in ((stdio.StringIO(), False), (Terminal(), True)):
+        monkeypatch.setattr(sys, "stderr", stream)
+        bar = progress_bar()
+        bar("selection", 1, 2)
+        bar("selection", 2, 2)
+        assert ("selection" in stream.getvalue()) == shown
