@@ -36,6 +36,7 @@ from agents.controllers import Passive, Skyhook
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.progress import quiet, stages
 from railgym.report import make_report
 from railgym.report.output import prepare_output_dir
 from railgym.vehicles.collect import build_vertical_surrogate
@@ -86,7 +87,9 @@ def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
     seed = val.integer(seed, "seed", min=0)
     out = prepare_output_dir(out, overwrite, own=DEMO_FILES)
     print("1-3. collect (dynamic reference, FRA class 5, 144 km/h, 20 s at 50 Hz), sample, fit")
-    model, report, data = build_vertical_surrogate(m=101, seed=seed, track_seed=seed)
+    model, report, data = build_vertical_surrogate(
+        m=101, seed=seed, track_seed=seed, progress=stages()
+    )
     print(report.format().split("\n   candidate")[0])
     runs: dict[tuple[str, str], dict[str, Any]] = {}
     for backend in ("surrogate", "reference"):
@@ -209,6 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
     """The ``railgym`` argument parser."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    common.add_argument(
+        "--quiet", action="store_true", help="no progress bars (shown only on a terminal)"
+    )
     parser = argparse.ArgumentParser(prog="railgym", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     written = "\n".join(f"  {name}: {what}" for name, what in DEMO_FILES.items())
@@ -258,7 +264,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "refine": refine.run,
     }[args.command]
     try:
-        return command(args)
+        with quiet(args.quiet):
+            return command(args)
     except MissingExtraError as err:
         if args.debug:
             raise

@@ -54,6 +54,7 @@ from agents.policy_io import check_manifest, load_policy_weights
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
+from railgym.progress import bar
 
 ENV_ID = "railgym/VerticalSuspension-v0"
 VEHICLE_ID = "railgym/VerticalVehicle-v0"
@@ -343,7 +344,7 @@ def evaluate_vehicle(
         for tc, v in cases
         for p in policies
     ]
-    results = iter(run_tasks(_run_vehicle_task, tasks, workers, address))
+    results = iter(run_tasks(_run_vehicle_task, tasks, workers, address, desc="cases"))
     rows = []
     for tc, _ in cases:
         passive = None
@@ -403,7 +404,7 @@ def evaluate_crash(
         load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")
         for p in val.sequence(policies, "policies")
     ]
-    for v in speeds_kmh:
+    for v in bar(speeds_kmh, desc="speeds"):
         passive = None
         for factory, env_kwargs, label in loaded:
             env = gym.make(CRASH_ID, backend=backend, **{**env_kwargs, "speed": v / 3.6})

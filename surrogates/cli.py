@@ -18,7 +18,7 @@ from surrogates.builder import build
 from surrogates.models.validation import MAX_DEGREE
 
 
-def progress_bar() -> Callable[[str, int, int], None]:
+def _progress_bar() -> Callable[[str, int, int], None]:
     """A tqdm bar per pipeline stage on stderr, as a ``build(progress=...)`` callback; off
     when stderr is not a terminal."""
     from tqdm import tqdm
@@ -164,7 +164,7 @@ def _build(args: argparse.Namespace) -> int:
         sampling=args.sampling,
         selection=args.selection,
         seed=args.seed,
-        progress=None if args.quiet else progress_bar(),
+        progress=None if args.quiet else _progress_bar(),
         candidates=candidates,
     )
     if args.report:

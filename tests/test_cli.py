@@ -222,19 +222,26 @@ def test_collect_command_takes_the_degree_options(tmp_path, capsys):
     assert collect.memory_degrees((12, 6, 3)) == [(10, 6, 3), (12, 6, 3)]
 
 
-def test_progress_bars_only_on_a_terminal(monkeypatch):
+def test_progress_bars_only_on_a_terminal_and_not_when_quiet(monkeypatch):
     import io as stdio
     import sys
 
-    from surrogates.cli import progress_bar
+    from railgym.progress import quiet, stages
+    from surrogates.cli import _progress_bar
 
     class Terminal(stdio.StringIO):
         def isatty(self):
             return True
 
-    for stream, shown in ((stdio.StringIO(), False), (Terminal(), True)):
-        monkeypatch.setattr(sys, "stderr", stream)
-        bar = progress_bar()
-        bar("selection", 1, 2)
-        bar("selection", 2, 2)
-        assert ("selection" in stream.getvalue()) == shown
+    for make in (stages, _progress_bar):
+        for stream, silent, shown in (
+            (stdio.StringIO(), False, False),
+            (Terminal(), False, True),
+            (Terminal(), True, make is _progress_bar),  # quiet() is railgym's switch
+        ):
+            monkeypatch.setattr(sys, "stderr", stream)
+            with quiet(silent):
+                update = make()
+                update("selection", 1, 2)
+                update("selection", 2, 2)
+            assert ("selection" in stream.getvalue()) == shown, (make, silent)

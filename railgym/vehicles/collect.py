@@ -564,7 +564,8 @@ def refine(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Regenerate a packaged element (or write one elsewhere)."""
-    from surrogates.cli import UsageError, add_degree_arguments, check_degrees, progress_bar
+    from railgym.progress import quiet, stages
+    from surrogates.cli import UsageError, add_degree_arguments, check_degrees
 
     parser = argparse.ArgumentParser(
         prog="python -m railgym.vehicles.collect", description=__doc__.split("\n\n")[0]
@@ -592,28 +593,29 @@ def main(argv: Sequence[str] | None = None) -> int:
             cands = [degree] if degree else (memory_degrees(top) if top else None)
     except (UsageError, ValueError) as err:
         parser.error(str(err))
-    progress = None if args.quiet else progress_bar()
+    progress = stages()
     out = args.output or str(Path(__file__).parents[1] / "data" / PACKAGED[args.features])
     where = (
         "FRA class 5, 144 km/h, 20 s, track seed 0"
         if args.design == "paper"
         else "envelope design (classes 3-6, 0.7/1.0 of class speed, passive + excited)"
     )
-    if args.features == "static":
-        model, report, _ = build_vertical_surrogate(
-            m=args.m, design=args.design, candidates=cands, progress=progress
-        )
-        text = report.format()
-        source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
-    else:
-        model, report, _ = build_memory_surrogate(
-            design=args.design, degrees=cands or MEMORY_DEGREES, progress=progress
-        )
-        text = report.format()
-        source = (
-            f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
-            "F_s - F_bump with the Maxwell state"
-        )
+    with quiet(args.quiet):
+        if args.features == "static":
+            model, report, _ = build_vertical_surrogate(
+                m=args.m, design=args.design, candidates=cands, progress=progress
+            )
+            text = report.format()
+            source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
+        else:
+            model, report, _ = build_memory_surrogate(
+                design=args.design, degrees=cands or MEMORY_DEGREES, progress=progress
+            )
+            text = report.format()
+            source = (
+                f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
+                "F_s - F_bump with the Maxwell state"
+            )
     save_vertical_surrogate(model, report, out, source)
     print(text)
     print(f"written to {out}")
