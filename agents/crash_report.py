@@ -27,6 +27,7 @@ from agents.crash_baselines import (
 )
 from agents.evaluate import CRASH_ID, load_policy
 from railgym.envs.crash import TrainCrashVectorEnv, default_surrogate, env_surrogate
+from railgym.progress import bar, quiet
 from railgym.vehicles.crash import load_scenario
 from railgym.vehicles.crash.elements import MatrixRow, validation_matrix
 
@@ -41,7 +42,7 @@ FITS = ("nominal", "per-speed", "envelope")
 def baseline_rows(speeds_kmh: Any = SPEEDS_KMH, scenario: str = "paper") -> list[dict[str, Any]]:
     """Criteria of each baseline at each speed on the reference backend (one row each)."""
     rows = []
-    for kmh in speeds_kmh:
+    for kmh in bar(list(speeds_kmh), desc="baselines"):
         env = TrainCrashVectorEnv(
             num_envs=1, backend="reference", scenario=scenario, speed=kmh / 3.6
         )
@@ -71,7 +72,7 @@ def surrogate_error_rows(
     sc = load_scenario(scenario)
     actions = np.array([[a, a] for a in ERROR_ACTIONS])
     rows = []
-    for kmh in speeds_kmh:
+    for kmh in bar(list(speeds_kmh), desc=f"surrogate fitted {fit}"):
         if fit == "nominal":
             sur = default_surrogate(sc)
         elif fit == "per-speed":
@@ -116,15 +117,15 @@ def envelope_rows(
     ``envelope`` scenario)."""
     kwargs = {"scenario": "envelope", **(env_kwargs or {}), "backend": "reference"}
     rows = []
-    for kmh in speeds_kmh:
-        for payload in payloads_t:
-            options = {"speed_kmh": kmh, "payload_t": list(payload)}
-            for name, factory in policies.items():
-                env = TrainCrashVectorEnv(num_envs=1, **kwargs)
-                crit = rollout(env, factory(env), options=options)[0].criteria()
-                rows.append(
-                    {"controller": name, "speed_kmh": kmh, "payload_t": payload, "criteria": crit}
-                )
+    cases = [(kmh, payload) for kmh in speeds_kmh for payload in payloads_t]
+    for kmh, payload in bar(cases, desc="envelope cases"):
+        options = {"speed_kmh": kmh, "payload_t": list(payload)}
+        for name, factory in policies.items():
+            env = TrainCrashVectorEnv(num_envs=1, **kwargs)
+            crit = rollout(env, factory(env), options=options)[0].criteria()
+            rows.append(
+                {"controller": name, "speed_kmh": kmh, "payload_t": payload, "criteria": crit}
+            )
     return rows
 
 
@@ -297,7 +298,14 @@ def main(argv: list[str] | None = None) -> int:
         "the baselines and these trained policies (SB3 .zip written by agents.train)",
     )
     parser.add_argument("--trust", action="store_true", help="as for railgym evaluate")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
+    with quiet(args.quiet):
+        return _report(args)
+
+
+def _report(args: argparse.Namespace) -> int:
+    """The tables ``args`` ask for, printed."""
     if args.envelope is not None:
         policies: dict[str, Any] = dict(BASELINES)
         env_kwargs: dict[str, Any] = {}

@@ -40,6 +40,7 @@ from agents._args import (
     check_parallel,
     speed_kmh,
 )
+from agents._extras import require
 from agents.controllers import (
     LQR,
     BogieSkyhook,
@@ -53,6 +54,7 @@ from agents.policy_io import check_manifest, load_policy_weights
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
+from railgym.progress import bar
 
 ENV_ID = "railgym/VerticalSuspension-v0"
 VEHICLE_ID = "railgym/VerticalVehicle-v0"
@@ -120,6 +122,7 @@ def load_policy(
             f"policy must be {names}an existing stable-baselines3 .zip or an RLlib checkpoint "
             f"folder, got {policy!r}"
         )
+    require("loading a stable-baselines3 policy", "torch", "stable_baselines3")
     cfg_path = path.parent / "config.yaml"
     if not cfg_path.is_file():
         raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
@@ -341,7 +344,7 @@ def evaluate_vehicle(
         for tc, v in cases
         for p in policies
     ]
-    results = iter(run_tasks(_run_vehicle_task, tasks, workers, address))
+    results = iter(run_tasks(_run_vehicle_task, tasks, workers, address, desc="cases"))
     rows = []
     for tc, _ in cases:
         passive = None
@@ -401,7 +404,7 @@ def evaluate_crash(
         load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")
         for p in val.sequence(policies, "policies")
     ]
-    for v in speeds_kmh:
+    for v in bar(speeds_kmh, desc="speeds"):
         passive = None
         for factory, env_kwargs, label in loaded:
             env = gym.make(CRASH_ID, backend=backend, **{**env_kwargs, "speed": v / 3.6})

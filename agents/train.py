@@ -48,18 +48,26 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import stable_baselines3 as sb3
-import torch
 import yaml
 from gymnasium.vector import AutoresetMode, VectorEnv
-from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
-from stable_baselines3.common.logger import configure
-from stable_baselines3.common.utils import set_random_seed
-from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from tqdm import tqdm
 
 import railgym
 from agents._args import bounded_int
+from agents._extras import extra_error, report_missing
+
+try:  # the 'agents' extra
+    import stable_baselines3 as sb3
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+except ImportError as _err:
+    if __name__ == "__main__":
+        sys.exit(report_missing(_err, "python -m agents.train", "training"))
+    raise extra_error(_err, "training (agents.train)") from _err
+
 from agents.policy_io import write_manifest
 from agents.train_config import (
     ALGOS,

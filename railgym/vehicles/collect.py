@@ -32,7 +32,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -151,7 +151,8 @@ def build_vertical_surrogate(
     des = _design(design, duration, sample_rate)
     if design == "paper":
         des = dataclasses.replace(des, seeds=(track_seed,))
-    data = collect_design(des)
+    progress = model_params.get("progress")
+    data = collect_design(des, progress=_stage(progress, "reference runs"))
     model, report = build(
         data["U"],
         data["V"],
@@ -164,6 +165,32 @@ def build_vertical_surrogate(
     )
     model.features_ = {"form": "static", "tau": None, "known_physics": []}
     return model, report, data
+
+
+def _stage(
+    progress: Callable[[str, int, int], None] | None, stage: str
+) -> Callable[[int, int], None] | None:
+    """``progress`` bound to ``stage`` (``None`` stays ``None``)."""
+    if progress is None:
+        return None
+    return lambda i, total: progress(stage, i, total)
+
+
+def memory_degrees(max_degree: Sequence[int]) -> list[tuple[int, ...]]:
+    """The memory element's degree grid up to ``max_degree`` (one per input δ, δ̇, ζ): each
+    input from the start of :data:`MEMORY_DEGREES` in steps of 2 (the packaged grid is
+    ``memory_degrees((18, 14, 9))``)."""
+    starts = (10, 6, 3)
+    if len(max_degree) != len(starts):
+        raise ValueError(f"max_degree needs one degree per input (3), got {len(max_degree)}")
+    for j, (lo, top) in enumerate(zip(starts, max_degree, strict=True)):
+        if top < lo:
+            raise ValueError(f"max_degree[{j}] must be at least {lo} (grid start), got {top}")
+    return list(
+        itertools.product(
+            *(range(lo, top + 1, 2) for lo, top in zip(starts, max_degree, strict=True))
+        )
+    )
 
 
 def memory_training_data(
@@ -209,6 +236,7 @@ def build_memory_surrogate(
     k: int = 5,
     seed: int = 0,
     vehicle: str = "manchester",
+    progress: Callable[[str, int, int], None] | None = None,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
     """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ`` and the degrees chosen by k-fold CV.
 
@@ -221,6 +249,7 @@ def build_memory_surrogate(
     known_physics : ``("bump_stop",)`` adds the vehicle's bump-stop law in the kernel.
     duration, sample_rate : replace the design's (s, Hz); the default trains on 200 Hz.
     k, seed : folds and their shuffling seed.
+    progress : optional ``callback(stage, i, total)`` (reference runs, degree search per τ).
 
     Returns
     -------
@@ -229,14 +258,26 @@ def build_memory_surrogate(
     ``τ``; ``results`` the full tables) and the :func:`collect_design` data with the
     training pairs ``U_memory``, ``V_memory``.
     """
-    data = collect_design(_design(design, duration, sample_rate), vehicle=vehicle)
+    data = collect_design(
+        _design(design, duration, sample_rate),
+        vehicle=vehicle,
+        progress=_stage(progress, "reference runs"),
+    )
     cls = PassiveLegendreRegression if passive else LegendreRegression
     degrees = list(degrees)
     out = TauSelection()
     pairs = {}
     for tau in taus:
         U, V = memory_training_data(data, tau, known_physics, vehicle)
-        res = select_kfold(lambda deg: cls(degree=deg), degrees, U, V, k=k, seed=seed)
+        res = select_kfold(
+            lambda deg: cls(degree=deg),
+            degrees,
+            U,
+            V,
+            k=k,
+            seed=seed,
+            progress=_stage(progress, f"degrees at tau {1e3 * tau:g} ms"),
+        )
         row = next(r for r in res.table if r["candidate"] == res.best)
         out.table.append({"tau": tau, "degree": res.best, "rms": row["rms"], "nrms": row["nrms"]})
         out.results.append(res)
@@ -523,29 +564,58 @@ def refine(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Regenerate a packaged element (or write one elsewhere)."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    from railgym.progress import quiet, stages
+    from surrogates.cli import UsageError, add_degree_arguments, check_degrees
+
+    parser = argparse.ArgumentParser(
+        prog="python -m railgym.vehicles.collect", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("--features", choices=sorted(PACKAGED), default="maxwell")
     parser.add_argument("--design", choices=DESIGNS, default="paper")
     parser.add_argument("--output", help="model JSON (default: the packaged file of the form)")
     parser.add_argument("--m", type=int, default=101, help="static: GA training samples")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_degree_arguments(
+        parser,
+        "; static default 16 per input; maxwell: the grid of each input (from 10, 6, 3 in "
+        "steps of 2) up to N, default 18 14 9",
+    )
     args = parser.parse_args(argv)
+    n_inputs = 2 if args.features == "static" else 3
+    try:
+        degree = check_degrees(args.degree, "--degree", n_inputs)
+        top = check_degrees(args.max_degree, "--max-degree", n_inputs)
+        if args.features == "static":
+            cands = [degree] if degree else None
+            if top is not None:
+                cands = list(itertools.product(*(range(1, t + 1) for t in top)))
+        else:
+            cands = [degree] if degree else (memory_degrees(top) if top else None)
+    except (UsageError, ValueError) as err:
+        parser.error(str(err))
+    progress = stages()
     out = args.output or str(Path(__file__).parents[1] / "data" / PACKAGED[args.features])
     where = (
         "FRA class 5, 144 km/h, 20 s, track seed 0"
         if args.design == "paper"
         else "envelope design (classes 3-6, 0.7/1.0 of class speed, passive + excited)"
     )
-    if args.features == "static":
-        model, report, _ = build_vertical_surrogate(m=args.m, design=args.design)
-        text = report.format()
-        source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
-    else:
-        model, report, _ = build_memory_surrogate(design=args.design)
-        text = report.format()
-        source = (
-            f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
-            "F_s - F_bump with the Maxwell state"
-        )
+    with quiet(args.quiet):
+        if args.features == "static":
+            model, report, _ = build_vertical_surrogate(
+                m=args.m, design=args.design, candidates=cands, progress=progress
+            )
+            text = report.format()
+            source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
+        else:
+            model, report, _ = build_memory_surrogate(
+                design=args.design, degrees=cands or MEMORY_DEGREES, progress=progress
+            )
+            text = report.format()
+            source = (
+                f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
+                "F_s - F_bump with the Maxwell state"
+            )
     save_vertical_surrogate(model, report, out, source)
     print(text)
     print(f"written to {out}")

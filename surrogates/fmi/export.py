@@ -226,7 +226,9 @@ def export_fmu(
     variables = []
     for j, name in enumerate(in_names):
         unit = all_units.get(name, "")
-        rng = f"training range [{lower[j]!r}, {upper[j]!r}]{' ' + unit if unit else ''}"
+        rng = (
+            f"training range [{float(lower[j])!r}, {float(upper[j])!r}]{' ' + unit if unit else ''}"
+        )
         variables.append(Variable(names[j], unit, desc.get(name, f"feature {name!r}, {rng}")))
     out_var = Variable(
         names[-1],
