@@ -522,6 +522,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="vehicle: seconds per episode (default 20)",
     )
     parser.add_argument(
+        "--gap",
+        action="store_true",
+        help="run each policy on the surrogate and on --backend (default the reference) over "
+        "the same held-out cases and print every task metric on both with their relative gap "
+        "(agents.gap)",
+    )
+    parser.add_argument(
         "--envelope",
         action="store_true",
         help="crash: the held-out envelope evaluation on the reference (speeds × two payloads) "
@@ -557,6 +564,10 @@ def _only_for(args: argparse.Namespace, flags: dict[str, bool], envs: str) -> No
 
 def run(args: argparse.Namespace) -> int:
     """``railgym evaluate``: the policies plus passive (and skyhook) for comparison."""
+    if args.gap:
+        from agents.gap import run_gap  # imports this module: not at the top
+
+        return run_gap(args)
     parallel = {"--workers": args.workers != 1, "--address": args.address is not None}
     if args.env == "crash":
         _only_for(args, {**parallel, "--duration": args.duration is not None}, "vertical, vehicle")

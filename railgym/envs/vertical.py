@@ -131,12 +131,13 @@ def make_config(
     )
 
 
-def _surrogate_arrays(backend: str, surrogate: Any, dt: float) -> LprArrays:
+def _surrogate_arrays(backend: str, surrogate: Any, dt: float, kriging: bool = False) -> LprArrays:
     """Kernel arrays of the surrogate element: packaged default, a JSON path or a model.
 
     ``surrogate=`` for a backend that does not use it gives a ``UserWarning`` (it is ignored);
     a model whose inputs do not match its feature form (static: δ, δ̇; maxwell: δ, δ̇, δ − s)
-    or whose ``τ`` is below ``dt/2`` (s) is rejected.
+    or whose ``τ`` is below ``dt/2`` (s) is rejected, and so is a Kriging unless ``kriging``
+    is set (the one-bogie kernels evaluate it).
     """
     if backend != "surrogate":
         if surrogate is not None:
@@ -158,14 +159,14 @@ def _surrogate_arrays(backend: str, surrogate: Any, dt: float) -> LprArrays:
     if not hasattr(surrogate, "kernel_arrays"):
         raise val.FieldTypeError(
             "surrogate",
-            "must be a Legendre regression (it runs inside the compiled kernel); "
+            "must be a Legendre regression or a Kriging (it runs inside the compiled kernel); "
             f"got {type(surrogate).__name__}",
         )
     try:
-        lpr = surrogate_arrays(surrogate, dt)
+        lpr = surrogate_arrays(surrogate, dt, kriging)
     except ValueError as exc:
         raise val.FieldError("surrogate", str(exc), full=True) from None
-    _check_element_units(surrogate, lpr.exps.shape[1])
+    _check_element_units(surrogate, lpr.lo.shape[0])
     return lpr
 
 
@@ -263,8 +264,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
     Parameters
     ----------
     backend : ``"surrogate"`` (default, paper eq. 2), ``"reference"`` or ``"linear"``.
-    surrogate : LPR model, path of a model JSON, or ``None`` for the packaged element; only
-        for ``backend="surrogate"``.
+    surrogate : LPR or Kriging model, path of a model JSON, or ``None`` for the packaged
+        element; only for ``backend="surrogate"``.
     track_class : FRA class 1–6 (default 5, the paper's training case).
     speed : m/s; ``None`` = the class's maximum passenger speed (class 5: 144 km/h); at most
         ``speed_limit``.
@@ -324,7 +325,9 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         self.track_class, self.speed = _check_track(track_class, speed, self.speed_limit)
         self._speed_arg = speed
         self.profile = self._check_profile(profile)
-        sim = VerticalBatch(1, self.cfg, veh, _surrogate_arrays(backend, surrogate, self.cfg.dt))
+        sim = VerticalBatch(
+            1, self.cfg, veh, _surrogate_arrays(backend, surrogate, self.cfg.dt, True)
+        )
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         n_obs = len(self.obs_names)
         self._init_shell(

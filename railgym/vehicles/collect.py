@@ -386,7 +386,7 @@ def _run_policy(
 ) -> dict[str, Any]:
     """One closed-loop run recorded at every integration step (``t, delta, delta_dot,
     force`` F_s, ``a2``), the law evaluated every ``n_sub`` steps on the raw observation."""
-    lpr = surrogate_arrays(element if variant == "surrogate" else None, dt)
+    lpr = surrogate_arrays(element if variant == "surrogate" else None, dt, kriging=True)
     kernel = KERNELS[variant]
     p = veh.kernel_params().record()
     state = initial_state(variant, lpr=lpr)
