@@ -189,22 +189,11 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
 
 
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
-    """Kernel arrays of the secondary-suspension element, the same at both bogies.
-
-    The whole vehicle runs static (δ, δ̇) elements: its default is the paper's packaged static
-    element, and a memory (Maxwell-state) element is rejected, because the kernel carries no
-    element state per bogie.
-    """
+    """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
+    (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state."""
     if backend == "surrogate" and surrogate is None:
         surrogate = default_vertical_surrogate("static")
-    lpr = _surrogate_arrays(backend, surrogate, dt)
-    if lpr.tau > 0.0 or lpr.exps.shape[1] != 2:
-        raise val.FieldError(
-            "surrogate",
-            "must be a static (δ, δ̇) element for VerticalVehicle-v0 (memory elements run in "
-            "VerticalSuspension-v0 only); build one with features='static'",
-        )
-    return lpr
+    return _surrogate_arrays(backend, surrogate, dt)
 
 
 class _VehicleAccessors:
@@ -215,7 +204,8 @@ class _VehicleAccessors:
     @property
     def state(self) -> np.ndarray:
         """Copy of the states (n, s): ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]`` (m, rad, m),
-        their rates, and for the reference backend the air-spring and damper states."""
+        their rates, and for the reference backend the air-spring and damper states, for a
+        memory surrogate element its Maxwell states ``[s_0, s_1]`` (m)."""
         return self.sim.bt.state.copy()
 
     @property
