@@ -36,7 +36,6 @@ from railgym.envs.vertical import BACKENDS, _surrogate_arrays
 from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
-from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -190,9 +189,8 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
 
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
     """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
-    (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state."""
-    if backend == "surrogate" and surrogate is None:
-        surrogate = default_vertical_surrogate("static")
+    (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
+    default is the packaged memory element (``vertical_lpr.json``, docs/validation.md)."""
     return _surrogate_arrays(backend, surrogate, dt)
 
 
@@ -235,7 +233,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
     Parameters
     ----------
     backend : ``"surrogate"`` (default), ``"reference"`` or ``"linear"`` secondary elements.
-    surrogate : LPR model, path of a model JSON, or ``None`` for the packaged element.
+    surrogate : LPR element (static or memory form, the same at both bogies), path of a
+        model JSON, or ``None`` for the packaged memory element.
     track_class : FRA class 1–6 (default 5).
     speed : m/s: a number, a range ``(v_min, v_max)`` drawn uniformly per episode, or
         ``None`` = the class's maximum passenger speed (class 5: 144 km/h); at most

@@ -565,9 +565,7 @@ def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):
 
 
 # ======================================================================== utilities
-def make_batch(
-    n: int, variant: str, n_samples: int, lpr: Lpr | None = None
-) -> tuple[Batch, Out]:
+def make_batch(n: int, variant: str, n_samples: int, lpr: Lpr | None = None) -> tuple[Batch, Out]:
     """Zeroed :class:`Batch` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples
     (states sized by :func:`state_size` for the element ``lpr``)."""
     s = state_size(variant, lpr)
