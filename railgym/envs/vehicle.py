@@ -37,7 +37,6 @@ from railgym.envs.vertical import BACKENDS, _surrogate_arrays, check_speed
 from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
-from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -190,22 +189,10 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
 
 
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
-    """Kernel arrays of the secondary-suspension element, the same at both bogies.
-
-    The whole vehicle runs static (δ, δ̇) elements: its default is the paper's packaged static
-    element, and a memory (Maxwell-state) element is rejected, because the kernel carries no
-    element state per bogie.
-    """
-    if backend == "surrogate" and surrogate is None:
-        surrogate = default_vertical_surrogate("static")
-    lpr = _surrogate_arrays(backend, surrogate, dt)
-    if lpr.tau > 0.0 or lpr.exps.shape[1] != 2:
-        raise val.FieldError(
-            "surrogate",
-            "must be a static (δ, δ̇) element for VerticalVehicle-v0 (memory elements run in "
-            "VerticalSuspension-v0 only); build one with features='static'",
-        )
-    return lpr
+    """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
+    (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
+    default is the packaged memory element (``vertical_lpr.json``, docs/validation.md)."""
+    return _surrogate_arrays(backend, surrogate, dt)
 
 
 class _VehicleAccessors:
@@ -216,7 +203,8 @@ class _VehicleAccessors:
     @property
     def state(self) -> np.ndarray:
         """Copy of the states (n, s): ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]`` (m, rad, m),
-        their rates, and for the reference backend the air-spring and damper states."""
+        their rates, and for the reference backend the air-spring and damper states, for a
+        memory surrogate element its Maxwell states ``[s_0, s_1]`` (m)."""
         return self.sim.bt.state.copy()
 
     @property
@@ -246,7 +234,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
     Parameters
     ----------
     backend : ``"surrogate"`` (default), ``"reference"`` or ``"linear"`` secondary elements.
-    surrogate : LPR model, path of a model JSON, or ``None`` for the packaged element.
+    surrogate : LPR element (static or memory form, the same at both bogies), path of a
+        model JSON, or ``None`` for the packaged memory element.
     track_class : FRA class 1–6 (default 5).
     speed : m/s: a number, a range ``(v_min, v_max)`` drawn uniformly per episode, or
         ``None`` = the class's maximum passenger speed (class 5: 144 km/h); at most

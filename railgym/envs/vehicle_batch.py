@@ -292,7 +292,7 @@ class VehicleBatch:
         self.kind = check_variant(cfg.variant)
         self.params = kernel_params(vehicle, cfg.flexible)
         self.elem = vehicle.suspension.kernel_params().record()
-        self.lpr = Lpr(*lpr[:5])
+        self.lpr = Lpr(*lpr[: len(Lpr._fields)])  # the LPR fields (a Kriging is refused)
         self.span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)  # m
         self.v_min = v_min
         self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(self.span / (v_min * cfg.dt)) + 2
@@ -304,7 +304,7 @@ class VehicleBatch:
                 f"(num_envs={n}, {self.n_samples} samples each); the limit is "
                 f"{LIMITS['track_bytes'] / 2**30:g} GiB",
             )
-        self.bt, self.out = make_batch(n, cfg.variant, self.n_samples)
+        self.bt, self.out = make_batch(n, cfg.variant, self.n_samples, self.lpr)
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)

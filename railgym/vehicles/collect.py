@@ -309,9 +309,11 @@ def save_vertical_surrogate(
     report: BuildReport | TauSelection | None,
     path: str | Path,
     source: str,
+    command: str | None = None,
 ) -> Path:
-    """Write a vertical element with its feature form, names, units and build report
-    (``None``: no report, e.g. a refined element)."""
+    """Write a vertical element with its feature form, names, units, build report
+    (``None``: no report, e.g. a refined element) and the command that builds it (default
+    the packaged recipe of its form)."""
     feat = getattr(model, "features_", {})
     form = feat.get("form", "static")
     inputs, units = _FEATURES[form]
@@ -337,7 +339,7 @@ def save_vertical_surrogate(
         known_physics=feat.get("known_physics", []),
         metadata={
             "source": source,
-            "command": f"python -m railgym.vehicles.collect --features {form}",
+            "command": command or f"python -m railgym.vehicles.collect --features {form}",
             "report": summary,
         },
     )
