@@ -28,9 +28,11 @@ and the variable.
 
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree
 
 from railgym import _validation as val
 
@@ -108,16 +110,18 @@ def _model_description(fmu: Path) -> Any:
 
     if not fmu.is_file():
         raise FMUError("fmu", f"fmu file {str(fmu)!r} does not exist", full=True)
-    try:
+    try:  # the version first: a valid FMI 1.0 or 3.0 FMU is not an invalid FMI 2.0 one
+        with zipfile.ZipFile(fmu) as zf:
+            version = ElementTree.fromstring(zf.read("modelDescription.xml")).get("fmiVersion")
+        if version != "2.0":
+            raise FMUError(
+                "fmu", f"{fmu}: FMI version {version!r} is not supported (FMI 2.0 only)", full=True
+            )
         md = fmpy.read_model_description(str(fmu))
+    except FMUError:
+        raise
     except Exception as exc:  # FMPy raises plain exceptions for a bad archive or XML
         raise FMUError("fmu", f"{fmu}: not a readable FMU: {exc}", full=True) from None
-    if md.fmiVersion != "2.0":
-        raise FMUError(
-            "fmu",
-            f"{fmu}: FMI version {md.fmiVersion!r} is not supported (FMI 2.0 only)",
-            full=True,
-        )
     platforms = fmpy.supported_platforms(str(fmu))
     if fmpy.platform not in platforms:
         raise FMUError(
