@@ -233,6 +233,9 @@ def build_parser() -> argparse.ArgumentParser:
             "export-reference-fmu", parents=[common], help="the reference model as an FMU"
         )
     )
+    fmu_cli.add_policy_arguments(
+        sub.add_parser("export-policy", parents=[common], help="a trained policy as an FMU")
+    )
     return parser
 
 
@@ -243,6 +246,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     command = {
         "export-reference-fmu": fmu_cli.run_reference,
+        "export-policy": fmu_cli.run_policy,
         "demo": lambda a: demo(a.out, a.seed, a.overwrite),
         "paper": paper,
         "evaluate": evaluate.run,

@@ -38,3 +38,27 @@ def run_reference(args: argparse.Namespace) -> int:
     )
     print(f"wrote {fmu} and its mapping file {mapping}")
     return 0
+
+
+def add_policy_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``railgym export-policy``."""
+    parser.add_argument("policy", type=Path, help="the policy .zip (config.yaml beside it)")
+    parser.add_argument("-o", "--output", type=Path, required=True, help="the .fmu to write")
+    parser.add_argument("--onnx", type=Path, help="also write the policy as this .onnx")
+    parser.add_argument("--overwrite", action="store_true", help="replace existing files")
+    parser.add_argument(
+        "--trust",
+        action="store_true",
+        help="export a zip that its manifest.json does not list (only weights are read)",
+    )
+
+
+def run_policy(args: argparse.Namespace) -> int:
+    """Write the controller FMU (and ONNX); print the paths."""
+    from agents.policy_fmu import export_policy
+
+    fmu, onnx = export_policy(
+        args.policy, args.output, args.onnx, trust=args.trust, overwrite=args.overwrite
+    )
+    print(f"wrote {fmu}" + (f" and {onnx}" if onnx else ""))
+    return 0
