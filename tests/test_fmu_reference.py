@@ -75,3 +75,36 @@ def test_fmu_backend_reproduces_the_reference_backend(reference_fmu, fmi_type, t
     scale = np.abs(ref).max(axis=0)
     assert np.all(np.abs(got - ref) <= 1e-9 * scale)
     assert np.abs(ref[:, 6]).max() > 0.3  # a real ride, not a vehicle at rest
+
+
+def test_reference_shadow_on_the_fmu_equals_the_reference_shadow(reference_fmu):
+    from railgym.wrappers import ReferenceShadow
+
+    fmu, mapping = reference_fmu
+    shadows = {}
+    for backend, kw in (("reference", {}), ("fmu", {"fmu": fmu, "fmu_map": mapping})):
+        env = ReferenceShadow(gym.make(ID, duration=1.0), reference_backend=backend, **kw)
+        env.reset(seed=5)
+        actions = np.random.default_rng(2).uniform(-1, 1, (100, 1)).astype(np.float32)
+        for a in actions:
+            *_, term, trunc, info = env.step(a)
+        assert trunc and not term
+        shadows[backend] = info["shadow"]
+    ref, got = shadows["reference"], shadows["fmu"]
+    assert got["reference_backend"] == "fmu" and got["steps"] == ref["steps"] == 100
+    for key in ("err_disp", "err_vel", "err_acc", "rms_acc_reference"):
+        assert got[key] == pytest.approx(ref[key], rel=1e-9), key
+    assert ref["err_acc"] > 1e-3  # the surrogate differs from the reference: a real check
+
+
+def test_fmu_arguments_only_with_backend_fmu(reference_fmu):
+    fmu, mapping = reference_fmu
+    with pytest.raises(ValueError, match="fmu_map is only used with backend='fmu'"):
+        gym.make(ID, backend="reference", fmu_map=mapping)
+    with pytest.raises(ValueError, match="fmu_map is required with backend='fmu'"):
+        gym.make(ID, backend="fmu", fmu=fmu)
+    env = gym.make(ID, backend="fmu", fmu_map=mapping)  # the FMU from the map's fmu:
+    with pytest.raises(TypeError, match="cannot be copied"):
+        import copy
+
+        copy.deepcopy(env.unwrapped)
