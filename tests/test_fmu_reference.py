@@ -108,3 +108,50 @@ def test_fmu_arguments_only_with_backend_fmu(reference_fmu):
         import copy
 
         copy.deepcopy(env.unwrapped)
+
+
+def test_collect_from_the_fmu_equals_the_built_in_collection(reference_fmu):
+    """Stage 1 on your model: the design's runs on the FMU (passive and actuator-excited)
+    give the training data of the built-in reference."""
+    from railgym.fmu.collect import collect_fmu
+    from railgym.vehicles.collect_design import CollectionDesign, collect_design
+
+    fmu, mapping = reference_fmu
+    design = CollectionDesign(track_classes=(5,), speed_factors=(1.0,), duration=3.0)
+    got, ref = collect_fmu(mapping, design), collect_design(design)
+    assert [r["excited"] for r in got["runs"]] == [False, True]
+    assert np.ptp(got["runs"][1]["force_a"]) > 1000.0
+    assert got["U"].shape == ref["U"].shape == (302, 2)
+    np.testing.assert_allclose(got["U"], ref["U"], rtol=0, atol=1e-12 * np.abs(ref["U"]).max())
+    np.testing.assert_allclose(got["V"], ref["V"], rtol=0, atol=1e-12 * np.abs(ref["V"]).max())
+    for a, b in zip(got["runs"], ref["runs"], strict=True):
+        assert a["contacts"] == b["contacts"]
+        scale = np.abs(b["a2"]).max()
+        np.testing.assert_allclose(a["a2"], b["a2"], rtol=0, atol=1e-12 * scale)
+    # the same without the FMU's secondary_force output: F_s = m2·ẍ2 − F_a
+    text = mapping.read_text().replace("  secondary_force: secondary_force\n", "")
+    assert "secondary_force" not in text
+    bare = mapping.with_name("bare.yaml")
+    bare.write_text(text)
+    got = collect_fmu(bare, design, fmu=fmu)
+    np.testing.assert_allclose(got["V"], ref["V"], rtol=0, atol=1e-9 * np.abs(ref["V"]).max())
+
+
+@pytest.mark.slow
+def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, tmp_path):
+    """``python -m railgym.vehicles.collect --fmu-map``: the memory element built on the
+    reference FMU's paper run is the packaged one (which meets docs/validation.md)."""
+    from railgym.vehicles.collect import default_vertical_surrogate
+    from railgym.vehicles.collect import main as collect_main
+    from surrogates import io
+
+    _, mapping = reference_fmu
+    out = tmp_path / "element.json"
+    assert (
+        collect_main(["--features", "maxwell", "--fmu-map", str(mapping), "--output", str(out)])
+        == 0
+    )
+    model, packaged = io.load(out), default_vertical_surrogate()
+    assert model.degree == packaged.degree and model.features_["tau"] == packaged.features_["tau"]
+    scale = np.abs(packaged.coef_).max()
+    np.testing.assert_allclose(model.coef_, packaged.coef_, rtol=0, atol=1e-9 * scale)

@@ -19,6 +19,7 @@ Schema (YAML, version 1; ``docs/fmi.md``)::
       deflection_rate: dd
       carbody_vel: v2
       carbody_disp: x2            # optional (0 when absent)
+      secondary_force: F_s        # optional, for collect (else m2·a2 − actuator force)
 
 Each variable is a name or ``{name: NAME, unit: UNIT}``; the unit (default: the unit the FMU
 declares for the variable; none declared means SI) must convert to the SI unit of the
@@ -57,7 +58,7 @@ ENV_SIGNALS: dict[str, dict[str, Any]] = {
             "deflection_rate": "m/s",
             "carbody_vel": "m/s",
         },
-        "optional": {"carbody_disp": "m"},
+        "optional": {"carbody_disp": "m", "secondary_force": "N"},
     }
 }
 FMI_TYPES = ("CoSimulation", "ModelExchange")

@@ -68,7 +68,7 @@ def reference_mapping(fmu_name: str) -> dict[str, object]:
             "track": [{"displacement": "z", "rate": "zdot"}],
             "actuator_force": ["actuator_force"],
         },
-        "outputs": {name: name for name, _, _ in VERTICAL_OUTPUTS[:6]},
+        "outputs": {name: name for name, _, _ in VERTICAL_OUTPUTS},
     }
 
 

@@ -184,6 +184,16 @@ class FMURunner:
         self.time = 0.0
         return self._outputs(self._call(job, "initialisation"))
 
+    def outputs_at(self, z: np.ndarray, zdot: np.ndarray, forces: np.ndarray) -> np.ndarray:
+        """Outputs (SI) at the current time with the inputs ``z, zdot`` (wheelsets,) m, m/s
+        and ``forces`` (N) set."""
+
+        def job() -> Any:
+            self.fmu.setReal(self.vr_in, self._inputs(z[:, None], zdot[:, None], forces, 0))
+            return self.fmu.getReal(self.vr_out)
+
+        return np.asarray(self._call(job, "fmi2GetReal"), float) * self.out_factor
+
     def _outputs(self, values: Any) -> dict[str, float]:
         y = np.asarray(values, float) * self.out_factor
         return dict(zip(self.out_keys, y.tolist(), strict=True))

@@ -136,6 +136,7 @@ def build_vertical_surrogate(
     design: str | CollectionDesign = "paper",
     duration: float | None = None,
     sample_rate: float | None = None,
+    data: dict[str, Any] | None = None,
     **model_params: Any,
 ) -> tuple[SurrogateModel, BuildReport, dict[str, Any]]:
     """The paper's static vertical element: collect, sample ``m`` points, select, fit.
@@ -146,12 +147,15 @@ def build_vertical_surrogate(
     design. ``track_seed`` is the track seed of the paper design's run.
 
     Returns ``(model, report, data)`` with ``data`` holding ``U`` (n, 2) = (δ, δ̇) and
-    ``V`` = F_s of the samples at ``sample_rate``, and the design's ``runs``.
+    ``V`` = F_s of the samples at ``sample_rate``, and the design's ``runs``. ``data`` given
+    (a :func:`collect_design` result, e.g. from an FMU: :func:`railgym.fmu.collect.collect_fmu`)
+    is used instead of running the design.
     """
-    des = _design(design, duration, sample_rate)
-    if design == "paper":
-        des = dataclasses.replace(des, seeds=(track_seed,))
-    data = collect_design(des)
+    if data is None:
+        des = _design(design, duration, sample_rate)
+        if design == "paper":
+            des = dataclasses.replace(des, seeds=(track_seed,))
+        data = collect_design(des)
     model, report = build(
         data["U"],
         data["V"],
@@ -209,6 +213,7 @@ def build_memory_surrogate(
     k: int = 5,
     seed: int = 0,
     vehicle: str = "manchester",
+    data: dict[str, Any] | None = None,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
     """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ`` and the degrees chosen by k-fold CV.
 
@@ -221,6 +226,8 @@ def build_memory_surrogate(
     known_physics : ``("bump_stop",)`` adds the vehicle's bump-stop law in the kernel.
     duration, sample_rate : replace the design's (s, Hz); the default trains on 200 Hz.
     k, seed : folds and their shuffling seed.
+    data : training data already collected (a :func:`collect_design` result, e.g. from an
+        FMU by :func:`railgym.fmu.collect.collect_fmu`) instead of running ``design``.
 
     Returns
     -------
@@ -229,7 +236,8 @@ def build_memory_surrogate(
     ``τ``; ``results`` the full tables) and the :func:`collect_design` data with the
     training pairs ``U_memory``, ``V_memory``.
     """
-    data = collect_design(_design(design, duration, sample_rate), vehicle=vehicle)
+    if data is None:
+        data = collect_design(_design(design, duration, sample_rate), vehicle=vehicle)
     cls = PassiveLegendreRegression if passive else LegendreRegression
     degrees = list(degrees)
     out = TauSelection()
@@ -528,7 +536,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--design", choices=DESIGNS, default="paper")
     parser.add_argument("--output", help="model JSON (default: the packaged file of the form)")
     parser.add_argument("--m", type=int, default=101, help="static: GA training samples")
+    parser.add_argument("--fmu-map", help="collect from this FMU mapping file (docs/fmi.md)")
+    parser.add_argument("--fmu", help="the FMU of --fmu-map (default: the map's fmu:)")
     args = parser.parse_args(argv)
+    data = None
+    if args.fmu_map is not None and args.output is None:
+        parser.error("--fmu-map needs --output (the packaged element is not replaced)")
+    if args.fmu_map is not None:
+        from railgym.fmu.collect import collect_fmu
+
+        rate = 50.0 if args.features == "static" else MEMORY_SAMPLE_RATE
+        data = collect_fmu(args.fmu_map, _design(args.design, None, rate), args.fmu)
     out = args.output or str(Path(__file__).parents[1] / "data" / PACKAGED[args.features])
     where = (
         "FRA class 5, 144 km/h, 20 s, track seed 0"
@@ -536,16 +554,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         else "envelope design (classes 3-6, 0.7/1.0 of class speed, passive + excited)"
     )
     if args.features == "static":
-        model, report, _ = build_vertical_surrogate(m=args.m, design=args.design)
+        model, report, _ = build_vertical_surrogate(m=args.m, design=args.design, data=data)
         text = report.format()
         source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
     else:
-        model, report, _ = build_memory_surrogate(design=args.design)
+        model, report, _ = build_memory_surrogate(design=args.design, data=data)
         text = report.format()
         source = (
             f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
             "F_s - F_bump with the Maxwell state"
         )
+    if args.fmu_map is not None:
+        source = f"FMU of {args.fmu_map}" + source[source.index(",") :]
     save_vertical_surrogate(model, report, out, source)
     print(text)
     print(f"written to {out}")

@@ -128,8 +128,13 @@ def collect_design(
     vehicle: str = "manchester",
     variant: str = "dynamic",
     dt: float | None = None,
+    run: Any = None,
 ) -> dict[str, Any]:
     """Run the reference model over a design and return its training data.
+
+    ``run(z, zdot, dt, force_a)``, when given, replaces the built-in model: a record as
+    :func:`~railgym.vehicles.vertical.simulate` returns (``t, x1, v1, x2, v2, a2, F_s,
+    contacts``), e.g. an FMU's (:func:`railgym.fmu.collect.collect_fmu`).
 
     Returns
     -------
@@ -161,7 +166,11 @@ def collect_design(
                 if excited
                 else np.zeros(n)
             )
-            rec = simulate(variant, veh, z, zdot, dt, force_a=fa)
+            rec = (
+                simulate(variant, veh, z, zdot, dt, force_a=fa)
+                if run is None
+                else run(z, zdot, dt, fa)
+            )
             m = rec["t"].size
             runs.append(
                 {
