@@ -86,3 +86,60 @@ def collect_fmu(
         )
     finally:
         runner.close()
+
+
+def run_policy_fmu(
+    runner: FMURunner,
+    vehicle: Any,
+    z: np.ndarray,
+    zdot: np.ndarray,
+    law: Any,
+    n_sub: int,
+) -> dict[str, Any]:
+    """A closed-loop run of the FMU as :func:`railgym.vehicles.collect.refine` records the
+    built-in reference: ``law(raw)`` (raw observation ``[x1, v1, x2, v2, ẍ1, ẍ2, z, ż]``, SI)
+    gives the actuator force (N) every ``n_sub`` steps; recorded at every step ``t, delta,
+    delta_dot, force`` (F_s), per control step ``a2``."""
+    m2 = vehicle.kernel_params().m2
+    cols = {k: j for j, k in enumerate(runner.out_keys)}
+    n = (z.size - 1) // n_sub * n_sub
+    rec = np.full((n + 1, 4), np.nan)
+    rec[0] = 0.0
+    runner.reset()
+    last = np.zeros(len(cols))
+    diverged = False
+    for k in range(0, n, n_sub):
+        x2 = last[cols["carbody_disp"]] if "carbody_disp" in cols else 0.0
+        v2 = last[cols["carbody_vel"]]
+        raw = np.array(
+            [
+                x2 + last[cols["deflection"]],
+                v2 + last[cols["deflection_rate"]],
+                x2,
+                v2,
+                last[cols["bogie_acc"]],
+                last[cols["carbody_acc"]],
+                z[k],
+                zdot[k],
+            ]
+        )
+        fa = float(law(raw))
+        y = runner.advance(z[None, k : k + n_sub + 1], zdot[None, k : k + n_sub + 1], [fa])
+        if not np.all(np.isfinite(y)):
+            diverged = True
+            break
+        a2 = y[:, cols["carbody_acc"]]
+        fs = y[:, cols["secondary_force"]] if "secondary_force" in cols else m2 * a2 - fa
+        rec[k + 1 : k + n_sub + 1] = np.column_stack(
+            [y[:, cols["deflection"]], y[:, cols["deflection_rate"]], fs, a2]
+        )
+        last = y[-1]
+    return {
+        "t": np.arange(n + 1) * runner.dt,
+        "delta": rec[:, 0],
+        "delta_dot": rec[:, 1],
+        "force": rec[:, 2],
+        "a2": rec[n_sub::n_sub, 3],
+        "ood": 0,
+        "diverged": diverged,
+    }

@@ -431,6 +431,8 @@ def refine(
     vehicle: str = "manchester",
     seed: int = 0,
     log: Any = print,
+    fmu_map: Any = None,
+    fmu: Any = None,
 ) -> tuple[SurrogateModel, list[dict[str, Any]]]:
     """Policy-aware refinement: add reference samples where the element is worst, refit.
 
@@ -457,6 +459,9 @@ def refine(
         observation (``None``: the raw vector).
     reference : reference variant (``"dynamic"``, or ``"static"`` for a memoryless one).
     seed : seed of the tracks. log : called with one line per round (``None``: silent).
+    fmu_map, fmu : an FMU as the reference instead of ``reference`` (its mapping file and
+        the FMU, default the mapping's ``fmu:``; :mod:`railgym.fmu`), stepped at ``dt`` of
+        ``reference``.
 
     Returns
     -------
@@ -485,8 +490,25 @@ def refine(
         _, z, zdot = track_time_input(track_class, v0, duration, dt, s)
         return z, zdot
 
+    if fmu is not None and fmu_map is None:
+        raise ValueError("fmu: an FMU reference needs its mapping file fmu_map")
+    if fmu_map is None:
+
+        def reference_run(z: np.ndarray, zd: np.ndarray) -> dict[str, Any]:
+            return _run_policy(reference, veh, z, zd, law, None, dt, n_sub)
+
+    else:
+        from railgym.fmu.collect import run_policy_fmu
+        from railgym.fmu.mapping import load_mapping
+        from railgym.fmu.runner import FMURunner
+
+        runner = FMURunner(load_mapping(fmu_map, fmu, "vertical"), dt, n_sub)
+
+        def reference_run(z: np.ndarray, zd: np.ndarray) -> dict[str, Any]:
+            return run_policy_fmu(runner, veh, z, zd, law, n_sub)
+
     holdout = [track((1, i)) for i in range(n_holdout)]
-    refs = [_run_policy(reference, veh, z, zd, law, None, dt, n_sub) for z, zd in holdout]
+    refs = [reference_run(z, zd) for z, zd in holdout]
 
     def score(element: SurrogateModel) -> tuple[float, int]:
         errs, ood = [], 0
@@ -504,7 +526,7 @@ def refine(
             cand_u, cand_v = [], []
             for i in range(n_tracks):
                 z, zd = track((2, r, i))
-                run = _run_policy(reference, veh, z, zd, law, None, dt, n_sub)
+                run = reference_run(z, zd)
                 rows = np.arange(0, run["t"].size, every)
                 rows = rows[np.isfinite(run["force"][rows])]
                 u, v = _element_pairs(model, run, rows, vehicle)
