@@ -177,3 +177,23 @@ def test_refine_on_the_fmu_equals_refine_on_the_reference(reference_fmu):
     U = d["U"]
     scale = np.abs(ref_model.predict(U)).max()
     np.testing.assert_allclose(fmu_model.predict(U), ref_model.predict(U), atol=1e-8 * scale)
+
+
+def test_fmu_vector_env_equals_the_reference_vector_env_through_autoreset(reference_fmu):
+    fmu, mapping = reference_fmu
+    kw = {"num_envs": 3, "vectorization_mode": "vector_entry_point", "duration": 0.3}
+    envs = [
+        gym.make_vec(ID, backend="fmu", fmu=fmu, fmu_map=mapping, **kw),
+        gym.make_vec(ID, backend="reference", **kw),
+    ]
+    outs: list[list] = [[], []]
+    for env in envs:
+        env.reset(seed=7)
+    actions = np.random.default_rng(0).uniform(-1, 1, (45, 3, 1)).astype(np.float32)
+    for a in actions:  # 30 steps per episode: two autoresets
+        for env, out in zip(envs, outs, strict=True):
+            obs, reward, term, trunc, info = env.step(a)
+            out.append(np.column_stack([obs, reward, trunc, info["carbody_acc"]]))
+    got, ref = np.array(outs[0]), np.array(outs[1])
+    assert ref[:, :, 6].sum() == 3  # every sub-env truncated once
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
