@@ -197,3 +197,24 @@ def test_fmu_vector_env_equals_the_reference_vector_env_through_autoreset(refere
     got, ref = np.array(outs[0]), np.array(outs[1])
     assert ref[:, :, 6].sum() == 3  # every sub-env truncated once
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["me", "cs"])
+def test_single_kind_fmus_are_valid_and_accepted_as_the_reference(kind, tmp_path):
+    """``--kind me`` / ``--kind cs``: a model-exchange-only and a co-simulation-only FMU,
+    each the reference without naming ``fmi_type`` (the one the FMU has is used)."""
+    from fmpy.validation import validate_fmu
+
+    out = tmp_path / f"vehicle_{kind}.fmu"
+    assert main(["export-reference-fmu", "--env", "vertical", "-o", str(out), "--kind", kind]) == 0
+    assert validate_fmu(str(out)) == []
+    md = fmpy.read_model_description(str(out))
+    assert (md.modelExchange is not None, md.coSimulation is not None) == (
+        kind == "me",
+        kind == "cs",
+    )
+    kw = {"duration": 0.5, "track_class": 6}
+    actions = np.random.default_rng(3).uniform(-1, 1, (50, 1)).astype(np.float32)
+    ref = _episode(gym.make(ID, backend="reference", **kw), actions)
+    got = _episode(gym.make(ID, backend="fmu", fmu_map=out.with_suffix(".yaml"), **kw), actions)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
