@@ -12,6 +12,8 @@
   cases in parallel (:mod:`agents.evaluate`).
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
   (:mod:`agents.refine`).
+- ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
+  (:mod:`agents.fmu_cli`).
 
 Every subcommand takes ``--debug``. Arguments and output folders are checked before any work;
 a user error (bad value, existing output without ``--overwrite``, unreadable file) is one line
@@ -249,15 +251,27 @@ def build_parser() -> argparse.ArgumentParser:
     refine.add_arguments(
         sub.add_parser("refine", parents=[common], help="refine the element for a policy")
     )
+    from agents import fmu_cli
+
+    fmu_cli.add_reference_arguments(
+        sub.add_parser(
+            "export-reference-fmu", parents=[common], help="the reference model as an FMU"
+        )
+    )
+    fmu_cli.add_policy_arguments(
+        sub.add_parser("export-policy", parents=[common], help="a trained policy as an FMU")
+    )
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``railgym`` command; returns the exit status."""
     args = build_parser().parse_args(argv)
-    from agents import evaluate, refine
+    from agents import evaluate, fmu_cli, refine
 
     command = {
+        "export-reference-fmu": fmu_cli.run_reference,
+        "export-policy": fmu_cli.run_policy,
         "demo": lambda a: demo(a.out, a.seed, a.overwrite),
         "paper": paper,
         "evaluate": evaluate.run,

@@ -491,9 +491,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--backend",
         default="reference",
-        choices=["reference", "surrogate", "linear"],
-        help="model the policies run on (crash: reference or surrogate)",
+        choices=["reference", "surrogate", "linear", "fmu"],
+        help="model the policies run on (crash: reference or surrogate; fmu: vertical, with "
+        "--fmu-map, docs/fmi.md)",
     )
+    parser.add_argument("--fmu", type=Path, help="backend fmu: the FMU (default: the map's fmu:)")
+    parser.add_argument("--fmu-map", type=Path, help="backend fmu: its mapping file (YAML)")
     parser.add_argument(
         "--track-class",
         type=bounded_int(1, 6),
@@ -569,6 +572,11 @@ def run(args: argparse.Namespace) -> int:
 
         return run_gap(args)
     parallel = {"--workers": args.workers != 1, "--address": args.address is not None}
+    fmu = {"fmu": args.fmu, "fmu_map": args.fmu_map} if args.backend == "fmu" else {}
+    if args.backend != "fmu" and (args.fmu is not None or args.fmu_map is not None):
+        raise ValueError("--fmu, --fmu-map: only with --backend fmu")
+    if fmu and args.env != "vertical":
+        raise ValueError(f"--backend fmu: only for --env vertical, not --env {args.env}")
     if args.env == "crash":
         _only_for(args, {**parallel, "--duration": args.duration is not None}, "vertical, vehicle")
         if args.backend == "linear":
@@ -629,6 +637,7 @@ def run(args: argparse.Namespace) -> int:
         args.trust,
         args.workers,
         args.address,
+        fmu,
     )
     print(
         f"backend: {args.backend}, {args.episodes} episodes per class (seeds {args.seed}+i); "

@@ -59,7 +59,9 @@ __all__ = [
     "make_config",
 ]
 
-BACKENDS = {"surrogate": "surrogate", "reference": "dynamic", "linear": "linear"}
+#: backend → kernel variant ("fmu": an FMU as the vehicle, railgym.fmu; its state layout is the
+#: dynamic variant's)
+BACKENDS = {"surrogate": "surrogate", "reference": "dynamic", "linear": "linear", "fmu": "dynamic"}
 OBSERVATIONS = {
     # name: (channels, scale of each channel in SI units)
     "sensors": (
@@ -210,6 +212,24 @@ def check_speed(speed: Any, field: str = "speed") -> float:
     return v
 
 
+def _batch(
+    n: int, cfg: VerticalConfig, veh: Any, lpr: LprArrays, backend: str, fmu: Any, fmu_map: Any
+) -> VerticalBatch:
+    """The batch of ``n`` vehicles: compiled kernels, or FMU instances for ``backend="fmu"``
+    (``fmu``: the FMU file, ``fmu_map``: its mapping file, :mod:`railgym.fmu.mapping`)."""
+    if backend != "fmu":
+        for name, value in (("fmu", fmu), ("fmu_map", fmu_map)):
+            if value is not None:
+                raise val.FieldError(name, f"is only used with backend='fmu', not {backend!r}")
+        return VerticalBatch(n, cfg, veh, lpr)
+    if fmu_map is None:
+        raise val.FieldError("fmu_map", "is required with backend='fmu' (docs/fmi.md)")
+    from railgym.fmu.batch import FMUBatch
+    from railgym.fmu.mapping import load_mapping
+
+    return FMUBatch(n, cfg, veh, lpr, load_mapping(fmu_map, fmu, "vertical"))
+
+
 def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[int, float]:
     """Validated ``(track_class, speed)``; speed at most ``speed_limit`` (m/s, default
     ``LIMITS["speed_factor"]`` × the class's maximum speed)."""
@@ -263,10 +283,13 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
 
     Parameters
     ----------
-    backend : ``"surrogate"`` (default, paper eq. 2), ``"reference"`` or ``"linear"``.
+    backend : ``"surrogate"`` (default, paper eq. 2), ``"reference"``, ``"linear"`` or
+        ``"fmu"`` (an FMU as the vehicle: ``fmu`` and ``fmu_map``, see ``docs/fmi.md``).
     surrogate : LPR or Kriging model, path of a model JSON, or ``None`` for the packaged
         element; only for ``backend="surrogate"``.
     track_class : FRA class 1–6 (default 5, the paper's training case).
+    fmu, fmu_map : the FMU file and its mapping file (:mod:`railgym.fmu.mapping`; ``fmu``
+        defaults to the mapping's ``fmu:``), only for ``backend="fmu"``.
     speed : m/s; ``None`` = the class's maximum passenger speed (class 5: 144 km/h); at most
         ``speed_limit``.
     speed_limit : m/s; ``None`` = 2 × the class's maximum speed.
@@ -305,6 +328,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         vehicle: str = "manchester",
         render_mode: str | None = None,
         speed_limit: float | None = None,
+        fmu: str | Path | None = None,
+        fmu_map: str | Path | None = None,
     ) -> None:
         veh = load_vehicle(vehicle)
         self.cfg = make_config(
@@ -325,8 +350,13 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         self.track_class, self.speed = _check_track(track_class, speed, self.speed_limit)
         self._speed_arg = speed
         self.profile = self._check_profile(profile)
-        sim = VerticalBatch(
-            1, self.cfg, veh, _surrogate_arrays(backend, surrogate, self.cfg.dt, True)
+        self._fmu_args = (backend, fmu, fmu_map)
+        sim = _batch(
+            1,
+            self.cfg,
+            veh,
+            _surrogate_arrays(backend, surrogate, self.cfg.dt, True),
+            *self._fmu_args,
         )
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         n_obs = len(self.obs_names)
@@ -427,5 +457,5 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, BatchVectorEnv):
         single = VerticalSuspensionEnv(render_mode=render_mode, **kwargs)
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
-        sim = VerticalBatch(num_envs, self.cfg, single.sim.vehicle, single.sim.lpr)
+        sim = _batch(num_envs, self.cfg, single.sim.vehicle, single.sim.lpr, *single._fmu_args)
         self._init_vector(single, sim, num_envs)

@@ -136,6 +136,7 @@ def build_vertical_surrogate(
     design: str | CollectionDesign = "paper",
     duration: float | None = None,
     sample_rate: float | None = None,
+    data: dict[str, Any] | None = None,
     **model_params: Any,
 ) -> tuple[SurrogateModel, BuildReport, dict[str, Any]]:
     """The paper's static vertical element: collect, sample ``m`` points, select, fit.
@@ -146,13 +147,16 @@ def build_vertical_surrogate(
     design. ``track_seed`` is the track seed of the paper design's run.
 
     Returns ``(model, report, data)`` with ``data`` holding ``U`` (n, 2) = (δ, δ̇) and
-    ``V`` = F_s of the samples at ``sample_rate``, and the design's ``runs``.
+    ``V`` = F_s of the samples at ``sample_rate``, and the design's ``runs``. ``data`` given
+    (a :func:`collect_design` result, e.g. from an FMU: :func:`railgym.fmu.collect.collect_fmu`)
+    is used instead of running the design.
     """
-    des = _design(design, duration, sample_rate)
-    if design == "paper":
-        des = dataclasses.replace(des, seeds=(track_seed,))
     progress = model_params.get("progress")
-    data = collect_design(des, progress=_stage(progress, "reference runs"))
+    if data is None:
+        des = _design(design, duration, sample_rate)
+        if design == "paper":
+            des = dataclasses.replace(des, seeds=(track_seed,))
+        data = collect_design(des, progress=_stage(progress, "reference runs"))
     model, report = build(
         data["U"],
         data["V"],
@@ -237,6 +241,7 @@ def build_memory_surrogate(
     seed: int = 0,
     vehicle: str = "manchester",
     progress: Callable[[str, int, int], None] | None = None,
+    data: dict[str, Any] | None = None,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
     """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ`` and the degrees chosen by k-fold CV.
 
@@ -250,6 +255,8 @@ def build_memory_surrogate(
     duration, sample_rate : replace the design's (s, Hz); the default trains on 200 Hz.
     k, seed : folds and their shuffling seed.
     progress : optional ``callback(stage, i, total)`` (reference runs, degree search per τ).
+    data : training data already collected (a :func:`collect_design` result, e.g. from an
+        FMU by :func:`railgym.fmu.collect.collect_fmu`) instead of running ``design``.
 
     Returns
     -------
@@ -258,11 +265,12 @@ def build_memory_surrogate(
     ``τ``; ``results`` the full tables) and the :func:`collect_design` data with the
     training pairs ``U_memory``, ``V_memory``.
     """
-    data = collect_design(
-        _design(design, duration, sample_rate),
-        vehicle=vehicle,
-        progress=_stage(progress, "reference runs"),
-    )
+    if data is None:
+        data = collect_design(
+            _design(design, duration, sample_rate),
+            vehicle=vehicle,
+            progress=_stage(progress, "reference runs"),
+        )
     cls = PassiveLegendreRegression if passive else LegendreRegression
     degrees = list(degrees)
     out = TauSelection()
@@ -466,6 +474,8 @@ def refine(
     vehicle: str = "manchester",
     seed: int = 0,
     log: Any = print,
+    fmu_map: Any = None,
+    fmu: Any = None,
 ) -> tuple[SurrogateModel, list[dict[str, Any]]]:
     """Policy-aware refinement: add reference samples where the element is worst, refit.
 
@@ -492,6 +502,9 @@ def refine(
         observation (``None``: the raw vector).
     reference : reference variant (``"dynamic"``, or ``"static"`` for a memoryless one).
     seed : seed of the tracks. log : called with one line per round (``None``: silent).
+    fmu_map, fmu : an FMU as the reference instead of ``reference`` (its mapping file and
+        the FMU, default the mapping's ``fmu:``; :mod:`railgym.fmu`), stepped at ``dt`` of
+        ``reference``.
 
     Returns
     -------
@@ -520,8 +533,25 @@ def refine(
         _, z, zdot = track_time_input(track_class, v0, duration, dt, s)
         return z, zdot
 
+    if fmu is not None and fmu_map is None:
+        raise ValueError("fmu: an FMU reference needs its mapping file fmu_map")
+    if fmu_map is None:
+
+        def reference_run(z: np.ndarray, zd: np.ndarray) -> dict[str, Any]:
+            return _run_policy(reference, veh, z, zd, law, None, dt, n_sub)
+
+    else:
+        from railgym.fmu.collect import run_policy_fmu
+        from railgym.fmu.mapping import load_mapping
+        from railgym.fmu.runner import FMURunner
+
+        runner = FMURunner(load_mapping(fmu_map, fmu, "vertical"), dt, n_sub)
+
+        def reference_run(z: np.ndarray, zd: np.ndarray) -> dict[str, Any]:
+            return run_policy_fmu(runner, veh, z, zd, law, n_sub)
+
     holdout = [track((1, i)) for i in range(n_holdout)]
-    refs = [_run_policy(reference, veh, z, zd, law, None, dt, n_sub) for z, zd in holdout]
+    refs = [reference_run(z, zd) for z, zd in holdout]
 
     def score(element: SurrogateModel) -> tuple[float, int]:
         errs, ood = [], 0
@@ -539,7 +569,7 @@ def refine(
             cand_u, cand_v = [], []
             for i in range(n_tracks):
                 z, zd = track((2, r, i))
-                run = _run_policy(reference, veh, z, zd, law, None, dt, n_sub)
+                run = reference_run(z, zd)
                 rows = np.arange(0, run["t"].size, every)
                 rows = rows[np.isfinite(run["force"][rows])]
                 u, v = _element_pairs(model, run, rows, vehicle)
@@ -577,6 +607,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--output", help="model JSON (default: the packaged file of the form)")
     parser.add_argument("--m", type=int, default=101, help="static: GA training samples")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.add_argument("--fmu-map", help="collect from this FMU mapping file (docs/fmi.md)")
+    parser.add_argument("--fmu", help="the FMU of --fmu-map (default: the map's fmu:)")
     add_degree_arguments(
         parser,
         "; static default 16 per input; maxwell: the grid of each input (from 10, 6, 3 in "
@@ -596,6 +628,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (UsageError, ValueError) as err:
         parser.error(str(err))
     progress = stages()
+    data = None
+    if args.fmu_map is not None and args.output is None:
+        parser.error("--fmu-map needs --output (the packaged element is not replaced)")
+    if args.fmu_map is not None:
+        from railgym.fmu.collect import collect_fmu
+
+        rate = 50.0 if args.features == "static" else MEMORY_SAMPLE_RATE
+        data = collect_fmu(args.fmu_map, _design(args.design, None, rate), args.fmu)
     out = args.output or str(Path(__file__).parents[1] / "data" / PACKAGED[args.features])
     where = (
         "FRA class 5, 144 km/h, 20 s, track seed 0"
@@ -605,19 +645,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     with quiet(args.quiet):
         if args.features == "static":
             model, report, _ = build_vertical_surrogate(
-                m=args.m, design=args.design, candidates=cands, progress=progress
+                m=args.m, design=args.design, candidates=cands, progress=progress, data=data
             )
             text = report.format()
             source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
         else:
             model, report, _ = build_memory_surrogate(
-                design=args.design, degrees=cands or MEMORY_DEGREES, progress=progress
+                design=args.design,
+                degrees=cands or MEMORY_DEGREES,
+                progress=progress,
+                data=data,
             )
             text = report.format()
             source = (
                 f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
                 "F_s - F_bump with the Maxwell state"
             )
+    if args.fmu_map is not None:
+        source = f"FMU of {args.fmu_map}" + source[source.index(",") :]
     save_vertical_surrogate(model, report, out, source)
     print(text)
     print(f"written to {out}")

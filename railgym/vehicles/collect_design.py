@@ -130,9 +130,14 @@ def collect_design(
     variant: str = "dynamic",
     dt: float | None = None,
     progress: Callable[[int, int], None] | None = None,
+    run: Any = None,
 ) -> dict[str, Any]:
     """Run the reference model over a design and return its training data; ``progress(i,
     total)`` is called after each of the design's cases.
+
+    ``run(z, zdot, dt, force_a)``, when given, replaces the built-in model: a record as
+    :func:`~railgym.vehicles.vertical.simulate` returns (``t, x1, v1, x2, v2, a2, F_s,
+    contacts``), e.g. an FMU's (:func:`railgym.fmu.collect.collect_fmu`).
 
     Returns
     -------
@@ -165,7 +170,11 @@ def collect_design(
                 if excited
                 else np.zeros(n)
             )
-            rec = simulate(variant, veh, z, zdot, dt, force_a=fa)
+            rec = (
+                simulate(variant, veh, z, zdot, dt, force_a=fa)
+                if run is None
+                else run(z, zdot, dt, fa)
+            )
             m = rec["t"].size
             runs.append(
                 {
