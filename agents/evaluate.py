@@ -10,10 +10,10 @@ over the held-out impact envelope beside the crash baselines.
     railgym evaluate runs/ppo_crash/model.zip --env crash --envelope
 
 A policy is a controller name (vertical: ``passive``, ``skyhook``, ``semi-active``,
-``groundhook``, ``lqr``; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
-``modal-skyhook``, ``lqr``) or a stable-baselines3 ``.zip``; for a zip, the algorithm and the
-env's observation settings are read from the ``config.yaml`` that :mod:`agents.train` writes
-beside it, the zip must be listed with its SHA-256 in the ``manifest.json`` beside it
+``groundhook``, ``lqr``, ``lqg``; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
+``modal-skyhook``, ``lqr``, ``lqg``) or a stable-baselines3 ``.zip``; for a zip, the algorithm
+and the env's observation settings are read from the ``config.yaml`` that :mod:`agents.train`
+writes beside it, the zip must be listed with its SHA-256 in the ``manifest.json`` beside it
 (``--trust``: any zip, with a warning), and only its network weights are read
 (:mod:`agents.policy_io`). Each case (track class, and speed on the vehicle) runs ``episodes``
 episodes in one native vector env, sub-env ``i`` on the track of seed ``seed + i`` — the same
@@ -42,12 +42,14 @@ from agents._args import (
 )
 from agents._extras import require
 from agents.controllers import (
+    LQG,
     LQR,
     BogieSkyhook,
     Groundhook,
     ModalSkyhook,
     Passive,
     Skyhook,
+    VehicleLQG,
     VehicleLQR,
 )
 from agents.policy_io import check_manifest, load_policy_weights
@@ -67,6 +69,7 @@ CONTROLLERS = {
     "semi-active": (Skyhook, {"mode": "semi-active"}, {}),
     "groundhook": (Groundhook, {}, {}),
     "lqr": (LQR, {}, {"observation": "full"}),
+    "lqg": (LQG, {}, {"observation": "sensors"}),
 }
 #: controllers of ``railgym/VerticalVehicle-v0`` (two actuators)
 VEHICLE_CONTROLLERS = {
@@ -74,6 +77,7 @@ VEHICLE_CONTROLLERS = {
     "skyhook": (BogieSkyhook, {}, {}),
     "modal-skyhook": (ModalSkyhook, {}, {}),
     "lqr": (VehicleLQR, {}, {"observation": "full"}),
+    "lqg": (VehicleLQG, {}, {"observation": "sensors"}),
 }
 #: baseline names accepted by :func:`evaluate_envelope` (all three always run)
 ENVELOPE_BASELINES = ("passive", "best-constant", "speed-adaptive")

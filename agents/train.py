@@ -68,6 +68,7 @@ except ImportError as _err:
         sys.exit(report_missing(_err, "python -m agents.train", "training"))
     raise extra_error(_err, "training (agents.train)") from _err
 
+from agents.envelope import EnvelopeVectorEnv, check_envelope
 from agents.policy_io import write_manifest
 from agents.train_config import (
     ALGOS,
@@ -395,7 +396,10 @@ def train(
     torch.set_num_threads(cfg.n_threads)
     set_random_seed(cfg.seed)
     mode = cfg.vectorization_mode
-    env = VecMonitor(GymVecToSB3(make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)))
+    venv = make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)
+    if cfg.envelope is not None:
+        venv = EnvelopeVectorEnv(venv, check_envelope(cfg.envelope), cfg.seed)
+    env = VecMonitor(GymVecToSB3(venv))
     opened: list[Any] = [env]
     try:  # evaluation env, model and output folder before anything is written
         eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}
