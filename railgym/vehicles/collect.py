@@ -526,9 +526,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--features", choices=sorted(PACKAGED), default="maxwell")
     parser.add_argument("--design", choices=DESIGNS, default="paper")
-    parser.add_argument("--output", help="model JSON (default: the packaged file of the form)")
+    parser.add_argument(
+        "--output",
+        help="model JSON (default: regenerate the packaged file of the form); an existing "
+        "file is replaced only with --overwrite",
+    )
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --output")
     parser.add_argument("--m", type=int, default=101, help="static: GA training samples")
     args = parser.parse_args(argv)
+    if args.output is not None:  # checked before the minutes of work
+        target = Path(args.output)
+        if target.exists() and not args.overwrite:
+            parser.error(f"--output {target}: exists; pass --overwrite to replace it")
+        if not target.parent.is_dir():
+            parser.error(f"--output {target}: the folder {str(target.parent)!r} does not exist")
     out = args.output or str(Path(__file__).parents[1] / "data" / PACKAGED[args.features])
     where = (
         "FRA class 5, 144 km/h, 20 s, track seed 0"

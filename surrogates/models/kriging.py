@@ -27,6 +27,7 @@ from surrogates.models.validation import (
     check_choice,
     check_float,
     check_int,
+    check_seed,
     field,
     field_array,
 )
@@ -324,7 +325,7 @@ class Kriging(SurrogateModel):
         m = d + int(auto)
         lo = np.array([np.log(0.05)] * d + ([np.log(1e-8)] if auto else []))
         hi = np.array([np.log(2.0)] * d + ([np.log(1e-2)] if auto else []))
-        rng = np.random.default_rng(self.seed)
+        rng = np.random.default_rng(check_seed(self.seed))
         k = self.n_starts - 1
         lhs = (np.argsort(rng.random((k, m)), axis=0) + rng.random((k, m))) / max(k, 1)
         return [0.5 * (lo + hi)] + [lo + (hi - lo) * row for row in lhs]
