@@ -14,12 +14,15 @@ L-BFGS-B from a few deterministic Latin-hypercube starts.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
 from scipy.linalg import LinAlgError, cholesky, qr, solve_triangular
 from scipy.linalg.lapack import dpotri
 from scipy.optimize import OptimizeResult, minimize
+from threadpoolctl import threadpool_limits
 
 from surrogates.models.base import SurrogateModel, as_inputs
 from surrogates.models.validation import (
@@ -41,13 +44,27 @@ LENGTH_SCALE_BOUNDS = (1e-3, 1e2)
 NUGGET_BOUNDS = (1e-12, 1.0)
 #: relative tolerance of L-BFGS-B on the log-likelihood (its change per iteration)
 LIKELIHOOD_FTOL = 1e-6
-#: default largest training set accepted by :meth:`Kriging.fit`
-MAX_SAMPLES = 2000
+#: default largest training set accepted by :meth:`Kriging.fit`: its fit time grows as n³
+#: (measured in ``python -m benchmarks``, docs/benchmarks.md)
+MAX_SAMPLES = 1000
 #: first diagonal jitter of an interpolating model (nugget off)
 JITTER = 1e-14
 
 _SQRT5 = np.sqrt(5.0)
 _CHUNK = 2048
+
+
+def _serial_blas(fit: Callable[..., None]) -> Callable[..., None]:
+    """Run ``fit`` with one BLAS thread: its hundreds of small factorisations (n ≤ a few
+    thousand) each wake a thread pool otherwise, which on a loaded machine costs far more
+    than the arithmetic (``python -m benchmarks``: a 201-point fit under load)."""
+
+    @functools.wraps(fit)
+    def serial(*args: Any, **kwargs: Any) -> None:
+        with threadpool_limits(limits=1, user_api="blas"):
+            fit(*args, **kwargs)
+
+    return serial
 
 
 class Kriging(SurrogateModel):
@@ -142,6 +159,7 @@ class Kriging(SurrogateModel):
         return out
 
     # ------------------------------------------------------------- for the base class
+    @_serial_blas
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
         n, d = U.shape
         p = 1 + d if self.trend == "linear" else 1
