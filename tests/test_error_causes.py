@@ -214,3 +214,45 @@ def test_collect_output_is_not_replaced_without_overwrite(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["--output", str(tmp_path / "no" / "element.json")])
     assert "does not exist" in capsys.readouterr().err
+
+
+# --- command lines and wrong envs ----------------------------------------------------------
+def test_refine_out_into_a_missing_folder_fails_before_any_round(tmp_path, capsys):
+    from agents.cli import main
+
+    out = tmp_path / "no" / "refined.json"
+    code = main(["refine", "skyhook", "--rounds", "1", "--out", str(out)])
+    err = capsys.readouterr()
+    assert code == 2 and "--out" in err.err and "does not exist" in err.err
+    assert "refining" not in err.out  # refused before the work started
+
+
+def test_evaluate_with_an_empty_address_blames_the_address(capsys):
+    from agents.cli import main
+
+    code = main(["evaluate", "passive", "--address", ""])
+    err = capsys.readouterr().err
+    assert code == 2 and "--address: empty" in err and "--workers" not in err
+
+
+@pytest.mark.parametrize("name", ["Skyhook", "Groundhook", "Passive", "LQR"])
+def test_a_vertical_controller_on_the_crash_env_names_the_env(name):
+    from agents import controllers
+
+    with pytest.raises(ValueError, match=r"env must be a railgym VerticalSuspension env"):
+        getattr(controllers, name)(gym.make("railgym/TrainCrash-v0"))
+
+
+@pytest.mark.parametrize("name", ["Skyhook", "Groundhook"])
+def test_a_velocity_feedback_on_the_whole_vehicle_names_the_env(name):
+    from agents import controllers
+
+    with pytest.raises(ValueError, match=r"bogie and carbody velocities observed\), got Vert"):
+        getattr(controllers, name)(gym.make(VEHICLE))
+
+
+def test_crash_safety_on_another_railgym_env_is_refused():
+    from railgym.wrappers import CrashSafety
+
+    with pytest.raises(ValueError, match=r"CrashSafety summarises crash episodes"):
+        CrashSafety(gym.make(VERTICAL))
