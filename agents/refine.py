@@ -86,6 +86,8 @@ def run(args: argparse.Namespace) -> int:
     """``railgym refine``: print the error per round, write ``--out`` if given."""
     if args.out is not None and args.out.exists() and not args.overwrite:
         raise ValueError(f"--out {args.out}: exists; pass --overwrite to replace it")
+    if args.out is not None and not args.out.parent.is_dir():  # before the rounds of work
+        raise ValueError(f"--out {args.out}: the folder {str(args.out.parent)!r} does not exist")
     if not (np.isfinite(args.duration) and 1.0 <= args.duration <= 600.0):
         raise ValueError(f"--duration must be between 1 and 600 s, got {args.duration}")
     model = default_vertical_surrogate() if args.model is None else io.load(args.model)

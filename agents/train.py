@@ -73,6 +73,7 @@ from agents.policy_io import write_manifest
 from agents.train_config import (
     ALGOS,
     MAX_SEED,
+    MAX_TIMESTEPS,
     RUN_KEY,
     VECTORIZATION_MODES,
     TrainConfig,
@@ -390,7 +391,7 @@ def train(
             raise ValueError("out is required when the config is given as a dict")
         out = Path("runs") / Path(config).stem
     if total_timesteps is not None:
-        cfg.n_timesteps = val.integer(total_timesteps, "total_timesteps", min=1)
+        cfg.n_timesteps = val.integer(total_timesteps, "total_timesteps", 1, MAX_TIMESTEPS)
     if seed is not None:
         cfg.seed = val.integer(seed, "seed", min=0, max=MAX_SEED)
     torch.set_num_threads(cfg.n_threads)
@@ -461,7 +462,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--overwrite", action="store_true", help="write into an existing non-empty --out folder"
     )
     parser.add_argument(
-        "--timesteps", type=bounded_int(1), default=None, help="override n_timesteps"
+        "--timesteps",
+        type=bounded_int(1, MAX_TIMESTEPS),
+        default=None,
+        help="override n_timesteps",
     )
     parser.add_argument("--seed", type=bounded_int(0, MAX_SEED), default=None, help="override seed")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")

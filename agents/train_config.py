@@ -76,6 +76,9 @@ MAX_ENVS = 1024
 MAX_THREADS = 256
 #: largest seed (numpy and torch accept 32-bit seeds everywhere)
 MAX_SEED = 2**32 - 1
+#: most environment steps of one run (and most steps between evaluations or checkpoints):
+#: days of training at the envs' speeds; a larger count is a typo, not a plan
+MAX_TIMESTEPS = 10**9
 
 
 @dataclass
@@ -296,14 +299,14 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
         algo=algo,
         policy=policy,
         seed=val.integer(seed, "seed", min=0, max=MAX_SEED),
-        n_timesteps=count("n_timesteps", None),
+        n_timesteps=count("n_timesteps", None, hi=MAX_TIMESTEPS),
         n_envs=count("n_envs", 1, hi=MAX_ENVS),
         env_kwargs=_kwargs(f.get("env_kwargs", None), "env_kwargs"),
         eval_env_kwargs=_kwargs(f.get("eval_env_kwargs", None), "eval_env_kwargs"),
-        eval_freq=count("eval_freq", 10_000),
+        eval_freq=count("eval_freq", 10_000, hi=MAX_TIMESTEPS),
         n_eval_episodes=count("n_eval_episodes", 4, hi=MAX_ENVS),
         eval_seed=count("eval_seed", EVAL_SEED, lo=0, hi=MAX_SEED),
-        checkpoint_freq=count("checkpoint_freq", 50_000),
+        checkpoint_freq=count("checkpoint_freq", 50_000, hi=MAX_TIMESTEPS),
         n_threads=count("n_threads", 1, hi=MAX_THREADS),
         vectorization_mode=mode,
         eval_echo=_names(f.get("eval_echo", None), "eval_echo"),

@@ -62,6 +62,7 @@ INFO_KEYS = (
     "rms_carbody_acc",  # (3,) running r.m.s. of carbody_acc, m/s²
     "bump_stop_contacts",  # substeps in bump-stop contact, both bogies
     "out_of_domain",  # out-of-domain surrogate evaluations
+    "outside_element",  # a secondary deflection left the element's training range this episode
     "actuator_force",  # (2,) N
 )
 #: columns of ``Book.terms``, the keys of ``info["reward_terms"]``
@@ -165,6 +166,19 @@ def _observe(bt, out, p, sc, bk, i):
         vel = x[7] + xb * x[8] + p.phi_a * x[9]
         o[7 + b] = (x[10 + 2 * b] - vel) * inv[7 + b]
         o[9 + b] = vel * inv[9 + b]
+
+
+@njit(cache=True, error_model="numpy")
+def _mark_outside(state, a, phi_a, envelope, outside):
+    """Set ``outside[i]`` where a secondary deflection of vehicle ``i`` (m, bogie minus
+    carbody at the bogie centre) is out of ``envelope`` (lo, hi)."""
+    for i in range(state.shape[0]):
+        x = state[i]
+        for b in range(2):
+            xb = a if b == 0 else -a
+            d = x[3 + 2 * b] - x[0] - xb * x[1] - phi_a * x[2]
+            if d < envelope[0] or d > envelope[1]:
+                outside[i] = True
 
 
 @njit(cache=True, error_model="numpy")
@@ -340,6 +354,15 @@ class VehicleBatch:
         )
         self.speed = np.zeros(n)
         self.track_class = np.zeros(n, np.int64)
+        # deflection range (m) of the element's training data, i.e. of the reference runs it
+        # was fitted on; the other backends are their own reference
+        surrogate = cfg.variant == "surrogate"
+        self.envelope = (
+            np.array([lpr[2][0], lpr[3][0]], dtype=float)
+            if surrogate
+            else np.array([-np.inf, np.inf])
+        )
+        self.outside = np.zeros(n, np.bool_)
         self._link()
 
     def _link(self) -> None:
@@ -405,7 +428,7 @@ class VehicleBatch:
         bt.k[i] = bk.steps[i] = bk.contacts[i] = bk.ood[i] = 0
         bk.acc_sq[i] = bk.rms[i] = bk.rec[i] = bk.zi[i] = bk.rew[i] = bk.terms[i] = 0.0
         bk.info[i] = bt.force[i] = out.acc[i] = out.fs[i] = 0.0
-        out.div[i] = bk.extrapolated[i] = bk.truncated[i] = False
+        out.div[i] = bk.extrapolated[i] = bk.truncated[i] = self.outside[i] = False
         _observe(bt, out, self.params, self.sc, bk, i)
 
     def set_action(self, actions: np.ndarray) -> None:
@@ -415,6 +438,7 @@ class VehicleBatch:
     def advance(self) -> None:
         """One control step of every vehicle with the stored actions (one compiled call)."""
         self._step(*self._args)
+        _mark_outside(self.bt.state, self.params.a, self.params.phi_a, self.envelope, self.outside)
 
     def flags(self) -> dict[str, np.ndarray]:
         """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of
@@ -439,6 +463,7 @@ class VehicleBatch:
                 bk.rms.copy(),
                 bk.contacts.copy(),
                 bk.ood.copy(),
+                self.outside.copy(),
                 force.copy(),
             )
             return dict(zip(INFO_KEYS, values, strict=True))
@@ -452,6 +477,7 @@ class VehicleBatch:
             "rms_carbody_acc": row[_C_RMS:_C_FORCE],
             "bump_stop_contacts": int(bk.contacts[i]),
             "out_of_domain": int(bk.ood[i]),
+            "outside_element": bool(self.outside[i]),
             "actuator_force": row[_C_FORCE:],
         }
 

@@ -182,10 +182,10 @@ def _check_element_units(surrogate: Any, d: int) -> None:
     deflection m, velocity m/s (and the Maxwell state m) in, force N out; an element fitted on
     another problem, or in mm or kN, is refused. A model fitted in this session carries no
     units and is taken as SI."""
-    features = getattr(surrogate, "features_", None)
-    if not features:
-        return
+    features = getattr(surrogate, "features_", None) or {}
     units, names = features.get("units") or {}, list(features.get("inputs") or [])
+    if len(names) != d:  # no file's features block: a model fitted in this session
+        return
     output = features.get("output")
     wanted = [*zip(names[:d], ELEMENT_UNITS[:d], strict=True), (output, ELEMENT_OUTPUT_UNIT)]
     for name, unit in wanted:

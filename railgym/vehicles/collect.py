@@ -604,7 +604,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--features", choices=sorted(PACKAGED), default="maxwell")
     parser.add_argument("--design", choices=DESIGNS, default="paper")
-    parser.add_argument("--output", help="model JSON (default: the packaged file of the form)")
+    parser.add_argument(
+        "--output",
+        help="model JSON (default: regenerate the packaged file of the form); an existing "
+        "file is replaced only with --overwrite",
+    )
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --output")
     parser.add_argument("--m", type=int, default=101, help="static: GA training samples")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.add_argument("--fmu-map", help="collect from this FMU mapping file (docs/fmi.md)")
@@ -615,6 +620,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "steps of 2) up to N, default 18 14 9",
     )
     args = parser.parse_args(argv)
+    if args.output is not None:  # checked before the minutes of work
+        target = Path(args.output)
+        if target.exists() and not args.overwrite:
+            parser.error(f"--output {target}: exists; pass --overwrite to replace it")
+        if not target.parent.is_dir():
+            parser.error(f"--output {target}: the folder {str(target.parent)!r} does not exist")
     n_inputs = 2 if args.features == "static" else 3
     try:
         degree = check_degrees(args.degree, "--degree", n_inputs)
