@@ -253,13 +253,13 @@ def evaluate(
 def format_rows(rows: list[dict[str, Any]]) -> str:
     """Aligned text table of :func:`evaluate` rows."""
     head = (
-        f"{'class':>5} {'policy':<16} {'RMS ẍ2':>8} {'a_w Wk':>8} {'Δa_w %':>7} "
+        f"{'class':>5} {'policy':<16} {'RMS ẍ2 m/s²':>12} {'a_w Wk m/s²':>12} {'Δa_w %':>7} "
         f"{'Wz':>6} {'max |δ| mm':>10} {'contacts':>8}"
     )
     lines = [head]
     for r in rows:
         lines.append(
-            f"{r['track_class']:>5} {r['policy']:<16} {r['rms_acc']:8.3f} {r['a_w']:8.3f} "
+            f"{r['track_class']:>5} {r['policy']:<16} {r['rms_acc']:12.3f} {r['a_w']:12.3f} "
             f"{r['a_w_reduction_%']:7.1f} {r['wz']:6.2f} {r['max_defl_mm']:10.1f} "
             f"{r['contacts']:8.0f}"
         )

@@ -202,3 +202,15 @@ def test_quick_report_has_the_validation_matrix(quick):
         if element == "memory":
             assert row["median"] < cells["static", cls, ctrl]["median"]
     assert "## Validation matrix" in (folder / "report.md").read_text()
+
+
+def test_crash_element_curves_are_drawn_only_near_their_data():
+    """Figs. 13-14 break a branch's curve where it has no data (the interface unloading
+    branch has data at both ends of its box only)."""
+    from railgym.report.figures import _near
+
+    data = np.array([0.0, 0.001, 0.002, 0.57, 0.58])
+    x = np.linspace(0.0, 0.58, 59)
+    near = _near(x, data, 0.0058)
+    assert near[0] and near[-1] and not near[1:-1].any()
+    assert _near(np.array([0.3]), np.array([0.3]), 0.0).all()
