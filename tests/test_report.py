@@ -212,5 +212,5 @@ def test_crash_element_curves_are_drawn_only_near_their_data():
     data = np.array([0.0, 0.001, 0.002, 0.57, 0.58])
     x = np.linspace(0.0, 0.58, 59)
     near = _near(x, data, 0.0058)
-    assert near[0] and near[-1] and not near[1:-1].any()
+    assert np.flatnonzero(near).tolist() == [0, 57, 58]  # u = 0, 0.57, 0.58 m
     assert _near(np.array([0.3]), np.array([0.3]), 0.0).all()
