@@ -289,7 +289,8 @@ class _ProgressBar(BaseCallback):
 
     def _on_training_start(self) -> None:
         total = self.locals["total_timesteps"] - self.model.num_timesteps
-        self.bar = tqdm(total=total, unit="step", dynamic_ncols=True)
+        # on stderr, off when it is not a terminal (and with --no-progress)
+        self.bar = tqdm(total=total, unit="step", dynamic_ncols=True, disable=None)
 
     def _on_step(self) -> bool:
         self.bar.update(self.training_env.num_envs)
