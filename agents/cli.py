@@ -3,7 +3,7 @@
 - ``railgym demo [--out DIR]``: the main job of the quickstart — build the surrogate element
   from the reference model (paper stages 1–3), run one episode each on the surrogate and the
   reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
-  indices and write plots.
+  indices and write the plots of :data:`DEMO_FILES` (a re-run replaces them).
 - ``railgym paper [--quick] [--out DIR]``: the paper's tables and figures on our models
   (:func:`railgym.report.make_report`).
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies on the
@@ -13,7 +13,8 @@
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
   (:mod:`agents.refine`).
 
-Every subcommand takes ``--debug``. Arguments and output folders are checked before any work;
+Every subcommand takes ``--debug`` and ``--quiet`` (no progress bars; they are drawn on stderr
+only when it is a terminal). Arguments and output folders are checked before any work;
 a user error (bad value, existing output without ``--overwrite``, unreadable file) is one line
 on stderr and exit status 2, another failure one line and status 1; ``--debug`` shows the
 traceback instead.
