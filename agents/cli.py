@@ -199,12 +199,14 @@ def paper(args: argparse.Namespace) -> int:
     return 0
 
 
-def _out_arguments(parser: argparse.ArgumentParser, default: str, what: str) -> None:
+def _out_arguments(
+    parser: argparse.ArgumentParser, default: str, what: str, reuse: str = "an empty one"
+) -> None:
     parser.add_argument(
         "--out",
         type=Path,
         default=Path(default),
-        help=f"folder for {what} (default {default}/; created, or an empty one)",
+        help=f"folder for {what} (default {default}/; created, or {reuse})",
     )
     parser.add_argument(
         "--overwrite",
@@ -241,7 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
         "again; a folder with other files needs --overwrite.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _out_arguments(d, "railgym-demo", "the plots")
+    _out_arguments(d, "railgym-demo", "the plots", "one holding only these plots")
     p = sub.add_parser("paper", parents=[common], help="the paper's tables and figures")
     p.add_argument(
         "--quick",
