@@ -11,15 +11,17 @@ over the held-out impact envelope beside the crash baselines.
 
 A policy is a controller name (vertical: ``passive``, ``skyhook``, ``semi-active``,
 ``groundhook``, ``lqr``, ``lqg``; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
-``modal-skyhook``, ``lqr``, ``lqg``) or a stable-baselines3 ``.zip``; for a zip, the algorithm
-and the env's observation settings are read from the ``config.yaml`` that :mod:`agents.train`
-writes beside it, the zip must be listed with its SHA-256 in the ``manifest.json`` beside it
-(``--trust``: any zip, with a warning), and only its network weights are read
-(:mod:`agents.policy_io`). Each case (track class, and speed on the vehicle) runs ``episodes``
-episodes in one native vector env, sub-env ``i`` on the track of seed ``seed + i`` — the same
-tracks for every policy. ``--workers N`` / ``--address ADDR`` run the cases of the vertical and
-vehicle evaluations as parallel tasks (:func:`railgym.parallel.run_tasks`); the rows do not
-depend on the number of workers.
+``modal-skyhook``, ``lqr``, ``lqg``) or a stable-baselines3 ``.zip``: of :mod:`agents.train` (its
+``model.zip`` or a checkpoint ``checkpoints/model_N_steps.zip``: the algorithm and the env's
+observation settings from the run's ``config.yaml``), of rl-zoo3 (the run's ``args.yml`` and
+``config.yml``) or any other (the algorithm and network from the zip's JSON ``data``; the env
+from the flags), see :mod:`agents.policy_zip`. The zip must be listed with its SHA-256 in the
+``manifest.json`` beside it (``--trust``: any zip, e.g. rl-zoo3's, with a warning), and only
+its network weights are read (:mod:`agents.policy_io`). Each case (track class, and speed on
+the vehicle) runs ``episodes`` episodes in one native vector env, sub-env ``i`` on the track
+of seed ``seed + i`` — the same tracks for every policy. ``--workers N`` / ``--address ADDR``
+run the cases of the vertical and vehicle evaluations as parallel tasks
+(:func:`railgym.parallel.run_tasks`); the rows do not depend on the number of workers.
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ from agents.controllers import (
     VehicleLQR,
 )
 from agents.policy_io import check_manifest, load_policy_weights
+from agents.policy_zip import find_source, zip_network
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
@@ -127,19 +130,30 @@ def load_policy(
             f"folder, got {policy!r}"
         )
     require("loading a stable-baselines3 policy", "torch", "stable_baselines3")
-    cfg_path = path.parent / "config.yaml"
-    if not cfg_path.is_file():
-        raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
     check_manifest(path, trust)
-    from agents.train_config import ALGOS, hyperparameters, load_config
+    from agents.train_config import ACTIVATIONS, ALGOS, hyperparameters, load_config
 
-    cfg = load_config(cfg_path)
-    if cfg.env_id != env_id:
-        raise ValueError(f"{cfg_path}: the policy was trained on {cfg.env_id}, not {env_id}")
-    hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
-    net_kwargs = dict(hyper.get("policy_kwargs") or {})
-    if "use_sde" in hyper:
-        net_kwargs["use_sde"] = hyper["use_sde"]
+    source = find_source(path)
+    obs_shape = None
+    if source.kind == "agents.train":
+        cfg = load_config(source.config)
+        trained_on, algo, policy_name = cfg.env_id, cfg.algo, cfg.policy
+        hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
+        net_kwargs = dict(hyper.get("policy_kwargs") or {})
+        if "use_sde" in hyper:
+            net_kwargs["use_sde"] = hyper["use_sde"]
+        env_kwargs = cfg.env_kwargs
+    else:  # rl-zoo3 or a bare zip: the network from the zip's data entry
+        algo, policy_name, net_kwargs, obs_shape = zip_network(path)
+        if "activation_fn" in net_kwargs:
+            act = net_kwargs["activation_fn"]
+            if act not in ACTIVATIONS:
+                raise ValueError(f"policy {path}: activation {act!r} is not supported")
+            net_kwargs["activation_fn"] = ACTIVATIONS[act]
+        trained_on, env_kwargs = source.env_id or env_id, source.env_kwargs
+    where = source.config or path
+    if trained_on != env_id:
+        raise ValueError(f"{where}: the policy was trained on {trained_on}, not {env_id}")
     keep = {
         "observation",
         "sensor_noise",
@@ -154,14 +168,23 @@ def load_policy(
         "flexible",
         "vehicle",
     }
-    env_kwargs = {k: v for k, v in cfg.env_kwargs.items() if k in keep}
+    env_kwargs = {k: v for k, v in env_kwargs.items() if k in keep}
 
     probe = gym.make(env_id, **env_kwargs)  # the single env's spaces
+    if obs_shape is not None and obs_shape != probe.observation_space.shape:
+        raise ValueError(
+            f"policy {path}: it takes observations of shape {obs_shape}, the env gives "
+            f"{probe.observation_space.shape} (trained with other env settings: put its "
+            "config.yaml, or rl-zoo3's folder, beside it)"
+        )
     net = load_policy_weights(
-        path, cfg.algo, cfg.policy, net_kwargs, probe.observation_space, probe.action_space
+        path, algo, policy_name, net_kwargs, probe.observation_space, probe.action_space
     )
     probe.close()
-    return (lambda env: net), env_kwargs, path.parent.name
+    run = (source.config.parent if source.kind == "agents.train" else path.parent).name
+    final = path.parent.name == run and path.stem in ("model", env_id.replace("/", "-"))
+    label = run if final else f"{run}/{path.stem}"
+    return (lambda env: net), env_kwargs, label
 
 
 def run_policy(
@@ -234,13 +257,13 @@ def evaluate(
 def format_rows(rows: list[dict[str, Any]]) -> str:
     """Aligned text table of :func:`evaluate` rows."""
     head = (
-        f"{'class':>5} {'policy':<16} {'RMS ẍ2':>8} {'a_w Wk':>8} {'Δa_w %':>7} "
+        f"{'class':>5} {'policy':<16} {'RMS ẍ2 m/s²':>12} {'a_w Wk m/s²':>12} {'Δa_w %':>7} "
         f"{'Wz':>6} {'max |δ| mm':>10} {'contacts':>8}"
     )
     lines = [head]
     for r in rows:
         lines.append(
-            f"{r['track_class']:>5} {r['policy']:<16} {r['rms_acc']:8.3f} {r['a_w']:8.3f} "
+            f"{r['track_class']:>5} {r['policy']:<16} {r['rms_acc']:12.3f} {r['a_w']:12.3f} "
             f"{r['a_w_reduction_%']:7.1f} {r['wz']:6.2f} {r['max_defl_mm']:10.1f} "
             f"{r['contacts']:8.0f}"
         )

@@ -72,6 +72,15 @@ EVAL_SEED = 999_999
 RUN_KEY = "run"
 #: most sub-envs of the training or the evaluation vector env
 MAX_ENVS = 1024
+#: keys of rl-zoo3's hyperparameter files that agents.train does not implement
+RLZOO_ONLY = (
+    "normalize",
+    "normalize_kwargs",
+    "frame_stack",
+    "env_wrapper",
+    "vec_env_wrapper",
+    "callback",
+)
 #: most torch CPU threads
 MAX_THREADS = 256
 #: largest seed (numpy and torch accept 32-bit seeds everywhere)
@@ -197,6 +206,19 @@ def hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[st
     allowed = set(inspect.signature(algo.__init__).parameters) - {"self", "policy", "env"}
     out: dict[str, Any] = {}
     for key, value in hyper.items():
+        if key in RLZOO_ONLY:
+            raise val.FieldError(
+                key,
+                f"rl-zoo3's {key!r} is not supported by agents.train (train this file with "
+                "python -m rl_zoo3.train)",
+                full=True,
+            )
+        if key == "policy_kwargs" and isinstance(value, str):
+            raise val.FieldError(
+                key,
+                "is a Python expression (rl-zoo3's string form), which is never evaluated: "
+                "write it as a mapping (net_arch: [64, 64], activation_fn: tanh)",
+            )
         if key not in allowed:
             raise val.FieldError(
                 key,
@@ -231,11 +253,14 @@ def hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[st
     return out
 
 
-def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
+def load_config(config: str | Path | dict[str, Any], algo: str | None = None) -> TrainConfig:
     """Read and validate a config: path of a ``.yaml`` / ``.yml`` file, the name of a packaged
     config (``ppo_vertical``, see ``railgym/configs/agents/``) or the content as a dict.
 
-    A missing ``seed`` is drawn from the OS entropy, so that it can be recorded.
+    rl-zoo3's hyperparameter files are read too: they have no ``algo`` (rl-zoo3 takes it
+    from ``--algo``), which ``algo`` then gives; their evaluation and checkpoint settings take
+    the defaults here. A missing ``seed`` is drawn from the OS entropy, so that it can be
+    recorded.
     """
     if isinstance(config, str | Path):
         text, source = val.resolve_yaml(config, "config", "railgym", ("configs", "agents"))
@@ -267,7 +292,11 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
             "trainer", "is 'rllib': train this file with python -m agents.train_rllib"
         )
     f = val.Fields(block, "")
-    algo = val.choice(f.get("algo", None), "algo", sorted(ALGOS))
+    if algo is not None:
+        algo = val.choice(algo, "--algo", sorted(ALGOS))
+        if block.get("algo", algo) != algo:
+            raise val.FieldError("algo", f"is {block['algo']!r} in the file but --algo is {algo!r}")
+    algo = val.choice(f.get("algo", algo), "algo", sorted(ALGOS))
     policy = f.get("policy", "MlpPolicy")
     if not isinstance(policy, str) or not policy:
         raise val.FieldTypeError("policy", f"must be a policy name, got {policy!r}")

@@ -529,4 +529,6 @@ class VehicleBatch:
             "f_max": self.cfg.f_max,
             "time": float(self.bk.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.duration,
+            "speed": float(self.speed[i]),
+            "carbody_acc": float(self.out.acc[i, 1]),  # centre floor point, m/s²
         }

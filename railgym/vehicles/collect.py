@@ -658,7 +658,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             model, report, _ = build_vertical_surrogate(
                 m=args.m, design=args.design, candidates=cands, progress=progress, data=data
             )
-            text = report.format()
+            text = report.format("N")
             source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
         else:
             model, report, _ = build_memory_surrogate(
