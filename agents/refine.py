@@ -120,6 +120,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--trust", action="store_true", help="load a policy .zip not listed in its manifest"
     )
+    parser.add_argument("--fmu-map", type=Path, help="an FMU as the reference: its mapping file")
+    parser.add_argument("--fmu", type=Path, help="the FMU of --fmu-map (default: the map's fmu:)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -152,6 +154,8 @@ def run(args: argparse.Namespace) -> int:
         f_max=env.cfg.f_max,
         observe=observe,
         seed=args.seed,
+        fmu_map=args.fmu_map,
+        fmu=args.fmu,
     )
     if args.out is not None:
         source = f"railgym refine {args.policy}: {args.rounds} rounds on class {args.track_class}"

@@ -75,9 +75,10 @@ def evaluate_sweep(
     trust: bool = False,
     workers: int = 1,
     address: str | None = None,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """:func:`agents.evaluate.evaluate` (same arguments and rows) with one task per
-    (track class, policy)."""
+    (track class, policy); ``env_kwargs`` are added to every env (e.g. ``fmu``, ``fmu_map``)."""
     episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
     seed = val.integer(seed, "seed", min=0)
     track_classes = [
@@ -87,7 +88,9 @@ def evaluate_sweep(
     policies = val.sequence(policies, "policies")
     labels = [load_policy(p, trust=trust)[2] for p in policies]  # bad names fail here
     tasks = [
-        PolicyTask(p, trust, {"backend": backend, "track_class": tc}, episodes, seed)
+        PolicyTask(
+            p, trust, {"backend": backend, "track_class": tc, **(env_kwargs or {})}, episodes, seed
+        )
         for tc in track_classes
         for p in policies
     ]

@@ -30,9 +30,10 @@ from railgym.envs.vehicle_batch import (
     REWARD_TERMS,
     VehicleBatch,
     VehicleConfig,
+    check_band_speed,
     episode_comfort,
 )
-from railgym.envs.vertical import BACKENDS, _surrogate_arrays
+from railgym.envs.vertical import BACKENDS, _surrogate_arrays, check_speed
 from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
@@ -172,11 +173,11 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     if speed is None:
         return v_class, v_class
     if isinstance(speed, tuple | list) or (isinstance(speed, np.ndarray) and speed.ndim == 1):
-        lo, hi = (val.positive(v, "speed") for v in val.sequence(speed, "speed", 2))
+        lo, hi = (check_speed(v) for v in val.sequence(speed, "speed", 2))
         if lo > hi:
             raise val.FieldError("speed", f"range must have v_min <= v_max, got {speed!r}")
     else:
-        lo = hi = val.positive(speed, "speed")
+        lo = hi = check_speed(speed)
     limit = LIMITS["speed_factor"] * v_class if speed_limit is None else speed_limit
     if hi > limit:
         raise val.FieldError(
@@ -302,6 +303,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         self.track_class = int(track_class)
         self._speed_arg = speed
         self.profile = load_profile(profile)
+        if self.profile is None:
+            check_band_speed(self.cfg.band, self.speeds[1], self.cfg.dt)
         lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
         sim = VehicleBatch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED))
         self.vehicle = veh

@@ -31,8 +31,11 @@ def _carbody(env: VerticalSuspensionEnv) -> tuple[float, float, float]:
     return float(state[2]), float(state[3]), env.carbody_acceleration
 
 
-def _shadow_of(base: VerticalSuspensionEnv, backend: str, vehicle: str | None) -> Any:
-    """A ``backend`` env with every setting of ``base`` (same vehicle, steps, reward)."""
+def _shadow_of(
+    base: VerticalSuspensionEnv, backend: str, vehicle: str | None, fmu: dict[str, Any]
+) -> Any:
+    """A ``backend`` env with every setting of ``base`` (same vehicle, steps, reward);
+    ``fmu``: the ``fmu``/``fmu_map`` arguments of ``backend="fmu"``."""
     if vehicle is None:
         spec = base.spec
         vehicle = spec.kwargs.get("vehicle", "manchester") if spec is not None else "manchester"
@@ -52,6 +55,7 @@ def _shadow_of(base: VerticalSuspensionEnv, backend: str, vehicle: str | None) -
         wheelbase=cfg.wheelbase,
         band=cfg.band,
         vehicle=vehicle,
+        **fmu,
     )
     if shadow.vehicle_params != base.vehicle_params:
         raise ValueError(
@@ -72,6 +76,8 @@ class ReferenceShadow(gym.Wrapper):
         high-fidelity model).
     vehicle : vehicle of the shadow; ``None`` takes it from ``env.spec`` (``gym.make``) or
         the default. It must have the wrapped env's parameters (checked).
+    fmu, fmu_map : with ``reference_backend="fmu"``: the FMU as the reference and its mapping
+        file (``docs/fmi.md``).
 
     Notes
     -----
@@ -99,7 +105,12 @@ class ReferenceShadow(gym.Wrapper):
     """
 
     def __init__(
-        self, env: gym.Env, reference_backend: str = "reference", vehicle: str | None = None
+        self,
+        env: gym.Env,
+        reference_backend: str = "reference",
+        vehicle: str | None = None,
+        fmu: Any = None,
+        fmu_map: Any = None,
     ) -> None:
         super().__init__(env)
         base = env.unwrapped
@@ -111,7 +122,10 @@ class ReferenceShadow(gym.Wrapper):
         reference_backend = val.choice(reference_backend, "reference_backend", BACKENDS)
         self.base = base
         self.reference_backend = reference_backend
-        self.shadow = _shadow_of(base, reference_backend, vehicle)
+        given = {"fmu": fmu, "fmu_map": fmu_map}
+        self.shadow = _shadow_of(
+            base, reference_backend, vehicle, {k: v for k, v in given.items() if v is not None}
+        )
         n = base.cfg.n_steps
         self._trace = np.zeros((2, n, 3))  # [model, reference] × step × (x2, v2, ẍ2)
         self._clear()

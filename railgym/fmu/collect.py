@@ -1,0 +1,145 @@
+"""Training data for the surrogate element from an FMU (stage 1 of the method on your model).
+
+:func:`collect_fmu` runs a data-collection design (:mod:`railgym.vehicles.collect_design`:
+the paper's passive run, or the envelope of classes, speeds and actuator excitation) on the
+FMU of a mapping file instead of the built-in reference; the result feeds
+:func:`railgym.vehicles.collect.build_memory_surrogate` (``data=``) like the built-in one::
+
+    data = collect_fmu("vehicle.yaml")
+    model, selection, _ = build_memory_surrogate(data=data)
+
+The secondary-suspension force ``F_s`` is the FMU's ``secondary_force`` output when the
+mapping names one, else ``m2·ẍ2 − F_a`` with the carbody mass ``m2`` of ``vehicle``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from railgym.fmu.mapping import load_mapping
+from railgym.fmu.runner import FMURunner
+from railgym.vehicles.collect_design import CollectionDesign, collect_design
+from railgym.vehicles.vertical import load_vehicle
+
+__all__ = ["collect_fmu", "simulate_fmu"]
+
+
+def simulate_fmu(
+    runner: FMURunner, z: np.ndarray, zdot: np.ndarray, force_a: np.ndarray, vehicle: Any
+) -> dict[str, Any]:
+    """One run of the FMU over the track ``z, zdot`` (m, m/s on ``k·dt``) with the actuator
+    force ``force_a`` (N, (n,) held over each step): the record of
+    :func:`railgym.vehicles.vertical.simulate` at every step (``t, x1, v1, x2, v2, a1, a2,
+    F_s`` SI, ``contacts``: steps with the deflection beyond the free travel of the
+    :class:`~railgym.vehicles.vertical.VerticalVehicle` ``vehicle``, whose ``m2`` gives
+    ``F_s`` when the FMU has no ``secondary_force``)."""
+    p = vehicle.kernel_params()
+    n = z.size - 1
+    cols = {k: j for j, k in enumerate(runner.out_keys)}
+    out = np.zeros((n + 1, len(cols)))
+    runner.reset()
+    zz, zd = z[None, :], zdot[None, :]
+    out[0] = runner.outputs_at(zz[:, 0], zd[:, 0], force_a[:1])
+    for k in range(n):
+        out[k + 1] = runner.advance(zz[:, k : k + 2], zd[:, k : k + 2], force_a[k : k + 1])[-1]
+    x2 = out[:, cols["carbody_disp"]] if "carbody_disp" in cols else np.zeros(n + 1)
+    v2 = out[:, cols["carbody_vel"]]
+    a2 = out[:, cols["carbody_acc"]]
+    fa = np.concatenate([force_a[:1], force_a[:n]])  # the force of the step ending at t_k
+    fs = out[:, cols["secondary_force"]] if "secondary_force" in cols else p.m2 * a2 - fa
+    defl = out[1:, cols["deflection"]]
+    return {
+        "t": np.arange(n + 1) * runner.dt,
+        "x1": x2 + out[:, cols["deflection"]],
+        "v1": v2 + out[:, cols["deflection_rate"]],
+        "x2": x2,
+        "v2": v2,
+        "a1": out[:, cols["bogie_acc"]],
+        "a2": a2,
+        "F_s": fs,
+        "contacts": int(np.count_nonzero((defl > p.free_c) | (defl < -p.free_r))),
+    }
+
+
+def collect_fmu(
+    fmu_map: str | Path,
+    design: str | CollectionDesign = "paper",
+    fmu: str | Path | None = None,
+    vehicle: str = "manchester",
+    dt: float = 1e-3,
+) -> dict[str, Any]:
+    """:func:`~railgym.vehicles.collect_design.collect_design` of ``design`` on the FMU of
+    the mapping file ``fmu_map`` (``fmu``: the FMU file, default the mapping's ``fmu:``),
+    stepped at ``dt`` (s); ``vehicle`` gives ``m2`` when the FMU has no ``secondary_force``."""
+    mapping = load_mapping(fmu_map, fmu, "vertical")
+    runner = FMURunner(mapping, dt, 1)
+    veh = load_vehicle(vehicle)
+    try:
+        return collect_design(
+            design,
+            vehicle,
+            dt=dt,
+            run=lambda z, zdot, step, fa: simulate_fmu(runner, z, zdot, fa, veh),
+        )
+    finally:
+        runner.close()
+
+
+def run_policy_fmu(
+    runner: FMURunner,
+    vehicle: Any,
+    z: np.ndarray,
+    zdot: np.ndarray,
+    law: Any,
+    n_sub: int,
+) -> dict[str, Any]:
+    """A closed-loop run of the FMU as :func:`railgym.vehicles.collect.refine` records the
+    built-in reference: ``law(raw)`` (raw observation ``[x1, v1, x2, v2, ẍ1, ẍ2, z, ż]``, SI)
+    gives the actuator force (N) every ``n_sub`` steps; recorded at every step ``t, delta,
+    delta_dot, force`` (F_s), per control step ``a2``."""
+    m2 = vehicle.kernel_params().m2
+    cols = {k: j for j, k in enumerate(runner.out_keys)}
+    n = (z.size - 1) // n_sub * n_sub
+    rec = np.full((n + 1, 4), np.nan)
+    rec[0] = 0.0
+    runner.reset()
+    last = np.zeros(len(cols))
+    diverged = False
+    for k in range(0, n, n_sub):
+        x2 = last[cols["carbody_disp"]] if "carbody_disp" in cols else 0.0
+        v2 = last[cols["carbody_vel"]]
+        raw = np.array(
+            [
+                x2 + last[cols["deflection"]],
+                v2 + last[cols["deflection_rate"]],
+                x2,
+                v2,
+                last[cols["bogie_acc"]],
+                last[cols["carbody_acc"]],
+                z[k],
+                zdot[k],
+            ]
+        )
+        fa = float(law(raw))
+        y = runner.advance(z[None, k : k + n_sub + 1], zdot[None, k : k + n_sub + 1], [fa])
+        if not np.all(np.isfinite(y)):
+            diverged = True
+            break
+        a2 = y[:, cols["carbody_acc"]]
+        fs = y[:, cols["secondary_force"]] if "secondary_force" in cols else m2 * a2 - fa
+        rec[k + 1 : k + n_sub + 1] = np.column_stack(
+            [y[:, cols["deflection"]], y[:, cols["deflection_rate"]], fs, a2]
+        )
+        last = y[-1]
+    return {
+        "t": np.arange(n + 1) * runner.dt,
+        "delta": rec[:, 0],
+        "delta_dot": rec[:, 1],
+        "force": rec[:, 2],
+        "a2": rec[n_sub::n_sub, 3],
+        "ood": 0,
+        "diverged": diverged,
+    }

@@ -1,0 +1,220 @@
+"""The reference model as an FMU, and an FMU as the reference (``backend="fmu"``).
+
+Round trip: ``railgym export-reference-fmu`` writes the dynamic vertical reference in C; an
+episode on ``backend="fmu"`` with it (co-simulation and model exchange) reproduces the
+``backend="reference"`` episode under the same actions.
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import railgym  # noqa: F401  (registers the envs)
+from agents.cli import main
+
+fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
+pytestmark = pytest.mark.skipif(
+    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
+)
+
+ID = "railgym/VerticalSuspension-v0"
+
+
+@pytest.fixture(scope="module")
+def reference_fmu(tmp_path_factory):
+    """``(fmu, mapping)`` of the exported vertical reference (ME and CS), by the CLI."""
+    out = tmp_path_factory.mktemp("ref") / "vehicle.fmu"
+    assert main(["export-reference-fmu", "--env", "vertical", "-o", str(out)]) == 0
+    return out, out.with_suffix(".yaml")
+
+
+def _episode(env, actions, seed=3):
+    env.reset(seed=seed)
+    rows = []
+    for a in actions:
+        obs, reward, term, trunc, info = env.step(a)
+        rows.append([*obs, reward, info["carbody_acc"], info["bump_stop_contacts"]])
+        if term or trunc:
+            break
+    return np.array(rows)
+
+
+def test_exported_reference_fmu_is_valid_and_mapped(reference_fmu):
+    from fmpy.validation import validate_fmu
+
+    fmu, mapping = reference_fmu
+    assert validate_fmu(str(fmu)) == []
+    md = fmpy.read_model_description(str(fmu))
+    assert md.coSimulation is not None and md.modelExchange is not None
+    assert md.coSimulation.canInterpolateInputs
+    assert md.numberOfContinuousStates == 7
+    assert "fmu: vehicle.fmu" in mapping.read_text()
+    # no overwrite without --overwrite: exit status 2 and the file untouched
+    before = fmu.read_bytes()
+    assert main(["export-reference-fmu", "--env", "vertical", "-o", str(fmu)]) == 2
+    assert fmu.read_bytes() == before
+
+
+@pytest.mark.parametrize("fmi_type", ["CoSimulation", "ModelExchange"])
+def test_fmu_backend_reproduces_the_reference_backend(reference_fmu, fmi_type, tmp_path):
+    fmu, mapping = reference_fmu
+    text = mapping.read_text() + f"fmi_type: {fmi_type}\n"
+    (tmp_path / "map.yaml").write_text(text)
+    kw = {"duration": 1.5, "track_class": 4}
+    actions = np.random.default_rng(1).uniform(-1, 1, (150, 1)).astype(np.float32)
+    ref = _episode(gym.make(ID, backend="reference", **kw), actions)
+    env = gym.make(ID, backend="fmu", fmu=fmu, fmu_map=tmp_path / "map.yaml", **kw)
+    got = _episode(env, actions)
+    assert got.shape == ref.shape == (150, 8)
+    # observations, reward and carbody acceleration: the same equations and the same RK4
+    # with the same cubic Hermite track input (CS: through the FMU's input derivatives)
+    scale = np.abs(ref).max(axis=0)
+    assert np.all(np.abs(got - ref) <= 1e-9 * scale)
+    assert np.abs(ref[:, 6]).max() > 0.3  # a real ride, not a vehicle at rest
+
+
+def test_reference_shadow_on_the_fmu_equals_the_reference_shadow(reference_fmu):
+    from railgym.wrappers import ReferenceShadow
+
+    fmu, mapping = reference_fmu
+    shadows = {}
+    for backend, kw in (("reference", {}), ("fmu", {"fmu": fmu, "fmu_map": mapping})):
+        env = ReferenceShadow(gym.make(ID, duration=1.0), reference_backend=backend, **kw)
+        env.reset(seed=5)
+        actions = np.random.default_rng(2).uniform(-1, 1, (100, 1)).astype(np.float32)
+        for a in actions:
+            *_, term, trunc, info = env.step(a)
+        assert trunc and not term
+        shadows[backend] = info["shadow"]
+    ref, got = shadows["reference"], shadows["fmu"]
+    assert got["reference_backend"] == "fmu" and got["steps"] == ref["steps"] == 100
+    for key in ("err_disp", "err_vel", "err_acc", "rms_acc_reference"):
+        assert got[key] == pytest.approx(ref[key], rel=1e-9), key
+    assert ref["err_acc"] > 1e-3  # the surrogate differs from the reference: a real check
+
+
+def test_fmu_arguments_only_with_backend_fmu(reference_fmu):
+    fmu, mapping = reference_fmu
+    with pytest.raises(ValueError, match="fmu_map is only used with backend='fmu'"):
+        gym.make(ID, backend="reference", fmu_map=mapping)
+    with pytest.raises(ValueError, match="fmu_map is required with backend='fmu'"):
+        gym.make(ID, backend="fmu", fmu=fmu)
+    env = gym.make(ID, backend="fmu", fmu_map=mapping)  # the FMU from the map's fmu:
+    with pytest.raises(TypeError, match="cannot be copied"):
+        import copy
+
+        copy.deepcopy(env.unwrapped)
+
+
+def test_collect_from_the_fmu_equals_the_built_in_collection(reference_fmu):
+    """Stage 1 on your model: the design's runs on the FMU (passive and actuator-excited)
+    give the training data of the built-in reference."""
+    from railgym.fmu.collect import collect_fmu
+    from railgym.vehicles.collect_design import CollectionDesign, collect_design
+
+    fmu, mapping = reference_fmu
+    design = CollectionDesign(track_classes=(5,), speed_factors=(1.0,), duration=3.0)
+    got, ref = collect_fmu(mapping, design), collect_design(design)
+    assert [r["excited"] for r in got["runs"]] == [False, True]
+    assert np.ptp(got["runs"][1]["force_a"]) > 1000.0
+    assert got["U"].shape == ref["U"].shape == (302, 2)
+    np.testing.assert_allclose(got["U"], ref["U"], rtol=0, atol=1e-12 * np.abs(ref["U"]).max())
+    np.testing.assert_allclose(got["V"], ref["V"], rtol=0, atol=1e-12 * np.abs(ref["V"]).max())
+    for a, b in zip(got["runs"], ref["runs"], strict=True):
+        assert a["contacts"] == b["contacts"]
+        scale = np.abs(b["a2"]).max()
+        np.testing.assert_allclose(a["a2"], b["a2"], rtol=0, atol=1e-12 * scale)
+    # the same without the FMU's secondary_force output: F_s = m2·ẍ2 − F_a
+    text = mapping.read_text().replace("  secondary_force: secondary_force\n", "")
+    assert "secondary_force" not in text
+    bare = mapping.with_name("bare.yaml")
+    bare.write_text(text)
+    got = collect_fmu(bare, design, fmu=fmu)
+    np.testing.assert_allclose(got["V"], ref["V"], rtol=0, atol=1e-9 * np.abs(ref["V"]).max())
+
+
+@pytest.mark.slow
+def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, tmp_path):
+    """``python -m railgym.vehicles.collect --fmu-map``: the memory element built on the
+    reference FMU's paper run is the packaged one (which meets docs/validation.md)."""
+    from railgym.vehicles.collect import default_vertical_surrogate
+    from railgym.vehicles.collect import main as collect_main
+    from surrogates import io
+
+    _, mapping = reference_fmu
+    out = tmp_path / "element.json"
+    assert (
+        collect_main(["--features", "maxwell", "--fmu-map", str(mapping), "--output", str(out)])
+        == 0
+    )
+    model, packaged = io.load(out), default_vertical_surrogate()
+    assert model.degree == packaged.degree and model.features_["tau"] == packaged.features_["tau"]
+    scale = np.abs(packaged.coef_).max()
+    np.testing.assert_allclose(model.coef_, packaged.coef_, rtol=0, atol=1e-9 * scale)
+
+
+def test_refine_on_the_fmu_equals_refine_on_the_reference(reference_fmu):
+    """Policy-aware refinement with the FMU as the reference: the same held-out errors and
+    the same refined element as with the built-in dynamic reference."""
+    from railgym.vehicles.collect import collect_vertical, refine
+    from surrogates.models.lpr import LegendreRegression
+
+    fmu, mapping = reference_fmu
+    d = collect_vertical("dynamic", track_class=6, duration=3.0, sample_rate=200.0, seed=3)
+    model = LegendreRegression(degree=(4, 4)).fit(d["U"], d["V"])
+    law = lambda o: np.clip(4.0 * o[3], -1.0, 1.0)  # noqa: E731  (carbody velocity feedback)
+    kw = dict(data=(d["U"], d["V"]), duration=3.0, n_tracks=1, n_holdout=1, n_add=100, log=None)
+    ref_model, ref_hist = refine(model, law, rounds=1, **kw)
+    fmu_model, fmu_hist = refine(model, law, rounds=1, fmu_map=mapping, fmu=fmu, **kw)
+    assert [h["n_samples"] for h in fmu_hist] == [h["n_samples"] for h in ref_hist]
+    for a, b in zip(fmu_hist, ref_hist, strict=True):
+        assert a["error"] == pytest.approx(b["error"], rel=1e-8)
+    assert ref_hist[0]["error"] > 0.01  # a real difference between element and reference
+    U = d["U"]
+    scale = np.abs(ref_model.predict(U)).max()
+    np.testing.assert_allclose(fmu_model.predict(U), ref_model.predict(U), atol=1e-8 * scale)
+
+
+def test_fmu_vector_env_equals_the_reference_vector_env_through_autoreset(reference_fmu):
+    fmu, mapping = reference_fmu
+    kw = {"num_envs": 3, "vectorization_mode": "vector_entry_point", "duration": 0.3}
+    envs = [
+        gym.make_vec(ID, backend="fmu", fmu=fmu, fmu_map=mapping, **kw),
+        gym.make_vec(ID, backend="reference", **kw),
+    ]
+    outs: list[list] = [[], []]
+    for env in envs:
+        env.reset(seed=7)
+    actions = np.random.default_rng(0).uniform(-1, 1, (45, 3, 1)).astype(np.float32)
+    for a in actions:  # 30 steps per episode: two autoresets
+        for env, out in zip(envs, outs, strict=True):
+            obs, reward, term, trunc, info = env.step(a)
+            out.append(np.column_stack([obs, reward, trunc, info["carbody_acc"]]))
+    got, ref = np.array(outs[0]), np.array(outs[1])
+    assert ref[:, :, 6].sum() == 3  # every sub-env truncated once
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["me", "cs"])
+def test_single_kind_fmus_are_valid_and_accepted_as_the_reference(kind, tmp_path):
+    """``--kind me`` / ``--kind cs``: a model-exchange-only and a co-simulation-only FMU,
+    each the reference without naming ``fmi_type`` (the one the FMU has is used)."""
+    from fmpy.validation import validate_fmu
+
+    out = tmp_path / f"vehicle_{kind}.fmu"
+    assert main(["export-reference-fmu", "--env", "vertical", "-o", str(out), "--kind", kind]) == 0
+    assert validate_fmu(str(out)) == []
+    md = fmpy.read_model_description(str(out))
+    assert (md.modelExchange is not None, md.coSimulation is not None) == (
+        kind == "me",
+        kind == "cs",
+    )
+    kw = {"duration": 0.5, "track_class": 6}
+    actions = np.random.default_rng(3).uniform(-1, 1, (50, 1)).astype(np.float32)
+    ref = _episode(gym.make(ID, backend="reference", **kw), actions)
+    got = _episode(gym.make(ID, backend="fmu", fmu_map=out.with_suffix(".yaml"), **kw), actions)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
