@@ -133,13 +133,16 @@ def run(args: argparse.Namespace) -> int:
     model = default_vertical_surrogate() if args.model is None else io.load(args.model)
     vehicle = getattr(args, "env", "vertical") == "vehicle"
     if vehicle:
+        if args.fmu_map is not None or args.fmu is not None:
+            raise ValueError("--fmu-map/--fmu: an FMU reference is one bogie; use --env vertical")
         factory, env_kwargs, label = load_policy(args.policy, VEHICLE_ID, trust=args.trust)
         env: Any = VerticalVehicleEnv(backend="reference", **env_kwargs)
-        loop, observe = refine_vehicle, vehicle_observation_map(env)
+        loop, observe, extra = refine_vehicle, vehicle_observation_map(env), {}
     else:
         factory, env_kwargs, label = load_policy(args.policy, trust=args.trust)
         env = VerticalSuspensionEnv(backend="reference", **env_kwargs)
         loop, observe = refine, observation_map(env)
+        extra = {"fmu_map": args.fmu_map, "fmu": args.fmu}
     where = "the whole vehicle" if vehicle else "one bogie"
     print(f"refining the element for policy {label} on FRA class {args.track_class} ({where})")
     refined, _ = loop(
@@ -154,8 +157,7 @@ def run(args: argparse.Namespace) -> int:
         f_max=env.cfg.f_max,
         observe=observe,
         seed=args.seed,
-        fmu_map=args.fmu_map,
-        fmu=args.fmu,
+        **extra,
     )
     if args.out is not None:
         source = f"railgym refine {args.policy}: {args.rounds} rounds on class {args.track_class}"

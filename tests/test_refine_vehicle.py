@@ -67,3 +67,9 @@ def test_refine_command_on_the_vehicle_writes_a_loadable_element(tmp_path, capsy
     element = io.load(out)
     assert element.features_["form"] == "maxwell" and element.n_features_in_ == 3
     assert main([*args, "--out", str(out)]) != 0  # no overwrite without --overwrite
+
+
+def test_refine_command_refuses_an_fmu_reference_for_the_vehicle(tmp_path, capsys):
+    args = ["refine", "passive", "--env", "vehicle", "--fmu-map", str(tmp_path / "map.yaml")]
+    assert main(args) != 0
+    assert "--env vertical" in capsys.readouterr().err
