@@ -103,6 +103,8 @@ def test_fmu_arguments_only_with_backend_fmu(reference_fmu):
         gym.make(ID, backend="reference", fmu_map=mapping)
     with pytest.raises(ValueError, match="fmu_map is required with backend='fmu'"):
         gym.make(ID, backend="fmu", fmu=fmu)
+    with pytest.raises(ValueError, match="backend must be one of"):
+        gym.make("railgym/VerticalVehicle-v0", backend="fmu")  # not (yet) for the vehicle
     env = gym.make(ID, backend="fmu", fmu_map=mapping)  # the FMU from the map's fmu:
     with pytest.raises(TypeError, match="cannot be copied"):
         import copy
