@@ -4,7 +4,7 @@ Schema (YAML, version 1; ``docs/fmi.md``)::
 
     version: 1
     fmu: vehicle.fmu              # optional: the FMU, relative to this file (else fmu=)
-    env: vertical                 # the env the FMU stands in for
+    env: vertical                 # the env the FMU stands in for (or vehicle)
     fmi_type: CoSimulation        # or ModelExchange (default: CoSimulation if the FMU has it)
     step: 0.001                   # communication / integration step, s (default: env dt)
     timeout: 10.0                 # wall-clock limit of one env step in the FMU, s (default 10)
@@ -59,7 +59,19 @@ ENV_SIGNALS: dict[str, dict[str, Any]] = {
             "carbody_vel": "m/s",
         },
         "optional": {"carbody_disp": "m", "secondary_force": "N"},
-    }
+    },
+    "vehicle": {
+        "wheelsets": 4,
+        "actuators": 2,
+        "outputs": {
+            **{f"floor_acc_{p}": "m/s2" for p in ("front", "centre", "rear")},
+            **{f"bogie_acc_{b}": "m/s2" for b in ("front", "rear")},
+            **{f"deflection_{b}": "m" for b in ("front", "rear")},
+            **{f"deflection_rate_{b}": "m/s" for b in ("front", "rear")},
+            **{f"carbody_vel_{b}": "m/s" for b in ("front", "rear")},
+        },
+        "optional": {f"secondary_force_{b}": "N" for b in ("front", "rear")},
+    },
 }
 FMI_TYPES = ("CoSimulation", "ModelExchange")
 DEFAULT_TIMEOUT = 10.0

@@ -198,13 +198,24 @@ class FMURunner:
         y = np.asarray(values, float) * self.out_factor
         return dict(zip(self.out_keys, y.tolist(), strict=True))
 
-    def advance(self, z: np.ndarray, zdot: np.ndarray, forces: np.ndarray) -> np.ndarray:
+    def advance(
+        self,
+        z: np.ndarray,
+        zdot: np.ndarray,
+        forces: np.ndarray,
+        mid: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
         """Advance one control step: ``z, zdot`` (wheelsets, n_sub + 1) the track samples
-        of the step (m, m/s), ``forces`` the actuator forces (N), held. Returns the outputs
-        (n_sub, len(out_keys)) at the end of every substep, SI."""
-        job = self._cs_job if self.map.fmi_type == "CoSimulation" else self._me_job
+        of the step (m, m/s), ``forces`` the actuator forces (N), held; ``mid`` the track at
+        the substeps' midpoints ((wheelsets, n_sub) each; default the cubic Hermite midpoint
+        of the samples), used by model exchange. Returns the outputs (n_sub, len(out_keys))
+        at the end of every substep, SI."""
+        forces = np.asarray(forces, float)
         t0 = self.time
-        y = self._call(lambda: job(z, zdot, np.asarray(forces, float), t0), "fmi2DoStep")
+        if self.map.fmi_type == "CoSimulation":
+            y = self._call(lambda: self._cs_job(z, zdot, forces, t0), "fmi2DoStep")
+        else:
+            y = self._call(lambda: self._me_job(z, zdot, forces, t0, mid), "fmi2DoStep")
         self.time = t0 + self.n_sub * self.dt
         return y * self.out_factor
 
@@ -234,7 +245,14 @@ class FMURunner:
             out[m] = f.getReal(self.vr_out)
         return out
 
-    def _me_job(self, z: np.ndarray, zd: np.ndarray, forces: np.ndarray, t0: float) -> Any:
+    def _me_job(
+        self,
+        z: np.ndarray,
+        zd: np.ndarray,
+        forces: np.ndarray,
+        t0: float,
+        mid: tuple[np.ndarray, np.ndarray] | None,
+    ) -> Any:
         f, dt, nx = self.fmu, self.dt, self.nx
         out = np.empty((self.n_sub, len(self.vr_out)))
         x = self._states()
@@ -251,8 +269,11 @@ class FMURunner:
         for m in range(self.n_sub):
             t = t0 + m * dt
             za, zda, zb, zdb = z[:, m], zd[:, m], z[:, m + 1], zd[:, m + 1]
-            zm = 0.5 * (za + zb) + dt8 * (zda - zdb)
-            zdm = c3 * (zb - za) - 0.25 * (zda + zdb)
+            if mid is None:
+                zm = 0.5 * (za + zb) + dt8 * (zda - zdb)
+                zdm = c3 * (zb - za) - 0.25 * (zda + zdb)
+            else:
+                zm, zdm = mid[0][:, m], mid[1][:, m]
             ua = self._inputs(z, zd, forces, m)
             ub = self._inputs(z, zd, forces, m + 1)
             um = self._inputs(zm[:, None], zdm[:, None], forces, 0)
