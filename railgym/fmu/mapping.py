@@ -64,7 +64,7 @@ ENV_SIGNALS: dict[str, dict[str, Any]] = {
         "wheelsets": 4,
         "actuators": 2,
         "outputs": {
-            **{f"floor_acc_{p}": "m/s2" for p in ("front", "centre", "rear")},
+            **{f"acc_{p}": "m/s2" for p in ("front", "centre", "rear")},
             **{f"bogie_acc_{b}": "m/s2" for b in ("front", "rear")},
             **{f"deflection_{b}": "m" for b in ("front", "rear")},
             **{f"deflection_rate_{b}": "m/s" for b in ("front", "rear")},

@@ -72,7 +72,7 @@ VEHICLE_INPUTS = (
 )
 VEHICLE_OUTPUTS = (
     *(
-        (f"floor_acc_{p}", "m/s2", f"carbody floor acceleration, {p}")
+        (f"acc_{p}", "m/s2", f"carbody floor acceleration, {p}")
         for p in ("front", "centre", "rear")
     ),
     *((f"bogie_acc_{b}", "m/s2", f"{b} bogie acceleration") for b in _BOGIES),

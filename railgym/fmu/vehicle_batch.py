@@ -28,7 +28,7 @@ from railgym.vehicles.vehicle import Lpr, WholeVehicle, hermite
 
 __all__ = ["FMUVehicleBatch"]
 
-_FLOOR = ("floor_acc_front", "floor_acc_centre", "floor_acc_rear")
+_FLOOR = ("acc_front", "acc_centre", "acc_rear")
 _BOGIE = ("bogie_acc_front", "bogie_acc_rear")
 
 

@@ -53,7 +53,7 @@ static double md_rhs(const double *x, const double *u, double *dx) {
     return fs[0];
 }
 
-/* outputs: floor_acc_front, _centre, _rear, bogie_acc_front, _rear, deflection_front, _rear,
+/* outputs: acc_front, _centre, _rear (floor points), bogie_acc_front, _rear, deflection_front, _rear,
  * deflection_rate_front, _rear, carbody_vel_front, _rear (at the bogies), secondary_force_front,
  * _rear (SI) */
 static void md_outputs(const double *x, const double *u, double *y) {
