@@ -263,3 +263,19 @@ def test_whole_vehicle_fmu_needs_the_sensor_observation(vehicle_fmu):
         gym.make(VEHICLE_ID, backend="fmu", fmu_map=mapping, observation="full")
     with pytest.raises(ValueError, match="env is 'vehicle', this env is 'vertical'"):
         gym.make(ID, backend="fmu", fmu_map=mapping)
+
+
+@pytest.mark.parametrize("env", ["vertical", "vehicle"])
+def test_evaluate_on_the_fmu_prints_the_reference_table(reference_fmu, vehicle_fmu, env, capsys):
+    """``railgym evaluate --backend fmu`` on the exported reference: the table of
+    ``--backend reference``, digit for digit."""
+    _, mapping = reference_fmu if env == "vertical" else vehicle_fmu
+    common = ["evaluate", "skyhook", "--env", env, "--track-class", "4", "--episodes", "1"]
+    if env == "vehicle":
+        common += ["--duration", "2"]
+    tables = []
+    for backend in (["--backend", "reference"], ["--backend", "fmu", "--fmu-map", str(mapping)]):
+        assert main(common + backend) == 0
+        out = capsys.readouterr().out
+        tables.append(out.split("\n", 1)[1])  # without the line naming the backend
+    assert tables[0] == tables[1] and "skyhook" in tables[0]
