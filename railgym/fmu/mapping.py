@@ -205,7 +205,7 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
     data = val.load_yaml(_read_text(path, "fmu_map"), source)
     f = val.Fields(data, "")
     try:
-        version = f.integer("version", 1, 1)
+        f.integer("version", 1, 1)
         name = f.get("fmu", None)
         env_name = f.text("env")
         fmi_type = f.get("fmi_type", None)
@@ -217,7 +217,6 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
         f.done()
     except val.FieldError as exc:
         raise FMUError(exc.field, f"{source}: {exc}", full=True) from None
-    del version
     if env_name != env:
         raise FMUError("env", f"{source}: env is {env_name!r}, this env is {env!r}", full=True)
     if fmu is None:

@@ -23,6 +23,7 @@ import queue
 import shutil
 import tempfile
 import threading
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -102,6 +103,7 @@ class FMURunner:
         self._broken: str | None = None
         md = read_model_description(str(mapping.fmu))
         self._dir = tempfile.mkdtemp(prefix="railgym-fmu-")
+        weakref.finalize(self, shutil.rmtree, self._dir, True)  # unpacked files, at the latest
         self._worker = _Worker()
         cs = mapping.fmi_type == "CoSimulation"
         unit = md.coSimulation if cs else md.modelExchange
