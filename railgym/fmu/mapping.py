@@ -8,6 +8,8 @@ Schema (YAML, version 1; ``docs/fmi.md``)::
     fmi_type: CoSimulation        # or ModelExchange (default: CoSimulation if the FMU has it)
     step: 0.001                   # communication / integration step, s (default: env dt)
     timeout: 10.0                 # wall-clock limit of one env step in the FMU, s (default 10)
+    solver: rk4                   # model exchange: rk4 (railgym's, default) or cvode (FMPy's)
+    tolerance: 1.0e-8             # solver: cvode: relative tolerance (absolute: × nominals)
     inputs:
       track:                      # one entry per wheelset, front to rear
         - {displacement: z, rate: zdot}
@@ -75,6 +77,9 @@ ENV_SIGNALS: dict[str, dict[str, Any]] = {
 }
 FMI_TYPES = ("CoSimulation", "ModelExchange")
 DEFAULT_TIMEOUT = 10.0
+#: model-exchange solvers: railgym's fixed-step RK4 (the kernels' scheme), FMPy's CVode (BDF)
+SOLVERS = ("rk4", "cvode")
+DEFAULT_TOLERANCE = 1e-8
 
 
 class FMUError(val.FieldError):
@@ -105,6 +110,8 @@ class Mapping:
     forces: tuple[Signal, ...]
     outputs: dict[str, Signal]
     interpolate: bool  #: co-simulation FMU takes input derivatives (canInterpolateInputs)
+    solver: str = "rk4"  #: model exchange: ``"rk4"`` or ``"cvode"`` (:data:`SOLVERS`)
+    tolerance: float = DEFAULT_TOLERANCE  #: relative tolerance of ``"cvode"``
 
 
 def _read_text(path: Path, field: str) -> str:
@@ -212,6 +219,8 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
         step = f.get("step", None)
         step = None if step is None else f.positive("step")
         timeout = f.positive("timeout") if "timeout" in f.data else DEFAULT_TIMEOUT
+        solver = f.get("solver", None)
+        tolerance = f.positive("tolerance", 0.1) if "tolerance" in f.data else None
         inputs = f.section("inputs")
         outputs = f.section("outputs")
         f.done()
@@ -230,6 +239,15 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
         fmi_type = kinds[0]
     if fmi_type not in FMI_TYPES:
         raise FMUError("fmi_type", f"{source}: fmi_type must be one of {FMI_TYPES}", full=True)
+    if solver is not None and (solver not in SOLVERS or fmi_type != "ModelExchange"):
+        raise FMUError(
+            "solver",
+            f"{source}: solver must be one of {SOLVERS}, for fmi_type ModelExchange; got "
+            f"{solver!r} with {fmi_type}",
+            full=True,
+        )
+    if tolerance is not None and solver != "cvode":
+        raise FMUError("tolerance", f"{source}: tolerance is for solver: cvode", full=True)
     if fmi_type not in kinds:
         raise FMUError(
             "fmi_type", f"{source}: FMU {fmu} has no {fmi_type} (it has {kinds})", full=True
@@ -283,5 +301,16 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
     cs = md.coSimulation
     interpolate = fmi_type == "CoSimulation" and bool(cs.canInterpolateInputs)
     return Mapping(
-        source, fmu, env, fmi_type, step, timeout, tuple(pairs), force_sigs, outs, interpolate
+        source,
+        fmu,
+        env,
+        fmi_type,
+        step,
+        timeout,
+        tuple(pairs),
+        force_sigs,
+        outs,
+        interpolate,
+        solver or "rk4",
+        DEFAULT_TOLERANCE if tolerance is None else tolerance,
     )

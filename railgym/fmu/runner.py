@@ -75,6 +75,13 @@ class _Worker:
         return value
 
 
+class _Input:
+    """The ``input`` object CVodeSolver calls (``apply(t)``) before its root function."""
+
+    def __init__(self, apply: Callable[[float], None]) -> None:
+        self.apply = apply
+
+
 class FMURunner:
     """One FMU instance stepped as the reference model of an env (module docstring)."""
 
@@ -177,10 +184,12 @@ class FMURunner:
             f.enterInitializationMode()
             f.setReal(self.vr_in, [0.0] * len(self.vr_in))
             f.exitInitializationMode()
-            if self.nx:
+            if self.map.fmi_type == "ModelExchange":
                 while f.newDiscreteStates()[0]:  # (newDiscreteStatesNeeded, …)
                     pass
                 f.enterContinuousTimeMode()
+                if self.map.solver == "cvode":
+                    self._solver = self._cvode()
             return f.getReal(self.vr_out)
 
         self.time = 0.0
@@ -217,7 +226,8 @@ class FMURunner:
         if self.map.fmi_type == "CoSimulation":
             y = self._call(lambda: self._cs_job(z, zdot, forces, t0), "fmi2DoStep")
         else:
-            y = self._call(lambda: self._me_job(z, zdot, forces, t0, mid), "fmi2DoStep")
+            job = self._cvode_job if self.map.solver == "cvode" else self._me_job
+            y = self._call(lambda: job(z, zdot, forces, t0, mid), "model exchange step")
         self.time = t0 + self.n_sub * self.dt
         return y * self.out_factor
 
@@ -287,6 +297,63 @@ class FMURunner:
             f.setTime(t + dt)
             f.setContinuousStates(np.ascontiguousarray(x).ctypes.data_as(_P_DOUBLE), nx)
             f.setReal(self.vr_in, ub)
+            f.completedIntegratorStep()
+            out[m] = f.getReal(self.vr_out)
+        return out
+
+    def _cvode(self) -> Any:
+        """FMPy's CVode solver (BDF) on the FMU, the inputs set at each time it asks for."""
+        from fmpy.sundials import CVodeSolver
+
+        f, w = self.fmu, len(self.map.track)
+        zero = (np.zeros(3), np.zeros(3))
+        self._poly = (0.0, np.zeros(w), np.zeros(w), [zero] * w, np.zeros(len(self.map.forces)))
+        return CVodeSolver(
+            nx=self.nx,
+            nz=0,
+            get_x=f.getContinuousStates,
+            set_x=f.setContinuousStates,
+            get_dx=f.getDerivatives,
+            get_z=f.getEventIndicators,
+            get_nominals=f.getNominalsOfContinuousStates,
+            set_time=self._set_time,
+            input=_Input(self._set_time),
+            startTime=0.0,
+            maxStep=self.dt,
+            relativeTolerance=self.map.tolerance,
+            maxNumSteps=100000,
+        )
+
+    def _set_time(self, t: float) -> None:
+        """CVode's callback: time ``t`` (s) and the inputs at ``t`` (the substep's cubic
+        Hermite track, the held forces)."""
+        t0, z0, zd0, coef, forces = self._poly
+        s = t - t0
+        w = len(z0)
+        u = np.empty(len(self.vr_in))
+        for i, (dz, dzd) in enumerate(coef):
+            u[2 * i] = z0[i] + s * (dz[0] + s * (0.5 * dz[1] + s * (dz[2] / 6.0)))
+            u[2 * i + 1] = zd0[i] + s * (dzd[0] + s * (0.5 * dzd[1]))
+        u[2 * w :] = forces
+        self.fmu.setTime(t)
+        self.fmu.setReal(self.vr_in, (u * self.in_factor).tolist())
+
+    def _cvode_job(
+        self, z: np.ndarray, zd: np.ndarray, forces: np.ndarray, t0: float, mid: Any
+    ) -> Any:
+        f, dt = self.fmu, self.dt
+        out = np.empty((self.n_sub, len(self.vr_out)))
+        self._solver.reset(t0)  # the actuator force jumps here: restart the BDF history
+        for m in range(self.n_sub):
+            coef = [
+                hermite_derivatives(z[i, m], zd[i, m], z[i, m + 1], zd[i, m + 1], dt)
+                for i in range(z.shape[0])
+            ]
+            t = t0 + m * dt
+            self._poly = (t, z[:, m], zd[:, m], coef, forces)
+            self._solver.step(t, t + dt)
+            f.setTime(t + dt)
+            f.setReal(self.vr_in, self._inputs(z, zd, forces, m + 1))
             f.completedIntegratorStep()
             out[m] = f.getReal(self.vr_out)
         return out
