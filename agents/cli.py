@@ -33,10 +33,12 @@ from typing import Any
 import numpy as np
 
 from agents._args import add_parallel_arguments, bounded_int, check_parallel
+from agents._extras import MissingExtraError, report_missing
 from agents.controllers import Passive, Skyhook
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.progress import quiet, stages
 from railgym.report import make_report
 from railgym.report.output import prepare_output_dir
 from railgym.vehicles.collect import build_vertical_surrogate
@@ -73,13 +75,23 @@ def _indices(run: dict[str, Any], fs: float) -> dict[str, float]:
     }
 
 
+#: the files ``railgym demo`` writes into its folder, with what each shows
+DEMO_FILES = {
+    "samples_and_oob.png": "training samples and out-of-bag prediction (paper figs. 7, 8)",
+    "carbody_acceleration.png": "carbody acceleration, surrogate vs reference (paper fig. 9)",
+}
+
+
 def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
-    """Build the surrogate, compare surrogate and reference under skyhook, write plots into
-    ``out`` (an existing non-empty folder only with ``overwrite``)."""
+    """Build the surrogate, compare surrogate and reference under skyhook, write the plots of
+    :data:`DEMO_FILES` into ``out``. A folder holding only these files is reused (a re-run
+    replaces them); one holding other files only with ``overwrite``."""
     seed = val.integer(seed, "seed", min=0)
-    out = prepare_output_dir(out, overwrite)
+    out = prepare_output_dir(out, overwrite, own=DEMO_FILES)
     print("1-3. collect (dynamic reference, FRA class 5, 144 km/h, 20 s at 50 Hz), sample, fit")
-    model, report, data = build_vertical_surrogate(m=101, seed=seed, track_seed=seed)
+    model, report, data = build_vertical_surrogate(
+        m=101, seed=seed, track_seed=seed, progress=stages()
+    )
     print(report.format().split("\n   candidate")[0])
     runs: dict[tuple[str, str], dict[str, Any]] = {}
     for backend in ("surrogate", "reference"):
@@ -202,10 +214,23 @@ def build_parser() -> argparse.ArgumentParser:
     """The ``railgym`` argument parser."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    common.add_argument(
+        "--quiet", action="store_true", help="no progress bars (shown only on a terminal)"
+    )
     parser = argparse.ArgumentParser(prog="railgym", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    written = "\n".join(f"  {name}: {what}" for name, what in DEMO_FILES.items())
     d = sub.add_parser(
-        "demo", parents=[common], help="build a surrogate, run surrogate vs reference, plot"
+        "demo",
+        parents=[common],
+        help="build a surrogate, run surrogate vs reference, plot",
+        description="Build the surrogate element from the reference model, run one episode\n"
+        "each on the surrogate and the reference, passive and with skyhook, print the\n"
+        "paper's indices and write the plots.",
+        epilog=f"writes into --out (default railgym-demo/):\n{written}\nA folder that holds "
+        "only these files is reused and they are replaced, so the command\ncan be run "
+        "again; a folder with other files needs --overwrite.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _out_arguments(d, "railgym-demo", "the plots")
     p = sub.add_parser("paper", parents=[common], help="the paper's tables and figures")
@@ -253,7 +278,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "refine": refine.run,
     }[args.command]
     try:
-        return command(args)
+        with quiet(args.quiet):
+            return command(args)
+    except MissingExtraError as err:
+        if args.debug:
+            raise
+        return report_missing(err, f"railgym {args.command}", args.command)
     except (ValueError, OSError) as err:
         if args.debug:
             raise

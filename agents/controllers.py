@@ -179,6 +179,25 @@ def _lqr_weights(
     return float(weights["q_acc"]), float(weights["q_defl"]), float(weights["r_force"])
 
 
+def vertical_lqr_gain(
+    params: np.ndarray,
+    cfg: Any,
+    q_acc: float | None = None,
+    q_defl: float | None = None,
+    r_force: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, P, K)`` of :class:`LQR` for kernel parameters ``params`` and the env config
+    ``cfg`` (weights: see :class:`LQR`); ``K`` is (1, 4), N per SI state."""
+    w_acc, w_defl, w_force = _lqr_weights(cfg, ACC_REF, q_acc, q_defl, r_force)
+    a, b, c, d = linear_model(params)
+    c_d = np.array([1.0, 0.0, -1.0, 0.0])
+    q = w_acc * np.outer(c, c) + w_defl * np.outer(c_d, c_d)
+    n = w_acc * d * c[:, None]
+    r = np.array([[w_force + w_acc * d * d]])
+    p = solve_continuous_are(a, b, q, r, s=n)
+    return a, b, p, np.linalg.solve(r, b.T @ p + n.T)
+
+
 class LQR(_Controller):
     """Linear-quadratic regulator on the linearised vertical model (needs ``observation="full"``).
 
@@ -218,14 +237,9 @@ class LQR(_Controller):
         self.q_acc, self.q_defl, self.r_force = _lqr_weights(
             self._base.cfg, ACC_REF, q_acc, q_defl, r_force
         )
-        self.A, self.B, c, d = linear_model(self._base.sim.params)
-        c_d = np.array([1.0, 0.0, -1.0, 0.0])
-        q = self.q_acc * np.outer(c, c) + self.q_defl * np.outer(c_d, c_d)
-        n = self.q_acc * d * c[:, None]
-        r = np.array([[self.r_force + self.q_acc * d * d]])
-        p = solve_continuous_are(self.A, self.B, q, r, s=n)
-        self.P = p
-        self.K = np.linalg.solve(r, self.B.T @ p + n.T)
+        self.A, self.B, self.P, self.K = vertical_lqr_gain(
+            self._base.sim.params, self._base.cfg, q_acc, q_defl, r_force
+        )
 
     def closed_loop_poles(self) -> np.ndarray:
         """Eigenvalues of ``A − B·K`` (1/s), unsaturated actuator."""
@@ -322,6 +336,29 @@ class ModalSkyhook(_VehicleController):
         return np.stack([bounce + pitch, bounce - pitch], axis=1)
 
 
+def vehicle_lqr_gain(
+    vehicle: Any,
+    params: Any,
+    cfg: Any,
+    q_acc: float | None = None,
+    q_defl: float | None = None,
+    r_force: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, P, K)`` of :class:`VehicleLQR` for ``vehicle``, its kernel ``params`` and the
+    env config ``cfg`` (weights: see :class:`VehicleLQR`); ``K`` is (2, 14)."""
+    w_acc, w_defl, w_force = _lqr_weights(cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force)
+    a, b, _, c, d = linear_state_space(vehicle, cfg.flexible)
+    q = w_acc * c.T @ c / 3.0
+    for s in (1.0, -1.0):  # δ_i = z_b,i − z_c − x_i·θ_c − φ(a)·q
+        c_d = np.zeros(a.shape[0])
+        c_d[[3 if s > 0 else 5, 0, 1, 2]] = 1.0, -1.0, -s * params.a, -params.phi_a
+        q += 0.5 * w_defl * np.outer(c_d, c_d)
+    n = w_acc * c.T @ d / 3.0
+    r = 0.5 * w_force * np.eye(2) + w_acc * d.T @ d / 3.0
+    p = solve_continuous_are(a, b, q, r, s=n)
+    return a, b, p, np.linalg.solve(r, b.T @ p + n.T)
+
+
 class VehicleLQR(_VehicleController):
     """LQR on the full linear whole-vehicle model (needs ``observation="full"``).
 
@@ -352,17 +389,9 @@ class VehicleLQR(_VehicleController):
         self.q_acc, self.q_defl, self.r_force = _lqr_weights(
             cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force
         )
-        self.A, self.B, _, c, d = linear_state_space(self.vehicle, cfg.flexible)
-        p = self.params
-        q = self.q_acc * c.T @ c / 3.0
-        for s in (1.0, -1.0):  # δ_i = z_b,i − z_c − x_i·θ_c − φ(a)·q
-            c_d = np.zeros(self.A.shape[0])
-            c_d[[3 if s > 0 else 5, 0, 1, 2]] = 1.0, -1.0, -s * p.a, -p.phi_a
-            q += 0.5 * self.q_defl * np.outer(c_d, c_d)
-        n = self.q_acc * c.T @ d / 3.0
-        r = 0.5 * self.r_force * np.eye(2) + self.q_acc * d.T @ d / 3.0
-        self.P = solve_continuous_are(self.A, self.B, q, r, s=n)
-        self.K = np.linalg.solve(r, self.B.T @ self.P + n.T)
+        self.A, self.B, self.P, self.K = vehicle_lqr_gain(
+            self.vehicle, self.params, cfg, q_acc, q_defl, r_force
+        )
 
     def closed_loop_poles(self) -> np.ndarray:
         """Eigenvalues of ``A − B·K`` (1/s), unsaturated actuators."""
@@ -381,3 +410,13 @@ from agents.crash_baselines import (  # noqa: E402, F401  (re-exported)
     CrashPassive,
     SpeedAdaptive,
 )
+
+
+def __getattr__(name: str) -> Any:
+    """The observer-based LQR baselines ``LQG`` and ``VehicleLQG`` (Kalman filter on the sensors
+    + the LQR gains above) live in :mod:`agents.lqg`, which imports this module."""
+    if name in ("LQG", "VehicleLQG"):
+        from agents import lqg
+
+        return getattr(lqg, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

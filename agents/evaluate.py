@@ -10,10 +10,10 @@ over the held-out impact envelope beside the crash baselines.
     railgym evaluate runs/ppo_crash/model.zip --env crash --envelope
 
 A policy is a controller name (vertical: ``passive``, ``skyhook``, ``semi-active``,
-``groundhook``, ``lqr``; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
-``modal-skyhook``, ``lqr``) or a stable-baselines3 ``.zip``; for a zip, the algorithm and the
-env's observation settings are read from the ``config.yaml`` that :mod:`agents.train` writes
-beside it, the zip must be listed with its SHA-256 in the ``manifest.json`` beside it
+``groundhook``, ``lqr``, ``lqg``; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
+``modal-skyhook``, ``lqr``, ``lqg``) or a stable-baselines3 ``.zip``; for a zip, the algorithm
+and the env's observation settings are read from the ``config.yaml`` that :mod:`agents.train`
+writes beside it, the zip must be listed with its SHA-256 in the ``manifest.json`` beside it
 (``--trust``: any zip, with a warning), and only its network weights are read
 (:mod:`agents.policy_io`). Each case (track class, and speed on the vehicle) runs ``episodes``
 episodes in one native vector env, sub-env ``i`` on the track of seed ``seed + i`` — the same
@@ -40,19 +40,23 @@ from agents._args import (
     check_parallel,
     speed_kmh,
 )
+from agents._extras import require
 from agents.controllers import (
+    LQG,
     LQR,
     BogieSkyhook,
     Groundhook,
     ModalSkyhook,
     Passive,
     Skyhook,
+    VehicleLQG,
     VehicleLQR,
 )
 from agents.policy_io import check_manifest, load_policy_weights
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
+from railgym.progress import bar
 
 ENV_ID = "railgym/VerticalSuspension-v0"
 VEHICLE_ID = "railgym/VerticalVehicle-v0"
@@ -65,6 +69,7 @@ CONTROLLERS = {
     "semi-active": (Skyhook, {"mode": "semi-active"}, {}),
     "groundhook": (Groundhook, {}, {}),
     "lqr": (LQR, {}, {"observation": "full"}),
+    "lqg": (LQG, {}, {"observation": "sensors"}),
 }
 #: controllers of ``railgym/VerticalVehicle-v0`` (two actuators)
 VEHICLE_CONTROLLERS = {
@@ -72,6 +77,7 @@ VEHICLE_CONTROLLERS = {
     "skyhook": (BogieSkyhook, {}, {}),
     "modal-skyhook": (ModalSkyhook, {}, {}),
     "lqr": (VehicleLQR, {}, {"observation": "full"}),
+    "lqg": (VehicleLQG, {}, {"observation": "sensors"}),
 }
 #: baseline names accepted by :func:`evaluate_envelope` (all three always run)
 ENVELOPE_BASELINES = ("passive", "best-constant", "speed-adaptive")
@@ -120,6 +126,7 @@ def load_policy(
             f"policy must be {names}an existing stable-baselines3 .zip or an RLlib checkpoint "
             f"folder, got {policy!r}"
         )
+    require("loading a stable-baselines3 policy", "torch", "stable_baselines3")
     cfg_path = path.parent / "config.yaml"
     if not cfg_path.is_file():
         raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
@@ -344,7 +351,7 @@ def evaluate_vehicle(
         for tc, v in cases
         for p in policies
     ]
-    results = iter(run_tasks(_run_vehicle_task, tasks, workers, address))
+    results = iter(run_tasks(_run_vehicle_task, tasks, workers, address, desc="cases"))
     rows = []
     for tc, _ in cases:
         passive = None
@@ -404,7 +411,7 @@ def evaluate_crash(
         load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")
         for p in val.sequence(policies, "policies")
     ]
-    for v in speeds_kmh:
+    for v in bar(speeds_kmh, desc="speeds"):
         passive = None
         for factory, env_kwargs, label in loaded:
             env = gym.make(CRASH_ID, backend=backend, **{**env_kwargs, "speed": v / 3.6})
@@ -525,6 +532,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="vehicle: seconds per episode (default 20)",
     )
     parser.add_argument(
+        "--gap",
+        action="store_true",
+        help="run each policy on the surrogate and on --backend (default the reference) over "
+        "the same held-out cases and print every task metric on both with their relative gap "
+        "(agents.gap)",
+    )
+    parser.add_argument(
         "--envelope",
         action="store_true",
         help="crash: the held-out envelope evaluation on the reference (speeds × two payloads) "
@@ -560,6 +574,10 @@ def _only_for(args: argparse.Namespace, flags: dict[str, bool], envs: str) -> No
 
 def run(args: argparse.Namespace) -> int:
     """``railgym evaluate``: the policies plus passive (and skyhook) for comparison."""
+    if args.gap:
+        from agents.gap import run_gap  # imports this module: not at the top
+
+        return run_gap(args)
     parallel = {"--workers": args.workers != 1, "--address": args.address is not None}
     fmu = {"fmu": args.fmu, "fmu_map": args.fmu_map} if args.backend == "fmu" else {}
     if args.backend != "fmu" and (args.fmu is not None or args.fmu_map is not None):

@@ -48,18 +48,27 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import stable_baselines3 as sb3
-import torch
 import yaml
 from gymnasium.vector import AutoresetMode, VectorEnv
-from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
-from stable_baselines3.common.logger import configure
-from stable_baselines3.common.utils import set_random_seed
-from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from tqdm import tqdm
 
 import railgym
 from agents._args import bounded_int
+from agents._extras import extra_error, report_missing
+
+try:  # the 'agents' extra
+    import stable_baselines3 as sb3
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+except ImportError as _err:
+    if __name__ == "__main__":
+        sys.exit(report_missing(_err, "python -m agents.train", "training"))
+    raise extra_error(_err, "training (agents.train)") from _err
+
+from agents.envelope import EnvelopeVectorEnv, check_envelope
 from agents.policy_io import write_manifest
 from agents.train_config import (
     ALGOS,
@@ -387,7 +396,10 @@ def train(
     torch.set_num_threads(cfg.n_threads)
     set_random_seed(cfg.seed)
     mode = cfg.vectorization_mode
-    env = VecMonitor(GymVecToSB3(make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)))
+    venv = make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)
+    if cfg.envelope is not None:
+        venv = EnvelopeVectorEnv(venv, check_envelope(cfg.envelope), cfg.seed)
+    env = VecMonitor(GymVecToSB3(venv))
     opened: list[Any] = [env]
     try:  # evaluation env, model and output folder before anything is written
         eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}

@@ -22,6 +22,9 @@ Config file: one top-level key, the Gymnasium env id, holding
 ``checkpoint_freq``     steps between checkpoints
 ``n_threads``           torch CPU threads (default 1: small networks are fastest on one
                         thread), at most 256
+``envelope``            per-episode track class and speed of the training env (vertical and
+                        vehicle envs; :mod:`agents.envelope`): ``track_class`` (list),
+                        ``speed_kmh`` ([min, max]; absent: each class's maximum speed)
 ``vectorization_mode``  ``vector_entry_point`` (the env's native vector env, default where it
                         has one) or ``sync`` (a ``SAME_STEP`` ``SyncVectorEnv`` of single
                         envs)
@@ -94,6 +97,7 @@ class TrainConfig:
     n_threads: int = 1
     vectorization_mode: str | None = None
     eval_echo: list[str] = field(default_factory=list)
+    envelope: dict[str, Any] | None = None
     hyperparameters: dict[str, Any] = field(default_factory=dict)
 
     def to_yaml_dict(self) -> dict[str, Any]:
@@ -278,6 +282,15 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
     run_keys = set(TrainConfig.__dataclass_fields__) - {"env_id", "hyperparameters"}
     hyper = {k: v for k, v in block.items() if k not in run_keys}
     hyperparameters(ALGOS[algo], hyper)  # validates; applied by train()
+    envelope = f.get("envelope", None)
+    if envelope is not None:
+        from agents.envelope import ENVELOPE_ENVS, check_envelope
+
+        if env_id not in ENVELOPE_ENVS:
+            raise val.FieldError("envelope", f"is for {list(ENVELOPE_ENVS)}, not {env_id}")
+        if mode == "sync":
+            raise val.FieldError("envelope", "needs the native vector env, not sync")
+        envelope = check_envelope(envelope).to_dict()
     return TrainConfig(
         env_id=env_id,
         algo=algo,
@@ -294,5 +307,6 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
         n_threads=count("n_threads", 1, hi=MAX_THREADS),
         vectorization_mode=mode,
         eval_echo=_names(f.get("eval_echo", None), "eval_echo"),
+        envelope=envelope,
         hyperparameters=hyper,
     )

@@ -61,23 +61,31 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import ray
-import torch
 import yaml
-from ray.rllib.algorithms.algorithm_config import AlgorithmConfig
-from ray.rllib.algorithms.ppo import PPOConfig
-from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
-from ray.rllib.core.rl_module.rl_module import RLModule
-from ray.tune.registry import register_env
 
 import railgym
 from agents._args import bounded_int
+from agents._extras import extra_error, report_missing
 from agents.evaluate import RLLIB_MODULE_PATH
 from agents.policy_io import sha256
-from agents.train import evaluate, make_vec
-from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, _kwargs
 from railgym import _validation as val
 from railgym.report.output import prepare_output_dir, write_text_atomic
+
+try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' extra
+    import ray
+    import torch
+    from ray.rllib.algorithms.algorithm_config import AlgorithmConfig
+    from ray.rllib.algorithms.ppo import PPOConfig
+    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
+    from ray.rllib.core.rl_module.rl_module import RLModule
+    from ray.tune.registry import register_env
+
+    from agents.train import evaluate, make_vec
+    from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, _kwargs
+except ImportError as _err:
+    if __name__ == "__main__":
+        sys.exit(report_missing(_err, "python -m agents.train_rllib", "RLlib training"))
+    raise extra_error(_err, "RLlib training (agents.train_rllib)") from _err
 
 ALGOS = ("ppo",)
 #: RLlib's name of the native vector env creator (registered by :func:`_register`)

@@ -72,9 +72,17 @@ _NAME = re.compile(r"[A-Za-z0-9_-]+")
 
 
 class FieldError(ValueError):
-    """Invalid value; ``field`` is the path of the offending field."""
+    """Invalid value; ``field`` is the path of the offending field.
 
-    def __init__(self, field: str, message: str, *, full: bool = False) -> None:
+    ``FieldError(field, message)`` reads "``field`` ``message``" (``full=True``: ``message``
+    alone). With one argument, as code that re-raises ``type(e)(text)`` calls it (gymnasium's
+    ``make``), the argument is the whole message and ``field`` its first word.
+    """
+
+    def __init__(self, field: str, message: str | None = None, *, full: bool = False) -> None:
+        if message is None:
+            message, full = field, True
+            field = field.split(" ", 1)[0]
         super().__init__(message if full else f"{field} {message}")
         self.field = field
 

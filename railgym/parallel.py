@@ -28,6 +28,7 @@ from typing import TypeVar
 import numpy as np
 
 from railgym import _validation as val
+from railgym.progress import bar
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -97,8 +98,10 @@ def run_tasks(
     workers: int = 1,
     address: str | None = None,
     backend: str | None = None,
+    desc: str = "tasks",
 ) -> list[R]:
-    """``[fn(t) for t in tasks]``, computed by the backend :func:`choose_backend` picks.
+    """``[fn(t) for t in tasks]``, computed by the backend :func:`choose_backend` picks, with
+    a progress bar ``desc`` over the finished tasks (:func:`railgym.progress.bar`).
 
     Parameters
     ----------
@@ -115,13 +118,13 @@ def run_tasks(
     tasks = list(tasks)
     backend = choose_backend(workers, address, backend)
     if backend == "serial" or not tasks:
-        return [fn(t) for t in tasks]
+        return list(bar(map(fn, tasks), desc=desc, total=len(tasks)))
     if backend == "ray":
         return _run_ray(fn, tasks, workers, address)
     # spawn: workers start clean (no forked threads); numba kernels come from its disk cache
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(min(workers, len(tasks)), mp_context=ctx) as pool:
-        return list(pool.map(fn, tasks))
+        return list(bar(pool.map(fn, tasks), desc=desc, total=len(tasks)))
 
 
 __all__ = ["BACKENDS", "choose_backend", "ray_available", "run_tasks", "spawn_seeds"]

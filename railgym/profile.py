@@ -11,7 +11,9 @@ file holds is what the vehicle rides on, starting at its first position.
 from __future__ import annotations
 
 import csv
+import io
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +24,13 @@ from railgym import _validation as val
 
 #: fewest points accepted in a profile
 MIN_POINTS = 4
+#: largest median point spacing, m: a track profile is sampled every 0.1–1 m, and the ride
+#: needs wavelengths down to 1 m (a profile in mm read as m has spacings of 100 m and more)
+MAX_SPACING = 5.0
+#: largest irregularity about the profile's straight line (least squares), m: measured track
+#: irregularities are a few cm (a profile in mm read as m reaches metres)
+MAX_IRREGULARITY = 0.5
+_HEADER = re.compile(r"[xz]\s*(?:\[\s*(\w+)\s*\])?")
 
 
 def read_profile_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -32,29 +41,40 @@ def read_profile_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     x, z : float64 arrays, checked by :func:`check_profile`.
     """
     path = Path(path)
+    if path.is_dir():
+        raise val.FieldError(
+            "profile", f"profile {str(path)!r} is a folder, not a CSV file", full=True
+        )
     if not path.is_file():
         raise val.FieldError("profile", f"profile file {str(path)!r} does not exist", full=True)
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8-sig")  # a byte-order mark, as spreadsheets write, is skipped
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ValueError(f"{path}:{line}: not UTF-8 text ({exc.reason})") from None
     xs: list[float] = []
     zs: list[float] = []
     lines: list[int] = []
-    with path.open(newline="") as fh:
-        for line_no, row in enumerate(csv.reader(fh), start=1):
-            cells = [c.strip() for c in row]
-            if not cells or not any(cells) or cells[0].startswith("#"):
-                continue
-            if len(cells) != 2:
-                raise ValueError(f"{path}:{line_no}: expected 2 columns (x, z), got {len(cells)}")
-            if not xs and [c.lower() for c in cells] in (["x", "z"], ["x [m]", "z [m]"]):
-                continue  # header
-            try:
-                x, z = float(cells[0]), float(cells[1])
-            except ValueError:
-                raise ValueError(
-                    f"{path}:{line_no}: not a number in {row!r} (columns x, z in m)"
-                ) from None
-            xs.append(x)
-            zs.append(z)
-            lines.append(line_no)
+    for line_no, row in enumerate(csv.reader(io.StringIO(text, newline="")), start=1):
+        cells = [c.strip() for c in row]
+        if not cells or not any(cells) or cells[0].startswith("#"):
+            continue
+        if len(cells) != 2:
+            raise ValueError(f"{path}:{line_no}: expected 2 columns (x, z), got {len(cells)}")
+        if not xs and all(_HEADER.fullmatch(c.lower()) for c in cells):  # header
+            if any(_HEADER.fullmatch(c.lower())[1] not in (None, "m") for c in cells):
+                raise ValueError(f"{path}:{line_no}: columns x, z must be in m, got {row!r}")
+            continue
+        try:
+            x, z = float(cells[0]), float(cells[1])
+        except ValueError:
+            raise ValueError(
+                f"{path}:{line_no}: not a number in {row!r} (columns x, z in m)"
+            ) from None
+        xs.append(x)
+        zs.append(z)
+        lines.append(line_no)
     x_arr, z_arr = np.array(xs), np.array(zs)
     check_profile(x_arr, z_arr, source=str(path), lines=lines)
     return x_arr, z_arr
@@ -120,25 +140,40 @@ def check_profile(
             f"{source}: x must be strictly increasing; x = {x[i]} m at {where(i)} follows "
             f"x = {x[i - 1]} m"
         )
+    spacing = float(np.median(step))
+    if spacing > MAX_SPACING:
+        raise ValueError(
+            f"{source}: median point spacing {spacing:.4g} m is above {MAX_SPACING:g} m; x and z "
+            "must be in m (a profile in mm?)"
+        )
+    deviation = np.abs(z - np.polyval(np.polyfit(x - x[0], z, 1), x - x[0]))
+    k = int(np.argmax(deviation))
+    if deviation[k] > MAX_IRREGULARITY:
+        raise ValueError(
+            f"{source}: z departs {deviation[k]:.4g} m from the profile's straight line at "
+            f"{where(k)}, above {MAX_IRREGULARITY:g} m; z must be an irregularity in m (a "
+            "profile in mm?)"
+        )
     return x, z
 
 
 def resample_profile(
-    x: Any, z: Any, dx: float, n: int, source: str = "profile"
+    x: Any, z: Any, dx: float, n: int, source: str = "profile", length: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Profile height (m) and slope on ``x[0] + j·dx``, ``j = 0..n−1`` (cubic spline).
 
-    ValueError when the profile is shorter than ``(n − 1)·dx``, naming both lengths.
+    ValueError when the profile is shorter than ``length`` (m, the run's documented length;
+    default ``(n − 1)·dx``), naming both lengths; samples beyond the profile repeat its end.
     """
     x, z = check_profile(x, z, source)
     if not (math.isfinite(dx) and dx > 0):
         raise ValueError(f"dx must be a positive number of metres, got {dx!r}")
-    need = (n - 1) * dx
+    need = (n - 1) * dx if length is None else length
     have = float(x[-1] - x[0])
     if have < need * (1.0 - 1e-12):
         raise ValueError(
             f"{source}: too short: it covers {have:.3f} m, the run needs {need:.3f} m "
-            "(speed × duration plus the wheelset spacing)"
+            "(speed × duration, plus the wheelset span for the whole vehicle)"
         )
     spline = CubicSpline(x, z)
     grid = np.minimum(x[0] + dx * np.arange(n), x[-1])
@@ -146,10 +181,16 @@ def resample_profile(
 
 
 def profile_time_input(
-    profile: tuple[Any, Any], speed: float, dt: float, n: int, source: str = "profile"
+    profile: tuple[Any, Any],
+    speed: float,
+    dt: float,
+    n: int,
+    source: str = "profile",
+    length: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Track height ``z(v·k·dt)`` (m) and rate ``v·z'`` (m/s) of a profile, ``k = 0..n−1``."""
+    """Track height ``z(v·k·dt)`` (m) and rate ``v·z'`` (m/s) of a profile, ``k = 0..n−1``;
+    ``length`` as in :func:`resample_profile`."""
     if not (math.isfinite(speed) and speed > 0):
         raise ValueError(f"speed must be a positive number in m/s, got {speed!r}")
-    z, slope = resample_profile(profile[0], profile[1], speed * dt, n, source)
+    z, slope = resample_profile(profile[0], profile[1], speed * dt, n, source, length)
     return z, speed * slope

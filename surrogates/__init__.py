@@ -24,12 +24,30 @@ _LAZY = {
     "ModelFieldError": "surrogates.models.validation",
 }
 
+#: submodules reachable as attributes after a plain ``import surrogates`` (``surrogates.io``)
+_SUBMODULES = (
+    "builder",
+    "features",
+    "fmi",
+    "io",
+    "lsdyna",
+    "memory",
+    "metrics",
+    "models",
+    "passive",
+    "sampling",
+    "selection",
+    "tables",
+)
+
 __all__ = sorted(_LAZY)
 
 
 def __getattr__(name: str) -> Any:
     if name in _LAZY:
         return getattr(importlib.import_module(_LAZY[name]), name)
+    if name in _SUBMODULES:
+        return importlib.import_module(f"surrogates.{name}")
     raise AttributeError(f"module 'surrogates' has no attribute {name!r}")
 
 

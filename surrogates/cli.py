@@ -3,20 +3,24 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from surrogates import io
 from surrogates.builder import build
+from surrogates.models.validation import MAX_DEGREE
 
 
 def _progress_bar() -> Callable[[str, int, int], None]:
-    """A tqdm bar per pipeline stage, as a ``build(progress=...)`` callback."""
+    """A tqdm bar per pipeline stage on stderr, as a ``build(progress=...)`` callback; off
+    when stderr is not a terminal."""
     from tqdm import tqdm
 
     bars: dict[str, tqdm] = {}
@@ -24,7 +28,9 @@ def _progress_bar() -> Callable[[str, int, int], None]:
     def update(stage: str, i: int, total: int) -> None:
         bar = bars.get(stage)
         if bar is None:
-            bar = bars[stage] = tqdm(total=total, desc=stage, leave=False, file=sys.stderr)
+            bar = bars[stage] = tqdm(
+                total=total, desc=stage, leave=False, file=sys.stderr, disable=None
+            )
         bar.update(i - bar.n)
         if i >= total:
             bar.close()
@@ -67,6 +73,7 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--units", nargs="*", default=[], help="NAME=UNIT pairs, e.g. F=N")
     b.add_argument("--report", help="also write the build report as JSON here")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_degree_arguments(b)
     b.add_argument(
         "--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks"
     )
@@ -77,6 +84,52 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--sources-only", action="store_true", help="do not compile a binary")
     e.add_argument("--overwrite", action="store_true", help="replace an existing FMU")
     return parser
+
+
+def add_degree_arguments(parser: argparse.ArgumentParser, note: str = "") -> None:
+    """``--degree`` / ``--max-degree`` (LPR), mutually exclusive, one value or one per input."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument(
+        "--degree",
+        type=int,
+        nargs="+",
+        metavar="D",
+        help="LPR: fit this degree, no search (one value for every input, or one per input)",
+    )
+    group.add_argument(
+        "--max-degree",
+        type=int,
+        nargs="+",
+        metavar="N",
+        help="LPR: search degrees up to N (one value for every input, or one per input)"
+        + (note or "; default 16 per input for one or two inputs, 10 for more"),
+    )
+
+
+def check_degrees(values: list[int] | None, flag: str, n_inputs: int) -> tuple[int, ...] | None:
+    """The ``--degree``/``--max-degree`` values as one degree per input (or ``None``)."""
+    if values is None:
+        return None
+    if len(values) not in (1, n_inputs):
+        raise UsageError(f"{flag} takes 1 or {n_inputs} values (one per input), got {len(values)}")
+    if any(v < 1 or v > MAX_DEGREE for v in values):
+        raise UsageError(f"{flag} values must be in 1..{MAX_DEGREE}, got {values}")
+    return tuple(values) * (n_inputs if len(values) == 1 else 1)
+
+
+def _candidates(args: argparse.Namespace, n_inputs: int) -> list[Any] | None:
+    """The LPR candidates of ``--degree`` / ``--max-degree`` (``None``: the default search)."""
+    if (args.degree or args.max_degree) and args.kind != "lpr":
+        raise UsageError("--degree and --max-degree apply to --kind lpr only")
+    degree = check_degrees(args.degree, "--degree", n_inputs)
+    if degree is not None:
+        return [degree]
+    top = check_degrees(args.max_degree, "--max-degree", n_inputs)
+    if top is None:
+        return None
+    if n_inputs > 2 and len(set(top)) == 1:  # equal degrees, as the default for d > 2
+        return list(range(1, top[0] + 1))
+    return list(itertools.product(*(range(1, t + 1) for t in top)))
 
 
 def _build(args: argparse.Namespace) -> int:
@@ -95,6 +148,7 @@ def _build(args: argparse.Namespace) -> int:
         raise UsageError(f"--m must be >= 1, got {args.m}")
     if args.seed < 0:
         raise UsageError(f"--seed must be >= 0, got {args.seed}")
+    candidates = _candidates(args, len(args.inputs))
     _check_output(args.model, "-o", args.overwrite)
     if args.report:
         if Path(args.report).resolve() == Path(args.model).resolve():
@@ -111,6 +165,7 @@ def _build(args: argparse.Namespace) -> int:
         selection=args.selection,
         seed=args.seed,
         progress=None if args.quiet else _progress_bar(),
+        candidates=candidates,
     )
     if args.report:
         io.write_atomic(args.report, json.dumps(report.to_dict(), indent=1) + "\n")
@@ -132,6 +187,7 @@ def _export_fmu(args: argparse.Namespace) -> int:
     from surrogates.fmi import FMUExportError, export_fmu
 
     try:
+        _check_output(args.fmu, "-o", args.overwrite)
         path = export_fmu(
             args.model,
             args.fmu,

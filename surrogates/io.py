@@ -41,28 +41,44 @@ def model_to_document(
     output: str | None = None,
     units: dict[str, str] | None = None,
     metadata: dict[str, Any] | None = None,
-    form: str = "static",
+    form: str | None = None,
     tau: float | None = None,
-    known_physics: Sequence[str] = (),
+    known_physics: Sequence[str] | None = None,
 ) -> dict[str, Any]:
     """The JSON document :func:`save` writes; ``form``, ``tau`` (s), ``known_physics`` as in
-    :func:`surrogates.memory.element_form`."""
+    :func:`surrogates.memory.element_form`.
+
+    An argument left ``None`` keeps what the model read from its file (``features_`` and
+    ``metadata_`` of :func:`load`), so ``save(load(f))`` writes the element of ``f``; a model
+    without them gets ``u1 … ud``, ``"v"``, no units and the static form.
+    """
     d = model.to_dict()
     n_in = len(d["domain"]["lower"])
-    inputs = list(inputs) if inputs is not None else [f"u{i + 1}" for i in range(n_in)]
+    read = getattr(model, "features_", None) or {}
+    if form is None:
+        form = read.get("form", "static")
+        tau = read.get("tau") if tau is None else tau
+        known_physics = read.get("known_physics", []) if known_physics is None else known_physics
+    if inputs is None:
+        inputs = read.get("inputs") or [f"u{i + 1}" for i in range(n_in)]
+    inputs = list(inputs)
     if len(inputs) != n_in:
         raise ValueError(f"inputs names {len(inputs)} features, the model has {n_in}")
-    shape = {"form": form, "tau": tau, "known_physics": list(known_physics)}
+    extra = {k: v for k, v in read.items() if k == "descriptions"}
+    shape = {"form": form, "tau": tau, "known_physics": list(known_physics or ())}
     element_form(shape, n_in, "features")
+    if metadata is None:
+        metadata = getattr(model, "metadata_", None)
     return {
         "schema_version": SCHEMA_VERSION,
         "format": FORMAT,
         "model": d,
         "features": {
             "inputs": inputs,
-            "output": output or "v",
-            "units": dict(units or {}),
+            "output": output or read.get("output") or "v",
+            "units": dict(units if units is not None else read.get("units") or {}),
             **shape,
+            **extra,
         },
         "metadata": dict(metadata or {}),
     }
@@ -156,11 +172,28 @@ def save(
     return path
 
 
+def new_file_mode() -> int:
+    """Permission bits of a newly created file under the process umask, ``0o666 & ~umask``
+    (what ``open(path, "w")`` gives; ``tempfile.mkstemp`` makes 0o600 instead)."""
+    try:  # Linux: read it without changing it
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return 0o666 & ~int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def write_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename;
+    the file gets the permission bits of the umask, as a plain write would."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.chmod(tmp, new_file_mode())
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
         os.replace(tmp, path)

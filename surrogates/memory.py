@@ -179,7 +179,7 @@ class TauSelection:
         if cap:
             lines.append(
                 f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "
-                "widen the search range"
+                "widen the search range (--max-degree on the command line, degrees= in Python)"
             )
         return "\n".join(lines)
 

@@ -24,7 +24,7 @@ extrapolation policy, central differences) on a grid spanning a multiple of its 
 from __future__ import annotations
 
 from numbers import Integral
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.polynomial import legendre
@@ -38,13 +38,16 @@ from surrogates.models.lpr import (
     legendre_derivative,
     legendre_table,
 )
-from surrogates.models.validation import check_degree
+from surrogates.models.validation import ModelFieldError, check_degree
 
 #: rounds of adding the violated minima of the slopes as constraints
 MAX_REFINE_ROUNDS = 10
 #: constrained slopes are kept above this fraction of the output range per unit of the mapped
 #: input (so that the round-off of the solver cannot leave a slope slightly negative)
 SLOPE_MARGIN = 1e-6
+#: a loaded element's slope may fall below 0 by this fraction of its largest possible slope
+#: (round-off of a file written by another machine), no more
+PASSIVITY_TOLERANCE = 1e-9
 
 
 class PassiveLegendreRegression(LegendreRegression):
@@ -146,6 +149,34 @@ class PassiveLegendreRegression(LegendreRegression):
         self.min_slope_ = np.array(
             [minima[j][1].min() * dt_du[j] if j in minima else np.nan for j in range(d)]
         )
+
+    # -------------------------------------------------------------- persistence
+    def _set_state(self, d: dict[str, Any]) -> None:
+        """Read the state and check what fit guarantees: ``grid_size`` and ``monotone`` fit
+        the inputs, and every monotone input's slope is non-negative on the box (a file
+        edited into an active element is refused, naming the input)."""
+        super()._set_state(d)
+        try:
+            _, mono = self._validate(self.n_features_in_)
+        except ValueError as exc:
+            raise ModelFieldError(f"model.params.{exc}") from None
+        dt_du = 2.0 / (self.upper_ - self.lower_)
+        min_slope = np.full(self.n_features_in_, np.nan)
+        for j in (i for i, m in enumerate(mono) if m):
+            _, slope = _slope_minima(self.coef_, self.exponents_, j)
+            own = (self.exponents_[:, j] > 0) & (
+                self.exponents_.sum(axis=1) == self.exponents_[:, j]
+            )
+            k = self.exponents_[own, j]
+            scale = float(np.sum(np.abs(self.coef_[own]) * k * (k + 1) / 2))  # bounds |f_j'|
+            if slope.min() < -PASSIVITY_TOLERANCE * scale:
+                raise ModelFieldError(
+                    f"model.state.coef: the slope of input {j} reaches "
+                    f"{slope.min() * dt_du[j]:.6g} per input unit on the training box; a "
+                    f"passive element (monotone={self.monotone!r}) needs it >= 0"
+                )
+            min_slope[j] = slope.min() * dt_du[j]
+        self.min_slope_ = min_slope
 
 
 def _slope_minima(coef: np.ndarray, E: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:

@@ -32,14 +32,15 @@ class SelectionResult:
 
     def at_cap(self) -> list[int]:
         """Inputs whose winning degree is the largest candidate degree of that input (the
-        search range may be too small there); empty for non-degree candidates."""
+        search range may be too small there); empty for non-degree candidates and for a
+        single (fixed) degree."""
         degrees = [
             np.atleast_1d(np.asarray(r["candidate"]))
             for r in self.table
             if isinstance(r["candidate"], int | tuple) and not isinstance(r["candidate"], bool)
         ]
-        if self.best is None or not degrees or len({d.size for d in degrees}) != 1:
-            return []
+        if self.best is None or len(degrees) < 2 or len({d.size for d in degrees}) != 1:
+            return []  # no degree search: nothing to widen
         top = np.max(degrees, axis=0)
         best = np.atleast_1d(np.asarray(self.best))
         if best.size != top.size:
@@ -59,7 +60,7 @@ class SelectionResult:
         if cap:
             lines.append(
                 f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "
-                "widen the search range"
+                "widen the search range (--max-degree on the command line, candidates= in Python)"
             )
         return "\n".join(lines)
 

@@ -1,4 +1,5 @@
 import json
+from functools import partial
 
 import numpy as np
 import pytest
@@ -111,3 +112,136 @@ def test_demo_passes_the_surrogate_only_to_its_backend_and_warns_nothing(
         "samples_and_oob.png",
         "carbody_acceleration.png",
     }
+
+
+def test_demo_runs_twice_as_written_and_keeps_foreign_folders(tmp_path, monkeypatch, capsys):
+    """README command 1 (``railgym demo``, default folder) run a second time replaces its own
+    plots; a folder holding another file is still refused (exit 2) and left alone."""
+    from agents import cli
+    from railgym.envs.vertical import VerticalSuspensionEnv
+    from railgym.vehicles.collect import build_vertical_surrogate
+
+    monkeypatch.setattr(
+        cli,
+        "build_vertical_surrogate",
+        lambda m, **kw: build_vertical_surrogate(m=41, sampling="greedy", **kw),
+    )
+    # 4 s episodes: the folder logic is under test here, not the physics
+    monkeypatch.setattr(cli, "VerticalSuspensionEnv", partial(VerticalSuspensionEnv, duration=4.0))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["demo"]) == 0
+    first = {p.name: p.stat().st_mtime_ns for p in (tmp_path / "railgym-demo").iterdir()}
+    assert cli.main(["demo"]) == 0
+    again = {p.name: p.stat().st_mtime_ns for p in (tmp_path / "railgym-demo").iterdir()}
+    assert set(first) == set(again) == set(cli.DEMO_FILES)
+    assert all(again[name] > first[name] for name in first)  # replaced, not kept
+    (tmp_path / "railgym-demo" / "notes.txt").write_text("mine")
+    capsys.readouterr()
+    assert cli.main(["demo"]) == 2
+    err = capsys.readouterr().err
+    assert "holds 'notes.txt'" in err and "--overwrite" in err
+    assert (tmp_path / "railgym-demo" / "notes.txt").read_text() == "mine"
+
+
+def test_demo_help_lists_the_files_it_writes(capsys):
+    from agents import cli
+
+    with pytest.raises(SystemExit):
+        cli.main(["demo", "--help"])
+    out = capsys.readouterr().out
+    assert all(name in out for name in cli.DEMO_FILES) and "run again" in out
+
+
+def _build_args(tmp_path, *extra):
+    return [
+        "build",
+        str(tmp_path / "d.csv"),
+        "--inputs",
+        "du",
+        "dv",
+        "--output",
+        "F",
+        "-o",
+        str(tmp_path / "m.json"),
+        "--m",
+        "61",
+        "--sampling",
+        "greedy",
+        "--quiet",
+        "--overwrite",
+        *extra,
+    ]
+
+
+def test_build_degree_options_fix_or_widen_the_search(tmp_path, capsys):
+    _write_csv(tmp_path / "d.csv")
+    assert main(_build_args(tmp_path, "--degree", "3", "2")) == 0
+    out = capsys.readouterr().out
+    assert io.load(tmp_path / "m.json").degree == (3, 2)
+    assert "warning" not in out  # one fixed degree: no search range to widen
+    assert main(_build_args(tmp_path, "--max-degree", "2")) == 0
+    out = capsys.readouterr().out
+    rows = [line for line in out.splitlines() if line.strip()[:3] in {"1,1", "1,2", "2,1", "2,2"}]
+    assert len(rows) == 4  # the candidates (1..2) × (1..2)
+    # the cubic force needs degree 3 in du: the winner sits at the cap, and the warning says
+    # which option widens the range
+    assert "widen the search range (--max-degree on the command line" in out
+    assert main(_build_args(tmp_path, "--max-degree", "5", "1")) == 0
+    degree = io.load(tmp_path / "m.json").degree
+    assert degree[0] >= 3 and degree[1] == 1  # the search reached the cubic in du
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--degree", "1", "2", "3"], "--degree takes 1 or 2 values"),
+        (["--max-degree", "0"], "--max-degree values must be in 1..200"),
+        (["--degree", "2", "--kind", "kriging"], "apply to --kind lpr only"),
+    ],
+)
+def test_build_degree_options_bad_values(tmp_path, capsys, extra, message):
+    _write_csv(tmp_path / "d.csv")
+    assert main(_build_args(tmp_path, *extra)) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_collect_command_takes_the_degree_options(tmp_path, capsys):
+    from railgym.vehicles import collect
+
+    out = tmp_path / "static.json"
+    argv = ["--features", "static", "--m", "51", "--output", str(out), "--quiet"]
+    assert collect.main([*argv, "--degree", "3", "4"]) == 0
+    assert io.load(out).degree == (3, 4)
+    assert collect.main([*argv, "--max-degree", "2"]) == 0
+    assert "--max-degree on the command line" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        collect.main(["--features", "maxwell", "--max-degree", "8", "14", "9"])
+    assert exc.value.code == 2
+    assert "max_degree[0] must be at least 10" in capsys.readouterr().err
+    assert collect.memory_degrees((12, 6, 3)) == [(10, 6, 3), (12, 6, 3)]
+
+
+def test_progress_bars_only_on_a_terminal_and_not_when_quiet(monkeypatch):
+    import io as stdio
+    import sys
+
+    from railgym.progress import quiet, stages
+    from surrogates.cli import _progress_bar
+
+    class Terminal(stdio.StringIO):
+        def isatty(self):
+            return True
+
+    for make in (stages, _progress_bar):
+        for stream, silent, shown in (
+            (stdio.StringIO(), False, False),
+            (Terminal(), False, True),
+            (Terminal(), True, make is _progress_bar),  # quiet() is railgym's switch
+        ):
+            monkeypatch.setattr(sys, "stderr", stream)
+            with quiet(silent):
+                update = make()
+                update("selection", 1, 2)
+                update("selection", 2, 2)
+            assert ("selection" in stream.getvalue()) == shown, (make, silent)

@@ -23,7 +23,7 @@ from agents.crash_report import (
 )
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv
 from railgym.vehicles.crash import load_scenario, simulate_reference
-from railgym.vehicles.crash.criteria import result_criteria
+from railgym.vehicles.crash.outputs import result_criteria
 
 KMH = 1 / 3.6
 

@@ -19,8 +19,8 @@ from railgym.vehicles.crash.criteria import (
     intrusion,
     moving_average_peak,
     peak_deceleration,
-    result_criteria,
 )
+from railgym.vehicles.crash.outputs import result_criteria
 
 
 def _constant_force_crash(mass: float, v0: float, force: float, dt: float, duration: float):

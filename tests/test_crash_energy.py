@@ -83,18 +83,39 @@ def test_hysteretic_elements_dissipate_over_cycles(paper):
             assert rebound_energy_ratio(u, f, el.unloading_stiffness) <= 1.01
 
 
+def _branch_histories(el, u: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Forces of a memoryless ("paper") element at each crush of ``u`` on its loading and on
+    its unloading branch: the element law along ``u`` sorted up (rate ≥ 0) and down."""
+    order = np.argsort(u, kind="stable")
+    load, unload = np.empty(u.size), np.empty(u.size)
+    load[order] = element_force_history(el, u[order], t)
+    unload[order[::-1]] = element_force_history(el, u[order[::-1]], t)
+    return load, unload
+
+
 def test_element_history_reproduces_the_kernel(paper):
     _, sur, _ = paper
     for variant in VARIANTS:
         sim = simulate_surrogate("paper", sur[variant], sample_dt=5e-4, dt=5e-4)
         for j, zone in enumerate(sim.zone_names):
             el = sur[variant].elements[zone.split("_")[0]]
-            f = element_force_history(el, sim.crush[:, j], sim.t)
+            u, f_kernel = sim.crush[:, j], sim.force[:, j]
+            f = element_force_history(el, u, sim.t)
+            close = {"rtol": 1e-6, "atol": 1e-3 * np.abs(f_kernel).max()}  # any CPU's rounding
+            if variant == "hysteretic":
+                np.testing.assert_allclose(f, f_kernel, **close)
+                continue
             # same law; the paper variant's branch, by np.gradient instead of the kernel's
-            # predicted velocity, differs at the few samples where the crush rate changes sign
-            same = np.isclose(f, sim.force[:, j], rtol=1e-9, atol=1e-3)
-            allowed = 0 if variant == "hysteretic" else 0.03 * sim.t.size
-            assert np.count_nonzero(~same) <= allowed
+            # predicted velocity, may differ where the crush rate is small (at reversals and in
+            # the coupler's chatter): there the kernel's force is the other branch's
+            load, unload = _branch_histories(el, u, sim.t)
+            on_a_branch = np.isclose(f_kernel, load, **close) | np.isclose(
+                f_kernel, unload, **close
+            )
+            assert on_a_branch.all()
+            rate = np.abs(np.gradient(u, sim.t))
+            clear = rate > 0.1 * rate.max()
+            np.testing.assert_allclose(f[clear], f_kernel[clear], **close)
 
 
 def test_paper_variant_returns_far_more_than_a_crushed_zone_can_store(paper):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 
 import numpy as np
@@ -26,6 +28,7 @@ from railgym.vehicles.crash import (
     surrogate_batch_step_parallel,
     zone_force,
 )
+from railgym.vehicles.crash.fe import load_crash_surrogate, save_crash_surrogate
 from railgym.vehicles.crash.surrogate_model import LprModels, _legendre_rows, _series_ends
 
 
@@ -379,12 +382,16 @@ def test_legendre_rows_equal_numpy_legval_and_extend_linearly(coef, xs, mode):
         assert alone[3, 0] == rows[3, k]
 
 
-@pytest.mark.parametrize("variant", VARIANTS)
-def test_parallel_surrogate_step_is_bit_identical_to_serial(surrogates, variant):
+@pytest.mark.parametrize("variant", [*VARIANTS, "4 nodes"])
+def test_parallel_surrogate_step_is_bit_identical_to_serial(paper_ref, surrogates, variant):
     """``surrogate_batch_step_parallel`` (prange over chunks of trains) reproduces the serial
     kernel bit for bit on a batch above the threshold: random speeds and absorber scales,
     every 7th train inactive (left untouched by both)."""
-    model = crash_batch_model("paper", "surrogate", surrogate=surrogates[variant][0])
+    if variant == "4 nodes":
+        sur = build_crash_surrogate(paper_ref, nodes_per_car=4)
+    else:
+        sur = surrogates[variant][0]
+    model = crash_batch_model("paper", "surrogate", surrogate=sur)
     n = PARALLEL_MIN + 45
     rng = np.random.default_rng(1)
     speeds = rng.uniform(5.0, 20.0, n)
@@ -402,3 +409,63 @@ def test_parallel_surrogate_step_is_bit_identical_to_serial(surrogates, variant)
     assert np.all(runs[0][0][~active] == 0.0) and np.any(runs[0][0][active] != 0.0)
     for a, b in zip(*runs, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+# ------------------------------------------------------- several masses per car (carbody)
+def test_elastic_surrogate_conserves_energy_and_reports_centres_of_mass(paper_ref):
+    """With 4 masses per car the surrogate's energy balance closes (kinetic + link elastic +
+    zone work + friction + link damping = initial), the cars' masses are the scenario's, and
+    ``out.x`` is each car's mass-weighted centre of its nodes."""
+    sur = build_crash_surrogate(paper_ref, nodes_per_car=4)
+    model = crash_batch_model("paper", "surrogate", surrogate=sur, sample_dt=1e-4, dt=1e-4)
+    assert model.masses.size == 8 and list(model.car_nodes[1]) == [4, 8]
+    sc = model.scenario
+    np.testing.assert_allclose(
+        [model.masses[a:b].sum() for a, b in model.car_nodes], sc.car_masses, rtol=1e-12
+    )
+    state, out = model.new_state(1), model.new_outputs(1)
+    model.reset(state, out, 0, sc.speed)
+    e0 = 0.5 * np.sum(model.masses * sc.speed**2)
+    ones, active, div = np.ones((1, 2)), np.ones(1, np.bool_), np.zeros(1, np.bool_)
+    rel, front = [], []
+    for k in range(2000):
+        model.step(state, out, ones, active, div, init=k == 0)
+        balance = out.stored[0] + out.work[0].sum() + out.dissipated[0].sum()
+        rel.append(abs(balance - e0) / e0)
+        front.append(state.x[0, 0] - out.x[0, 0])  # front node against the centre of mass
+        m = state.m[0, :4]
+        assert out.x[0, 0] == pytest.approx(np.sum(m * state.x[0, :4]) / m.sum(), rel=1e-12)
+    assert max(rel) < 1e-4 and out.dissipated[0, 1] > 0.0
+    # the carbody is compressed: its front end lags its centre of mass by millimetres
+    assert -1e-2 < min(front) < -1e-4
+
+
+def test_elastic_surrogate_tends_to_eq_4_for_rigid_cars(crash_raw):
+    """A carbody 160 times stiffer makes the 4-mass surrogate the one-mass one (paper eq. 4)
+    with the same elements: peaks and crush agree within 1 %."""
+    raw = crash_raw()
+    for car in ("lead", "passenger"):
+        raw["cars"][car]["EA_MN"] = 1e6
+    sc = parse_scenario(raw)
+    ref = simulate_reference("paper")
+    one = build_crash_surrogate(ref)
+    four = dataclasses.replace(one, nodes_per_car=4)
+    runs = [simulate_surrogate(sc, s, dt=2e-6, sample_dt=1e-4) for s in (one, four)]
+    for key in ("a", "crush"):
+        a, b = (np.max(np.abs(getattr(r, key)), axis=0)[:2] for r in runs)
+        np.testing.assert_allclose(b, a, rtol=0.01)
+
+
+def test_nodes_per_car_is_checked_and_saved(paper_ref, tmp_path):
+    with pytest.raises(ValueError, match="nodes_per_car must be in"):
+        build_crash_surrogate(paper_ref, nodes_per_car=0)
+    with pytest.raises(ValueError, match="nodes_per_car must be an integer"):
+        build_crash_surrogate(paper_ref, nodes_per_car=2.0)
+    sur = build_crash_surrogate(paper_ref, nodes_per_car=3)
+    path = save_crash_surrogate(sur, tmp_path / "e.json")
+    assert load_crash_surrogate(path).nodes_per_car == 3
+    doc = json.loads(path.read_text())
+    doc["nodes_per_car"] = 0
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match="field 'nodes_per_car' must be an integer in"):
+        load_crash_surrogate(path)

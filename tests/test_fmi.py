@@ -147,6 +147,12 @@ def test_model_description_names_units_and_sources(tmp_path):
     assert list(by_name) == ["x1_x2", "v1_v2", "F_s"]
     assert by_name["x1_x2"].unit == "m" and by_name["F_s"].unit == "N"
     assert "'x1-x2'" in by_name["x1_x2"].description
+    # plain numbers, no Python reprs such as np.float64(...)
+    lo, up = model.domain_
+    assert f"training range [{float(lo[0])!r}, {float(up[0])!r}] m" in by_name["x1_x2"].description
+    with zipfile.ZipFile(fmu) as zf:
+        xml = zf.read("modelDescription.xml").decode()
+    assert "np." not in xml and "float64" not in xml
     assert md.modelExchange is None and md.coSimulation is not None
     folder, ext = fmi_platform()
     with zipfile.ZipFile(fmu) as zf:
@@ -245,6 +251,7 @@ def test_export_fmu_command(tmp_path, capsys):
     assert main(["export-fmu", str(path), "-o", str(fmu)]) == 0
     assert validate_fmu(str(fmu)) == []
     assert main(["export-fmu", str(path), "-o", str(fmu)]) == 2
-    assert "overwrite" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "pass --overwrite to replace it" in err and "overwrite=True" not in err
     assert main(["export-fmu", str(path), "-o", str(fmu), "--overwrite", "--kind", "me"]) == 0
     assert fmpy.read_model_description(str(fmu)).coSimulation is None

@@ -73,3 +73,30 @@ def test_read_csv_errors(tmp_path, text, message):
     path.write_text(text)
     with pytest.raises(ValueError, match=message):
         io.read_csv(path, columns=["du", "F"])
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077, 0o002])
+def test_written_files_follow_the_umask(tmp_path, fitted, umask):
+    """Atomic writes go through mkstemp (mode 0600); the result must have the mode a plain
+    ``open(path, "w")`` gives: 0666 without the umask's bits."""
+    import os
+
+    from railgym.report.output import atomic_path, write_text_atomic
+    from surrogates.fmi import export_fmu
+
+    model, _ = fitted
+    old = os.umask(umask)
+    try:
+        plain = tmp_path / "plain.txt"
+        plain.write_text("x")
+        paths = [io.save(model, tmp_path / "model.json")]
+        write_text_atomic(tmp_path / "manifest.json", "{}")
+        with atomic_path(tmp_path / "model.zip") as tmp:
+            tmp.write_bytes(b"zip")
+        paths += [tmp_path / "manifest.json", tmp_path / "model.zip"]
+        paths.append(export_fmu(model, tmp_path / "element.fmu", binary=False))
+    finally:
+        os.umask(old)
+    assert plain.stat().st_mode & 0o777 == 0o666 & ~umask
+    for path in paths:
+        assert path.stat().st_mode & 0o777 == 0o666 & ~umask, path.name

@@ -51,23 +51,26 @@ def test_quick_report_has_every_table_with_finite_numbers(quick):
         for key in ("oob_error", "oob_error_normalised", "oob_nrms"):
             assert math.isfinite(t3[kind][key]) and t3[kind][key] > 0
         assert set(t3["all_sizes"][kind]) == {51, 101}
-    assert set(r["table5"]["lpr"]) == {51, 101}
+    assert set(r["table5"]["lpr"]) == set(r["table5"]["kriging"]) == {51, 101}
     assert set(r["table8"]["classes"]) == {3, 4, 6}
-    entries = [*r["table5"]["lpr"].values(), *(c["lpr"] for c in r["table8"]["classes"].values())]
-    for e in entries:
-        # with the extrapolation guard no LPR run diverges
-        assert not e["diverged"]
-        assert all(math.isfinite(e[q]) and e[q] > 0 for q in ("x", "v", "a"))
-        assert e["evaluations"] == 4 * 5000 and 0 <= e["out_of_domain"] <= e["evaluations"]
-        assert e["t_end_s"] == pytest.approx(5.0)
+    for kind in ("lpr", "kriging"):
+        t8 = [c[kind] for c in r["table8"]["classes"].values()]
+        for e in [*r["table5"][kind].values(), *t8]:
+            # with the extrapolation guard neither element diverges on these tracks (the
+            # paper's Kriging did on class 4); a diverged run would end early
+            assert not e["diverged"] and e["t_end_s"] == pytest.approx(5.0)
+            assert all(math.isfinite(e[q]) and e[q] > 0 for q in ("x", "v", "a"))
+            assert e["evaluations"] == 4 * 5000 and 0 <= e["out_of_domain"] <= e["evaluations"]
     t6 = r["table6"]
     assert t6["reference_s"] > 0
     for kind in ("lpr", "kriging"):
         for e in t6[kind].values():
             assert e["T_t_fit_s"] > 0 and e["T_t_build_s"] >= e["T_t_fit_s"]
             assert e["predict_call_us"] > 0 and e["predict_point_us"] > 0
-    assert all(e["T_s_numba_s"] > 0 for e in t6["lpr"].values())
-    assert not any("T_s_numba_s" in e for e in t6["kriging"].values())
+    for kind in ("lpr", "kriging"):
+        assert all(e["T_s_numba_s"] > 0 for e in t6[kind].values())
+    # Kriging costs O(M) per evaluation, LPR O(degree): its compiled run is the slower
+    assert t6["kriging"][101]["T_s_numba_s"] > t6["lpr"][101]["T_s_numba_s"]
     t10 = r["table10"]["variants"]["paper"]
     assert set(t10) == {
         "wall_loading",
@@ -111,7 +114,7 @@ def test_report_markdown_and_figures_exist(quick):
     for title in ("Table 3", "Table 5", "Table 6", "Table 8", "Table 10", "Table 11"):
         assert f"## {title}" in text
     assert text.count(PAPER_LABEL) >= 6
-    assert "diverged at" not in text
+    assert "diverged at" not in text and "No run diverged" in text
     assert len(r["figures"]) == 6
     assert sorted(p.name for p in out.iterdir()) == sorted(["report.md", *r["figures"]])
     for name in r["figures"]:

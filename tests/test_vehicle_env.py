@@ -217,11 +217,14 @@ def test_wk_weighted_reward_and_rendering():
     assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 5
 
 
-def test_memory_element_is_rejected_and_static_is_the_default():
+def test_memory_element_is_the_default_and_static_is_accepted():
     from railgym.vehicles.collect import default_vertical_surrogate
 
-    with pytest.raises(ValueError, match="static"):
-        gym.make("railgym/VerticalVehicle-v0", surrogate=default_vertical_surrogate("maxwell"))
     env = gym.make("railgym/VerticalVehicle-v0", backend="surrogate", duration=0.2)
-    static = default_vertical_surrogate("static").kernel_arrays()[1]
-    np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, static)
+    memory = default_vertical_surrogate("maxwell").kernel_arrays()[1]
+    np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, memory)
+    assert env.unwrapped.sim.lpr.tau > 0 and env.unwrapped.state.shape == (16,)
+    static = default_vertical_surrogate("static")
+    env = gym.make("railgym/VerticalVehicle-v0", surrogate=static, duration=0.2)
+    np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, static.kernel_arrays()[1])
+    assert env.unwrapped.state.shape == (14,)

@@ -156,6 +156,7 @@ def test_maxwell_element_round_trips_through_json(tmp_path, passive):
         tmp_path / "m.json",
         inputs=["x1-x2", "v1-v2", "zeta"],
         output="F",
+        units={"x1-x2": "m", "v1-v2": "m/s", "zeta": "m", "F": "N"},
         form="maxwell",
         tau=TAU,
         known_physics=["bump_stop"],

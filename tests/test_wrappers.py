@@ -116,6 +116,40 @@ def test_ride_comfort_on_the_vertical_env_and_reset_clears():
     assert again[-1]["comfort"]["a_w"] == c["a_w"]
 
 
+def test_ride_comfort_rates_every_floor_point_of_the_vehicle():
+    # issue 21: the vehicle's info["carbody_acc"] is (3,) (front, centre, rear) and crashed
+    env = RideComfort(gym.make("railgym/VerticalVehicle-v0", duration=2.0))
+    infos, _ = run(env, actions=np.zeros((200, 2), np.float32), seed=1)
+    acc = np.array([i["carbody_acc"] for i in infos])
+    assert acc.shape == (200, 3)
+    c = infos[-1]["comfort"]
+    expected = [weighted_rms(acc[:, j], 100.0, lowpass=False) for j in range(3)]
+    np.testing.assert_allclose(c["a_w"], expected, rtol=1e-12)
+    np.testing.assert_allclose(infos[-1]["comfort_aw"], expected, rtol=1e-12)
+    assert c["Wz"].shape == (3,) and np.all(c["Wz"] > 0) and len(c["label"]) == 3
+    # one point chosen: the scalar statistics of that column
+    centre = RideComfort(gym.make("railgym/VerticalVehicle-v0", duration=2.0), point=1)
+    infos, _ = run(centre, actions=np.zeros((200, 2), np.float32), seed=1)
+    assert infos[-1]["comfort"]["a_w"] == pytest.approx(expected[1], rel=1e-12)
+    assert isinstance(infos[-1]["comfort_acc_w"], float)
+
+
+def test_ride_comfort_point_must_index_the_acceleration():
+    env = RideComfort(SineEnv(1.0, 1.0, 0.01, 10), point=0)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="point 0 is not an index"):
+        env.step(np.zeros(1, np.float32))
+
+
+def test_ride_comfort_discard_longer_than_the_episode_is_an_error():
+    # issue 19: a_w 0.0 and Wz NaN were reported for an episode shorter than discard
+    with pytest.raises(ValueError, match=r"discard \(3.0 s\) must be shorter than the episode"):
+        RideComfort(gym.make(ENV_ID, duration=2.0, backend="linear"), discard=3.0)
+    env = RideComfort(SineEnv(1.0, 1.0, 0.01, 50), discard=1.0)  # no cfg.duration: at the end
+    with pytest.raises(ValueError, match=r"discard \(1.0 s\): the episode ended after 0.5 s"):
+        run(env)
+
+
 @pytest.mark.parametrize(
     "kwargs, message",
     [

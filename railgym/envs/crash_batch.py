@@ -23,6 +23,7 @@ from railgym.envs.crash_step import (
     _advance_reference,
     _advance_surrogate,
     _advance_surrogate_parallel,
+    crush_limits,
     info_layout,
     plain,
 )
@@ -112,9 +113,11 @@ class CrashBatch:
         surrogate = model.backend == "surrogate"
         types = model.params.types if surrogate else None
         kind = model.params.kind if surrogate else np.zeros(0, np.int64)
+        lengths = np.array([sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1))
         self.consts = EnvConsts(
             zones=self.zones,
             stroke=cfg.absorber_stroke,
+            crush_limit=crush_limits(lengths),
             inv_scale=1.0 / cfg.obs_scale,
             w_decel=cfg.weights[0],
             w_intrusion=cfg.weights[1],
@@ -133,8 +136,7 @@ class CrashBatch:
         self._all = np.ones(n, np.bool_)
         self._one = np.zeros(n, np.bool_)  # the train of reset_state
         # undeformed front end of each car at first contact (lead car at the wall), m
-        lengths = [sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1)
-        self.lengths = np.array(lengths)
+        self.lengths = lengths
         self.front0 = -np.concatenate(([0.0], np.cumsum(lengths[:-1])))
 
     @staticmethod

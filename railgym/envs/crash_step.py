@@ -42,6 +42,7 @@ __all__ = [
     "EnvConsts",
     "Episode",
     "InfoColumns",
+    "crush_limits",
     "info_layout",
     "plain",
 ]
@@ -116,13 +117,24 @@ class Criteria(NamedTuple):
     intrusion_m: float
 
 
+def crush_limits(lengths: np.ndarray) -> np.ndarray:
+    """Largest crush (m) of each controlled zone the crash model holds, from the car lengths
+    (m), front to back: the lead car's length for the wall zone, half of each neighbour's
+    length for an interface. A zone crushed further has passed through a carbody, which no
+    force law of the model describes."""
+    lengths = np.asarray(lengths, dtype=float)
+    return np.concatenate((lengths[:1], 0.5 * (lengths[:-1] + lengths[1:])))
+
+
 class EnvConsts(NamedTuple):
     """Constants of the env's compiled bookkeeping.
 
     Attributes
     ----------
     zones : (zones,) model zone of each controlled zone, front to back.
-    stroke : (zones,) absorber stroke, m. inv_scale : (obs,) 1 / observation scale.
+    stroke : (zones,) absorber stroke, m. crush_limit : (zones,) largest crush the model
+        holds, m (:func:`crush_limits`); beyond it the train counts as diverged.
+    inv_scale : (obs,) 1 / observation scale.
     w_decel, w_intrusion, w_peak : reward weights. gravity : m/s². control_dt : s.
     absorber_range : action ±1 sets the scale 1 ± range. max_change : largest scale change
         per step. unloading_k, tension_k : (model zones,) unloading and coupler tension
@@ -133,6 +145,7 @@ class EnvConsts(NamedTuple):
 
     zones: np.ndarray
     stroke: np.ndarray
+    crush_limit: np.ndarray
     inv_scale: np.ndarray
     w_decel: float
     w_intrusion: float
@@ -345,6 +358,8 @@ def _post_step(out, ep, c, active, init):
             t_decel = r
             t_intrusion = 0.0
             for z in range(nz):
+                if out.crush[i, zones[z]] > c.crush_limit[z]:  # crushed through a car
+                    ep.div[i] = True
                 ep.max_crush[i, z] = max(ep.max_crush[i, z], out.crush[i, zones[z]])
                 new = max(ep.max_crush[i, z] - stroke[z], 0.0)
                 r -= c.w_intrusion * (new - ep.intrusion[i, z]) / INTRUSION_REF

@@ -30,13 +30,13 @@ from railgym.envs.vehicle_batch import (
     REWARD_TERMS,
     VehicleBatch,
     VehicleConfig,
+    check_band_speed,
     episode_comfort,
 )
-from railgym.envs.vertical import BACKENDS, _surrogate_arrays
+from railgym.envs.vertical import BACKENDS, _surrogate_arrays, check_speed
 from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
-from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -174,11 +174,11 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     if speed is None:
         return v_class, v_class
     if isinstance(speed, tuple | list) or (isinstance(speed, np.ndarray) and speed.ndim == 1):
-        lo, hi = (val.positive(v, "speed") for v in val.sequence(speed, "speed", 2))
+        lo, hi = (check_speed(v) for v in val.sequence(speed, "speed", 2))
         if lo > hi:
             raise val.FieldError("speed", f"range must have v_min <= v_max, got {speed!r}")
     else:
-        lo = hi = val.positive(speed, "speed")
+        lo = hi = check_speed(speed)
     limit = LIMITS["speed_factor"] * v_class if speed_limit is None else speed_limit
     if hi > limit:
         raise val.FieldError(
@@ -215,22 +215,10 @@ def _batch(
 
 
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
-    """Kernel arrays of the secondary-suspension element, the same at both bogies.
-
-    The whole vehicle runs static (δ, δ̇) elements: its default is the paper's packaged static
-    element, and a memory (Maxwell-state) element is rejected, because the kernel carries no
-    element state per bogie.
-    """
-    if backend == "surrogate" and surrogate is None:
-        surrogate = default_vertical_surrogate("static")
-    lpr = _surrogate_arrays(backend, surrogate, dt)
-    if lpr.tau > 0.0 or lpr.exps.shape[1] != 2:
-        raise val.FieldError(
-            "surrogate",
-            "must be a static (δ, δ̇) element for VerticalVehicle-v0 (memory elements run in "
-            "VerticalSuspension-v0 only); build one with features='static'",
-        )
-    return lpr
+    """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
+    (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
+    default is the packaged memory element (``vertical_lpr.json``, docs/validation.md)."""
+    return _surrogate_arrays(backend, surrogate, dt)
 
 
 class _VehicleAccessors:
@@ -241,7 +229,8 @@ class _VehicleAccessors:
     @property
     def state(self) -> np.ndarray:
         """Copy of the states (n, s): ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]`` (m, rad, m),
-        their rates, and for the reference backend the air-spring and damper states."""
+        their rates, and for the reference backend the air-spring and damper states, for a
+        memory surrogate element its Maxwell states ``[s_0, s_1]`` (m)."""
         return self.sim.bt.state.copy()
 
     @property
@@ -271,7 +260,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
     Parameters
     ----------
     backend : ``"surrogate"`` (default), ``"reference"`` or ``"linear"`` secondary elements.
-    surrogate : LPR model, path of a model JSON, or ``None`` for the packaged element.
+    surrogate : LPR element (static or memory form, the same at both bogies), path of a
+        model JSON, or ``None`` for the packaged memory element.
     track_class : FRA class 1–6 (default 5).
     speed : m/s: a number, a range ``(v_min, v_max)`` drawn uniformly per episode, or
         ``None`` = the class's maximum passenger speed (class 5: 144 km/h); at most
@@ -341,6 +331,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         self.track_class = int(track_class)
         self._speed_arg = speed
         self.profile = load_profile(profile)
+        if self.profile is None:
+            check_band_speed(self.cfg.band, self.speeds[1], self.cfg.dt)
         lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
         self._fmu_args = (backend, fmu, fmu_map)
         sim = _batch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED), *self._fmu_args)

@@ -72,6 +72,19 @@ REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
 _C_ACC, _C_RMS, _C_FORCE, INFO_ROW = 0, 5, 8, 10
 
 
+def check_band_speed(band: tuple[float, float], speed: float, dt: float) -> None:
+    """The FRA track is sampled every ``speed·dt`` (m), which must be below half the shortest
+    wavelength ``band[0]`` (m); FieldError naming ``band`` and ``speed`` otherwise."""
+    dx = speed * dt
+    if not dx < 0.5 * band[0]:
+        raise val.FieldError(
+            "band",
+            f"shortest wavelength {band[0]:g} m is not above 2·speed·dt = {2 * dx:.4g} m at "
+            f"speed {speed:.4g} m/s (dt = {dt:g} s): the track cannot be sampled; raise "
+            f"band[0] above {2 * dx:.4g} m, lower the speed or dt",
+        )
+
+
 @dataclass(frozen=True)
 class VehicleConfig:
     """Validated settings shared by the single and the vector env (SI units)."""
@@ -287,10 +300,10 @@ class VehicleBatch:
         self.kind = check_variant(cfg.variant)
         self.params = kernel_params(vehicle, cfg.flexible)
         self.elem = vehicle.suspension.kernel_params().record()
-        self.lpr = Lpr(*lpr[:5])
-        span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)
+        self.lpr = Lpr(*lpr[: len(Lpr._fields)])  # the LPR fields (a Kriging is refused)
+        self.span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)  # m
         self.v_min = v_min
-        self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(span / (v_min * cfg.dt)) + 2
+        self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(self.span / (v_min * cfg.dt)) + 2
         size = n * (16 * self.n_samples + 24 * cfg.n_steps)
         if size > LIMITS["track_bytes"]:
             raise val.FieldError(
@@ -299,7 +312,7 @@ class VehicleBatch:
                 f"(num_envs={n}, {self.n_samples} samples each); the limit is "
                 f"{LIMITS['track_bytes'] / 2**30:g} GiB",
             )
-        self.bt, self.out = make_batch(n, cfg.variant, self.n_samples)
+        self.bt, self.out = make_batch(n, cfg.variant, self.n_samples, self.lpr)
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)
@@ -381,10 +394,13 @@ class VehicleBatch:
         if profile is None:
             seed = int(rng.integers(2**63 - 1))
             dx = v * cfg.dt
+            check_band_speed(cfg.band, v, cfg.dt)
             _, z, slope = fra_profile_with_slope(track_class, (m - 1) * dx, dx, seed, cfg.band)
             self.bt.z[i], self.bt.zdot[i] = z[:m], v * slope[:m]
         else:
-            self.bt.z[i], self.bt.zdot[i] = profile_time_input(profile, v, cfg.dt, m)
+            self.bt.z[i], self.bt.zdot[i] = profile_time_input(
+                profile, v, cfg.dt, m, length=v * cfg.n_steps * cfg.control_dt + self.span
+            )
         self.bt.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
         self.speed[i], self.track_class[i] = v, track_class
         self.bt.force[i] = 0.0

@@ -136,12 +136,13 @@ def make_config(
     )
 
 
-def _surrogate_arrays(backend: str, surrogate: Any, dt: float) -> LprArrays:
+def _surrogate_arrays(backend: str, surrogate: Any, dt: float, kriging: bool = False) -> LprArrays:
     """Kernel arrays of the surrogate element: packaged default, a JSON path or a model.
 
     ``surrogate=`` for a backend that does not use it gives a ``UserWarning`` (it is ignored);
     a model whose inputs do not match its feature form (static: δ, δ̇; maxwell: δ, δ̇, δ − s)
-    or whose ``τ`` is below ``dt/2`` (s) is rejected.
+    or whose ``τ`` is below ``dt/2`` (s) is rejected, and so is a Kriging unless ``kriging``
+    is set (the one-bogie kernels evaluate it).
     """
     if backend != "surrogate":
         if surrogate is not None:
@@ -163,13 +164,55 @@ def _surrogate_arrays(backend: str, surrogate: Any, dt: float) -> LprArrays:
     if not hasattr(surrogate, "kernel_arrays"):
         raise val.FieldTypeError(
             "surrogate",
-            "must be a Legendre regression (it runs inside the compiled kernel); "
+            "must be a Legendre regression or a Kriging (it runs inside the compiled kernel); "
             f"got {type(surrogate).__name__}",
         )
     try:
-        return surrogate_arrays(surrogate, dt)
+        lpr = surrogate_arrays(surrogate, dt, kriging)
     except ValueError as exc:
         raise val.FieldError("surrogate", str(exc), full=True) from None
+    _check_element_units(surrogate, lpr.lo.shape[0])
+    return lpr
+
+
+#: units of the suspension element's inputs (deflection, its rate, Maxwell state) and output
+ELEMENT_UNITS = ("m", "m/s", "m")
+ELEMENT_OUTPUT_UNIT = "N"
+
+
+def _check_element_units(surrogate: Any, d: int) -> None:
+    """A model read from a file (``features_``) must give the units the kernel assumes:
+    deflection m, velocity m/s (and the Maxwell state m) in, force N out; an element fitted on
+    another problem, or in mm or kN, is refused. A model fitted in this session carries no
+    units and is taken as SI."""
+    features = getattr(surrogate, "features_", None)
+    if not features:
+        return
+    units, names = features.get("units") or {}, list(features.get("inputs") or [])
+    output = features.get("output")
+    wanted = [*zip(names[:d], ELEMENT_UNITS[:d], strict=True), (output, ELEMENT_OUTPUT_UNIT)]
+    for name, unit in wanted:
+        got = units.get(name)
+        if got != unit:
+            found = "no unit" if got is None else f"unit {got!r}"
+            raise val.FieldError(
+                "surrogate",
+                f"{'output' if name == output else 'input'} {name!r} has {found} in "
+                "features.units; the suspension element "
+                f"takes {', '.join(f'{n!r} in {u}' for n, u in wanted[:-1])} "
+                f"and gives {output!r} in {ELEMENT_OUTPUT_UNIT} (save it with those units)",
+            )
+
+
+def check_speed(speed: Any, field: str = "speed") -> float:
+    """A speed in m/s, at least ``LIMITS["speed_min"]``."""
+    v = val.positive(speed, field)
+    if v < LIMITS["speed_min"]:
+        raise val.FieldError(
+            field,
+            f"must be at least {LIMITS['speed_min']:g} m/s (the env's lowest speed), got {speed!r}",
+        )
+    return v
 
 
 def _batch(
@@ -195,7 +238,7 @@ def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     ``LIMITS["speed_factor"]`` × the class's maximum speed)."""
     class_parameters(track_class)  # raises ValueError naming track_class
     v_max = class_speed(track_class)
-    v = v_max if speed is None else val.positive(speed, "speed")
+    v = v_max if speed is None else check_speed(speed)
     limit = LIMITS["speed_factor"] * v_max if speed_limit is None else speed_limit
     if v > limit:
         raise val.FieldError(
@@ -245,8 +288,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
     ----------
     backend : ``"surrogate"`` (default, paper eq. 2), ``"reference"``, ``"linear"`` or
         ``"fmu"`` (an FMU as the vehicle: ``fmu`` and ``fmu_map``, see ``docs/fmi.md``).
-    surrogate : LPR model, path of a model JSON, or ``None`` for the packaged element; only
-        for ``backend="surrogate"``.
+    surrogate : LPR or Kriging model, path of a model JSON, or ``None`` for the packaged
+        element; only for ``backend="surrogate"``.
     track_class : FRA class 1–6 (default 5, the paper's training case).
     fmu, fmu_map : the FMU file and its mapping file (:mod:`railgym.fmu.mapping`; ``fmu``
         defaults to the mapping's ``fmu:``), only for ``backend="fmu"``.
@@ -312,7 +355,11 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         self.profile = self._check_profile(profile)
         self._fmu_args = (backend, fmu, fmu_map)
         sim = _batch(
-            1, self.cfg, veh, _surrogate_arrays(backend, surrogate, self.cfg.dt), *self._fmu_args
+            1,
+            self.cfg,
+            veh,
+            _surrogate_arrays(backend, surrogate, self.cfg.dt, True),
+            *self._fmu_args,
         )
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         n_obs = len(self.obs_names)

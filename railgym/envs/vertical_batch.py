@@ -53,6 +53,7 @@ OBS_LIMIT = 1e30
 #: documented argument limits (docs/envs/vertical.md)
 LIMITS = {
     "speed_factor": 2.0,  # speed <= this × the class's maximum speed unless speed_limit= is given
+    "speed_min": 1.0,  # m/s; slower, the FRA track of long wavelengths needs too many samples
     "duration": 600.0,  # s
     "f_max": 1e6,  # N
     "sensor_noise": 10.0,  # std on the normalised observation

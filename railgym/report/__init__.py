@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from tqdm.auto import tqdm
-
+from railgym.progress import bar as progress_bar
+from railgym.progress import quiet
 from railgym.report.compute import FULL, QUICK, Plan, compute, n_steps
 from railgym.report.figures import write_figures
 from railgym.report.output import prepare_output_dir, write_text_atomic
@@ -52,7 +52,7 @@ def make_report(
     quick : reduced sizes (:data:`QUICK`) instead of :data:`FULL`.
     seed : seed of the training track, the sampling and the CV folds; the vertical test
         simulations run on track seed ``seed + 1``.
-    progress : show a progress bar.
+    progress : show a progress bar (stderr, only on a terminal; see :mod:`railgym.progress`).
     overwrite : allow an existing non-empty ``out`` (its report files are replaced).
     workers, address : run the validation matrix's tracks on ``workers`` processes (a local
         Ray instance with the ``ray`` extra) or on the Ray cluster at ``address``
@@ -71,7 +71,8 @@ def make_report(
     out = prepare_output_dir(out, overwrite)
     plan = QUICK if quick else FULL
     t0 = time.perf_counter()
-    bar = tqdm(total=n_steps(plan) + 1, desc="railgym paper", disable=not progress)
+    with quiet(not progress):
+        bar = progress_bar(desc="railgym paper", total=n_steps(plan) + 1)
 
     def step(label: str) -> None:
         bar.set_postfix_str(label, refresh=False)

@@ -67,13 +67,17 @@ def _time_histories(plt: Any, art: Artifacts, plan: Plan) -> Any:
 
 
 def _errors(plt: Any, table5: dict[str, Any], plan: Plan) -> Any:
-    """Fig. 11: eq. 9 errors of the LPR element vs the sample size M."""
+    """Fig. 11: eq. 9 errors of the LPR and Kriging elements vs the sample size M."""
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    x = np.arange(len(plan.sizes))
     for ax, (q, label) in zip(axes, QUANTITIES, strict=True):
-        vals = [table5["lpr"][m][q] for m in plan.sizes]
-        ax.bar(range(len(vals)), vals, width=0.5, label="LPR")
-        ax.set_xticks(range(len(plan.sizes)), [f"{m} samples" for m in plan.sizes])
-        ax.set(yscale="log" if max(vals) > 10 * min(vals) else "linear", title=label)
+        every = []
+        for i, kind in enumerate(("lpr", "kriging")):
+            vals = [table5[kind][m][q] for m in plan.sizes]
+            ax.bar(x + 0.35 * (i - 0.5), vals, width=0.35, label=LABEL[kind])
+            every += vals
+        ax.set_xticks(x, [f"{m} samples" for m in plan.sizes])
+        ax.set(yscale="log" if max(every) > 10 * min(every) else "linear", title=label)
         ax.legend(fontsize=8)
     fig.suptitle("Simulation errors vs sample size (paper fig. 11)")
     return fig

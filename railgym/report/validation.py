@@ -143,7 +143,7 @@ def _closed_loop(
     """Carbody ``x2, v2, a2`` after every control step of ``law`` driving ``variant``."""
     n_steps = (z.size - 1) // n_sub
     kernel = KERNELS[variant]
-    lpr = surrogate_arrays(element if variant == "surrogate" else None, dt)
+    lpr = surrogate_arrays(element if variant == "surrogate" else None, dt, kriging=True)
     p = vehicle.kernel_params().record()
     state = initial_state(variant, lpr=lpr)
     out = step_outputs(1)

@@ -32,7 +32,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -151,11 +151,12 @@ def build_vertical_surrogate(
     (a :func:`collect_design` result, e.g. from an FMU: :func:`railgym.fmu.collect.collect_fmu`)
     is used instead of running the design.
     """
+    progress = model_params.get("progress")
     if data is None:
         des = _design(design, duration, sample_rate)
         if design == "paper":
             des = dataclasses.replace(des, seeds=(track_seed,))
-        data = collect_design(des)
+        data = collect_design(des, progress=_stage(progress, "reference runs"))
     model, report = build(
         data["U"],
         data["V"],
@@ -168,6 +169,32 @@ def build_vertical_surrogate(
     )
     model.features_ = {"form": "static", "tau": None, "known_physics": []}
     return model, report, data
+
+
+def _stage(
+    progress: Callable[[str, int, int], None] | None, stage: str
+) -> Callable[[int, int], None] | None:
+    """``progress`` bound to ``stage`` (``None`` stays ``None``)."""
+    if progress is None:
+        return None
+    return lambda i, total: progress(stage, i, total)
+
+
+def memory_degrees(max_degree: Sequence[int]) -> list[tuple[int, ...]]:
+    """The memory element's degree grid up to ``max_degree`` (one per input δ, δ̇, ζ): each
+    input from the start of :data:`MEMORY_DEGREES` in steps of 2 (the packaged grid is
+    ``memory_degrees((18, 14, 9))``)."""
+    starts = (10, 6, 3)
+    if len(max_degree) != len(starts):
+        raise ValueError(f"max_degree needs one degree per input (3), got {len(max_degree)}")
+    for j, (lo, top) in enumerate(zip(starts, max_degree, strict=True)):
+        if top < lo:
+            raise ValueError(f"max_degree[{j}] must be at least {lo} (grid start), got {top}")
+    return list(
+        itertools.product(
+            *(range(lo, top + 1, 2) for lo, top in zip(starts, max_degree, strict=True))
+        )
+    )
 
 
 def memory_training_data(
@@ -213,6 +240,7 @@ def build_memory_surrogate(
     k: int = 5,
     seed: int = 0,
     vehicle: str = "manchester",
+    progress: Callable[[str, int, int], None] | None = None,
     data: dict[str, Any] | None = None,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
     """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ`` and the degrees chosen by k-fold CV.
@@ -226,6 +254,7 @@ def build_memory_surrogate(
     known_physics : ``("bump_stop",)`` adds the vehicle's bump-stop law in the kernel.
     duration, sample_rate : replace the design's (s, Hz); the default trains on 200 Hz.
     k, seed : folds and their shuffling seed.
+    progress : optional ``callback(stage, i, total)`` (reference runs, degree search per τ).
     data : training data already collected (a :func:`collect_design` result, e.g. from an
         FMU by :func:`railgym.fmu.collect.collect_fmu`) instead of running ``design``.
 
@@ -237,14 +266,26 @@ def build_memory_surrogate(
     training pairs ``U_memory``, ``V_memory``.
     """
     if data is None:
-        data = collect_design(_design(design, duration, sample_rate), vehicle=vehicle)
+        data = collect_design(
+            _design(design, duration, sample_rate),
+            vehicle=vehicle,
+            progress=_stage(progress, "reference runs"),
+        )
     cls = PassiveLegendreRegression if passive else LegendreRegression
     degrees = list(degrees)
     out = TauSelection()
     pairs = {}
     for tau in taus:
         U, V = memory_training_data(data, tau, known_physics, vehicle)
-        res = select_kfold(lambda deg: cls(degree=deg), degrees, U, V, k=k, seed=seed)
+        res = select_kfold(
+            lambda deg: cls(degree=deg),
+            degrees,
+            U,
+            V,
+            k=k,
+            seed=seed,
+            progress=_stage(progress, f"degrees at tau {1e3 * tau:g} ms"),
+        )
         row = next(r for r in res.table if r["candidate"] == res.best)
         out.table.append({"tau": tau, "degree": res.best, "rms": row["rms"], "nrms": row["nrms"]})
         out.results.append(res)
@@ -276,9 +317,11 @@ def save_vertical_surrogate(
     report: BuildReport | TauSelection | None,
     path: str | Path,
     source: str,
+    command: str | None = None,
 ) -> Path:
-    """Write a vertical element with its feature form, names, units and build report
-    (``None``: no report, e.g. a refined element)."""
+    """Write a vertical element with its feature form, names, units, build report
+    (``None``: no report, e.g. a refined element) and the command that builds it (default
+    the packaged recipe of its form)."""
     feat = getattr(model, "features_", {})
     form = feat.get("form", "static")
     inputs, units = _FEATURES[form]
@@ -304,7 +347,7 @@ def save_vertical_surrogate(
         known_physics=feat.get("known_physics", []),
         metadata={
             "source": source,
-            "command": f"python -m railgym.vehicles.collect --features {form}",
+            "command": command or f"python -m railgym.vehicles.collect --features {form}",
             "report": summary,
         },
     )
@@ -353,7 +396,7 @@ def _run_policy(
 ) -> dict[str, Any]:
     """One closed-loop run recorded at every integration step (``t, delta, delta_dot,
     force`` F_s, ``a2``), the law evaluated every ``n_sub`` steps on the raw observation."""
-    lpr = surrogate_arrays(element if variant == "surrogate" else None, dt)
+    lpr = surrogate_arrays(element if variant == "surrogate" else None, dt, kriging=True)
     kernel = KERNELS[variant]
     p = veh.kernel_params().record()
     state = initial_state(variant, lpr=lpr)
@@ -553,14 +596,38 @@ def refine(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Regenerate a packaged element (or write one elsewhere)."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    from railgym.progress import quiet, stages
+    from surrogates.cli import UsageError, add_degree_arguments, check_degrees
+
+    parser = argparse.ArgumentParser(
+        prog="python -m railgym.vehicles.collect", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("--features", choices=sorted(PACKAGED), default="maxwell")
     parser.add_argument("--design", choices=DESIGNS, default="paper")
     parser.add_argument("--output", help="model JSON (default: the packaged file of the form)")
     parser.add_argument("--m", type=int, default=101, help="static: GA training samples")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.add_argument("--fmu-map", help="collect from this FMU mapping file (docs/fmi.md)")
     parser.add_argument("--fmu", help="the FMU of --fmu-map (default: the map's fmu:)")
+    add_degree_arguments(
+        parser,
+        "; static default 16 per input; maxwell: the grid of each input (from 10, 6, 3 in "
+        "steps of 2) up to N, default 18 14 9",
+    )
     args = parser.parse_args(argv)
+    n_inputs = 2 if args.features == "static" else 3
+    try:
+        degree = check_degrees(args.degree, "--degree", n_inputs)
+        top = check_degrees(args.max_degree, "--max-degree", n_inputs)
+        if args.features == "static":
+            cands = [degree] if degree else None
+            if top is not None:
+                cands = list(itertools.product(*(range(1, t + 1) for t in top)))
+        else:
+            cands = [degree] if degree else (memory_degrees(top) if top else None)
+    except (UsageError, ValueError) as err:
+        parser.error(str(err))
+    progress = stages()
     data = None
     if args.fmu_map is not None and args.output is None:
         parser.error("--fmu-map needs --output (the packaged element is not replaced)")
@@ -575,17 +642,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.design == "paper"
         else "envelope design (classes 3-6, 0.7/1.0 of class speed, passive + excited)"
     )
-    if args.features == "static":
-        model, report, _ = build_vertical_surrogate(m=args.m, design=args.design, data=data)
-        text = report.format()
-        source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
-    else:
-        model, report, _ = build_memory_surrogate(design=args.design, data=data)
-        text = report.format()
-        source = (
-            f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
-            "F_s - F_bump with the Maxwell state"
-        )
+    with quiet(args.quiet):
+        if args.features == "static":
+            model, report, _ = build_vertical_surrogate(
+                m=args.m, design=args.design, candidates=cands, progress=progress, data=data
+            )
+            text = report.format()
+            source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
+        else:
+            model, report, _ = build_memory_surrogate(
+                design=args.design,
+                degrees=cands or MEMORY_DEGREES,
+                progress=progress,
+                data=data,
+            )
+            text = report.format()
+            source = (
+                f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
+                "F_s - F_bump with the Maxwell state"
+            )
     if args.fmu_map is not None:
         source = f"FMU of {args.fmu_map}" + source[source.index(",") :]
     save_vertical_surrogate(model, report, out, source)

@@ -14,6 +14,7 @@ Every run is recorded at the integration step (the memory features of
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -128,9 +129,11 @@ def collect_design(
     vehicle: str = "manchester",
     variant: str = "dynamic",
     dt: float | None = None,
+    progress: Callable[[int, int], None] | None = None,
     run: Any = None,
 ) -> dict[str, Any]:
-    """Run the reference model over a design and return its training data.
+    """Run the reference model over a design and return its training data; ``progress(i,
+    total)`` is called after each of the design's cases.
 
     ``run(z, zdot, dt, force_a)``, when given, replaces the built-in model: a record as
     :func:`~railgym.vehicles.vertical.simulate` returns (``t, x1, v1, x2, v2, a2, F_s,
@@ -156,7 +159,8 @@ def collect_design(
             f"design.sample_rate {design.sample_rate} Hz is not a whole number of steps of {dt} s"
         )
     runs = []
-    for case, (track_class, speed, seed) in enumerate(design.cases()):
+    cases = list(design.cases())
+    for case, (track_class, speed, seed) in enumerate(cases):
         _, z, zdot = track_time_input(track_class, speed, design.duration, dt, seed)
         excitations = [False, True] if design.f_max > 0 else [False]
         for excited in excitations:
@@ -188,6 +192,8 @@ def collect_design(
                     "rows": np.arange(0, m, every),
                 }
             )
+        if progress is not None:
+            progress(case + 1, len(cases))
     U = np.concatenate([np.column_stack([r["delta"], r["delta_dot"]])[r["rows"]] for r in runs])
     V = np.concatenate([r["force"][r["rows"]] for r in runs])
     return {"runs": runs, "U": U, "V": V, "design": design}

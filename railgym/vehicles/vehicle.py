@@ -26,7 +26,11 @@ damper, damper curve, bump stops, LPR element). With ``a = b = 0``, no bending c
 two bogies carrying half the carbody each, the model reduces to the one-bogie model.
 
 State per vehicle: positions ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]``, then their rates;
-``"dynamic"`` appends ``[Δp_b, Δp_r, y]`` of bogie 0 and then of bogie 1.
+``"dynamic"`` appends ``[Δp_b, Δp_r, y]`` of bogie 0 and then of bogie 1; ``"surrogate"``
+with a memory element (:mod:`surrogates.memory`, ``"maxwell"`` form) appends the Maxwell
+states ``[s_0, s_1]`` of the two bogies (``ṡ_i = (δ_i − s_i)/τ``, element inputs
+``(δ_i, δ̇_i, δ_i − s_i)``), the same element at each bogie (:func:`state_size`). An
+element with the ``"bump_stop"`` known physics adds the vehicle's bump-stop law to ``F̂``.
 
 Track input: one profile per vehicle sampled on the time grid of the rear wheelset,
 ``Z[k] = z(v·k·dt)`` and ``Ż[k] = v·z'(v·k·dt)``; wheelset ``j`` sees it shifted by the
@@ -61,11 +65,13 @@ from railgym.vehicles.vertical.elements import (
     dynamic_element,
     in_contact,
 )
-from surrogates.models.lpr import lpr_eval_into, lpr_is_outside, lpr_scratch
+from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside, lpr_scratch
 
 VARIANTS = ("linear", "static", "dynamic", "surrogate")
 _KIND = {"linear": 0, "static": 1, "dynamic": 2, "surrogate": 3}
 N_MECH = 14
+#: states per vehicle of each variant (surrogate: with a static element; a memory element adds
+#: its two Maxwell states, see :func:`state_size`)
 STATE_SIZE = {"linear": N_MECH, "static": N_MECH, "dynamic": N_MECH + 6, "surrogate": N_MECH}
 #: floor points where the carbody acceleration is reported: over the front bogie, centre,
 #: over the rear bogie (multiples of the bogie semi-spacing ``a``)
@@ -207,6 +213,10 @@ class Lpr(NamedTuple):
     lo: np.ndarray
     up: np.ndarray
     mode: int
+    tau: float  # Maxwell time constant of a memory element, s (0: static element)
+    bump: bool  # add the vehicle's bump-stop law to the element's value
+    table: np.ndarray  # additive coefficient table (memory element's fast path)
+    additive: bool
 
 
 class Batch(NamedTuple):
@@ -254,9 +264,19 @@ def kernel_params(vehicle: WholeVehicle, flexible: bool = True) -> Params:
     )
 
 
-def lpr_arrays(surrogate: Any = None) -> Lpr:
-    """:class:`Lpr` of a fitted LPR model (or its ``kernel_arrays()``); placeholders for None."""
-    return Lpr(*surrogate_arrays(surrogate)[:5])
+def lpr_arrays(surrogate: Any = None, dt: float | None = None) -> Lpr:
+    """:class:`Lpr` of a fitted LPR model (or its ``kernel_arrays()``), static or memory
+    form; placeholders for None. ``dt`` (s), when given, is checked against ``2τ``."""
+    return Lpr(*surrogate_arrays(surrogate, dt))
+
+
+def state_size(variant: str, lpr: Lpr | None = None) -> int:
+    """States per vehicle of ``variant``: :data:`STATE_SIZE`, plus the two Maxwell states of
+    a memory element ``lpr`` for ``"surrogate"``."""
+    check_variant(variant)
+    if variant == "surrogate" and lpr is not None and lpr.tau > 0.0:
+        return N_MECH + 2
+    return STATE_SIZE[variant]
 
 
 def check_variant(variant: str) -> int:
@@ -292,7 +312,9 @@ def _dynamic_force(j, d, dd, x, e, rt, dx):
 def _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, dx, fs):
     """State derivative into ``dx`` for wheel inputs ``w`` (4, 2) (height, rate) and actuator
     forces ``fa`` (2,); writes the secondary forces into ``fs`` (2,); returns the number of
-    out-of-domain surrogate evaluations. ``u`` (2,), ``rt`` (3,) and ``lw`` are work arrays."""
+    out-of-domain surrogate evaluations. ``u`` (d,), ``rt`` (3,) and ``lw`` are work arrays.
+    A memory element's states are ``x[N_MECH + i]``; it is evaluated by the additive fast
+    path inside its box, like the one-bogie kernel."""
     outside = 0
     f0 = 0.0
     f1 = 0.0
@@ -310,9 +332,20 @@ def _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, dx, fs):
         else:
             u[0] = d
             u[1] = dd
-            if lpr_is_outside(u, lpr.lo, lpr.up):
+            memory = lpr.tau > 0.0
+            if memory:
+                sm = x[N_MECH + i]
+                u[2] = d - sm
+                dx[N_MECH + i] = (d - sm) / lpr.tau
+            out_i = lpr_is_outside(u, lpr.lo, lpr.up)
+            if out_i:
                 outside += 1
-            f = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+            if memory and lpr.additive and not out_i:
+                f = lpr_additive_inside(u, lpr.table, lpr.lo, lw)
+            else:
+                f = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+            if lpr.bump:
+                f += bump_stop_force(d, e)
         fs[i] = f
         ftot = f + fa[i]
         if i == 0:
@@ -366,7 +399,7 @@ class Work(NamedTuple):
     w: np.ndarray  # (4, 2) wheel inputs at the start/end of a substep
     wm: np.ndarray  # (4, 2) at its midpoint
     fs: np.ndarray  # (2,) secondary forces
-    u: np.ndarray  # (2,) surrogate input
+    u: np.ndarray  # (d,) surrogate input
     rt: np.ndarray  # (3,) dynamic-element rates
     lw: np.ndarray  # LPR scratch
 
@@ -386,8 +419,9 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):
     ``PARALLEL_MIN``). All give bit-identical results.
     """
     n = bt.state.shape[0]
-    if kind == 3 and lpr.lo.shape[0] == 2 and n >= LANES_MIN:
-        _check_track(bt, n_sub)
+    d = lpr.lo.shape[0]
+    if kind == 3 and (d == 2 or (d == 3 and lpr.additive)) and n >= LANES_MIN:
+        _check_track(kind, bt, n_sub, lpr)
         if n >= PARALLEL_MIN:
             _lanes_parallel(bt, n_sub, dt, p, e, lpr, out)
         else:
@@ -400,8 +434,11 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):
 
 
 @njit(cache=True, error_model="numpy")
-def _check_track(bt, n_sub):
-    """Raise unless every vehicle's track window of ``n_sub`` samples lies in its profile."""
+def _check_track(kind, bt, n_sub, lpr):
+    """Raise unless every vehicle's track window of ``n_sub`` samples lies in its profile, and
+    for a memory element unless the states hold its two Maxwell states."""
+    if kind == 3 and lpr.tau > 0.0 and bt.state.shape[1] < N_MECH + 2:
+        raise ValueError("a memory surrogate element needs N_MECH + 2 states (Maxwell states)")
     last = bt.z.shape[1] - 1
     for i in range(bt.state.shape[0]):
         if bt.k[i] < 0 or bt.k[i] + n_sub + bt.off[i, 0] > last:
@@ -421,7 +458,7 @@ def _work(s, lpr):
         np.empty((4, 2)),
         np.empty((4, 2)),
         np.empty(2),
-        np.empty(2),
+        np.empty(lpr.lo.shape[0]),
         np.empty(3),
         lpr_scratch(lpr.exps, lpr.lo, lpr.up),
     )
@@ -430,7 +467,7 @@ def _work(s, lpr):
 @njit(cache=True, error_model="numpy", _nrt=True)
 def advance_serial(kind, bt, n_sub, dt, p, e, lpr, out):
     """:func:`advance` on one thread: :func:`_advance_one` for each vehicle in turn."""
-    _check_track(bt, n_sub)
+    _check_track(kind, bt, n_sub, lpr)
     wk = _work(bt.state.shape[1], lpr)
     for i in range(bt.state.shape[0]):
         _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
@@ -440,7 +477,7 @@ def advance_serial(kind, bt, n_sub, dt, p, e, lpr, out):
 def advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out):
     """:func:`advance` on all numba threads: ``prange`` over chunks of vehicles, each chunk with
     its own scratch running the same :func:`_advance_one` as :func:`advance_serial`."""
-    _check_track(bt, n_sub)
+    _check_track(kind, bt, n_sub, lpr)
     n = bt.state.shape[0]
     chunks = min(n, PARALLEL_CHUNKS)
     for c in prange(chunks):
@@ -528,10 +565,10 @@ def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):
 
 
 # ======================================================================== utilities
-def make_batch(n: int, variant: str, n_samples: int) -> tuple[Batch, Out]:
-    """Zeroed :class:`Batch` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples."""
-    check_variant(variant)
-    s = STATE_SIZE[variant]
+def make_batch(n: int, variant: str, n_samples: int, lpr: Lpr | None = None) -> tuple[Batch, Out]:
+    """Zeroed :class:`Batch` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples
+    (states sized by :func:`state_size` for the element ``lpr``)."""
+    s = state_size(variant, lpr)
     bt = Batch(
         np.zeros((n, s)),
         np.zeros((n, n_samples)),
@@ -575,13 +612,13 @@ def simulate(
     z = np.atleast_2d(np.asarray(z, dtype=float))
     zdot = np.atleast_2d(np.asarray(zdot, dtype=float))
     n = z.shape[0]
-    bt, out = make_batch(n, variant, z.shape[1])
+    lpr = lpr_arrays(surrogate if variant == "surrogate" else None, float(dt))
+    bt, out = make_batch(n, variant, z.shape[1], lpr)
     bt.z[:] = z
     bt.zdot[:] = zdot
     bt.off[:] = np.broadcast_to(np.asarray(offsets, dtype=float), (n, 4))
     p = kernel_params(vehicle, flexible)
     e = vehicle.suspension.kernel_params().record()
-    lpr = lpr_arrays(surrogate if variant == "surrogate" else None)
     acc = np.zeros((n, n_steps, 5))
     states = np.zeros((n, n_steps, bt.state.shape[1]))
     fs = np.zeros((n, n_steps, 2))

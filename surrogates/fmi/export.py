@@ -40,7 +40,8 @@ from pathlib import Path
 from typing import Any
 
 from surrogates.fmi.model_description import Variable, fmi_names, model_description
-from surrogates.io import model_from_document, model_to_document
+from surrogates.io import load, model_to_document
+from surrogates.memory import element_form
 from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression
 
@@ -49,6 +50,7 @@ HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 SOURCE_FILES = ("element.c",)
 #: compiler flags; no floating-point contraction, so the C arithmetic matches numpy's
 CFLAGS = ("-shared", "-fPIC", "-O2", "-std=c99", "-ffp-contract=off")
+_C_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
 class FMUExportError(RuntimeError):
@@ -182,12 +184,15 @@ def export_fmu(
     ------
     FMUExportError
         For a Kriging (or other non-Legendre) model, a missing C compiler or a failed build.
+    FMUExportError
+        For an element with memory or known physics (form ``"maxwell"``, ``known_physics``):
+        the FMU evaluates a memoryless map and would drop them.
     ValueError
-        For a bad ``kind``, mismatched names or an unfitted model.
+        For a bad ``kind``, mismatched names, a ``model_identifier`` that is not a C
+        identifier, an unfitted model, or a model file that does not load (naming the file).
     """
     if isinstance(model, str | Path):
-        src = Path(model)
-        model = model_from_document(json.loads(src.read_text()), source=str(src))
+        model = load(model)  # a bad file: one error naming it
     if not isinstance(model, SurrogateModel):
         raise ValueError(f"model must be a fitted surrogate model, got {type(model).__name__}")
     if not isinstance(model, LegendreRegression):
@@ -198,6 +203,13 @@ def export_fmu(
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
     model._check_fitted()
+    shape = element_form(getattr(model, "features_", None), model.n_features_in_)
+    if shape.form != "static" or shape.known_physics:
+        raise FMUExportError(
+            f"FMU export of a {shape.form!r} element (tau {shape.tau} s, known physics "
+            f"{list(shape.known_physics)}) is not supported: the FMU evaluates a memoryless "
+            "map F(u) and would drop the internal state and the known physics"
+        )
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
@@ -214,7 +226,9 @@ def export_fmu(
     variables = []
     for j, name in enumerate(in_names):
         unit = all_units.get(name, "")
-        rng = f"training range [{lower[j]!r}, {upper[j]!r}]{' ' + unit if unit else ''}"
+        rng = (
+            f"training range [{float(lower[j])!r}, {float(upper[j])!r}]{' ' + unit if unit else ''}"
+        )
         variables.append(Variable(names[j], unit, desc.get(name, f"feature {name!r}, {rng}")))
     out_var = Variable(
         names[-1],
@@ -271,9 +285,16 @@ def guid_of(text: str) -> str:
 
 
 def identifier(path: Path, model_identifier: str | None) -> str:
-    """``model_identifier``, else a C identifier from the file name."""
-    ident = model_identifier or re.sub(r"\W", "_", path.stem) or "element"
-    return ident if re.fullmatch(r"[A-Za-z_]\w*", ident) else "_" + ident
+    """``model_identifier`` (it must be a C identifier), else one from the file name."""
+    if model_identifier is not None:
+        if not isinstance(model_identifier, str) or not _C_IDENT.fullmatch(model_identifier):
+            raise ValueError(
+                "model_identifier must be a C identifier (ASCII letters, digits and _, not "
+                f"starting with a digit), got {model_identifier!r}"
+            )
+        return model_identifier
+    ident = re.sub(r"[^A-Za-z0-9_]", "_", path.stem) or "element"
+    return ident if _C_IDENT.fullmatch(ident) else "_" + ident
 
 
 def write_fmu(

@@ -19,46 +19,78 @@ Each prediction of a point outside the box increments ``n_out_of_domain_``.
 from __future__ import annotations
 
 import inspect
+import warnings
 from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
 
-from surrogates.models.validation import ModelFieldError, check_choice, field, field_array
+from surrogates.models.validation import (
+    DataConversionWarning,
+    ModelFieldError,
+    check_choice,
+    field,
+    field_array,
+    not_fitted_error,
+    sklearn_flavoured,
+)
 
 EXTRAPOLATION_POLICIES = ("linear", "clip", "raise")
 
 
 def as_inputs(U: Any, name: str = "U") -> np.ndarray:
-    """Return ``U`` as a finite float array of shape (n, d); 1-D input means d = 1."""
-    kind = np.asarray(U).dtype.kind
-    if kind not in "iuf":
-        raise ValueError(
-            f"{name} must be an array of real numbers, got dtype {np.asarray(U).dtype}"
-        )
-    U = np.asarray(U, dtype=float)
+    """Return ``U`` as a finite float array of shape (n, d); 1-D input means d = 1.
+
+    The error messages carry the phrases scikit-learn's estimator checks look for
+    (sparse, complex, NaN/inf, 0 features)."""
+    if hasattr(U, "toarray") or type(U).__module__.startswith("scipy.sparse"):
+        raise TypeError(f"{name}: sparse input is not supported, pass a dense array")
+    raw = np.asarray(U)
+    if raw.dtype.kind == "c":
+        raise ValueError(f"{name} must be an array of real numbers: Complex data not supported")
+    if raw.dtype.kind == "O":  # numbers in an object array (e.g. from pandas) convert
+        try:
+            raw = raw.astype(float)
+        except (TypeError, ValueError) as err:
+            raise type(err)(f"{name} must be an array of real numbers: {err}") from None
+    if raw.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be an array of real numbers, got dtype {raw.dtype}")
+    U = np.asarray(raw, dtype=float)
     if U.ndim == 1:
         U = U[:, None]
     if U.ndim != 2:
         raise ValueError(f"{name} must have shape (n, d), got {U.shape}")
     if U.shape[0] == 0:
-        raise ValueError(f"{name} is empty")
+        raise ValueError(f"{name} is empty: 0 sample(s) (shape={U.shape})")
+    if U.shape[1] == 0:
+        raise ValueError(
+            f"{name} has 0 feature(s) (shape={U.shape}) while a minimum of 1 is required."
+        )
     if not np.all(np.isfinite(U)):
         bad = np.unique(np.nonzero(~np.isfinite(U))[1])
-        raise ValueError(f"{name} has non-finite values in column(s) {bad.tolist()}")
+        raise ValueError(f"{name} has non-finite values (NaN or inf) in column(s) {bad.tolist()}")
     return U
 
 
 def as_outputs(V: Any, n: int, name: str = "V") -> np.ndarray:
     """Return ``V`` as a finite float array of shape (n,)."""
+    if V is None:
+        raise ValueError(f"{name}: the model requires y to be passed, but the target y is None")
     V = np.asarray(V, dtype=float)
     if V.ndim == 2 and V.shape[1] == 1:
+        warnings.warn(
+            sklearn_flavoured(DataConversionWarning)(
+                f"A column-vector y was passed when a 1d array was expected: {name} of shape "
+                f"{V.shape} is used as ({n},)"
+            ),
+            stacklevel=3,
+        )
         V = V[:, 0]
     if V.shape != (n,):
         raise ValueError(f"{name} must have shape ({n},), got {V.shape}")
     if not np.all(np.isfinite(V)):
         rows = np.nonzero(~np.isfinite(V))[0][:5].tolist()
-        raise ValueError(f"{name} has non-finite values at rows {rows}")
+        raise ValueError(f"{name} has non-finite values (NaN or inf) at rows {rows}")
     return V
 
 
@@ -71,7 +103,10 @@ class SurrogateModel:
 
     scikit-learn contract: ``__init__`` stores every hyperparameter exactly as given (it
     validates nothing), ``fit`` validates them, :meth:`get_params` / :meth:`set_params` work as
-    in scikit-learn (so ``sklearn.base.clone`` works), and learned state ends in an underscore.
+    in scikit-learn (so ``sklearn.base.clone`` works), learned state ends in an underscore,
+    :meth:`score` is the R² of a regressor and ``__sklearn_tags__`` declares a regressor, so
+    ``Pipeline``, ``GridSearchCV``, ``cross_val_score`` and ``is_regressor`` work. scikit-learn
+    itself is not needed (it is imported only when scikit-learn asks for the tags).
     """
 
     kind: ClassVar[str] = "base"
@@ -93,6 +128,10 @@ class SurrogateModel:
         self._check_params()
         U = as_inputs(U)
         V = as_outputs(V, U.shape[0])
+        if U.shape[0] < 2:
+            raise ValueError(
+                f"U has 1 sample (n_samples=1): a training domain needs at least 2 {U.shape}"
+            )
         lower, upper = U.min(axis=0), U.max(axis=0)
         check_domain(lower, upper, "U column")
         if not np.isfinite(np.std(V)):
@@ -106,10 +145,18 @@ class SurrogateModel:
     def predict(self, U: Any) -> np.ndarray:
         """Predict outputs for ``U`` (n, d) → (n,), applying the extrapolation policy."""
         self._check_fitted()
+        one_d = np.asarray(U).ndim == 1
         U = as_inputs(U)
         if U.shape[1] != self.n_features_in_:
+            hint = (
+                "; Reshape your data: a 1-D U is one column, use U.reshape(1, -1) for one sample"
+                if one_d
+                else ""
+            )
             raise ValueError(
-                f"U has {U.shape[1]} columns, the model was fitted on {self.n_features_in_}"
+                f"U has {U.shape[1]} columns: X has {U.shape[1]} features, but "
+                f"{type(self).__name__} is expecting {self.n_features_in_} features as input "
+                f"(the columns it was fitted on){hint}"
             )
         Uc = np.clip(U, self.lower_, self.upper_)
         outside = np.any(Uc != U, axis=1)
@@ -137,6 +184,37 @@ class SurrogateModel:
                     f"U = {U[row].tolist()}): the input is too far outside the training domain"
                 )
         return V
+
+    def score(self, U: Any, V: Any, sample_weight: Any = None) -> float:
+        """Coefficient of determination R² of :meth:`predict` on ``U`` against ``V``, as
+        scikit-learn's regressors (``1 − Σw(V − V̂)² / Σw(V − V̄_w)²``; a constant ``V`` gives
+        1.0 when predicted exactly, else 0.0)."""
+        pred = self.predict(U)
+        V = as_outputs(V, pred.size)
+        w = np.ones_like(V) if sample_weight is None else as_outputs(sample_weight, V.size, "w")
+        residual = float(np.sum(w * (V - pred) ** 2))
+        total = float(np.sum(w * (V - np.average(V, weights=w)) ** 2))
+        if total == 0.0:
+            return 1.0 if residual == 0.0 else 0.0
+        return 1.0 - residual / total
+
+    def __sklearn_is_fitted__(self) -> bool:
+        """Whether :meth:`fit` ran (scikit-learn's ``check_is_fitted``)."""
+        return hasattr(self, "lower_")
+
+    def __sklearn_tags__(self) -> Any:
+        """scikit-learn's tags of a regressor on dense 2-D float input (needs scikit-learn,
+        which calls it)."""
+        from sklearn.utils import InputTags, RegressorTags, Tags, TargetTags
+
+        return Tags(
+            estimator_type="regressor",
+            target_tags=TargetTags(required=True, single_output=True),
+            transformer_tags=None,
+            classifier_tags=None,
+            regressor_tags=RegressorTags(),
+            input_tags=InputTags(),
+        )
 
     @property
     def domain_(self) -> tuple[np.ndarray, np.ndarray]:
@@ -230,7 +308,7 @@ class SurrogateModel:
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "lower_"):
-            raise RuntimeError(f"{type(self).__name__} is not fitted: call fit(U, V) first")
+            raise not_fitted_error(f"{type(self).__name__} is not fitted: call fit(U, V) first")
 
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
         raise NotImplementedError

@@ -10,18 +10,25 @@ concentrated (profile) log-likelihood
 
 with ``β̂`` the generalised least-squares trend; it is optimised with analytic gradients by
 L-BFGS-B from a few deterministic Latin-hypercube starts.
+
+:meth:`Kriging.kernel_arrays` gives the fitted model as plain arrays (:class:`KrigingArrays`)
+and :func:`kriging_eval_into` predicts one point from them inside compiled (numba) vehicle
+models, with the same extrapolation guard as :meth:`Kriging.predict`.
 """
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+import math
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
+from numba import njit
 from scipy.linalg import LinAlgError, cholesky, qr, solve_triangular
 from scipy.linalg.lapack import dpotri
 from scipy.optimize import OptimizeResult, minimize
 
 from surrogates.models.base import SurrogateModel, as_inputs
+from surrogates.models.lpr import EXTRAPOLATION_MODES
 from surrogates.models.validation import (
     ModelFieldError,
     check_choice,
@@ -47,6 +54,22 @@ JITTER = 1e-14
 
 _SQRT5 = np.sqrt(5.0)
 _CHUNK = 2048
+
+
+class KrigingArrays(NamedTuple):
+    """A fitted :class:`Kriging` as plain arrays for :func:`kriging_eval_into`."""
+
+    xs: np.ndarray  #: float64 (n, d) training inputs in the unit box
+    xs_ell: np.ndarray  #: float64 (n, d) ``xs / ℓ``
+    ell: np.ndarray  #: float64 (d,) length scales in units of the box width
+    weights: np.ndarray  #: float64 (n,) ``R⁻¹ (y − Fβ)`` (standardised units)
+    beta: np.ndarray  #: float64 (p,) trend coefficients: 1 (constant) or 1 + d (linear)
+    lo: np.ndarray  #: float64 (d,) lower corner of the training box, input units
+    up: np.ndarray  #: float64 (d,) upper corner
+    y_mean: float  #: output mean, output units
+    y_std: float  #: output standard deviation, output units
+    kernel: int  #: 0 Gaussian, 1 Matérn-5/2 (index in ``KERNELS``)
+    mode: int  #: extrapolation mode (``surrogates.models.lpr.EXTRAPOLATION_MODES``)
 
 
 class Kriging(SurrogateModel):
@@ -140,6 +163,28 @@ class Kriging(SurrogateModel):
             out[s : s + _CHUNK] = self.sigma2_ * np.maximum(mse, 0.0)
         return out
 
+    def kernel_arrays(self) -> KrigingArrays:
+        """Plain arrays of the fitted model for the numba predictor :func:`kriging_eval_into`
+        (copies: later changes to the model do not reach them)."""
+        self._check_fitted()
+
+        def arr(a: np.ndarray) -> np.ndarray:
+            return np.ascontiguousarray(a, dtype=np.float64).copy()
+
+        return KrigingArrays(
+            arr(self._Xs),
+            arr(self._Xs / self._ell),
+            arr(self._ell),
+            arr(self.weights_),
+            arr(self.beta_),
+            arr(self.lower_),
+            arr(self.upper_),
+            float(self.y_mean_),
+            float(self.y_std_),
+            KERNELS.index(self.kernel),
+            EXTRAPOLATION_MODES[self.extrapolation],
+        )
+
     # ------------------------------------------------------------- for the base class
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
         n, d = U.shape
@@ -211,29 +256,26 @@ class Kriging(SurrogateModel):
         self.weights_ = solve_triangular(L, res_t, lower=True, trans="T", check_finite=False)
         self.log_likelihood_ = -float(best.fun)
         self._Xs, self._L, self._Ft, self._Rq = Xs, L, Ft, Rq
+        self._kernel_arrays: KrigingArrays | None = None
 
     def _predict_inside(self, U: np.ndarray) -> np.ndarray:
+        """Mean prediction (n,) by the compiled predictor the vehicle kernels run."""
         out = np.empty(U.shape[0])
-        for s in range(0, U.shape[0], _CHUNK):
-            xs = self._scale(U[s : s + _CHUNK])
-            r, _ = _correlation(xs, self._Xs, self._ell, self.kernel)
-            m = _trend_matrix(xs, self.trend) @ self.beta_ + r @ self.weights_
-            out[s : s + _CHUNK] = self.y_mean_ + self.y_std_ * m
+        _mean_batch(np.ascontiguousarray(U), self._arrays(), out, np.empty((0, U.shape[1])))
         return out
 
     def _gradient_inside(self, U: np.ndarray) -> np.ndarray:
         """Analytic gradient of the mean prediction (n, d), output units per input unit."""
-        width = self.upper_ - self.lower_
-        G = np.empty_like(U)
-        for s in range(0, U.shape[0], _CHUNK):
-            xs = self._scale(U[s : s + _CHUNK])
-            _, g = _correlation(xs, self._Xs, self._ell, self.kernel)
-            diff = xs[:, None, :] - self._Xs[None, :, :]
-            dm = -np.einsum("mn,mnk->mk", g * self.weights_, diff) / self._ell**2
-            if self.trend == "linear":
-                dm += self.beta_[1:]
-            G[s : s + _CHUNK] = self.y_std_ * dm / width
+        G = np.empty(U.shape)
+        _mean_batch(np.ascontiguousarray(U), self._arrays(), np.empty(U.shape[0]), G)
         return G
+
+    def _arrays(self) -> KrigingArrays:
+        """:meth:`kernel_arrays`, kept until the next fit or state change."""
+        arrays: KrigingArrays | None = getattr(self, "_kernel_arrays", None)
+        if arrays is None:
+            arrays = self._kernel_arrays = self.kernel_arrays()
+        return arrays
 
     def _state(self) -> dict[str, Any]:
         return {
@@ -280,6 +322,7 @@ class Kriging(SurrogateModel):
             num("log_likelihood", nan_ok=True) if "log_likelihood" in d else float("nan")
         )
         self._ell = self.theta_ / (self.upper_ - self.lower_)
+        self._kernel_arrays = None
         self._Xs = self._scale(self.X_)
         K, _ = _correlation(self._Xs, self._Xs, self._ell, self.kernel)
         try:
@@ -405,3 +448,99 @@ def _neg_log_likelihood(
     if auto:
         grad = np.append(grad, -0.5 * nug * np.trace(W))
     return nll, grad
+
+
+def kriging_scratch(d: int) -> np.ndarray:
+    """Work array of :func:`kriging_eval_into` for ``d`` inputs, float64 (3, d)."""
+    return np.empty((3, d))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mean_at(k: KrigingArrays, work: np.ndarray, grad: bool) -> float:
+    """Mean at the unit-box point ``work[1, :d]`` (output units); with ``grad`` also its
+    gradient (output units per input unit) into ``work[2, :d]``."""
+    d = k.lo.shape[0]
+    n = k.weights.shape[0]
+    for j in range(d):
+        work[2, j] = 0.0
+    acc = 0.0
+    for i in range(n):
+        s = 0.0
+        for j in range(d):
+            z = work[1, j] / k.ell[j] - k.xs_ell[i, j]
+            s += z * z
+        if k.kernel == 0:
+            r = math.exp(-0.5 * s)
+            g = r
+        else:
+            rr = 2.23606797749979 * math.sqrt(s)  # √5 · distance
+            e = math.exp(-rr)
+            r = (1.0 + rr + rr * rr / 3.0) * e
+            g = (5.0 / 3.0) * (1.0 + rr) * e
+        acc += r * k.weights[i]
+        if grad:
+            gw = g * k.weights[i]
+            for j in range(d):
+                work[2, j] += gw * (work[1, j] - k.xs[i, j])
+    linear = k.beta.shape[0] > 1
+    trend = k.beta[0]
+    if linear:
+        for j in range(d):
+            trend += work[1, j] * k.beta[j + 1]
+    if grad:
+        for j in range(d):
+            dm = -work[2, j] / (k.ell[j] * k.ell[j])
+            if linear:
+                dm += k.beta[j + 1]
+            work[2, j] = k.y_std * dm / (k.up[j] - k.lo[j])
+    return k.y_mean + k.y_std * (trend + acc)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def kriging_eval_into(u: np.ndarray, k: KrigingArrays, work: np.ndarray) -> float:
+    """Mean prediction of a fitted :class:`Kriging` at one point ``u`` (d,), input units.
+
+    The same compiled arithmetic as :meth:`Kriging.predict`: inside the box the trend plus
+    the correlation-weighted sum over the training points; outside, the value at the clipped
+    point, extended with the analytic gradient there for mode 0 (``"linear"``) or held for
+    mode 1 (``"clip"``). Mode 2 (``"raise"``) is treated like 0: the caller honours it (tests
+    the box itself) and checks the result (±inf when a linear extension overflows).
+
+    ``k`` comes from :meth:`Kriging.kernel_arrays` (or is any named tuple with the fields of
+    :class:`KrigingArrays`); ``work`` is float64 with at least 3 rows
+    of ``d`` (:func:`kriging_scratch`, or any larger array such as the vertical kernels'
+    ``lpr_scratch``), overwritten, so one work array serves one thread. Costs O(n·d) for n
+    training points; allocates nothing.
+    """
+    d = u.shape[0]
+    outside = False
+    for j in range(d):
+        uc = min(max(u[j], k.lo[j]), k.up[j])
+        if uc != u[j]:
+            outside = True
+        work[0, j] = uc
+        work[1, j] = (uc - k.lo[j]) / (k.up[j] - k.lo[j])
+    grad = outside and k.mode != 1
+    value = _mean_at(k, work, grad)
+    if not grad:
+        return value
+    ext = 0.0
+    for j in range(d):
+        ext += work[2, j] * (u[j] - work[0, j])
+    return value + ext
+
+
+@njit(cache=True, error_model="numpy")
+def _mean_batch(U: np.ndarray, k: KrigingArrays, out: np.ndarray, G: np.ndarray) -> None:
+    """Mean ``out`` (m,) at the rows of ``U`` (m, d) inside the box, and the gradient ``G``
+    (m, d) unless ``G`` has no rows."""
+    d = U.shape[1]
+    grad = G.shape[0] > 0
+    work = np.empty((3, d))
+    for m in range(U.shape[0]):
+        for j in range(d):
+            work[1, j] = (U[m, j] - k.lo[j]) / (k.up[j] - k.lo[j])
+        out[m] = _mean_at(k, work, grad)
+        if grad:
+            for j in range(d):
+                G[m, j] = work[2, j]

@@ -222,6 +222,19 @@ class LegendreRegression(SurrogateModel):
                 f"model.state.coef has {coef.size} entries but model.state.exponents has "
                 f"{E.shape[0]} rows: one coefficient per term is needed"
             )
+        try:
+            expected = self.make_exponents(self.n_features_in_)
+        except ValueError:
+            raise ModelFieldError(
+                f"model.params.degree={self.degree!r} does not fit the model's "
+                f"{self.n_features_in_} inputs (model.domain)"
+            ) from None
+        if expected.shape != E.shape or not np.array_equal(expected, E):
+            raise ModelFieldError(
+                f"model.state.exponents ({E.shape[0]} terms) are not the terms of "
+                f"model.params degree={self.degree!r}, interactions={self.interactions!r} "
+                f"for {self.n_features_in_} inputs ({expected.shape[0]} terms)"
+            )
         self.coef_ = coef
         self.exponents_ = E
         self.n_terms_ = coef.size

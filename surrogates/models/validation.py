@@ -7,18 +7,54 @@ says which field is wrong, never in an exception from deep inside numpy or a hug
 
 from __future__ import annotations
 
+import functools
+import sys
 from collections.abc import Sequence
 from numbers import Integral, Real
-from typing import Any
+from typing import Any, TypeVar, cast
 
 import numpy as np
 
 #: largest Legendre degree accepted in a hyperparameter or a saved exponent (bounds memory)
 MAX_DEGREE = 200
 
+#: a class
+T = TypeVar("T")
+
 
 class ModelFieldError(ValueError):
     """A hyperparameter or a saved model field is invalid; the message names the field."""
+
+
+class NotFittedError(RuntimeError, ValueError, AttributeError):
+    """``predict`` (or another method that needs a fitted model) before ``fit``; a
+    ``ValueError`` and ``AttributeError`` as scikit-learn's ``NotFittedError``."""
+
+
+class DataConversionWarning(UserWarning):
+    """An input was converted (a column vector of outputs), as scikit-learn's warning."""
+
+
+@functools.cache
+def _with_sklearn(ours: Any, theirs: Any) -> Any:
+    return type(ours.__name__, (ours, theirs), {"__module__": __name__})
+
+
+def sklearn_flavoured(ours: type[T]) -> type[T]:
+    """``ours``, or once scikit-learn is imported a subclass of ``ours`` and of the class of
+    the same name in ``sklearn.exceptions``, so that code catching scikit-learn's class
+    catches ours (surrogates itself never imports scikit-learn)."""
+    sklearn_exceptions = sys.modules.get("sklearn.exceptions")
+    theirs = getattr(sklearn_exceptions, ours.__name__, None)
+    if theirs is None:
+        return ours
+    out: type[T] = _with_sklearn(cast(Any, ours), theirs)
+    return out
+
+
+def not_fitted_error(message: str) -> NotFittedError:
+    """A :class:`NotFittedError` (also scikit-learn's once it is imported)."""
+    return sklearn_flavoured(NotFittedError)(message)
 
 
 def check_choice(value: Any, choices: Sequence[str], field: str) -> str:

@@ -35,9 +35,7 @@ from railgym.vehicles.crash.criteria import (
     intrusion,
     moving_average_peak,
     peak_deceleration,
-    result_criteria,
     zero_crossing,
-    zone_absorber_strokes,
 )
 from railgym.vehicles.crash.energy import (
     CycleWork,
@@ -54,6 +52,8 @@ from railgym.vehicles.crash.outputs import (
     CrashResult,
     Record,
     StopRule,
+    result_criteria,
+    zone_absorber_strokes,
 )
 from railgym.vehicles.crash.reference import (
     MIN_REFERENCE_DT,

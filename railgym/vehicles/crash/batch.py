@@ -55,10 +55,9 @@ class CrashBatchModel:
     sample_dt : time advanced by one :meth:`step`, s.
     dt, n_sub : integration step (s) and steps per :meth:`step`.
     params : :class:`ReferenceParams` or :class:`SurrogateParams` of the kernel.
-    masses : mass of each integration node (reference) or body (surrogate), kg.
+    masses : mass of each integration node, kg.
     v_unit : initial velocity of each node per unit train speed (1 train, 0 obstacle).
-    car_nodes : (cars, 2) first and past-the-end node (reference) or body (surrogate) of
-        each car.
+    car_nodes : (cars, 2) first and past-the-end node of each car.
     body_names, zone_names : as in :class:`CrashResult`.
     """
 
@@ -166,7 +165,8 @@ def crash_batch_model(
             raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
         system = _surrogate_system(sc, surrogate)
         step, n_sub = _steps(sample_dt, dt)
-        car_nodes = np.column_stack([np.arange(sc.n_cars), np.arange(1, sc.n_cars + 1)])
+        p = system.params
+        car_nodes = np.column_stack([p.body_start, p.body_end])[: sc.n_cars]
     return CrashBatchModel(
         backend=backend,
         scenario=sc,

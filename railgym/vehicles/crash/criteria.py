@@ -43,13 +43,10 @@ absorbers alone take the collision energy).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
-
-if TYPE_CHECKING:
-    from railgym.vehicles.crash.outputs import CrashResult
 
 __all__ = [
     "ONSET_G",
@@ -63,9 +60,7 @@ __all__ = [
     "intrusion",
     "moving_average_peak",
     "peak_deceleration",
-    "result_criteria",
     "zero_crossing",
-    "zone_absorber_strokes",
 ]
 
 #: moving-average window of :func:`moving_average_peak`, s
@@ -270,22 +265,3 @@ def crash_criteria(
         "intrusion": intr <= limits.intrusion_m,
     }
     return CrashCriteria(peak, moving, pulse, intr, passed, limits)
-
-
-def zone_absorber_strokes(result: CrashResult) -> np.ndarray:
-    """Absorber stroke (m) of each zone of ``result`` (``wall``, ``interface_k``, ``obstacle``)."""
-    sc = result.scenario
-    zones = {"wall": sc.wall, "obstacle": sc.obstacle.zone if sc.obstacle else None}
-    return np.array([(zones.get(n) or sc.interface).absorber_stroke for n in result.zone_names])
-
-
-def result_criteria(
-    result: CrashResult, limits: CriteriaLimits | None = None, **kwargs: float
-) -> CrashCriteria:
-    """:func:`crash_criteria` of a :class:`~railgym.vehicles.crash.CrashResult` (its cars, not
-    the obstacle; ``kwargs``: ``window``, ``onset_g``)."""
-    cars = result.scenario.n_cars
-    v, a = result.v[:, :cars], result.a[:, :cars]
-    strokes = zone_absorber_strokes(result)
-    g = result.scenario.gravity
-    return crash_criteria(result.t, v, a, result.crush, strokes, limits, g=g, **kwargs)

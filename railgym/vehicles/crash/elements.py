@@ -36,10 +36,12 @@ from railgym.vehicles.crash.surrogate import CrashSurrogate, build_crash_surroga
 
 __all__ = [
     "FIT_DEGREES",
+    "FIT_PAYLOADS_T",
     "FIT_SCALES",
     "FIT_SPEEDS_KMH",
     "MATRIX_SCALES",
     "MATRIX_SPEEDS_KMH",
+    "NODES_PER_CAR",
     "MatrixRow",
     "batch_runs",
     "build_envelope_surrogate",
@@ -54,6 +56,11 @@ __all__ = [
 #: initial speeds (km/h) and absorber scales of the fitting runs
 FIT_SPEEDS_KMH = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
 FIT_SCALES = (0.7, 1.0, 1.3)
+#: payloads (t: lead, passenger car) of the fitting runs: the lightest and heaviest of the
+#: envelope (configs/crash/envelope.yaml)
+FIT_PAYLOADS_T = ((0.0, 0.0), (2.0, 8.0))
+#: masses per car of the packaged surrogate (elastic carbody, as the reference's)
+NODES_PER_CAR = 4
 #: LPR degrees tried by the 10-fold cross-validation: the folding wave of the envelope (150 mm
 #: over metres of crush) needs degrees well above the default search cap of 30
 FIT_DEGREES = (10, 20, 30, 40, 60, 80)
@@ -83,13 +90,16 @@ def batch_runs(
     speeds: Sequence[float],
     scales: Sequence[float],
     duration: float = 2.0,
+    payloads: Sequence[Sequence[float]] | None = None,
 ) -> list[CrashResult]:
     """Run ``model`` once per (speed m/s, absorber scale) pair, in one batch, each until its
-    crash is over (as the env's) or ``duration`` (s); sampled every ``model.sample_dt``."""
+    crash is over (as the env's) or ``duration`` (s); sampled every ``model.sample_dt``;
+    ``payloads`` (one per run, kg per car) are added to the cars (default none)."""
     n, nz = len(speeds), len(model.zone_names)
     state, out = model.new_state(n), model.new_outputs(n)
     for i, v in enumerate(speeds):
-        model.reset(state, out, i, float(v))
+        load = None if payloads is None else np.asarray(payloads[i], dtype=np.float64)
+        model.reset(state, out, i, float(v), load)
     scale = np.repeat(np.asarray(scales, dtype=np.float64)[:, None], nz, axis=1)
     active, div = np.ones(n, np.bool_), np.zeros(n, np.bool_)
     perm = state.dp if model.backend == "reference" else state.up
@@ -109,9 +119,9 @@ def batch_runs(
             break
     wall = time.perf_counter() - t0
     arrays = [np.stack(r, axis=1) for r in rec]
-    masses = model.masses
     results = []
     for i, m in enumerate(length):
+        masses = state.m[i]
         x, v, a, crush, force, ps = (arr[i, :m] for arr in arrays)
         results.append(
             CrashResult(
@@ -132,7 +142,11 @@ def batch_runs(
                 wall_time=wall / n,
                 scenario=model.scenario,
                 model="reference" if model.backend == "reference" else "surrogate",
-                extra={"absorber_scale": float(scales[i]), "speed": float(speeds[i])},
+                extra={
+                    "absorber_scale": float(scales[i]),
+                    "speed": float(speeds[i]),
+                    "payload": [0.0] * model.scenario.n_cars if payloads is None else payloads[i],
+                },
             )
         )
     return results
@@ -143,14 +157,27 @@ def _grid(speeds_kmh: Sequence[float], scales: Sequence[float]) -> tuple[list[fl
     return [p[0] for p in pairs], [p[1] for p in pairs]
 
 
+def _car_payloads(payload_t: Sequence[float], n_cars: int) -> list[float]:
+    """Payload (kg) per car of a (lead, passenger) pair in t: every passenger car the same."""
+    return [1e3 * payload_t[0]] + [1e3 * payload_t[1]] * (n_cars - 1)
+
+
 def envelope_runs(
     scenario: CrashScenario | str,
     speeds_kmh: Sequence[float] = FIT_SPEEDS_KMH,
     scales: Sequence[float] = FIT_SCALES,
+    payloads_t: Sequence[Sequence[float]] = ((0.0, 0.0),),
 ) -> list[CrashResult]:
-    """Reference runs of every (speed km/h, absorber scale) pair of the grid."""
+    """Reference runs of every (speed km/h, absorber scale, payload (lead, passenger car) t)
+    of the grid."""
     sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
-    return batch_runs(crash_batch_model(sc, "reference"), *_grid(speeds_kmh, scales))
+    model = crash_batch_model(sc, "reference")
+    runs = []
+    for p in payloads_t:
+        speeds, sc_grid = _grid(speeds_kmh, scales)
+        loads = [_car_payloads(p, sc.n_cars)] * len(speeds)
+        runs += batch_runs(model, speeds, sc_grid, payloads=loads)
+    return runs
 
 
 def build_envelope_surrogate(
@@ -159,13 +186,19 @@ def build_envelope_surrogate(
     scales: Sequence[float] = FIT_SCALES,
     variant: str = "hysteretic",
     seed: int = 0,
+    payloads_t: Sequence[Sequence[float]] = FIT_PAYLOADS_T,
+    nodes_per_car: int = NODES_PER_CAR,
 ) -> CrashSurrogate:
-    """One element set fitted on the pooled :func:`envelope_runs` of ``scenario``."""
-    runs = envelope_runs(scenario, speeds_kmh, scales)
-    out = build_crash_surrogate(runs, variant=variant, seed=seed, degrees=FIT_DEGREES)
+    """One element set, for a surrogate of ``nodes_per_car`` masses per car, fitted on the
+    pooled :func:`envelope_runs` of ``scenario``."""
+    runs = envelope_runs(scenario, speeds_kmh, scales, payloads_t)
+    out = build_crash_surrogate(
+        runs, variant=variant, seed=seed, degrees=FIT_DEGREES, nodes_per_car=nodes_per_car
+    )
     out.origin = (
         f"reference runs at {', '.join(f'{v:g}' for v in speeds_kmh)} km/h x absorber scales "
-        f"{', '.join(f'{s:g}' for s in scales)}"
+        f"{', '.join(f'{s:g}' for s in scales)} x payloads "
+        f"{', '.join('/'.join(f'{x:g}' for x in p) for p in payloads_t)} t"
     )
     return out
 
@@ -268,6 +301,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "scenario": sc.name,
         "speeds_kmh": list(FIT_SPEEDS_KMH),
         "absorber_scales": list(FIT_SCALES),
+        "payloads_t": [list(p) for p in FIT_PAYLOADS_T],
+        "nodes_per_car": NODES_PER_CAR,
         "degrees": list(FIT_DEGREES),
         "command": f"python -m railgym.vehicles.crash.elements --scenario {sc.name} --overwrite",
     }

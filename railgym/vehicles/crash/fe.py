@@ -50,6 +50,7 @@ import numpy as np
 
 from railgym.vehicles.crash.outputs import CrashResult
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
+from railgym.vehicles.crash.surrogate import MAX_NODES_PER_CAR as MAX_NODES
 from railgym.vehicles.crash.surrogate import CrashElement, CrashSurrogate, build_crash_surrogate
 from surrogates import io
 from surrogates.features import TimeHistory
@@ -258,6 +259,7 @@ def save_crash_surrogate(
         "variant": surrogate.variant,
         "source": surrogate.source,
         "origin": surrogate.origin,
+        "nodes_per_car": surrogate.nodes_per_car,
         "build_time_s": surrogate.build_time,
         "elements": {k: _element_document(e) for k, e in surrogate.elements.items()},
     }
@@ -318,12 +320,16 @@ def load_crash_surrogate(path: str | Path) -> CrashSurrogate:
         els = {k: _element_from_document(v, f"{path}: elements.{k}") for k, v in elements.items()}
     except (KeyError, TypeError) as exc:
         raise ValueError(f"{path}: malformed element ({exc!r})") from exc
+    nodes = doc.get("nodes_per_car", 1)
+    if isinstance(nodes, bool) or not isinstance(nodes, int) or not 1 <= nodes <= MAX_NODES:
+        raise ValueError(f"{path}: field 'nodes_per_car' must be an integer in [1, {MAX_NODES}]")
     return CrashSurrogate(
         variant=str(_field(doc, "variant", str(path))),
         elements=els,
         source=str(doc.get("source", path)),
         build_time=float(doc.get("build_time_s", 0.0)),
         origin=str(doc.get("origin", "reference model")),
+        nodes_per_car=nodes,
     )
 
 

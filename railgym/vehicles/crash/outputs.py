@@ -11,6 +11,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
+from railgym.vehicles.crash.criteria import CrashCriteria, CriteriaLimits, crash_criteria
 from railgym.vehicles.crash.scenario import CrashScenario
 
 __all__ = [
@@ -21,6 +22,8 @@ __all__ = [
     "StopRule",
     "new_outputs",
     "new_record",
+    "result_criteria",
+    "zone_absorber_strokes",
 ]
 
 #: batches of at least this many trains are stepped on all threads (``*_batch_step_parallel``)
@@ -221,3 +224,22 @@ def _check_run(duration: float, sample_dt: float) -> None:
             raise ValueError(f"{name} must be a positive finite number (s), got {value!r}")
     if sample_dt > duration:
         raise ValueError(f"sample_dt ({sample_dt} s) must not exceed duration ({duration} s)")
+
+
+def zone_absorber_strokes(result: CrashResult) -> np.ndarray:
+    """Absorber stroke (m) of each zone of ``result`` (``wall``, ``interface_k``, ``obstacle``)."""
+    sc = result.scenario
+    zones = {"wall": sc.wall, "obstacle": sc.obstacle.zone if sc.obstacle else None}
+    return np.array([(zones.get(n) or sc.interface).absorber_stroke for n in result.zone_names])
+
+
+def result_criteria(
+    result: CrashResult, limits: CriteriaLimits | None = None, **kwargs: float
+) -> CrashCriteria:
+    """:func:`crash_criteria` of a :class:`~railgym.vehicles.crash.CrashResult` (its cars, not
+    the obstacle; ``kwargs``: ``window``, ``onset_g``)."""
+    cars = result.scenario.n_cars
+    v, a = result.v[:, :cars], result.a[:, :cars]
+    strokes = zone_absorber_strokes(result)
+    g = result.scenario.gravity
+    return crash_criteria(result.t, v, a, result.crush, strokes, limits, g=g, **kwargs)

@@ -48,6 +48,10 @@ __all__ = [
 
 #: element variants of the surrogate model
 VARIANTS = ("paper", "hysteretic")
+#: element features of :func:`crash_training_data`
+FEATURES = ("com", "zone")
+#: most masses per car of the surrogate model
+MAX_NODES_PER_CAR = 16
 
 
 @dataclass
@@ -96,13 +100,20 @@ class CrashElement:
 
 @dataclass
 class CrashSurrogate:
-    """The surrogate elements of one model: ``elements["wall"]`` and ``elements["interface"]``."""
+    """The surrogate elements of one model: ``elements["wall"]`` and ``elements["interface"]``.
+
+    ``nodes_per_car`` is the number of lumped masses per car the elements were fitted for: 1
+    (paper eq. 4; the elements' feature ``u`` from the cars' centres of mass) or more (each car
+    an elastic chain of that many masses, as the reference's carbody; the elements join the
+    car ends and their feature is the zone crush).
+    """
 
     variant: str
     elements: dict[str, CrashElement]
     source: str  #: name of the scenario the elements belong to (checked by the env)
     build_time: float
     origin: str = "reference model"  #: where the training data came from
+    nodes_per_car: int = 1
 
 
 def _degree(model: Any) -> int:
@@ -113,11 +124,14 @@ def _degree(model: Any) -> int:
 TrainingSet = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
-def crash_training_data(result: CrashResult, branch_tol: float = 0.01) -> dict[str, TrainingSet]:
+def crash_training_data(
+    result: CrashResult, branch_tol: float = 0.01, feature: str = "com"
+) -> dict[str, TrainingSet]:
     """Surrogate training data ``(u, f, u̇, loading, series)`` per element type.
 
-    ``u`` from the cars' centre-of-mass displacements: wall ``x_lead − x_barrier``, interface
-    ``x_{k+1} − x_k`` (all interfaces pooled); ``f`` the zone's force (N); ``u̇`` by
+    ``u`` with ``feature="com"`` from the cars' centre-of-mass displacements: wall
+    ``x_lead − x_barrier``, interface ``x_{k+1} − x_k`` (all interfaces pooled); with
+    ``"zone"`` the zone's crush between the car ends; ``f`` the zone's force (N); ``u̇`` by
     :func:`numpy.gradient` of each series (m/s); ``loading`` the loading-branch mask of
     :func:`surrogates.features.split_branches` (sign of the crush rate with hysteresis
     ``branch_tol`` × the 90th percentile of |u̇|; its default 0.05, i.e. ~0.5 m/s in a 40 km/h
@@ -132,10 +146,15 @@ def crash_training_data(result: CrashResult, branch_tol: float = 0.01) -> dict[s
     n_cars = result.scenario.n_cars
     series: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {"wall": [], "interface": []}
     wall = result.force[:, result.zone_names.index("wall")]
-    series["wall"].append((result.x[:, 0] - x_bar, wall))
+    if feature not in FEATURES:
+        raise ValueError(f"feature must be one of {FEATURES}, got {feature!r}")
+    zone = feature == "zone"
+    u_wall = result.crush[:, result.zone_names.index("wall")] if zone else result.x[:, 0] - x_bar
+    series["wall"].append((u_wall, wall))
     for k in range(1, n_cars):
         j = result.zone_names.index(f"interface_{k}")
-        series["interface"].append((result.x[:, k] - result.x[:, k - 1], result.force[:, j]))
+        u = result.crush[:, j] if zone else result.x[:, k] - result.x[:, k - 1]
+        series["interface"].append((u, result.force[:, j]))
     out = {}
     for key, items in series.items():
         if items:
@@ -191,7 +210,7 @@ def _unloading_stiffness(
 
 
 def _pooled_training_data(
-    references: list[CrashResult],
+    references: list[CrashResult], feature: str = "com"
 ) -> dict[str, tuple[TrainingSet, np.ndarray]]:
     """:func:`crash_training_data` of several results pooled per element type (series
     numbered apart) with each sample's absorber scale (``result.extra["absorber_scale"]``,
@@ -199,7 +218,7 @@ def _pooled_training_data(
     pooled: dict[str, list[tuple[TrainingSet, float]]] = {}
     for ref in references:
         scale = float(ref.extra.get("absorber_scale", 1.0))
-        for name, data in crash_training_data(ref).items():
+        for name, data in crash_training_data(ref, feature=feature).items():
             pooled.setdefault(name, []).append((data, scale))
     out = {}
     for name, items in pooled.items():
@@ -219,6 +238,7 @@ def build_crash_surrogate(
     seed: int = 0,
     max_degree: int = 30,
     degrees: Any = None,
+    nodes_per_car: int = 1,
 ) -> CrashSurrogate:
     """Fit the surrogate elements of paper eq. (4) on one reference result or several.
 
@@ -236,7 +256,14 @@ def build_crash_surrogate(
     max_degree : largest LPR degree tried by 10-fold cross-validation; degrees : the LPR
         degrees tried instead (a sequence of positive integers, e.g. a coarse grid up to a
         high degree).
+    nodes_per_car : masses per car of the model the elements are for
+        (:attr:`CrashSurrogate.nodes_per_car`): 1 fits on the centre-of-mass feature, more on
+        the zone crush.
     """
+    if isinstance(nodes_per_car, bool) or not isinstance(nodes_per_car, int | np.integer):
+        raise ValueError(f"nodes_per_car must be an integer, got {nodes_per_car!r}")
+    if not 1 <= nodes_per_car <= MAX_NODES_PER_CAR:
+        raise ValueError(f"nodes_per_car must be in [1, {MAX_NODES_PER_CAR}], got {nodes_per_car}")
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
     refs = reference if isinstance(reference, list) else [reference]
@@ -249,7 +276,8 @@ def build_crash_surrogate(
     t0 = time.perf_counter()
     elements = {}
     absorber = {"wall": sc.wall.absorber_stroke, "interface": sc.interface.absorber_stroke}
-    for name, (data, run_scale) in _pooled_training_data(refs).items():
+    feature = "com" if nodes_per_car == 1 else "zone"
+    for name, (data, run_scale) in _pooled_training_data(refs, feature).items():
         u, f, rate, loading, series = data
         # nominal envelope: the loading forces of a scaled absorber divided by its scale
         nominal = f / np.where(u <= absorber[name], run_scale, 1.0)
@@ -303,6 +331,7 @@ def build_crash_surrogate(
         elements=elements,
         source=sc.name,
         build_time=time.perf_counter() - t0,
+        nodes_per_car=int(nodes_per_car),
     )
 
 

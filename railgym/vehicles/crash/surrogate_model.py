@@ -90,12 +90,18 @@ class ElementTypes(NamedTuple):
 class SurrogateParams(NamedTuple):
     """Static arrays of the surrogate model (paper eq. 4), passed into the kernels.
 
+    A car is ``nodes_per_car`` lumped masses (:attr:`CrashSurrogate.nodes_per_car`; 1 is
+    paper eq. 4) joined by elastic carbody links; the elements join the end nodes.
+
     Attributes
     ----------
-    m, mu : (bodies,) body mass (kg) and friction coefficient.
+    m, mu : (nodes,) node mass (kg) and friction coefficient.
     gravity, v_eps : m/s² and the friction regularisation velocity, m/s.
-    front, back, kind : (elements,) bodies each element joins (front −1 = wall) and its row
+    front, back, kind : (elements,) nodes each element joins (front −1 = wall) and its row
         of ``types``.
+    link_front, link_k, link_c : (links,) first node of each carbody link (it joins
+        ``link_front`` and ``link_front + 1``), its stiffness (N/m) and damping (N s/m).
+    body_start, body_end : (bodies,) node range of each body (car, obstacle).
     types : the :class:`ElementTypes` table. lpr : the :class:`LprModels`.
     """
 
@@ -106,6 +112,11 @@ class SurrogateParams(NamedTuple):
     front: np.ndarray
     back: np.ndarray
     kind: np.ndarray
+    link_front: np.ndarray
+    link_k: np.ndarray
+    link_c: np.ndarray
+    body_start: np.ndarray
+    body_end: np.ndarray
     types: ElementTypes
     lpr: LprModels
 
@@ -115,10 +126,11 @@ class SurrogateState(NamedTuple):
 
     Attributes
     ----------
-    x, v, a : (n, bodies) displacement (m), velocity (m/s), acceleration (m/s²).
+    x, v, a : (n, nodes) displacement (m), velocity (m/s), acceleration (m/s²).
     up, fz : (n, elements) permanent set in ``u`` (m) and force (N) of each element.
-    ff : (n, bodies) friction force magnitude along v, N.
-    m : (n, bodies) body mass of each simulation (a car's payload included), kg.
+    ff : (n, nodes) friction force magnitude along v, N.
+    m : (n, nodes) node mass of each simulation (a car's payload included), kg; the link
+        damping coefficients stay those of :attr:`SurrogateParams.m`.
     """
 
     x: np.ndarray
@@ -131,7 +143,7 @@ class SurrogateState(NamedTuple):
 
 
 def _new_surrogate_state(n: int, masses: np.ndarray, n_elements: int) -> SurrogateState:
-    """Zeroed :class:`SurrogateState` of ``n`` simulations with body ``masses`` (kg)."""
+    """Zeroed :class:`SurrogateState` of ``n`` simulations with node ``masses`` (kg)."""
     n_bodies = masses.size
     body = [np.zeros((n, n_bodies)) for _ in range(3)]
     el = [np.zeros((n, n_elements)) for _ in range(2)]
@@ -239,11 +251,12 @@ def _tanh(x):
 
 class _Scratch(NamedTuple):
     """Working rows of :func:`_step_block`, ``BLOCK`` lanes (trains) each: ``body`` (9,
-    bodies, lanes), ``element`` (7, elements, lanes), ``lane`` (7, lanes), ``idx`` (lanes,) the
-    train of each lane."""
+    nodes, lanes), ``element`` (7, elements, lanes), ``link`` (2, links, lanes), ``lane`` (8,
+    lanes), ``idx`` (lanes,) the train of each lane."""
 
     body: np.ndarray
     element: np.ndarray
+    link: np.ndarray
     lane: np.ndarray
     idx: np.ndarray
 
@@ -253,12 +266,13 @@ BLOCK = 64
 
 
 @njit(cache=True)
-def _scratch(n_bodies, n_elements, lanes):
+def _scratch(n_nodes, n_elements, n_links, lanes):
     """A :class:`_Scratch` of ``lanes`` lanes."""
     return _Scratch(
-        np.zeros((9, n_bodies, lanes)),
+        np.zeros((9, n_nodes, lanes)),
         np.zeros((7, n_elements, lanes)),
-        np.zeros((7, lanes)),
+        np.zeros((2, n_links, lanes)),
+        np.zeros((8, lanes)),
         np.zeros(lanes, np.int64),
     )
 
@@ -277,7 +291,10 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
     FR = lpr.force_range
     N, ne = mu.shape[0], el_front.shape[0]
     idx = w.idx
-    bw, ew, lw = w.body, w.element, w.lane
+    bw, ew, lw, kw = w.body, w.element, w.lane, w.link
+    lk_front, lk_k, lk_c = params.link_front, params.link_k, params.link_c
+    nl = lk_front.shape[0]
+    fd, fd_o = kw[0], kw[1]
     xl, vl, al, ffl, vp, F, dx, ff_o, m = (
         bw[0],
         bw[1],
@@ -290,7 +307,7 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
         bw[8],
     )
     upl, fl, f_o, ul, u_o, wl, rate = ew[0], ew[1], ew[2], ew[3], ew[4], ew[5], ew[6]
-    t, b1, b2, fa, fb, zero, w_fric = lw[0], lw[1], lw[2], lw[3], lw[4], lw[5], lw[6]
+    t, b1, b2, fa, fb, zero, w_fric, w_damp = lw[0], lw[1], lw[2], lw[3], lw[4], lw[5], lw[6], lw[7]
     ox, ov, oa, crush, force, rate_out = out.x, out.v, out.a, out.crush, out.force, out.rate
     work_done, dissipated, stored = out.work, out.dissipated, out.stored
     for b in range(nb):
@@ -301,8 +318,11 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
         for e in range(ne):
             upl[e, b], fl[e, b] = up[i, e], fel[i, e]
             ul[e, b], wl[e, b] = crush[i, e], work_done[i, e]
-        w_fric[b] = dissipated[i, 0]
+        w_fric[b], w_damp[b] = dissipated[i, 0], dissipated[i, 1]
         zero[b] = 0.0
+        for k in range(nl):
+            j = lk_front[k]
+            fd[k, b] = lk_c[k] * (v[i, j + 1] - v[i, j])
     # init: forces at the current state; else n_sub velocity-Verlet steps
     for _ in range(1 if init else n_sub):
         for j in range(N):
@@ -361,6 +381,14 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
                 if fr >= 0:
                     F[fr, b] += f
                 F[bk, b] -= f
+        for k in range(nl):  # carbody links: f = k d + c ḋ, tension positive
+            j, kk, cc = lk_front[k], lk_k[k], lk_c[k]
+            for b in range(nb):
+                fd_o[k, b] = fd[k, b]
+                fd[k, b] = cc * (vp[j + 1, b] - vp[j, b])
+                f = kk * (xl[j + 1, b] - xl[j, b]) + fd[k, b]
+                F[j, b] += f
+                F[j + 1, b] -= f
         for j in range(N):
             for b in range(nb):
                 a_new = F[j, b] / m[j, b]
@@ -372,6 +400,10 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
             for e in range(ne):
                 for b in range(nb):
                     wl[e, b] += 0.5 * (f_o[e, b] + fl[e, b]) * (ul[e, b] - u_o[e, b])
+            for k in range(nl):
+                j = lk_front[k]
+                for b in range(nb):
+                    w_damp[b] += 0.5 * (fd_o[k, b] + fd[k, b]) * (dx[j + 1, b] - dx[j, b])
     for b in range(nb):
         i = idx[b]
         healthy = True
@@ -384,10 +416,24 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
         energy = 0.0
         for j in range(N):
             x[i, j], v[i, j], a[i, j], ff[i, j] = xl[j, b], vl[j, b], al[j, b], ffl[j, b]
-            ox[i, j], ov[i, j], oa[i, j] = xl[j, b], vl[j, b], al[j, b]
             energy += 0.5 * m[j, b] * vl[j, b] * vl[j, b]
+        for k in range(nl):
+            j = lk_front[k]
+            energy += 0.5 * lk_k[k] * (xl[j + 1, b] - xl[j, b]) ** 2
+        for body in range(params.body_start.shape[0]):
+            j0, j1 = params.body_start[body], params.body_end[body]
+            if j1 - j0 == 1:
+                ox[i, body], ov[i, body], oa[i, body] = xl[j0, b], vl[j0, b], al[j0, b]
+                continue
+            mb = sx = sv = sa = 0.0
+            for j in range(j0, j1):
+                mb += m[j, b]
+                sx += m[j, b] * xl[j, b]
+                sv += m[j, b] * vl[j, b]
+                sa += m[j, b] * al[j, b]
+            ox[i, body], ov[i, body], oa[i, body] = sx / mb, sv / mb, sa / mb
         stored[i] = energy
-        dissipated[i, 0] = w_fric[b]
+        dissipated[i, 0], dissipated[i, 1] = w_fric[b], w_damp[b]
         for e in range(ne):
             up[i, e], fel[i, e] = upl[e, b], fl[e, b]
             crush[i, e], force[i, e], work_done[i, e] = ul[e, b], fl[e, b], wl[e, b]
@@ -398,7 +444,7 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
 @njit(cache=True, error_model="numpy")
 def _step_range(state, out, params, scale, active, first, last, init, dt, n_sub, limit, div):
     """Step the active trains among ``first`` ≤ i < ``last`` in blocks of :data:`BLOCK`."""
-    w = _scratch(params.mu.shape[0], params.front.shape[0], BLOCK)
+    w = _scratch(params.mu.shape[0], params.front.shape[0], params.link_front.shape[0], BLOCK)
     nb = 0
     for i in range(first, last):
         if active[i]:
@@ -413,9 +459,11 @@ def _step_range(state, out, params, scale, active, first, last, init, dt, n_sub,
 def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, limit, div):
     """:func:`reference_batch_step` for the surrogate model (paper eq. 4).
 
-    ``state`` is a :class:`SurrogateState`, ``params`` :class:`SurrogateParams`. No dampers:
-    ``dissipated[:, 1]`` stays 0. The active trains are stepped in blocks of :data:`BLOCK`,
-    each train on its own: the results do not depend on the blocking.
+    ``state`` is a :class:`SurrogateState`, ``params`` :class:`SurrogateParams`;
+    ``dissipated[:, 1]`` is the work of the carbody links' damping (0 with one node per car);
+    ``out.x``, ``out.v``, ``out.a`` are per body (a car's centre of mass). The active trains
+    are stepped in blocks of :data:`BLOCK`, each train on its own: the results do not depend
+    on the blocking.
     """
     n = active.shape[0]
     _step_range(state, out, params, scale, active, 0, n, init, dt, n_sub, limit, div)
@@ -432,11 +480,13 @@ def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n
     """
     m, mu, g, v_eps = params.m, params.mu, params.gravity, params.v_eps
     front, back, kind = params.front, params.back, params.kind
+    lf, lk, lc = params.link_front, params.link_k, params.link_c
+    bs, be = params.body_start, params.body_end
     types, lpr = ElementTypes(*params.types), LprModels(*params.lpr)
     n = active.shape[0]
     chunks = min(n, PARALLEL_CHUNKS)
     for c in prange(chunks):
-        p = SurrogateParams(m, mu, g, v_eps, front, back, kind, types, lpr)
+        p = SurrogateParams(m, mu, g, v_eps, front, back, kind, lf, lk, lc, bs, be, types, lpr)
         first, last = c * n // chunks, (c + 1) * n // chunks
         _step_range(state, out, p, scale, active, first, last, init, dt, n_sub, limit, div)
 
@@ -447,7 +497,7 @@ def _record_surrogate(state, out, params, dt, n_sub, stop, rec):
     ``rec`` (:class:`Record`); returns the number of samples taken."""
     scale = np.ones((1, params.front.shape[0]))
     div = np.zeros(1, np.bool_)
-    w = _scratch(params.mu.shape[0], params.front.shape[0], 1)
+    w = _scratch(params.mu.shape[0], params.front.shape[0], params.link_front.shape[0], 1)
     for k in range(rec.x.shape[0]):
         _step_block(state, out, params, scale, k == 0, dt, n_sub, math.inf, div, w, 1)
         rec.x[k], rec.v[k], rec.a[k] = out.x[0], out.v[0], out.a[0]
@@ -498,19 +548,36 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
     for key in ("wall", "interface"):
         if key not in surrogate.elements and (key == "wall" or sc.n_cars > 1):
             raise ValueError(f"surrogate has no {key!r} element")
-    masses = list(sc.car_masses)
-    mu = [sc.friction] * sc.n_cars
-    v0 = [sc.speed] * sc.n_cars
+    n = surrogate.nodes_per_car
+    masses: list[float] = []
+    links: list[tuple[int, float, float]] = []  # (first node, k N/m, c N s/m)
+    for k, mass in enumerate(sc.car_masses):
+        car = sc.lead if k == 0 else sc.passenger
+        first = len(masses)
+        mi = np.full(n, mass / max(n - 1, 1))  # row-sum lumping, as the reference chain
+        if n > 1:
+            mi[[0, -1]] *= 0.5
+        masses += mi.tolist()
+        k_link = car.axial_rigidity / (car.length / max(n - 1, 1))
+        for j in range(n - 1):
+            mred = mi[j] * mi[j + 1] / (mi[j] + mi[j + 1])
+            links.append((first + j, k_link, 2 * car.damping_ratio * math.sqrt(k_link * mred)))
+    start = np.arange(sc.n_cars, dtype=np.int64) * n
+    mu = [sc.friction] * len(masses)
+    v0 = [sc.speed] * len(masses)
     names = ["lead"] + [f"car{k + 1}" for k in range(1, sc.n_cars)]
     wall_front = -1
     if sc.obstacle is not None:
+        wall_front = len(masses)
         masses.append(sc.obstacle.mass)
         mu.append(sc.obstacle.friction)
         v0.append(0.0)
         names.append("obstacle")
-        wall_front = sc.n_cars
-    el_front = np.array([wall_front] + list(range(sc.n_cars - 1)), dtype=np.int64)
-    el_back = np.arange(sc.n_cars, dtype=np.int64)
+    body_start = np.append(start, [wall_front] if sc.obstacle is not None else [])
+    body_start = body_start.astype(np.int64)
+    body_end = np.append(start + n, [wall_front + 1] if sc.obstacle is not None else [])
+    el_front = np.array([wall_front] + list(start[1:] - 1), dtype=np.int64)
+    el_back = start.copy()
     el_type = np.array([0] + [1] * (sc.n_cars - 1), dtype=np.int64)
     el_names = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
     types = [surrogate.elements["wall"], surrogate.elements.get("interface")]
@@ -543,6 +610,11 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
         front=el_front,
         back=el_back,
         kind=el_type,
+        link_front=np.array([j for j, _, _ in links], dtype=np.int64),
+        link_k=np.array([kk for _, kk, _ in links], dtype=np.float64),
+        link_c=np.array([c for _, _, c in links], dtype=np.float64),
+        body_start=body_start,
+        body_end=body_end.astype(np.int64),
         types=element_types,
         lpr=_pack_models(models, ranges),
     )
@@ -561,7 +633,8 @@ def simulate_surrogate(
     v_stop: float = 0.01,
     f_stop: float = 1e3,
 ) -> CrashResult:
-    """Run the surrogate crash model (paper eq. 4): one mass per car (+ obstacle).
+    """Run the surrogate crash model (paper eq. 4): ``surrogate.nodes_per_car`` masses per car
+    (+ obstacle).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Compiled secondary-suspension element laws and the vehicle's right-hand side (eq. 1–2).
 
 Every function reads the vehicle from a :class:`~railgym.vehicles.vertical.params.SuspensionParams`
-``p`` by field name; the surrogate element from an :class:`LprArrays` tuple.
+``p`` by field name; the surrogate element (an LPR or a Kriging) from an :class:`LprArrays` tuple.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from surrogates.models.kriging import kriging_eval_into
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside
 
 __all__ = [
@@ -22,10 +23,23 @@ __all__ = [
 ]
 
 
+_NONE2 = np.zeros((0, 2))
+_NONE1 = np.zeros(0)
+_ONE = np.ones(2)
+
+
 class LprArrays(NamedTuple):
-    """A fitted LPR element as plain arrays (:meth:`LegendreRegression.kernel_arrays`) with
-    its feature form: ``d = 2`` inputs (δ, δ̇) for ``"static"``, ``d = 3`` (δ, δ̇, δ − s) for
-    ``"maxwell"`` (``surrogates.memory``)."""
+    """A fitted surrogate element as plain arrays with its feature form: ``d = 2`` inputs
+    (δ, δ̇) for ``"static"``, ``d = 3`` (δ, δ̇, δ − s) for ``"maxwell"``
+    (``surrogates.memory``).
+
+    An LPR fills the LPR fields (:meth:`LegendreRegression.kernel_arrays`). A Kriging sets
+    ``kriging`` and the fields of :class:`~surrogates.models.kriging.KrigingArrays`
+    (:meth:`Kriging.kernel_arrays`; same names, so that
+    :func:`~surrogates.models.kriging.kriging_eval_into` reads this tuple), with one-term
+    placeholders in ``exps``, ``coef``, ``table``. The Kriging fields are flat (no nested
+    tuple) so that the tuple passes into the ``prange`` lane kernel.
+    """
 
     exps: np.ndarray  #: int64 (L, d) exponents
     coef: np.ndarray  #: float64 (L,) coefficients
@@ -36,6 +50,15 @@ class LprArrays(NamedTuple):
     bump: bool  #: known physics: add :func:`bump_stop_force` of the vehicle to ``F̂``
     table: np.ndarray  #: float64 (d, nmax + 1) additive coefficient table (``additive_table``)
     additive: bool  #: ``table`` holds the model (no coupled terms): fast path inside the box
+    kriging: bool = False  #: the element is a Kriging (the fields below), not an LPR
+    xs: np.ndarray = _NONE2  #: Kriging: float64 (n, d) training inputs in the unit box
+    xs_ell: np.ndarray = _NONE2  #: Kriging: float64 (n, d) ``xs / ℓ``
+    ell: np.ndarray = _ONE  #: Kriging: float64 (d,) length scales in box widths
+    weights: np.ndarray = _NONE1  #: Kriging: float64 (n,) correlation weights
+    beta: np.ndarray = _NONE1  #: Kriging: float64 (p,) trend coefficients
+    y_mean: float = 0.0  #: Kriging: output mean, N
+    y_std: float = 1.0  #: Kriging: output standard deviation, N
+    kernel: int = 0  #: Kriging: 0 Gaussian, 1 Matérn-5/2
 
 
 @njit(cache=True, error_model="numpy")
@@ -146,7 +169,8 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
     outside its box). ``zc, zdc``: track input (m, m/s); ``fa``: actuator force, N.
 
     The surrogate's state ``x[4]`` is the Maxwell state ``s`` (``ṡ = (δ − s)/τ``) of a memory
-    element; a static element integrates 4 states (a fifth one is held still). ``u`` (d,) and ``lw``
+    element; a static element integrates 4 states (a fifth one is held still). The element is
+    an LPR or a Kriging (``lpr.kriging``). ``u`` (d,) and ``lw``
     (:func:`~surrogates.models.lpr.lpr_scratch`) are work arrays.
     """
     d = x[0] - x[2]
@@ -169,7 +193,9 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
             dx[4] = 0.0
         if lpr_is_outside(u, lpr.lo, lpr.up):
             outside = 1
-        if lpr.additive and outside == 0:
+        if lpr.kriging:
+            fs = kriging_eval_into(u, lpr, lw)
+        elif lpr.additive and outside == 0:
             fs = lpr_additive_inside(u, lpr.table, lpr.lo, lw)
         else:
             fs = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)

@@ -22,6 +22,7 @@ from railgym.vehicles.vertical.lanes import (
     advance_lanes_parallel,
 )
 from surrogates.memory import FEATURE_FORMS, element_form
+from surrogates.models.kriging import KrigingArrays
 from surrogates.models.lpr import EXTRAPOLATION_MODES, additive_table, lpr_scratch
 
 __all__ = [
@@ -76,9 +77,9 @@ def step_outputs(n: int) -> StepOutputs:
 @njit(cache=True, error_model="numpy", _nrt=True)
 def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`):
-    the lane kernel (:mod:`~railgym.vehicles.vertical.lanes`) for an additive surrogate
+    the lane kernel (:mod:`~railgym.vehicles.vertical.lanes`) for an additive LPR surrogate
     element and at least ``LANES_MIN`` vehicles (on all threads from ``PARALLEL_MIN``), else
-    :func:`_advance_scalar` (the same results)."""
+    :func:`_advance_scalar` (the same results; the only path of a Kriging element)."""
     d = lpr.lo.shape[0]
     n = state.shape[0]
     lanes = kind == 3 and lpr.additive and (d == 2 or d == 3)
@@ -225,15 +226,19 @@ KERNELS = {
 }
 
 
-def surrogate_arrays(surrogate: Any = None, dt: float | None = None) -> LprArrays:
-    """:class:`LprArrays` from a fitted LPR model (or its ``kernel_arrays()`` tuple).
+def surrogate_arrays(
+    surrogate: Any = None, dt: float | None = None, kriging: bool = False
+) -> LprArrays:
+    """:class:`LprArrays` from a fitted LPR model (or its ``kernel_arrays()`` tuple), or with
+    ``kriging=True`` also from a fitted :class:`~surrogates.models.kriging.Kriging`.
 
     The feature form, ``τ`` and the known physics come from the model's ``features_``
     (set by :func:`surrogates.io.load`; absent: the static form, as for a bare
     ``kernel_arrays()`` tuple). ``None`` gives placeholder arrays for the variants that ignore
     them. ``dt`` (s), when given, must not exceed ``2τ`` (RK4 stability of the Maxwell
     state). A model whose input count does not match its form (2 static, 3 maxwell) is
-    rejected.
+    rejected, and so is a Kriging unless ``kriging`` is set (the vertical kernels of this
+    package evaluate it; kernels that read the LPR fields only do not).
     """
     if surrogate is None:
         return LprArrays(
@@ -248,9 +253,19 @@ def surrogate_arrays(surrogate: Any = None, dt: float | None = None) -> LprArray
             False,
         )
     arrays = surrogate.kernel_arrays() if hasattr(surrogate, "kernel_arrays") else surrogate
-    if not isinstance(arrays, tuple | list) or len(arrays) != 5:
-        raise ValueError("surrogate must be a fitted LPR model or its kernel_arrays() tuple")
     form = element_form(getattr(surrogate, "features_", None))
+    if isinstance(arrays, KrigingArrays):
+        if not kriging:
+            raise ValueError(
+                "surrogate is a Kriging, which runs in the one-bogie vertical model only "
+                "(VerticalSuspension-v0, railgym.vehicles.vertical.simulate); use an LPR "
+                "element here"
+            )
+        return _kriging_arrays(arrays, form, dt)
+    if not isinstance(arrays, tuple | list) or len(arrays) != 5:
+        raise ValueError(
+            "surrogate must be a fitted LPR or Kriging model or an LPR's kernel_arrays() tuple"
+        )
     exps, coef, lo, up, mode = arrays
     exps = np.ascontiguousarray(exps, dtype=np.int64)
     coef = np.ascontiguousarray(coef, dtype=np.float64)
@@ -266,16 +281,53 @@ def surrogate_arrays(surrogate: Any = None, dt: float | None = None) -> LprArray
         raise ValueError(f"surrogate coef has shape {coef.shape}, expected ({exps.shape[0]},)")
     if int(mode) not in EXTRAPOLATION_MODES.values():
         raise ValueError(f"surrogate extrapolation mode must be one of {EXTRAPOLATION_MODES}")
+    tau, bump = _form_physics(form, dt)
+    table = additive_table(exps, coef)
+    if table is None:
+        return LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
+    return LprArrays(exps, coef, lo, up, int(mode), tau, bump, table, True)
+
+
+def _form_physics(form: Any, dt: float | None) -> tuple[float, bool]:
+    """``(τ, bump)`` of an element's feature form: its Maxwell time constant (s; 0 for the
+    static form), checked against ``dt`` (s), and whether the bump-stop law is added."""
     tau = form.tau if form.form == "maxwell" else 0.0
     if dt is not None and tau > 0.0 and dt > 2.0 * tau:
         raise ValueError(
             f"surrogate features.tau = {tau} s is below half the integration step dt = {dt} s"
         )
-    table = additive_table(exps, coef)
-    bump = "bump_stop" in form.known_physics
-    if table is None:
-        return LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
-    return LprArrays(exps, coef, lo, up, int(mode), tau, bump, table, True)
+    return tau, "bump_stop" in form.known_physics
+
+
+def _kriging_arrays(k: KrigingArrays, form: Any, dt: float | None) -> LprArrays:
+    """:class:`LprArrays` of a Kriging element (LPR fields are one-term placeholders)."""
+    d = len(FEATURE_FORMS[form.form])
+    if k.lo.shape != (d,):
+        raise ValueError(
+            f"surrogate of feature form {form.form!r} must have {d} inputs "
+            f"{FEATURE_FORMS[form.form]}; got a Kriging with {k.lo.shape[0]}"
+        )
+    tau, bump = _form_physics(form, dt)
+    return LprArrays(
+        np.zeros((1, d), np.int64),
+        np.zeros(1),
+        k.lo,
+        k.up,
+        int(k.mode),
+        tau,
+        bump,
+        np.zeros((d, 1)),
+        False,
+        True,
+        k.xs,
+        k.xs_ell,
+        k.ell,
+        k.weights,
+        k.beta,
+        k.y_mean,
+        k.y_std,
+        k.kernel,
+    )
 
 
 def check_variant(variant: str) -> int:

@@ -99,7 +99,8 @@ def simulate(
         Actuator force (N): ``None`` (zero), a scalar, or one value per recorded interval,
         shape (N // sample_every,), held over that interval.
     surrogate
-        Fitted LPR model (or its ``kernel_arrays()``), required for ``"surrogate"``. With the
+        Fitted LPR or Kriging model (or an LPR's ``kernel_arrays()``), required for
+        ``"surrogate"``. With the
         ``"raise"`` extrapolation policy an input outside the training box raises
         ``ValueError``.
     sample_every
@@ -140,7 +141,7 @@ def simulate(
             raise ValueError(f"force_a must be a scalar or have shape ({n_int},), got {fa.shape}")
     if variant == "surrogate" and surrogate is None:
         raise ValueError("surrogate is required for variant 'surrogate'")
-    lpr = surrogate_arrays(surrogate if variant == "surrogate" else None, dt)
+    lpr = surrogate_arrays(surrogate if variant == "surrogate" else None, dt, kriging=True)
     s = state_size(variant, lpr)
     state = initial_state(variant, lpr=lpr)
     if x0 is not None:

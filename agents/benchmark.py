@@ -1,0 +1,369 @@
+"""Benchmark protocol: train a config over several seeds, evaluate every seed on the
+**reference** backend over held-out cases beside the classical baselines, and write the
+numbers, a learning curve and a table.
+
+    python -m agents.benchmark CONFIG --seeds 3 --workers 2 [--timesteps T] [--episodes E]
+                               [--out DIR] [--overwrite] [--first-seed S] [--address ADDR]
+
+``CONFIG`` is an :mod:`agents.train` config (file or packaged name). Each seed ``s`` of
+``first_seed … first_seed + seeds − 1`` is one task (:func:`railgym.parallel.run_tasks`: in
+this process, a process pool or Ray): ``agents.train`` with that seed into ``DIR/seed_<s>/``,
+then the held-out evaluation of its final ``model.zip`` (:data:`HELD_OUT`; tracks of seeds
+1000 + i, never trained on). Every task is seeded, so the numbers do not depend on the number
+of workers. Output in ``DIR`` (default ``runs/benchmark_<config stem>/``):
+
+* ``results.csv``: one row per (policy, seed, case, metric): ``value`` and ``unit``; the
+  baselines have an empty seed.
+* ``learning_curve.png``: the evaluation metric of the training runs (``eval.csv``: reference
+  backend, the config's evaluation env) against environment steps, mean and min–max band over
+  the seeds, the baselines on the same evaluation episodes as horizontal lines.
+* ``table.md``: per case and metric, mean ± sample standard deviation over the seeds and the
+  95 % Student-t interval of the mean, beside each baseline's value.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import yaml
+
+from agents._args import add_parallel_arguments, bounded_int, check_parallel
+from agents.evaluate import CRASH_ID, ENV_ID, VEHICLE_ID, evaluate, evaluate_vehicle
+from agents.train_config import MAX_SEED, load_config
+from railgym import _validation as val
+from railgym.parallel import run_tasks
+from railgym.report.output import prepare_output_dir, write_text_atomic
+
+__all__ = ["HELD_OUT", "benchmark", "main"]
+
+#: held-out cases per env: FRA classes at their maximum speed (vertical, vehicle); the crash
+#: envelope's speeds × payloads (:data:`agents.crash_report.EVAL_SPEEDS_KMH`)
+HELD_OUT: dict[str, tuple[int, ...]] = {ENV_ID: (4, 5, 6), VEHICLE_ID: (4, 5), CRASH_ID: ()}
+#: classical baselines evaluated beside the agents (names of ``railgym evaluate``)
+BASELINES = {
+    ENV_ID: ("passive", "skyhook", "lqg", "lqr"),
+    VEHICLE_ID: ("passive", "modal-skyhook", "lqg", "lqr"),
+    CRASH_ID: ("passive", "best constant", "speed-adaptive"),
+}
+#: learning-curve metric per env: ``eval.csv`` column (``_<j>`` columns reduced), reduction,
+#: axis label
+CURVES = {
+    ENV_ID: ("mean_rms_carbody_acc", "mean", "RMS carbody acceleration (m/s²)"),
+    VEHICLE_ID: ("mean_rms_carbody_acc", "mean", "RMS floor acceleration, mean of 3 (m/s²)"),
+    CRASH_ID: ("mean_peak_decel_g", "max", "worst-car peak deceleration (g)"),
+}
+#: seed of the held-out tracks (sub-env i: 1000 + i), as ``railgym evaluate``
+EVAL_SEED = 1000
+FLOOR = ("front", "centre", "rear")
+#: crash env settings of a training config that the baselines share with the agent
+CRASH_KEYS = ("scenario", "control_dt", "absorber_range", "absorber_rate", "n_cars")
+
+
+class SeedTask(NamedTuple):
+    """One training seed and its held-out evaluation."""
+
+    config: dict[str, Any]
+    out: str
+    seed: int
+    timesteps: int | None
+    episodes: int
+
+
+def _vertical_rows(rows: list[dict[str, Any]], seed: int | None) -> list[dict[str, Any]]:
+    out = []
+    for r in rows:
+        case = f"class {r['track_class']}"
+        for metric, unit in (("a_w", "m/s²"), ("rms_acc", "m/s²"), ("contacts", "substeps")):
+            out.append(_row(r["policy"], seed, case, metric, r[metric], unit))
+    return out
+
+
+def _vehicle_rows(rows: list[dict[str, Any]], seed: int | None) -> list[dict[str, Any]]:
+    out = []
+    for r in rows:
+        case = f"class {r['track_class']}, {r['speed_kmh']:.0f} km/h"
+        for j, point in enumerate(FLOOR):
+            out.append(_row(r["policy"], seed, case, f"a_w_{point}", r["a_w"][j], "m/s²"))
+        out.append(_row(r["policy"], seed, case, "contacts", r["contacts"], "substeps"))
+    return out
+
+
+def _crash_rows(rows: list[dict[str, Any]], seed: int | None) -> list[dict[str, Any]]:
+    from agents.crash_report import envelope_summary
+
+    out = []
+    for name, s in envelope_summary(rows).items():
+        if seed is not None and name == "passive":
+            continue
+        for metric, unit in (
+            ("peak_g", "g"),
+            ("excess_over_passive_m", "m"),
+            ("passed", "share"),
+        ):
+            out.append(_row(name, seed, "envelope", metric, s[metric], unit))
+    return out
+
+
+def _row(policy: str, seed: int | None, case: str, metric: str, value: Any, unit: str) -> dict:
+    return {
+        "policy": policy,
+        "seed": "" if seed is None else seed,
+        "case": case,
+        "metric": metric,
+        "value": float(value),
+        "unit": unit,
+    }
+
+
+def held_out(
+    env_id: str,
+    policies: Sequence[str],
+    episodes: int,
+    seed: int | None,
+    label: str | None = None,
+    crash_kwargs: dict[str, Any] | None = None,
+) -> list[dict[str, Any]]:
+    """Held-out rows (:func:`_row` form) of ``policies`` (names or a ``.zip``) on the reference
+    backend; ``label`` renames the zip's rows (``seed``: the training seed, ``None`` for
+    baselines); ``crash_kwargs``: env settings of the crash baselines (a zip's own come from
+    its config)."""
+    if env_id == ENV_ID:
+        rows = _vertical_rows(evaluate(policies, "reference", HELD_OUT[env_id], episodes), seed)
+    elif env_id == VEHICLE_ID:
+        rows = _vehicle_rows(
+            evaluate_vehicle(policies, "reference", HELD_OUT[env_id], (None,), episodes), seed
+        )
+    else:
+        from agents import crash_report
+        from agents.evaluate import load_policy
+
+        factories = {"passive": crash_report.BASELINES["passive"]}
+        env_kwargs = crash_kwargs
+        for p in policies:
+            if p in crash_report.BASELINES:
+                factories[p] = crash_report.BASELINES[p]
+            else:
+                factory, env_kwargs, _ = load_policy(p, CRASH_ID)
+                factories[label or p] = factory
+        rows = _crash_rows(crash_report.envelope_rows(factories, env_kwargs), seed)
+    if label is not None:
+        zips = {p for p in policies if p.endswith(".zip")}
+        names = {Path(p).parent.name for p in zips}
+        for r in rows:
+            if r["policy"] in names:
+                r["policy"] = label
+    return rows
+
+
+def _run_seed(task: SeedTask) -> list[dict[str, Any]]:
+    """Train one seed, then its held-out rows."""
+    import torch
+
+    from agents.train import train
+
+    torch.set_num_threads(1)
+    out = train(task.config, task.out, task.timesteps, False, task.seed, overwrite=True)
+    env_id = next(iter(task.config))
+    algo = load_config(task.config).algo
+    model = str(out / "model.zip")
+    rows = held_out(env_id, [model], task.episodes, task.seed, label=algo)
+    return [r for r in rows if r["policy"] == algo]
+
+
+def _curve(path: Path, column: str, how: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(timesteps, metric)`` of one ``eval.csv`` (``column`` or its ``_<j>`` columns)."""
+    with path.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    steps = np.array([float(r["timesteps"]) for r in rows])
+    keys = [k for k in rows[0] if k == column or k.removeprefix(f"{column}_").isdigit()]
+    vals = np.array([[float(r[k]) for k in keys] for r in rows])
+    return steps, (vals.max(axis=1) if how == "max" else vals.mean(axis=1))
+
+
+def _baseline_curve_values(cfg: Any) -> dict[str, float]:
+    """Each baseline's curve metric on the config's evaluation episodes (the same tracks)."""
+    from agents.crash_report import BASELINES as CRASH_BASELINES
+    from agents.evaluate import load_policy
+    from agents.train import evaluate as run_eval
+    from agents.train import make_vec
+
+    column, how, _ = CURVES[cfg.env_id]
+    out = {}
+    for name in BASELINES[cfg.env_id]:
+        if cfg.env_id == CRASH_ID:
+            factory, extra = CRASH_BASELINES[name], {}
+        else:
+            factory, extra, _ = load_policy(name, cfg.env_id)
+        kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs, **extra}
+        venv = make_vec(cfg.env_id, cfg.n_eval_episodes, kwargs)
+        stats = run_eval(factory(venv), venv, cfg.eval_seed)
+        venv.close()
+        keys = [k for k in stats if k == column or k.removeprefix(f"{column}_").isdigit()]
+        vals = [stats[k] for k in keys]
+        out[name] = float(np.max(vals) if how == "max" else np.mean(vals))
+    return out
+
+
+def plot_curves(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str, float]) -> Path:
+    """``learning_curve.png``: mean and min–max band over the seeds, baselines as lines."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    column, how, label = CURVES[cfg.env_id]
+    curves = [_curve(out / f"seed_{s}" / "eval.csv", column, how) for s in seeds]
+    n = min(len(c[0]) for c in curves)
+    steps = curves[0][0][:n]
+    vals = np.array([c[1][:n] for c in curves])
+    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=120)
+    ax.plot(steps, vals.mean(axis=0), color="C0", label=f"{cfg.algo} (mean of {len(seeds)} seeds)")
+    ax.fill_between(steps, vals.min(axis=0), vals.max(axis=0), color="C0", alpha=0.25)
+    for i, (name, value) in enumerate(baselines.items()):
+        ax.axhline(value, color=f"C{i + 1}", linestyle="--", label=name)
+    ax.set_xlabel("environment steps (–)")
+    ax.set_ylabel(label)
+    ax.set_title(f"{cfg.env_id}: evaluation on the reference backend", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path = out / "learning_curve.png"
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def summary_table(rows: list[dict[str, Any]], algo: str) -> str:
+    """Markdown: per (case, metric), the agent's mean ± std over seeds with the 95 % Student-t
+    interval of the mean, and each baseline's value."""
+    from scipy import stats
+
+    keys = list(dict.fromkeys((r["case"], r["metric"], r["unit"]) for r in rows))
+    bases = list(dict.fromkeys(r["policy"] for r in rows if r["seed"] == ""))
+    head = f"| case | metric | {algo} mean ± std (95 % interval) | " + " | ".join(bases) + " |"
+    lines = [head, "|" + "---|" * (3 + len(bases))]
+    for case, metric, unit in keys:
+        mine = np.array(
+            [
+                r["value"]
+                for r in rows
+                if (r["case"], r["metric"]) == (case, metric) and r["seed"] != ""
+            ]
+        )
+        if mine.size > 1:
+            sd = float(mine.std(ddof=1))
+            half = float(stats.t.ppf(0.975, mine.size - 1)) * sd / math.sqrt(mine.size)
+            cell = (
+                f"{mine.mean():.4g} ± {sd:.2g} ({mine.mean() - half:.4g}…{mine.mean() + half:.4g})"
+            )
+        elif mine.size == 1:
+            cell = f"{mine[0]:.4g} (one seed)"
+        else:
+            cell = "–"
+        base = {
+            r["policy"]: r["value"]
+            for r in rows
+            if (r["case"], r["metric"]) == (case, metric) and r["seed"] == ""
+        }
+        cells = " | ".join(f"{base[b]:.4g}" if b in base else "–" for b in bases)
+        lines.append(f"| {case} | {metric} ({unit}) | {cell} | {cells} |")
+    return "\n".join(lines) + "\n"
+
+
+def benchmark(
+    config: str | Path,
+    seeds: int = 3,
+    workers: int = 1,
+    timesteps: int | None = None,
+    episodes: int = 10,
+    out: str | Path | None = None,
+    overwrite: bool = False,
+    first_seed: int = 0,
+    address: str | None = None,
+) -> Path:
+    """Run the protocol (module docstring); returns the output folder."""
+    cfg = load_config(config)
+    seeds = val.integer(seeds, "seeds", min=1, max=1000)
+    first_seed = val.integer(first_seed, "first_seed", min=0, max=MAX_SEED - seeds)
+    episodes = val.integer(episodes, "episodes", min=1, max=1000)
+    if timesteps is not None:
+        timesteps = val.integer(timesteps, "timesteps", min=1)
+    out = Path("runs") / f"benchmark_{Path(str(config)).stem}" if out is None else Path(out)
+    out = prepare_output_dir(out, overwrite)
+    block = cfg.to_yaml_dict()
+    seed_list = list(range(first_seed, first_seed + seeds))
+    tasks = [SeedTask(block, str(out / f"seed_{s}"), s, timesteps, episodes) for s in seed_list]
+    print(f"training {seeds} seeds of {cfg.env_id} ({cfg.algo}) …", file=sys.stderr)
+    rows: list[dict[str, Any]] = []
+    for part in run_tasks(_run_seed, tasks, workers, address):
+        rows.extend(part)
+    print("held-out evaluation of the baselines …", file=sys.stderr)
+    crash = {k: v for k, v in cfg.env_kwargs.items() if k in CRASH_KEYS}
+    rows.extend(held_out(cfg.env_id, list(BASELINES[cfg.env_id]), episodes, None, None, crash))
+    with (out / "results.csv").open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, ["policy", "seed", "case", "metric", "value", "unit"])
+        writer.writeheader()
+        writer.writerows(rows)
+    plot_curves(out, cfg, seed_list, _baseline_curve_values(cfg))
+    settings = {
+        "config": str(config),
+        "seeds": seed_list,
+        "timesteps": timesteps,
+        "episodes": episodes,
+    }
+    text = (
+        f"# Benchmark of {cfg.env_id}, {cfg.algo}\n\n```yaml\n{yaml.safe_dump(settings)}```\n\n"
+        f"Held-out cases on the reference backend ({episodes} episodes each, tracks of seeds "
+        f"{EVAL_SEED}+i); agent: mean ± sample std over {seeds} seeds (95 % Student-t "
+        "interval of the mean); baselines: one deterministic run.\n\n"
+        + summary_table(rows, cfg.algo)
+    )
+    write_text_atomic(out / "table.md", text)
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``python -m agents.benchmark``; returns the exit status (2: user error)."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.benchmark", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument("config", help="agents.train config: YAML file or packaged name")
+    parser.add_argument("--seeds", type=bounded_int(1, 1000), default=3, help="training seeds")
+    parser.add_argument("--first-seed", type=bounded_int(0, MAX_SEED), default=0)
+    parser.add_argument("--timesteps", type=bounded_int(1), help="override n_timesteps")
+    parser.add_argument(
+        "--episodes", type=bounded_int(1, 1000), default=10, help="held-out episodes per case"
+    )
+    parser.add_argument("--out", type=Path, help="output folder (default runs/benchmark_<stem>)")
+    parser.add_argument("--overwrite", action="store_true", help="write into a non-empty --out")
+    add_parallel_arguments(parser, "", "the seeds", "the numbers do")
+    args = parser.parse_args(argv)
+    try:
+        check_parallel(args)
+        out = benchmark(
+            args.config,
+            args.seeds,
+            args.workers,
+            args.timesteps,
+            args.episodes,
+            args.out,
+            args.overwrite,
+            args.first_seed,
+            args.address,
+        )
+    except (ValueError, OSError) as err:
+        print(f"{parser.prog}: error: {err}", file=sys.stderr)
+        return 2
+    print(f"results.csv, learning_curve.png and table.md in {out}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,263 @@
+"""``railgym evaluate POLICY... --gap``: the transfer gap of policies between surrogate and
+reference.
+
+Each policy (a controller name or a saved policy, as :func:`agents.evaluate.load_policy`
+takes) runs on the ``surrogate`` backend and on the reference backend over the same held-out
+cases, and every task metric is reported on both with its relative gap
+``(surrogate − reference) / |reference|``:
+
+* ``vertical`` (``VerticalSuspension-v0``): per track class, the ISO 2631 Wk-weighted RMS
+  carbody acceleration ``a_w`` (m/s², mean over the episodes on the tracks of seeds
+  ``seed + i``; :func:`agents.sweeps.evaluate_sweep`);
+* ``vehicle`` (``VerticalVehicle-v0``): per track class and speed, ``a_w`` at the front,
+  centre and rear floor points (:func:`agents.evaluate.evaluate_vehicle`);
+* ``crash`` (``TrainCrash-v0``): per impact speed × payload of the held-out envelope
+  (:data:`agents.crash_report.EVAL_SPEEDS_KMH`, :data:`~agents.crash_report.EVAL_PAYLOADS_T`),
+  each car's peak and 10 ms moving-average peak deceleration (g), each zone's maximum crush and
+  survival-space intrusion (m) (:mod:`railgym.vehicles.crash.criteria`).
+
+A policy trusted on the surrogate is one whose gaps are small: the surrogate does not flatter
+it. Both sides run the same policy object on the same seeds, so the gap of a backend against
+itself is exactly zero.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from agents.evaluate import CRASH_ID, evaluate_vehicle, load_policy
+from railgym import _validation as val
+
+__all__ = ["format_gap", "gap_crash", "gap_vehicle", "gap_vertical", "relative_gap", "run_gap"]
+
+#: the side whose numbers are checked against the reference
+SURROGATE = "surrogate"
+FLOOR_POINTS = ("front", "centre", "rear")
+
+
+def relative_gap(surrogate: float, reference: float) -> float:
+    """``(surrogate − reference) / |reference|``; 0 where both are equal (also both 0), ±inf
+    where only the reference is 0."""
+    if surrogate == reference:
+        return 0.0
+    if reference == 0.0:
+        return math.copysign(math.inf, surrogate - reference)
+    return (surrogate - reference) / abs(reference)
+
+
+def _row(case: str, policy: str, metric: str, s: float, r: float) -> dict[str, Any]:
+    return {
+        "case": case,
+        "policy": policy,
+        "metric": metric,
+        "surrogate": float(s),
+        "reference": float(r),
+        "gap": relative_gap(float(s), float(r)),
+    }
+
+
+def gap_vertical(
+    policies: Sequence[str],
+    track_classes: Sequence[int] = (4, 5, 6),
+    episodes: int = 10,
+    seed: int = 1000,
+    trust: bool = False,
+    workers: int = 1,
+    address: str | None = None,
+    backends: tuple[str, str] = (SURROGATE, "reference"),
+) -> list[dict[str, Any]]:
+    """Gap rows of ``VerticalSuspension-v0``: one per (track class, policy), metric ``a_w``.
+
+    ``backends``: the (surrogate, reference) pair compared; the other arguments as
+    :func:`agents.sweeps.evaluate_sweep`.
+    """
+    from agents.sweeps import evaluate_sweep  # imports agents.evaluate, which imports this
+
+    runs = [
+        evaluate_sweep(policies, b, track_classes, episodes, seed, trust, workers, address)
+        for b in backends
+    ]
+    return [
+        _row(f"class {s['track_class']}", s["policy"], "a_w (m/s²)", s["a_w"], r["a_w"])
+        for s, r in zip(*runs, strict=True)
+    ]
+
+
+def gap_vehicle(
+    policies: Sequence[str],
+    track_classes: Sequence[int] = (5,),
+    speeds_kmh: Sequence[float | None] = (None,),
+    episodes: int = 10,
+    seed: int = 1000,
+    duration: float = 20.0,
+    trust: bool = False,
+    workers: int = 1,
+    address: str | None = None,
+    backends: tuple[str, str] = (SURROGATE, "reference"),
+) -> list[dict[str, Any]]:
+    """Gap rows of ``VerticalVehicle-v0``: per (track class, speed, policy) the metric
+    ``a_w`` at each floor point; arguments as :func:`agents.evaluate.evaluate_vehicle`."""
+    runs = [
+        evaluate_vehicle(
+            policies,
+            b,
+            track_classes,
+            speeds_kmh,
+            episodes,
+            seed,
+            duration,
+            trust,
+            workers,
+            address,
+        )
+        for b in backends
+    ]
+    rows = []
+    for s, r in zip(*runs, strict=True):
+        case = f"class {s['track_class']}, {s['speed_kmh']:.0f} km/h"
+        for k, point in enumerate(FLOOR_POINTS):
+            metric = f"a_w {point} (m/s²)"
+            rows.append(_row(case, s["policy"], metric, s["a_w"][k], r["a_w"][k]))
+    return rows
+
+
+def _crash_metrics(rollout: Any) -> dict[str, float]:
+    """Task metrics of one crash :class:`~agents.crash_baselines.Rollout`."""
+    crit = rollout.criteria()
+    out: dict[str, float] = {}
+    for i, (peak, ma) in enumerate(zip(crit.peak_decel_g, crit.moving_average_g, strict=True)):
+        out[f"peak decel car {i + 1} (g)"] = float(peak)
+        out[f"10 ms mean decel car {i + 1} (g)"] = float(ma)
+    crush = np.max(rollout.crush, axis=0)
+    for j, (c, intr) in enumerate(zip(crush, crit.intrusion_m, strict=True)):
+        out[f"max crush zone {j + 1} (m)"] = float(c)
+        out[f"intrusion zone {j + 1} (m)"] = float(intr)
+    return out
+
+
+def gap_crash(
+    policies: Sequence[str],
+    speeds_kmh: Sequence[float] | None = None,
+    payloads_t: Sequence[tuple[float, float]] | None = None,
+    trust: bool = False,
+    backends: tuple[str, str] = (SURROGATE, "reference"),
+) -> list[dict[str, Any]]:
+    """Gap rows of ``TrainCrash-v0`` per (speed km/h × payload t, policy) and metric.
+
+    ``policies``: the crash baselines (``passive``, ``best-constant``, ``speed-adaptive``) or
+    trained policy ``.zip`` files, each on the ``envelope`` scenario with the env settings it
+    was trained with; cases fixed by ``reset(options=...)`` (default the held-out envelope).
+    """
+    from agents import crash_report  # imports agents.evaluate: not at the top
+    from agents.crash_baselines import rollout
+    from railgym.envs.crash import TrainCrashVectorEnv
+
+    speeds = crash_report.EVAL_SPEEDS_KMH if speeds_kmh is None else tuple(speeds_kmh)
+    payloads = crash_report.EVAL_PAYLOADS_T if payloads_t is None else tuple(payloads_t)
+    loaded = []
+    baselines = {name.replace(" ", "-"): name for name in crash_report.BASELINES}
+    for p in val.sequence(policies, "policies"):
+        if p in baselines:
+            loaded.append((crash_report.BASELINES[baselines[p]], {}, p))
+        else:
+            loaded.append(load_policy(p, CRASH_ID, trust))
+    rows = []
+    for kmh in speeds:
+        for payload in payloads:
+            case = f"{kmh:g} km/h, payload {payload[0]:g}/{payload[1]:g} t"
+            options = {"speed_kmh": kmh, "payload_t": list(payload)}
+            for factory, env_kwargs, label in loaded:
+                metrics = []
+                for b in backends:
+                    kwargs = {"scenario": "envelope", **env_kwargs, "backend": b}
+                    env = TrainCrashVectorEnv(num_envs=1, **kwargs)
+                    metrics.append(_crash_metrics(rollout(env, factory(env), options=options)[0]))
+                    env.close()
+                s, r = metrics
+                rows += [_row(case, label, k, s[k], r[k]) for k in s]
+    return rows
+
+
+def format_gap(rows: list[dict[str, Any]], against: str = "reference") -> str:
+    """Aligned text table of gap rows (``against``: the label of the reference column), then
+    the largest |gap| of each policy."""
+    wc = max([4, *(len(r["case"]) for r in rows)])
+    wp = max([6, *(len(r["policy"]) for r in rows)])
+    wm = max([6, *(len(r["metric"]) for r in rows)])
+    lines = [
+        f"{'case':<{wc}}  {'policy':<{wp}}  {'metric':<{wm}}  {'surrogate':>10}  "
+        f"{against:>10}  {'gap %':>8}"
+    ]
+    for r in rows:
+        lines.append(
+            f"{r['case']:<{wc}}  {r['policy']:<{wp}}  {r['metric']:<{wm}}  "
+            f"{r['surrogate']:10.4g}  {r['reference']:10.4g}  {100 * r['gap']:8.2f}"
+        )
+    worst: dict[str, float] = {}
+    for r in rows:
+        worst[r["policy"]] = max(worst.get(r["policy"], 0.0), abs(r["gap"]))
+    lines.append("")
+    lines += [f"largest |gap| of {p}: {100 * g:.2f} %" for p, g in worst.items()]
+    return "\n".join(lines)
+
+
+def run_gap(args: argparse.Namespace) -> int:
+    """``railgym evaluate POLICY... --gap``: gap rows of the given policies between the
+    surrogate and ``--backend`` (default the reference), printed as a table."""
+    if args.envelope:
+        raise ValueError("--gap: runs the held-out envelope itself (--env crash), not --envelope")
+    backends = (SURROGATE, args.backend)
+    what = f"surrogate vs {args.backend}; gap = (surrogate − {args.backend}) / |{args.backend}|"
+    if args.env == "crash":
+        if args.backend == "linear":
+            raise ValueError("--backend: the crash env has backends reference and surrogate")
+        for flag, given in {
+            "--workers": args.workers != 1,
+            "--address": args.address is not None,
+            "--duration": args.duration is not None,
+        }.items():
+            if given:
+                raise ValueError(f"{flag}: only for vertical, vehicle, not --env crash")
+        rows = gap_crash(args.policy, args.speed, trust=args.trust, backends=backends)
+        print(f"TrainCrash-v0 envelope scenario, held-out cases; {what}")
+    elif args.env == "vehicle":
+        rows = gap_vehicle(
+            args.policy,
+            args.track_class,
+            args.speed or [None],
+            args.episodes,
+            args.seed,
+            20.0 if args.duration is None else args.duration,
+            args.trust,
+            args.workers,
+            args.address,
+            backends,
+        )
+        print(
+            f"VerticalVehicle-v0, {args.episodes} episodes per case (seeds {args.seed}+i); {what}"
+        )
+    else:
+        for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
+            if given is not None:
+                raise ValueError(f"{flag}: only for --env vehicle and crash, not --env vertical")
+        rows = gap_vertical(
+            args.policy,
+            args.track_class,
+            args.episodes,
+            args.seed,
+            args.trust,
+            args.workers,
+            args.address,
+            backends,
+        )
+        print(
+            f"VerticalSuspension-v0, {args.episodes} episodes per track class "
+            f"(seeds {args.seed}+i); {what}"
+        )
+    print(format_gap(rows, args.backend))
+    return 0

@@ -1,0 +1,72 @@
+"""Benchmark protocol: several seeds, held-out evaluation, CSV + learning curve + table."""
+
+import csv
+
+import numpy as np
+import pytest
+
+from agents.benchmark import main, summary_table
+
+TINY = """\
+railgym/VerticalSuspension-v0:
+  algo: ppo
+  n_timesteps: 1024
+  n_envs: 4
+  seed: 0
+  env_kwargs: {backend: surrogate, duration: 1.0}
+  envelope: {track_class: [4, 5, 6]}
+  eval_env_kwargs: {backend: reference, duration: 1.0}
+  eval_freq: 512
+  n_eval_episodes: 1
+  n_steps: 64
+  batch_size: 64
+  n_epochs: 2
+  policy_kwargs: {net_arch: [16, 16]}
+"""
+
+
+def read(path):
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.slow
+def test_benchmark_writes_csv_png_table_and_does_not_depend_on_workers(tmp_path):
+    cfg = tmp_path / "tiny.yaml"
+    cfg.write_text(TINY)
+    runs = {}
+    for workers in (1, 2):
+        out = tmp_path / f"w{workers}"
+        argv = [str(cfg), "--seeds", "2", "--episodes", "1", "--workers", str(workers)]
+        assert main([*argv, "--out", str(out)]) == 0
+        runs[workers] = read(out / "results.csv")
+        assert (out / "learning_curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        table = (out / "table.md").read_text()
+        for tc in (4, 5, 6):
+            assert f"| class {tc} | a_w (m/s²) |" in table
+        assert "| passive | skyhook | lqg | lqr |" in table
+    one, two = runs[1], runs[2]
+    assert [(r["policy"], r["seed"], r["case"], r["metric"]) for r in one] == [
+        (r["policy"], r["seed"], r["case"], r["metric"]) for r in two
+    ]
+    assert {r["seed"] for r in one if r["policy"] == "ppo"} == {"0", "1"}
+    v1, v2 = (np.array([float(r["value"]) for r in rows]) for rows in (one, two))
+    assert np.allclose(v1, v2, rtol=1e-9, atol=0.0)
+    # the two seeds learnt different policies
+    a_w = [float(r["value"]) for r in one if r["policy"] == "ppo" and r["metric"] == "a_w"]
+    assert len(set(a_w)) == len(a_w)
+    # a second run into the same folder needs --overwrite
+    assert main([*argv, "--out", str(tmp_path / "w1")]) == 2
+
+
+def test_summary_table_statistics():
+    rows = [
+        {"policy": "ppo", "seed": s, "case": "c", "metric": "a_w", "value": v, "unit": "m/s²"}
+        for s, v in ((0, 1.0), (1, 2.0), (2, 3.0))
+    ]
+    rows.append(
+        {"policy": "lqg", "seed": "", "case": "c", "metric": "a_w", "value": 1.5, "unit": "m/s²"}
+    )
+    table = summary_table(rows, "ppo")
+    # mean 2, sample std 1, t(0.975, 2) = 4.303: half-width 4.303/√3 = 2.484
+    assert "| c | a_w (m/s²) | 2 ± 1 (-0.4841…4.484) | 1.5 |" in table
