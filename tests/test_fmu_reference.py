@@ -299,3 +299,14 @@ def test_model_exchange_with_fmpys_cvode_converges_to_the_reference(reference_fm
         got = _episode(gym.make(ID, backend="fmu", fmu=fmu, fmu_map=path, **kw), actions)[:, 6]
         errors.append(np.sqrt(np.mean((got - ref) ** 2) / np.mean(ref**2)))
     assert errors[1] < 3e-5 and errors[1] < errors[0] < 1e-3, errors
+
+
+def test_collect_and_refine_commands_check_their_fmu_arguments(reference_fmu, capsys):
+    from railgym.vehicles.collect import main as collect_main
+
+    fmu, mapping = reference_fmu
+    with pytest.raises(SystemExit) as info:  # the packaged element is never replaced
+        collect_main(["--fmu-map", str(mapping)])
+    assert info.value.code == 2 and "--fmu-map needs --output" in capsys.readouterr().err
+    assert main(["refine", "passive", "--rounds", "0", "--fmu", str(fmu)]) == 2
+    assert "needs its mapping file fmu_map" in capsys.readouterr().err
