@@ -335,6 +335,7 @@ def evaluate_vehicle(
     trust: bool = False,
     workers: int = 1,
     address: str | None = None,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """One row per (track class, speed, policy) of :func:`run_vehicle_policy` on
     ``railgym/VerticalVehicle-v0``, plus ``a_w_reduction_%`` (3,) against the passive row
@@ -342,7 +343,8 @@ def evaluate_vehicle(
 
     ``speeds_kmh``: km/h, ``None`` the class's maximum speed; ``duration``: s per episode;
     ``trust``: see :func:`load_policy`; ``workers``, ``address``: see
-    :func:`railgym.parallel.run_tasks` (one task per row, the same rows for any number).
+    :func:`railgym.parallel.run_tasks` (one task per row, the same rows for any number);
+    ``env_kwargs`` are added to every env (e.g. ``fmu``, ``fmu_map``).
     """
     episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
     seed = val.integer(seed, "seed", min=0)
@@ -364,6 +366,7 @@ def evaluate_vehicle(
                 "track_class": tc,
                 "speed": None if v is None else v / 3.6,
                 "duration": duration,
+                **(env_kwargs or {}),
             },
             episodes,
             seed,
@@ -602,8 +605,8 @@ def run(args: argparse.Namespace) -> int:
     fmu = {"fmu": args.fmu, "fmu_map": args.fmu_map} if args.backend == "fmu" else {}
     if args.backend != "fmu" and (args.fmu is not None or args.fmu_map is not None):
         raise ValueError("--fmu, --fmu-map: only with --backend fmu")
-    if fmu and args.env != "vertical":
-        raise ValueError(f"--backend fmu: only for --env vertical, not --env {args.env}")
+    if fmu and args.env == "crash":
+        raise ValueError("--backend fmu: only for --env vertical and vehicle, not --env crash")
     if args.env == "crash":
         _only_for(args, {**parallel, "--duration": args.duration is not None}, "vertical, vehicle")
         if args.backend == "linear":
@@ -640,6 +643,7 @@ def run(args: argparse.Namespace) -> int:
             args.trust,
             args.workers,
             args.address,
+            fmu,
         )
         print(
             f"VerticalVehicle-v0, backend: {args.backend}, {args.episodes} episodes per case "

@@ -110,7 +110,8 @@ def make_config(
     flexible: bool,
 ) -> VehicleConfig:
     """Check the env arguments against their types and :data:`LIMITS`; errors name them."""
-    variant = BACKENDS[val.choice(backend, "backend", BACKENDS)]
+    backends = {**BACKENDS, "fmu": "dynamic"}  # fmu: an FMU as the vehicle (railgym.fmu)
+    variant = backends[val.choice(backend, "backend", backends)]
     duration = val.positive(duration, "duration", LIMITS["duration"])
     control_dt = val.positive(control_dt, "control_dt")
     if control_dt >= 1.0 / 60.0:
@@ -186,6 +187,31 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
             f"speed_limit= is given), got {speed!r}",
         )
     return lo, hi
+
+
+def _batch(
+    n: int,
+    cfg: VehicleConfig,
+    veh: Any,
+    lpr: Any,
+    v_min: float,
+    backend: str,
+    fmu: Any,
+    fmu_map: Any,
+) -> VehicleBatch:
+    """The batch of ``n`` vehicles: the compiled kernel, or FMU instances for
+    ``backend="fmu"`` (``fmu``, ``fmu_map``: :mod:`railgym.fmu.mapping`)."""
+    if backend != "fmu":
+        for name, value in (("fmu", fmu), ("fmu_map", fmu_map)):
+            if value is not None:
+                raise val.FieldError(name, f"is only used with backend='fmu', not {backend!r}")
+        return VehicleBatch(n, cfg, veh, lpr, v_min)
+    if fmu_map is None:
+        raise val.FieldError("fmu_map", "is required with backend='fmu' (docs/fmi.md)")
+    from railgym.fmu.mapping import load_mapping
+    from railgym.fmu.vehicle_batch import FMUVehicleBatch
+
+    return FMUVehicleBatch(n, cfg, veh, lpr, v_min, load_mapping(fmu_map, fmu, "vehicle"))
 
 
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
@@ -279,6 +305,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         flexible: bool = True,
         render_mode: str | None = None,
         speed_limit: float | None = None,
+        fmu: Any = None,
+        fmu_map: Any = None,
     ) -> None:
         veh = load_whole_vehicle(vehicle)
         free = veh.suspension.bump_stop.free_travel_compression
@@ -306,7 +334,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         if self.profile is None:
             check_band_speed(self.cfg.band, self.speeds[1], self.cfg.dt)
         lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
-        sim = VehicleBatch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED))
+        self._fmu_args = (backend, fmu, fmu_map)
+        sim = _batch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED), *self._fmu_args)
         self.vehicle = veh
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         self._init_shell(
@@ -390,7 +419,7 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         one = single.sim
         self.vehicle = one.vehicle
-        sim = VehicleBatch(num_envs, self.cfg, one.vehicle, one.lpr, one.v_min)
+        sim = _batch(num_envs, self.cfg, one.vehicle, one.lpr, one.v_min, *single._fmu_args)
         self._init_vector(single, sim, num_envs)
 
     def step(

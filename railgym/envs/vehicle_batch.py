@@ -43,6 +43,7 @@ __all__ = [
     "REWARD_TERMS",
     "VehicleBatch",
     "VehicleConfig",
+    "book_step",
     "control_step",
     "episode_comfort",
 ]
@@ -211,6 +212,13 @@ def control_step(kind, bt, p, e, lpr, out, bk, sc):
         for b in range(2):
             bt.force[i, b] = bk.action[i, b] * sc.f_max
     advance(kind, bt, sc.n_sub, sc.dt, p, e, lpr, out)
+    book_step(bt, p, out, bk, sc)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def book_step(bt, p, out, bk, sc):
+    """The bookkeeping of :func:`control_step` after the kernel call (also run after an
+    FMU's step, :mod:`railgym.fmu.vehicle_batch`)."""
     w_a, w_d, w_f = sc.weights[0], sc.weights[1], sc.weights[2]
     for i in range(bt.state.shape[0]):
         bt.k[i] += sc.n_sub

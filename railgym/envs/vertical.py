@@ -48,6 +48,7 @@ from surrogates import io
 __all__ = [
     "ACC_REF",
     "BACKENDS",
+    "ENV_BACKENDS",
     "DEFAULT_WEIGHTS",
     "INFO_KEYS",
     "LIMITS",
@@ -59,9 +60,11 @@ __all__ = [
     "make_config",
 ]
 
-#: backend → kernel variant ("fmu": an FMU as the vehicle, railgym.fmu; its state layout is the
-#: dynamic variant's)
-BACKENDS = {"surrogate": "surrogate", "reference": "dynamic", "linear": "linear", "fmu": "dynamic"}
+#: backend → kernel variant of the secondary suspension (shared with VerticalVehicle-v0)
+BACKENDS = {"surrogate": "surrogate", "reference": "dynamic", "linear": "linear"}
+#: backends of this env: also "fmu", an FMU as the whole vehicle (railgym.fmu; its state
+#: layout is the dynamic variant's)
+ENV_BACKENDS = {**BACKENDS, "fmu": "dynamic"}
 OBSERVATIONS = {
     # name: (channels, scale of each channel in SI units)
     "sensors": (
@@ -90,7 +93,7 @@ def make_config(
     free_travel: float,
 ) -> VerticalConfig:
     """Check the env arguments against their types and :data:`LIMITS`; errors name them."""
-    variant = BACKENDS[val.choice(backend, "backend", BACKENDS)]
+    variant = ENV_BACKENDS[val.choice(backend, "backend", ENV_BACKENDS)]
     duration = val.positive(duration, "duration", LIMITS["duration"])
     control_dt = val.positive(control_dt, "control_dt")
     f_max = val.positive(f_max, "f_max", LIMITS["f_max"])
