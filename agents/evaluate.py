@@ -56,6 +56,7 @@ from agents.controllers import (
 )
 from agents.policy_io import check_manifest, load_policy_weights
 from agents.policy_zip import find_source, zip_network
+from agents.pretrained import PRETRAINED, pretrained_zip
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
@@ -120,6 +121,8 @@ def load_policy(
     if policy in controllers:
         cls, kwargs, env_kwargs = controllers[policy]
         return (lambda env: cls(env, **kwargs)), env_kwargs, policy
+    if policy in PRETRAINED:  # shipped in the package (agents.pretrained)
+        policy = str(pretrained_zip(policy, env_id))
     path = Path(policy)
     if path.is_dir() and (path / RLLIB_MODULE_PATH).is_dir():
         return _rllib_policy(path, env_id, trust)
@@ -516,7 +519,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "policy",
         nargs="+",
         help=f"vertical: {', '.join(CONTROLLERS)}; vehicle: {', '.join(VEHICLE_CONTROLLERS)}; "
-        "or a policy .zip",
+        f"a pretrained policy ({', '.join(PRETRAINED)}) or a policy .zip",
     )
     parser.add_argument(
         "--backend",
