@@ -679,7 +679,8 @@ def simulate_surrogate(
     n_cars, speed : optional overrides (number of cars; initial speed in m/s).
     duration, sample_dt : longest simulated time and output interval, s.
     dt : largest integration step, s (rounded down to divide ``sample_dt``); the stiffest
-        surrogate mode has ``ω² ≈ 2 (k̂_u,wall + k̂_u,interface) / m_1`` (docs/envs/crash.md).
+        mode is the carbody links' and the zones' ``k̂_u`` on the end masses
+        (docs/envs/crash.md).
     stop_when_over, v_stop, f_stop : stop as :func:`simulate_reference` does.
 
     Returns
