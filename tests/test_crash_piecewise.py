@@ -14,6 +14,7 @@ from railgym.vehicles.crash.fe import (
 from railgym.vehicles.crash.piecewise import PiecewiseEnvelope, fit_piecewise
 from railgym.vehicles.crash.surrogate import build_crash_surrogate
 from railgym.vehicles.crash.surrogate_model import _pack_models, _piece_rows
+from surrogates.selection import factory_for
 
 KNOTS = (0.003, 0.087, 0.587, 0.617, 2.05, 2.08)
 
@@ -34,10 +35,14 @@ def test_stages_with_kinks_are_recovered_where_one_polynomial_rings():
     assert len(env.pieces) == len(KNOTS) + 1 and len(tables) == len(KNOTS)
     grid = np.linspace(0.0, 2.6, 5001)
     err = np.abs(env.predict(grid[:, None]) - _stages(grid))
-    # exact on every stage (each is linear) but within a sample spacing of a knot
+    # within 1 % of the top force off the knots (each piece also takes the samples 2 mm
+    # beyond its knots, which bend the steep ramps' pieces a little), 6 % at them; a single
+    # polynomial of the same data rings by far more
     near = np.min(np.abs(grid[:, None] - np.array(KNOTS)), axis=1) < 2e-3
-    assert err[~near].max() < 1e-3 * 3e6
+    assert err[~near].max() < 0.01 * 3e6
     assert err.max() < 0.06 * 3e6
+    one = factory_for("lpr", extrapolation="clip")(64).fit(u[:, None], f)
+    assert np.abs(one.predict(grid[:, None]) - _stages(grid))[~near].max() > 5 * err[~near].max()
     # a rise with no samples below the first knot: the line from the origin
     assert env.predict(np.array([[0.0015]]))[0] == pytest.approx(300e3, rel=1e-6)
 

@@ -317,11 +317,14 @@ def build_crash_surrogate(
             rng = {"loading": (0.0, ff.max())}
             tension = f < 0
             if not unilateral and np.count_nonzero(tension) >= 5:
-                # f = k_t (u − u_0) on the tension samples; slack measured from the final set
-                A = np.column_stack([u[tension], np.ones(np.count_nonzero(tension))])
+                # f = k_t (u − u_p + ŝ) on the tension samples, u_p the permanent set of each
+                # run's history (its absorber scale applied), so runs with different sets pool
+                env_scale = np.where(u <= absorber[name], run_scale, 1.0)
+                up = _permanent_set_history(u, series, load, ku, env_scale)
+                stretch = u[tension] - up[tension]
+                A = np.column_stack([stretch, np.ones(np.count_nonzero(tension))])
                 (kt, c), *_ = np.linalg.lstsq(A, f[tension], rcond=None)
-                up = _permanent_set_history(u, series, load, ku)
-                slack = max(0.0, float(up[tension].mean() + c / kt)) if kt > 0 else 0.0
+                slack = max(0.0, float(c / kt)) if kt > 0 else 0.0
                 kt = max(float(kt), 0.0)
                 n["tension"] = int(np.count_nonzero(tension))
         elements[name] = CrashElement(
@@ -347,10 +350,11 @@ def build_crash_surrogate(
 
 
 def _permanent_set_history(
-    u: np.ndarray, series: np.ndarray, envelope: Any, ku: float
+    u: np.ndarray, series: np.ndarray, envelope: Any, ku: float, scale: Any = 1.0
 ) -> np.ndarray:
-    """Permanent set (m) along each feature history ``u`` under the hysteretic element law."""
-    env = envelope.predict(u[:, None])
+    """Permanent set (m) along each feature history ``u`` under the hysteretic element law,
+    the envelope times ``scale`` (per sample, or one number)."""
+    env = envelope.predict(u[:, None]) * scale
     up = np.zeros_like(u)
     cur = 0.0
     for i in range(u.size):
