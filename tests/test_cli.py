@@ -237,7 +237,7 @@ def test_collect_command_takes_the_degree_options(tmp_path, capsys):
     argv = ["--features", "static", "--m", "51", "--output", str(out), "--quiet"]
     assert collect.main([*argv, "--degree", "3", "4"]) == 0
     assert io.load(out).degree == (3, 4)
-    assert collect.main([*argv, "--max-degree", "2"]) == 0
+    assert collect.main([*argv, "--max-degree", "2", "--overwrite"]) == 0
     assert "--max-degree on the command line" in capsys.readouterr().out
     with pytest.raises(SystemExit) as exc:
         collect.main(["--features", "maxwell", "--max-degree", "8", "14", "9"])

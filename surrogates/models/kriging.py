@@ -275,7 +275,7 @@ class Kriging(SurrogateModel):
         self.weights_ = solve_triangular(L, res_t, lower=True, trans="T", check_finite=False)
         self.log_likelihood_ = -float(best.fun)
         self._Xs, self._L, self._Ft, self._Rq = Xs, L, Ft, Rq
-        self._kernel_arrays: KrigingArrays | None = None
+        self._kernel_arrays = self.kernel_arrays()
 
     def _predict_inside(self, U: np.ndarray) -> np.ndarray:
         """Mean prediction (n,) by the compiled predictor the vehicle kernels run."""
@@ -290,10 +290,8 @@ class Kriging(SurrogateModel):
         return G
 
     def _arrays(self) -> KrigingArrays:
-        """:meth:`kernel_arrays`, kept until the next fit or state change."""
-        arrays: KrigingArrays | None = getattr(self, "_kernel_arrays", None)
-        if arrays is None:
-            arrays = self._kernel_arrays = self.kernel_arrays()
+        """:meth:`kernel_arrays`, made at fit and at load (``predict`` changes no attribute)."""
+        arrays: KrigingArrays = self._kernel_arrays
         return arrays
 
     def _state(self) -> dict[str, Any]:
@@ -341,7 +339,6 @@ class Kriging(SurrogateModel):
             num("log_likelihood", nan_ok=True) if "log_likelihood" in d else float("nan")
         )
         self._ell = self.theta_ / (self.upper_ - self.lower_)
-        self._kernel_arrays = None
         self._Xs = self._scale(self.X_)
         K, _ = _correlation(self._Xs, self._Xs, self._ell, self.kernel)
         try:
@@ -355,6 +352,7 @@ class Kriging(SurrogateModel):
             self._L, _trend_matrix(self._Xs, self.trend), lower=True, check_finite=False
         )
         self._Rq = qr(self._Ft, mode="economic", check_finite=False)[1]
+        self._kernel_arrays = self.kernel_arrays()
 
     # ------------------------------------------------------------------ helpers
     def _check_params(self) -> None:
