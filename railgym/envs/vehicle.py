@@ -37,6 +37,7 @@ from railgym.envs.vertical import BACKENDS, _surrogate_arrays, check_speed
 from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
+from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -52,7 +53,9 @@ __all__ = [
     "SIZING_SPEED",
     "VehicleConfig",
     "VerticalVehicleEnv",
+    "VerticalVehicleEnvV0",
     "VerticalVehicleVectorEnv",
+    "VerticalVehicleVectorEnvV0",
     "episode_comfort",
     "make_config",
 ]
@@ -284,6 +287,10 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
     :attr:`vehicle_params`.
     """
 
+    #: packaged element used without ``surrogate=``: ``None`` the memory element;
+    #: ``"static"`` the static one (``VerticalVehicle-v0``, docs: *Version history*)
+    default_element: str | None = None
+
     def __init__(
         self,
         backend: str = "surrogate",
@@ -333,6 +340,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         self.profile = load_profile(profile)
         if self.profile is None:
             check_band_speed(self.cfg.band, self.speeds[1], self.cfg.dt)
+        if surrogate is None and backend == "surrogate" and self.default_element is not None:
+            surrogate = default_vertical_surrogate(self.default_element)
         lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
         self._fmu_args = (backend, fmu, fmu_map)
         sim = _batch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED), *self._fmu_args)
@@ -412,9 +421,12 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
     Accessors as the single env's, as arrays over the sub-envs.
     """
 
+    #: the single env whose configuration and element the sub-envs share
+    single_class: type[VerticalVehicleEnv] = VerticalVehicleEnv
+
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
         num_envs = val.integer(num_envs, "num_envs", min=1, max=LIMITS["num_envs"])
-        single = VerticalVehicleEnv(render_mode=render_mode, **kwargs)
+        single = self.single_class(render_mode=render_mode, **kwargs)
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         one = single.sim
@@ -435,3 +447,17 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
                     comfort[k][i] = v
             infos["comfort"], infos["_comfort"] = comfort, ended
         return obs, reward, terminated, truncated, infos
+
+
+class VerticalVehicleEnvV0(VerticalVehicleEnv):
+    """``VerticalVehicle-v0``: the static packaged element by default (``surrogate=`` takes
+    any element, memory elements included); everything else as :class:`VerticalVehicleEnv`
+    (docs/envs/vehicle_vertical.md, *Version history*)."""
+
+    default_element = "static"
+
+
+class VerticalVehicleVectorEnvV0(VerticalVehicleVectorEnv):
+    """Native vector version of :class:`VerticalVehicleEnvV0`."""
+
+    single_class = VerticalVehicleEnvV0

@@ -220,12 +220,13 @@ def packaged_path(name: str) -> Path:
 
 
 def packaged_surrogate(
-    scenario: CrashScenario, variant: str = "hysteretic"
+    scenario: CrashScenario, variant: str = "hysteretic", release: str = ""
 ) -> CrashSurrogate | None:
     """The packaged elements whose train key matches ``scenario`` (their ``source`` set to
-    its name), or ``None`` if no packaged file fits it."""
+    its name), or ``None`` if no packaged file fits it. ``release``: ``""`` the current
+    elements, ``"v0"`` those of ``TrainCrash-v0`` (``railgym/data/v0/``, one mass per car)."""
     key = train_key(scenario)
-    folder = resources.files("railgym").joinpath(*_DATA)
+    folder = resources.files("railgym").joinpath(*_DATA, *((release,) if release else ()))
     for entry in sorted(folder.iterdir(), key=lambda p: p.name):
         if not (entry.name.startswith("crash_elements_") and entry.name.endswith(".json")):
             continue
