@@ -43,7 +43,8 @@ def test_rebuilding_the_packaged_memory_element_gives_the_same_model(packaged):
     model, sel, data = build_memory_surrogate(taus=(form.tau,), degrees=[degree])
     assert sel.best == (form.tau, degree)
     U = data["U_memory"]
-    assert U.shape == (3981, 3)  # 20 s at 200 Hz from the 0.1 s warm-up on
+    # the envelope design: 16 runs of 20 s at 200 Hz, each from the 0.1 s warm-up on
+    assert U.shape == (16 * 3981, 3)
     scale = np.abs(data["V_memory"]).max()
     np.testing.assert_allclose(model.predict(U), packaged.predict(U), rtol=0, atol=1e-8 * scale)
 
