@@ -240,10 +240,11 @@ def test_collect_command_takes_the_degree_options(tmp_path, capsys):
     assert collect.main([*argv, "--max-degree", "2", "--overwrite"]) == 0
     assert "--max-degree on the command line" in capsys.readouterr().out
     with pytest.raises(SystemExit) as exc:
-        collect.main(["--features", "maxwell", "--max-degree", "8", "14", "9"])
+        collect.main(["--features", "maxwell", "--max-degree", "10", "14", "20"])
     assert exc.value.code == 2
-    assert "max_degree[0] must be at least 10" in capsys.readouterr().err
-    assert collect.memory_degrees((12, 6, 3)) == [(10, 6, 3), (12, 6, 3)]
+    assert "max_degree[0] must be at least 12" in capsys.readouterr().err
+    assert collect.memory_degrees((14, 12, 14)) == [(12, 12, 14), (14, 12, 14)]
+    assert collect.memory_degrees((16, 16, 20)) == list(collect.MEMORY_DEGREES)
 
 
 def test_progress_bars_only_on_a_terminal_and_not_when_quiet(monkeypatch):
