@@ -5,7 +5,12 @@ from __future__ import annotations
 from gymnasium.envs.registration import register, registry
 
 ENVS = {
+    # v0: the memory element of railgym 0.2; v1: the envelope-fitted one (docs: Version history)
     "railgym/VerticalSuspension-v0": (
+        "railgym.envs.vertical:VerticalSuspensionEnvV0",
+        "railgym.envs.vertical:VerticalSuspensionVectorEnvV0",
+    ),
+    "railgym/VerticalSuspension-v1": (
         "railgym.envs.vertical:VerticalSuspensionEnv",
         "railgym.envs.vertical:VerticalSuspensionVectorEnv",
     ),

@@ -287,9 +287,10 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
     :attr:`vehicle_params`.
     """
 
-    #: packaged element used without ``surrogate=``: ``None`` the memory element;
-    #: ``"static"`` the static one (``VerticalVehicle-v0``, docs: *Version history*)
-    default_element: str | None = None
+    #: packaged element used without ``surrogate=``, ``(form, release)`` of
+    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
+    #: element; ``("static", "")`` for ``VerticalVehicle-v0`` (docs: *Version history*)
+    default_element: tuple[str, str] | None = None
 
     def __init__(
         self,
@@ -341,7 +342,7 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         if self.profile is None:
             check_band_speed(self.cfg.band, self.speeds[1], self.cfg.dt)
         if surrogate is None and backend == "surrogate" and self.default_element is not None:
-            surrogate = default_vertical_surrogate(self.default_element)
+            surrogate = default_vertical_surrogate(*self.default_element)
         lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
         self._fmu_args = (backend, fmu, fmu_map)
         sim = _batch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED), *self._fmu_args)
@@ -454,7 +455,7 @@ class VerticalVehicleEnvV0(VerticalVehicleEnv):
     any element, memory elements included); everything else as :class:`VerticalVehicleEnv`
     (docs/envs/vehicle_vertical.md, *Version history*)."""
 
-    default_element = "static"
+    default_element = ("static", "")
 
 
 class VerticalVehicleVectorEnvV0(VerticalVehicleVectorEnv):

@@ -56,7 +56,9 @@ __all__ = [
     "VerticalBatch",
     "VerticalConfig",
     "VerticalSuspensionEnv",
+    "VerticalSuspensionEnvV0",
     "VerticalSuspensionVectorEnv",
+    "VerticalSuspensionVectorEnvV0",
     "make_config",
 ]
 
@@ -312,6 +314,11 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
     :meth:`reset_on_track`.
     """
 
+    #: packaged element used without ``surrogate=``, ``(form, release)`` of
+    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
+    #: element; ``("maxwell", "v0")`` for ``VerticalSuspension-v0`` (docs: *Version history*)
+    default_element: tuple[str, str] | None = None
+
     def __init__(
         self,
         backend: str = "surrogate",
@@ -354,6 +361,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         self._speed_arg = speed
         self.profile = self._check_profile(profile)
         self._fmu_args = (backend, fmu, fmu_map)
+        if surrogate is None and backend == "surrogate" and self.default_element is not None:
+            surrogate = default_vertical_surrogate(*self.default_element)
         sim = _batch(
             1,
             self.cfg,
@@ -455,10 +464,27 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, BatchVectorEnv):
     env's, as arrays over the sub-envs.
     """
 
+    #: the single env whose configuration and element the sub-envs share
+    single_class: type[VerticalSuspensionEnv] = VerticalSuspensionEnv
+
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
         num_envs = val.integer(num_envs, "num_envs", min=1, max=LIMITS["num_envs"])
-        single = VerticalSuspensionEnv(render_mode=render_mode, **kwargs)
+        single = self.single_class(render_mode=render_mode, **kwargs)
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         sim = _batch(num_envs, self.cfg, single.sim.vehicle, single.sim.lpr, *single._fmu_args)
         self._init_vector(single, sim, num_envs)
+
+
+class VerticalSuspensionEnvV0(VerticalSuspensionEnv):
+    """``VerticalSuspension-v0``: the packaged memory element of version 0 by default;
+    everything else as :class:`VerticalSuspensionEnv` (docs/envs/vertical.md, *Version
+    history*)."""
+
+    default_element = ("maxwell", "v0")
+
+
+class VerticalSuspensionVectorEnvV0(VerticalSuspensionVectorEnv):
+    """Native vector version of :class:`VerticalSuspensionEnvV0`."""
+
+    single_class = VerticalSuspensionEnvV0

@@ -359,11 +359,13 @@ def save_vertical_surrogate(
 
 
 @lru_cache(maxsize=2)
-def default_vertical_surrogate(form: str = "maxwell") -> SurrogateModel:
+def default_vertical_surrogate(form: str = "maxwell", release: str = "") -> SurrogateModel:
     """A packaged element, loaded once: ``"maxwell"`` (default, ``vertical_lpr.json``) or
-    the paper's ``"static"`` one (``vertical_lpr_static.json``)."""
+    the paper's ``"static"`` one (``vertical_lpr_static.json``); ``release="v0"``: the file
+    of version 0 of the envs (``data/v0/``, ``VerticalSuspension-v0``)."""
     name = PACKAGED[val.choice(form, "form", PACKAGED)]
-    with resources.as_file(resources.files("railgym") / "data" / name) as p:
+    folder = resources.files("railgym") / "data"
+    with resources.as_file(folder / release / name if release else folder / name) as p:
         return io.load(p)
 
 
