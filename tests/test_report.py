@@ -227,11 +227,17 @@ def test_fig11_shows_the_papers_errors_beside_ours():
     from railgym.report.published import PAPER
 
     sizes = (51, 101, 7)  # 7: a size the paper does not give
-    ours = {m: {"x": 1e-4 * m, "v": 1e-3 * m, "a": 1e-2 * m} for m in sizes}
-    fig = _errors(plt, {"lpr": ours, "published": PAPER["table5"]}, SimpleNamespace(sizes=sizes))
+    ours = {
+        kind: {m: {"x": k * 1e-4 * m, "v": k * 1e-3 * m, "a": k * 1e-2 * m} for m in sizes}
+        for k, kind in ((1.0, "lpr"), (2.0, "kriging"))
+    }
+    table5 = {**ours, "published": PAPER["table5"]}
+    fig = _errors(plt, table5, SimpleNamespace(sizes=sizes))
     for i, (ax, q) in enumerate(zip(fig.axes, "xva", strict=True)):
         bars = [p.get_height() for p in ax.patches]
-        assert bars[:3] == [ours[m][q] for m in sizes]
-        paper = [PAPER["table5"]["lpr"][m][i] for m in (51, 101)]
-        assert bars[3:5] == paper and np.isnan(bars[5])
+        for j, kind in enumerate(("lpr", "kriging")):  # ours, then the paper's, per element
+            mine, paper = bars[6 * j : 6 * j + 3], bars[6 * j + 3 : 6 * j + 6]
+            assert mine == [ours[kind][m][q] for m in sizes]
+            assert paper[:2] == [PAPER["table5"][kind][m][i] for m in (51, 101)]
+            assert np.isnan(paper[2])
     plt.close(fig)
