@@ -5,8 +5,17 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
+from typing import Any
 
-__all__ = ["add_parallel_arguments", "bounded_int", "check_parallel", "speed_kmh"]
+from railgym import _validation as val
+
+__all__ = [
+    "add_parallel_arguments",
+    "bounded_int",
+    "check_parallel",
+    "check_speed_kmh",
+    "speed_kmh",
+]
 
 #: highest speed accepted by ``--speed``, km/h: a sanity bound above twice the FRA class 6
 #: limit of 177 km/h
@@ -40,6 +49,15 @@ def speed_kmh(text: str) -> float:
             f"must be a speed in km/h with 0 < v <= {MAX_SPEED_KMH:g}, got {text} km/h"
         )
     return value
+
+
+def check_speed_kmh(value: Any, field: str) -> float:
+    """:func:`speed_kmh` for a number given to a function: an error naming ``field``."""
+    number = val.real(value, field)
+    try:
+        return speed_kmh(repr(number))
+    except argparse.ArgumentTypeError as err:
+        raise val.FieldError(field, str(err)) from None
 
 
 def add_parallel_arguments(

@@ -410,13 +410,3 @@ from agents.crash_baselines import (  # noqa: E402, F401  (re-exported)
     CrashPassive,
     SpeedAdaptive,
 )
-
-
-def __getattr__(name: str) -> Any:
-    """The observer-based LQR baselines ``LQG`` and ``VehicleLQG`` (Kalman filter on the sensors
-    + the LQR gains above) live in :mod:`agents.lqg`, which imports this module."""
-    if name in ("LQG", "VehicleLQG"):
-        from agents import lqg
-
-        return getattr(lqg, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from agents._args import bounded_int
-from agents.evaluate import CONTROLLERS, load_policy
+from agents.policies import CONTROLLERS, load_policy
 from railgym.envs.vertical import VerticalSuspensionEnv
 from railgym.vehicles.collect import (
     RAW_OBSERVATION,

@@ -66,8 +66,7 @@ import yaml
 import railgym
 from agents._args import bounded_int
 from agents._extras import extra_error, report_missing
-from agents.evaluate import RLLIB_MODULE_PATH
-from agents.policy_io import sha256
+from agents.policy_io import RLLIB_MODULE_PATH, sha256
 from railgym import _validation as val
 from railgym.report.output import prepare_output_dir, write_text_atomic
 
