@@ -8,12 +8,14 @@ from collections.abc import Callable
 from typing import Any
 
 from railgym import _validation as val
+from railgym.envs.vertical_batch import LIMITS
 
 __all__ = [
     "add_parallel_arguments",
     "bounded_int",
     "check_parallel",
     "check_speed_kmh",
+    "duration_s",
     "speed_kmh",
 ]
 
@@ -47,6 +49,20 @@ def speed_kmh(text: str) -> float:
     if not (math.isfinite(value) and 0 < value <= MAX_SPEED_KMH):
         raise argparse.ArgumentTypeError(
             f"must be a speed in km/h with 0 < v <= {MAX_SPEED_KMH:g}, got {text} km/h"
+        )
+    return value
+
+
+def duration_s(text: str) -> float:
+    """A duration in s, ``0 < t <= LIMITS["duration"]`` (the envs' limit)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a duration in s, got {text!r}") from None
+    top = LIMITS["duration"]
+    if not (math.isfinite(value) and 0 < value <= top):
+        raise argparse.ArgumentTypeError(
+            f"must be a duration in s with 0 < t <= {top:g}, got {text}"
         )
     return value
 

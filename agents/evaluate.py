@@ -38,6 +38,7 @@ from agents._args import (
     bounded_int,
     check_parallel,
     check_speed_kmh,
+    duration_s,
     speed_kmh,
 )
 from agents.gap import run_gap
@@ -256,7 +257,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--duration",
-        type=_duration_s,
+        type=duration_s,
         help="vehicle: seconds per episode (default 20)",
     )
     parser.add_argument(
@@ -280,17 +281,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "manifest.json its training wrote (a warning is given); only its network "
         "weights are read, never its pickled fields",
     )
-
-
-def _duration_s(text: str) -> float:
-    """``--duration``: seconds, 0 < t <= 600 (the env's limit)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a duration in s, got {text!r}") from None
-    if not (np.isfinite(value) and 0 < value <= 600):
-        raise argparse.ArgumentTypeError(f"must be a duration in s with 0 < t <= 600, got {text}")
-    return value
 
 
 def _only_for(args: argparse.Namespace, flags: dict[str, bool], envs: str) -> None:
