@@ -13,6 +13,7 @@ from railgym.envs.vertical_batch import LIMITS
 __all__ = [
     "add_parallel_arguments",
     "bounded_int",
+    "bounded_real",
     "check_parallel",
     "check_speed_kmh",
     "duration_s",
@@ -40,31 +41,27 @@ def bounded_int(lo: int, hi: int | None = None) -> Callable[[str], int]:
     return parse
 
 
-def speed_kmh(text: str) -> float:
-    """A speed in km/h, ``0 < v <= MAX_SPEED_KMH``."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a speed in km/h, got {text!r}") from None
-    if not (math.isfinite(value) and 0 < value <= MAX_SPEED_KMH):
-        raise argparse.ArgumentTypeError(
-            f"must be a speed in km/h with 0 < v <= {MAX_SPEED_KMH:g}, got {text} km/h"
-        )
-    return value
+def bounded_real(what: str, unit: str, top: float) -> Callable[[str], float]:
+    """A real number ``0 < x <= top`` in ``unit`` (``what``: its name in the message)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a {what} in {unit}, got {text!r}") from None
+        if not (math.isfinite(value) and 0 < value <= top):
+            raise argparse.ArgumentTypeError(
+                f"must be a {what} in {unit} with 0 < x <= {top:g}, got {text} {unit}"
+            )
+        return value
+
+    return parse
 
 
-def duration_s(text: str) -> float:
-    """A duration in s, ``0 < t <= LIMITS["duration"]`` (the envs' limit)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a duration in s, got {text!r}") from None
-    top = LIMITS["duration"]
-    if not (math.isfinite(value) and 0 < value <= top):
-        raise argparse.ArgumentTypeError(
-            f"must be a duration in s with 0 < t <= {top:g}, got {text}"
-        )
-    return value
+#: ``--speed``: km/h, ``0 < v <= MAX_SPEED_KMH``
+speed_kmh = bounded_real("speed", "km/h", MAX_SPEED_KMH)
+#: ``--duration``: s, ``0 < t <= LIMITS["duration"]`` (the envs' limit)
+duration_s = bounded_real("duration", "s", LIMITS["duration"])
 
 
 def check_speed_kmh(value: Any, field: str) -> float:
