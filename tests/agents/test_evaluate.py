@@ -290,3 +290,16 @@ def test_rllib_checkpoint_without_the_extra_is_a_clear_error(tmp_path, monkeypat
     monkeypatch.setitem(sys.modules, "agents.train_rllib", None)  # as if ray were absent
     with pytest.raises(ValueError, match="install the 'rllib' extra"):
         load_policy(str(tmp_path / "ckpt"))
+
+
+def test_evaluate_re_exports_the_policies_library():
+    """``agents.evaluate.load_policy(name, env_id)`` and the other library names moved to
+    agents.policies stay reachable from the command's module (a public contract)."""
+    import agents.evaluate as command
+    import agents.policies as library
+
+    assert set(library.__all__) <= set(command.__all__)
+    for name in library.__all__:
+        assert getattr(command, name) is getattr(library, name), name
+    factory, env_kwargs, label = command.load_policy("lqr", command.ENV_ID)
+    assert label == "lqr" and env_kwargs == {"observation": "full"}
