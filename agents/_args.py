@@ -96,6 +96,8 @@ def check_parallel(args: argparse.Namespace) -> None:
     without Ray) before any work, naming the flag."""
     from railgym.parallel import choose_backend
 
+    if args.address is not None and not args.address.strip():
+        raise ValueError("--address: empty; give HOST:PORT or 'auto', or leave it out")
     try:
         choose_backend(args.workers, args.address)
     except ValueError as err:

@@ -3,7 +3,7 @@
 - ``railgym demo [--out DIR]``: the main job of the quickstart — build the surrogate element
   from the reference model (paper stages 1–3), run one episode each on the surrogate and the
   reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
-  indices and write plots.
+  indices and write the plots of :data:`DEMO_FILES` (a re-run replaces them).
 - ``railgym paper [--quick] [--out DIR]``: the paper's tables and figures on our models
   (:func:`railgym.report.make_report`).
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies on the
@@ -15,7 +15,8 @@
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
   (:mod:`agents.fmu_cli`).
 
-Every subcommand takes ``--debug``. Arguments and output folders are checked before any work;
+Every subcommand takes ``--debug`` and ``--quiet`` (no progress bars; they are drawn on stderr
+only when it is a terminal). Arguments and output folders are checked before any work;
 a user error (bad value, existing output without ``--overwrite``, unreadable file) is one line
 on stderr and exit status 2, another failure one line and status 1; ``--debug`` shows the
 traceback instead.
@@ -78,7 +79,8 @@ def _indices(run: dict[str, Any], fs: float) -> dict[str, float]:
 #: the files ``railgym demo`` writes into its folder, with what each shows
 DEMO_FILES = {
     "samples_and_oob.png": "training samples and out-of-bag prediction (paper figs. 7, 8)",
-    "carbody_acceleration.png": "carbody acceleration, surrogate vs reference (paper fig. 9)",
+    "carbody_acceleration.png": "carbody acceleration, surrogate vs reference and their "
+    "difference (paper fig. 9)",
 }
 
 
@@ -92,7 +94,7 @@ def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
     model, report, data = build_vertical_surrogate(
         m=101, seed=seed, track_seed=seed, progress=stages()
     )
-    print(report.format().split("\n   candidate")[0])
+    print(report.format("N").split("\n   candidate")[0])
     runs: dict[tuple[str, str], dict[str, Any]] = {}
     for backend in ("surrogate", "reference"):
         surrogate = model if backend == "surrogate" else None  # the others take none
@@ -103,12 +105,12 @@ def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
             runs[backend, name] = run_episode(env, ctrl, seed)
     fs = 1.0 / env.cfg.control_dt
     print(f"\n4. one 20 s episode per model and controller on the same track (seed {seed})")
-    head = f"{'model':<10} {'controller':<9} {'RMS ẍ2':>8} {'a_w (Wk)':>9} {'Sperling':>8} "
-    print(head + f"{'contacts':>8} {'out-dom':>8} {'wall s':>7}")
+    head = f"{'model':<10} {'controller':<10} {'RMS ẍ2 m/s²':>12} {'a_w Wk m/s²':>12} "
+    print(head + f"{'Sperling Wz':>11} {'contacts':>8} {'out-dom':>8} {'wall s':>7}")
     for (backend, name), run in runs.items():
         ix = _indices(run, fs)
         print(
-            f"{backend:<10} {name:<9} {ix['rms_acc']:8.3f} {ix['a_w']:9.3f} {ix['wz']:8.2f} "
+            f"{backend:<10} {name:<10} {ix['rms_acc']:12.3f} {ix['a_w']:12.3f} {ix['wz']:11.2f} "
             f"{ix['contacts']:8d} {ix['ood']:8d} {ix['wall_s']:7.3f}"
         )
     print("\nsurrogate vs reference, eq. 9 average absolute error of the carbody (paper table 5)")
@@ -154,14 +156,23 @@ def _plots(out: Path, model: Any, report: Any, data: dict, runs: dict) -> None:
     fig.tight_layout()
     fig.savefig(out / "samples_and_oob.png", dpi=110)
     plt.close(fig)
-    fig, ax = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
+    fig, ax = plt.subplots(
+        4, 1, figsize=(11, 8), sharex=True, gridspec_kw={"height_ratios": [3, 1, 3, 1]}
+    )
     for i, name in enumerate(("passive", "skyhook")):
         s, r = runs["surrogate", name], runs["reference", name]
-        ax[i].plot(r["t"], r["a2"], lw=0.8, label="reference")
-        ax[i].plot(s["t"], s["a2"], lw=0.8, ls="--", label="surrogate")
-        ax[i].set(ylabel="ẍ2 (m/s²)", title=f"Carbody acceleration, {name} (paper fig. 9)")
-        ax[i].legend(loc="upper right")
-    ax[1].set_xlabel("t (s)")
+        top, diff = ax[2 * i], ax[2 * i + 1]
+        top.plot(r["t"], r["a2"], lw=0.8, label="reference")
+        top.plot(s["t"], s["a2"], lw=0.8, ls="--", label="surrogate")
+        top.set(ylabel="ẍ2 (m/s²)", title=f"Carbody acceleration, {name} (paper fig. 9)")
+        top.legend(loc="upper right")
+        d = s["a2"] - r["a2"]  # the same control steps
+        rms = float(np.sqrt(np.mean(d**2)))
+        diff.plot(r["t"], d, lw=0.7, color="tab:red", label=f"RMS {rms:.3g} m/s²")
+        diff.axhline(0.0, color="k", lw=0.5)
+        diff.set(ylabel="Δẍ2 (m/s²)")
+        diff.legend(loc="upper right", fontsize=8)
+    ax[3].set_xlabel("t (s);  Δ: surrogate − reference")
     fig.tight_layout()
     fig.savefig(out / "carbody_acceleration.png", dpi=110)
     plt.close(fig)
@@ -190,12 +201,14 @@ def paper(args: argparse.Namespace) -> int:
     return 0
 
 
-def _out_arguments(parser: argparse.ArgumentParser, default: str, what: str) -> None:
+def _out_arguments(
+    parser: argparse.ArgumentParser, default: str, what: str, reuse: str = "an empty one"
+) -> None:
     parser.add_argument(
         "--out",
         type=Path,
         default=Path(default),
-        help=f"folder for {what} (default {default}/; created, or an empty one)",
+        help=f"folder for {what} (default {default}/; created, or {reuse})",
     )
     parser.add_argument(
         "--overwrite",
@@ -232,7 +245,7 @@ def build_parser() -> argparse.ArgumentParser:
         "again; a folder with other files needs --overwrite.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _out_arguments(d, "railgym-demo", "the plots")
+    _out_arguments(d, "railgym-demo", "the plots", "one holding only these plots")
     p = sub.add_parser("paper", parents=[common], help="the paper's tables and figures")
     p.add_argument(
         "--quick",

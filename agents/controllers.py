@@ -41,10 +41,20 @@ class _Controller(ObservationController):
     """Vertical-env baselines: a demanded actuator force, normalised by ``f_max``."""
 
     env_name = "VerticalSuspension"
+    #: reads the bogie and carbody velocities (:meth:`_velocities`)
+    needs_velocities = False
 
     def __init__(self, env: Any) -> None:
         super().__init__(env)
         base = self._base
+        names = set(self.obs_names)
+        velocities = {"v1", "v2"} <= names or {"carbody_vel", "deflection_rate"} <= names
+        if not hasattr(base.cfg, "f_max") or (self.needs_velocities and not velocities):
+            raise ValueError(
+                f"env must be a railgym {self.env_name} env (actuator force f_max"
+                f"{', bogie and carbody velocities observed' if self.needs_velocities else ''}"
+                f"), got {type(base).__name__}"
+            )
         self.f_max = float(base.cfg.f_max)
         self.n_act = int(getattr(base, "single_action_space", base.action_space).shape[-1])
 
@@ -91,6 +101,8 @@ class Skyhook(_Controller):
     command saturates only on the largest peaks. Works with both observation modes.
     """
 
+    needs_velocities = True
+
     def __init__(self, env: Any, c_sky: float = DEFAULT_C_SKY, mode: str = "active") -> None:
         super().__init__(env)
         if not (np.isfinite(c_sky) and c_sky >= 0):
@@ -122,6 +134,8 @@ class Groundhook(_Controller):
     model (class 5) it lowers the RMS bogie acceleration by about 20 % and raises the
     carbody acceleration and the suspension deflection. Works with both observation modes.
     """
+
+    needs_velocities = True
 
     def __init__(self, env: Any, c_gnd: float = DEFAULT_C_GND) -> None:
         super().__init__(env)

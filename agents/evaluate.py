@@ -11,15 +11,17 @@ over the held-out impact envelope beside the crash baselines.
 
 A policy is a controller name (vertical: ``passive``, ``skyhook``, ``semi-active``,
 ``groundhook``, ``lqr``, ``lqg``; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
-``modal-skyhook``, ``lqr``, ``lqg``) or a stable-baselines3 ``.zip``; for a zip, the algorithm
-and the env's observation settings are read from the ``config.yaml`` that :mod:`agents.train`
-writes beside it, the zip must be listed with its SHA-256 in the ``manifest.json`` beside it
-(``--trust``: any zip, with a warning), and only its network weights are read
-(:mod:`agents.policy_io`). Each case (track class, and speed on the vehicle) runs ``episodes``
-episodes in one native vector env, sub-env ``i`` on the track of seed ``seed + i`` — the same
-tracks for every policy. ``--workers N`` / ``--address ADDR`` run the cases of the vertical and
-vehicle evaluations as parallel tasks (:func:`railgym.parallel.run_tasks`); the rows do not
-depend on the number of workers.
+``modal-skyhook``, ``lqr``, ``lqg``) or a stable-baselines3 ``.zip``: of :mod:`agents.train` (its
+``model.zip`` or a checkpoint ``checkpoints/model_N_steps.zip``: the algorithm and the env's
+observation settings from the run's ``config.yaml``), of rl-zoo3 (the run's ``args.yml`` and
+``config.yml``) or any other (the algorithm and network from the zip's JSON ``data``; the env
+from the flags), see :mod:`agents.policy_zip`. The zip must be listed with its SHA-256 in the
+``manifest.json`` beside it (``--trust``: any zip, e.g. rl-zoo3's, with a warning), and only
+its network weights are read (:mod:`agents.policy_io`). Each case (track class, and speed on
+the vehicle) runs ``episodes`` episodes in one native vector env, sub-env ``i`` on the track
+of seed ``seed + i`` — the same tracks for every policy. ``--workers N`` / ``--address ADDR``
+run the cases of the vertical and vehicle evaluations as parallel tasks
+(:func:`railgym.parallel.run_tasks`); the rows do not depend on the number of workers.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ from agents.policies import (
     run_policy,
     run_vehicle_policy,
 )
+from agents.pretrained import PRETRAINED
 from agents.sweeps import evaluate_sweep
 from railgym import _validation as val
 from railgym.progress import bar
@@ -92,13 +95,13 @@ __all__ = [
 def format_rows(rows: list[dict[str, Any]]) -> str:
     """Aligned text table of :func:`agents.sweeps.evaluate_sweep` rows."""
     head = (
-        f"{'class':>5} {'policy':<16} {'RMS ẍ2':>8} {'a_w Wk':>8} {'Δa_w %':>7} "
+        f"{'class':>5} {'policy':<16} {'RMS ẍ2 m/s²':>12} {'a_w Wk m/s²':>12} {'Δa_w %':>7} "
         f"{'Wz':>6} {'max |δ| mm':>10} {'contacts':>8}"
     )
     lines = [head]
     for r in rows:
         lines.append(
-            f"{r['track_class']:>5} {r['policy']:<16} {r['rms_acc']:8.3f} {r['a_w']:8.3f} "
+            f"{r['track_class']:>5} {r['policy']:<16} {r['rms_acc']:12.3f} {r['a_w']:12.3f} "
             f"{r['a_w_reduction_%']:7.1f} {r['wz']:6.2f} {r['max_defl_mm']:10.1f} "
             f"{r['contacts']:8.0f}"
         )
@@ -222,7 +225,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "policy",
         nargs="+",
         help=f"vertical: {', '.join(CONTROLLERS)}; vehicle: {', '.join(VEHICLE_CONTROLLERS)}; "
-        "or a policy .zip",
+        f"a pretrained policy ({', '.join(PRETRAINED)}) or a policy .zip",
     )
     parser.add_argument(
         "--backend",
@@ -298,8 +301,8 @@ def run(args: argparse.Namespace) -> int:
     fmu = {"fmu": args.fmu, "fmu_map": args.fmu_map} if args.backend == "fmu" else {}
     if args.backend != "fmu" and (args.fmu is not None or args.fmu_map is not None):
         raise ValueError("--fmu, --fmu-map: only with --backend fmu")
-    if fmu and args.env != "vertical":
-        raise ValueError(f"--backend fmu: only for --env vertical, not --env {args.env}")
+    if fmu and args.env == "crash":
+        raise ValueError("--backend fmu: only for --env vertical and vehicle, not --env crash")
     if args.env == "crash":
         _only_for(args, {**parallel, "--duration": args.duration is not None}, "vertical, vehicle")
         if args.backend == "linear":
@@ -334,6 +337,7 @@ def run(args: argparse.Namespace) -> int:
             args.trust,
             args.workers,
             args.address,
+            fmu,
         )
         print(
             f"VerticalVehicle-v0, backend: {args.backend}, {args.episodes} episodes per case "

@@ -15,7 +15,9 @@ from pathlib import Path
 
 def add_reference_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``railgym export-reference-fmu``."""
-    parser.add_argument("--env", choices=("vertical",), default="vertical", help="the env")
+    parser.add_argument(
+        "--env", choices=("vertical", "vehicle"), default="vertical", help="the env"
+    )
     parser.add_argument("-o", "--output", type=Path, required=True, help="the .fmu to write")
     parser.add_argument(
         "--kind",

@@ -2,8 +2,9 @@
 
 * the env ids (:data:`ENV_ID`, :data:`VEHICLE_ID`, :data:`CRASH_ID`) and the classical
   controllers of each (:data:`CONTROLLERS`, :data:`VEHICLE_CONTROLLERS`, :data:`CONTROLLERS_OF`);
-* :func:`load_policy` — a controller name, a stable-baselines3 ``.zip`` (manifest checked, only
-  the network weights read: :mod:`agents.policy_io`) or an RLlib checkpoint folder, as a factory
+* :func:`load_policy` — a controller name, a pretrained policy (:mod:`agents.pretrained`), a
+  stable-baselines3 ``.zip`` (:mod:`agents.policy_zip`; manifest checked, only the network
+  weights read: :mod:`agents.policy_io`) or an RLlib checkpoint folder, as a factory
   ``env → object with predict``;
 * :func:`run_policy` / :func:`run_vehicle_policy` — the comfort indices of one policy over
   ``episodes`` episodes in one native vector env (sub-env ``i`` on the track of ``seed + i``),
@@ -35,6 +36,8 @@ from agents.controllers import (
 )
 from agents.lqg import LQG, VehicleLQG
 from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, load_policy_weights
+from agents.policy_zip import find_source, zip_network
+from agents.pretrained import PRETRAINED, pretrained_zip
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
@@ -94,6 +97,8 @@ def load_policy(
     if policy in controllers:
         cls, kwargs, env_kwargs = controllers[policy]
         return (lambda env: cls(env, **kwargs)), env_kwargs, policy
+    if policy in PRETRAINED:  # shipped in the package (agents.pretrained)
+        policy = str(pretrained_zip(policy, env_id))
     path = Path(policy)
     if path.is_dir() and (path / RLLIB_MODULE_PATH).is_dir():
         return _rllib_policy(path, env_id, trust)
@@ -104,19 +109,30 @@ def load_policy(
             f"folder, got {policy!r}"
         )
     require("loading a stable-baselines3 policy", "torch", "stable_baselines3")
-    cfg_path = path.parent / "config.yaml"
-    if not cfg_path.is_file():
-        raise ValueError(f"policy {policy}: no config.yaml beside it to tell the algorithm")
     check_manifest(path, trust)
-    from agents.train_config import ALGOS, hyperparameters, load_config
+    from agents.train_config import ACTIVATIONS, ALGOS, hyperparameters, load_config
 
-    cfg = load_config(cfg_path)
-    if cfg.env_id != env_id:
-        raise ValueError(f"{cfg_path}: the policy was trained on {cfg.env_id}, not {env_id}")
-    hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
-    net_kwargs = dict(hyper.get("policy_kwargs") or {})
-    if "use_sde" in hyper:
-        net_kwargs["use_sde"] = hyper["use_sde"]
+    source = find_source(path)
+    obs_shape = None
+    if source.kind == "agents.train":
+        cfg = load_config(source.config)
+        trained_on, algo, policy_name = cfg.env_id, cfg.algo, cfg.policy
+        hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
+        net_kwargs = dict(hyper.get("policy_kwargs") or {})
+        if "use_sde" in hyper:
+            net_kwargs["use_sde"] = hyper["use_sde"]
+        env_kwargs = cfg.env_kwargs
+    else:  # rl-zoo3 or a bare zip: the network from the zip's data entry
+        algo, policy_name, net_kwargs, obs_shape = zip_network(path)
+        if "activation_fn" in net_kwargs:
+            act = net_kwargs["activation_fn"]
+            if act not in ACTIVATIONS:
+                raise ValueError(f"policy {path}: activation {act!r} is not supported")
+            net_kwargs["activation_fn"] = ACTIVATIONS[act]
+        trained_on, env_kwargs = source.env_id or env_id, source.env_kwargs
+    where = source.config or path
+    if trained_on != env_id:
+        raise ValueError(f"{where}: the policy was trained on {trained_on}, not {env_id}")
     keep = {
         "observation",
         "sensor_noise",
@@ -131,14 +147,23 @@ def load_policy(
         "flexible",
         "vehicle",
     }
-    env_kwargs = {k: v for k, v in cfg.env_kwargs.items() if k in keep}
+    env_kwargs = {k: v for k, v in env_kwargs.items() if k in keep}
 
     probe = gym.make(env_id, **env_kwargs)  # the single env's spaces
+    if obs_shape is not None and obs_shape != probe.observation_space.shape:
+        raise ValueError(
+            f"policy {path}: it takes observations of shape {obs_shape}, the env gives "
+            f"{probe.observation_space.shape} (trained with other env settings: put its "
+            "config.yaml, or rl-zoo3's folder, beside it)"
+        )
     net = load_policy_weights(
-        path, cfg.algo, cfg.policy, net_kwargs, probe.observation_space, probe.action_space
+        path, algo, policy_name, net_kwargs, probe.observation_space, probe.action_space
     )
     probe.close()
-    return (lambda env: net), env_kwargs, path.parent.name
+    run = (source.config.parent if source.kind == "agents.train" else path.parent).name
+    final = path.parent.name == run and path.stem in ("model", env_id.replace("/", "-"))
+    label = run if final else f"{run}/{path.stem}"
+    return (lambda env: net), env_kwargs, label
 
 
 def run_policy(
@@ -243,6 +268,7 @@ def evaluate_vehicle(
     trust: bool = False,
     workers: int = 1,
     address: str | None = None,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """One row per (track class, speed, policy) of :func:`run_vehicle_policy` on
     ``railgym/VerticalVehicle-v0``, plus ``a_w_reduction_%`` (3,) against the passive row
@@ -250,7 +276,8 @@ def evaluate_vehicle(
 
     ``speeds_kmh``: km/h, ``None`` the class's maximum speed; ``duration``: s per episode;
     ``trust``: see :func:`load_policy`; ``workers``, ``address``: see
-    :func:`railgym.parallel.run_tasks` (one task per row, the same rows for any number).
+    :func:`railgym.parallel.run_tasks` (one task per row, the same rows for any number);
+    ``env_kwargs`` are added to every env (e.g. ``fmu``, ``fmu_map``).
     """
     episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
     seed = val.integer(seed, "seed", min=0)
@@ -275,6 +302,7 @@ def evaluate_vehicle(
                 "track_class": tc,
                 "speed": None if v is None else v / 3.6,
                 "duration": duration,
+                **(env_kwargs or {}),
             },
             episodes,
             seed,

@@ -10,7 +10,8 @@ as plain C (``agents/c/policy_element.h`` on the generic FMI element of
 * inside: the env's observation scaling (``obs / obs_scale``, rounded to float32 as the env
   does), the MLP (float32 weights, double sums), SAC's ``tanh`` squashing, the clipping of
   the action space, and ``force = action · f_max``;
-* outputs: the actuator forces in N (``actuator_force``, or ``actuator_force_1 …``).
+* outputs: the actuator forces in N (``actuator_force``; ``actuator_force_front``,
+  ``actuator_force_rear`` for ``VerticalVehicle-v0``).
 
 The ONNX graph computes the same from a ``(batch, n_obs)`` double input ``observation`` to
 a ``(batch, n_act)`` float output ``actuator_force`` (needs the ``onnx`` extra).
@@ -34,7 +35,7 @@ __all__ = ["PolicyNet", "export_policy", "policy_net"]
 
 #: activation module name → code of ``policy_element.h``
 ACTIVATIONS = {"Identity": 0, "Tanh": 1, "ReLU": 2}
-#: SI unit of the observation channels by name
+#: SI unit of the observation channels by name (VerticalVehicle-v0: by prefix, below)
 UNITS = {
     "carbody_acc": "m/s2",
     "bogie_acc": "m/s2",
@@ -143,6 +144,22 @@ def policy_net(net: Any, env: Any) -> PolicyNet:
     )
 
 
+def unit_of(name: str) -> str:
+    """SI unit of an observation channel of the vertical envs (``""`` when not known)."""
+    if name in UNITS:
+        return UNITS[name]
+    for prefix, unit in (
+        ("acc_", "m/s2"),
+        ("bogie_acc_", "m/s2"),
+        ("deflection_rate_", "m/s"),
+        ("deflection_", "m"),
+        ("carbody_vel_", "m/s"),
+    ):
+        if name.startswith(prefix):
+            return unit
+    return ""
+
+
 def _c_floats(a: np.ndarray) -> str:
     return ", ".join(f"{float(x)!r}f" if np.isfinite(x) else "0.0f" for x in a)
 
@@ -186,8 +203,13 @@ def _data_header(p: PolicyNet, guid: str, names: list[str]) -> str:
 
 
 def force_names(n: int) -> list[str]:
-    """Output names: ``actuator_force``, or ``actuator_force_1 … _n``."""
-    return ["actuator_force"] if n == 1 else [f"actuator_force_{k + 1}" for k in range(n)]
+    """Output names: ``actuator_force``; ``actuator_force_front``, ``_rear`` (the whole
+    vehicle's two bogies); else ``actuator_force_1 … _n``."""
+    if n == 1:
+        return ["actuator_force"]
+    if n == 2:
+        return ["actuator_force_front", "actuator_force_rear"]
+    return [f"actuator_force_{k + 1}" for k in range(n)]
 
 
 def write_policy_fmu(p: PolicyNet, path: Path, label: str, compiler: str | None = None) -> Path:
@@ -211,7 +233,7 @@ def write_policy_fmu(p: PolicyNet, path: Path, label: str, compiler: str | None 
     ident = identifier(path, None)
     names = list(p.obs_names)
     inputs = [
-        Variable(n, UNITS.get(n, ""), f"observation channel {n} (SI; the env's obs × {s!r})")
+        Variable(n, unit_of(n), f"observation channel {n} (SI; the env's obs × {s!r})")
         for n, s in zip(names, p.obs_scale, strict=True)
     ]
     outputs = [

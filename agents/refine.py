@@ -3,8 +3,10 @@
 The loop a user runs after training an agent: the reference model is driven by the policy,
 reference samples are added where the element's force error is largest (or its inputs leave
 the training box), the element is refitted, and the held-out error is printed per round
-(:func:`railgym.vehicles.collect.refine`). The refined element is written as model JSON and
-used with ``VerticalSuspensionEnv(surrogate=PATH)``.
+(:func:`railgym.vehicles.collect.refine`; ``--env vehicle``: the whole vehicle, both bogies,
+:func:`railgym.vehicles.refine_vehicle.refine_vehicle`). The refined element is written as
+model JSON and used with ``VerticalSuspensionEnv(surrogate=PATH)`` or
+``VerticalVehicleEnv(surrogate=PATH)``.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ from typing import Any
 import numpy as np
 
 from agents._args import bounded_int, duration_s
-from agents.policies import CONTROLLERS, load_policy
+from agents.policies import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICLE_ID, load_policy
+from railgym.envs.vehicle import VerticalVehicleEnv
 from railgym.envs.vertical import VerticalSuspensionEnv
 from railgym.vehicles.collect import (
     RAW_OBSERVATION,
@@ -24,6 +27,7 @@ from railgym.vehicles.collect import (
     refine,
     save_vertical_surrogate,
 )
+from railgym.vehicles.refine_vehicle import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from surrogates import io
 
 #: env observation channel → entry of the raw observation of ``refine``
@@ -61,9 +65,47 @@ def observation_map(env: VerticalSuspensionEnv) -> Any:
     return observe
 
 
+def vehicle_observation_map(env: VerticalVehicleEnv) -> Any:
+    """``raw (27,) → VerticalVehicle-v0 observation`` (float32, normalised like the env, no
+    sensor noise); ``raw`` is :data:`~railgym.vehicles.refine_vehicle.RAW_VEHICLE_OBSERVATION`."""
+    index = {name: i for i, name in enumerate(RAW_VEHICLE_OBSERVATION)}
+    inv = 1.0 / np.asarray(env.obs_scale, dtype=np.float64)
+    names = list(env.obs_names)
+    p = env.vehicle_params
+
+    def observe(raw: np.ndarray) -> np.ndarray:
+        values = []
+        for name in names:
+            if name in index:
+                values.append(raw[index[name]])
+                continue
+            quantity, side = name.rsplit("_", 1)
+            b = 0 if side == "front" else 1
+            xb = p.a if b == 0 else -p.a
+            body = raw[0] + xb * raw[1] + p.phi_a * raw[2]
+            body_v = raw[7] + xb * raw[8] + p.phi_a * raw[9]
+            values.append(
+                {
+                    "deflection": raw[3 + 2 * b] - body,
+                    "deflection_rate": raw[10 + 2 * b] - body_v,
+                    "carbody_vel": body_v,
+                }[quantity]
+            )
+        return (np.asarray(values) * inv).astype(np.float32)
+
+    return observe
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``railgym refine``."""
-    parser.add_argument("policy", help=f"{', '.join(CONTROLLERS)} or a policy .zip")
+    names = sorted(set(CONTROLLERS) | set(VEHICLE_CONTROLLERS))
+    parser.add_argument("policy", help=f"{', '.join(names)} or a policy .zip")
+    parser.add_argument(
+        "--env",
+        choices=("vertical", "vehicle"),
+        default="vertical",
+        help="VerticalSuspension-v0 (one bogie) or VerticalVehicle-v0 (both bogies)",
+    )
     parser.add_argument("--model", type=Path, help="element JSON (default: the packaged one)")
     parser.add_argument("--rounds", type=bounded_int(0, 50), default=3, help="rounds K")
     parser.add_argument("--track-class", type=bounded_int(1, 6), default=5, help="FRA class")
@@ -86,11 +128,24 @@ def run(args: argparse.Namespace) -> int:
     """``railgym refine``: print the error per round, write ``--out`` if given."""
     if args.out is not None and args.out.exists() and not args.overwrite:
         raise ValueError(f"--out {args.out}: exists; pass --overwrite to replace it")
+    if args.out is not None and not args.out.parent.is_dir():  # before the rounds of work
+        raise ValueError(f"--out {args.out}: the folder {str(args.out.parent)!r} does not exist")
     model = default_vertical_surrogate() if args.model is None else io.load(args.model)
-    factory, env_kwargs, label = load_policy(args.policy, trust=args.trust)
-    env = VerticalSuspensionEnv(backend="reference", **env_kwargs)
-    print(f"refining the element for policy {label} on FRA class {args.track_class}")
-    refined, _ = refine(
+    vehicle = getattr(args, "env", "vertical") == "vehicle"
+    if vehicle:
+        if args.fmu_map is not None or args.fmu is not None:
+            raise ValueError("--fmu-map/--fmu: an FMU reference is one bogie; use --env vertical")
+        factory, env_kwargs, label = load_policy(args.policy, VEHICLE_ID, trust=args.trust)
+        env: Any = VerticalVehicleEnv(backend="reference", **env_kwargs)
+        loop, observe, extra = refine_vehicle, vehicle_observation_map(env), {}
+    else:
+        factory, env_kwargs, label = load_policy(args.policy, trust=args.trust)
+        env = VerticalSuspensionEnv(backend="reference", **env_kwargs)
+        loop, observe = refine, observation_map(env)
+        extra = {"fmu_map": args.fmu_map, "fmu": args.fmu}
+    where = "the whole vehicle" if vehicle else "one bogie"
+    print(f"refining the element for policy {label} on FRA class {args.track_class} ({where})")
+    refined, _ = loop(
         model,
         factory(env),
         rounds=args.rounds,
@@ -100,10 +155,9 @@ def run(args: argparse.Namespace) -> int:
         n_add=args.add,
         control_dt=env.cfg.control_dt,
         f_max=env.cfg.f_max,
-        observe=observation_map(env),
+        observe=observe,
         seed=args.seed,
-        fmu_map=args.fmu_map,
-        fmu=args.fmu,
+        **extra,
     )
     if args.out is not None:
         source = f"railgym refine {args.policy}: {args.rounds} rounds on class {args.track_class}"

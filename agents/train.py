@@ -3,10 +3,13 @@
 Usage::
 
     python -m agents.train CONFIG [--out DIR] [--overwrite] [--timesteps N] [--seed S]
-                           [--no-progress] [--debug]
+                           [--algo ALGO] [--no-progress] [--debug]
 
 ``CONFIG`` is a ``.yaml`` / ``.yml`` file or the name of a packaged config
 (``ppo_vertical``, ``sac_vertical``, ``ppo_crash``; :func:`railgym._validation.resolve_yaml`).
+An rl-zoo3 hyperparameter file is read as well, with its algorithm given by ``--algo`` as to
+rl-zoo3 (``python -m agents.train railgym/configs/agents/rlzoo_vertical.yml --algo ppo``):
+one file serves both.
 
 The full training run of the vertical suspension agent (a documented command, not a CI test):
 PPO, 4·10⁶ steps on the surrogate backend, evaluated every 10⁵ steps on the reference model
@@ -23,7 +26,8 @@ Config file: one top-level key, the Gymnasium env id; the fields and their limit
 Output folder (``--out``; default ``runs/<config-stem>/`` in the working directory; an existing
 non-empty folder only with ``--overwrite``): ``model.zip`` (the final policy),
 ``best_model.zip`` (best evaluation reward), ``manifest.json`` (the SHA-256 of both zips, checked
-by ``railgym evaluate``, which reads only their weights), ``checkpoints/``, ``progress.csv``
+by ``railgym evaluate``, which reads only their weights), ``checkpoints/`` (with its own
+``manifest.json``: ``railgym evaluate`` takes a checkpoint as a final model), ``progress.csv``
 (stable-baselines3's training log), ``eval.csv`` (per evaluation: mean/std episode reward,
 episode length and the mean of every numeric ``info`` entry at episode end, e.g.
 ``mean_rms_carbody_acc`` in m/s²) and ``config.yaml`` (the resolved config with its seeds,
@@ -72,6 +76,7 @@ from agents.run_files import versions, write_config
 from agents.train_config import (
     ALGOS,
     MAX_SEED,
+    MAX_TIMESTEPS,
     RUN_KEY,
     VECTORIZATION_MODES,
     hyperparameters,
@@ -284,7 +289,8 @@ class _ProgressBar(BaseCallback):
 
     def _on_training_start(self) -> None:
         total = self.locals["total_timesteps"] - self.model.num_timesteps
-        self.bar = tqdm(total=total, unit="step", dynamic_ncols=True)
+        # on stderr, off when it is not a terminal (and with --no-progress)
+        self.bar = tqdm(total=total, unit="step", dynamic_ncols=True, disable=None)
 
     def _on_step(self) -> bool:
         self.bar.update(self.training_env.num_envs)
@@ -357,21 +363,23 @@ def train(
     progress: bool = True,
     seed: int | None = None,
     overwrite: bool = False,
+    algo: str | None = None,
 ) -> Path:
     """Train the config's algorithm on its env; returns the output folder.
 
     ``out`` defaults to ``runs/<config stem>/`` in the working directory (required for a dict
     config); an existing non-empty ``out`` needs ``overwrite``. ``total_timesteps`` and
-    ``seed`` override the config's ``n_timesteps`` and ``seed``. Everything is checked before
-    training starts.
+    ``seed`` override the config's ``n_timesteps`` and ``seed``; ``algo`` is the algorithm of
+    an rl-zoo3 hyperparameter file (which has none). Everything is checked before training
+    starts.
     """
-    cfg = load_config(config)
+    cfg = load_config(config, algo)
     if out is None:
         if isinstance(config, dict):
             raise ValueError("out is required when the config is given as a dict")
         out = Path("runs") / Path(config).stem
     if total_timesteps is not None:
-        cfg.n_timesteps = val.integer(total_timesteps, "total_timesteps", min=1)
+        cfg.n_timesteps = val.integer(total_timesteps, "total_timesteps", 1, MAX_TIMESTEPS)
     if seed is not None:
         cfg.seed = val.integer(seed, "seed", min=0, max=MAX_SEED)
     torch.set_num_threads(cfg.n_threads)
@@ -413,6 +421,8 @@ def train(
     with atomic_path(out / "model.zip") as tmp:
         model.save(tmp)
     write_manifest(out)
+    if (out / "checkpoints").is_dir():
+        write_manifest(out / "checkpoints")
     env.close()
     eval_venv.close()
     run.update(
@@ -442,15 +452,31 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--overwrite", action="store_true", help="write into an existing non-empty --out folder"
     )
     parser.add_argument(
-        "--timesteps", type=bounded_int(1), default=None, help="override n_timesteps"
+        "--timesteps",
+        type=bounded_int(1, MAX_TIMESTEPS),
+        default=None,
+        help="override n_timesteps",
     )
     parser.add_argument("--seed", type=bounded_int(0, MAX_SEED), default=None, help="override seed")
+    parser.add_argument(
+        "--algo",
+        choices=sorted(ALGOS),
+        default=None,
+        help="algorithm of an rl-zoo3 hyperparameter file (rl-zoo3's --algo; the agents.train "
+        "format names it in the file)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     args = parser.parse_args(argv)
     try:
         out = train(
-            args.config, args.out, args.timesteps, not args.no_progress, args.seed, args.overwrite
+            args.config,
+            args.out,
+            args.timesteps,
+            not args.no_progress,
+            args.seed,
+            args.overwrite,
+            args.algo,
         )
     except (ValueError, OSError) as err:
         if args.debug:

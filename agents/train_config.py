@@ -72,10 +72,22 @@ EVAL_SEED = 999_999
 RUN_KEY = "run"
 #: most sub-envs of the training or the evaluation vector env
 MAX_ENVS = 1024
+#: keys of rl-zoo3's hyperparameter files that agents.train does not implement
+RLZOO_ONLY = (
+    "normalize",
+    "normalize_kwargs",
+    "frame_stack",
+    "env_wrapper",
+    "vec_env_wrapper",
+    "callback",
+)
 #: most torch CPU threads
 MAX_THREADS = 256
 #: largest seed (numpy and torch accept 32-bit seeds everywhere)
 MAX_SEED = 2**32 - 1
+#: most environment steps of one run (and most steps between evaluations or checkpoints):
+#: days of training at the envs' speeds; a larger count is a typo, not a plan
+MAX_TIMESTEPS = 10**9
 
 
 @dataclass
@@ -194,6 +206,19 @@ def hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[st
     allowed = set(inspect.signature(algo.__init__).parameters) - {"self", "policy", "env"}
     out: dict[str, Any] = {}
     for key, value in hyper.items():
+        if key in RLZOO_ONLY:
+            raise val.FieldError(
+                key,
+                f"rl-zoo3's {key!r} is not supported by agents.train (train this file with "
+                "python -m rl_zoo3.train)",
+                full=True,
+            )
+        if key == "policy_kwargs" and isinstance(value, str):
+            raise val.FieldError(
+                key,
+                "is a Python expression (rl-zoo3's string form), which is never evaluated: "
+                "write it as a mapping (net_arch: [64, 64], activation_fn: tanh)",
+            )
         if key not in allowed:
             raise val.FieldError(
                 key,
@@ -228,11 +253,14 @@ def hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[st
     return out
 
 
-def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
+def load_config(config: str | Path | dict[str, Any], algo: str | None = None) -> TrainConfig:
     """Read and validate a config: path of a ``.yaml`` / ``.yml`` file, the name of a packaged
     config (``ppo_vertical``, see ``railgym/configs/agents/``) or the content as a dict.
 
-    A missing ``seed`` is drawn from the OS entropy, so that it can be recorded.
+    rl-zoo3's hyperparameter files are read too: they have no ``algo`` (rl-zoo3 takes it
+    from ``--algo``), which ``algo`` then gives; their evaluation and checkpoint settings take
+    the defaults here. A missing ``seed`` is drawn from the OS entropy, so that it can be
+    recorded.
     """
     if isinstance(config, str | Path):
         text, source = val.resolve_yaml(config, "config", "railgym", ("configs", "agents"))
@@ -264,7 +292,11 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
             "trainer", "is 'rllib': train this file with python -m agents.train_rllib"
         )
     f = val.Fields(block, "")
-    algo = val.choice(f.get("algo", None), "algo", sorted(ALGOS))
+    if algo is not None:
+        algo = val.choice(algo, "--algo", sorted(ALGOS))
+        if block.get("algo", algo) != algo:
+            raise val.FieldError("algo", f"is {block['algo']!r} in the file but --algo is {algo!r}")
+    algo = val.choice(f.get("algo", algo), "algo", sorted(ALGOS))
     policy = f.get("policy", "MlpPolicy")
     if not isinstance(policy, str) or not policy:
         raise val.FieldTypeError("policy", f"must be a policy name, got {policy!r}")
@@ -296,14 +328,14 @@ def load_config(config: str | Path | dict[str, Any]) -> TrainConfig:
         algo=algo,
         policy=policy,
         seed=val.integer(seed, "seed", min=0, max=MAX_SEED),
-        n_timesteps=count("n_timesteps", None),
+        n_timesteps=count("n_timesteps", None, hi=MAX_TIMESTEPS),
         n_envs=count("n_envs", 1, hi=MAX_ENVS),
         env_kwargs=_kwargs(f.get("env_kwargs", None), "env_kwargs"),
         eval_env_kwargs=_kwargs(f.get("eval_env_kwargs", None), "eval_env_kwargs"),
-        eval_freq=count("eval_freq", 10_000),
+        eval_freq=count("eval_freq", 10_000, hi=MAX_TIMESTEPS),
         n_eval_episodes=count("n_eval_episodes", 4, hi=MAX_ENVS),
         eval_seed=count("eval_seed", EVAL_SEED, lo=0, hi=MAX_SEED),
-        checkpoint_freq=count("checkpoint_freq", 50_000),
+        checkpoint_freq=count("checkpoint_freq", 50_000, hi=MAX_TIMESTEPS),
         n_threads=count("n_threads", 1, hi=MAX_THREADS),
         vectorization_mode=mode,
         eval_echo=_names(f.get("eval_echo", None), "eval_echo"),

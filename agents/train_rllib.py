@@ -67,6 +67,9 @@ from agents.policy_io import RLLIB_MODULE_PATH, sha256
 from railgym import _validation as val
 from railgym.report.output import prepare_output_dir, write_text_atomic
 
+#: most training iterations of one run (each thousands of env steps: weeks of training)
+MAX_ITERATIONS = 10**6
+
 try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' extra
     import ray
     import torch
@@ -159,7 +162,7 @@ def load_rllib_config(config: str | Path | dict[str, Any]) -> RLlibConfig:
     model = _kwargs(f.get("model", None), f.field("model"))
     return RLlibConfig(
         env_id=env_id,
-        iterations=f.integer("iterations", min=1),
+        iterations=f.integer("iterations", min=1, max=MAX_ITERATIONS),
         seed=val.integer(seed, f.field("seed"), min=0, max=MAX_SEED),
         algo=algo,
         num_env_runners=val.integer(f.get("num_env_runners", 2), f.field("num_env_runners"), 0),
@@ -308,7 +311,7 @@ def train_rllib(
             raise ValueError("out is required when the config is given as a dict")
         out = Path("runs") / Path(config).stem
     if iterations is not None:
-        cfg.iterations = val.integer(iterations, "iterations", min=1)
+        cfg.iterations = val.integer(iterations, "iterations", 1, MAX_ITERATIONS)
     if seed is not None:
         cfg.seed = val.integer(seed, "seed", min=0, max=MAX_SEED)
     out = prepare_output_dir(out, overwrite)
@@ -356,8 +359,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("config", type=Path, help="YAML file with trainer: rllib")
     parser.add_argument("--out", type=Path, default=None, help="output folder")
     parser.add_argument("--overwrite", action="store_true", help="write into a non-empty --out")
-    parser.add_argument("--iterations", type=bounded_int(1), default=None, help="override")
-    parser.add_argument("--seed", type=bounded_int(0), default=None, help="override seed")
+    parser.add_argument(
+        "--iterations", type=bounded_int(1, MAX_ITERATIONS), default=None, help="override"
+    )
+    parser.add_argument("--seed", type=bounded_int(0, MAX_SEED), default=None, help="override seed")
     parser.add_argument("--address", default=None, help="Ray cluster to join (HOST:PORT)")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     args = parser.parse_args(argv)

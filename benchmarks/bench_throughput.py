@@ -4,8 +4,8 @@ For each env at 1024 sub-envs: env-steps/s with ``numba.set_num_threads(1)`` and
 default thread count, and GFLOP/s from an estimated flop count per env-step:
 
 * ``VerticalSuspension-v0``: 10 RK4 substeps, 4 right-hand sides each with the packaged
-  memory element: additive Legendre sums of degrees (14, 14, 9), 6 flop per recurrence step,
-  plus ~60 flop of dynamics, bump stops and stage updates (:func:`vertical_flop`, ~11 kflop;
+  memory element: additive Legendre sums of degrees (14, 14, 20), 6 flop per recurrence step,
+  plus ~60 flop of dynamics, bump stops and stage updates (:func:`vertical_flop`, ~13 kflop;
   issue 13 estimated ~2 kflop for a degree-(10,10) element).
 * ``VerticalVehicle-v0``: 5 RK4 substeps, 4 right-hand sides each with two degree-(10,10) LPR
   elements (~2 × 121 × 2 multiply-adds) and the 14-state rigid/flexible dynamics (~150

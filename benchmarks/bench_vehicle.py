@@ -67,18 +67,23 @@ def run() -> list[dict]:
     )
     r_v0 = _vector_rate(v0, np.zeros((n, 1), np.float32), 30)
     del v0
-    venv = gym.make_vec(
-        "railgym/VerticalVehicle-v0", num_envs=n, vectorization_mode="vector_entry_point"
-    )
-    r = _vector_rate(venv, np.zeros((n, 2), np.float32), 30)
-    del venv
-    venv = gym.make_vec(
-        "railgym/VerticalVehicle-v0",
-        num_envs=n,
-        vectorization_mode="vector_entry_point",
-        surrogate=default_vertical_surrogate("static"),
-    )
-    r_static = _vector_rate(venv, np.zeros((n, 2), np.float32), 30)
+    zero2 = np.zeros((n, 2), np.float32)
+    venvs = {
+        form: gym.make_vec(
+            "railgym/VerticalVehicle-v0",
+            num_envs=n,
+            vectorization_mode="vector_entry_point",
+            surrogate=default_vertical_surrogate(form),
+        )
+        for form in ("maxwell", "static")
+    }
+    rates: dict[str, list[float]] = {form: [] for form in venvs}
+    for _ in range(ROUNDS):  # interleaved: the machine's load changes between rounds
+        for form, venv in venvs.items():
+            rates[form].append(_vector_rate(venv, zero2, 10))
+    r, r_static = (float(np.median(rates[f])) for f in ("maxwell", "static"))
+    ratio = float(np.median(np.array(rates["maxwell"]) / np.array(rates["static"])))
+    del venvs
     rows += [
         row(
             f"VerticalSuspension vector ({n}) (anchor)",
@@ -86,10 +91,21 @@ def run() -> list[dict]:
             "M steps/s",
             context="surrogate, same run",
         ),
-        row(f"VerticalVehicle vector ({n}, surrogate)", r / 1e6, "M steps/s", context="memory"),
+        row(
+            f"VerticalVehicle vector ({n}, surrogate)",
+            r / 1e6,
+            "M steps/s",
+            context="memory, default",
+        ),
         row("  share of VerticalSuspension's", r / r_v0, "×", "≥ 1/3"),
         row(f"VerticalVehicle vector ({n}, static element)", r_static / 1e6, "M steps/s"),
-        row("  memory element / static element", r / r_static, "×", "≥ 0.85"),
+        row(
+            "  memory element / static element",
+            ratio,
+            "×",
+            "≥ 0.85",
+            f"median of {ROUNDS} interleaved rounds",
+        ),
     ]
     return rows
 

@@ -5,15 +5,30 @@ from __future__ import annotations
 from gymnasium.envs.registration import register, registry
 
 ENVS = {
+    # v0: the memory element of railgym 0.2; v1: the envelope-fitted one (docs: Version history)
     "railgym/VerticalSuspension-v0": (
+        "railgym.envs.vertical:VerticalSuspensionEnvV0",
+        "railgym.envs.vertical:VerticalSuspensionVectorEnvV0",
+    ),
+    "railgym/VerticalSuspension-v1": (
         "railgym.envs.vertical:VerticalSuspensionEnv",
         "railgym.envs.vertical:VerticalSuspensionVectorEnv",
     ),
+    # v0: the static packaged element by default; v1: the memory element (docs: Version history)
     "railgym/VerticalVehicle-v0": (
+        "railgym.envs.vehicle:VerticalVehicleEnvV0",
+        "railgym.envs.vehicle:VerticalVehicleVectorEnvV0",
+    ),
+    "railgym/VerticalVehicle-v1": (
         "railgym.envs.vehicle:VerticalVehicleEnv",
         "railgym.envs.vehicle:VerticalVehicleVectorEnv",
     ),
+    # v0: one mass per car, global LPR elements; v1: elastic cars, piecewise elements
     "railgym/TrainCrash-v0": (
+        "railgym.envs.crash:TrainCrashEnvV0",
+        "railgym.envs.crash:TrainCrashVectorEnvV0",
+    ),
+    "railgym/TrainCrash-v1": (
         "railgym.envs.crash:TrainCrashEnv",
         "railgym.envs.crash:TrainCrashVectorEnv",
     ),

@@ -24,6 +24,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 
 from railgym import _validation as val
+from surrogates.models.validation import check_seed
 
 __all__ = [
     "TrackClassParameters",
@@ -326,7 +327,7 @@ def fra_profile_with_slope(
     if not dx <= length:
         raise ValueError(f"length must be at least dx, got {length}")
     n = math.floor(length / dx + 1e-9) + 1
-    z, dzdx = _synthesise(p, kind, (lo, hi), dx, n, np.random.default_rng(seed))
+    z, dzdx = _synthesise(p, kind, (lo, hi), dx, n, np.random.default_rng(check_seed(seed)))
     return np.arange(n) * dx, z[:n].copy(), dzdx[:n].copy()
 
 
@@ -393,7 +394,9 @@ def track_time_input(
     sub = math.floor(2.0 * step / lo) + 1  # internal samples per time step, keeps dx < lo/2
     dx = step / sub
     n_needed = n_steps * sub + 1 + math.ceil(shift / dx)
-    z, dzdx = _synthesise(p, kind, (lo, hi), dx, n_needed, np.random.default_rng(seed), shift)
+    z, dzdx = _synthesise(
+        p, kind, (lo, hi), dx, n_needed, np.random.default_rng(check_seed(seed)), shift
+    )
     last = n_steps * sub + 1
     t = np.arange(n_steps + 1) * dt
     return TrackInput(t, z[:last:sub].copy(), speed * dzdx[:last:sub])

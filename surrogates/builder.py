@@ -79,14 +79,19 @@ class BuildReport:
             "domain": {"lower": self.domain[0], "upper": self.domain[1]},
         }
 
-    def format(self) -> str:
-        """Human-readable summary followed by the score table."""
-        err = "eq. 8 relative" if self.oob_error_kind == "relative" else "eq. 9 absolute"
+    def format(self, unit: str | None = None) -> str:
+        """Human-readable summary followed by the score table; ``unit`` is the output's unit
+        (e.g. ``"N"``) of the absolute OOB error (``None``: "output units")."""
+        if self.oob_error_kind == "relative":
+            err, what = "eq. 8 relative", "(dimensionless)"
+        else:
+            err, what = "eq. 9 absolute", unit or "(output units)"
         head = [
             f"model: {self.kind}   chosen: {candidate_label(self.chosen)}   "
             f"samples: {self.m} of {self.n} ({self.sampling})   selection: {self.selection}",
             f"T_t = {self.training_time_s:.4f} s (final fit {self.fit_time_s * 1e3:.3f} ms)",
-            f"OOB error ({err}) = {self.oob_error:.4g}   OOB relative RMS = {self.oob_nrms:.3g}",
+            f"OOB error ({err}) = {self.oob_error:.4g} {what}   "
+            f"OOB relative RMS = {self.oob_nrms:.3g} (dimensionless)",
         ]
         return "\n".join(head) + "\n" + self.scores.format()
 

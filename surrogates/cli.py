@@ -177,7 +177,7 @@ def _build(args: argparse.Namespace) -> int:
         units=units,
         metadata={"source": str(args.data), "report": report.to_dict()},
     )
-    print(report.format())
+    print(report.format(units.get(args.output)))
     print(f"model written to {args.model}")
     return 0
 

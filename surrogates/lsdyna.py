@@ -5,8 +5,10 @@ every value is converted to SI once, on reading (:data:`UNIT_SYSTEMS`: ``"m-s-kg
 ``"mm-s-t-N"``, ``"mm-ms-kg-kN"``, ``"mm-ms-g-N"``; an unknown name is a ``ValueError``).
 Files are streamed line by line, so memory grows with the values kept, not with the file.
 
-Layouts implemented (columns are 0-based character offsets, ``[a:b)``; fields are parsed by
-offset, never by ``split()``, because wide numbers run together):
+Layouts implemented (columns are 0-based character offsets, ``[a:b)``; ``nodout`` and
+``glstat`` fields are parsed by offset, never by ``split()``, because wide numbers run
+together; ``rcforc`` by its labels). Bytes that are not UTF-8 (a title written in another
+encoding) read as U+FFFD; only numbers are parsed.
 
 Common header
     title line, ``ls-dyna …`` version line, then optionally a legend block::
@@ -37,9 +39,10 @@ Common header
 
           master          1 time 1.00000E-03  x  1.00000E+00  y  0.00000E+00  z  0.0000E+00 …
 
-    side ``[0:8)`` (``master``/``slave``), contact id ``[8:19)``, the word ``time``
-    ``[19:24)``, time ``[24:36)``, ``x_force`` ``[40:52)``, ``y_force`` ``[56:68)``,
-    ``z_force`` ``[72:84)``; the mass ``[90:102)`` and anything after it are ignored. Other
+    parsed by its labels, not by columns, so that the widths of every LS-DYNA version read:
+    the side (``master``/``slave``) and the contact id, then a value after each of the labels
+    ``time``, ``x``, ``y``, ``z`` (``x_force``, ``y_force``, ``z_force``); ``mass`` and the
+    moments ``mx``, ``my``, ``mz`` that some versions add are optional and ignored. Other
     lines (title, legend, blank) are skipped.
 ``glstat``
     one block per output time, each starting with `` dt of cycle …``, then one line per
@@ -73,6 +76,7 @@ import re
 import warnings
 from array import array
 from collections.abc import Iterable, Iterator, Mapping, Sequence
+from numbers import Integral
 from pathlib import Path
 from typing import IO, NamedTuple, TextIO
 
@@ -120,13 +124,14 @@ NODOUT_FIELDS = tuple(
 NODE_ID_WIDTH = 10
 FIELD_WIDTH = 12
 RCFORC_FIELDS = ("x_force", "y_force", "z_force")
-_RCFORC_SLICES = {
-    "id": (8, 19),
-    "time": (24, 36),
-    "x_force": (40, 52),
-    "y_force": (56, 68),
-    "z_force": (72, 84),
-}
+#: largest magnitude of a value read: beyond it the conversion to SI (× up to 1e3) could
+#: overflow, and no LS-DYNA output holds such a number
+MAX_VALUE = 1e300
+#: an rcforc data line starts with the side and the contact id, then the label ``time``
+_RCFORC_HEAD = re.compile(r"\s*(master|slave)\s+(\d+)\s*(?=time)")
+#: the labels that precede the values of an rcforc line (moments only in some versions)
+_RCFORC_LABEL = re.compile(r"(?<![A-Za-z])(time|mass|mx|my|mz|x|y|z)(?![A-Za-z])")
+_RCFORC_REQUIRED = ("time", "x", "y", "z")
 GLSTAT_LABELS = {
     "time": "time",
     "time step": "time_step",
@@ -173,7 +178,28 @@ def _number(text: str, where: str) -> float:
         value = float(f"{m.group(1)}E{m.group(2)}")
     if not math.isfinite(value):
         raise ValueError(f"{where}: value is {value}")
+    if abs(value) > MAX_VALUE:
+        raise ValueError(f"{where}: {value} is beyond ±{MAX_VALUE:g} (no output value is)")
     return value
+
+
+def _open(path: Path) -> TextIO:
+    """The ASCII file as text; bytes that are not UTF-8 (a title in another encoding) read as
+    U+FFFD, so only the numbers, never a title, can make a line fail."""
+    return path.open(encoding="utf-8", errors="replace")
+
+
+def _node_ids(nodes: Iterable[int] | None) -> list[int] | None:
+    """``nodes`` as a list of ids; a string or non-integer ids are a ``ValueError``."""
+    if nodes is None:
+        return None
+    if isinstance(nodes, str | bytes) or not isinstance(nodes, Iterable):
+        raise ValueError(f"nodes must be a list of node ids (integers), got {nodes!r}")
+    ids = list(nodes)
+    bad = [n for n in ids if isinstance(n, bool | np.bool_) or not isinstance(n, Integral)]
+    if bad:
+        raise ValueError(f"nodes must be node ids (integers), got {bad[0]!r} in {nodes!r}")
+    return [int(n) for n in ids]
 
 
 def _lines(fh: TextIO) -> Iterator[tuple[int, str]]:
@@ -185,7 +211,7 @@ def read_legend(path: str | Path) -> dict[int, str]:
     """Entity id → title of the ``{BEGIN LEGEND}`` block of any ASCII file (empty if none)."""
     path = Path(path)
     out: dict[int, str] = {}
-    with path.open() as fh:
+    with _open(path) as fh:
         inside = False
         for lineno, line in _lines(fh):
             if line.strip() == "{BEGIN LEGEND}":
@@ -193,8 +219,15 @@ def read_legend(path: str | Path) -> dict[int, str]:
             elif line.strip() == "{END LEGEND}":
                 return out
             elif inside and line.strip() and not line.lstrip().startswith("Entity"):
-                where = f"{path}: line {lineno}: legend entity id (columns 1-14)"
-                out[int(_number(line[:14], where))] = line[14:].strip()
+                try:
+                    entity = _number(line[:14], "")
+                except ValueError:
+                    raise ValueError(
+                        f"{path}: line {lineno}: {line.strip()[:40]!r} is not a legend entry "
+                        "(entity id in columns 1-14): the legend block has no {END LEGEND} "
+                        "line before it"
+                    ) from None
+                out[int(entity)] = line[14:].strip()
             elif not inside and (line.startswith(NODOUT_HEADER) or "time" in line[19:24]):
                 break
     if inside:
@@ -290,12 +323,13 @@ def read_nodout(
     """
     us = unit_system(units)
     path = Path(path)
-    wanted = None if nodes is None else {int(n) for n in nodes}
+    ids = _node_ids(nodes)
+    wanted = None if ids is None else set(ids)
     times = array("d")
     order: list[int] | None = None
     data: dict[int, list[array]] = {}
     pending: _NodoutBlock | None = None
-    with path.open() as fh:
+    with _open(path) as fh:
         for block in _nodout_blocks(path, fh, wanted):
             if block.rotational:
                 continue
@@ -362,23 +396,25 @@ def read_rcforc(path: str | Path, units: str = "m-s-kg-N") -> dict[tuple[str, in
     series: dict[tuple[str, int], list[array]] = {}
     first_line: dict[tuple[str, int], int] = {}
     short: int | None = None
-    with path.open() as fh:
+    with _open(path) as fh:
         for lineno, line in _lines(fh):
-            side = line[:8].strip()
-            if side not in ("master", "slave") or line[19:24].strip() != "time":
+            m = _RCFORC_HEAD.match(line)
+            if m is None:
                 continue
             if short is not None:
                 raise ValueError(f"{path}: line {short}: line too short for the rcforc layout")
-            if len(line) < _RCFORC_SLICES["z_force"][1]:
+            where = f"{path}: line {lineno}"
+            parts = _RCFORC_LABEL.split(line[m.end() :])
+            fields = dict(zip(parts[1::2], (p.strip() for p in parts[2::2]), strict=True))
+            if any(not fields.get(label) for label in _RCFORC_REQUIRED):
                 short = lineno
                 continue
-            where = f"{path}: line {lineno}"
-            a, b = _RCFORC_SLICES["id"]
-            key = (side, int(_number(line[a:b], f"{where}: contact id (columns {a + 1}-{b})")))
-            vals = []
-            for name in ("time", *RCFORC_FIELDS):
-                a, b = _RCFORC_SLICES[name]
-                vals.append(_number(line[a:b], f"{where}: field {name!r} (columns {a + 1}-{b})"))
+            side = m.group(1)
+            key = (side, int(_number(m.group(2), f"{where}: contact id")))
+            vals = [
+                _number(fields[label], f"{where}: field {name!r} (after the label {label!r})")
+                for label, name in zip(_RCFORC_REQUIRED, ("time", *RCFORC_FIELDS), strict=True)
+            ]
             cols = series.setdefault(key, [array("d") for _ in range(4)])
             first_line.setdefault(key, lineno)
             _check_time(path, lineno, vals[0], cols[0][-1] if cols[0] else None, f"{key}")
@@ -434,7 +470,7 @@ def read_glstat(path: str | Path, units: str = "m-s-kg-N") -> TimeHistory:
     names: list[str] | None = None
     cols: dict[str, array] = {}
     pending: int | None = None
-    with path.open() as fh:
+    with _open(path) as fh:
         for lineno, block in _glstat_blocks(path, fh):
             if pending is not None:
                 raise ValueError(f"{path}: line {pending}: block is incomplete but more follow")
@@ -581,7 +617,8 @@ def read_binout(
     if "nodout" in branches:
         ids = np.atleast_1d(np.asarray(b.read("nodout", "ids"), dtype=np.int64))
         t = np.asarray(b.read("nodout", "time"), dtype=float) * us.time
-        wanted = ids if nodes is None else np.array([int(n) for n in nodes])
+        chosen = _node_ids(nodes)
+        wanted = ids if chosen is None else np.array(chosen, dtype=np.int64)
         missing = sorted(set(wanted.tolist()) - set(ids.tolist()))
         if missing:
             raise ValueError(f"{path}: node(s) {missing} not in the binout's nodout")

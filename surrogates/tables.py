@@ -5,7 +5,7 @@ whitespace-separated, with a header row of column names and, optionally, a row o
 units inside the names (``x1 [mm]``, ``x1 (mm)``, ``x1/mm``…: the last bracket pair is taken),
 or per-column units given by the caller. Lines before ``header_row`` (an export preamble),
 blank lines and lines starting with ``comment`` are skipped. Values are converted to SI once
-with :data:`UNITS` (an unknown unit is an error naming the column); the file is streamed.
+with :data:`UNITS` (an unknown unit is an error naming the column), row by row.
 
 Errors name the file, line and column: missing columns, non-numeric or non-finite cells, a
 row with another number of fields than the header, a time that does not increase, an empty
@@ -20,6 +20,7 @@ Recipe, multibody export → vertical element (see ``docs/data.md``)::
 
 from __future__ import annotations
 
+import io as _io
 import re
 import warnings
 from array import array
@@ -63,6 +64,17 @@ UNITS: dict[str, tuple[float, str]] = {
 }
 DELIMITERS = {",": ",", ";": ";", "tab": "\t", "whitespace": None}
 _NAME_UNIT = re.compile(r"^(.*?)\s*[\[(]([^\[\]()]*)[\])]\s*$")
+
+
+def _text(path: Path) -> str:
+    """The file's text (UTF-8, a byte-order mark skipped); not UTF-8: ValueError naming the
+    file and line."""
+    raw = path.read_bytes()
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ValueError(f"{path}: line {line}: not UTF-8 text ({exc.reason})") from None
 
 
 def _split(line: str, sep: str | None) -> list[str]:
@@ -116,7 +128,7 @@ def read_table(
         raise ValueError(f"delimiter must be one of {list(DELIMITERS)} or None, got {delimiter!r}")
     if unit_row is not None and unit_row <= header_row:
         raise ValueError(f"unit_row ({unit_row}) must come after header_row ({header_row})")
-    with path.open() as fh:
+    with _io.StringIO(_text(path)) as fh:
         names: list[str] | None = None
         sep: str | None = None
         file_units: dict[str, str] = {}
@@ -143,6 +155,9 @@ def read_table(
                     names.append(name)
                 if not any(names):
                     raise ValueError(f"{path}: line {lineno}: empty header row")
+                dups = sorted({n for n in names if names.count(n) > 1})
+                if dups:
+                    raise ValueError(f"{path}: line {lineno}: duplicate column name(s) {dups}")
                 continue
             if names is None:
                 continue
@@ -182,7 +197,7 @@ def read_table(
                 raise ValueError(
                     f"{path}: line {lineno} has {len(cells)} fields, the header has {len(names)}"
                 )
-            for col, p, name in zip(cols, pos, chosen, strict=True):
+            for col, p, name, f in zip(cols, pos, chosen, scale, strict=True):
                 try:
                     v = float(cells[p])
                 except ValueError:
@@ -191,6 +206,11 @@ def read_table(
                     ) from None
                 if not np.isfinite(v):
                     raise ValueError(f"{path}: line {lineno}: column {name!r}: value is {v}")
+                if not np.isfinite(v * f):
+                    raise ValueError(
+                        f"{path}: line {lineno}: column {name!r}: {v} overflows when converted "
+                        f"to SI (× {f:g})"
+                    )
                 col.append(v)
             t = cols[0][-1]
             if last_t is not None and t <= last_t:

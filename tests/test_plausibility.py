@@ -92,3 +92,59 @@ def test_an_element_in_si_units_is_taken(tmp_path):
     path = _element_file(tmp_path, inputs=["d", "v"], output="F", units=units)
     env = gym.make("railgym/VerticalSuspension-v0", surrogate=path, duration=0.1)
     env.reset(seed=0)
+
+
+def _stress(backend, track_class, factor, seed, duration=5.0):
+    """Bang-bang run of VerticalVehicle-v0; largest secondary deflection (m) and the info."""
+    from railgym.track import class_speed
+
+    env = gym.make(
+        "railgym/VerticalVehicle-v0",
+        backend=backend,
+        track_class=track_class,
+        speed=factor * class_speed(track_class),
+        duration=duration,
+    )
+    env.reset(seed=seed)
+    rng, peak, done = np.random.default_rng(seed), 0.0, False
+    sim = env.unwrapped.sim
+    while not done:
+        _, _, terminated, truncated, info = env.step(rng.choice([-1.0, 1.0], 2).astype(np.float32))
+        done = terminated or truncated
+        x, p = sim.bt.state[0], sim.params
+        for xb in (p.a, -p.a):
+            peak = max(peak, abs(x[3 if xb > 0 else 5] - x[0] - xb * x[1] - p.phi_a * x[2]))
+    return peak, info
+
+
+def test_a_surrogate_excursion_beyond_the_reference_is_flagged():
+    peak, info = _stress("surrogate", 4, 1.9, seed=2)
+    ref_peak, ref_info = _stress("reference", 4, 1.9, seed=2)
+    assert peak > 1.5 * ref_peak  # the stress case: the surrogate leaves the reference
+    assert info["outside_element"] and not ref_info["outside_element"]
+
+
+def test_a_ride_inside_the_element_is_not_flagged():
+    peak, info = _stress("surrogate", 5, 1.0, seed=0)
+    assert not info["outside_element"] and info["out_of_domain"] == 0
+    lo, hi = gym.make("railgym/VerticalVehicle-v0").unwrapped.sim.envelope
+    assert peak < min(-lo, hi)
+
+
+def test_the_vector_env_flags_per_sub_env():
+    from railgym.track import class_speed
+
+    venv = gym.make_vec(
+        "railgym/VerticalVehicle-v0",
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        track_class=4,
+        speed=1.9 * class_speed(4),
+        duration=5.0,
+    )
+    venv.reset(seed=2)
+    rng = np.random.default_rng(2)
+    for _ in range(499):
+        _, _, _, _, info = venv.step(rng.choice([-1.0, 1.0], (2, 2)).astype(np.float32))
+    assert info["outside_element"].dtype == bool and info["outside_element"].shape == (2,)
+    assert info["outside_element"].any()

@@ -281,10 +281,11 @@ class BatchVectorEnv(VectorEnv):
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset the sub-envs (all, or those of ``options["reset_mask"]``)."""
+        mask, rngs, options = reset_plan(self.num_envs, seed, options, self._rngs)
         if seed is not None:
             first = seed if isinstance(seed, int | np.integer) else seed[0]
             self._np_random, self._np_random_seed = seeding.np_random(first)
-        mask, self._rngs, options = reset_plan(self.num_envs, seed, options, self._rngs)
+        self._rngs = rngs
         env = self.single_env
         env._apply_options(options)
         for i in np.flatnonzero(mask):

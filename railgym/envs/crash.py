@@ -56,7 +56,9 @@ __all__ = [
     "CrashBatch",
     "CrashConfig",
     "TrainCrashEnv",
+    "TrainCrashEnvV0",
     "TrainCrashVectorEnv",
+    "TrainCrashVectorEnvV0",
     "default_surrogate",
     "env_surrogate",
     "make_config",
@@ -181,17 +183,22 @@ def default_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> C
 
 
 @functools.lru_cache(maxsize=16)
-def env_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> CrashSurrogate:
+def env_surrogate(
+    scenario: CrashScenario, variant: str = "hysteretic", release: str = ""
+) -> CrashSurrogate:
     """The elements ``gym.make`` uses without ``surrogate=``: the packaged envelope elements
-    of the scenario's train (:func:`railgym.vehicles.crash.elements.packaged_surrogate`), else
-    :func:`default_surrogate` (fitted once per process); cached per scenario and process."""
-    packaged = packaged_surrogate(scenario, variant)
+    of the scenario's train (:func:`railgym.vehicles.crash.elements.packaged_surrogate`; those
+    of ``release``, e.g. ``"v0"`` for ``TrainCrash-v0``), else :func:`default_surrogate`
+    (fitted once per process); cached per scenario and process."""
+    packaged = packaged_surrogate(scenario, variant, release)
     return packaged if packaged is not None else default_surrogate(scenario, variant)
 
 
-def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchModel:
+def make_model(
+    cfg: CrashConfig, surrogate: Any, variant: str, release: str = ""
+) -> CrashBatchModel:
     """Batch model of the configured backend; ``surrogate`` = elements or ``None``
-    (:func:`env_surrogate`)."""
+    (:func:`env_surrogate` of ``release``)."""
     if cfg.backend == "reference":
         if surrogate is not None:
             raise ValueError("surrogate is only used by backend='surrogate', not 'reference'")
@@ -199,7 +206,7 @@ def make_model(cfg: CrashConfig, surrogate: Any, variant: str) -> CrashBatchMode
     if surrogate is None:
         if variant not in VARIANTS:
             raise ValueError(f"surrogate_variant must be one of {VARIANTS}, got {variant!r}")
-        surrogate = env_surrogate(cfg.scenario, variant)
+        surrogate = env_surrogate(cfg.scenario, variant, release)
     if not isinstance(surrogate, CrashSurrogate):
         raise ValueError(
             f"surrogate must be a CrashSurrogate (build_crash_surrogate), got "
@@ -355,6 +362,8 @@ class TrainCrashEnv(_CrashShell, BatchEnv):
     """
 
     _single = True
+    #: packaged elements of this version (``""``: current; ``"v0"``: ``TrainCrash-v0``'s)
+    elements_release = ""
 
     def __init__(
         self,
@@ -385,7 +394,7 @@ class TrainCrashEnv(_CrashShell, BatchEnv):
             reward_weights,
         )
         self.backend = backend
-        self.model = make_model(self.cfg, surrogate, surrogate_variant)
+        self.model = make_model(self.cfg, surrogate, surrogate_variant, self.elements_release)
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         self._fixed: dict[str, Any] = {}
         sim = CrashBatch(1, self.cfg, self.model)
@@ -406,10 +415,26 @@ class TrainCrashVectorEnv(_CrashShell, BatchVectorEnv):
     """
 
     _single = False
+    #: the single env whose configuration and elements the sub-envs share
+    single_class: type[TrainCrashEnv] = TrainCrashEnv
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
         num_envs = val.integer(num_envs, "num_envs", min=1, max=MAX_NUM_ENVS)
-        single = TrainCrashEnv(render_mode=render_mode, **kwargs)
+        single = self.single_class(render_mode=render_mode, **kwargs)
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         self._init_vector(single, CrashBatch(num_envs, self.cfg, single.model), num_envs)
+
+
+class TrainCrashEnvV0(TrainCrashEnv):
+    """``TrainCrash-v0``: the packaged elements of version 0 (one mass per car, one global
+    LPR per zone); everything else as :class:`TrainCrashEnv` (docs/envs/crash.md, *Version
+    history*)."""
+
+    elements_release = "v0"
+
+
+class TrainCrashVectorEnvV0(TrainCrashVectorEnv):
+    """Native vector version of :class:`TrainCrashEnvV0`."""
+
+    single_class = TrainCrashEnvV0

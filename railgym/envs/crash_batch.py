@@ -294,4 +294,5 @@ class CrashBatch:
             "wall_x": wall,
             "time": float(self.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.n_steps * self.cfg.control_dt,
+            "speed": float(out.v[i, 0]),  # lead car, m/s
         }

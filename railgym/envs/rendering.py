@@ -27,11 +27,14 @@ from typing import Any
 
 import numpy as np
 
+from railgym.envs.text import draw_text
+
 __all__ = [
     "CRASH_COLORS",
     "DISPLACEMENT_PX_PER_M",
     "VERTICAL_COLORS",
     "canvas",
+    "draw_caption",
     "draw_damper",
     "draw_line",
     "draw_polyline",
@@ -46,6 +49,8 @@ Color = Sequence[int]
 
 #: Vertical drawing scale of :func:`render_vertical` at a frame height of 400 px, px/m.
 DISPLACEMENT_PX_PER_M = 2000.0
+#: Schematic scale of the vertical vehicle's parts at a frame height of 400 px, px/m.
+SCHEMATIC_PX_PER_M = 20.0
 _REFERENCE_HEIGHT = 400.0
 _FAR = 1e9  # coordinates are clamped to +-_FAR px before any arithmetic (handles inf)
 
@@ -329,6 +334,25 @@ def _progress_bar(img: np.ndarray, state: Mapping[str, Any], colors: Mapping[str
     fill_rect(img, 4, 3, 4 + max(frac, 0.0) * (w - 8), 8, colors["bar_front"])
 
 
+def draw_caption(
+    img: np.ndarray, state: Mapping[str, Any], color: Color, exaggeration: float | None = None
+) -> None:
+    """One line of text below the progress bar with what ``state`` holds of: ``time`` (s),
+    ``speed`` (m/s, printed in km/h), ``carbody_acc`` (m/s²) and the displacement
+    ``exaggeration`` factor of the drawing."""
+    parts = []
+    if "time" in state:
+        parts.append(f"t {_scalar(state, 'time'):.3f} s")
+    if "speed" in state:
+        parts.append(f"v {3.6 * _scalar(state, 'speed'):.0f} km/h")
+    if "carbody_acc" in state:
+        parts.append(f"a {_scalar(state, 'carbody_acc'):+.2f} m/s2")
+    if exaggeration is not None:
+        parts.append(f"displ x{exaggeration:.0f}")
+    scale = max(1, img.shape[0] // 300)
+    draw_text(img, 6, 20, "   ".join(parts), color, scale)
+
+
 # --------------------------------------------------------------------------- state access
 def _scalar(state: Mapping[str, Any], key: str) -> float:
     if key not in state:
@@ -373,7 +397,8 @@ def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 40
         (actuator force limit, N, > 0). Optional: ``s`` (vehicle position in ``track_x``, m;
         default the window's midpoint), ``time`` and ``duration`` (s, progress bar
         ``time / duration``; without ``duration`` the bar wraps every 10 s, without ``time``
-        there is no bar).
+        there is no bar), ``speed`` (m/s) and ``carbody_acc`` (m/s²), printed in the caption
+        (:func:`draw_caption`) with the time and the displacement exaggeration factor.
     width, height : frame size, px.
 
     Returns
@@ -455,6 +480,7 @@ def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 40
         fill_rect(img, xc - 2, y_mid, xc + 2, y_neck, arrow)
         _fill_spans(img, xc, y_tip, y_neck, lambda u: 0.012 * w * u, arrow)
     _box(img, xc, y_body, 0.80 * w, body_h, col["carbody"], col["outline"])
+    draw_caption(img, state, col["outline"], DISPLACEMENT_PX_PER_M / SCHEMATIC_PX_PER_M)
     return img
 
 
@@ -470,7 +496,8 @@ def render_crash(state: Mapping[str, Any], width: int = 800, height: int = 300) 
         car ``i``; negative values, i.e. open gaps, count as zero), ``stroke`` (available
         stroke of each zone, m, >= 0) and ``wall_x`` (wall face, m). Optional: ``view``
         (``(x_min, x_max)``, m, the horizontal window; default fits the train and the wall),
-        ``time`` and ``duration`` (s, progress bar as in :func:`render_vertical`).
+        ``time`` and ``duration`` (s, progress bar as in :func:`render_vertical`) and
+        ``speed`` (m/s, of the lead car), printed in the caption (:func:`draw_caption`).
     width, height : frame size, px.
 
     Returns
@@ -526,4 +553,5 @@ def render_crash(state: Mapping[str, Any], width: int = 800, height: int = 300) 
             fill_rect(img, px(zone_start), car_top, px(front), car_bottom, col["zone"])
         for xw in (rear + 0.12 * lengths[i], pos[i] - 0.12 * lengths[i]):
             fill_circle(img, px(xw), y_rail - r_wheel, r_wheel, col["wheel"])
+    draw_caption(img, state, col["wall"])
     return img

@@ -35,7 +35,7 @@ def reset_plan(
         raise ValueError(f"options['reset_mask'] must be a bool array ({n},) with a True value")
     if seed is None or isinstance(seed, (int, np.integer)):
         seeds = [None if seed is None else int(seed) + i for i in range(n)]
-    elif len(seed) == n:
+    elif isinstance(seed, list | tuple) and len(seed) == n:
         seeds = list(seed)
     else:
         raise ValueError(f"seed must be None, an int or a list of {n} seeds, got {seed!r}")

@@ -37,6 +37,7 @@ from railgym.envs.vertical import BACKENDS, _surrogate_arrays, check_speed
 from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
+from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -52,7 +53,9 @@ __all__ = [
     "SIZING_SPEED",
     "VehicleConfig",
     "VerticalVehicleEnv",
+    "VerticalVehicleEnvV0",
     "VerticalVehicleVectorEnv",
+    "VerticalVehicleVectorEnvV0",
     "episode_comfort",
     "make_config",
 ]
@@ -110,7 +113,8 @@ def make_config(
     flexible: bool,
 ) -> VehicleConfig:
     """Check the env arguments against their types and :data:`LIMITS`; errors name them."""
-    variant = BACKENDS[val.choice(backend, "backend", BACKENDS)]
+    backends = {**BACKENDS, "fmu": "dynamic"}  # fmu: an FMU as the vehicle (railgym.fmu)
+    variant = backends[val.choice(backend, "backend", backends)]
     duration = val.positive(duration, "duration", LIMITS["duration"])
     control_dt = val.positive(control_dt, "control_dt")
     if control_dt >= 1.0 / 60.0:
@@ -188,6 +192,31 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     return lo, hi
 
 
+def _batch(
+    n: int,
+    cfg: VehicleConfig,
+    veh: Any,
+    lpr: Any,
+    v_min: float,
+    backend: str,
+    fmu: Any,
+    fmu_map: Any,
+) -> VehicleBatch:
+    """The batch of ``n`` vehicles: the compiled kernel, or FMU instances for
+    ``backend="fmu"`` (``fmu``, ``fmu_map``: :mod:`railgym.fmu.mapping`)."""
+    if backend != "fmu":
+        for name, value in (("fmu", fmu), ("fmu_map", fmu_map)):
+            if value is not None:
+                raise val.FieldError(name, f"is only used with backend='fmu', not {backend!r}")
+        return VehicleBatch(n, cfg, veh, lpr, v_min)
+    if fmu_map is None:
+        raise val.FieldError("fmu_map", "is required with backend='fmu' (docs/fmi.md)")
+    from railgym.fmu.mapping import load_mapping
+    from railgym.fmu.vehicle_batch import FMUVehicleBatch
+
+    return FMUVehicleBatch(n, cfg, veh, lpr, v_min, load_mapping(fmu_map, fmu, "vehicle"))
+
+
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
     """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
     (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
@@ -258,6 +287,11 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
     :attr:`vehicle_params`.
     """
 
+    #: packaged element used without ``surrogate=``, ``(form, release)`` of
+    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
+    #: element; ``("static", "")`` for ``VerticalVehicle-v0`` (docs: *Version history*)
+    default_element: tuple[str, str] | None = None
+
     def __init__(
         self,
         backend: str = "surrogate",
@@ -279,6 +313,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         flexible: bool = True,
         render_mode: str | None = None,
         speed_limit: float | None = None,
+        fmu: Any = None,
+        fmu_map: Any = None,
     ) -> None:
         veh = load_whole_vehicle(vehicle)
         free = veh.suspension.bump_stop.free_travel_compression
@@ -305,8 +341,11 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         self.profile = load_profile(profile)
         if self.profile is None:
             check_band_speed(self.cfg.band, self.speeds[1], self.cfg.dt)
+        if surrogate is None and backend == "surrogate" and self.default_element is not None:
+            surrogate = default_vertical_surrogate(*self.default_element)
         lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
-        sim = VehicleBatch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED))
+        self._fmu_args = (backend, fmu, fmu_map)
+        sim = _batch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED), *self._fmu_args)
         self.vehicle = veh
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         self._init_shell(
@@ -383,14 +422,17 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
     Accessors as the single env's, as arrays over the sub-envs.
     """
 
+    #: the single env whose configuration and element the sub-envs share
+    single_class: type[VerticalVehicleEnv] = VerticalVehicleEnv
+
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
         num_envs = val.integer(num_envs, "num_envs", min=1, max=LIMITS["num_envs"])
-        single = VerticalVehicleEnv(render_mode=render_mode, **kwargs)
+        single = self.single_class(render_mode=render_mode, **kwargs)
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         one = single.sim
         self.vehicle = one.vehicle
-        sim = VehicleBatch(num_envs, self.cfg, one.vehicle, one.lpr, one.v_min)
+        sim = _batch(num_envs, self.cfg, one.vehicle, one.lpr, one.v_min, *single._fmu_args)
         self._init_vector(single, sim, num_envs)
 
     def step(
@@ -406,3 +448,17 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
                     comfort[k][i] = v
             infos["comfort"], infos["_comfort"] = comfort, ended
         return obs, reward, terminated, truncated, infos
+
+
+class VerticalVehicleEnvV0(VerticalVehicleEnv):
+    """``VerticalVehicle-v0``: the static packaged element by default (``surrogate=`` takes
+    any element, memory elements included); everything else as :class:`VerticalVehicleEnv`
+    (docs/envs/vehicle_vertical.md, *Version history*)."""
+
+    default_element = ("static", "")
+
+
+class VerticalVehicleVectorEnvV0(VerticalVehicleVectorEnv):
+    """Native vector version of :class:`VerticalVehicleEnvV0`."""
+
+    single_class = VerticalVehicleEnvV0

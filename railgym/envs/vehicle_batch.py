@@ -43,6 +43,7 @@ __all__ = [
     "REWARD_TERMS",
     "VehicleBatch",
     "VehicleConfig",
+    "book_step",
     "control_step",
     "episode_comfort",
 ]
@@ -62,6 +63,7 @@ INFO_KEYS = (
     "rms_carbody_acc",  # (3,) running r.m.s. of carbody_acc, m/s²
     "bump_stop_contacts",  # substeps in bump-stop contact, both bogies
     "out_of_domain",  # out-of-domain surrogate evaluations
+    "outside_element",  # a secondary deflection left the element's training range this episode
     "actuator_force",  # (2,) N
 )
 #: columns of ``Book.terms``, the keys of ``info["reward_terms"]``
@@ -168,6 +170,19 @@ def _observe(bt, out, p, sc, bk, i):
 
 
 @njit(cache=True, error_model="numpy")
+def _mark_outside(state, a, phi_a, envelope, outside):
+    """Set ``outside[i]`` where a secondary deflection of vehicle ``i`` (m, bogie minus
+    carbody at the bogie centre) is out of ``envelope`` (lo, hi)."""
+    for i in range(state.shape[0]):
+        x = state[i]
+        for b in range(2):
+            xb = a if b == 0 else -a
+            d = x[3 + 2 * b] - x[0] - xb * x[1] - phi_a * x[2]
+            if d < envelope[0] or d > envelope[1]:
+                outside[i] = True
+
+
+@njit(cache=True, error_model="numpy")
 def _weigh(sos, zi, v):
     """One sample ``v`` through the cascade ``sos`` (transposed direct form II, state zi)."""
     y = v
@@ -197,6 +212,13 @@ def control_step(kind, bt, p, e, lpr, out, bk, sc):
         for b in range(2):
             bt.force[i, b] = bk.action[i, b] * sc.f_max
     advance(kind, bt, sc.n_sub, sc.dt, p, e, lpr, out)
+    book_step(bt, p, out, bk, sc)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def book_step(bt, p, out, bk, sc):
+    """The bookkeeping of :func:`control_step` after the kernel call (also run after an
+    FMU's step, :mod:`railgym.fmu.vehicle_batch`)."""
     w_a, w_d, w_f = sc.weights[0], sc.weights[1], sc.weights[2]
     for i in range(bt.state.shape[0]):
         bt.k[i] += sc.n_sub
@@ -340,6 +362,15 @@ class VehicleBatch:
         )
         self.speed = np.zeros(n)
         self.track_class = np.zeros(n, np.int64)
+        # deflection range (m) of the element's training data, i.e. of the reference runs it
+        # was fitted on; the other backends are their own reference
+        surrogate = cfg.variant == "surrogate"
+        self.envelope = (
+            np.array([lpr[2][0], lpr[3][0]], dtype=float)
+            if surrogate
+            else np.array([-np.inf, np.inf])
+        )
+        self.outside = np.zeros(n, np.bool_)
         self._link()
 
     def _link(self) -> None:
@@ -405,7 +436,7 @@ class VehicleBatch:
         bt.k[i] = bk.steps[i] = bk.contacts[i] = bk.ood[i] = 0
         bk.acc_sq[i] = bk.rms[i] = bk.rec[i] = bk.zi[i] = bk.rew[i] = bk.terms[i] = 0.0
         bk.info[i] = bt.force[i] = out.acc[i] = out.fs[i] = 0.0
-        out.div[i] = bk.extrapolated[i] = bk.truncated[i] = False
+        out.div[i] = bk.extrapolated[i] = bk.truncated[i] = self.outside[i] = False
         _observe(bt, out, self.params, self.sc, bk, i)
 
     def set_action(self, actions: np.ndarray) -> None:
@@ -415,6 +446,7 @@ class VehicleBatch:
     def advance(self) -> None:
         """One control step of every vehicle with the stored actions (one compiled call)."""
         self._step(*self._args)
+        _mark_outside(self.bt.state, self.params.a, self.params.phi_a, self.envelope, self.outside)
 
     def flags(self) -> dict[str, np.ndarray]:
         """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of
@@ -439,6 +471,7 @@ class VehicleBatch:
                 bk.rms.copy(),
                 bk.contacts.copy(),
                 bk.ood.copy(),
+                self.outside.copy(),
                 force.copy(),
             )
             return dict(zip(INFO_KEYS, values, strict=True))
@@ -452,6 +485,7 @@ class VehicleBatch:
             "rms_carbody_acc": row[_C_RMS:_C_FORCE],
             "bump_stop_contacts": int(bk.contacts[i]),
             "out_of_domain": int(bk.ood[i]),
+            "outside_element": bool(self.outside[i]),
             "actuator_force": row[_C_FORCE:],
         }
 
@@ -503,4 +537,6 @@ class VehicleBatch:
             "f_max": self.cfg.f_max,
             "time": float(self.bk.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.duration,
+            "speed": float(self.speed[i]),
+            "carbody_acc": float(self.out.acc[i, 1]),  # centre floor point, m/s²
         }

@@ -12,6 +12,7 @@ from railgym.envs.rendering import (
     DISPLACEMENT_PX_PER_M,
     VERTICAL_COLORS,
     canvas,
+    draw_caption,
     draw_line,
     draw_polyline,
     draw_spring,
@@ -41,7 +42,9 @@ def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400
     ``track_x`` (increasing, spans the frame), ``body_x``, ``bogie_x`` (2,), ``wheel_x`` (4,);
     heights (m, up) ``track_z``, ``body_z`` (carbody floor line, bending and pitch
     included), ``bogie_z`` (2,), ``wheel_z`` (4,); ``bogie_pitch`` (2,) rad; actuator
-    ``force`` (2,) N and ``f_max`` N; optional ``time`` and ``duration`` s (progress bar).
+    ``force`` (2,) N and ``f_max`` N; optional ``time`` and ``duration`` s (progress bar),
+    ``speed`` m/s and ``carbody_acc`` m/s² (centre floor point), printed in the caption with
+    the time and the exaggeration of heights over lengths.
     Horizontal scale: ``track_x`` over the width; heights and displacements at
     ``DISPLACEMENT_PX_PER_M · height/400`` (exaggerated), each part drawn at its nominal
     height plus its displacement. Actuator bars above the bogies: green pushing the carbody
@@ -118,4 +121,5 @@ def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400
         draw_line(img, xb + 0.02 * w, yb, xb + 0.02 * w, yf, col["damper"], 2)
         if ratio != 0.0:
             fill_rect(img, xb - 0.04 * w, 14, xb - 0.04 * w + ratio * 0.08 * w, 20, color)
+    draw_caption(img, state, col["outline"], k / sx)  # vertical over horizontal scale
     return img

@@ -48,6 +48,7 @@ from surrogates import io
 __all__ = [
     "ACC_REF",
     "BACKENDS",
+    "ENV_BACKENDS",
     "DEFAULT_WEIGHTS",
     "INFO_KEYS",
     "LIMITS",
@@ -55,13 +56,17 @@ __all__ = [
     "VerticalBatch",
     "VerticalConfig",
     "VerticalSuspensionEnv",
+    "VerticalSuspensionEnvV0",
     "VerticalSuspensionVectorEnv",
+    "VerticalSuspensionVectorEnvV0",
     "make_config",
 ]
 
-#: backend → kernel variant ("fmu": an FMU as the vehicle, railgym.fmu; its state layout is the
-#: dynamic variant's)
-BACKENDS = {"surrogate": "surrogate", "reference": "dynamic", "linear": "linear", "fmu": "dynamic"}
+#: backend → kernel variant of the secondary suspension (shared with VerticalVehicle-v0)
+BACKENDS = {"surrogate": "surrogate", "reference": "dynamic", "linear": "linear"}
+#: backends of this env: also "fmu", an FMU as the whole vehicle (railgym.fmu; its state
+#: layout is the dynamic variant's)
+ENV_BACKENDS = {**BACKENDS, "fmu": "dynamic"}
 OBSERVATIONS = {
     # name: (channels, scale of each channel in SI units)
     "sensors": (
@@ -90,7 +95,7 @@ def make_config(
     free_travel: float,
 ) -> VerticalConfig:
     """Check the env arguments against their types and :data:`LIMITS`; errors name them."""
-    variant = BACKENDS[val.choice(backend, "backend", BACKENDS)]
+    variant = ENV_BACKENDS[val.choice(backend, "backend", ENV_BACKENDS)]
     duration = val.positive(duration, "duration", LIMITS["duration"])
     control_dt = val.positive(control_dt, "control_dt")
     f_max = val.positive(f_max, "f_max", LIMITS["f_max"])
@@ -182,10 +187,10 @@ def _check_element_units(surrogate: Any, d: int) -> None:
     deflection m, velocity m/s (and the Maxwell state m) in, force N out; an element fitted on
     another problem, or in mm or kN, is refused. A model fitted in this session carries no
     units and is taken as SI."""
-    features = getattr(surrogate, "features_", None)
-    if not features:
-        return
+    features = getattr(surrogate, "features_", None) or {}
     units, names = features.get("units") or {}, list(features.get("inputs") or [])
+    if len(names) != d:  # no file's features block: a model fitted in this session
+        return
     output = features.get("output")
     wanted = [*zip(names[:d], ELEMENT_UNITS[:d], strict=True), (output, ELEMENT_OUTPUT_UNIT)]
     for name, unit in wanted:
@@ -309,6 +314,11 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
     :meth:`reset_on_track`.
     """
 
+    #: packaged element used without ``surrogate=``, ``(form, release)`` of
+    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
+    #: element; ``("maxwell", "v0")`` for ``VerticalSuspension-v0`` (docs: *Version history*)
+    default_element: tuple[str, str] | None = None
+
     def __init__(
         self,
         backend: str = "surrogate",
@@ -351,6 +361,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         self._speed_arg = speed
         self.profile = self._check_profile(profile)
         self._fmu_args = (backend, fmu, fmu_map)
+        if surrogate is None and backend == "surrogate" and self.default_element is not None:
+            surrogate = default_vertical_surrogate(*self.default_element)
         sim = _batch(
             1,
             self.cfg,
@@ -452,10 +464,27 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, BatchVectorEnv):
     env's, as arrays over the sub-envs.
     """
 
+    #: the single env whose configuration and element the sub-envs share
+    single_class: type[VerticalSuspensionEnv] = VerticalSuspensionEnv
+
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
         num_envs = val.integer(num_envs, "num_envs", min=1, max=LIMITS["num_envs"])
-        single = VerticalSuspensionEnv(render_mode=render_mode, **kwargs)
+        single = self.single_class(render_mode=render_mode, **kwargs)
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         sim = _batch(num_envs, self.cfg, single.sim.vehicle, single.sim.lpr, *single._fmu_args)
         self._init_vector(single, sim, num_envs)
+
+
+class VerticalSuspensionEnvV0(VerticalSuspensionEnv):
+    """``VerticalSuspension-v0``: the packaged memory element of version 0 by default;
+    everything else as :class:`VerticalSuspensionEnv` (docs/envs/vertical.md, *Version
+    history*)."""
+
+    default_element = ("maxwell", "v0")
+
+
+class VerticalSuspensionVectorEnvV0(VerticalSuspensionVectorEnv):
+    """Native vector version of :class:`VerticalSuspensionEnvV0`."""
+
+    single_class = VerticalSuspensionEnvV0

@@ -453,4 +453,6 @@ class VerticalBatch:
             "duration": self.cfg.duration,
             "force_a": float(self.force[i]),
             "f_max": self.cfg.f_max,
+            "speed": float(self.speed[i]),
+            "carbody_acc": float(self.acc[i, 1]),
         }

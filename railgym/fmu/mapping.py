@@ -4,10 +4,12 @@ Schema (YAML, version 1; ``docs/fmi.md``)::
 
     version: 1
     fmu: vehicle.fmu              # optional: the FMU, relative to this file (else fmu=)
-    env: vertical                 # the env the FMU stands in for
+    env: vertical                 # the env the FMU stands in for (or vehicle)
     fmi_type: CoSimulation        # or ModelExchange (default: CoSimulation if the FMU has it)
     step: 0.001                   # communication / integration step, s (default: env dt)
     timeout: 10.0                 # wall-clock limit of one env step in the FMU, s (default 10)
+    solver: rk4                   # model exchange: rk4 (railgym's, default) or cvode (FMPy's)
+    tolerance: 1.0e-8             # solver: cvode: relative tolerance (absolute: × nominals)
     inputs:
       track:                      # one entry per wheelset, front to rear
         - {displacement: z, rate: zdot}
@@ -59,10 +61,25 @@ ENV_SIGNALS: dict[str, dict[str, Any]] = {
             "carbody_vel": "m/s",
         },
         "optional": {"carbody_disp": "m", "secondary_force": "N"},
-    }
+    },
+    "vehicle": {
+        "wheelsets": 4,
+        "actuators": 2,
+        "outputs": {
+            **{f"acc_{p}": "m/s2" for p in ("front", "centre", "rear")},
+            **{f"bogie_acc_{b}": "m/s2" for b in ("front", "rear")},
+            **{f"deflection_{b}": "m" for b in ("front", "rear")},
+            **{f"deflection_rate_{b}": "m/s" for b in ("front", "rear")},
+            **{f"carbody_vel_{b}": "m/s" for b in ("front", "rear")},
+        },
+        "optional": {f"secondary_force_{b}": "N" for b in ("front", "rear")},
+    },
 }
 FMI_TYPES = ("CoSimulation", "ModelExchange")
 DEFAULT_TIMEOUT = 10.0
+#: model-exchange solvers: railgym's fixed-step RK4 (the kernels' scheme), FMPy's CVode (BDF)
+SOLVERS = ("rk4", "cvode")
+DEFAULT_TOLERANCE = 1e-8
 
 
 class FMUError(val.FieldError):
@@ -93,6 +110,8 @@ class Mapping:
     forces: tuple[Signal, ...]
     outputs: dict[str, Signal]
     interpolate: bool  #: co-simulation FMU takes input derivatives (canInterpolateInputs)
+    solver: str = "rk4"  #: model exchange: ``"rk4"`` or ``"cvode"`` (:data:`SOLVERS`)
+    tolerance: float = DEFAULT_TOLERANCE  #: relative tolerance of ``"cvode"``
 
 
 def _read_text(path: Path, field: str) -> str:
@@ -193,19 +212,20 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
     data = val.load_yaml(_read_text(path, "fmu_map"), source)
     f = val.Fields(data, "")
     try:
-        version = f.integer("version", 1, 1)
+        f.integer("version", 1, 1)
         name = f.get("fmu", None)
         env_name = f.text("env")
         fmi_type = f.get("fmi_type", None)
         step = f.get("step", None)
         step = None if step is None else f.positive("step")
         timeout = f.positive("timeout") if "timeout" in f.data else DEFAULT_TIMEOUT
+        solver = f.get("solver", None)
+        tolerance = f.positive("tolerance", 0.1) if "tolerance" in f.data else None
         inputs = f.section("inputs")
         outputs = f.section("outputs")
         f.done()
     except val.FieldError as exc:
         raise FMUError(exc.field, f"{source}: {exc}", full=True) from None
-    del version
     if env_name != env:
         raise FMUError("env", f"{source}: env is {env_name!r}, this env is {env!r}", full=True)
     if fmu is None:
@@ -219,6 +239,15 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
         fmi_type = kinds[0]
     if fmi_type not in FMI_TYPES:
         raise FMUError("fmi_type", f"{source}: fmi_type must be one of {FMI_TYPES}", full=True)
+    if solver is not None and (solver not in SOLVERS or fmi_type != "ModelExchange"):
+        raise FMUError(
+            "solver",
+            f"{source}: solver must be one of {SOLVERS}, for fmi_type ModelExchange; got "
+            f"{solver!r} with {fmi_type}",
+            full=True,
+        )
+    if tolerance is not None and solver != "cvode":
+        raise FMUError("tolerance", f"{source}: tolerance is for solver: cvode", full=True)
     if fmi_type not in kinds:
         raise FMUError(
             "fmi_type", f"{source}: FMU {fmu} has no {fmi_type} (it has {kinds})", full=True
@@ -272,5 +301,16 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
     cs = md.coSimulation
     interpolate = fmi_type == "CoSimulation" and bool(cs.canInterpolateInputs)
     return Mapping(
-        source, fmu, env, fmi_type, step, timeout, tuple(pairs), force_sigs, outs, interpolate
+        source,
+        fmu,
+        env,
+        fmi_type,
+        step,
+        timeout,
+        tuple(pairs),
+        force_sigs,
+        outs,
+        interpolate,
+        solver or "rk4",
+        DEFAULT_TOLERANCE if tolerance is None else tolerance,
     )

@@ -19,12 +19,15 @@ from pathlib import Path
 import yaml
 
 from railgym.fmu.description import Variable, describe
+from railgym.vehicles.vehicle import DEFAULT_DT as VEHICLE_DT
+from railgym.vehicles.vehicle import kernel_params as vehicle_params
+from railgym.vehicles.vehicle import load_whole_vehicle
 from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle
 from surrogates.fmi.export import guid_of, identifier, write_fmu
 
 __all__ = ["ENVS", "KINDS", "export_reference_fmu", "reference_mapping"]
 
-ENVS = ("vertical",)
+ENVS = ("vertical", "vehicle")
 KINDS = ("me", "cs", "both")
 
 #: (name, unit, description) of the vertical model's inputs, outputs and states
@@ -51,24 +54,94 @@ VERTICAL_STATES = (
     ("dp_res", "Pa", "reservoir pressure minus its static value"),
     ("y_damper", "m", "damper internal displacement (Maxwell element)"),
 )
-C_FILES = ("model.c", "vertical_model.h")
+_BOGIES = ("front", "rear")
+#: the whole vehicle's (VerticalVehicle-v0) inputs, outputs and states
+VEHICLE_INPUTS = (
+    *(
+        v
+        for j in range(1, 5)
+        for v in (
+            (f"z_{j}", "m", f"track height under wheelset {j} (1 front … 4 rear)"),
+            (f"zdot_{j}", "m/s", f"its time derivative at wheelset {j}"),
+        )
+    ),
+    *(
+        (f"actuator_force_{b}", "N", f"actuator force at the {b} bogie, up on the carbody")
+        for b in _BOGIES
+    ),
+)
+VEHICLE_OUTPUTS = (
+    *(
+        (f"acc_{p}", "m/s2", f"carbody floor acceleration, {p}")
+        for p in ("front", "centre", "rear")
+    ),
+    *((f"bogie_acc_{b}", "m/s2", f"{b} bogie acceleration") for b in _BOGIES),
+    *((f"deflection_{b}", "m", f"{b} secondary deflection, compression positive") for b in _BOGIES),
+    *((f"deflection_rate_{b}", "m/s", f"its time derivative, {b}") for b in _BOGIES),
+    *((f"carbody_vel_{b}", "m/s", f"carbody velocity over the {b} bogie") for b in _BOGIES),
+    *((f"secondary_force_{b}", "N", f"{b} secondary-suspension force") for b in _BOGIES),
+)
+VEHICLE_STATES = (
+    ("z_c", "m", "carbody bounce"),
+    ("theta_c", "rad", "carbody pitch"),
+    ("q", "m", "carbody first bending, centre deflection"),
+    ("z_b0", "m", "front bogie bounce"),
+    ("theta_b0", "rad", "front bogie pitch"),
+    ("z_b1", "m", "rear bogie bounce"),
+    ("theta_b1", "rad", "rear bogie pitch"),
+    ("v_c", "m/s", "carbody bounce rate"),
+    ("omega_c", "rad/s", "carbody pitch rate"),
+    ("qdot", "m/s", "bending rate"),
+    ("v_b0", "m/s", "front bogie bounce rate"),
+    ("omega_b0", "rad/s", "front bogie pitch rate"),
+    ("v_b1", "m/s", "rear bogie bounce rate"),
+    ("omega_b1", "rad/s", "rear bogie pitch rate"),
+    *(
+        v
+        for i, b in enumerate(_BOGIES)
+        for v in (
+            (f"dp_bag{i}", "Pa", f"{b} air-spring bag pressure minus its static value"),
+            (f"dp_res{i}", "Pa", f"{b} reservoir pressure minus its static value"),
+            (f"y_damper{i}", "m", f"{b} damper internal displacement"),
+        )
+    ),
+)
+C_FILES = ("model.c", "suspension.h")
+
+
+def c_struct(name: str, values: dict[str, float]) -> str:
+    """C definition of a constant struct ``name`` of doubles with the fields ``values``."""
+    return "\n".join(
+        [
+            "static const struct {",
+            *(f"    double {k};" for k in values),
+            f"}} {name} = {{",
+            *(f"    {float(v)!r}, /* {k} */" for k, v in values.items()),
+            "};",
+        ]
+    )
 
 
 def _template(name: str) -> str:
     return (resources.files("railgym.fmu") / "c" / name).read_text()
 
 
-def reference_mapping(fmu_name: str) -> dict[str, object]:
-    """The mapping document (:mod:`railgym.fmu.mapping`) of an exported vertical reference FMU."""
+def reference_mapping(fmu_name: str, env: str = "vertical") -> dict[str, object]:
+    """The mapping document (:mod:`railgym.fmu.mapping`) of an exported reference FMU."""
+    if env == "vertical":
+        track = [{"displacement": "z", "rate": "zdot"}]
+        forces = ["actuator_force"]
+        outputs = VERTICAL_OUTPUTS
+    else:
+        track = [{"displacement": f"z_{j}", "rate": f"zdot_{j}"} for j in range(1, 5)]
+        forces = [f"actuator_force_{b}" for b in _BOGIES]
+        outputs = VEHICLE_OUTPUTS
     return {
         "version": 1,
         "fmu": fmu_name,
-        "env": "vertical",
-        "inputs": {
-            "track": [{"displacement": "z", "rate": "zdot"}],
-            "actuator_force": ["actuator_force"],
-        },
-        "outputs": {name: name for name, _, _ in VERTICAL_OUTPUTS},
+        "env": env,
+        "inputs": {"track": track, "actuator_force": forces},
+        "outputs": {name: name for name, _, _ in outputs},
     }
 
 
@@ -78,6 +151,7 @@ def export_reference_fmu(
     kind: str = "both",
     *,
     vehicle: str = "manchester",
+    flexible: bool = True,
     dt: float | None = None,
     compiler: str | None = None,
     overwrite: bool = False,
@@ -88,9 +162,11 @@ def export_reference_fmu(
     Parameters
     ----------
     path : the ``.fmu`` file.
-    env : ``"vertical"`` (``VerticalSuspension-v0``).
+    env : ``"vertical"`` (``VerticalSuspension-v0``) or ``"vehicle"`` (``VerticalVehicle-v0``).
     kind : ``"me"``, ``"cs"`` or ``"both"``.
-    vehicle : packaged vehicle name or YAML path (as the env's ``vehicle=``).
+    vehicle : packaged vehicle name or YAML path (as the env's ``vehicle=``; for
+        ``"vehicle"`` the default is ``manchester_whole``).
+    flexible : ``"vehicle"``: with the carbody's bending mode (as the env's ``flexible=``).
     dt : RK4 step of the co-simulation, s (default: the reference backend's).
     compiler : the C compiler (default ``$CC``, ``cc`` or ``gcc``).
     overwrite : replace existing files.
@@ -104,26 +180,43 @@ def export_reference_fmu(
     for p in (path, map_path):
         if p.exists() and not overwrite:
             raise FileExistsError(f"{p} exists; pass overwrite=True (--overwrite) to replace it")
-    params = load_vehicle(vehicle).kernel_params()
-    step = DEFAULT_DT["dynamic"] if dt is None else float(dt)
+    if env == "vertical":
+        elem = load_vehicle(vehicle).kernel_params()._asdict()
+        structs, model_h = {"E": elem}, "vertical_model.h"
+        default_dt = DEFAULT_DT["dynamic"]
+        variables = (VERTICAL_INPUTS, VERTICAL_OUTPUTS, VERTICAL_STATES)
+        what = (
+            "railgym one-bogie vertical reference model (air spring with reservoir, Maxwell "
+            "damper, bump stops), VerticalSuspension-v0 backend='reference'"
+        )
+    else:
+        whole = load_whole_vehicle("manchester_whole" if vehicle == "manchester" else vehicle)
+        structs = {
+            "E": whole.suspension.kernel_params()._asdict(),
+            "V": vehicle_params(whole, flexible)._asdict(),
+        }
+        model_h = "vehicle_model.h"
+        default_dt = VEHICLE_DT
+        variables = (VEHICLE_INPUTS, VEHICLE_OUTPUTS, VEHICLE_STATES)
+        what = (
+            "railgym whole-vehicle vertical reference model (carbody bounce, pitch, bending; "
+            "two bogies, four wheelsets; dynamic secondary suspension), VerticalVehicle-v0 "
+            f"backend='reference', flexible={flexible}"
+        )
+    step = default_dt if dt is None else float(dt)
     if not step > 0.0:
         raise ValueError(f"dt must be positive, got {dt!r}")
-    doc = {"env": env, "vehicle": str(vehicle), "dt": step, "params": params._asdict()}
+    doc = {"env": env, "vehicle": str(vehicle), "dt": step, "params": structs}
     doc_text = json.dumps(doc, indent=1, sort_keys=True)
     guid = guid_of(doc_text + kind)
     ident = identifier(path, None)
-    fields = "\n".join(f"    {float(v)!r}, /* {k} */" for k, v in params._asdict().items())
     header = "\n".join(
         [
-            "/* generated by railgym.fmu.reference: the vertical reference model's constants */",
+            f"/* generated by railgym.fmu.reference: the {env} reference model's constants */",
             f'#define MD_GUID "{guid}"',
             f"#define MD_DT {step!r}",
-            "static const struct {",
-            *(f"    double {k};" for k in params._fields),
-            "} P = {",
-            fields,
-            "};",
-            '#include "vertical_model.h"',
+            *(c_struct(name, values) for name, values in structs.items()),
+            f'#include "{model_h}"',
             "",
         ]
     )
@@ -131,16 +224,16 @@ def export_reference_fmu(
     xml = describe(
         model_identifier=ident,
         guid=guid,
-        description="railgym one-bogie vertical reference model (air spring with reservoir, "
-        "Maxwell damper, bump stops), VerticalSuspension-v0 backend='reference'",
-        inputs=[Variable(*v) for v in VERTICAL_INPUTS],
-        outputs=[Variable(*v) for v in VERTICAL_OUTPUTS],
-        states=[Variable(*v) for v in VERTICAL_STATES],
+        description=what,
+        inputs=[Variable(*v) for v in variables[0]],
+        outputs=[Variable(*v) for v in variables[1]],
+        states=[Variable(*v) for v in variables[2]],
         kinds=kinds,
         source_files=("model.c",),
         interpolate_inputs=True,
     )
-    sources = {"model_data.h": header, **{name: _template(name) for name in C_FILES}}
+    files = (*C_FILES, model_h)
+    sources = {"model_data.h": header, **{name: _template(name) for name in files}}
     write_fmu(
         path,
         ident,
@@ -153,7 +246,7 @@ def export_reference_fmu(
     )
     text = (
         "# railgym FMU mapping (docs/fmi.md): which FMU variables the env reads and writes\n"
-        + yaml.safe_dump(reference_mapping(path.name), sort_keys=False)
+        + yaml.safe_dump(reference_mapping(path.name, env), sort_keys=False)
     )
     map_path.write_text(text)
     return path, map_path

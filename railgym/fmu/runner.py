@@ -23,6 +23,7 @@ import queue
 import shutil
 import tempfile
 import threading
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -74,6 +75,13 @@ class _Worker:
         return value
 
 
+class _Input:
+    """The ``input`` object CVodeSolver calls (``apply(t)``) before its root function."""
+
+    def __init__(self, apply: Callable[[float], None]) -> None:
+        self.apply = apply
+
+
 class FMURunner:
     """One FMU instance stepped as the reference model of an env (module docstring)."""
 
@@ -102,6 +110,7 @@ class FMURunner:
         self._broken: str | None = None
         md = read_model_description(str(mapping.fmu))
         self._dir = tempfile.mkdtemp(prefix="railgym-fmu-")
+        weakref.finalize(self, shutil.rmtree, self._dir, True)  # unpacked files, at the latest
         self._worker = _Worker()
         cs = mapping.fmi_type == "CoSimulation"
         unit = md.coSimulation if cs else md.modelExchange
@@ -175,10 +184,12 @@ class FMURunner:
             f.enterInitializationMode()
             f.setReal(self.vr_in, [0.0] * len(self.vr_in))
             f.exitInitializationMode()
-            if self.nx:
+            if self.map.fmi_type == "ModelExchange":
                 while f.newDiscreteStates()[0]:  # (newDiscreteStatesNeeded, …)
                     pass
                 f.enterContinuousTimeMode()
+                if self.map.solver == "cvode":
+                    self._solver = self._cvode()
             return f.getReal(self.vr_out)
 
         self.time = 0.0
@@ -198,13 +209,25 @@ class FMURunner:
         y = np.asarray(values, float) * self.out_factor
         return dict(zip(self.out_keys, y.tolist(), strict=True))
 
-    def advance(self, z: np.ndarray, zdot: np.ndarray, forces: np.ndarray) -> np.ndarray:
+    def advance(
+        self,
+        z: np.ndarray,
+        zdot: np.ndarray,
+        forces: np.ndarray,
+        mid: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
         """Advance one control step: ``z, zdot`` (wheelsets, n_sub + 1) the track samples
-        of the step (m, m/s), ``forces`` the actuator forces (N), held. Returns the outputs
-        (n_sub, len(out_keys)) at the end of every substep, SI."""
-        job = self._cs_job if self.map.fmi_type == "CoSimulation" else self._me_job
+        of the step (m, m/s), ``forces`` the actuator forces (N), held; ``mid`` the track at
+        the substeps' midpoints ((wheelsets, n_sub) each; default the cubic Hermite midpoint
+        of the samples), used by model exchange. Returns the outputs (n_sub, len(out_keys))
+        at the end of every substep, SI."""
+        forces = np.asarray(forces, float)
         t0 = self.time
-        y = self._call(lambda: job(z, zdot, np.asarray(forces, float), t0), "fmi2DoStep")
+        if self.map.fmi_type == "CoSimulation":
+            y = self._call(lambda: self._cs_job(z, zdot, forces, t0), "fmi2DoStep")
+        else:
+            job = self._cvode_job if self.map.solver == "cvode" else self._me_job
+            y = self._call(lambda: job(z, zdot, forces, t0, mid), "model exchange step")
         self.time = t0 + self.n_sub * self.dt
         return y * self.out_factor
 
@@ -234,7 +257,14 @@ class FMURunner:
             out[m] = f.getReal(self.vr_out)
         return out
 
-    def _me_job(self, z: np.ndarray, zd: np.ndarray, forces: np.ndarray, t0: float) -> Any:
+    def _me_job(
+        self,
+        z: np.ndarray,
+        zd: np.ndarray,
+        forces: np.ndarray,
+        t0: float,
+        mid: tuple[np.ndarray, np.ndarray] | None,
+    ) -> Any:
         f, dt, nx = self.fmu, self.dt, self.nx
         out = np.empty((self.n_sub, len(self.vr_out)))
         x = self._states()
@@ -251,8 +281,11 @@ class FMURunner:
         for m in range(self.n_sub):
             t = t0 + m * dt
             za, zda, zb, zdb = z[:, m], zd[:, m], z[:, m + 1], zd[:, m + 1]
-            zm = 0.5 * (za + zb) + dt8 * (zda - zdb)
-            zdm = c3 * (zb - za) - 0.25 * (zda + zdb)
+            if mid is None:
+                zm = 0.5 * (za + zb) + dt8 * (zda - zdb)
+                zdm = c3 * (zb - za) - 0.25 * (zda + zdb)
+            else:
+                zm, zdm = mid[0][:, m], mid[1][:, m]
             ua = self._inputs(z, zd, forces, m)
             ub = self._inputs(z, zd, forces, m + 1)
             um = self._inputs(zm[:, None], zdm[:, None], forces, 0)
@@ -264,6 +297,63 @@ class FMURunner:
             f.setTime(t + dt)
             f.setContinuousStates(np.ascontiguousarray(x).ctypes.data_as(_P_DOUBLE), nx)
             f.setReal(self.vr_in, ub)
+            f.completedIntegratorStep()
+            out[m] = f.getReal(self.vr_out)
+        return out
+
+    def _cvode(self) -> Any:
+        """FMPy's CVode solver (BDF) on the FMU, the inputs set at each time it asks for."""
+        from fmpy.sundials import CVodeSolver
+
+        f, w = self.fmu, len(self.map.track)
+        zero = (np.zeros(3), np.zeros(3))
+        self._poly = (0.0, np.zeros(w), np.zeros(w), [zero] * w, np.zeros(len(self.map.forces)))
+        return CVodeSolver(
+            nx=self.nx,
+            nz=0,
+            get_x=f.getContinuousStates,
+            set_x=f.setContinuousStates,
+            get_dx=f.getDerivatives,
+            get_z=f.getEventIndicators,
+            get_nominals=f.getNominalsOfContinuousStates,
+            set_time=self._set_time,
+            input=_Input(self._set_time),
+            startTime=0.0,
+            maxStep=self.dt,
+            relativeTolerance=self.map.tolerance,
+            maxNumSteps=100000,
+        )
+
+    def _set_time(self, t: float) -> None:
+        """CVode's callback: time ``t`` (s) and the inputs at ``t`` (the substep's cubic
+        Hermite track, the held forces)."""
+        t0, z0, zd0, coef, forces = self._poly
+        s = t - t0
+        w = len(z0)
+        u = np.empty(len(self.vr_in))
+        for i, (dz, dzd) in enumerate(coef):
+            u[2 * i] = z0[i] + s * (dz[0] + s * (0.5 * dz[1] + s * (dz[2] / 6.0)))
+            u[2 * i + 1] = zd0[i] + s * (dzd[0] + s * (0.5 * dzd[1]))
+        u[2 * w :] = forces
+        self.fmu.setTime(t)
+        self.fmu.setReal(self.vr_in, (u * self.in_factor).tolist())
+
+    def _cvode_job(
+        self, z: np.ndarray, zd: np.ndarray, forces: np.ndarray, t0: float, mid: Any
+    ) -> Any:
+        f, dt = self.fmu, self.dt
+        out = np.empty((self.n_sub, len(self.vr_out)))
+        self._solver.reset(t0)  # the actuator force jumps here: restart the BDF history
+        for m in range(self.n_sub):
+            coef = [
+                hermite_derivatives(z[i, m], zd[i, m], z[i, m + 1], zd[i, m + 1], dt)
+                for i in range(z.shape[0])
+            ]
+            t = t0 + m * dt
+            self._poly = (t, z[:, m], zd[:, m], coef, forces)
+            self._solver.step(t, t + dt)
+            f.setTime(t + dt)
+            f.setReal(self.vr_in, self._inputs(z, zd, forces, m + 1))
             f.completedIntegratorStep()
             out[m] = f.getReal(self.vr_out)
         return out

@@ -51,40 +51,68 @@ def _oob(plt: Any, art: Artifacts, plan: Plan) -> Any:
 
 
 def _time_histories(plt: Any, art: Artifacts, plan: Plan) -> Any:
-    """Fig. 9: carbody response of the reference and the LPR element, class 5."""
+    """Fig. 9: carbody response of the reference and the LPR element, class 5; under each
+    channel the difference LPR − reference (the curves overlap at plotting scale)."""
     ref = art.case5.reference
     m = plan.table3_m if f"lpr_{plan.table3_m}" in art.records else plan.sizes[-1]
     sim = art.records[f"lpr_{m}"]
-    fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
-    for ax, (ch, unit) in zip(axes, (("x2", "m"), ("v2", "m/s"), ("a2", "m/s²")), strict=True):
+    fig, axes = plt.subplots(
+        6, 1, figsize=(11, 11), sharex=True, gridspec_kw={"height_ratios": [3, 1] * 3}
+    )
+    channels = (("x2", "m"), ("v2", "m/s"), ("a2", "m/s²"))
+    pairs = zip(axes[::2], axes[1::2], strict=True)
+    for (ax, dax), (ch, unit) in zip(pairs, channels, strict=True):
         ax.plot(ref["t"], ref[ch], lw=0.9, color="k", label="reference (dynamic)")
         ax.plot(sim["t"], sim[ch], lw=0.8, ls="--", label=f"LPR M={m}")
         ax.set_ylabel(f"{ch} ({unit})")
         ax.legend(loc="upper right", fontsize=8)
-    axes[0].set_title("Carbody response, class 5, 144 km/h, unseen track (paper fig. 9)")
+        diff = np.interp(ref["t"], sim["t"], sim[ch]) - ref[ch]
+        rms = float(np.sqrt(np.mean(diff**2)))
+        dax.plot(ref["t"], diff, lw=0.7, color="tab:red", label=f"RMS {rms:.3g} {unit}")
+        dax.axhline(0.0, color="k", lw=0.5)
+        dax.set_ylabel(f"Δ{ch} ({unit})")
+        dax.legend(loc="upper right", fontsize=8)
+    axes[0].set_title(
+        "Carbody response, class 5, 144 km/h, unseen track (paper fig. 9); Δ: LPR − reference"
+    )
     axes[-1].set_xlabel("t (s)")
     return fig
 
 
 def _errors(plt: Any, table5: dict[str, Any], plan: Plan) -> Any:
-    """Fig. 11: eq. 9 errors of the LPR and Kriging elements vs the sample size M."""
+    """Fig. 11: eq. 9 errors of the LPR and Kriging elements vs the sample size M, ours beside
+    the paper's (table 5, Simpack source) where it gives that M."""
+    published = table5.get("published", {})
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
     x = np.arange(len(plan.sizes))
-    for ax, (q, label) in zip(axes, QUANTITIES, strict=True):
-        every = []
-        for i, kind in enumerate(("lpr", "kriging")):
-            vals = [table5[kind][m][q] for m in plan.sizes]
-            ax.bar(x + 0.35 * (i - 0.5), vals, width=0.35, label=LABEL[kind])
-            every += vals
+    for i, (ax, (q, label)) in enumerate(zip(axes, QUANTITIES, strict=True)):
+        bars = []
+        for kind in ("lpr", "kriging"):
+            paper = published.get(kind, {})
+            bars.append((f"{LABEL[kind]}, ours", None, [table5[kind][m][q] for m in plan.sizes]))
+            bars.append(
+                (
+                    f"{LABEL[kind]}, paper (Simpack)",
+                    "tab:gray" if kind == "lpr" else "silver",
+                    [paper[m][i] if m in paper else np.nan for m in plan.sizes],
+                )
+            )
+        width = 0.8 / len(bars)
+        for j, (name, color, vals) in enumerate(bars):
+            ax.bar(
+                x + width * (j - (len(bars) - 1) / 2), vals, width=width, color=color, label=name
+            )
         ax.set_xticks(x, [f"{m} samples" for m in plan.sizes])
-        ax.set(yscale="log" if max(every) > 10 * min(every) else "linear", title=label)
+        shown = [v for _, _, vals in bars for v in vals if np.isfinite(v) and v > 0]
+        ax.set(yscale="log" if max(shown) > 10 * min(shown) else "linear", title=label)
         ax.legend(fontsize=8)
-    fig.suptitle("Simulation errors vs sample size (paper fig. 11)")
+    fig.suptitle("Simulation errors vs sample size, ours and the paper's (paper fig. 11)")
     return fig
 
 
 def _crash_elements(plt: Any, art: Artifacts, plan: Plan) -> Any:
-    """Figs. 13–14: force–crush data of the reference and the LPR branches."""
+    """Figs. 13–14: force–crush data of the reference and the LPR branches, each branch
+    drawn only where its own data lie (within 1 % of the crush range), not across gaps."""
     train = crash_training_data(art.crash["reference"])
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     for ax, name in zip(axes, ("wall", "interface"), strict=True):
@@ -98,11 +126,16 @@ def _crash_elements(plt: Any, art: Artifacts, plan: Plan) -> Any:
             for branch, mdl, ls in (("loading", el.loading, "-"), ("unloading", el.unloading, ":")):
                 if mdl is None:
                     continue
-                grid = np.linspace(mdl.lower_[0], mdl.upper_[0], 400)
+                mine = loading if branch == "loading" else ~loading
+                if not np.any(mine):
+                    continue
+                grid = np.linspace(mdl.lower_[0], mdl.upper_[0], 800)
                 lo, hi = el.force_range[branch]
+                curve = np.clip(mdl.predict(grid[:, None]), lo, hi) / 1e3
+                curve[~_near(grid, u[mine], 0.01 * np.ptp(u))] = np.nan  # gaps: no data
                 ax.plot(
                     grid,
-                    np.clip(mdl.predict(grid[:, None]), lo, hi) / 1e3,
+                    curve,
                     ls,
                     lw=1.2,
                     label=f"{variant} LPR {branch} (deg {el.degrees[branch]})",
@@ -112,6 +145,14 @@ def _crash_elements(plt: Any, art: Artifacts, plan: Plan) -> Any:
         )
         ax.legend(fontsize=7)
     return fig
+
+
+def _near(x: np.ndarray, data: np.ndarray, tol: float) -> np.ndarray:
+    """Where ``x`` lies within ``tol`` of a value of ``data``."""
+    ref = np.sort(data)
+    j = np.clip(np.searchsorted(ref, x), 0, ref.size - 1)
+    i = np.clip(j - 1, 0, ref.size - 1)
+    return np.minimum(np.abs(x - ref[i]), np.abs(x - ref[j])) <= tol
 
 
 def _crash_histories(plt: Any, art: Artifacts, plan: Plan) -> Any:

@@ -61,6 +61,7 @@ def _intro(r: dict[str, Any]) -> str:
 
 
 def _table3(t3: dict[str, Any]) -> str:
+    unit = "(–)" if t3["lpr"]["oob_error_kind"] == "relative" else "(N)"
     if t3["lpr"]["oob_error_kind"] == "relative":
         what = "eq. 8 average relative error"
     else:
@@ -81,9 +82,9 @@ def _table3(t3: dict[str, Any]) -> str:
     head = [
         "model",
         "chosen degree / kernel",
-        "OOB error",
-        "OOB error / mean |v|",
-        "OOB relative RMS",
+        f"OOB error {unit}",
+        "OOB error / mean |v| (–)",
+        "OOB relative RMS (–)",
     ]
     pub = t3["published"]
     every = [
@@ -95,9 +96,12 @@ def _table3(t3: dict[str, Any]) -> str:
         f"## Table 3: out-of-bag error, M = {t3['m']} of {t3['n']}\n\nOurs, {what}.\n\n"
         + table(head, rows)
         + f"\n{PAPER_LABEL}, eq. 8:\n\n"
-        + table(["model", "OOB error"], [["LPR", _e(pub["lpr"])], ["Kriging", _e(pub["kriging"])]])
+        + table(
+            ["model", "OOB error, eq. 8 (–)"],
+            [["LPR", _e(pub["lpr"])], ["Kriging", _e(pub["kriging"])]],
+        )
         + "\nAll fitted sizes:\n\n"
-        + table(["model", "M", "chosen", "OOB error", "OOB relative RMS"], every)
+        + table(["model", "M", "chosen", f"OOB error {unit}", "OOB relative RMS (–)"], every)
         + "\nThe reference element has memory (reservoir pressure, damper bush), so no function "
         "F(δ, δ̇) reproduces it: both models stop at the same floor of about "
         f"{t3['lpr']['oob_nrms']:.0%} relative RMS. The paper's errors of 1e-8..1e-5 imply a "

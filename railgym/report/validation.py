@@ -238,7 +238,7 @@ def validation_matrix(
 
     Parameters
     ----------
-    elements : name → fitted LPR element (static or memory form).
+    elements : name → fitted LPR or Kriging element (static or memory form).
     classes : FRA classes, each run at its maximum speed.
     n_seeds : unseen tracks per class (:func:`seed_of`).
     controllers : name → force law ``x → F_a`` (N) on the state ``[x1, v1, x2, v2, …]``

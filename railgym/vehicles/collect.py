@@ -6,7 +6,8 @@ Two elements are packaged:
 ``railgym/data/vertical_lpr.json`` (default, :func:`build_memory_surrogate`)
     the memory element of :mod:`surrogates.memory` (``"maxwell"`` form, inputs δ, δ̇,
     ζ = δ − s with ``ṡ = (δ − s)/τ``), fitted passive (:mod:`surrogates.passive`) on the
-    paper's run sampled at 200 Hz, with the vehicle's bump-stop law added outside the free
+    ``"envelope"`` design (classes 3–6, passive and with a band-limited random actuator
+    force) sampled at 200 Hz, with the vehicle's bump-stop law added outside the free
     travel as known physics (the element is fitted on ``F_s − F_bump(δ)``); ``τ`` and the
     degrees chosen together by 5-fold cross-validation. It won the validation matrix
     (``docs/validation.md``).
@@ -70,8 +71,11 @@ PACKAGED = {"maxwell": "vertical_lpr.json", "static": "vertical_lpr_static.json"
 DEFAULT_SURROGATE = PACKAGED["maxwell"]
 #: Maxwell time constants tried by default, s
 MEMORY_TAUS = (4e-3, 8e-3, 16e-3)
-#: degree tuples (δ, δ̇, ζ) tried by default for the memory element
-MEMORY_DEGREES = tuple(itertools.product((10, 12, 14, 16, 18), (6, 8, 10, 12, 14), (3, 5, 7, 9)))
+#: degree tuples (δ, δ̇, ζ) tried by default for the memory element: ζ needs high degrees
+#: (the controlled runs' error falls with it), capped at 20 for the cost of the recurrences
+MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
+#: data-collection design of the packaged memory element
+MEMORY_DESIGN = "envelope"
 #: training samples of the memory element, Hz (ζ is built at the full integration rate)
 MEMORY_SAMPLE_RATE = 200.0
 #: start of each run discarded from the memory element's training samples, s (≥ 5 τ)
@@ -183,8 +187,8 @@ def _stage(
 def memory_degrees(max_degree: Sequence[int]) -> list[tuple[int, ...]]:
     """The memory element's degree grid up to ``max_degree`` (one per input δ, δ̇, ζ): each
     input from the start of :data:`MEMORY_DEGREES` in steps of 2 (the packaged grid is
-    ``memory_degrees((18, 14, 9))``)."""
-    starts = (10, 6, 3)
+    ``memory_degrees((16, 16, 20))``)."""
+    starts = tuple(min(d[j] for d in MEMORY_DEGREES) for j in range(3))
     if len(max_degree) != len(starts):
         raise ValueError(f"max_degree needs one degree per input (3), got {len(max_degree)}")
     for j, (lo, top) in enumerate(zip(starts, max_degree, strict=True)):
@@ -230,7 +234,7 @@ def memory_training_data(
 
 
 def build_memory_surrogate(
-    design: str | CollectionDesign = "paper",
+    design: str | CollectionDesign = MEMORY_DESIGN,
     taus: Sequence[float] = MEMORY_TAUS,
     degrees: Iterable[Any] = MEMORY_DEGREES,
     passive: bool = True,
@@ -247,7 +251,8 @@ def build_memory_surrogate(
 
     Parameters
     ----------
-    design : ``"paper"``, ``"envelope"`` or a ``CollectionDesign``.
+    design : ``"paper"``, ``"envelope"`` (default, :data:`MEMORY_DESIGN`) or a
+        ``CollectionDesign``.
     taus : candidate Maxwell time constants, s. degrees : candidate degree tuples.
     passive : fit :class:`~surrogates.passive.PassiveLegendreRegression` (non-negative
         slopes in every input) instead of the unconstrained LPR.
@@ -354,11 +359,13 @@ def save_vertical_surrogate(
 
 
 @lru_cache(maxsize=2)
-def default_vertical_surrogate(form: str = "maxwell") -> SurrogateModel:
+def default_vertical_surrogate(form: str = "maxwell", release: str = "") -> SurrogateModel:
     """A packaged element, loaded once: ``"maxwell"`` (default, ``vertical_lpr.json``) or
-    the paper's ``"static"`` one (``vertical_lpr_static.json``)."""
+    the paper's ``"static"`` one (``vertical_lpr_static.json``); ``release="v0"``: the file
+    of version 0 of the envs (``data/v0/``, ``VerticalSuspension-v0``)."""
     name = PACKAGED[val.choice(form, "form", PACKAGED)]
-    with resources.as_file(resources.files("railgym") / "data" / name) as p:
+    folder = resources.files("railgym") / "data"
+    with resources.as_file(folder / release / name if release else folder / name) as p:
         return io.load(p)
 
 
@@ -445,10 +452,11 @@ def _element_pairs(
 
 
 def _initial_pairs(model: SurrogateModel, vehicle: str) -> tuple[np.ndarray, np.ndarray]:
-    """Training pairs of the packaged recipe of ``model``'s form (the paper design)."""
+    """Training pairs of the packaged recipe of ``model``'s form (memory: :data:`MEMORY_DESIGN`;
+    static: the paper design)."""
     form = element_form(getattr(model, "features_", None))
     if form.form == "maxwell":
-        data = collect_design(_design("paper", None, MEMORY_SAMPLE_RATE), vehicle=vehicle)
+        data = collect_design(_design(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE), vehicle=vehicle)
         return memory_training_data(data, form.tau, form.known_physics, vehicle)
     data = collect_design("paper", vehicle=vehicle)
     return data["U"], data["V"]
@@ -603,18 +611,35 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="python -m railgym.vehicles.collect", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--features", choices=sorted(PACKAGED), default="maxwell")
-    parser.add_argument("--design", choices=DESIGNS, default="paper")
-    parser.add_argument("--output", help="model JSON (default: the packaged file of the form)")
+    parser.add_argument(
+        "--design",
+        choices=DESIGNS,
+        help=f"data collection (default: maxwell {MEMORY_DESIGN}, static paper)",
+    )
+    parser.add_argument(
+        "--output",
+        help="model JSON (default: regenerate the packaged file of the form); an existing "
+        "file is replaced only with --overwrite",
+    )
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --output")
     parser.add_argument("--m", type=int, default=101, help="static: GA training samples")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.add_argument("--fmu-map", help="collect from this FMU mapping file (docs/fmi.md)")
     parser.add_argument("--fmu", help="the FMU of --fmu-map (default: the map's fmu:)")
     add_degree_arguments(
         parser,
-        "; static default 16 per input; maxwell: the grid of each input (from 10, 6, 3 in "
-        "steps of 2) up to N, default 18 14 9",
+        "; static default 16 per input; maxwell: the grid of each input (from 12, 12, 14 in "
+        "steps of 2) up to N, default 16 16 20",
     )
     args = parser.parse_args(argv)
+    if args.design is None:
+        args.design = MEMORY_DESIGN if args.features == "maxwell" else "paper"
+    if args.output is not None:  # checked before the minutes of work
+        target = Path(args.output)
+        if target.exists() and not args.overwrite:
+            parser.error(f"--output {target}: exists; pass --overwrite to replace it")
+        if not target.parent.is_dir():
+            parser.error(f"--output {target}: the folder {str(target.parent)!r} does not exist")
     n_inputs = 2 if args.features == "static" else 3
     try:
         degree = check_degrees(args.degree, "--degree", n_inputs)
@@ -647,7 +672,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             model, report, _ = build_vertical_surrogate(
                 m=args.m, design=args.design, candidates=cands, progress=progress, data=data
             )
-            text = report.format()
+            text = report.format("N")
             source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
         else:
             model, report, _ = build_memory_surrogate(

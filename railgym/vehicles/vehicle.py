@@ -267,7 +267,7 @@ def kernel_params(vehicle: WholeVehicle, flexible: bool = True) -> Params:
 def lpr_arrays(surrogate: Any = None, dt: float | None = None) -> Lpr:
     """:class:`Lpr` of a fitted LPR model (or its ``kernel_arrays()``), static or memory
     form; placeholders for None. ``dt`` (s), when given, is checked against ``2τ``."""
-    return Lpr(*surrogate_arrays(surrogate, dt))
+    return Lpr(*surrogate_arrays(surrogate, dt)[: len(Lpr._fields)])
 
 
 def state_size(variant: str, lpr: Lpr | None = None) -> int:

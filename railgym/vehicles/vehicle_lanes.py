@@ -6,7 +6,8 @@ statement a loop over the block's vehicles that LLVM vectorises. The arithmetic 
 that of :func:`railgym.vehicles.vehicle._advance_one` operation for operation (the LPR
 evaluation that of :func:`~surrogates.models.lpr.lpr_eval_into` for two inputs), so both
 kernels give bit-identical results (tested). A memory element (three inputs, additive) adds
-the two Maxwell states and is summed along its Legendre recurrences as
+the two Maxwell states in rows of their own after those of the static layout (which keeps its
+rows and loops) and is summed along its Legendre recurrences as
 :func:`~surrogates.models.lpr.lpr_additive_inside` does. Element inputs outside the training
 box are evaluated lane by lane by ``lpr_eval_into``.
 """
@@ -28,21 +29,24 @@ LANES = 64
 #: batches of fewer vehicles run the per-vehicle kernel (same results)
 LANES_MIN = 8
 _N = 14  # mechanical states
-_NS = 16  # rows per state vector: the mechanical states and a memory element's two states
 _DIV = 10.0  # |displacement| (m) above this counts as divergence (``vehicle`` module)
 _BIG = 1.7976931348623157e308  # |v| <= _BIG is False for NaN and ±inf
 
 # rows of a block's work array
-_X, _XT, _K = 0, 16, 32  # state, stage state, stage rates k1..k4 (4 × _NS rows)
-_W, _WM = 96, 104  # wheel inputs (height, rate) × 4 at the substep ends, at its midpoint
-_FA = 112  # actuator forces (2 rows), N
-_U, _T = 114, 117  # element inputs (δ, δ̇[, ζ]) and their map to [-1, 1] (3 rows each)
-_FS, _FT = 120, 122  # secondary forces, and plus the actuator forces (2 rows each), N
-_EL, _FB = 124, 125  # element value; 1.0 where the linear extension is needed
-_OUT, _OSUM = 126, 127  # out-of-box evaluations of a stage, of a substep
-_ALIVE, _CONTACT, _OOD = 128, 129, 130
-_A, _B, _S = 131, 134, 137  # additive element: recurrence P_{k-1}, P_k, partial sums (3 rows)
-_ROWS = 140
+_X, _XT, _K = 0, 14, 28  # state, stage state, stage rates k1..k4 (4 × 14 rows)
+_W, _WM = 84, 92  # wheel inputs (height, rate) × 4 at the substep ends, at its midpoint
+_FA = 100  # actuator forces (2 rows), N
+_U, _T = 102, 104  # element inputs (δ, δ̇) and their map to [-1, 1]
+_FS, _FT = 106, 108  # secondary forces, and plus the actuator forces (2 rows each), N
+_EL, _FB = 110, 111  # element value; 1.0 where the linear extension is needed
+_OUT, _OSUM = 112, 113  # out-of-box evaluations of a stage, of a substep
+_ALIVE, _CONTACT, _OOD = 114, 115, 116
+_ROWS = 117
+# rows of a memory element (after the static layout)
+_M, _MT, _MK = 117, 119, 121  # Maxwell states s_0, s_1; stage states; stage rates (4 × 2 rows)
+_UZ, _TM = 129, 130  # element input ζ; the three inputs mapped to [-1, 1]
+_A, _B, _S = 133, 136, 139  # recurrence P_{k-1}, P_k and partial sums (3 rows each)
+_ROWS_MEMORY = 142
 
 
 @njit(cache=True, error_model="numpy")
@@ -118,20 +122,22 @@ def _element(w, pt, lpr, lw, u, nb):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _element_memory(w, lpr, lw, u, nb):
-    """Value of an additive three-input (memory) element at the inputs in rows ``_U`` into
-    row ``_EL``, the operations of :func:`~surrogates.models.lpr.lpr_additive_inside` lane
-    by lane; out-of-box lanes by ``lpr_eval_into`` (flags added to row ``_OUT``)."""
+    """Value of an additive three-input (memory) element at the inputs in rows ``_U, _U + 1,
+    _UZ`` into row ``_EL``: the operations of :func:`~surrogates.models.lpr.lpr_additive_inside`
+    (three interleaved recurrences) lane by lane; lanes outside the box by ``lpr_eval_into``
+    (their flags added to row ``_OUT``)."""
     table, lo, up = lpr.table, lpr.lo, lpr.up
     n = table.shape[1]
     for l in range(nb):
         w[_FB, l] = 0.0
     for j in range(3):
+        row = _U + j if j < 2 else _UZ
         lj, uj, sc = lo[j], up[j], lw[6, j]
         for l in range(nb):
-            v = w[_U + j, l]
+            v = w[row, l]
             w[_FB, l] = max(w[_FB, l], 1.0 if (v < lj) | (v > uj) else 0.0)
             t = (v - lj) * sc - 1.0
-            w[_T + j, l] = t
+            w[_TM + j, l] = t
             w[_A + j, l] = 1.0
             w[_B + j, l] = t
     c0 = table[0, 0] + table[1, 0] + table[2, 0]
@@ -143,16 +149,22 @@ def _element_memory(w, lpr, lw, u, nb):
         for j in range(3):
             c1 = table[j, 1]
             for l in range(nb):
-                w[_S + j, l] += c1 * w[_T + j, l]
-    for j in range(3):
-        older, newer = _A + j, _B + j  # rows of P_{k-1}, P_k; P_{k+1} overwrites P_{k-1}
-        for k in range(1, n - 1):
-            ck, ek, ct = lw[4, k], lw[5, k], table[j, k + 1]
-            for l in range(nb):
-                nx = ck * w[_T + j, l] * w[newer, l] - ek * w[older, l]
-                w[_S + j, l] += ct * nx
-                w[older, l] = nx
-            older, newer = newer, older
+                w[_S + j, l] += c1 * w[_TM + j, l]
+    older, newer = _A, _B  # rows of P_{k-1}, P_k (3 each); P_{k+1} overwrites P_{k-1}
+    for k in range(1, n - 1):
+        ck, ek = lw[4, k], lw[5, k]
+        c0, c1, c2 = table[0, k + 1], table[1, k + 1], table[2, k + 1]
+        for l in range(nb):  # the three chains interleaved, as lpr_additive_inside
+            n0 = ck * w[_TM, l] * w[newer, l] - ek * w[older, l]
+            n1 = ck * w[_TM + 1, l] * w[newer + 1, l] - ek * w[older + 1, l]
+            n2 = ck * w[_TM + 2, l] * w[newer + 2, l] - ek * w[older + 2, l]
+            w[_S, l] += c0 * n0
+            w[_S + 1, l] += c1 * n1
+            w[_S + 2, l] += c2 * n2
+            w[older, l] = n0
+            w[older + 1, l] = n1
+            w[older + 2, l] = n2
+        older, newer = newer, older
     outside = 0.0
     for l in range(nb):
         w[_EL, l] = w[_S, l] + w[_S + 1, l] + w[_S + 2, l]
@@ -161,16 +173,19 @@ def _element_memory(w, lpr, lw, u, nb):
     if outside > 0.0:
         for l in range(nb):
             if w[_FB, l] > 0.0:
-                u[0], u[1], u[2] = w[_U, l], w[_U + 1, l], w[_U + 2, l]
+                u[0], u[1], u[2] = w[_U, l], w[_U + 1, l], w[_UZ, l]
                 w[_EL, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lo, up, lpr.mode, lw)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _rhs(w, pt, xr, wr, dr, p, q, lpr, lw, u, nb):
-    """Rates of the states in rows ``xr`` into rows ``dr`` with the wheel inputs in rows
-    ``wr``; secondary forces in rows ``_FS``; out-of-box evaluations in row ``_OUT``. ``q``:
-    the suspension record (bump-stop law of an element with that known physics)."""
+def _rhs(w, pt, xr, wr, dr, mr, p, q, lpr, lw, u, nb):
+    """Rates of the states in rows ``xr`` into rows ``dr`` (``_K + 14·stage``) with the wheel
+    inputs in rows ``wr``; secondary forces in rows ``_FS``; out-of-box evaluations in row
+    ``_OUT``. A memory element's Maxwell states are read from rows ``mr`` (``_M`` or ``_MT``),
+    their rates written to rows ``_MK + 2·stage``; ``q``: the suspension record (bump-stop
+    law of an element with that known physics)."""
     tau = lpr.tau
+    mdr = _MK + 2 * ((dr - _K) // 14)  # the stage's Maxwell-rate rows
     for l in range(nb):
         w[_OUT, l] = 0.0
     for i in range(2):
@@ -181,9 +196,9 @@ def _rhs(w, pt, xr, wr, dr, p, q, lpr, lw, u, nb):
             w[_U + 1, l] = vb - (w[xr + 7, l] + xi * w[xr + 8, l] + p.phi_a * w[xr + 9, l])
         if tau > 0.0:
             for l in range(nb):
-                sm = w[xr + _N + i, l]
-                w[_U + 2, l] = w[_U, l] - sm
-                w[dr + _N + i, l] = (w[_U, l] - sm) / tau
+                sm = w[mr + i, l]
+                w[_UZ, l] = w[_U, l] - sm
+                w[mdr + i, l] = (w[_U, l] - sm) / tau
             _element_memory(w, lpr, lw, u, nb)
         else:
             _element(w, pt, lpr, lw, u, nb)
@@ -218,11 +233,19 @@ def _rhs(w, pt, xr, wr, dr, p, q, lpr, lw, u, nb):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _stage(w, src, scale, ns, nb):
-    """Stage state rows ``_XT = _X + scale · (rows src)`` of the ``ns`` states."""
-    for j in range(ns):
+def _stage(w, src, scale, nb):
+    """Stage state rows ``_XT = _X + scale · (rows src)``."""
+    for j in range(_N):
         for l in range(nb):
             w[_XT + j, l] = w[_X + j, l] + scale * w[src + j, l]
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _stage_memory(w, stage, scale, nb):
+    """Maxwell stage rows ``_MT = _M + scale · (rates of stage)``."""
+    for j in range(2):
+        for l in range(nb):
+            w[_MT + j, l] = w[_M + j, l] + scale * w[_MK + 2 * stage + j, l]
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
@@ -231,56 +254,77 @@ def lanes_block(bt, i0, n_sub, dt, p, e, lpr, out):
     ``n_sub`` RK4 steps of ``dt`` (s); arguments as for ``vehicle.advance`` with the
     surrogate variant (``e``: the suspension record array, track windows checked)."""
     q = e[0]
-    ns = bt.state.shape[1]  # 14, or 16 with a memory element
+    memory = lpr.tau > 0.0
     nb = min(LANES, bt.state.shape[0] - i0)
-    w = np.zeros((_ROWS, nb))
+    w = np.zeros((_ROWS_MEMORY if memory else _ROWS, nb))
     lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     pt = np.zeros((2, lw.shape[1], nb))
     u = np.empty(lpr.lo.shape[0])
     for l in range(nb):
         i = i0 + l
-        for j in range(ns):
+        for j in range(_N):
             w[_X + j, l] = bt.state[i, j]
+        if memory:
+            w[_M, l], w[_M + 1, l] = bt.state[i, _N], bt.state[i, _N + 1]
         w[_FA, l], w[_FA + 1, l] = bt.force[i, 0], bt.force[i, 1]
         w[_ALIVE, l] = 1.0
     h6 = dt / 6.0
     half = 0.5 * dt
     _inputs(w, bt, i0, nb, 0.0, dt, _W)
     for m in range(n_sub):
-        _rhs(w, pt, _X, _W, _K, p, q, lpr, lw, u, nb)
+        _rhs(w, pt, _X, _W, _K, _M, p, q, lpr, lw, u, nb)
         for l in range(nb):
             w[_OSUM, l] = w[_OUT, l]
         _inputs(w, bt, i0, nb, m + 0.5, dt, _WM)
-        _stage(w, _K, half, ns, nb)
-        _rhs(w, pt, _XT, _WM, _K + _NS, p, q, lpr, lw, u, nb)
+        _stage(w, _K, half, nb)
+        if memory:
+            _stage_memory(w, 0, half, nb)
+        _rhs(w, pt, _XT, _WM, _K + 14, _MT, p, q, lpr, lw, u, nb)
         for l in range(nb):
             w[_OSUM, l] += w[_OUT, l]
-        _stage(w, _K + _NS, half, ns, nb)
-        _rhs(w, pt, _XT, _WM, _K + 2 * _NS, p, q, lpr, lw, u, nb)
+        _stage(w, _K + 14, half, nb)
+        if memory:
+            _stage_memory(w, 1, half, nb)
+        _rhs(w, pt, _XT, _WM, _K + 28, _MT, p, q, lpr, lw, u, nb)
         for l in range(nb):
             w[_OSUM, l] += w[_OUT, l]
         _inputs(w, bt, i0, nb, m + 1.0, dt, _W)
-        _stage(w, _K + 2 * _NS, dt, ns, nb)
-        _rhs(w, pt, _XT, _W, _K + 3 * _NS, p, q, lpr, lw, u, nb)
+        _stage(w, _K + 28, dt, nb)
+        if memory:
+            _stage_memory(w, 2, dt, nb)
+        _rhs(w, pt, _XT, _W, _K + 42, _MT, p, q, lpr, lw, u, nb)
         alive = 0.0
         for l in range(nb):
             w[_OOD, l] += w[_ALIVE, l] * (w[_OSUM, l] + w[_OUT, l])
             ok = True
-            for j in range(ns):
+            for j in range(_N):
                 v = w[_X + j, l] + h6 * (
                     w[_K + j, l]
-                    + 2.0 * w[_K + _NS + j, l]
-                    + 2.0 * w[_K + 2 * _NS + j, l]
-                    + w[_K + 3 * _NS + j, l]
+                    + 2.0 * w[_K + 14 + j, l]
+                    + 2.0 * w[_K + 28 + j, l]
+                    + w[_K + 42 + j, l]
                 )
                 w[_XT + j, l] = v
                 ok = ok and abs(v) <= _BIG
                 if j < 7:
                     ok = ok and abs(v) <= _DIV
+            if memory:
+                for j in range(2):
+                    v = w[_M + j, l] + h6 * (
+                        w[_MK + j, l]
+                        + 2.0 * w[_MK + 2 + j, l]
+                        + 2.0 * w[_MK + 4 + j, l]
+                        + w[_MK + 6 + j, l]
+                    )
+                    w[_MT + j, l] = v
+                    ok = ok and abs(v) <= _BIG
             a = w[_ALIVE, l] if ok else 0.0
             w[_ALIVE, l] = a
-            for j in range(ns):
+            for j in range(_N):
                 w[_X + j, l] = w[_XT + j, l] if a > 0.0 else w[_X + j, l]
+            if memory:
+                for j in range(2):
+                    w[_M + j, l] = w[_MT + j, l] if a > 0.0 else w[_M + j, l]
             for b in range(2):
                 xb = p.a if b == 0 else -p.a
                 d = w[_X + 3 + 2 * b, l] - w[_X, l] - xb * w[_X + 1, l] - p.phi_a * w[_X + 2, l]
@@ -289,11 +333,13 @@ def lanes_block(bt, i0, n_sub, dt, p, e, lpr, out):
             alive += a
         if alive == 0.0:
             break
-    _rhs(w, pt, _X, _W, _K, p, q, lpr, lw, u, nb)
+    _rhs(w, pt, _X, _W, _K, _M, p, q, lpr, lw, u, nb)
     for l in range(nb):
         i = i0 + l
-        for j in range(ns):
+        for j in range(_N):
             bt.state[i, j] = w[_X + j, l]
+        if memory:
+            bt.state[i, _N], bt.state[i, _N + 1] = w[_M, l], w[_M + 1, l]
         d7, d8, d9 = w[_K + 7, l], w[_K + 8, l], w[_K + 9, l]
         acc = (
             d7 + p.a * d8 + p.phi_a * d9,

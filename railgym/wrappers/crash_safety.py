@@ -16,6 +16,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+#: the railgym env the wrapper is made for (any other env must report :data:`STEP_KEYS`)
+CRASH_ENV = "railgym/TrainCrash-v0"
 #: per-step info keys the wrapper accumulates
 STEP_KEYS = ("decel_g", "crush_m")
 #: episode-end criteria info keys copied into the summary when the env reports them
@@ -62,6 +64,12 @@ class CrashSafety(gym.Wrapper):
 
     def __init__(self, env: gym.Env) -> None:
         super().__init__(env)
+        spec = getattr(env.unwrapped, "spec", None)
+        env_id = getattr(spec, "id", None) or ""
+        if env_id.startswith("railgym/") and env_id != CRASH_ENV:
+            raise ValueError(
+                f"env: CrashSafety summarises crash episodes ({CRASH_ENV}), got {env_id}"
+            )
         self._cfg = getattr(env.unwrapped, "cfg", None)
         self._clear()
 

@@ -18,7 +18,12 @@ import gymnasium as gym
 import numpy as np
 
 from railgym import _validation as val
-from railgym.envs.vertical import BACKENDS, DEFAULT_WEIGHTS, OBSERVATIONS, VerticalSuspensionEnv
+from railgym.envs.vertical import (
+    DEFAULT_WEIGHTS,
+    ENV_BACKENDS,
+    OBSERVATIONS,
+    VerticalSuspensionEnv,
+)
 from surrogates.metrics import average_absolute_error, paper_error
 
 #: carbody channels compared: (info suffix, unit)
@@ -119,7 +124,7 @@ class ReferenceShadow(gym.Wrapper):
                 "env: ReferenceShadow supports railgym/VerticalSuspension-v0 "
                 f"(VerticalSuspensionEnv) only, got {type(base).__name__}"
             )
-        reference_backend = val.choice(reference_backend, "reference_backend", BACKENDS)
+        reference_backend = val.choice(reference_backend, "reference_backend", ENV_BACKENDS)
         self.base = base
         self.reference_backend = reference_backend
         given = {"fmu": fmu, "fmu_map": fmu_map}

@@ -145,6 +145,7 @@ class SurrogateModel:
     def predict(self, U: Any) -> np.ndarray:
         """Predict outputs for ``U`` (n, d) → (n,), applying the extrapolation policy."""
         self._check_fitted()
+        check_choice(self.extrapolation, EXTRAPOLATION_POLICIES, "extrapolation")  # set_params
         one_d = np.asarray(U).ndim == 1
         U = as_inputs(U)
         if U.shape[1] != self.n_features_in_:

@@ -18,7 +18,9 @@ models, with the same extrapolation guard as :meth:`Kriging.predict`.
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
@@ -26,6 +28,7 @@ from numba import njit
 from scipy.linalg import LinAlgError, cholesky, qr, solve_triangular
 from scipy.linalg.lapack import dpotri
 from scipy.optimize import OptimizeResult, minimize
+from threadpoolctl import threadpool_limits
 
 from surrogates.models.base import SurrogateModel, as_inputs
 from surrogates.models.lpr import EXTRAPOLATION_MODES
@@ -34,6 +37,7 @@ from surrogates.models.validation import (
     check_choice,
     check_float,
     check_int,
+    check_seed,
     field,
     field_array,
 )
@@ -47,8 +51,9 @@ LENGTH_SCALE_BOUNDS = (1e-3, 1e2)
 NUGGET_BOUNDS = (1e-12, 1.0)
 #: relative tolerance of L-BFGS-B on the log-likelihood (its change per iteration)
 LIKELIHOOD_FTOL = 1e-6
-#: default largest training set accepted by :meth:`Kriging.fit`
-MAX_SAMPLES = 2000
+#: default largest training set accepted by :meth:`Kriging.fit`: its fit time grows as n³
+#: (measured in ``python -m benchmarks``, docs/benchmarks.md)
+MAX_SAMPLES = 1000
 #: first diagonal jitter of an interpolating model (nugget off)
 JITTER = 1e-14
 
@@ -70,6 +75,19 @@ class KrigingArrays(NamedTuple):
     y_std: float  #: output standard deviation, output units
     kernel: int  #: 0 Gaussian, 1 Matérn-5/2 (index in ``KERNELS``)
     mode: int  #: extrapolation mode (``surrogates.models.lpr.EXTRAPOLATION_MODES``)
+
+
+def _serial_blas(fit: Callable[..., None]) -> Callable[..., None]:
+    """Run ``fit`` with one BLAS thread: its hundreds of small factorisations (n ≤ a few
+    thousand) each wake a thread pool otherwise, which on a loaded machine costs far more
+    than the arithmetic (``python -m benchmarks``: a 201-point fit under load)."""
+
+    @functools.wraps(fit)
+    def serial(*args: Any, **kwargs: Any) -> None:
+        with threadpool_limits(limits=1, user_api="blas"):
+            fit(*args, **kwargs)
+
+    return serial
 
 
 class Kriging(SurrogateModel):
@@ -186,6 +204,7 @@ class Kriging(SurrogateModel):
         )
 
     # ------------------------------------------------------------- for the base class
+    @_serial_blas
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
         n, d = U.shape
         p = 1 + d if self.trend == "linear" else 1
@@ -256,7 +275,7 @@ class Kriging(SurrogateModel):
         self.weights_ = solve_triangular(L, res_t, lower=True, trans="T", check_finite=False)
         self.log_likelihood_ = -float(best.fun)
         self._Xs, self._L, self._Ft, self._Rq = Xs, L, Ft, Rq
-        self._kernel_arrays: KrigingArrays | None = None
+        self._kernel_arrays = self.kernel_arrays()
 
     def _predict_inside(self, U: np.ndarray) -> np.ndarray:
         """Mean prediction (n,) by the compiled predictor the vehicle kernels run."""
@@ -271,10 +290,8 @@ class Kriging(SurrogateModel):
         return G
 
     def _arrays(self) -> KrigingArrays:
-        """:meth:`kernel_arrays`, kept until the next fit or state change."""
-        arrays: KrigingArrays | None = getattr(self, "_kernel_arrays", None)
-        if arrays is None:
-            arrays = self._kernel_arrays = self.kernel_arrays()
+        """:meth:`kernel_arrays`, made at fit and at load (``predict`` changes no attribute)."""
+        arrays: KrigingArrays = self._kernel_arrays
         return arrays
 
     def _state(self) -> dict[str, Any]:
@@ -322,7 +339,6 @@ class Kriging(SurrogateModel):
             num("log_likelihood", nan_ok=True) if "log_likelihood" in d else float("nan")
         )
         self._ell = self.theta_ / (self.upper_ - self.lower_)
-        self._kernel_arrays = None
         self._Xs = self._scale(self.X_)
         K, _ = _correlation(self._Xs, self._Xs, self._ell, self.kernel)
         try:
@@ -336,6 +352,7 @@ class Kriging(SurrogateModel):
             self._L, _trend_matrix(self._Xs, self.trend), lower=True, check_finite=False
         )
         self._Rq = qr(self._Ft, mode="economic", check_finite=False)[1]
+        self._kernel_arrays = self.kernel_arrays()
 
     # ------------------------------------------------------------------ helpers
     def _check_params(self) -> None:
@@ -367,7 +384,7 @@ class Kriging(SurrogateModel):
         m = d + int(auto)
         lo = np.array([np.log(0.05)] * d + ([np.log(1e-8)] if auto else []))
         hi = np.array([np.log(2.0)] * d + ([np.log(1e-2)] if auto else []))
-        rng = np.random.default_rng(self.seed)
+        rng = np.random.default_rng(check_seed(self.seed))
         k = self.n_starts - 1
         lhs = (np.argsort(rng.random((k, m)), axis=0) + rng.random((k, m))) / max(k, 1)
         return [0.5 * (lo + hi)] + [lo + (hi - lo) * row for row in lhs]

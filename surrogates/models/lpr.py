@@ -34,11 +34,12 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from surrogates.models.base import SurrogateModel
+from surrogates.models.base import EXTRAPOLATION_POLICIES, SurrogateModel
 from surrogates.models.validation import (
     MAX_DEGREE,
     ModelFieldError,
     check_bool,
+    check_choice,
     check_degree,
     check_float,
     field,
@@ -194,7 +195,9 @@ class LegendreRegression(SurrogateModel):
             np.ascontiguousarray(self.coef_, dtype=np.float64).copy(),
             np.ascontiguousarray(self.lower_, dtype=np.float64).copy(),
             np.ascontiguousarray(self.upper_, dtype=np.float64).copy(),
-            EXTRAPOLATION_MODES[self.extrapolation],
+            EXTRAPOLATION_MODES[
+                check_choice(self.extrapolation, EXTRAPOLATION_POLICIES, "extrapolation")
+            ],
         )
 
     # -------------------------------------------------------------- persistence

@@ -174,3 +174,20 @@ def _has_bool(value: Any) -> bool:
 def _shape_text(shape: tuple[int | None, ...]) -> str:
     inner = ", ".join("n" if s is None else str(s) for s in shape)
     return f"({inner},)" if len(shape) == 1 else f"({inner})"
+
+
+def check_seed(seed: Any, field: str = "seed") -> Any:
+    """``seed`` if :func:`numpy.random.default_rng` takes it as documented: ``None``, a
+    non-negative integer (not a bool), a sequence of them, or a numpy ``Generator``,
+    ``BitGenerator`` or ``SeedSequence``; else :class:`ModelFieldError` naming ``field``."""
+    if seed is None or isinstance(
+        seed, np.random.Generator | np.random.BitGenerator | np.random.SeedSequence
+    ):
+        return seed
+    items = list(seed) if isinstance(seed, list | tuple) and seed else [seed]
+    for item in items:
+        if isinstance(item, bool | np.bool_) or not isinstance(item, Integral) or item < 0:
+            raise ModelFieldError(
+                f"{field} must be None, a non-negative integer or a numpy Generator, got {seed!r}"
+            )
+    return seed

@@ -54,7 +54,8 @@ ROWS = [
     ("railgym", "evaluate", "policy"),
     ("railgym", "evaluate skyhook2", "policy must be one of"),
     ("railgym", "evaluate {missing}.zip", "policy must be one of"),
-    ("railgym", "evaluate {noconfig}", "no config.yaml"),
+    ("railgym", "evaluate {noconfig}", "no manifest.json beside it"),
+    ("railgym", "evaluate {noconfig} --trust", "not a zip file"),
     ("railgym", "evaluate {nomanifest}", "--trust"),
     # railgym evaluate: the vehicle, crash envelope and parallel flags
     ("railgym", "evaluate skyhook --env vehicle --speed 0", "--speed"),

@@ -38,7 +38,7 @@ def test_separation_principle_on_the_linear_backend():
     flat track, has the poles of Φ − Γ·K (the LQR's gain on the plant sampled with the force
     held) and of the filter's error Φ·(I − M·C), plus 0 for the stored force."""
     n = 24
-    flat = (np.linspace(0.0, 2000.0, 11), np.zeros(11))
+    flat = (np.linspace(0.0, 2000.0, 2001), np.zeros(2001))
     venv = VerticalSuspensionVectorEnv(num_envs=n, backend="linear", profile=flat, duration=1.0)
     rng = np.random.default_rng(0)
     venv.reset(seed=0)

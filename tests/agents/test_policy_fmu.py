@@ -73,6 +73,10 @@ def _predict_forces(run, obs):
 
 
 def _fmu_forces(fmu_path, names, obs_si):
+    return _fmu_outputs(fmu_path, names, obs_si, ["actuator_force"])[:, 0]
+
+
+def _fmu_outputs(fmu_path, names, obs_si, outputs):
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
@@ -88,12 +92,12 @@ def _fmu_forces(fmu_path, names, obs_si):
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
-    ins = [vr[n] for n in names]
-    out = np.empty(len(obs_si))
+    ins, outs = [vr[n] for n in names], [vr[n] for n in outputs]
+    out = np.empty((len(obs_si), len(outputs)))
     for i, row in enumerate(obs_si):
         fmu.setReal(ins, row.tolist())
         fmu.doStep(currentCommunicationPoint=i * 0.01, communicationStepSize=0.01)
-        out[i] = fmu.getReal([vr["actuator_force"]])[0]
+        out[i] = fmu.getReal(outs)
     fmu.terminate()
     fmu.freeInstance()
     return out
@@ -196,3 +200,42 @@ class _Zero:
 
     def predict(self, obs, state=None, episode_start=None, deterministic=True):
         return np.zeros(1, np.float32), None
+
+
+def test_whole_vehicle_policy_fmu_has_two_forces_named_like_the_vehicle_fmu(tmp_path):
+    """A VerticalVehicle-v0 policy: 11 observation inputs, two force outputs, each equal to
+    predict × f_max; its names are the whole-vehicle reference FMU's outputs and inputs."""
+    from agents.evaluate import load_policy
+    from agents.policy_fmu import export_policy
+    from agents.train import train
+    from railgym.fmu.reference import VEHICLE_INPUTS, VEHICLE_OUTPUTS
+
+    vid = "railgym/VerticalVehicle-v0"
+    block = {
+        "algo": "ppo",
+        "n_timesteps": 128,
+        "n_envs": 2,
+        "seed": 0,
+        "env_kwargs": {"backend": "linear", "duration": 1.0},
+        "eval_freq": 10**6,
+        "n_eval_episodes": 1,
+        "checkpoint_freq": 10**6,
+        **BLOCKS["ppo"],
+    }
+    run = train({vid: block}, tmp_path / "ppo_vehicle", progress=False)
+    fmu, _ = export_policy(run / "model.zip", tmp_path / "controller.fmu")
+    md = fmpy.read_model_description(str(fmu))
+    ins = [v.name for v in md.modelVariables if v.causality == "input"]
+    outs = [v.name for v in md.modelVariables if v.causality == "output"]
+    assert set(ins) <= {name for name, _, _ in VEHICLE_OUTPUTS} and len(ins) == 11
+    assert set(outs) <= {name for name, _, _ in VEHICLE_INPUTS} and len(outs) == 2
+    factory, _, _ = load_policy(str(run / "model.zip"), vid)
+    import gymnasium as gym
+
+    scale = gym.make(vid).unwrapped.obs_scale
+    obs = np.random.default_rng(1).normal(0.0, 1.5, (2000, 11)).astype(np.float32)
+    action, _ = factory(None).predict(obs, deterministic=True)
+    expected = np.clip(action, -1, 1).astype(float) * 8000.0
+    assert np.ptp(expected, axis=0).min() > 100.0
+    got = _fmu_outputs(fmu, ins, obs.astype(float) * scale, outs)
+    assert np.max(np.abs(got - expected)) <= 1e-5 * 8000.0

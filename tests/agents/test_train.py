@@ -249,7 +249,7 @@ def test_short_ppo_run_saves_reloadable_reproducible_policy(tmp_path, monkeypatc
     assert progress[-1]["time/total_timesteps"] == 2048
     assert np.isfinite(progress[-1]["rollout/ep_rew_mean"])  # VecMonitor episode stats
     names = sorted(p.name for p in (out / "checkpoints").iterdir())
-    assert names == ["model_1024_steps.zip", "model_2048_steps.zip"]
+    assert names == ["manifest.json", "model_1024_steps.zip", "model_2048_steps.zip"]
 
     # the last evaluation used the in-memory final model; the reloaded one acts identically
     model = PPO.load(out / "model.zip", device="cpu")

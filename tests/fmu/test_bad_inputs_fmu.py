@@ -119,6 +119,8 @@ CASES = [
     ("unknown field", {"outputz": {}}, None, ["outputz", "unknown"]),
     ("other env", {"env": "crash"}, None, ["env", "'crash'"]),
     ("step is not dt", {"step": 0.002}, None, ["step", "0.002", "dt"]),
+    ("solver for co-simulation", {"solver": "cvode"}, None, ["solver", "ModelExchange"]),
+    ("tolerance without cvode", {"tolerance": 1e-6}, None, ["tolerance", "cvode"]),
     (
         "unsupported FMI version",
         {},

@@ -205,3 +205,33 @@ def test_quick_report_has_the_validation_matrix(quick):
         if element == "memory":
             assert row["median"] < cells["static", cls, ctrl]["median"]
     assert "## Validation matrix" in (folder / "report.md").read_text()
+
+
+def test_crash_element_curves_are_drawn_only_near_their_data():
+    """Figs. 13-14 break a branch's curve where it has no data (the interface unloading
+    branch has data at both ends of its box only)."""
+    from railgym.report.figures import _near
+
+    data = np.array([0.0, 0.001, 0.002, 0.57, 0.58])
+    x = np.linspace(0.0, 0.58, 59)
+    near = _near(x, data, 0.0058)
+    assert np.flatnonzero(near).tolist() == [0, 57, 58]  # u = 0, 0.57, 0.58 m
+    assert _near(np.array([0.3]), np.array([0.3]), 0.0).all()
+
+
+def test_fig11_shows_the_papers_errors_beside_ours():
+    plt = pytest.importorskip("matplotlib.pyplot")
+    from types import SimpleNamespace
+
+    from railgym.report.figures import _errors
+    from railgym.report.published import PAPER
+
+    sizes = (51, 101, 7)  # 7: a size the paper does not give
+    ours = {m: {"x": 1e-4 * m, "v": 1e-3 * m, "a": 1e-2 * m} for m in sizes}
+    fig = _errors(plt, {"lpr": ours, "published": PAPER["table5"]}, SimpleNamespace(sizes=sizes))
+    for i, (ax, q) in enumerate(zip(fig.axes, "xva", strict=True)):
+        bars = [p.get_height() for p in ax.patches]
+        assert bars[:3] == [ours[m][q] for m in sizes]
+        paper = [PAPER["table5"]["lpr"][m][i] for m in (51, 101)]
+        assert bars[3:5] == paper and np.isnan(bars[5])
+    plt.close(fig)

@@ -1,5 +1,7 @@
 import json
+import re
 from functools import partial
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -51,7 +53,10 @@ def test_build_command_writes_a_loadable_model(tmp_path, capsys):
     np.testing.assert_allclose(model.predict(U[inside]), F[inside], rtol=1e-8, atol=1e-6)
     assert model.features_["inputs"] == ["du", "dv"] and model.features_["units"]["F"] == "N"
     assert json.loads(rep.read_text())["m"] == 61
-    assert "chosen" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "chosen" in out
+    # the error in the output's unit (--units F=N), the relative RMS dimensionless
+    assert re.search(r"OOB error \(eq\. 9 absolute\) = \S+ N   OOB relative RMS = \S+ \(dim", out)
 
 
 def test_build_command_reports_a_missing_column(tmp_path, capsys):
@@ -95,10 +100,29 @@ def test_demo_passes_the_surrogate_only_to_its_backend_and_warns_nothing(
         return build_vertical_surrogate(m=41, sampling="greedy", **kwargs)
 
     monkeypatch.setattr(cli, "build_vertical_surrogate", quick_build)
+    figures = []
+    mpl = pytest.importorskip("matplotlib.figure")
+    save = mpl.Figure.savefig
+
+    def keep(fig, path, **kw):
+        figures.append((Path(path).name, fig))
+        return save(fig, path, **kw)
+
+    monkeypatch.setattr(mpl.Figure, "savefig", keep)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert cli.main(["demo", "--out", str(tmp_path / "d"), "--seed", "2"]) == 0
     out = capsys.readouterr().out
+    # units in the headers and the OOB line
+    assert "RMS ẍ2 m/s²" in out and "a_w Wk m/s²" in out and "Sperling Wz" in out
+    assert re.search(r"OOB error \(eq\. 9 absolute\) = \S+ N ", out)
+    # fig. 9 of the demo: under each controller the difference surrogate − reference
+    fig = dict(figures)["carbody_acceleration.png"]
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels == ["ẍ2 (m/s²)", "Δẍ2 (m/s²)"] * 2
+    for top, diff in (fig.axes[0:2], fig.axes[2:4]):
+        ref, sur = (line.get_ydata() for line in top.get_lines()[:2])
+        np.testing.assert_allclose(diff.get_lines()[0].get_ydata(), sur - ref, rtol=0, atol=0)
     a_w = {}
     for line in out.splitlines():
         parts = line.split()
@@ -213,13 +237,14 @@ def test_collect_command_takes_the_degree_options(tmp_path, capsys):
     argv = ["--features", "static", "--m", "51", "--output", str(out), "--quiet"]
     assert collect.main([*argv, "--degree", "3", "4"]) == 0
     assert io.load(out).degree == (3, 4)
-    assert collect.main([*argv, "--max-degree", "2"]) == 0
+    assert collect.main([*argv, "--max-degree", "2", "--overwrite"]) == 0
     assert "--max-degree on the command line" in capsys.readouterr().out
     with pytest.raises(SystemExit) as exc:
-        collect.main(["--features", "maxwell", "--max-degree", "8", "14", "9"])
+        collect.main(["--features", "maxwell", "--max-degree", "10", "14", "20"])
     assert exc.value.code == 2
-    assert "max_degree[0] must be at least 10" in capsys.readouterr().err
-    assert collect.memory_degrees((12, 6, 3)) == [(10, 6, 3), (12, 6, 3)]
+    assert "max_degree[0] must be at least 12" in capsys.readouterr().err
+    assert collect.memory_degrees((14, 12, 14)) == [(12, 12, 14), (14, 12, 14)]
+    assert collect.memory_degrees((16, 16, 20)) == list(collect.MEMORY_DEGREES)
 
 
 def test_progress_bars_only_on_a_terminal_and_not_when_quiet(monkeypatch):

@@ -255,3 +255,26 @@ def test_export_fmu_command(tmp_path, capsys):
     assert "pass --overwrite to replace it" in err and "overwrite=True" not in err
     assert main(["export-fmu", str(path), "-o", str(fmu), "--overwrite", "--kind", "me"]) == 0
     assert fmpy.read_model_description(str(fmu)).coSimulation is None
+
+
+@needs_cc
+def test_cosimulation_output_lags_one_interval_as_documented(tmp_path):
+    """docs/fmi.md's worked example: FMPy's co-simulation row k holds F(u[k-1])."""
+    u = np.linspace(0.0, 10.0, 50)
+    model = LegendreRegression(degree=1).fit(u, 100.0 * u)
+    model.features_ = {"inputs": ["u"], "output": "F", "units": {"u": "m", "F": "N"}}
+    fmu = export_fmu(model, tmp_path / "element.fmu")
+    sig = np.zeros(5, dtype=[("time", float), ("u", float)])
+    sig["time"], sig["u"] = np.arange(5.0), [1.0, 2.0, 3.0, 4.0, 5.0]
+    out = {}
+    for kind in ("ModelExchange", "CoSimulation"):
+        res = fmpy.simulate_fmu(
+            str(fmu), fmi_type=kind, stop_time=4.0, output_interval=1.0, input=sig, output=["F"]
+        )
+        np.testing.assert_array_equal(res["time"], sig["time"])
+        out[kind] = res["F"]
+    predicted = model.predict(sig["u"])
+    np.testing.assert_allclose(predicted, [100, 200, 300, 400, 500], rtol=1e-12)
+    np.testing.assert_allclose(out["ModelExchange"], predicted, rtol=1e-12)
+    np.testing.assert_allclose(out["CoSimulation"], [100, 100, 200, 300, 400], rtol=1e-12)
+    np.testing.assert_allclose(out["CoSimulation"][1:], predicted[:-1], rtol=1e-12)

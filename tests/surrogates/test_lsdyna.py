@@ -130,7 +130,7 @@ def test_bad_files_name_file_line_and_field(tmp_path):
     (tmp_path / "mid").write_text("\n".join(mid) + "\n")
     with pytest.raises(ValueError, match="incomplete but more blocks follow"):
         io.read_nodout(tmp_path / "mid")
-    with pytest.raises(ValueError, match=r"rc: line 3: field 'x_force' \(columns 41-52\)"):
+    with pytest.raises(ValueError, match=r"rc: line 3: field 'x_force' \(after the label 'x'\)"):
         path = write_rcforc(tmp_path / "rc", t, {("master", 1): {"x_force": t}})
         lines = path.read_text().splitlines()
         lines[2] = lines[2][:40] + "   1.2.3E+00" + lines[2][52:]
@@ -261,3 +261,78 @@ def test_binout_read_through_lasso(tmp_path):
     np.testing.assert_allclose(data.rcforc[("master", 1)]["x_force"], [0.0, 2e3, 4e3])
     np.testing.assert_allclose(data.rcforc[("slave", 1)]["z_force"], [0.0, -2e3, -4e3])
     np.testing.assert_allclose(data.glstat["total_energy"], [100.0, 99.0, 98.0])  # kN·mm = J
+
+
+MOMENTS = " mx  1.0E+00 my  0.0E+00 mz  0.0E+00"
+RCFORC_LABELLED = f""" rcforc written by another LS-DYNA version: other widths, moments
+{{BEGIN LEGEND}}
+ Entity #        Title
+        7     wall
+{{END LEGEND}}
+ master      7 time  1.00E-03  x  1.50E+01  y -2.00E+00  z  3.00E+00 mass  0.00E+00{MOMENTS}
+ slave      7 time  1.00E-03  x -1.50E+01  y  2.00E+00  z -3.00E+00
+ master      7 time  2.00E-03  x  3.00E+01  y -4.00E+00  z  6.00E+00 mass  0.00E+00{MOMENTS}
+ slave      7 time  2.00E-03  x -3.00E+01  y  4.00E+00  z -6.00E+00
+ master      1234567 time-1.00000000E-03  x-1.0E+00  y 0.0  z 0.0
+ master      1234567 time 1.00000000E-03  x-2.0E+00  y 0.0  z 0.0
+"""
+
+
+def test_rcforc_is_parsed_by_its_labels_in_any_widths(tmp_path):
+    path = tmp_path / "rcforc"
+    path.write_text(RCFORC_LABELLED)
+    data = io.read_rcforc(path, units="mm-ms-kg-kN")  # kN, ms
+    assert sorted(data) == [("master", 7), ("master", 1234567), ("slave", 7)]
+    m = data[("master", 7)]
+    np.testing.assert_allclose(m.t, [1e-6, 2e-6])
+    np.testing.assert_allclose(m["x_force"], [1.5e4, 3e4])
+    np.testing.assert_allclose(
+        m["resultant"], 1e3 * np.hypot(np.hypot(15, 2), 3) * np.array([1, 2])
+    )
+    np.testing.assert_allclose(data[("slave", 7)]["z_force"], [-3e3, -6e3])
+    np.testing.assert_allclose(data[("master", 1234567)]["x_force"], [-1e3, -2e3])
+    # the fixed-width layout of write_rcforc reads the same values
+    t = np.array([1e-3, 2e-3])
+    fixed = write_rcforc(tmp_path / "fixed", t, {("master", 7): {"x_force": [15.0, 30.0]}})
+    np.testing.assert_allclose(io.read_rcforc(fixed)[("master", 7)]["x_force"], [15.0, 30.0])
+
+
+def test_rcforc_line_without_a_force_label_is_cut_short(tmp_path):
+    path = tmp_path / "rcforc"
+    lines = RCFORC_LABELLED.splitlines()
+    path.write_text("\n".join([*lines, " master      7 time  3.00E-03  x  1.0E+00"]) + "\n")
+    with pytest.warns(UserWarning, match="truncated last block at line 12"):
+        assert io.read_rcforc(path)[("master", 7)].t.size == 2
+    path.write_text("\n".join([*lines[:6], lines[6][:40], lines[7]]) + "\n")
+    with pytest.raises(ValueError, match="line 7: line too short for the rcforc layout"):
+        io.read_rcforc(path)
+
+
+def test_nodes_given_as_a_string_is_refused(tmp_path):
+    with pytest.raises(
+        ValueError, match=r"nodes must be a list of node ids \(integers\), got '12'"
+    ):
+        io.read_nodout(DATA / "nodout_sled", nodes="12")
+    with pytest.raises(ValueError, match=r"nodes must be node ids \(integers\), got 1\.5"):
+        io.read_nodout(DATA / "nodout_sled", nodes=[1.5])
+
+
+def test_a_missing_end_legend_is_named(tmp_path):
+    text = (DATA / "rcforc_sled").read_text().replace("{END LEGEND}\n", "")
+    (tmp_path / "rc").write_text(text)
+    with pytest.raises(ValueError, match=r"rc: line 8: 'master .* has no \{END LEGEND\} line"):
+        io.read_legend(tmp_path / "rc")
+
+
+def test_a_title_in_another_encoding_does_not_stop_the_reader(tmp_path):
+    raw = (DATA / "rcforc_sled").read_bytes().replace(b"wall to lead car", b"mur \xe0 voiture")
+    (tmp_path / "rc").write_bytes(raw)
+    assert io.read_legend(tmp_path / "rc")[1] == "mur \ufffd voiture"
+    assert io.read_rcforc(tmp_path / "rc").keys() == io.read_rcforc(DATA / "rcforc_sled").keys()
+
+
+def test_a_value_whose_si_conversion_overflows_names_file_and_line(tmp_path):
+    text = RCFORC_LABELLED.replace("x  3.00E+01", "x  3.00+307")
+    (tmp_path / "rc").write_text(text)
+    with pytest.raises(ValueError, match=r"rc: line 8: field 'x_force' .* beyond"):
+        io.read_rcforc(tmp_path / "rc", units="mm-ms-kg-kN")

@@ -135,3 +135,19 @@ def test_fmu_export_of_a_bad_file_names_it(tmp_path, capsys, content, message):
     )
     err = capsys.readouterr().err
     assert code == 2 and "bad.json" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("kind", ["lpr", "kriging"])
+def test_an_extrapolation_set_to_a_bogus_value_after_fit_is_refused(kind):
+    from surrogates import Kriging, LegendreRegression
+
+    u = np.random.default_rng(0).random((30, 2))
+    model = (LegendreRegression() if kind == "lpr" else Kriging()).fit(u, u.sum(axis=1))
+    model.set_params(extrapolation="bogus")
+    with pytest.raises(ModelFieldError, match=r"extrapolation must be one of .* got 'bogus'"):
+        model.predict(u * 2)
+    with pytest.raises(ModelFieldError, match=r"extrapolation must be one of"):
+        model.predict(u)  # inside the box too: the policy is part of the model
+    if kind == "lpr":
+        with pytest.raises(ModelFieldError, match=r"extrapolation must be one of"):
+            model.kernel_arrays()

@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 import railgym  # noqa: F401  (registers the envs)
 from railgym import _validation as val
 from railgym.envs.vertical import VerticalSuspensionEnv
-from railgym.vehicles.vertical import load_vehicle, simulate
+from railgym.track import track_time_input
+from railgym.vehicles.vertical import bump_stop_force, load_vehicle, simulate
 from surrogates.models.kriging import Kriging, kriging_eval_into, kriging_scratch
 
 VEH = load_vehicle("manchester")
@@ -199,3 +200,24 @@ def test_kriging_raise_policy_and_the_whole_vehicle_refusal():
         simulate("surrogate", VEH, z, z, 1e-3, force_a=3e4, surrogate=model, sample_every=10)
     with pytest.raises(val.FieldError, match="surrogate.*Kriging"):
         gym.make("railgym/VerticalVehicle-v0", surrogate=model)
+
+
+def test_memory_form_kriging_force_is_its_prediction_plus_the_bump_stop_law():
+    """A 3-input Kriging (δ, δ̇, ζ = δ − s) with the Maxwell state and the bump-stop law: the
+    kernel's recorded F_s equals Kriging.predict at the recorded inputs plus F_bump(δ)."""
+    rng = np.random.default_rng(2)
+    U = np.array([0.05, 0.5, 4e-3]) * rng.uniform(-1.0, 1.0, (80, 3))
+    V = _law(U[:, :2]) + 3e6 * U[:, 2]
+    model = Kriging(kernel="matern52").fit(U, V)
+    model.features_ = {"form": "maxwell", "tau": 8e-3, "known_physics": ["bump_stop"]}
+    _, z, zdot = track_time_input(3, 30.0, 1.0, 1e-3, 4)
+    amp = 1.5 * VEH.kernel_params().k2 * VEH.bump_stop.free_travel_compression
+    fa = amp * np.sin(2 * np.pi * 1.5 * np.arange(100) * 0.01)
+    rec = simulate("surrogate", VEH, z, zdot, 1e-3, force_a=fa, surrogate=model, sample_every=10)
+    assert rec["states"].shape[1] == 5 and rec["contacts"] > 0 and not rec["diverged"]
+    x = rec["states"]
+    d = x[:, 0] - x[:, 2]
+    u = np.column_stack([d, x[:, 1] - x[:, 3], d - x[:, 4]])
+    p = VEH.kernel_params()
+    expected = model.predict(u) + np.array([bump_stop_force(v, p) for v in d])
+    np.testing.assert_allclose(rec["F_s"], expected, rtol=1e-12, atol=1e-9 * np.abs(V).max())

@@ -260,3 +260,49 @@ def test_env_runs_a_memory_element_single_and_vector(memory):
     state = single.unwrapped.state
     assert state.shape == (N_MECH + 2,) and np.all(np.isfinite(state))
     assert np.abs(state[N_MECH:]).max() > 0.0
+
+
+def test_whole_vehicle_collection_records_each_bogie_of_the_reference(vehicle):
+    """``collect_vehicle``: each bogie's deflection, rate and force of a passive run equal the
+    states and forces of ``simulate`` on the same track; the excited runs push both actuators
+    with independent signals of the design's peak; the runs give memory training pairs."""
+    from railgym.track import fra_profile_with_slope
+    from railgym.vehicles.collect_vehicle import VehicleDesign, collect_vehicle
+
+    design = VehicleDesign(track_classes=(5,), speeds=(40.0,), duration=1.0, sample_rate=50.0)
+    data = collect_vehicle(design)
+    runs = data["runs"]
+    assert [(r["excited"], r["bogie"]) for r in runs] == [
+        (False, 0),
+        (False, 1),
+        (True, 0),
+        (True, 1),
+    ]
+    m = runs[0]["t"].size + int(wheelset_offsets(vehicle, 40.0, DT).max()) + 2
+    dx = 40.0 * DT
+    _, z, slope = fra_profile_with_slope(5, (m - 1) * dx, dx, 0)
+    off = wheelset_offsets(vehicle, 40.0, DT)
+    n = runs[0]["t"].size - 1
+    rec = simulate("dynamic", vehicle, z[:m], 40.0 * slope[:m], off, DT, n)
+    p = kernel_params(vehicle)
+    x = rec["states"][0]
+    for b, xb in enumerate((p.a, -p.a)):
+        d = x[:, 3 + 2 * b] - x[:, 0] - xb * x[:, 1] - p.phi_a * x[:, 2]
+        np.testing.assert_allclose(runs[b]["delta"][1:], d, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(runs[b]["force"][1:], rec["fs"][0, :, b], rtol=1e-9, atol=1e-6)
+    fa = np.array([runs[2]["force_a"], runs[3]["force_a"]])
+    np.testing.assert_allclose(np.abs(fa).max(axis=1), design.f_max)
+    assert abs(np.corrcoef(fa)[0, 1]) < 0.5
+    assert not np.allclose(runs[2]["delta"], runs[0]["delta"])
+    U, V = memory_training_data(data, 0.008, ("bump_stop",), "manchester")
+    assert U.shape == (4 * 46, 3) and np.all(np.isfinite(V))  # 50 Hz after the 0.1 s warm-up
+
+
+def test_vehicle_validation_cli_prints_small_errors_for_the_memory_element(capsys):
+    from agents.vehicle_validation import main
+
+    assert main(["--seeds", "2", "--track-class", "5", "--duration", "2"]) == 0
+    line = capsys.readouterr().out.splitlines()[-1]
+    cells = [c.strip() for c in line.split("|")[4:7]]
+    medians = [float(c.split("/")[0]) for c in cells]
+    assert all(0.0 < v < 15.0 for v in medians), line

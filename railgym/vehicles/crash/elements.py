@@ -60,7 +60,7 @@ FIT_SCALES = (0.7, 1.0, 1.3)
 #: envelope (configs/crash/envelope.yaml)
 FIT_PAYLOADS_T = ((0.0, 0.0), (2.0, 8.0))
 #: masses per car of the packaged surrogate (elastic carbody, as the reference's)
-NODES_PER_CAR = 4
+NODES_PER_CAR = 8
 #: LPR degrees tried by the 10-fold cross-validation: the folding wave of the envelope (150 mm
 #: over metres of crush) needs degrees well above the default search cap of 30
 FIT_DEGREES = (10, 20, 30, 40, 60, 80)
@@ -188,12 +188,23 @@ def build_envelope_surrogate(
     seed: int = 0,
     payloads_t: Sequence[Sequence[float]] = FIT_PAYLOADS_T,
     nodes_per_car: int = NODES_PER_CAR,
+    piecewise: bool = True,
 ) -> CrashSurrogate:
     """One element set, for a surrogate of ``nodes_per_car`` masses per car, fitted on the
-    pooled :func:`envelope_runs` of ``scenario``."""
-    runs = envelope_runs(scenario, speeds_kmh, scales, payloads_t)
+    pooled :func:`envelope_runs` of ``scenario``; ``piecewise``: each envelope one LPR per
+    crush stage, with knots at the zone's stroke points and absorber stroke (the ends of its
+    stages: design data, not fitted), else one LPR (degrees :data:`FIT_DEGREES`)."""
+    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    runs = envelope_runs(sc, speeds_kmh, scales, payloads_t)
+    zones = {"wall": sc.wall, "interface": sc.interface}
+    knots = {k: (*z.stroke, z.absorber_stroke) for k, z in zones.items()} if piecewise else None
     out = build_crash_surrogate(
-        runs, variant=variant, seed=seed, degrees=FIT_DEGREES, nodes_per_car=nodes_per_car
+        runs,
+        variant=variant,
+        seed=seed,
+        degrees=None if piecewise else FIT_DEGREES,
+        nodes_per_car=nodes_per_car,
+        knots=knots,
     )
     out.origin = (
         f"reference runs at {', '.join(f'{v:g}' for v in speeds_kmh)} km/h x absorber scales "
@@ -209,12 +220,13 @@ def packaged_path(name: str) -> Path:
 
 
 def packaged_surrogate(
-    scenario: CrashScenario, variant: str = "hysteretic"
+    scenario: CrashScenario, variant: str = "hysteretic", release: str = ""
 ) -> CrashSurrogate | None:
     """The packaged elements whose train key matches ``scenario`` (their ``source`` set to
-    its name), or ``None`` if no packaged file fits it."""
+    its name), or ``None`` if no packaged file fits it. ``release``: ``""`` the current
+    elements, ``"v0"`` those of ``TrainCrash-v0`` (``railgym/data/v0/``, one mass per car)."""
     key = train_key(scenario)
-    folder = resources.files("railgym").joinpath(*_DATA)
+    folder = resources.files("railgym").joinpath(*_DATA, *((release,) if release else ()))
     for entry in sorted(folder.iterdir(), key=lambda p: p.name):
         if not (entry.name.startswith("crash_elements_") and entry.name.endswith(".json")):
             continue

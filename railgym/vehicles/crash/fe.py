@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from railgym.vehicles.crash.outputs import CrashResult
+from railgym.vehicles.crash.piecewise import PiecewiseEnvelope
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import MAX_NODES_PER_CAR as MAX_NODES
 from railgym.vehicles.crash.surrogate import CrashElement, CrashSurrogate, build_crash_surrogate
@@ -219,7 +220,15 @@ def crash_surrogate_from_fe(
 
 # ------------------------------------------------------------------------------ JSON files
 def _model_document(model: Any) -> dict[str, Any]:
+    if isinstance(model, PiecewiseEnvelope):
+        return model.to_document()
     return io.model_to_document(model, inputs=["u"], output="f", units={"u": "m", "f": "N"})
+
+
+def _model_from_document(doc: Any, where: str) -> Any:
+    if isinstance(doc, Mapping) and doc.get("kind") == "piecewise":
+        return PiecewiseEnvelope.from_document(doc, where)
+    return io.model_from_document(doc, where)
 
 
 def _element_document(el: CrashElement) -> dict[str, Any]:
@@ -281,7 +290,7 @@ def _number(d: Mapping[str, Any], key: str, where: str) -> float:
 
 
 def _element_from_document(d: Any, where: str) -> CrashElement:
-    loading = io.model_from_document(_field(d, "loading", where), f"{where}.loading")
+    loading = _model_from_document(_field(d, "loading", where), f"{where}.loading")
     un = _field(d, "unloading", where)
     unloading = None if un is None else io.model_from_document(un, f"{where}.unloading")
     rng = _field(d, "force_range", where)
@@ -342,6 +351,11 @@ def export_crash_element_fmu(
     (m/s), outputs ``f`` (N) and ``permanent_set`` (m), the law of ``element``'s variant."""
     from surrogates.fmi.hysteretic import HystereticLaw, export_hysteretic_fmu
 
+    if isinstance(element.loading, PiecewiseEnvelope):
+        raise ValueError(
+            f"element {element.name!r} has a piecewise envelope (one LPR per crush stage); the "
+            "FMU holds a single LPR: fit the element without knots to export it"
+        )
     law = HystereticLaw(
         variant=element.variant,
         unilateral=element.unilateral,

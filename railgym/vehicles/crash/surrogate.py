@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from railgym.vehicles.crash.outputs import CrashResult
+from railgym.vehicles.crash.piecewise import PIECE_DEGREES, fit_piecewise
 from surrogates.features import LOADING, split_branches
 from surrogates.selection import factory_for, select_kfold
 
@@ -63,7 +64,8 @@ class CrashElement:
     name : ``"wall"`` (lead car against the barrier) or ``"interface"`` (between two cars).
     variant : ``"paper"`` or ``"hysteretic"`` (see the module docstring).
     loading : LPR of the loading branch (``"paper"``) or of the envelope (``"hysteretic"``),
-        force (N) of the feature ``u`` (m).
+        force (N) of the feature ``u`` (m); or a
+        :class:`~railgym.vehicles.crash.piecewise.PiecewiseEnvelope` (one LPR per stage).
     unloading : LPR of the unloading branch (``"paper"`` only).
     unloading_stiffness : ``k̂_u`` of elastic unloading/reloading, N/m (estimated for both
         variants, used by ``"hysteretic"``).
@@ -239,6 +241,7 @@ def build_crash_surrogate(
     max_degree: int = 30,
     degrees: Any = None,
     nodes_per_car: int = 1,
+    knots: dict[str, Any] | None = None,
 ) -> CrashSurrogate:
     """Fit the surrogate elements of paper eq. (4) on one reference result or several.
 
@@ -259,6 +262,9 @@ def build_crash_surrogate(
     nodes_per_car : masses per car of the model the elements are for
         (:attr:`CrashSurrogate.nodes_per_car`): 1 fits on the centre-of-mass feature, more on
         the zone crush.
+    knots : element name → crush (m) of the stage ends; that element's envelope
+        (``"hysteretic"``) is then one LPR per stage (:func:`fit_piecewise`, degrees by CV
+        among ``degrees`` or :data:`~railgym.vehicles.crash.piecewise.PIECE_DEGREES`).
     """
     if isinstance(nodes_per_car, bool) or not isinstance(nodes_per_car, int | np.integer):
         raise ValueError(f"nodes_per_car must be an integer, got {nodes_per_car!r}")
@@ -300,17 +306,25 @@ def build_crash_surrogate(
             vg = virgin_loading(u, rate, series) & (f > 0)
             uu = np.concatenate(([0.0], u[vg]))
             ff = np.concatenate(([0.0], nominal[vg]))
-            load, sel["loading"] = _fit_lpr(uu, ff, max_degree, seed, degrees)
+            if knots is not None and name in knots:
+                cands = PIECE_DEGREES if degrees is None else degrees
+                load, tables = fit_piecewise(uu, ff, knots[name], seed, cands)
+                sel.update({f"loading_{i}": t for i, t in enumerate(tables)})
+            else:
+                load, sel["loading"] = _fit_lpr(uu, ff, max_degree, seed, degrees)
             ku = _unloading_stiffness(u, f, rate, series)
             n = {"loading": int(uu.size)}
             rng = {"loading": (0.0, ff.max())}
             tension = f < 0
             if not unilateral and np.count_nonzero(tension) >= 5:
-                # f = k_t (u − u_0) on the tension samples; slack measured from the final set
-                A = np.column_stack([u[tension], np.ones(np.count_nonzero(tension))])
+                # f = k_t (u − u_p + ŝ) on the tension samples, u_p the permanent set of each
+                # run's history (its absorber scale applied), so runs with different sets pool
+                env_scale = np.where(u <= absorber[name], run_scale, 1.0)
+                up = _permanent_set_history(u, series, load, ku, env_scale)
+                stretch = u[tension] - up[tension]
+                A = np.column_stack([stretch, np.ones(np.count_nonzero(tension))])
                 (kt, c), *_ = np.linalg.lstsq(A, f[tension], rcond=None)
-                up = _permanent_set_history(u, series, load, ku)
-                slack = max(0.0, float(up[tension].mean() + c / kt)) if kt > 0 else 0.0
+                slack = max(0.0, float(c / kt)) if kt > 0 else 0.0
                 kt = max(float(kt), 0.0)
                 n["tension"] = int(np.count_nonzero(tension))
         elements[name] = CrashElement(
@@ -336,10 +350,11 @@ def build_crash_surrogate(
 
 
 def _permanent_set_history(
-    u: np.ndarray, series: np.ndarray, envelope: Any, ku: float
+    u: np.ndarray, series: np.ndarray, envelope: Any, ku: float, scale: Any = 1.0
 ) -> np.ndarray:
-    """Permanent set (m) along each feature history ``u`` under the hysteretic element law."""
-    env = envelope.predict(u[:, None])
+    """Permanent set (m) along each feature history ``u`` under the hysteretic element law,
+    the envelope times ``scale`` (per sample, or one number)."""
+    env = envelope.predict(u[:, None]) * scale
     up = np.zeros_like(u)
     cur = 0.0
     for i in range(u.size):

@@ -24,6 +24,7 @@ from railgym.vehicles.crash.outputs import (
     new_record,
     recorded_result,
 )
+from railgym.vehicles.crash.piecewise import PiecewiseEnvelope
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import VARIANTS, CrashSurrogate
 from surrogates.models.lpr import EXTRAPOLATION_MODES
@@ -72,6 +73,9 @@ class ElementTypes(NamedTuple):
     ----------
     variant : 0 ``"paper"``, 1 ``"hysteretic"``.
     load_model, unload_model : row of the loading / unloading LPR in :class:`LprModels`.
+    n_pieces : number of loading LPRs, rows ``load_model …`` in order along ``u``
+        (:class:`~railgym.vehicles.crash.piecewise.PiecewiseEnvelope`; 1 = one LPR): at ``u``
+        the first whose ``upper`` is ≥ ``u`` applies, the last beyond.
     unilateral : 1 if the element never pulls.
     unloading_stiffness, tension_stiffness, slack : ``k̂_u``, ``k̂_t`` (N/m) and ``ŝ`` (m).
     absorber : absorber stroke in the feature ``u``, m.
@@ -80,6 +84,7 @@ class ElementTypes(NamedTuple):
     variant: np.ndarray
     load_model: np.ndarray
     unload_model: np.ndarray
+    n_pieces: np.ndarray
     unilateral: np.ndarray
     unloading_stiffness: np.ndarray
     tension_stiffness: np.ndarray
@@ -198,6 +203,30 @@ def _legendre_rows(u, q, lpr, nb, t, b1, b2, f):
         f[b] = value if clip else value + lpr.ends[q, side, 1] * scale * (x - end)
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _piece_rows(u, q0, n_pieces, lpr, nb, t, b1, b2, f, fc, piece):
+    """``f[:nb]`` = the piecewise envelope of models ``q0 … q0 + n_pieces − 1`` at each
+    ``u[:nb]`` (m): each lane's first model whose ``upper`` is ≥ ``u`` (the last beyond), each
+    model evaluated (:func:`_legendre_rows`) only if a lane needs it; ``fc``, ``piece``, ``t``,
+    ``b1``, ``b2`` are scratch rows."""
+    last = q0 + n_pieces - 1
+    for b in range(nb):
+        q = q0
+        while q < last and u[b] > lpr.upper[q]:
+            q += 1
+        piece[b] = q
+    for q in range(q0, last + 1):
+        need = False
+        for b in range(nb):
+            need = need or piece[b] == q
+        if not need:
+            continue
+        _legendre_rows(u, q, lpr, nb, t, b1, b2, fc)
+        for b in range(nb):
+            if piece[b] == q:
+                f[b] = fc[b]
+
+
 @njit(cache=True, inline="always")
 def _element_model(u, rate, up, variant, unilateral, ku, i_load, i_unload):
     """Index of the LPR model the element law (:func:`_element_force`) reads at feature ``u``,
@@ -251,7 +280,7 @@ def _tanh(x):
 
 class _Scratch(NamedTuple):
     """Working rows of :func:`_step_block`, ``BLOCK`` lanes (trains) each: ``body`` (9,
-    nodes, lanes), ``element`` (7, elements, lanes), ``link`` (2, links, lanes), ``lane`` (8,
+    nodes, lanes), ``element`` (7, elements, lanes), ``link`` (2, links, lanes), ``lane`` (10,
     lanes), ``idx`` (lanes,) the train of each lane."""
 
     body: np.ndarray
@@ -272,7 +301,7 @@ def _scratch(n_nodes, n_elements, n_links, lanes):
         np.zeros((9, n_nodes, lanes)),
         np.zeros((7, n_elements, lanes)),
         np.zeros((2, n_links, lanes)),
-        np.zeros((8, lanes)),
+        np.zeros((10, lanes)),
         np.zeros(lanes, np.int64),
     )
 
@@ -308,6 +337,7 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
     )
     upl, fl, f_o, ul, u_o, wl, rate = ew[0], ew[1], ew[2], ew[3], ew[4], ew[5], ew[6]
     t, b1, b2, fa, fb, zero, w_fric, w_damp = lw[0], lw[1], lw[2], lw[3], lw[4], lw[5], lw[6], lw[7]
+    fc, piece = lw[8], lw[9]
     ox, ov, oa, crush, force, rate_out = out.x, out.v, out.a, out.crush, out.force, out.rate
     work_done, dissipated, stored = out.work, out.dissipated, out.stored
     for b in range(nb):
@@ -359,8 +389,11 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
                 )
                 use_load = use_load or mdl == q_load
                 use_unload = use_unload or (mdl >= 0 and mdl != q_load)
-            if use_load:
+            n_pieces = ty_.n_pieces[ty]
+            if use_load and n_pieces == 1:
                 _legendre_rows(u_e, q_load, lpr, nb, t, b1, b2, fa)
+            elif use_load:
+                _piece_rows(u_e, q_load, n_pieces, lpr, nb, t, b1, b2, fa, fc, piece)
             if use_unload:
                 _legendre_rows(u_e, q_unload, lpr, nb, t, b1, b2, fb)
             absorber, kt, slack = ty_.absorber[ty], ty_.tension_stiffness[ty], ty_.slack[ty]
@@ -582,11 +615,13 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
     el_names = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
     types = [surrogate.elements["wall"], surrogate.elements.get("interface")]
     types = [ty for ty in types if ty is not None]
-    models, ranges, load_idx, unload_idx = [], [], [], []
+    models, ranges, load_idx, unload_idx, n_pieces = [], [], [], [], []
     for ty in types:
         load_idx.append(len(models))
-        models.append(ty.loading)
-        ranges.append(ty.force_range["loading"])
+        pieces = ty.loading.pieces if isinstance(ty.loading, PiecewiseEnvelope) else [ty.loading]
+        n_pieces.append(len(pieces))
+        models += pieces
+        ranges += [ty.force_range["loading"]] * len(pieces)
         unload_idx.append(len(models) if ty.unloading is not None else load_idx[-1])
         if ty.unloading is not None:
             models.append(ty.unloading)
@@ -596,6 +631,7 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
         variant=np.array([VARIANTS.index(ty.variant) for ty in types], np.int64),
         load_model=np.array(load_idx, np.int64),
         unload_model=np.array(unload_idx, np.int64),
+        n_pieces=np.array(n_pieces, np.int64),
         unilateral=np.array([ty.unilateral for ty in types], np.int64),
         unloading_stiffness=np.array([ty.unloading_stiffness for ty in types]),
         tension_stiffness=np.array([ty.tension_stiffness for ty in types]),
@@ -643,7 +679,8 @@ def simulate_surrogate(
     n_cars, speed : optional overrides (number of cars; initial speed in m/s).
     duration, sample_dt : longest simulated time and output interval, s.
     dt : largest integration step, s (rounded down to divide ``sample_dt``); the stiffest
-        surrogate mode has ``ω² ≈ 2 (k̂_u,wall + k̂_u,interface) / m_1`` (docs/envs/crash.md).
+        mode is the carbody links' and the zones' ``k̂_u`` on the end masses
+        (docs/envs/crash.md).
     stop_when_over, v_stop, f_stop : stop as :func:`simulate_reference` does.
 
     Returns

@@ -1,0 +1,114 @@
+"""Pretrained policies shipped in the package, loaded by name: ``ppo-vertical``
+(``railgym/VerticalSuspension-v0``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v0``) and
+``ppo-crash`` (``railgym/TrainCrash-v0``)::
+
+    railgym evaluate ppo-vertical --track-class 4 5 6
+    railgym evaluate ppo-vehicle --env vehicle --track-class 5
+    railgym evaluate ppo-crash --env crash --envelope
+
+Each is the folder ``agents/pretrained/<name>/`` as :mod:`agents.train` writes it: the final
+``model.zip``, its ``config.yaml`` and a ``manifest.json`` with the zip's SHA-256 (loaded like
+any trained policy, weights only: :func:`agents.evaluate.load_policy`). They are the best seed
+of a :mod:`agents.benchmark` run (lowest held-out :data:`RANKING` metric), copied by::
+
+    python -m agents.benchmark ppo_vertical --seeds 3 --timesteps 1000000 --out runs/bench_vertical
+    python -m agents.pretrained ppo-vertical runs/bench_vertical --overwrite
+
+The budgets and held-out figures of the shipped policies are in ``docs/results.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import shutil
+import sys
+from collections.abc import Sequence
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+
+from agents.policy_io import write_manifest
+
+__all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
+
+#: name → env id of each pretrained policy
+PRETRAINED = {
+    "ppo-vertical": "railgym/VerticalSuspension-v0",
+    "ppo-vehicle": "railgym/VerticalVehicle-v0",
+    "ppo-crash": "railgym/TrainCrash-v0",
+}
+#: held-out metrics (``results.csv`` of :mod:`agents.benchmark`) whose mean over the cases
+#: ranks the seeds, per env id (lower is better)
+RANKING = {
+    "railgym/VerticalSuspension-v0": ("a_w",),
+    "railgym/VerticalVehicle-v0": ("a_w_front", "a_w_centre", "a_w_rear"),
+    "railgym/TrainCrash-v0": ("peak_g",),
+}
+
+
+def _folder(name: str) -> Path:
+    return Path(str(files("agents"))) / "pretrained" / name
+
+
+def pretrained_zip(name: str, env_id: str) -> Path:
+    """The ``model.zip`` of pretrained policy ``name`` for ``env_id``; ValueError for another
+    env or a policy missing from this installation."""
+    if PRETRAINED[name] != env_id:
+        raise ValueError(f"policy {name} is for {PRETRAINED[name]}, not {env_id}")
+    path = _folder(name) / "model.zip"
+    if not path.is_file():
+        raise ValueError(f"pretrained policy {name}: {path} is missing from this installation")
+    return path
+
+
+def best_seed(benchmark_dir: Path, env_id: str) -> int:
+    """The seed of ``benchmark_dir/results.csv`` with the lowest mean :data:`RANKING` metric."""
+    with (benchmark_dir / "results.csv").open(newline="") as fh:
+        rows = [r for r in csv.DictReader(fh) if r["seed"] and r["metric"] in RANKING[env_id]]
+    if not rows:
+        raise ValueError(f"{benchmark_dir}/results.csv has no trained-seed rows for {env_id}")
+    seeds = sorted({int(r["seed"]) for r in rows})
+    score = [np.mean([float(r["value"]) for r in rows if int(r["seed"]) == s]) for s in seeds]
+    return seeds[int(np.argmin(score))]
+
+
+def install(name: str, benchmark_dir: str | Path, overwrite: bool = False) -> Path:
+    """Copy the best seed of an :mod:`agents.benchmark` folder into the package as ``name``
+    (``model.zip``, ``config.yaml`` and a manifest listing the zip); returns the folder."""
+    if name not in PRETRAINED:
+        raise ValueError(f"name must be one of {sorted(PRETRAINED)}, got {name!r}")
+    src = Path(benchmark_dir) / f"seed_{best_seed(Path(benchmark_dir), PRETRAINED[name])}"
+    dst = _folder(name)
+    if dst.exists() and any(dst.iterdir()) and not overwrite:
+        raise ValueError(f"{dst} exists: give --overwrite to replace it")
+    dst.mkdir(parents=True, exist_ok=True)
+    for old in dst.iterdir():
+        old.unlink()
+    for part in ("model.zip", "config.yaml"):
+        shutil.copyfile(src / part, dst / part)
+    write_manifest(dst)
+    return dst
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m agents.pretrained NAME BENCHMARK_DIR [--overwrite]``."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.pretrained", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument("name", choices=sorted(PRETRAINED))
+    parser.add_argument("benchmark_dir", type=Path, help="output folder of agents.benchmark")
+    parser.add_argument("--overwrite", action="store_true", help="replace a shipped policy")
+    args = parser.parse_args(argv)
+    try:
+        dst = install(args.name, args.benchmark_dir, args.overwrite)
+    except (ValueError, OSError) as err:
+        print(f"{parser.prog}: error: {err}", file=sys.stderr)
+        return 2
+    print(f"{args.name}: {dst}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,119 @@
+"""The batch of ``VerticalVehicle-v0`` with ``backend="fmu"``: an FMU as the whole vehicle.
+
+:class:`FMUVehicleBatch` is a :class:`~railgym.envs.vehicle_batch.VehicleBatch` whose control
+step advances one FMU instance per sub-env (:class:`~railgym.fmu.runner.FMURunner`) instead
+of the compiled kernel, then runs the same compiled bookkeeping
+(:func:`~railgym.envs.vehicle_batch.book_step`: observation, reward with its Wk filter, info,
+comfort record). Each wheelset's track input is the env's cubic Hermite interpolation of the
+track at its offset (at the substeps' ends, and their midpoints for model exchange). The FMU's
+outputs (deflections, their rates and the carbody velocities over the bogies) are written
+into a state vector that gives them back through the kernels' formulas (carbody bounce and
+pitch rates from the two velocities, positions 0 but the bogie bounce = deflection), so the
+``"sensors"`` observation and the reward are those of the FMU; ``observation="full"`` needs
+the vehicle's own states and is refused. ``out_of_domain`` stays 0; a non-finite output ends
+the episode as a divergence. Not picklable (an FMU instance lives in it).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from railgym import _validation as val
+from railgym.envs.vehicle_batch import VehicleBatch, VehicleConfig, book_step
+from railgym.fmu.mapping import Mapping
+from railgym.fmu.runner import FMURunner
+from railgym.vehicles.vehicle import Lpr, WholeVehicle, hermite
+
+__all__ = ["FMUVehicleBatch"]
+
+_FLOOR = ("acc_front", "acc_centre", "acc_rear")
+_BOGIE = ("bogie_acc_front", "bogie_acc_rear")
+
+
+class FMUVehicleBatch(VehicleBatch):
+    """``n`` whole vehicles, each an instance of the FMU of ``mapping``."""
+
+    def __init__(
+        self,
+        n: int,
+        cfg: VehicleConfig,
+        vehicle: WholeVehicle,
+        lpr: Lpr,
+        v_min: float,
+        mapping: Mapping,
+    ) -> None:
+        if cfg.obs_names[0] == "z_c":
+            raise val.FieldError(
+                "observation",
+                "'full' needs the vehicle's states, which an FMU does not give: use "
+                "observation='sensors' with backend='fmu'",
+            )
+        super().__init__(n, cfg, vehicle, lpr, v_min)
+        self.mapping = mapping
+        self.runners = [FMURunner(mapping, cfg.dt, cfg.n_sub) for _ in range(n)]
+        keys = self.runners[0].out_keys
+        self._cols = {k: keys.index(k) for k in keys}
+        self._susp = vehicle.suspension.kernel_params()
+
+    def __getstate__(self) -> dict[str, Any]:
+        raise TypeError("an env with backend='fmu' cannot be copied or pickled (FMU instance)")
+
+    def reset_state(self, i: int) -> None:
+        """Vehicle ``i`` at rest, its FMU instance reset to t = 0."""
+        super().reset_state(i)
+        if hasattr(self, "runners"):
+            self.runners[i].reset()
+
+    def _wheel_inputs(self, i: int) -> tuple[np.ndarray, ...]:
+        """Track height and rate at the four wheelsets over the step (4, n_sub + 1) and at
+        the substeps' midpoints (4, n_sub), as the kernel interpolates them."""
+        bt, dt, n_sub = self.bt, self.cfg.dt, self.cfg.n_sub
+        z, zd, off, k = bt.z[i], bt.zdot[i], bt.off[i], int(bt.k[i])
+        w, wd = np.empty((4, n_sub + 1)), np.empty((4, n_sub + 1))
+        wm, wdm = np.empty((4, n_sub)), np.empty((4, n_sub))
+        for j in range(4):
+            for m in range(n_sub + 1):
+                w[j, m], wd[j, m] = hermite(z, zd, float(k + m) + off[j], dt)
+            for m in range(n_sub):
+                wm[j, m], wdm[j, m] = hermite(z, zd, (float(k + m) + 0.5) + off[j], dt)
+        return w, wd, wm, wdm
+
+    def advance(self) -> None:
+        """One control step of every FMU with the stored actions, then the bookkeeping."""
+        bt, out, bk, c, p, e = self.bt, self.out, self.bk, self._cols, self.params, self._susp
+        for i, run in enumerate(self.runners):
+            bt.force[i] = bk.action[i] * self.cfg.f_max
+            w, wd, wm, wdm = self._wheel_inputs(i)
+            y = run.advance(w, wd, bt.force[i], mid=(wm, wdm))
+            ok = bool(np.isfinite(y).all())
+            out.count[i] = 0
+            out.fs[i] = 0.0
+            out.div[i] = not ok
+            if not ok:
+                out.acc[i] = 0.0
+                continue
+            last = y[-1]
+            out.acc[i] = [last[c[k]] for k in (*_FLOOR, *_BOGIE)]
+            for b, name in enumerate(("front", "rear")):
+                if f"secondary_force_{name}" in c:
+                    out.fs[i, b] = last[c[f"secondary_force_{name}"]]
+                d = y[:, c[f"deflection_{name}"]]
+                out.count[i, 0] += int(np.count_nonzero((d > e.free_c) | (d < -e.free_r)))
+            x = bt.state[i]
+            x[:] = 0.0
+            v_f, v_r = last[c["carbody_vel_front"]], last[c["carbody_vel_rear"]]
+            x[7] = 0.5 * (v_f + v_r)
+            x[8] = (v_f - v_r) / (2.0 * p.a) if p.a > 0.0 else 0.0
+            for b, name in enumerate(("front", "rear")):
+                xb = p.a if b == 0 else -p.a
+                x[3 + 2 * b] = last[c[f"deflection_{name}"]]
+                vel = x[7] + xb * x[8] + p.phi_a * x[9]
+                x[10 + 2 * b] = last[c[f"deflection_rate_{name}"]] + vel
+        book_step(bt, p, out, bk, self.sc)
+
+    def close(self) -> None:
+        """Free the FMU instances."""
+        for run in self.runners:
+            run.close()

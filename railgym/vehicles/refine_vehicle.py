@@ -1,0 +1,229 @@
+"""Policy-aware refinement of the whole vehicle's secondary element (``VerticalVehicle-v0``).
+
+The loop of :func:`railgym.vehicles.collect.refine` on the whole vehicle: each round runs the
+whole vehicle's dynamic reference under a policy (both actuators, closed loop on the
+reference's observation), takes both bogies' element inputs and force errors along those runs,
+adds the worst samples to the training set and refits the element; held-out tracks score the
+element before the first round and after each (surrogate and reference each driven by the
+policy, relative RMS error of the floor accelerations). ``railgym refine POLICY --env vehicle``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from railgym import _validation as val
+from railgym.track import class_speed, fra_profile_with_slope
+from railgym.vehicles.collect import MEMORY_SAMPLE_RATE, _element_pairs, _initial_pairs
+from railgym.vehicles.vehicle import (
+    DEFAULT_DT,
+    N_MECH,
+    advance,
+    check_variant,
+    hermite,
+    kernel_params,
+    load_whole_vehicle,
+    lpr_arrays,
+    make_batch,
+    wheelset_offsets,
+)
+from surrogates.memory import element_form
+from surrogates.models import SurrogateModel
+
+__all__ = ["RAW_VEHICLE_OBSERVATION", "refine_vehicle", "run_vehicle_policy"]
+
+#: the physical observation (SI) a refinement policy receives, in order: the 14 mechanical
+#: states, the 5 accelerations (floor front/centre/rear, bogies front/rear) and the wheelset
+#: inputs (heights, then rates, front to rear)
+RAW_VEHICLE_OBSERVATION = (
+    *("z_c", "theta_c", "q", "z_b0", "theta_b0", "z_b1", "theta_b1"),
+    *("z_c_dot", "theta_c_dot", "q_dot", "z_b0_dot", "theta_b0_dot", "z_b1_dot", "theta_b1_dot"),
+    *("acc_front", "acc_centre", "acc_rear", "bogie_acc_front", "bogie_acc_rear"),
+    *(f"w{j}" for j in range(4)),
+    *(f"w{j}_dot" for j in range(4)),
+)
+
+
+def _policy_forces(policy: Any, observe: Any, f_max: float) -> Any:
+    """``raw observation → actuator forces (2,)``, N, of a policy (callable or ``predict``)."""
+
+    def law(raw: np.ndarray) -> np.ndarray:
+        obs = raw if observe is None else observe(raw)
+        if hasattr(policy, "predict"):
+            action = policy.predict(obs, deterministic=True)[0]
+        else:
+            action = policy(obs)
+        a = np.asarray(action, dtype=np.float64).ravel()
+        if a.size != 2 or not np.all(np.isfinite(a)):
+            raise ValueError(f"policy must return two finite actions, got {action!r}")
+        return np.clip(a, -1.0, 1.0) * f_max
+
+    return law
+
+
+def run_vehicle_policy(
+    variant: str,
+    vehicle: Any,
+    track: tuple[np.ndarray, np.ndarray, np.ndarray],
+    law: Any,
+    element: Any,
+    n_steps: int,
+    n_sub: int,
+) -> dict[str, Any]:
+    """One closed-loop run recorded at every integration step of ``DEFAULT_DT`` (s).
+
+    ``track`` is ``(z, zdot, offsets)`` of :class:`~railgym.vehicles.vehicle.Batch`; the law
+    gets the raw observation (:data:`RAW_VEHICLE_OBSERVATION`) every ``n_sub`` steps. Returns
+    ``t`` (s), per bogie ``delta`` (m), ``delta_dot`` (m/s), ``force`` (F_s, N) as (2, n + 1)
+    arrays, ``acc`` (floor points at the control steps, (n // n_sub, 3), m/s²), ``ood`` and
+    ``diverged``.
+    """
+    dt = DEFAULT_DT
+    kind = check_variant(variant)
+    lpr = lpr_arrays(element if variant == "surrogate" else None, dt)
+    z, zdot, off = track
+    bt, out = make_batch(1, variant, z.size, lpr)
+    bt.z[0], bt.zdot[0], bt.off[0] = z, zdot, off
+    p, e = kernel_params(vehicle), vehicle.suspension.kernel_params().record()
+    rec = np.full((3, 2, n_steps + 1), np.nan)
+    rec[:, :, 0] = 0.0
+    acc = np.full((n_steps // n_sub, 3), np.nan)
+    raw = np.zeros(len(RAW_VEHICLE_OBSERVATION))
+    ood = 0
+    for k in range(n_steps):
+        if k % n_sub == 0:
+            raw[:N_MECH] = bt.state[0, :N_MECH]
+            raw[N_MECH : N_MECH + 5] = out.acc[0]
+            for j in range(4):
+                raw[N_MECH + 5 + j], raw[N_MECH + 9 + j] = hermite(z, zdot, k + off[j], dt)
+            bt.force[0] = law(raw)
+        advance(kind, bt, 1, dt, p, e, lpr, out)
+        bt.k[0] += 1
+        ood += int(out.count[0, 1])
+        if out.div[0]:
+            break
+        x = bt.state[0]
+        for b, xb in enumerate((p.a, -p.a)):
+            rec[0, b, k + 1] = x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]
+            rec[1, b, k + 1] = x[10 + 2 * b] - x[7] - xb * x[8] - p.phi_a * x[9]
+            rec[2, b, k + 1] = out.fs[0, b]
+        if (k + 1) % n_sub == 0:
+            acc[(k + 1) // n_sub - 1] = out.acc[0, :3]
+    return {
+        "t": np.arange(n_steps + 1) * dt,
+        "delta": rec[0],
+        "delta_dot": rec[1],
+        "force": rec[2],
+        "acc": acc,
+        "ood": ood,
+        "diverged": bool(out.div[0]),
+    }
+
+
+def refine_vehicle(
+    model: SurrogateModel,
+    policy: Any,
+    rounds: int = 3,
+    *,
+    data: tuple[Any, Any] | None = None,
+    track_class: int = 5,
+    speed: float | None = None,
+    duration: float = 10.0,
+    n_tracks: int = 2,
+    n_holdout: int = 3,
+    n_add: int = 400,
+    sample_rate: float = MEMORY_SAMPLE_RATE,
+    control_dt: float = 0.01,
+    f_max: float = 8000.0,
+    observe: Any = None,
+    vehicle: str = "manchester_whole",
+    seed: int = 0,
+    log: Any = print,
+) -> tuple[SurrogateModel, list[dict[str, Any]]]:
+    """:func:`railgym.vehicles.collect.refine` on the whole vehicle (same arguments; the
+    policy returns two actions and ``observe`` maps :data:`RAW_VEHICLE_OBSERVATION`).
+
+    Returns ``(model, history)``; each history row has ``round``, ``error`` (median held-out
+    relative RMS error of the worst floor point), ``errors`` (its median per floor point,
+    front/centre/rear), ``ood`` and ``n_samples``.
+    """
+    rounds = val.integer(rounds, "rounds", min=0)
+    for name, v in (("n_tracks", n_tracks), ("n_holdout", n_holdout), ("n_add", n_add)):
+        val.integer(v, name, min=1)
+    element_form(getattr(model, "features_", None), model.n_features_in_, "model")
+    veh = load_whole_vehicle(vehicle)
+    base = veh.suspension.name
+    dt = DEFAULT_DT
+    n_sub = round(control_dt / dt)
+    every = round(1.0 / (sample_rate * dt))
+    if n_sub < 1 or every < 1:
+        raise ValueError("control_dt and 1/sample_rate must be whole multiples of dt")
+    n_steps = round(duration / control_dt) * n_sub
+    law = _policy_forces(policy, observe, f_max)
+    v0 = class_speed(track_class) if speed is None else val.positive(speed, "speed")
+    off = wheelset_offsets(veh, v0, dt)
+    m = n_steps + int(np.ceil(off.max())) + 2
+    U, V = _initial_pairs(model, base) if data is None else (np.asarray(data[0]), data[1])
+    V = np.asarray(V, dtype=np.float64)
+
+    def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        s = int(np.random.default_rng((seed, *tag)).integers(2**63 - 1))
+        _, z, slope = fra_profile_with_slope(track_class, (m - 1) * v0 * dt, v0 * dt, s)
+        return z[:m], v0 * slope[:m], off
+
+    holdout = [track((1, i)) for i in range(n_holdout)]
+    refs = [run_vehicle_policy("dynamic", veh, tr, law, None, n_steps, n_sub) for tr in holdout]
+
+    def score(element: SurrogateModel) -> tuple[np.ndarray, int]:
+        errs, ood = [], 0
+        for tr, ref in zip(holdout, refs, strict=True):
+            sur = run_vehicle_policy("surrogate", veh, tr, law, element, n_steps, n_sub)
+            ood += sur["ood"]
+            a, b = sur["acc"], ref["acc"]
+            ok = not sur["diverged"] and np.all(np.isfinite(a))
+            e = np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
+            errs.append(e if ok else np.full(3, np.inf))
+        return np.median(errs, axis=0), ood
+
+    history = []
+    for r in range(rounds + 1):
+        if r > 0:
+            cand_u, cand_v = [], []
+            for i in range(n_tracks):
+                run = run_vehicle_policy(
+                    "dynamic", veh, track((2, r, i)), law, None, n_steps, n_sub
+                )
+                rows = np.arange(0, run["t"].size, every)
+                for b in range(2):
+                    bogie = {k: run[k][b] for k in ("delta", "delta_dot", "force")}
+                    keep = rows[np.isfinite(bogie["force"][rows])]
+                    u, v = _element_pairs(model, {"t": run["t"], **bogie}, keep, base)
+                    cand_u.append(u)
+                    cand_v.append(v)
+            cu, cv = np.concatenate(cand_u), np.concatenate(cand_v)
+            outside = np.any((cu < model.lower_) | (cu > model.upper_), axis=1)
+            err = np.abs(model.predict(cu) - cv)
+            worst = np.argsort(np.where(outside, np.inf, err))[::-1][:n_add]
+            U, V = np.concatenate([U, cu[worst]]), np.concatenate([V, cv[worst]])
+            features = getattr(model, "features_", None)
+            model = type(model)(**model.get_params()).fit(U, V)
+            if features is not None:
+                model.features_ = features
+        errors, ood = score(model)
+        row = {
+            "round": r,
+            "error": float(errors.max()),
+            "errors": errors,
+            "ood": ood,
+            "n_samples": int(V.size),
+        }
+        history.append(row)
+        if log is not None:
+            log(
+                f"round {r}: held-out rel. RMS error of the floor acceleration front / centre / "
+                f"rear {' / '.join(f'{100 * e:.2f}' for e in errors)} %, out-of-domain "
+                f"evaluations {ood}, samples {V.size}"
+            )
+    return model, history

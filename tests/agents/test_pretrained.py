@@ -1,0 +1,56 @@
+"""Pretrained policies shipped in the package: by name, manifest, a stored held-out figure."""
+
+import numpy as np
+import pytest
+
+from agents.evaluate import (
+    CRASH_ID,
+    ENV_ID,
+    VEHICLE_ID,
+    evaluate_crash,
+    evaluate_vehicle,
+    load_policy,
+)
+from agents.policy_io import check_manifest
+from agents.pretrained import PRETRAINED, pretrained_zip
+from agents.sweeps import evaluate_sweep
+
+#: held-out figures of the shipped policies (docs/results.md, issue 23): reference backend,
+#: tracks of seed 1000 (one episode), class 5 at 144 km/h; crash: 40 km/h, no payload
+STORED = {
+    "ppo-vertical": 0.21806,
+    "ppo-vehicle": [0.18984, 0.16337, 0.20059],
+    "ppo-crash": None,
+}
+
+
+@pytest.mark.parametrize("name", sorted(n for n in PRETRAINED if STORED[n] is not None))
+def test_loads_by_name_with_its_manifest(name):
+    env_id = PRETRAINED[name]
+    path = pretrained_zip(name, env_id)
+    check_manifest(path)  # raises unless listed with its SHA-256
+    factory, env_kwargs, label = load_policy(name, env_id)
+    assert label == name and env_kwargs.get("observation", "sensors") == "sensors"
+    assert path.stat().st_size < 300_000
+    other = ENV_ID if env_id != ENV_ID else VEHICLE_ID
+    with pytest.raises(ValueError, match=f"is for {env_id}"):
+        load_policy(name, other)
+
+
+def test_ppo_vertical_reproduces_its_figure():
+    rows = evaluate_sweep(["ppo-vertical"], "reference", [5], episodes=1)
+    assert rows[0]["a_w"] == pytest.approx(STORED["ppo-vertical"], rel=1e-3)
+
+
+@pytest.mark.skipif(STORED["ppo-vehicle"] is None, reason="not shipped")
+def test_ppo_vehicle_reproduces_its_figure():
+    rows = evaluate_vehicle(["ppo-vehicle"], "reference", [5], episodes=1)
+    assert np.allclose(rows[0]["a_w"], STORED["ppo-vehicle"], rtol=1e-3)
+
+
+@pytest.mark.skipif(STORED["ppo-crash"] is None, reason="not shipped")
+def test_ppo_crash_reproduces_its_figure():
+    rows = evaluate_crash(["passive", "ppo-crash"], "reference", [40.0])
+    peak = float(np.max(rows[1]["peak_decel_g"]))
+    assert peak == pytest.approx(STORED["ppo-crash"], rel=1e-3)
+    assert PRETRAINED["ppo-crash"] == CRASH_ID

@@ -1,0 +1,73 @@
+"""Each registered env version keeps its results (Gymnasium bumps an env's version whenever
+results change): a seeded episode of every registered railgym env, on every backend, under a
+seeded action sequence, reproduces its stored return, observation sum and length.
+
+A change of physics, elements or defaults that moves these figures needs a new version (with a
+*Version history* entry in the env's docs), not new figures here. Relative tolerance 1e-6:
+compiled code may round differently on another CPU.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import railgym  # noqa: F401
+from railgym.registration import ENVS
+
+#: (env id, backend) -> (steps, return, sum of |observation|) of :func:`_episode`
+FIGURES: dict[tuple[str, str], tuple[int, float, float]] = {
+    ("railgym/VerticalSuspension-v0", "surrogate"): (2000, -2525.433052754019, 6518.928181111813),
+    ("railgym/VerticalSuspension-v0", "reference"): (2000, -2563.622377679609, 6558.676906824112),
+    ("railgym/VerticalSuspension-v1", "surrogate"): (2000, -2525.5788483050574, 6518.3905583024025),
+    ("railgym/VerticalSuspension-v1", "reference"): (2000, -2563.622377679609, 6558.676906824112),
+    ("railgym/VerticalVehicle-v0", "surrogate"): (2000, -3174.296289179717, 10816.840341687202),
+    ("railgym/VerticalVehicle-v0", "reference"): (2000, -3316.370003421834, 10794.997714400291),
+    ("railgym/VerticalVehicle-v1", "surrogate"): (2000, -3291.4435515151704, 10769.119952440262),
+    ("railgym/VerticalVehicle-v1", "reference"): (2000, -3316.370003421834, 10794.997714400291),
+    ("railgym/TrainCrash-v0", "surrogate"): (458, -203.9223247835869, 3201.7601475715637),
+    ("railgym/TrainCrash-v0", "reference"): (451, -198.0368619824061, 3158.0491943359375),
+    ("railgym/TrainCrash-v1", "surrogate"): (454, -200.03897513408174, 3176.678778886795),
+    ("railgym/TrainCrash-v1", "reference"): (451, -198.0368619824061, 3158.0491943359375),
+}
+
+
+def _episode(env_id: str, backend: str) -> tuple[int, float, float]:
+    with warnings.catch_warnings():  # gymnasium's "out of date" notice of the v0 versions
+        warnings.simplefilter("ignore", DeprecationWarning)
+        env = gym.make(env_id, backend=backend)
+    rng = np.random.default_rng(7)
+    obs, _ = env.reset(seed=3)
+    steps, ret, l1 = 0, 0.0, float(np.abs(obs).sum())
+    done = False
+    while not done and steps < 3000:
+        action = rng.uniform(-1.0, 1.0, env.action_space.shape).astype(np.float32)
+        obs, reward, terminated, truncated, _ = env.step(action)
+        steps, ret, l1 = steps + 1, ret + float(reward), l1 + float(np.abs(obs).sum())
+        done = terminated or truncated
+    env.close()
+    return steps, ret, l1
+
+
+def test_v0_versions_keep_the_figures_of_railgym_0_2():
+    """v0 of each env reproduces the seeded episodes measured on railgym 0.2 (bfb1b67);
+    v1 changes the surrogate backend only (the reference is the same model)."""
+    for name in ("VerticalSuspension", "VerticalVehicle", "TrainCrash"):
+        old, new = f"railgym/{name}-v0", f"railgym/{name}-v1"
+        assert FIGURES[(old, "reference")] == FIGURES[(new, "reference")]
+        assert FIGURES[(old, "surrogate")] != FIGURES[(new, "surrogate")]
+
+
+def test_every_registered_version_has_figures():
+    assert set(FIGURES) == {(i, b) for i in ENVS for b in ("surrogate", "reference")}
+
+
+@pytest.mark.parametrize("case", sorted(FIGURES), ids=lambda c: f"{c[0]}-{c[1]}")
+def test_seeded_episode_of_a_registered_version_is_unchanged(case):
+    steps, ret, l1 = _episode(*case)
+    want = FIGURES[case]
+    assert steps == want[0]
+    np.testing.assert_allclose([ret, l1], want[1:], rtol=1e-6)
