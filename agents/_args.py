@@ -5,8 +5,20 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
+from typing import Any
 
-__all__ = ["add_parallel_arguments", "bounded_int", "check_parallel", "speed_kmh"]
+from railgym import _validation as val
+from railgym.envs.vertical_batch import LIMITS
+
+__all__ = [
+    "add_parallel_arguments",
+    "bounded_int",
+    "bounded_real",
+    "check_parallel",
+    "check_speed_kmh",
+    "duration_s",
+    "speed_kmh",
+]
 
 #: highest speed accepted by ``--speed``, km/h: a sanity bound above twice the FRA class 6
 #: limit of 177 km/h
@@ -29,17 +41,36 @@ def bounded_int(lo: int, hi: int | None = None) -> Callable[[str], int]:
     return parse
 
 
-def speed_kmh(text: str) -> float:
-    """A speed in km/h, ``0 < v <= MAX_SPEED_KMH``."""
+def bounded_real(what: str, unit: str, top: float) -> Callable[[str], float]:
+    """A real number ``0 < x <= top`` in ``unit`` (``what``: its name in the message)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a {what} in {unit}, got {text!r}") from None
+        if not (math.isfinite(value) and 0 < value <= top):
+            raise argparse.ArgumentTypeError(
+                f"must be a {what} in {unit} with 0 < x <= {top:g}, got {text} {unit}"
+            )
+        return value
+
+    return parse
+
+
+#: ``--speed``: km/h, ``0 < v <= MAX_SPEED_KMH``
+speed_kmh = bounded_real("speed", "km/h", MAX_SPEED_KMH)
+#: ``--duration``: s, ``0 < t <= LIMITS["duration"]`` (the envs' limit)
+duration_s = bounded_real("duration", "s", LIMITS["duration"])
+
+
+def check_speed_kmh(value: Any, field: str) -> float:
+    """:func:`speed_kmh` for a number given to a function: an error naming ``field``."""
+    number = val.real(value, field)
     try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a speed in km/h, got {text!r}") from None
-    if not (math.isfinite(value) and 0 < value <= MAX_SPEED_KMH):
-        raise argparse.ArgumentTypeError(
-            f"must be a speed in km/h with 0 < v <= {MAX_SPEED_KMH:g}, got {text} km/h"
-        )
-    return value
+        return speed_kmh(repr(number))
+    except argparse.ArgumentTypeError as err:
+        raise val.FieldError(field, str(err)) from None
 
 
 def add_parallel_arguments(

@@ -35,7 +35,8 @@ import numpy as np
 import yaml
 
 from agents._args import add_parallel_arguments, bounded_int, check_parallel
-from agents.evaluate import CRASH_ID, ENV_ID, VEHICLE_ID, evaluate, evaluate_vehicle
+from agents.policies import CRASH_ID, ENV_ID, VEHICLE_ID, evaluate_vehicle, load_policy
+from agents.sweeps import evaluate_sweep
 from agents.train_config import MAX_SEED, load_config
 from railgym import _validation as val
 from railgym.parallel import run_tasks
@@ -135,14 +136,15 @@ def held_out(
     baselines); ``crash_kwargs``: env settings of the crash baselines (a zip's own come from
     its config)."""
     if env_id == ENV_ID:
-        rows = _vertical_rows(evaluate(policies, "reference", HELD_OUT[env_id], episodes), seed)
+        rows = _vertical_rows(
+            evaluate_sweep(policies, "reference", HELD_OUT[env_id], episodes), seed
+        )
     elif env_id == VEHICLE_ID:
         rows = _vehicle_rows(
             evaluate_vehicle(policies, "reference", HELD_OUT[env_id], (None,), episodes), seed
         )
     else:
         from agents import crash_report
-        from agents.evaluate import load_policy
 
         factories = {"passive": crash_report.BASELINES["passive"]}
         env_kwargs = crash_kwargs
@@ -190,7 +192,6 @@ def _curve(path: Path, column: str, how: str) -> tuple[np.ndarray, np.ndarray]:
 def _baseline_curve_values(cfg: Any) -> dict[str, float]:
     """Each baseline's curve metric on the config's evaluation episodes (the same tracks)."""
     from agents.crash_report import BASELINES as CRASH_BASELINES
-    from agents.evaluate import load_policy
     from agents.train import evaluate as run_eval
     from agents.train import make_vec
 

@@ -224,10 +224,7 @@ class LQR(_Controller):
     Defaults are the env's own reward weights in SI: ``q_acc = 1/ACC_REF²`` (s⁴/m²),
     ``q_defl = 1/free_travel²`` (1/m²), ``r_force = 0.1/f_max²`` (1/N²), so the LQR
     minimises the continuous-time version of the reward the RL agents see. The design
-    ignores the ±f_max limit: on class 5 at 144 km/h the command saturates in about 30 % of
-    the steps (50 % on class 4) and still gives the lowest carbody acceleration of these
-    baselines (linear backend, 4 seeds × 20 s: 0.30 m/s² vs 0.65 passive, 0.48 skyhook);
-    a tenfold ``r_force`` keeps it unsaturated at 0.42 m/s².
+    ignores the ±f_max limit (how often the command saturates: ``docs/results.md``).
 
     Parameters
     ----------
@@ -252,7 +249,7 @@ class LQR(_Controller):
             self._base.cfg, ACC_REF, q_acc, q_defl, r_force
         )
         self.A, self.B, self.P, self.K = vertical_lqr_gain(
-            self._base.sim.params, self._base.cfg, q_acc, q_defl, r_force
+            self._base.vehicle_params, self._base.cfg, q_acc, q_defl, r_force
         )
 
     def closed_loop_poles(self) -> np.ndarray:
@@ -275,7 +272,7 @@ class _VehicleController(_Controller):
                 f"env must be a railgym VerticalVehicle env, got {type(self._base).__name__}"
             )
         self.vehicle = self._base.vehicle
-        self.params = self._base.sim.params
+        self.params = self._base.vehicle_params
 
     def _body_velocities(self, x: np.ndarray) -> np.ndarray:
         """Absolute carbody velocities over the front and rear bogie (n, 2), m/s."""
@@ -424,13 +421,3 @@ from agents.crash_baselines import (  # noqa: E402, F401  (re-exported)
     CrashPassive,
     SpeedAdaptive,
 )
-
-
-def __getattr__(name: str) -> Any:
-    """The observer-based LQR baselines ``LQG`` and ``VehicleLQG`` (Kalman filter on the sensors
-    + the LQR gains above) live in :mod:`agents.lqg`, which imports this module."""
-    if name in ("LQG", "VehicleLQG"):
-        from agents import lqg
-
-        return getattr(lqg, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

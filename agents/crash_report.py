@@ -26,7 +26,7 @@ from agents.crash_baselines import (
     search_constant,
 )
 from agents.crash_matrix import constant_action_cases, matrix_table, random_action_cases
-from agents.evaluate import CRASH_ID, load_policy
+from agents.policies import CRASH_ID, load_policy
 from railgym.envs.crash import TrainCrashVectorEnv, default_surrogate, env_surrogate
 from railgym.progress import bar, quiet
 from railgym.vehicles.crash import load_scenario

@@ -1,7 +1,7 @@
 """``railgym evaluate POLICY... --gap``: the transfer gap of policies between surrogate and
 reference.
 
-Each policy (a controller name or a saved policy, as :func:`agents.evaluate.load_policy`
+Each policy (a controller name or a saved policy, as :func:`agents.policies.load_policy`
 takes) runs on the ``surrogate`` backend and on the reference backend over the same held-out
 cases, and every task metric is reported on both with its relative gap
 ``(surrogate − reference) / |reference|``:
@@ -10,7 +10,7 @@ cases, and every task metric is reported on both with its relative gap
   carbody acceleration ``a_w`` (m/s², mean over the episodes on the tracks of seeds
   ``seed + i``; :func:`agents.sweeps.evaluate_sweep`);
 * ``vehicle`` (``VerticalVehicle-v0``): per track class and speed, ``a_w`` at the front,
-  centre and rear floor points (:func:`agents.evaluate.evaluate_vehicle`);
+  centre and rear floor points (:func:`agents.policies.evaluate_vehicle`);
 * ``crash`` (``TrainCrash-v0``): per impact speed × payload of the held-out envelope
   (:data:`agents.crash_report.EVAL_SPEEDS_KMH`, :data:`~agents.crash_report.EVAL_PAYLOADS_T`),
   each car's peak and 10 ms moving-average peak deceleration (g), each zone's maximum crush and
@@ -30,8 +30,12 @@ from typing import Any
 
 import numpy as np
 
-from agents.evaluate import CRASH_ID, evaluate_vehicle, load_policy
+from agents import crash_report
+from agents.crash_baselines import rollout
+from agents.policies import CRASH_ID, evaluate_vehicle, load_policy
+from agents.sweeps import evaluate_sweep
 from railgym import _validation as val
+from railgym.envs.crash import TrainCrashVectorEnv
 
 __all__ = ["format_gap", "gap_crash", "gap_vehicle", "gap_vertical", "relative_gap", "run_gap"]
 
@@ -76,8 +80,6 @@ def gap_vertical(
     ``backends``: the (surrogate, reference) pair compared; the other arguments as
     :func:`agents.sweeps.evaluate_sweep`.
     """
-    from agents.sweeps import evaluate_sweep  # imports agents.evaluate, which imports this
-
     runs = [
         evaluate_sweep(policies, b, track_classes, episodes, seed, trust, workers, address)
         for b in backends
@@ -101,7 +103,7 @@ def gap_vehicle(
     backends: tuple[str, str] = (SURROGATE, "reference"),
 ) -> list[dict[str, Any]]:
     """Gap rows of ``VerticalVehicle-v0``: per (track class, speed, policy) the metric
-    ``a_w`` at each floor point; arguments as :func:`agents.evaluate.evaluate_vehicle`."""
+    ``a_w`` at each floor point; arguments as :func:`agents.policies.evaluate_vehicle`."""
     runs = [
         evaluate_vehicle(
             policies,
@@ -153,10 +155,6 @@ def gap_crash(
     trained policy ``.zip`` files, each on the ``envelope`` scenario with the env settings it
     was trained with; cases fixed by ``reset(options=...)`` (default the held-out envelope).
     """
-    from agents import crash_report  # imports agents.evaluate: not at the top
-    from agents.crash_baselines import rollout
-    from railgym.envs.crash import TrainCrashVectorEnv
-
     speeds = crash_report.EVAL_SPEEDS_KMH if speeds_kmh is None else tuple(speeds_kmh)
     payloads = crash_report.EVAL_PAYLOADS_T if payloads_t is None else tuple(payloads_t)
     loaded = []

@@ -194,7 +194,7 @@ class LQG(_LQGMixin, _Controller):
                 f"the env observes {list(self.obs_names)}"
             )
         base = self._base
-        params = base.sim.params
+        params = base.vehicle_params
         a4, b4, _, k = vertical_lqr_gain(params, base.cfg, q_acc, q_defl, r_force)
         track_class, speed = _design_speed(base)
         a_t, q = fra_shaping(track_class, speed, base.cfg.band[1])

@@ -2,7 +2,7 @@
 
 ``railgym export-policy POLICY -o controller.fmu [--onnx controller.onnx]``: the SB3 MLP
 policy (PPO or SAC, as :mod:`agents.train` writes them) is loaded as weights only, after the
-manifest check (:func:`agents.evaluate.load_policy`); its deterministic action is written out
+manifest check (:func:`agents.policies.load_policy`); its deterministic action is written out
 as plain C (``agents/c/policy_element.h`` on the generic FMI element of
 ``surrogates/fmi/c/element.c``) with no Python in the host:
 
@@ -348,9 +348,9 @@ def export_policy(
     it, as :mod:`agents.train` writes them) as an FMU at ``path`` and optionally as ONNX.
 
     The env and its settings (observation, ``f_max``) are the config's; ``trust`` loads a
-    zip the manifest does not list (see :func:`agents.evaluate.load_policy`).
+    zip the manifest does not list (see :func:`agents.policies.load_policy`).
     """
-    from agents.evaluate import load_policy
+    from agents.policies import load_policy
     from agents.train_config import load_config
 
     policy, path = Path(policy), Path(path)

@@ -21,10 +21,19 @@ from typing import Any
 
 from railgym.report.output import write_text_atomic
 
-__all__ = ["MANIFEST", "check_manifest", "load_policy_weights", "sha256", "write_manifest"]
+__all__ = [
+    "MANIFEST",
+    "RLLIB_MODULE_PATH",
+    "check_manifest",
+    "load_policy_weights",
+    "sha256",
+    "write_manifest",
+]
 
 #: manifest file name, beside the zips it lists
 MANIFEST = "manifest.json"
+#: where an RLlib algorithm checkpoint keeps its policy module (see :mod:`agents.train_rllib`)
+RLLIB_MODULE_PATH = Path("learner_group") / "learner" / "rl_module" / "default_policy"
 #: format tag of the manifest
 FORMAT = "railgym-policy-manifest/1"
 #: largest ``policy.pth`` read from a zip, bytes

@@ -1,8 +1,8 @@
 """Controller evaluations as parallel tasks (:func:`railgym.parallel.run_tasks`).
 
-* :func:`controller_sweep` — comfort indices (:func:`agents.evaluate.run_policy`) of one
+* :func:`controller_sweep` — comfort indices (:func:`agents.policies.run_policy`) of one
   controller factory on a list of env settings (track classes, backends, speeds, …).
-* :func:`evaluate_sweep` — the rows of :func:`agents.evaluate.evaluate`, one task per
+* :func:`evaluate_sweep` — the rows of ``railgym evaluate`` (vertical env), one task per
   (track class, policy); ``railgym evaluate --workers N --address ADDR`` is
   ``evaluate_sweep(..., workers=args.workers, address=args.address)``.
 
@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
-from agents.evaluate import MAX_EPISODES, load_policy, run_policy
+from agents.policies import MAX_EPISODES, load_policy, run_policy
 from railgym import _validation as val
 from railgym.parallel import run_tasks
 
@@ -77,8 +77,10 @@ def evaluate_sweep(
     address: str | None = None,
     env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
-    """:func:`agents.evaluate.evaluate` (same arguments and rows) with one task per
-    (track class, policy); ``env_kwargs`` are added to every env (e.g. ``fmu``, ``fmu_map``)."""
+    """One row per (track class, policy): mean RMS ẍ2, Wk a_w, Sperling Wz over the episodes of
+    :func:`agents.policies.run_policy` and ``a_w_reduction_%`` against the passive row of the
+    same class (NaN without one), one task per (track class, policy); ``env_kwargs`` are added
+    to every env (e.g. ``fmu``, ``fmu_map``)."""
     episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
     seed = val.integer(seed, "seed", min=0)
     track_classes = [

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import platform
 import sys
 import time
 import warnings
@@ -56,7 +55,6 @@ import yaml
 from gymnasium.vector import AutoresetMode, VectorEnv
 from tqdm import tqdm
 
-import railgym
 from agents._args import bounded_int
 from agents._extras import extra_error, report_missing
 
@@ -74,18 +72,18 @@ except ImportError as _err:
 
 from agents.envelope import EnvelopeVectorEnv, check_envelope
 from agents.policy_io import write_manifest
+from agents.run_files import versions, write_config
 from agents.train_config import (
     ALGOS,
     MAX_SEED,
     MAX_TIMESTEPS,
     RUN_KEY,
     VECTORIZATION_MODES,
-    TrainConfig,
     hyperparameters,
     load_config,
 )
 from railgym import _validation as val
-from railgym.report.output import atomic_path, prepare_output_dir, write_text_atomic
+from railgym.report.output import atomic_path, prepare_output_dir
 
 
 def _split_infos(infos: dict[str, Any], n: int) -> list[dict[str, Any]]:
@@ -358,23 +356,6 @@ class _EvalCallback(BaseCallback):
             )
 
 
-def _versions() -> dict[str, str]:
-    return {
-        "python": platform.python_version(),
-        "railgym": railgym.__version__,
-        "stable_baselines3": sb3.__version__,
-        "torch": str(torch.__version__),
-        "gymnasium": gym.__version__,
-        "numpy": np.__version__,
-    }
-
-
-def _write_config(out: Path, cfg: TrainConfig, run: dict[str, Any]) -> None:
-    data = cfg.to_yaml_dict()
-    data[RUN_KEY] = run
-    write_text_atomic(out / "config.yaml", yaml.safe_dump(data, sort_keys=False))
-
-
 def train(
     config: str | Path | dict[str, Any],
     out: str | Path | None = None,
@@ -423,8 +404,8 @@ def train(
         for venv in opened:
             venv.close()
         raise
-    run: dict[str, Any] = {"versions": _versions()}
-    _write_config(out, cfg, run)
+    run: dict[str, Any] = {"versions": versions(sb3, torch)}
+    write_config(out, cfg, run)
     model.set_logger(configure(str(out), ["csv"]))
     echo = cfg.eval_echo if progress else None
     every = max(cfg.checkpoint_freq // cfg.n_envs, 1)
@@ -449,7 +430,7 @@ def train(
         steps_per_s=round(model.num_timesteps / wall, 1),
         timesteps=int(model.num_timesteps),
     )
-    _write_config(out, cfg, run)
+    write_config(out, cfg, run)
     return out
 
 

@@ -46,11 +46,9 @@ or an existing cluster with ``--address``.
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses
 import inspect
 import json
-import platform
 import sys
 import time
 import warnings
@@ -63,11 +61,9 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-import railgym
 from agents._args import bounded_int
 from agents._extras import extra_error, report_missing
-from agents.evaluate import RLLIB_MODULE_PATH
-from agents.policy_io import sha256
+from agents.policy_io import RLLIB_MODULE_PATH, sha256
 from railgym import _validation as val
 from railgym.report.output import prepare_output_dir, write_text_atomic
 
@@ -83,6 +79,7 @@ try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' ex
     from ray.rllib.core.rl_module.rl_module import RLModule
     from ray.tune.registry import register_env
 
+    from agents.run_files import versions, write_config, write_csv
     from agents.train import evaluate, make_vec
     from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, _kwargs
 except ImportError as _err:
@@ -285,30 +282,6 @@ def load_rllib_policy(checkpoint: str | Path, env_id: str, trust: bool = False) 
     return policy
 
 
-def _versions() -> dict[str, str]:
-    return {
-        "python": platform.python_version(),
-        "railgym": railgym.__version__,
-        "ray": ray.__version__,
-        "torch": str(torch.__version__),
-        "gymnasium": gym.__version__,
-        "numpy": np.__version__,
-    }
-
-
-def _write_config(out: Path, cfg: RLlibConfig, run: dict[str, Any]) -> None:
-    data = cfg.to_yaml_dict()
-    data[RUN_KEY] = run
-    write_text_atomic(out / "config.yaml", yaml.safe_dump(data, sort_keys=False))
-
-
-def _write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-
-
 def _progress_row(result: dict[str, Any], wall: float) -> dict[str, Any]:
     runners = result.get("env_runners", {})
     return {
@@ -342,8 +315,8 @@ def train_rllib(
     if seed is not None:
         cfg.seed = val.integer(seed, "seed", min=0, max=MAX_SEED)
     out = prepare_output_dir(out, overwrite)
-    run: dict[str, Any] = {"versions": _versions()}
-    _write_config(out, cfg, run)
+    run: dict[str, Any] = {"versions": versions(ray, torch)}
+    write_config(out, cfg, run)
     started = not ray.is_initialized()
     if started:
         if address is None:
@@ -364,17 +337,17 @@ def train_rllib(
         if started:
             ray.shutdown()
     write_checkpoint_manifest(checkpoint)
-    _write_csv(out / "progress.csv", rows)
+    write_csv(out / "progress.csv", rows)
     policy = load_rllib_policy(checkpoint, cfg.env_id)
     eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}
     venv = make_vec(cfg.env_id, cfg.n_eval_episodes, eval_kwargs, "vector_entry_point")
     stats = evaluate(policy, venv, cfg.eval_seed)
     venv.close()
-    _write_csv(out / "eval.csv", [{"timesteps": rows[-1]["env_steps"], **stats}])
+    write_csv(out / "eval.csv", [{"timesteps": rows[-1]["env_steps"], **stats}])
     steps = rows[-1]["env_steps"]
     run.update(wall_s=round(wall, 1), steps_per_s=round(steps / wall, 1), timesteps=steps)
     run["eval"] = {k: stats[k] for k in ("mean_reward", "std_reward", "mean_length")}
-    _write_config(out, cfg, run)
+    write_config(out, cfg, run)
     return out
 
 

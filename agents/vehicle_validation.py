@@ -21,7 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents.evaluate import VEHICLE_CONTROLLERS, VEHICLE_ID
+from agents.policies import VEHICLE_CONTROLLERS, VEHICLE_ID
 from railgym.vehicles.collect import default_vertical_surrogate
 
 __all__ = ["FLOOR", "floor_errors", "main", "validation_rows"]

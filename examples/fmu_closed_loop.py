@@ -145,7 +145,7 @@ def rms_difference(a: np.ndarray, ref: np.ndarray) -> float:
 
 def main(argv: list[str]) -> int:
     """``python examples/fmu_closed_loop.py POLICY.zip``: export both FMUs, co-simulate."""
-    from agents.evaluate import load_policy
+    from agents.policies import load_policy
     from agents.policy_fmu import export_policy
     from railgym.fmu.reference import export_reference_fmu
 

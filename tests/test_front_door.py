@@ -12,9 +12,9 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 from railgym._validation import FieldError, FieldTypeError
-from tests import test_bad_inputs_railgym as vertical_table
-from tests import test_bad_inputs_vehicle as vehicle_table
-from tests import test_crash_bad_inputs as crash_table
+from tests.envs import test_bad_inputs_crash as crash_table
+from tests.envs import test_bad_inputs_vehicle as vehicle_table
+from tests.envs import test_bad_inputs_vertical as vertical_table
 
 TABLES = {
     "railgym/VerticalSuspension-v0": vertical_table,

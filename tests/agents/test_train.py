@@ -312,7 +312,8 @@ def test_short_sac_run_with_schedule_reloads(tmp_path, capsys):
     )
 
 
-#: the agents.train configs (``trainer: rllib`` files are agents.train_rllib's, tests/test_rllib.py)
+#: the agents.train configs (``trainer: rllib`` files are agents.train_rllib's,
+#: tests/agents/test_rllib.py)
 SB3_CONFIGS = [
     p
     for p in sorted(CONFIGS.glob("*.yaml"))

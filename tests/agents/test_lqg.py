@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from agents.controllers import LQG, LQR, VehicleLQG
-from agents.evaluate import evaluate, evaluate_vehicle
-from agents.lqg import fra_shaping
+from agents.controllers import LQR
+from agents.lqg import LQG, VehicleLQG, fra_shaping
+from agents.policies import evaluate_vehicle
+from agents.sweeps import evaluate_sweep
 from railgym.envs.vehicle import VerticalVehicleVectorEnv
 from railgym.envs.vertical import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
 from railgym.track import fra_psd
@@ -127,7 +128,7 @@ def test_vehicle_estimate_converges_and_lqg_beats_passive():
 
 
 def test_lqg_by_name_beats_passive_and_skyhook():
-    rows = evaluate(["passive", "skyhook", "lqg"], "linear", [5], episodes=2)
+    rows = evaluate_sweep(["passive", "skyhook", "lqg"], "linear", [5], episodes=2)
     a_w = {r["policy"]: r["a_w"] for r in rows}
     assert a_w["lqg"] < 0.7 * a_w["passive"] and a_w["lqg"] < a_w["skyhook"], a_w
     rows = evaluate_vehicle(["passive", "lqg"], "linear", [5], episodes=1, duration=6.0)

@@ -160,7 +160,7 @@ def _closed_loop_example():
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "examples" / "fmu_closed_loop.py"
+    path = Path(__file__).resolve().parents[2] / "examples" / "fmu_closed_loop.py"
     spec = importlib.util.spec_from_file_location("fmu_closed_loop", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

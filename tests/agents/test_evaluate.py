@@ -16,7 +16,6 @@ from agents.crash_report import envelope_table
 from agents.evaluate import (
     RLLIB_MODULE_PATH,
     VEHICLE_ID,
-    evaluate,
     evaluate_crash,
     evaluate_envelope,
     evaluate_vehicle,
@@ -25,11 +24,12 @@ from agents.evaluate import (
     load_policy,
 )
 from agents.policy_io import write_manifest
+from agents.sweeps import evaluate_sweep
 from railgym.track import class_speed
 
 
 def test_evaluate_vertical_skyhook_beats_passive_on_the_same_tracks():
-    rows = evaluate(["passive", "skyhook"], backend="linear", track_classes=(6,), episodes=2)
+    rows = evaluate_sweep(["passive", "skyhook"], backend="linear", track_classes=(6,), episodes=2)
     by = {r["policy"]: r for r in rows}
     assert by["passive"]["a_w_reduction_%"] == 0.0
     assert by["skyhook"]["a_w"] < by["passive"]["a_w"]
@@ -272,10 +272,10 @@ def test_a_zip_that_is_no_zip_is_one_clear_error(tmp_path):
 @pytest.mark.parametrize(
     ("call", "name"),
     [
-        (lambda: evaluate(["passive"], episodes=0), "episodes"),
-        (lambda: evaluate(["passive"], episodes=True), "episodes"),
-        (lambda: evaluate(["passive"], seed=-1), "seed"),
-        (lambda: evaluate(["passive"], track_classes=(7,)), "track_classes"),
+        (lambda: evaluate_sweep(["passive"], episodes=0), "episodes"),
+        (lambda: evaluate_sweep(["passive"], episodes=True), "episodes"),
+        (lambda: evaluate_sweep(["passive"], seed=-1), "seed"),
+        (lambda: evaluate_sweep(["passive"], track_classes=(7,)), "track_classes"),
         (lambda: evaluate_crash(["passive"], speeds_kmh=(-40.0,)), "speeds_kmh.*-40.0 km/h"),
         (lambda: evaluate_crash(["passive"], speeds_kmh=("40",)), "speeds_kmh"),
     ],
@@ -290,3 +290,16 @@ def test_rllib_checkpoint_without_the_extra_is_a_clear_error(tmp_path, monkeypat
     monkeypatch.setitem(sys.modules, "agents.train_rllib", None)  # as if ray were absent
     with pytest.raises(ValueError, match="install the 'rllib' extra"):
         load_policy(str(tmp_path / "ckpt"))
+
+
+def test_evaluate_re_exports_the_policies_library():
+    """``agents.evaluate.load_policy(name, env_id)`` and the other library names moved to
+    agents.policies stay reachable from the command's module (a public contract)."""
+    import agents.evaluate as command
+    import agents.policies as library
+
+    assert set(library.__all__) <= set(command.__all__)
+    for name in library.__all__:
+        assert getattr(command, name) is getattr(library, name), name
+    factory, env_kwargs, label = command.load_policy("lqr", command.ENV_ID)
+    assert label == "lqr" and env_kwargs == {"observation": "full"}

@@ -214,7 +214,7 @@ def test_fmi_names_are_unique_c_identifiers(names):
 
 
 def _example():
-    path = Path(__file__).resolve().parents[1] / "examples" / "fmu_cosimulation.py"
+    path = Path(__file__).resolve().parents[2] / "examples" / "fmu_cosimulation.py"
     spec = importlib.util.spec_from_file_location("fmu_cosimulation", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

@@ -7,13 +7,13 @@ from agents.evaluate import (
     CRASH_ID,
     ENV_ID,
     VEHICLE_ID,
-    evaluate,
     evaluate_crash,
     evaluate_vehicle,
     load_policy,
 )
 from agents.policy_io import check_manifest
 from agents.pretrained import PRETRAINED, pretrained_zip
+from agents.sweeps import evaluate_sweep
 
 #: held-out figures of the shipped policies (docs/results.md, issue 23), reference backend:
 #: a_w (m/s², per floor point on the vehicle) on the track of seed 1000, class 5 at 144 km/h;
@@ -39,7 +39,7 @@ def test_loads_by_name_with_its_manifest(name):
 
 
 def test_ppo_vertical_reproduces_its_figure():
-    rows = evaluate(["ppo-vertical"], "reference", [5], episodes=1)
+    rows = evaluate_sweep(["ppo-vertical"], "reference", [5], episodes=1)
     assert rows[0]["a_w"] == pytest.approx(STORED["ppo-vertical"], rel=1e-3)
 
 

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from surrogates import io
 from surrogates.lsdyna import NODOUT_FIELDS, write_nodout, write_rcforc
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 # SI value of one unit of (length, time, mass-free force, energy) per unit set, by hand
 SCALES = {
     "m-s-kg-N": {"L": 1.0, "T": 1.0, "F": 1.0, "E": 1.0},
@@ -185,7 +185,7 @@ def test_a_200_mb_nodout_is_streamed(tmp_path):
     write_nodout(path, t, dict.fromkeys(range(1, n_nodes + 1), cols))
     size = path.stat().st_size
     assert size > 200e6
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     peaks = {}
     for which in ("two", "all"):
         res = subprocess.run(

@@ -1,19 +1,23 @@
-"""agents.sweeps: controller evaluations as tasks give the numbers of agents.evaluate."""
+"""agents.sweeps: controller evaluations as tasks give the numbers of agents.policies.run_policy."""
 
 import functools
 
 import pytest
 
 from agents.controllers import Skyhook
-from agents.evaluate import evaluate, run_policy
+from agents.policies import load_policy, run_policy
 from agents.sweeps import controller_sweep, evaluate_sweep
 
 
-def test_evaluate_sweep_on_two_workers_equals_evaluate():
+def test_evaluate_sweep_on_two_workers_equals_one_and_run_policy():
     kwargs = {"track_classes": (4, 6), "episodes": 2, "seed": 7}
     rows = evaluate_sweep(["passive", "skyhook"], **kwargs, workers=2)
-    ref = evaluate(["passive", "skyhook"], **kwargs)
-    assert rows == ref  # floats compared exactly
+    assert rows == evaluate_sweep(["passive", "skyhook"], **kwargs)  # floats compared exactly
+    for r in rows:
+        factory, env_kwargs, _ = load_policy(r["policy"])
+        env_kwargs = {"backend": "reference", "track_class": r["track_class"], **env_kwargs}
+        direct = run_policy(factory, env_kwargs, 2, 7)
+        assert {k: r[k] for k in direct} == direct
     assert [r["policy"] for r in rows] == ["passive", "skyhook"] * 2
     assert all(r["a_w_reduction_%"] == 0.0 for r in rows if r["policy"] == "passive")
 
