@@ -1,7 +1,8 @@
 """Classical baselines for ``railgym/VerticalSuspension-v0``: passive, skyhook, groundhook, LQR;
 for ``railgym/VerticalVehicle-v0`` (two actuators): passive, skyhook per bogie, modal skyhook
 and LQR on the full linear model (:class:`BogieSkyhook`, :class:`ModalSkyhook`,
-:class:`VehicleLQR`, at the end of the module).
+:class:`VehicleLQR`, at the end of the module); the observer-based :class:`LQG` and
+:class:`VehicleLQG` (:mod:`agents.lqg`) are re-exported here.
 
 Every controller reads the env's observation (physical value = obs × ``obs_scale``, SI) and
 returns the normalised actuator commands ``F_a / f_max`` clipped to [−1, 1] with
@@ -21,13 +22,35 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.linalg import solve_continuous_are
 
-from agents.feedback import ObservationController
+from agents.control_base import (
+    _Controller,
+    _lqr_weights,
+    _VehicleController,
+    linear_model,
+    vehicle_lqr_gain,
+    vertical_lqr_gain,
+)
+from agents.lqg import LQG, VehicleLQG
 from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical import ACC_REF
-from railgym.vehicles.vehicle import linear_state_space
-from railgym.vehicles.vertical import P_C1, P_C2, P_K1, P_K2, P_M1, P_M2
+
+__all__ = [
+    "DEFAULT_C_GND",
+    "DEFAULT_C_SKY",
+    "LQG",
+    "LQR",
+    "BogieSkyhook",
+    "Groundhook",
+    "ModalSkyhook",
+    "Passive",
+    "Skyhook",
+    "VehicleLQG",
+    "VehicleLQR",
+    "linear_model",
+    "vehicle_lqr_gain",
+    "vertical_lqr_gain",
+]
 
 #: skyhook gain, N·s/m: ``c_sky·σ(ẋ2)`` ≈ f_max/2 at the passive carbody velocity RMS on the
 #: training case (8.6 cm/s, class 5 at 144 km/h), i.e. a skyhook damping ratio of 0.2
@@ -35,46 +58,6 @@ DEFAULT_C_SKY = 4.7e4
 #: groundhook gain, N·s/m: ``c_gnd·σ(ẋ1)`` ≈ f_max/2 at the passive bogie velocity RMS on the
 #: training case (10 cm/s), like the skyhook gain; 0.16 of the bogie mode's critical damping
 DEFAULT_C_GND = 4.0e4
-
-
-class _Controller(ObservationController):
-    """Vertical-env baselines: a demanded actuator force, normalised by ``f_max``."""
-
-    env_name = "VerticalSuspension"
-    #: reads the bogie and carbody velocities (:meth:`_velocities`)
-    needs_velocities = False
-
-    def __init__(self, env: Any) -> None:
-        super().__init__(env)
-        base = self._base
-        names = set(self.obs_names)
-        velocities = {"v1", "v2"} <= names or {"carbody_vel", "deflection_rate"} <= names
-        if not hasattr(base.cfg, "f_max") or (self.needs_velocities and not velocities):
-            raise ValueError(
-                f"env must be a railgym {self.env_name} env (actuator force f_max"
-                f"{', bogie and carbody velocities observed' if self.needs_velocities else ''}"
-                f"), got {type(base).__name__}"
-            )
-        self.f_max = float(base.cfg.f_max)
-        self.n_act = int(getattr(base, "single_action_space", base.action_space).shape[-1])
-
-    def _index(self, name: str) -> int:
-        return self.obs_names.index(name)
-
-    def _velocities(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Bogie and carbody absolute velocities ``(ẋ1, ẋ2)``, m/s, from physical obs (n, n_obs)."""
-        if "v1" in self.obs_names:
-            return x[:, self._index("v1")], x[:, self._index("v2")]
-        v2 = x[:, self._index("carbody_vel")]
-        return v2 + x[:, self._index("deflection_rate")], v2
-
-    def force(self, x: np.ndarray) -> np.ndarray:
-        """Demanded actuator force (n,), N, from the physical observation (n, n_obs)."""
-        raise NotImplementedError
-
-    def action(self, x: np.ndarray) -> np.ndarray:
-        """``F_a / f_max`` (n, n_act) from the physical observation (n, n_obs)."""
-        return (self.force(x) / self.f_max).reshape(x.shape[0], self.n_act)
 
 
 class Passive(_Controller):
@@ -149,69 +132,6 @@ class Groundhook(_Controller):
         return self.c_gnd * v1
 
 
-def linear_model(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """Linear vertical model ``ẋ = A·x + B·F_a + E·f`` and its carbody acceleration.
-
-    States ``x = [x1, v1, x2, v2]`` (m, m/s) from the static equilibrium, input ``F_a`` (N),
-    linear secondary suspension ``k2, c2``; the track force ``f = k1·z + c1·ż`` is the
-    disturbance (not returned). ``params`` is :meth:`VerticalVehicle.kernel_params`.
-
-    Returns
-    -------
-    A (4, 4), B (4, 1), C (4,), D
-        with ``ẍ2 = C·x + D·F_a`` (m/s²).
-    """
-    m1, m2, k1, c1 = params[P_M1], params[P_M2], params[P_K1], params[P_C1]
-    k2, c2 = params[P_K2], params[P_C2]
-    a = np.array(
-        [
-            [0.0, 1.0, 0.0, 0.0],
-            [-(k1 + k2) / m1, -(c1 + c2) / m1, k2 / m1, c2 / m1],
-            [0.0, 0.0, 0.0, 1.0],
-            [k2 / m2, c2 / m2, -k2 / m2, -c2 / m2],
-        ]
-    )
-    b = np.array([[0.0], [-1.0 / m1], [0.0], [1.0 / m2]])
-    return a, b, a[3].copy(), 1.0 / m2
-
-
-def _lqr_weights(
-    cfg: Any, acc_ref: float, q_acc: float | None, q_defl: float | None, r_force: float | None
-) -> tuple[float, float, float]:
-    """LQR weights in SI; ``None`` = the reward's: ``1/acc_ref²``, ``1/free_travel²``,
-    ``0.1/f_max²``. ValueError names a negative or non-finite weight, or ``r_force <= 0``."""
-    weights = {
-        "q_acc": 1.0 / acc_ref**2 if q_acc is None else q_acc,
-        "q_defl": 1.0 / cfg.free_travel**2 if q_defl is None else q_defl,
-        "r_force": 0.1 / cfg.f_max**2 if r_force is None else r_force,
-    }
-    for name, value in weights.items():
-        if not (np.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a non-negative number, got {value!r}")
-    if weights["r_force"] <= 0:
-        raise ValueError(f"r_force must be positive, got {weights['r_force']!r}")
-    return float(weights["q_acc"]), float(weights["q_defl"]), float(weights["r_force"])
-
-
-def vertical_lqr_gain(
-    params: np.ndarray,
-    cfg: Any,
-    q_acc: float | None = None,
-    q_defl: float | None = None,
-    r_force: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(A, B, P, K)`` of :class:`LQR` for kernel parameters ``params`` and the env config
-    ``cfg`` (weights: see :class:`LQR`); ``K`` is (1, 4), N per SI state."""
-    w_acc, w_defl, w_force = _lqr_weights(cfg, ACC_REF, q_acc, q_defl, r_force)
-    a, b, c, d = linear_model(params)
-    c_d = np.array([1.0, 0.0, -1.0, 0.0])
-    q = w_acc * np.outer(c, c) + w_defl * np.outer(c_d, c_d)
-    n = w_acc * d * c[:, None]
-    r = np.array([[w_force + w_acc * d * d]])
-    p = solve_continuous_are(a, b, q, r, s=n)
-    return a, b, p, np.linalg.solve(r, b.T @ p + n.T)
-
-
 class LQR(_Controller):
     """Linear-quadratic regulator on the linearised vertical model (needs ``observation="full"``).
 
@@ -262,25 +182,6 @@ class LQR(_Controller):
 
 
 # ============================================================ VerticalVehicle-v0 (2 actuators)
-class _VehicleController(_Controller):
-    """Plumbing for the whole-vehicle env: carbody velocities over the two bogies."""
-
-    def __init__(self, env: Any) -> None:
-        super().__init__(env)
-        if not hasattr(self._base, "vehicle") or self.n_act != 2:
-            raise ValueError(
-                f"env must be a railgym VerticalVehicle env, got {type(self._base).__name__}"
-            )
-        self.vehicle = self._base.vehicle
-        self.params = self._base.vehicle_params
-
-    def _body_velocities(self, x: np.ndarray) -> np.ndarray:
-        """Absolute carbody velocities over the front and rear bogie (n, 2), m/s."""
-        if "carbody_vel_front" in self.obs_names:
-            return x[:, [self._index("carbody_vel_front"), self._index("carbody_vel_rear")]]
-        p = self.params
-        v, w, qd = (x[:, self._index(n)] for n in ("z_c_dot", "theta_c_dot", "q_dot"))
-        return np.stack([v + s * p.a * w + p.phi_a * qd for s in (1.0, -1.0)], axis=1)
 
 
 class BogieSkyhook(_VehicleController):
@@ -345,29 +246,6 @@ class ModalSkyhook(_VehicleController):
         bounce = -0.5 * self.c_bounce * 0.5 * (v[:, 0] + v[:, 1])
         pitch = -self.c_pitch * (v[:, 0] - v[:, 1]) / (2 * self.a) / (2 * self.a)
         return np.stack([bounce + pitch, bounce - pitch], axis=1)
-
-
-def vehicle_lqr_gain(
-    vehicle: Any,
-    params: Any,
-    cfg: Any,
-    q_acc: float | None = None,
-    q_defl: float | None = None,
-    r_force: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(A, B, P, K)`` of :class:`VehicleLQR` for ``vehicle``, its kernel ``params`` and the
-    env config ``cfg`` (weights: see :class:`VehicleLQR`); ``K`` is (2, 14)."""
-    w_acc, w_defl, w_force = _lqr_weights(cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force)
-    a, b, _, c, d = linear_state_space(vehicle, cfg.flexible)
-    q = w_acc * c.T @ c / 3.0
-    for s in (1.0, -1.0):  # δ_i = z_b,i − z_c − x_i·θ_c − φ(a)·q
-        c_d = np.zeros(a.shape[0])
-        c_d[[3 if s > 0 else 5, 0, 1, 2]] = 1.0, -1.0, -s * params.a, -params.phi_a
-        q += 0.5 * w_defl * np.outer(c_d, c_d)
-    n = w_acc * c.T @ d / 3.0
-    r = 0.5 * w_force * np.eye(2) + w_acc * d.T @ d / 3.0
-    p = solve_continuous_are(a, b, q, r, s=n)
-    return a, b, p, np.linalg.solve(r, b.T @ p + n.T)
 
 
 class VehicleLQR(_VehicleController):

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm, solve_discrete_are
 
-from agents.controllers import (
+from agents.control_base import (
     _Controller,
     _VehicleController,
     vehicle_lqr_gain,

@@ -140,3 +140,12 @@ def test_lqg_needs_the_sensor_observation():
         LQG(VerticalSuspensionEnv(backend="linear", observation="full"))
     with pytest.raises(ValueError, match="observation must be 'sensors'"):
         VehicleLQG(VerticalVehicleVectorEnv(backend="linear", observation="full"))
+
+
+def test_lqg_classes_are_importable_from_agents_controllers():
+    """The public names of issue 23: ``agents.controllers.LQG`` and ``VehicleLQG``."""
+    import agents.controllers
+    import agents.lqg
+
+    assert agents.controllers.LQG is agents.lqg.LQG
+    assert agents.controllers.VehicleLQG is agents.lqg.VehicleLQG
