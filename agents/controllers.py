@@ -1,5 +1,5 @@
-"""Classical baselines for ``railgym/VerticalSuspension-v0``: passive, skyhook, groundhook, LQR;
-for ``railgym/VerticalVehicle-v0`` (two actuators): passive, skyhook per bogie, modal skyhook
+"""Classical baselines for ``railgym/VerticalSuspension-v1``: passive, skyhook, groundhook, LQR;
+for ``railgym/VerticalVehicle-v1`` (two actuators): passive, skyhook per bogie, modal skyhook
 and LQR on the full linear model (:class:`BogieSkyhook`, :class:`ModalSkyhook`,
 :class:`VehicleLQR`, at the end of the module); the observer-based :class:`LQG` and
 :class:`VehicleLQG` (:mod:`agents.lqg`) are re-exported here.
@@ -181,7 +181,7 @@ class LQR(_Controller):
         return -(x[:, :4] @ self.K[0])
 
 
-# ============================================================ VerticalVehicle-v0 (2 actuators)
+# ============================================================ VerticalVehicle-v1 (2 actuators)
 
 
 class BogieSkyhook(_VehicleController):
@@ -291,7 +291,7 @@ class VehicleLQR(_VehicleController):
         return -(x[:, :14] @ self.K.T)
 
 
-# Crash controllers of railgym/TrainCrash-v0 (same predict interface), defined with their
+# Crash controllers of railgym/TrainCrash-v1 (same predict interface), defined with their
 # rollout and search helpers in agents.crash_baselines.
 from agents.crash_baselines import (  # noqa: E402, F401  (re-exported)
     BEST_CONSTANT_ACTION,

@@ -1,4 +1,4 @@
-"""Classical baselines for ``railgym/TrainCrash-v0``: passive, constant absorber, speed-adaptive.
+"""Classical baselines for ``railgym/TrainCrash-v1``: passive, constant absorber, speed-adaptive.
 
 Every controller reads the env's observation (physical value = obs × ``obs_scale``, SI: the
 cars' displacement, velocity and acceleration, each zone's crush, force and absorber scale)

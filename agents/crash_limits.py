@@ -1,5 +1,5 @@
 """What limits a learning crash agent: ceilings of constant absorber settings on the held-out
-envelope of ``railgym/TrainCrash-v0`` (reference backend), beside the speed-adaptive rule.
+envelope of ``railgym/TrainCrash-v1`` (reference backend), beside the speed-adaptive rule.
 
     python -m agents.crash_limits [--range 0.3 0.5] [--levels 9]
 

@@ -1,4 +1,4 @@
-"""Surrogate against reference of ``railgym/TrainCrash-v0`` across the envelope and the actions.
+"""Surrogate against reference of ``railgym/TrainCrash-v1`` across the envelope and the actions.
 
 Both backends run the same episodes through the vector env (its absorber rate limit, control
 step and crash end included): constant actions at every speed × the envelope's lightest and

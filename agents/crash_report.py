@@ -1,4 +1,4 @@
-"""Baseline and surrogate-error tables of ``railgym/TrainCrash-v0`` over an impact envelope.
+"""Baseline and surrogate-error tables of ``railgym/TrainCrash-v1`` over an impact envelope.
 
 ``python -m agents.crash_report`` prints the markdown tables of
 ``docs/envs/crash_baselines.md`` (``--matrix``: the surrogate-vs-reference matrix of

@@ -8,9 +8,9 @@ In an :mod:`agents.train` config the envelope is a block beside ``env_kwargs``::
       speed_kmh: [100.0, 180.0]  # km/h, drawn uniformly per episode; absent: the class's
                                  # maximum passenger speed
 
-It applies to ``railgym/VerticalSuspension-v0`` and ``railgym/VerticalVehicle-v0`` (their
+It applies to ``railgym/VerticalSuspension-v1`` and ``railgym/VerticalVehicle-v1`` (their
 native vector envs), through the reset options ``track_class`` and ``speed`` of one sub-env at
-a time (gymnasium's partial reset, ``reset_mask``). ``railgym/TrainCrash-v0`` has its envelope
+a time (gymnasium's partial reset, ``reset_mask``). ``railgym/TrainCrash-v1`` has its envelope
 in the crash scenario itself (``scenario: envelope``: speed and payloads drawn at each reset).
 """
 
@@ -26,8 +26,8 @@ from railgym import _validation as val
 
 __all__ = ["ENVELOPE_ENVS", "Envelope", "EnvelopeVectorEnv", "check_envelope"]
 
-#: envs whose reset options take ``track_class`` and ``speed``
-ENVELOPE_ENVS = ("railgym/VerticalSuspension-v0", "railgym/VerticalVehicle-v0")
+#: envs (every registered version) whose reset options take ``track_class`` and ``speed``
+ENVELOPE_ENVS = ("railgym/VerticalSuspension", "railgym/VerticalVehicle")
 #: key of the envelope's generator stream beside the training seed
 _STREAM = 0xE17E
 

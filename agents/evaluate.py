@@ -130,14 +130,14 @@ def format_vehicle_rows(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-# ================================================================ railgym/TrainCrash-v0
+# ================================================================ railgym/TrainCrash-v1
 def evaluate_crash(
     policies: Sequence[str],
     backend: str = "reference",
     speeds_kmh: Sequence[float] = (40.0,),
     trust: bool = False,
 ) -> list[dict[str, Any]]:
-    """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v0``
+    """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v1``
     (``trust``: see :func:`load_policy`)."""
     speeds_kmh = [check_speed_kmh(v, "speeds_kmh") for v in val.sequence(speeds_kmh, "speeds_kmh")]
     rows = []
@@ -177,7 +177,7 @@ def evaluate_crash(
 def evaluate_envelope(
     policies: Sequence[str], speeds_kmh: Sequence[float] | None = None, trust: bool = False
 ) -> list[dict[str, Any]]:
-    """The held-out envelope evaluation of ``TrainCrash-v0`` on the reference backend
+    """The held-out envelope evaluation of ``TrainCrash-v1`` on the reference backend
     (:func:`agents.crash_report.envelope_rows`): the passive absorbers, the best constant
     setting, the speed-adaptive rule and each trained policy ``.zip`` of ``policies`` (the
     baseline names ``passive``, ``best-constant``, ``speed-adaptive`` there are accepted; the
@@ -311,13 +311,13 @@ def run(args: argparse.Namespace) -> int:
             if args.backend != "reference":
                 raise ValueError("--envelope: evaluates on the reference backend only")
             rows = evaluate_envelope(args.policy, args.speed, args.trust)
-            print("TrainCrash-v0 envelope scenario, held-out cases on the reference backend")
+            print("TrainCrash-v1 envelope scenario, held-out cases on the reference backend")
             print(crash_report.envelope_table(rows))
             return 0
         policies = ["passive"] + [p for p in args.policy if p != "passive"]
         rows = evaluate_crash(policies, args.backend, args.speed or [40.0], args.trust)
         print(
-            f"TrainCrash-v0, backend: {args.backend}; Δpeak: reduction of the largest car "
+            f"TrainCrash-v1, backend: {args.backend}; Δpeak: reduction of the largest car "
             "deceleration vs the passive absorbers"
         )
         print(format_crash_rows(rows))
@@ -340,7 +340,7 @@ def run(args: argparse.Namespace) -> int:
             fmu,
         )
         print(
-            f"VerticalVehicle-v0, backend: {args.backend}, {args.episodes} episodes per case "
+            f"VerticalVehicle-v1, backend: {args.backend}, {args.episodes} episodes per case "
             f"(seeds {args.seed}+i); per floor point front/centre/rear; Δa_w: reduction of the "
             "Wk-weighted RMS vs passive"
         )

@@ -6,12 +6,12 @@ takes) runs on the ``surrogate`` backend and on the reference backend over the s
 cases, and every task metric is reported on both with its relative gap
 ``(surrogate − reference) / |reference|``:
 
-* ``vertical`` (``VerticalSuspension-v0``): per track class, the ISO 2631 Wk-weighted RMS
+* ``vertical`` (``VerticalSuspension-v1``): per track class, the ISO 2631 Wk-weighted RMS
   carbody acceleration ``a_w`` (m/s², mean over the episodes on the tracks of seeds
   ``seed + i``; :func:`agents.sweeps.evaluate_sweep`);
-* ``vehicle`` (``VerticalVehicle-v0``): per track class and speed, ``a_w`` at the front,
+* ``vehicle`` (``VerticalVehicle-v1``): per track class and speed, ``a_w`` at the front,
   centre and rear floor points (:func:`agents.policies.evaluate_vehicle`);
-* ``crash`` (``TrainCrash-v0``): per impact speed × payload of the held-out envelope
+* ``crash`` (``TrainCrash-v1``): per impact speed × payload of the held-out envelope
   (:data:`agents.crash_report.EVAL_SPEEDS_KMH`, :data:`~agents.crash_report.EVAL_PAYLOADS_T`),
   each car's peak and 10 ms moving-average peak deceleration (g), each zone's maximum crush and
   survival-space intrusion (m) (:mod:`railgym.vehicles.crash.criteria`).
@@ -75,7 +75,7 @@ def gap_vertical(
     address: str | None = None,
     backends: tuple[str, str] = (SURROGATE, "reference"),
 ) -> list[dict[str, Any]]:
-    """Gap rows of ``VerticalSuspension-v0``: one per (track class, policy), metric ``a_w``.
+    """Gap rows of ``VerticalSuspension-v1``: one per (track class, policy), metric ``a_w``.
 
     ``backends``: the (surrogate, reference) pair compared; the other arguments as
     :func:`agents.sweeps.evaluate_sweep`.
@@ -102,7 +102,7 @@ def gap_vehicle(
     address: str | None = None,
     backends: tuple[str, str] = (SURROGATE, "reference"),
 ) -> list[dict[str, Any]]:
-    """Gap rows of ``VerticalVehicle-v0``: per (track class, speed, policy) the metric
+    """Gap rows of ``VerticalVehicle-v1``: per (track class, speed, policy) the metric
     ``a_w`` at each floor point; arguments as :func:`agents.policies.evaluate_vehicle`."""
     runs = [
         evaluate_vehicle(
@@ -149,7 +149,7 @@ def gap_crash(
     trust: bool = False,
     backends: tuple[str, str] = (SURROGATE, "reference"),
 ) -> list[dict[str, Any]]:
-    """Gap rows of ``TrainCrash-v0`` per (speed km/h × payload t, policy) and metric.
+    """Gap rows of ``TrainCrash-v1`` per (speed km/h × payload t, policy) and metric.
 
     ``policies``: the crash baselines (``passive``, ``best-constant``, ``speed-adaptive``) or
     trained policy ``.zip`` files, each on the ``envelope`` scenario with the env settings it
@@ -222,7 +222,7 @@ def run_gap(args: argparse.Namespace) -> int:
             if given:
                 raise ValueError(f"{flag}: only for vertical, vehicle, not --env crash")
         rows = gap_crash(args.policy, args.speed, trust=args.trust, backends=backends)
-        print(f"TrainCrash-v0 envelope scenario, held-out cases; {what}")
+        print(f"TrainCrash-v1 envelope scenario, held-out cases; {what}")
     elif args.env == "vehicle":
         rows = gap_vehicle(
             args.policy,
@@ -237,7 +237,7 @@ def run_gap(args: argparse.Namespace) -> int:
             backends,
         )
         print(
-            f"VerticalVehicle-v0, {args.episodes} episodes per case (seeds {args.seed}+i); {what}"
+            f"VerticalVehicle-v1, {args.episodes} episodes per case (seeds {args.seed}+i); {what}"
         )
     else:
         for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
@@ -254,7 +254,7 @@ def run_gap(args: argparse.Namespace) -> int:
             backends,
         )
         print(
-            f"VerticalSuspension-v0, {args.episodes} episodes per track class "
+            f"VerticalSuspension-v1, {args.episodes} episodes per track class "
             f"(seeds {args.seed}+i); {what}"
         )
     print(format_gap(rows, args.backend))

@@ -1,7 +1,7 @@
 """Observer-based LQR (LQG) baselines: a steady-state Kalman filter on the linear model, fed by
 the env's sensor observation, and the full-state LQR gain of :mod:`agents.controllers` on the
-estimate. :class:`LQG` is for ``railgym/VerticalSuspension-v0`` (one bogie), :class:`VehicleLQG`
-for ``railgym/VerticalVehicle-v0`` (two actuators); both are re-exported by
+estimate. :class:`LQG` is for ``railgym/VerticalSuspension-v1`` (one bogie), :class:`VehicleLQG`
+for ``railgym/VerticalVehicle-v1`` (two actuators); both are re-exported by
 :mod:`agents.controllers` and run as ``lqg`` in ``railgym evaluate``.
 
 Filter model (continuous, then sampled at ``control_dt`` with the actuator force held, as the
@@ -168,7 +168,7 @@ def _design_speed(env: Any) -> tuple[int, float]:
 
 
 class LQG(_LQGMixin, _Controller):
-    """LQG for ``railgym/VerticalSuspension-v0`` with the sensor observation (carbody and bogie
+    """LQG for ``railgym/VerticalSuspension-v1`` with the sensor observation (carbody and bogie
     accelerations, deflection and its rate, carbody velocity: ``observation="sensors"``).
 
     Filter states ``[x1, v1, x2, v2, z, y]``: :func:`agents.controllers.linear_model` with the
@@ -223,7 +223,7 @@ class LQG(_LQGMixin, _Controller):
 
 
 class VehicleLQG(_LQGMixin, _VehicleController):
-    """LQG for ``railgym/VerticalVehicle-v0`` with the sensor observation (three floor and two
+    """LQG for ``railgym/VerticalVehicle-v1`` with the sensor observation (three floor and two
     bogie accelerations, the two secondary deflections and their rates, the carbody velocity
     over each bogie: ``observation="sensors"``).
 

@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -35,16 +36,16 @@ from agents.controllers import (
     VehicleLQR,
 )
 from agents.lqg import LQG, VehicleLQG
-from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, load_policy_weights
+from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, env_family, load_policy_weights
 from agents.policy_zip import find_source, zip_network
 from agents.pretrained import PRETRAINED, pretrained_zip
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
 
-ENV_ID = "railgym/VerticalSuspension-v0"
-VEHICLE_ID = "railgym/VerticalVehicle-v0"
-CRASH_ID = "railgym/TrainCrash-v0"
+ENV_ID = "railgym/VerticalSuspension-v1"
+VEHICLE_ID = "railgym/VerticalVehicle-v1"
+CRASH_ID = "railgym/TrainCrash-v1"
 #: most episodes per class (one vector sub-env each)
 MAX_EPISODES = 1000
 CONTROLLERS = {
@@ -55,7 +56,7 @@ CONTROLLERS = {
     "lqr": (LQR, {}, {"observation": "full"}),
     "lqg": (LQG, {}, {"observation": "sensors"}),
 }
-#: controllers of ``railgym/VerticalVehicle-v0`` (two actuators)
+#: controllers of ``railgym/VerticalVehicle-v1`` (two actuators)
 VEHICLE_CONTROLLERS = {
     "passive": (Passive, {}, {}),
     "skyhook": (BogieSkyhook, {}, {}),
@@ -97,7 +98,8 @@ def load_policy(
     if policy in controllers:
         cls, kwargs, env_kwargs = controllers[policy]
         return (lambda env: cls(env, **kwargs)), env_kwargs, policy
-    if policy in PRETRAINED:  # shipped in the package (agents.pretrained)
+    pretrained = policy in PRETRAINED
+    if pretrained:  # shipped in the package (agents.pretrained), for any version of its env
         policy = str(pretrained_zip(policy, env_id))
     path = Path(policy)
     if path.is_dir() and (path / RLLIB_MODULE_PATH).is_dir():
@@ -131,8 +133,15 @@ def load_policy(
             net_kwargs["activation_fn"] = ACTIVATIONS[act]
         trained_on, env_kwargs = source.env_id or env_id, source.env_kwargs
     where = source.config or path
-    if trained_on != env_id:
+    if env_family(trained_on) != env_family(env_id):
         raise ValueError(f"{where}: the policy was trained on {trained_on}, not {env_id}")
+    if trained_on != env_id and not pretrained:
+        warnings.warn(
+            f"{where}: the policy was trained on {trained_on} and runs on {env_id} (same "
+            "spaces and reference model; the surrogate differs between versions)",
+            UserWarning,
+            stacklevel=2,
+        )
     keep = {
         "observation",
         "sensor_noise",
@@ -203,7 +212,7 @@ def run_policy(
     }
 
 
-# ================================================ railgym/VerticalVehicle-v0: the whole vehicle
+# ================================================ railgym/VerticalVehicle-v1: the whole vehicle
 #: keys of the vehicle's ``info["comfort"]``, each (3,): front, centre, rear floor point
 VEHICLE_COMFORT = ("a_w", "a_ZP95_Wb", "Wz")
 
@@ -221,7 +230,7 @@ class VehicleTask(NamedTuple):
 def run_vehicle_policy(
     factory: Any, env_kwargs: dict[str, Any], episodes: int, seed: int
 ) -> dict[str, Any]:
-    """Run ``episodes`` episodes of ``railgym/VerticalVehicle-v0`` (one per sub-env, tracks of
+    """Run ``episodes`` episodes of ``railgym/VerticalVehicle-v1`` (one per sub-env, tracks of
     seeds ``seed + i``) and return the means over them, each an array (3,) per floor point:
     ``rms_acc`` (RMS floor acceleration, m/s²) and the env's end-of-episode comfort ``a_w``
     (ISO 2631-1 Wk RMS, m/s²), ``a_ZP95_Wb`` (EN 12299, m/s²), ``Wz`` (Sperling); with
@@ -271,7 +280,7 @@ def evaluate_vehicle(
     env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """One row per (track class, speed, policy) of :func:`run_vehicle_policy` on
-    ``railgym/VerticalVehicle-v0``, plus ``a_w_reduction_%`` (3,) against the passive row
+    ``railgym/VerticalVehicle-v1``, plus ``a_w_reduction_%`` (3,) against the passive row
     of the same case (NaN without one).
 
     ``speeds_kmh``: km/h, ``None`` the class's maximum speed; ``duration``: s per episode;

@@ -11,7 +11,7 @@ as plain C (``agents/c/policy_element.h`` on the generic FMI element of
   does), the MLP (float32 weights, double sums), SAC's ``tanh`` squashing, the clipping of
   the action space, and ``force = action · f_max``;
 * outputs: the actuator forces in N (``actuator_force``; ``actuator_force_front``,
-  ``actuator_force_rear`` for ``VerticalVehicle-v0``).
+  ``actuator_force_rear`` for ``VerticalVehicle-v1``).
 
 The ONNX graph computes the same from a ``(batch, n_obs)`` double input ``observation`` to
 a ``(batch, n_act)`` float output ``actuator_force`` (needs the ``onnx`` extra).
@@ -35,7 +35,7 @@ __all__ = ["PolicyNet", "export_policy", "policy_net"]
 
 #: activation module name → code of ``policy_element.h``
 ACTIVATIONS = {"Identity": 0, "Tanh": 1, "ReLU": 2}
-#: SI unit of the observation channels by name (VerticalVehicle-v0: by prefix, below)
+#: SI unit of the observation channels by name (VerticalVehicle-v1: by prefix, below)
 UNITS = {
     "carbody_acc": "m/s2",
     "bogie_acc": "m/s2",

@@ -1,6 +1,6 @@
 """Pretrained policies shipped in the package, loaded by name: ``ppo-vertical``
-(``railgym/VerticalSuspension-v0``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v0``) and
-``ppo-crash`` (``railgym/TrainCrash-v0``)::
+(trained on ``railgym/VerticalSuspension-v0``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v0``)
+and ``ppo-crash`` (``railgym/TrainCrash-v0``); each runs on any version of its env::
 
     railgym evaluate ppo-vertical --track-class 4 5 6
     railgym evaluate ppo-vehicle --env vehicle --track-class 5
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.policy_io import write_manifest
+from agents.policy_io import env_family, write_manifest
 
 __all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
 
@@ -53,9 +53,10 @@ def _folder(name: str) -> Path:
 
 
 def pretrained_zip(name: str, env_id: str) -> Path:
-    """The ``model.zip`` of pretrained policy ``name`` for ``env_id``; ValueError for another
-    env or a policy missing from this installation."""
-    if PRETRAINED[name] != env_id:
+    """The ``model.zip`` of pretrained policy ``name`` for ``env_id`` (any registered version
+    of the env it was trained on: the versions share spaces and reference model; ValueError
+    for another env or a policy missing from this installation."""
+    if env_family(PRETRAINED[name]) != env_family(env_id):
         raise ValueError(f"policy {name} is for {PRETRAINED[name]}, not {env_id}")
     path = _folder(name) / "model.zip"
     if not path.is_file():

@@ -66,7 +66,7 @@ def observation_map(env: VerticalSuspensionEnv) -> Any:
 
 
 def vehicle_observation_map(env: VerticalVehicleEnv) -> Any:
-    """``raw (27,) → VerticalVehicle-v0 observation`` (float32, normalised like the env, no
+    """``raw (27,) → VerticalVehicle-v1 observation`` (float32, normalised like the env, no
     sensor noise); ``raw`` is :data:`~railgym.vehicles.refine_vehicle.RAW_VEHICLE_OBSERVATION`."""
     index = {name: i for i, name in enumerate(RAW_VEHICLE_OBSERVATION)}
     inv = 1.0 / np.asarray(env.obs_scale, dtype=np.float64)
@@ -104,7 +104,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--env",
         choices=("vertical", "vehicle"),
         default="vertical",
-        help="VerticalSuspension-v0 (one bogie) or VerticalVehicle-v0 (both bogies)",
+        help="VerticalSuspension-v1 (one bogie) or VerticalVehicle-v1 (both bogies)",
     )
     parser.add_argument("--model", type=Path, help="element JSON (default: the packaged one)")
     parser.add_argument("--rounds", type=bounded_int(0, 50), default=3, help="rounds K")

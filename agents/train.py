@@ -18,7 +18,7 @@ PPO, 4·10⁶ steps on the surrogate backend, evaluated every 10⁵ steps on the
     python -m agents.train configs/agents/ppo_vertical.yaml
 
 ``configs/agents/sac_vertical.yaml`` is the off-policy alternative (3·10⁵ steps),
-``configs/agents/ppo_crash.yaml`` trains the absorbers of ``railgym/TrainCrash-v0``.
+``configs/agents/ppo_crash.yaml`` trains the absorbers of ``railgym/TrainCrash-v1``.
 
 Config file: one top-level key, the Gymnasium env id; the fields and their limits are in
 :mod:`agents.train_config`.

@@ -274,7 +274,7 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
         raise val.FieldError(
             "config",
             "config must have exactly one top-level key, the env id (e.g. "
-            f"'railgym/VerticalSuspension-v0'), got {ids}",
+            f"'railgym/VerticalSuspension-v1'), got {ids}",
             full=True,
         )
     env_id = ids[0]
@@ -317,8 +317,9 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
     envelope = f.get("envelope", None)
     if envelope is not None:
         from agents.envelope import ENVELOPE_ENVS, check_envelope
+        from agents.policy_io import env_family
 
-        if env_id not in ENVELOPE_ENVS:
+        if env_family(env_id) not in ENVELOPE_ENVS:
             raise val.FieldError("envelope", f"is for {list(ENVELOPE_ENVS)}, not {env_id}")
         if mode == "sync":
             raise val.FieldError("envelope", "needs the native vector env, not sync")

@@ -1,4 +1,4 @@
-"""Surrogate against reference on ``railgym/VerticalVehicle-v0``: relative RMS error of the
+"""Surrogate against reference on ``railgym/VerticalVehicle-v1``: relative RMS error of the
 carbody acceleration at each floor point (front, centre, rear) over unseen tracks.
 
     python -m agents.vehicle_validation --seeds 20 --track-class 3 4 5 6

@@ -1,4 +1,4 @@
-"""Crash models and TrainCrash-v0 speed, with gymnasium's CartPole measured in the same run.
+"""Crash models and TrainCrash-v1 speed, with gymnasium's CartPole measured in the same run.
 
 Targets (issue 4): surrogate ≥ 100 × faster than our reference for the default scenario (the
 paper: LS-DYNA 51 548 s vs 8 s); one full crash episode on the surrogate env ≤ 5 ms; vector
@@ -107,12 +107,12 @@ def run() -> list[dict]:
                 "paper: FE 51 548 s vs 8 s",
             ),
         ]
-    env = gym.make("railgym/TrainCrash-v0")
+    env = gym.make("railgym/TrainCrash-v1")
     steps = _episode(env)
     t_ep = _best(lambda: _episode(env), repeats=20)
     rows.append(
         row(
-            "TrainCrash-v0 passive episode (surrogate)",
+            "TrainCrash-v1 passive episode (surrogate)",
             t_ep * 1e3,
             "ms",
             "≤ 5",
@@ -125,13 +125,13 @@ def run() -> list[dict]:
     t_crash = _step_us(env, lambda k: zero)
     rows += [
         row("CartPole-v1 step (anchor)", t_cart, "µs", context="gym.make, same run"),
-        row("TrainCrash-v0 step (surrogate)", t_crash, "µs", context="2 substeps of 0.5 ms"),
+        row("TrainCrash-v1 step (surrogate)", t_crash, "µs", context="2 substeps of 0.5 ms"),
         row("  ratio to CartPole", t_crash / t_cart, "×"),
     ]
     mode = "vector_entry_point"
     cart_vec = gym.make_vec("CartPole-v1", num_envs=N_VEC, vectorization_mode=mode)
     r_cart = _vector_rate(cart_vec, np.ones(N_VEC, np.int64), 300)
-    venv = gym.make_vec("railgym/TrainCrash-v0", num_envs=N_VEC, vectorization_mode=mode)
+    venv = gym.make_vec("railgym/TrainCrash-v1", num_envs=N_VEC, vectorization_mode=mode)
     r_crash = _vector_rate(venv, np.zeros((N_VEC,) + zero.shape, np.float32), 100)
     rows += [
         row(f"CartPoleVectorEnv ({N_VEC}) (anchor)", r_cart / 1e6, "M steps/s", context="same run"),

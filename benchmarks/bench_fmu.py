@@ -1,6 +1,6 @@
 """What the surrogate buys over an FMU in the loop (issue 20), measured in one run.
 
-``VerticalSuspension-v0`` with ``backend="fmu"`` on the exported reference FMU (C, stepped
+``VerticalSuspension-v1`` with ``backend="fmu"`` on the exported reference FMU (C, stepped
 through FMPy: 10 ``fmi2DoStep`` of 1 ms per control step in co-simulation, 10 RK4 steps of 4
 ``fmi2GetDerivatives`` in model exchange) — how fmugym-style tools train — against the
 surrogate vector env (1024 sub-envs, the way railgym trains). Target: the surrogate vector
@@ -20,7 +20,7 @@ import numpy as np
 import railgym  # noqa: F401  (registers the environments)
 from benchmarks import row
 
-ID = "railgym/VerticalSuspension-v0"
+ID = "railgym/VerticalSuspension-v1"
 N_VEC = 1024
 
 

@@ -3,14 +3,14 @@
 For each env at 1024 sub-envs: env-steps/s with ``numba.set_num_threads(1)`` and with the
 default thread count, and GFLOP/s from an estimated flop count per env-step:
 
-* ``VerticalSuspension-v0``: 10 RK4 substeps, 4 right-hand sides each with the packaged
+* ``VerticalSuspension-v1``: 10 RK4 substeps, 4 right-hand sides each with the packaged
   memory element: additive Legendre sums of degrees (14, 14, 20), 6 flop per recurrence step,
   plus ~60 flop of dynamics, bump stops and stage updates (:func:`vertical_flop`, ~13 kflop;
   issue 13 estimated ~2 kflop for a degree-(10,10) element).
-* ``VerticalVehicle-v0``: 5 RK4 substeps, 4 right-hand sides each with two degree-(10,10) LPR
+* ``VerticalVehicle-v1``: 5 RK4 substeps, 4 right-hand sides each with two degree-(10,10) LPR
   elements (~2 × 121 × 2 multiply-adds) and the 14-state rigid/flexible dynamics (~150
   flop): ~12 kflop per step.
-* ``TrainCrash-v0``: 2 velocity-Verlet substeps of a 2-body surrogate with one high-degree
+* ``TrainCrash-v1``: 2 velocity-Verlet substeps of a 2-body surrogate with one high-degree
   LPR element (~200 flop each) and the per-step criteria bookkeeping (~200 flop): ~0.6 kflop.
 
 The peak is a numba FMA loop over float64 arrays (``a*b+c`` written in place, cache-resident,
@@ -43,11 +43,11 @@ from benchmarks import row
 N_VEC = 1024
 #: estimated flop per env-step (module docstring)
 #: issue 13's share of CartPoleVectorEnv's env-steps/s at 1024 sub-envs, %
-TARGET_SHARE = {"railgym/VerticalSuspension-v0": "≥ 25", "railgym/TrainCrash-v0": "≥ 50"}
+TARGET_SHARE = {"railgym/VerticalSuspension-v1": "≥ 25", "railgym/TrainCrash-v1": "≥ 50"}
 
 
 def vertical_flop(n_sub: int = 10) -> float:
-    """Flop per VerticalSuspension-v0 env-step with the packaged memory element: per
+    """Flop per VerticalSuspension-v1 env-step with the packaged memory element: per
     right-hand side 6 flop per Legendre recurrence step of each input (degree − 1 steps) and
     ~60 flop for the rest."""
     from railgym.vehicles.collect import default_vertical_surrogate
@@ -60,9 +60,9 @@ def vertical_flop(n_sub: int = 10) -> float:
 
 
 FLOP_PER_STEP = {
-    "railgym/VerticalSuspension-v0": vertical_flop(),
-    "railgym/VerticalVehicle-v0": 12e3,
-    "railgym/TrainCrash-v0": 0.6e3,
+    "railgym/VerticalSuspension-v1": vertical_flop(),
+    "railgym/VerticalVehicle-v1": 12e3,
+    "railgym/TrainCrash-v1": 0.6e3,
 }
 
 

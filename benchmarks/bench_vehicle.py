@@ -1,7 +1,7 @@
-"""Whole-vehicle env speed against CartPole and VerticalSuspension-v0 in the same run.
+"""Whole-vehicle env speed against CartPole and VerticalSuspension-v1 in the same run.
 
-Targets (issue 14): single-env step of ``VerticalVehicle-v0`` ≤ 2 × CartPole-v1's; vector
-env (1024) env-steps/s ≥ 1/3 of ``VerticalSuspension-v0``'s vector env. Issue 22: the vector
+Targets (issue 14): single-env step of ``VerticalVehicle-v1`` ≤ 2 × CartPole-v1's; vector
+env (1024) env-steps/s ≥ 1/3 of ``VerticalSuspension-v1``'s vector env. Issue 22: the vector
 env with the default memory element at least 0.85 × its rate with the paper's static element.
 """
 
@@ -28,7 +28,7 @@ def run() -> list[dict]:
     cart = gym.make("CartPole-v1")
     zero = np.zeros(2, np.float32)
     envs = {
-        b: gym.make("railgym/VerticalVehicle-v0", backend=b)
+        b: gym.make("railgym/VerticalVehicle-v1", backend=b)
         for b in ("surrogate", "reference", "linear")
     }
     t_cart, t_env = [], {b: [] for b in envs}
@@ -63,14 +63,14 @@ def run() -> list[dict]:
     ]
     n = 1024
     v0 = gym.make_vec(
-        "railgym/VerticalSuspension-v0", num_envs=n, vectorization_mode="vector_entry_point"
+        "railgym/VerticalSuspension-v1", num_envs=n, vectorization_mode="vector_entry_point"
     )
     r_v0 = _vector_rate(v0, np.zeros((n, 1), np.float32), 30)
     del v0
     zero2 = np.zeros((n, 2), np.float32)
     venvs = {
         form: gym.make_vec(
-            "railgym/VerticalVehicle-v0",
+            "railgym/VerticalVehicle-v1",
             num_envs=n,
             vectorization_mode="vector_entry_point",
             surrogate=default_vertical_surrogate(form),

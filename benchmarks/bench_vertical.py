@@ -72,7 +72,7 @@ def run() -> list[dict]:
     zero = np.zeros(1, np.float32)
     steps = {}
     for backend in ("surrogate", "reference", "linear"):
-        env = gym.make("railgym/VerticalSuspension-v0", backend=backend)
+        env = gym.make("railgym/VerticalSuspension-v1", backend=backend)
         t = steps[backend] = _single_step_us(env, lambda k: zero)
         target = "≤ 1.3" if backend == "surrogate" else ""
         context = "10 RK4 substeps" + (", memory element" if backend == "surrogate" else "")
@@ -89,7 +89,7 @@ def run() -> list[dict]:
                 ),
             ]
     static = default_vertical_surrogate("static")
-    env = gym.make("railgym/VerticalSuspension-v0", surrogate=static)
+    env = gym.make("railgym/VerticalSuspension-v1", surrogate=static)
     t = _single_step_us(env, lambda k: zero)
     rows += [
         row("VerticalSuspension step (static element)", t, "µs", context="paper's F(δ, δ̇)"),
@@ -99,7 +99,7 @@ def run() -> list[dict]:
     cart_vec = gym.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
     r_cart = _vector_rate(cart_vec, np.ones(n, np.int64), 300)
     venv = gym.make_vec(
-        "railgym/VerticalSuspension-v0", num_envs=n, vectorization_mode="vector_entry_point"
+        "railgym/VerticalSuspension-v1", num_envs=n, vectorization_mode="vector_entry_point"
     )
     r = _vector_rate(venv, np.zeros((n, 1), np.float32), 30)
     rows += [

@@ -16,7 +16,7 @@ deflection_rate, carbody_vel`` are the controller's inputs, the controller's
    (``fmi2SetRealInputDerivatives``, the vehicle FMU has ``canInterpolateInputs``), else it
    holds the track over each ``dt`` (a plain master).
 
-:func:`env_episode` runs the same policy on ``VerticalSuspension-v0`` with
+:func:`env_episode` runs the same policy on ``VerticalSuspension-v1`` with
 ``backend="reference"`` and gives the track it rode, so the two can be compared. Run
 ``python examples/fmu_closed_loop.py POLICY.zip`` for the table of ``docs/fmi.md``.
 """
@@ -35,7 +35,7 @@ import numpy as np
 import railgym  # noqa: F401  (registers the envs)
 from railgym.fmu.runner import hermite_derivatives
 
-ID = "railgym/VerticalSuspension-v0"
+ID = "railgym/VerticalSuspension-v1"
 
 
 class _Slave:

@@ -1,6 +1,6 @@
 """railgym — Gymnasium environments for railway vehicle dynamics with surrogate elements.
 
-Importing the package registers the environments: ``gym.make("railgym/VerticalSuspension-v0")``.
+Importing the package registers the environments: ``gym.make("railgym/VerticalSuspension-v1")``.
 The physics (:mod:`railgym.track`, :mod:`railgym.vehicles`) does not use gymnasium.
 """
 

@@ -9,7 +9,7 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 
-VERTICAL, VEHICLE = "railgym/VerticalSuspension-v0", "railgym/VerticalVehicle-v0"
+VERTICAL, VEHICLE = "railgym/VerticalSuspension-v1", "railgym/VerticalVehicle-v1"
 SPAN = 21.56  # m, wheelset span of the packaged whole vehicle (docs/envs/vehicle_vertical.md)
 
 
@@ -41,7 +41,7 @@ def test_a_profile_exactly_as_long_as_documented_runs(env_id, extra):
 @pytest.mark.parametrize("speed", [1e-9, 0.5, (0.5, 30.0)])
 def test_a_tiny_speed_is_blamed_on_the_speed(env_id, speed):
     if env_id == VERTICAL and isinstance(speed, tuple):
-        pytest.skip("VerticalSuspension-v0 takes one speed")
+        pytest.skip("VerticalSuspension-v1 takes one speed")
     with pytest.raises(ValueError, match=r"^speed must be at least 1 m/s"):
         gym.make(env_id, speed=speed)
 
@@ -143,7 +143,7 @@ def test_a_training_yaml_with_the_env_id_twice_is_refused(tmp_path):
     block = "  algo: ppo\n  policy: MlpPolicy\n  n_timesteps: 100\n"
     path = tmp_path / "twice.yaml"
     path.write_text(
-        f"railgym/VerticalSuspension-v0:\n{block}railgym/VerticalSuspension-v0:\n{block}"
+        f"railgym/VerticalSuspension-v1:\n{block}railgym/VerticalSuspension-v1:\n{block}"
     )
     with pytest.raises(ValueError, match=r"twice\.yaml is not valid YAML, line 5: key .* twice"):
         load_config(str(path))
@@ -174,8 +174,8 @@ def test_train_timesteps_has_an_upper_bound(capsys, steps):
 def test_a_config_with_too_many_timesteps_names_the_field():
     from agents.train_config import load_config
 
-    config = {"railgym/VerticalSuspension-v0": {"algo": "ppo", "policy": "MlpPolicy"}}
-    config["railgym/VerticalSuspension-v0"]["n_timesteps"] = 10**12
+    config = {"railgym/VerticalSuspension-v1": {"algo": "ppo", "policy": "MlpPolicy"}}
+    config["railgym/VerticalSuspension-v1"]["n_timesteps"] = 10**12
     with pytest.raises(ValueError, match=r"n_timesteps must be .*1000000000"):
         load_config(config)
 
@@ -240,7 +240,7 @@ def test_a_vertical_controller_on_the_crash_env_names_the_env(name):
     from agents import controllers
 
     with pytest.raises(ValueError, match=r"env must be a railgym VerticalSuspension env"):
-        getattr(controllers, name)(gym.make("railgym/TrainCrash-v0"))
+        getattr(controllers, name)(gym.make("railgym/TrainCrash-v1"))
 
 
 @pytest.mark.parametrize("name", ["Skyhook", "Groundhook"])

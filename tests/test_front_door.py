@@ -17,8 +17,8 @@ from tests.envs import test_bad_inputs_vehicle as vehicle_table
 from tests.envs import test_bad_inputs_vertical as vertical_table
 
 TABLES = {
-    "railgym/VerticalSuspension-v0": vertical_table,
-    "railgym/VerticalVehicle-v0": vehicle_table,
+    "railgym/VerticalSuspension-v1": vertical_table,
+    "railgym/VerticalVehicle-v1": vehicle_table,
 }
 
 
@@ -79,12 +79,12 @@ CRASH = crash_table.test_env_arguments_name_the_field.pytestmark[0].args[1]
 def test_crash_table_through_gym_make(kwargs, message, entry):
     with pytest.raises(ValueError, match=message):
         if entry == "make":
-            gym.make("railgym/TrainCrash-v0", **kwargs)
+            gym.make("railgym/TrainCrash-v1", **kwargs)
         else:
-            _make_vec("railgym/TrainCrash-v0", 2)(**kwargs)
+            _make_vec("railgym/TrainCrash-v1", 2)(**kwargs)
 
 
-@pytest.mark.parametrize("env_id", [*TABLES, "railgym/TrainCrash-v0"])
+@pytest.mark.parametrize("env_id", [*TABLES, "railgym/TrainCrash-v1"])
 @pytest.mark.parametrize(
     ("kwargs", "field"),
     [({"speed": "fast"}, "speed"), ({"speed": True}, "speed"), ({"speed": 3 + 0j}, "speed")],

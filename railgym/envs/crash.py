@@ -1,4 +1,4 @@
-"""``railgym/TrainCrash-v0``: adaptive crash energy management of a train hitting a wall.
+"""``railgym/TrainCrash-v1``: adaptive crash energy management of a train hitting a wall.
 
 A lead car and ``n_cars − 1`` passenger cars run into a rigid wall (or a free deformable
 obstacle) from the scenario's speed (default: the paper's table 9 case, 40 km/h), or — for a
@@ -188,7 +188,7 @@ def env_surrogate(
 ) -> CrashSurrogate:
     """The elements ``gym.make`` uses without ``surrogate=``: the packaged envelope elements
     of the scenario's train (:func:`railgym.vehicles.crash.elements.packaged_surrogate`; those
-    of ``release``, e.g. ``"v0"`` for ``TrainCrash-v0``), else :func:`default_surrogate`
+    of ``release``, e.g. ``"v0"`` for ``TrainCrash-v1``), else :func:`default_surrogate`
     (fitted once per process); cached per scenario and process."""
     packaged = packaged_surrogate(scenario, variant, release)
     return packaged if packaged is not None else default_surrogate(scenario, variant)
@@ -362,7 +362,7 @@ class TrainCrashEnv(_CrashShell, BatchEnv):
     """
 
     _single = True
-    #: packaged elements of this version (``""``: current; ``"v0"``: ``TrainCrash-v0``'s)
+    #: packaged elements of this version (``""``: current; ``"v0"``: ``TrainCrash-v1``'s)
     elements_release = ""
 
     def __init__(
@@ -427,7 +427,7 @@ class TrainCrashVectorEnv(_CrashShell, BatchVectorEnv):
 
 
 class TrainCrashEnvV0(TrainCrashEnv):
-    """``TrainCrash-v0``: the packaged elements of version 0 (one mass per car, one global
+    """``TrainCrash-v1``: the packaged elements of version 0 (one mass per car, one global
     LPR per zone); everything else as :class:`TrainCrashEnv` (docs/envs/crash.md, *Version
     history*)."""
 

@@ -1,4 +1,4 @@
-"""The batch of ``railgym/TrainCrash-v0`` (:mod:`railgym.envs.crash`): ``n`` trains stepped by
+"""The batch of ``railgym/TrainCrash-v1`` (:mod:`railgym.envs.crash`): ``n`` trains stepped by
 one compiled call per control step (:mod:`railgym.envs.crash_step`), behind the batch contract
 of :mod:`railgym.envs.base`."""
 

@@ -1,4 +1,4 @@
-"""Compiled bookkeeping of ``railgym/TrainCrash-v0`` (:mod:`railgym.envs.crash`): absorber
+"""Compiled bookkeeping of ``railgym/TrainCrash-v1`` (:mod:`railgym.envs.crash`): absorber
 scales, the model's batch step, episode statistics, observation, reward and the flat ``info``
 row, one compiled call per control step for all trains."""
 

@@ -1,9 +1,9 @@
-"""``railgym/VerticalVehicle-v0``: active secondary suspension of the whole vehicle.
+"""``railgym/VerticalVehicle-v1``: active secondary suspension of the whole vehicle.
 
 Carbody bounce, pitch and first bending on two bogies, four wheelsets on a seeded FRA track
 or a measured/user profile (:mod:`railgym.vehicles.vehicle`); one actuator in the secondary
 suspension of each bogie. The secondary elements are the backends of
-``VerticalSuspension-v0``: ``"surrogate"`` (LPR element, both bogies), ``"reference"``
+``VerticalSuspension-v1``: ``"surrogate"`` (LPR element, both bogies), ``"reference"``
 (air spring with reservoir, Maxwell damper, bump stops) or ``"linear"``. Observation,
 action, reward, ``info`` and the argument limits are tabulated in
 ``docs/envs/vehicle_vertical.md``.
@@ -90,7 +90,7 @@ OBSERVATIONS = {
 }
 DEFAULT_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
 ACC_WEIGHTINGS = ("none", "Wk")
-#: documented argument limits (docs/envs/vehicle_vertical.md): those of VerticalSuspension-v0,
+#: documented argument limits (docs/envs/vehicle_vertical.md): those of VerticalSuspension-v1,
 #: with actuator forces up to 1 GN (stress tests: the outputs stay finite)
 LIMITS = {**_VERTICAL_LIMITS, "f_max": 1e9}
 #: lowest speed the track arrays are sized for unless the env is made with a lower one, m/s
@@ -289,7 +289,7 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
 
     #: packaged element used without ``surrogate=``, ``(form, release)`` of
     #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
-    #: element; ``("static", "")`` for ``VerticalVehicle-v0`` (docs: *Version history*)
+    #: element; ``("static", "")`` for ``VerticalVehicle-v1`` (docs: *Version history*)
     default_element: tuple[str, str] | None = None
 
     def __init__(
@@ -451,7 +451,7 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
 
 
 class VerticalVehicleEnvV0(VerticalVehicleEnv):
-    """``VerticalVehicle-v0``: the static packaged element by default (``surrogate=`` takes
+    """``VerticalVehicle-v1``: the static packaged element by default (``surrogate=`` takes
     any element, memory elements included); everything else as :class:`VerticalVehicleEnv`
     (docs/envs/vehicle_vertical.md, *Version history*)."""
 

@@ -1,4 +1,4 @@
-"""``rgb_array`` frame of ``VerticalVehicle-v0``: bending carbody, two pitching bogies, four
+"""``rgb_array`` frame of ``VerticalVehicle-v1``: bending carbody, two pitching bogies, four
 wheelsets on the track profile (primitives of :mod:`railgym.envs.rendering`)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``railgym/VerticalSuspension-v0``: active secondary suspension on FRA or measured track.
+"""``railgym/VerticalSuspension-v1``: active secondary suspension on FRA or measured track.
 
 A bogie (m1) and its share of the carbody (m2) ride on the primary suspension over a
 seeded FRA track profile (paper eq. 1/2) or a measured/user profile
@@ -62,7 +62,7 @@ __all__ = [
     "make_config",
 ]
 
-#: backend → kernel variant of the secondary suspension (shared with VerticalVehicle-v0)
+#: backend → kernel variant of the secondary suspension (shared with VerticalVehicle-v1)
 BACKENDS = {"surrogate": "surrogate", "reference": "dynamic", "linear": "linear"}
 #: backends of this env: also "fmu", an FMU as the whole vehicle (railgym.fmu; its state
 #: layout is the dynamic variant's)
@@ -316,7 +316,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
 
     #: packaged element used without ``surrogate=``, ``(form, release)`` of
     #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
-    #: element; ``("maxwell", "v0")`` for ``VerticalSuspension-v0`` (docs: *Version history*)
+    #: element; ``("maxwell", "v0")`` for ``VerticalSuspension-v1`` (docs: *Version history*)
     default_element: tuple[str, str] | None = None
 
     def __init__(
@@ -477,7 +477,7 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, BatchVectorEnv):
 
 
 class VerticalSuspensionEnvV0(VerticalSuspensionEnv):
-    """``VerticalSuspension-v0``: the packaged memory element of version 0 by default;
+    """``VerticalSuspension-v1``: the packaged memory element of version 0 by default;
     everything else as :class:`VerticalSuspensionEnv` (docs/envs/vertical.md, *Version
     history*)."""
 

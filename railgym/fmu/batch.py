@@ -1,4 +1,4 @@
-"""The batch of ``VerticalSuspension-v0`` with ``backend="fmu"``: an FMU as the vehicle model.
+"""The batch of ``VerticalSuspension-v1`` with ``backend="fmu"``: an FMU as the vehicle model.
 
 :class:`FMUBatch` is a :class:`~railgym.envs.vertical_batch.VerticalBatch` whose control step
 advances one FMU instance per sub-env (:class:`~railgym.fmu.runner.FMURunner`) instead of the

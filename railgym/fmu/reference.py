@@ -1,7 +1,7 @@
 """FMUs of railgym's built-in reference models (FMI 2.0, C), and their mapping files.
 
 :func:`export_reference_fmu` writes the one-bogie vertical reference model
-(``VerticalSuspension-v0`` with ``backend="reference"``: the ``"dynamic"`` variant of
+(``VerticalSuspension-v1`` with ``backend="reference"``: the ``"dynamic"`` variant of
 :mod:`railgym.vehicles.vertical`) as a standalone FMU for model exchange and/or
 co-simulation, with the mapping file (:mod:`railgym.fmu.mapping`) that makes it the reference
 of ``backend="fmu"``. The C laws (``railgym/fmu/c/vertical_model.h``) are those of
@@ -55,7 +55,7 @@ VERTICAL_STATES = (
     ("y_damper", "m", "damper internal displacement (Maxwell element)"),
 )
 _BOGIES = ("front", "rear")
-#: the whole vehicle's (VerticalVehicle-v0) inputs, outputs and states
+#: the whole vehicle's (VerticalVehicle-v1) inputs, outputs and states
 VEHICLE_INPUTS = (
     *(
         v
@@ -162,7 +162,7 @@ def export_reference_fmu(
     Parameters
     ----------
     path : the ``.fmu`` file.
-    env : ``"vertical"`` (``VerticalSuspension-v0``) or ``"vehicle"`` (``VerticalVehicle-v0``).
+    env : ``"vertical"`` (``VerticalSuspension-v1``) or ``"vehicle"`` (``VerticalVehicle-v1``).
     kind : ``"me"``, ``"cs"`` or ``"both"``.
     vehicle : packaged vehicle name or YAML path (as the env's ``vehicle=``; for
         ``"vehicle"`` the default is ``manchester_whole``).
@@ -187,7 +187,7 @@ def export_reference_fmu(
         variables = (VERTICAL_INPUTS, VERTICAL_OUTPUTS, VERTICAL_STATES)
         what = (
             "railgym one-bogie vertical reference model (air spring with reservoir, Maxwell "
-            "damper, bump stops), VerticalSuspension-v0 backend='reference'"
+            "damper, bump stops), VerticalSuspension-v1 backend='reference'"
         )
     else:
         whole = load_whole_vehicle("manchester_whole" if vehicle == "manchester" else vehicle)
@@ -200,7 +200,7 @@ def export_reference_fmu(
         variables = (VEHICLE_INPUTS, VEHICLE_OUTPUTS, VEHICLE_STATES)
         what = (
             "railgym whole-vehicle vertical reference model (carbody bounce, pitch, bending; "
-            "two bogies, four wheelsets; dynamic secondary suspension), VerticalVehicle-v0 "
+            "two bogies, four wheelsets; dynamic secondary suspension), VerticalVehicle-v1 "
             f"backend='reference', flexible={flexible}"
         )
     step = default_dt if dt is None else float(dt)

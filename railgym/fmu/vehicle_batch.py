@@ -1,4 +1,4 @@
-"""The batch of ``VerticalVehicle-v0`` with ``backend="fmu"``: an FMU as the whole vehicle.
+"""The batch of ``VerticalVehicle-v1`` with ``backend="fmu"``: an FMU as the whole vehicle.
 
 :class:`FMUVehicleBatch` is a :class:`~railgym.envs.vehicle_batch.VehicleBatch` whose control
 step advances one FMU instance per sub-env (:class:`~railgym.fmu.runner.FMURunner`) instead

@@ -362,7 +362,7 @@ def save_vertical_surrogate(
 def default_vertical_surrogate(form: str = "maxwell", release: str = "") -> SurrogateModel:
     """A packaged element, loaded once: ``"maxwell"`` (default, ``vertical_lpr.json``) or
     the paper's ``"static"`` one (``vertical_lpr_static.json``); ``release="v0"``: the file
-    of version 0 of the envs (``data/v0/``, ``VerticalSuspension-v0``)."""
+    of version 0 of the envs (``data/v0/``, ``VerticalSuspension-v1``)."""
     name = PACKAGED[val.choice(form, "form", PACKAGED)]
     folder = resources.files("railgym") / "data"
     with resources.as_file(folder / release / name if release else folder / name) as p:

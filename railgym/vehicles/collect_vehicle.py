@@ -1,4 +1,4 @@
-"""Training data and the memory element of the whole vehicle (``VerticalVehicle-v0``).
+"""Training data and the memory element of the whole vehicle (``VerticalVehicle-v1``).
 
 The one-bogie element (:mod:`railgym.vehicles.collect`) is fitted on the one-bogie model,
 whose secondary suspension never sees the carbody's pitch and bending. The whole-vehicle

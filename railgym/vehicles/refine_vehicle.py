@@ -1,4 +1,4 @@
-"""Policy-aware refinement of the whole vehicle's secondary element (``VerticalVehicle-v0``).
+"""Policy-aware refinement of the whole vehicle's secondary element (``VerticalVehicle-v1``).
 
 The loop of :func:`railgym.vehicles.collect.refine` on the whole vehicle: each round runs the
 whole vehicle's dynamic reference under a policy (both actuators, closed loop on the

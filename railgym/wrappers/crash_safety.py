@@ -1,10 +1,10 @@
-"""Crash-safety summary of a train-crash episode (``railgym/TrainCrash-v0``).
+"""Crash-safety summary of a train-crash episode (``railgym/TrainCrash-v1``).
 
 Per car: the peak and the time-averaged deceleration (in g, from the per-step
 ``info["decel_g"]``); per crush zone: the largest crush, i.e. stroke used (m, from
 ``info["crush_m"]``), the energy absorbed (J) and the fraction of the absorber stroke used;
 plus the share of the train's initial kinetic energy the zones absorbed. With an env that
-reports them (``TrainCrash-v0`` does), the crash criteria of
+reports them (``TrainCrash-v1`` does), the crash criteria of
 :mod:`railgym.vehicles.crash.criteria` and their pass/fail against the scenario's limits
 (the crash scenarios are only inspired by EN 15227; see ``docs/envs/crash.md``).
 """
@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 #: the railgym env the wrapper is made for (any other env must report :data:`STEP_KEYS`)
-CRASH_ENV = "railgym/TrainCrash-v0"
+CRASH_ENV = "railgym/TrainCrash-v1"
 #: per-step info keys the wrapper accumulates
 STEP_KEYS = ("decel_g", "crush_m")
 #: episode-end criteria info keys copied into the summary when the env reports them

@@ -121,7 +121,7 @@ class ReferenceShadow(gym.Wrapper):
         base = env.unwrapped
         if not isinstance(base, VerticalSuspensionEnv):
             raise ValueError(
-                "env: ReferenceShadow supports railgym/VerticalSuspension-v0 "
+                "env: ReferenceShadow supports railgym/VerticalSuspension-v1 "
                 f"(VerticalSuspensionEnv) only, got {type(base).__name__}"
             )
         reference_backend = val.choice(reference_backend, "reference_backend", ENV_BACKENDS)

@@ -56,7 +56,7 @@ class RideComfort(gym.Wrapper):
         shorter than the env's ``cfg.duration`` where it has one. An episode that ends inside
         the settling time raises ``ValueError`` (there is no sample to rate).
     tau : integration time of the running r.m.s. behind the MTVV, s.
-    point : index into a vector acceleration (``VerticalVehicle-v0`` reports the floor points
+    point : index into a vector acceleration (``VerticalVehicle-v1`` reports the floor points
         front, centre, rear): rate that point only. ``None`` (default) rates every point of a
         vector and the scalar of a scalar.
 

@@ -15,7 +15,7 @@ pytest.importorskip("stable_baselines3")
 
 from agents.train import main as train_main  # noqa: E402
 
-ENV_ID = "railgym/VerticalSuspension-v0"
+ENV_ID = "railgym/VerticalSuspension-v1"
 TINY = {"algo": "ppo", "n_timesteps": 256, "n_envs": 1, "seed": 0}
 
 ROWS = [

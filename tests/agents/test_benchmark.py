@@ -8,7 +8,7 @@ import pytest
 from agents.benchmark import main, summary_table
 
 TINY = """\
-railgym/VerticalSuspension-v0:
+railgym/VerticalSuspension-v1:
   algo: ppo
   n_timesteps: 1024
   n_envs: 4

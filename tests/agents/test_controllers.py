@@ -182,7 +182,7 @@ def test_lqr_lowers_carbody_acceleration(passive):
 
 def test_predict_batches_from_make_vec():
     vec = gym.make_vec(
-        "railgym/VerticalSuspension-v0",
+        "railgym/VerticalSuspension-v1",
         num_envs=3,
         vectorization_mode="vector_entry_point",
         backend="linear",
@@ -190,7 +190,7 @@ def test_predict_batches_from_make_vec():
         observation="full",
     )
     single = gym.make(
-        "railgym/VerticalSuspension-v0", backend="linear", duration=1.0, observation="full"
+        "railgym/VerticalSuspension-v1", backend="linear", duration=1.0, observation="full"
     )
     obs, _ = vec.reset(seed=1)
     for _ in range(20):
@@ -213,7 +213,7 @@ def test_bad_input_raises():
     with pytest.raises(ValueError, match="observation must be 'full'"):
         LQR(sensors)
     with pytest.raises(ValueError, match="observation must be 'full'"):
-        LQR(gym.make("railgym/VerticalSuspension-v0", backend="linear"))
+        LQR(gym.make("railgym/VerticalSuspension-v1", backend="linear"))
     with pytest.raises(ValueError, match="c_sky"):
         Skyhook(sensors, c_sky=-1.0)
     with pytest.raises(ValueError, match="mode"):

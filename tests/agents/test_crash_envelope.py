@@ -1,4 +1,4 @@
-"""TrainCrash-v0 over an impact envelope: seeded draws, reset options, payload physics, the
+"""TrainCrash-v1 over an impact envelope: seeded draws, reset options, payload physics, the
 crash criteria and the energy check in ``info``, reward terms."""
 
 from __future__ import annotations

@@ -36,7 +36,7 @@ def cases(env_id, envelope, seed, n=4, episodes=6, **kw):
 
 
 def test_every_sub_env_draws_its_class_and_speed_per_episode():
-    env_id = "railgym/VerticalSuspension-v0"
+    env_id = "railgym/VerticalSuspension-v1"
     envelope = Envelope((4, 5, 6), (100.0, 180.0))
     seen, finals = cases(env_id, envelope, seed=3, backend="linear")
     flat = [c for episode in seen for c in episode]
@@ -53,7 +53,7 @@ def test_every_sub_env_draws_its_class_and_speed_per_episode():
 
 
 def test_vehicle_envelope_and_sb3_adapter():
-    env_id = "railgym/VerticalVehicle-v0"
+    env_id = "railgym/VerticalVehicle-v1"
     envelope = Envelope((4, 5), (60.0, 200.0))
     seen, _ = cases(env_id, envelope, seed=1, backend="linear")
     flat = [c for episode in seen for c in episode]
@@ -75,7 +75,7 @@ def test_vehicle_envelope_and_sb3_adapter():
 def test_config_envelope_is_checked_and_trains(tmp_path):
     path = Path(__file__).parents[2] / "railgym" / "configs" / "agents" / "ppo_vertical.yaml"
     cfg = yaml.safe_load(path.read_text())
-    block = cfg["railgym/VerticalSuspension-v0"]
+    block = cfg["railgym/VerticalSuspension-v1"]
     assert check_envelope(block["envelope"]).track_class == (4, 5, 6)
     for bad, field in (
         ({"track_class": [7]}, "envelope.track_class"),
@@ -83,11 +83,11 @@ def test_config_envelope_is_checked_and_trains(tmp_path):
         ({"track_class": [5], "speed": [1, 2]}, "envelope"),
     ):
         with pytest.raises(val.FieldError, match=field):
-            load_config({"railgym/VerticalSuspension-v0": {**block, "envelope": bad}})
+            load_config({"railgym/VerticalSuspension-v1": {**block, "envelope": bad}})
     with pytest.raises(val.FieldError, match="envelope"):
         load_config(
             {
-                "railgym/TrainCrash-v0": {
+                "railgym/TrainCrash-v1": {
                     "algo": "ppo",
                     "n_timesteps": 1,
                     **{"envelope": {"track_class": [5]}},
@@ -106,6 +106,6 @@ def test_config_envelope_is_checked_and_trains(tmp_path):
         "env_kwargs": {**block["env_kwargs"], "backend": "linear", "duration": 0.2},
         "eval_env_kwargs": {"backend": "linear", "duration": 0.2},
     }
-    out = train({"railgym/VerticalSuspension-v0": tiny}, tmp_path / "run", progress=False)
-    saved = yaml.safe_load((out / "config.yaml").read_text())["railgym/VerticalSuspension-v0"]
+    out = train({"railgym/VerticalSuspension-v1": tiny}, tmp_path / "run", progress=False)
+    saved = yaml.safe_load((out / "config.yaml").read_text())["railgym/VerticalSuspension-v1"]
     assert saved["envelope"] == block["envelope"]

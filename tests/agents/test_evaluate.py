@@ -162,7 +162,7 @@ def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_pa
         "n_epochs": 1,
         "policy_kwargs": {"net_arch": [8]},
     }
-    out = train({"railgym/TrainCrash-v0": block}, tmp_path / "ppo_crash", progress=False)
+    out = train({"railgym/TrainCrash-v1": block}, tmp_path / "ppo_crash", progress=False)
     rows = evaluate_envelope([str(out / "model.zip"), "passive"], speeds_kmh=(30.0,))
     names = ("passive", "best constant", "speed-adaptive", "ppo_crash")
     assert [r["controller"] for r in rows] == list(names) * 2
@@ -191,7 +191,7 @@ def test_vehicle_policy_zip_is_loaded_with_the_manifest(tmp_path, capsys):
     }
     out = train({VEHICLE_ID: block}, tmp_path / "ppo_vehicle", progress=False)
     zip_path = str(out / "model.zip")
-    with pytest.raises(ValueError, match="trained on railgym/VerticalVehicle-v0"):
+    with pytest.raises(ValueError, match="trained on railgym/VerticalVehicle-v1"):
         load_policy(zip_path)  # not a vertical-env policy
     (row,) = evaluate_vehicle(
         [zip_path], backend="linear", track_classes=(6,), episodes=1, duration=5.0
@@ -222,7 +222,7 @@ def _crafted_run(folder: Path, sentinel: Path) -> Path:
     """A run folder with a valid config and an SB3-looking zip whose pickled fields run code."""
     folder.mkdir()
     block = {"algo": "ppo", "n_timesteps": 2048, "seed": 0, "policy_kwargs": {"net_arch": [8]}}
-    (folder / "config.yaml").write_text(yaml.safe_dump({"railgym/VerticalSuspension-v0": block}))
+    (folder / "config.yaml").write_text(yaml.safe_dump({"railgym/VerticalSuspension-v1": block}))
     payload = pickle.dumps(_Touch(sentinel))
     data = {
         "policy_class": {

@@ -19,7 +19,7 @@ fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not install
 pytestmark = pytest.mark.skipif(
     shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
 )
-ID = "railgym/VerticalSuspension-v0"
+ID = "railgym/VerticalSuspension-v1"
 BLOCKS = {
     "ppo": {
         "n_steps": 64,
@@ -203,14 +203,14 @@ class _Zero:
 
 
 def test_whole_vehicle_policy_fmu_has_two_forces_named_like_the_vehicle_fmu(tmp_path):
-    """A VerticalVehicle-v0 policy: 11 observation inputs, two force outputs, each equal to
+    """A VerticalVehicle-v1 policy: 11 observation inputs, two force outputs, each equal to
     predict × f_max; its names are the whole-vehicle reference FMU's outputs and inputs."""
     from agents.evaluate import load_policy
     from agents.policy_fmu import export_policy
     from agents.train import train
     from railgym.fmu.reference import VEHICLE_INPUTS, VEHICLE_OUTPUTS
 
-    vid = "railgym/VerticalVehicle-v0"
+    vid = "railgym/VerticalVehicle-v1"
     block = {
         "algo": "ppo",
         "n_timesteps": 128,

@@ -24,7 +24,7 @@ from agents.train_config import load_config  # noqa: E402
 
 RLZOO_FILE = Path(__file__).parents[2] / "railgym" / "configs" / "agents" / "rlzoo_vertical.yml"
 #: rl-zoo3's layout of ``python -m rl_zoo3.train --algo ppo --env ENV -f LOG``
-ZOO_DIR = "railgym-VerticalSuspension-v0"
+ZOO_DIR = "railgym-VerticalSuspension-v1"
 
 
 def _observations(env_kwargs, n=40, seed=0):
@@ -115,8 +115,8 @@ def test_rlzoo_run_folder_gives_the_env_settings(tmp_path, capsys):
     out = capsys.readouterr().out
     assert f"{ZOO_DIR}_1/rl_model_64_steps" in out
     # the same zip on the vehicle env: its args.yml says it is a VerticalSuspension policy
-    with pytest.raises(ValueError, match="trained on railgym/VerticalSuspension-v0"):
-        load_policy(str(run / f"{ZOO_DIR}.zip"), "railgym/VerticalVehicle-v0", trust=True)
+    with pytest.raises(ValueError, match="trained on railgym/VerticalSuspension-v1"):
+        load_policy(str(run / f"{ZOO_DIR}.zip"), "railgym/VerticalVehicle-v1", trust=True)
 
 
 def test_rlzoo_yaml_with_other_python_tags_is_refused_and_runs_nothing(tmp_path):
@@ -156,7 +156,7 @@ def test_agents_train_checkpoint_is_evaluated(tmp_path):
         "n_epochs": 1,
         "policy_kwargs": {"net_arch": [8]},
     }
-    out = train({"railgym/VerticalVehicle-v0": block}, tmp_path / "ppo_vehicle", progress=False)
+    out = train({"railgym/VerticalVehicle-v1": block}, tmp_path / "ppo_vehicle", progress=False)
     checkpoint = out / "checkpoints" / "model_64_steps.zip"
     assert (out / "checkpoints" / "manifest.json").is_file()
     assert find_source(checkpoint).config == out / "config.yaml"

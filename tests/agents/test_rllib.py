@@ -23,7 +23,7 @@ from agents.train_rllib import (  # noqa: E402
     write_checkpoint_manifest,
 )
 
-ENV = "railgym/VerticalSuspension-v0"
+ENV = "railgym/VerticalSuspension-v1"
 
 
 def _config(**over):

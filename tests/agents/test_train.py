@@ -21,7 +21,7 @@ from agents.controllers import Passive  # noqa: E402
 from agents.evaluate import load_policy  # noqa: E402
 from agents.train import GymVecToSB3, evaluate, load_config, main, make_vec, train  # noqa: E402
 
-ENV_ID = "railgym/VerticalSuspension-v0"
+ENV_ID = "railgym/VerticalSuspension-v1"
 CONFIGS = Path(railgym.__file__).parent / "configs" / "agents"
 
 

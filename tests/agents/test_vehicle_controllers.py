@@ -1,4 +1,4 @@
-"""Baselines of VerticalVehicle-v0: passive, skyhook per bogie, modal skyhook, LQR."""
+"""Baselines of VerticalVehicle-v1: passive, skyhook per bogie, modal skyhook, LQR."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Bad inputs to the crash scenario loader, the crash models and TrainCrash-v0: each is one
+"""Bad inputs to the crash scenario loader, the crash models and TrainCrash-v1: each is one
 clear ``ValueError`` naming the field; numpy scalars are accepted where numbers belong."""
 
 from __future__ import annotations

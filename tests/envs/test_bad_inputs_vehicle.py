@@ -1,4 +1,4 @@
-"""Table of bad inputs to VerticalVehicle-v0, its vector env, the whole-vehicle loader and the
+"""Table of bad inputs to VerticalVehicle-v1, its vector env, the whole-vehicle loader and the
 track profiles: each raises the stated error type with a message naming the field."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""railgym/TrainCrash-v0: checkers, seeding, vector env = singles, physics of the control."""
+"""railgym/TrainCrash-v1: checkers, seeding, vector env = singles, physics of the control."""
 
 import gymnasium as gym
 import numpy as np
@@ -17,7 +17,7 @@ from railgym.vehicles.crash import (
     zone_force,
 )
 
-ENV_ID = "railgym/TrainCrash-v0"
+ENV_ID = "railgym/TrainCrash-v1"
 
 
 def _episode(env, action, seed=0):
@@ -296,7 +296,7 @@ def test_surrogate_is_cached_or_given_and_render():
 
 def test_vector_partial_reset_mask_keeps_the_other_crashes():
     venv = gym.make_vec(
-        "railgym/TrainCrash-v0",
+        "railgym/TrainCrash-v1",
         num_envs=2,
         vectorization_mode="vector_entry_point",
         backend="reference",

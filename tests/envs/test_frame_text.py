@@ -47,8 +47,8 @@ def _caption_band(frame, text, color):
 @pytest.mark.parametrize(
     ("env_id", "actions", "exaggeration"),
     [
-        ("railgym/VerticalSuspension-v0", 1, "100"),
-        ("railgym/VerticalVehicle-v0", 2, None),
+        ("railgym/VerticalSuspension-v1", 1, "100"),
+        ("railgym/VerticalVehicle-v1", 2, None),
     ],
 )
 def test_frames_carry_time_speed_acceleration_and_exaggeration(env_id, actions, exaggeration):
@@ -73,7 +73,7 @@ def test_frames_carry_time_speed_acceleration_and_exaggeration(env_id, actions, 
 
 
 def test_crash_frame_carries_time_and_speed():
-    env = gym.make("railgym/TrainCrash-v0", render_mode="rgb_array")
+    env = gym.make("railgym/TrainCrash-v1", render_mode="rgb_array")
     env.reset(seed=0)
     frame0 = env.render()
     env.step(np.zeros(env.action_space.shape, np.float32))

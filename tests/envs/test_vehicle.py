@@ -1,4 +1,4 @@
-"""railgym/VerticalVehicle-v0: API, vector = singles, seeding, copies, profiles, comfort."""
+"""railgym/VerticalVehicle-v1: API, vector = singles, seeding, copies, profiles, comfort."""
 
 import copy
 
@@ -13,7 +13,7 @@ import railgym  # noqa: F401
 from railgym.comfort import a_zp95, sperling_wz, weighted_rms
 from railgym.envs.vehicle import VerticalVehicleEnv, VerticalVehicleVectorEnv
 
-ID = "railgym/VerticalVehicle-v0"
+ID = "railgym/VerticalVehicle-v1"
 SHORT = {"backend": "linear", "duration": 0.5}
 
 
@@ -220,11 +220,11 @@ def test_wk_weighted_reward_and_rendering():
 def test_memory_element_is_the_default_and_static_is_accepted():
     from railgym.vehicles.collect import default_vertical_surrogate
 
-    env = gym.make("railgym/VerticalVehicle-v0", backend="surrogate", duration=0.2)
+    env = gym.make("railgym/VerticalVehicle-v1", backend="surrogate", duration=0.2)
     memory = default_vertical_surrogate("maxwell").kernel_arrays()[1]
     np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, memory)
     assert env.unwrapped.sim.lpr.tau > 0 and env.unwrapped.state.shape == (16,)
     static = default_vertical_surrogate("static")
-    env = gym.make("railgym/VerticalVehicle-v0", surrogate=static, duration=0.2)
+    env = gym.make("railgym/VerticalVehicle-v1", surrogate=static, duration=0.2)
     np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, static.kernel_arrays()[1])
     assert env.unwrapped.state.shape == (14,)

@@ -1,4 +1,4 @@
-"""VerticalVehicle-v0 on the shared env shell: copies, reward terms, accessors, info masks,
+"""VerticalVehicle-v1 on the shared env shell: copies, reward terms, accessors, info masks,
 fresh single-env info arrays, and the cached compiled step in a new process."""
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ from gymnasium.utils.env_checker import check_env
 import railgym  # noqa: F401  (registers the environments)
 from railgym.envs.vertical import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
 
-ENV_ID = "railgym/VerticalSuspension-v0"
+ENV_ID = "railgym/VerticalSuspension-v1"
 
 
 def _rollout(env, seed, actions):

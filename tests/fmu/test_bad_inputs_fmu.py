@@ -23,7 +23,7 @@ pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
 pytestmark = pytest.mark.skipif(
     shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
 )
-ID = "railgym/VerticalSuspension-v0"
+ID = "railgym/VerticalSuspension-v1"
 
 
 @pytest.fixture(scope="module")

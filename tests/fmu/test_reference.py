@@ -21,7 +21,7 @@ pytestmark = pytest.mark.skipif(
     shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
 )
 
-ID = "railgym/VerticalSuspension-v0"
+ID = "railgym/VerticalSuspension-v1"
 
 
 @pytest.fixture(scope="module")
@@ -105,7 +105,7 @@ def test_fmu_arguments_only_with_backend_fmu(reference_fmu):
     with pytest.raises(ValueError, match="fmu_map is required with backend='fmu'"):
         gym.make(ID, backend="fmu", fmu=fmu)
     with pytest.raises(ValueError, match="fmu_map is required with backend='fmu'"):
-        gym.make("railgym/VerticalVehicle-v0", backend="fmu")
+        gym.make("railgym/VerticalVehicle-v1", backend="fmu")
     env = gym.make(ID, backend="fmu", fmu_map=mapping)  # the FMU from the map's fmu:
     with pytest.raises(TypeError, match="cannot be copied"):
         import copy
@@ -223,7 +223,7 @@ def test_single_kind_fmus_are_valid_and_accepted_as_the_reference(kind, tmp_path
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
 
 
-VEHICLE_ID = "railgym/VerticalVehicle-v0"
+VEHICLE_ID = "railgym/VerticalVehicle-v1"
 
 
 @pytest.fixture(scope="module")
@@ -236,7 +236,7 @@ def vehicle_fmu(tmp_path_factory):
 
 @pytest.mark.parametrize("fmi_type, tol", [("CoSimulation", 5e-6), ("ModelExchange", 1e-12)])
 def test_whole_vehicle_fmu_backend_reproduces_the_reference(vehicle_fmu, fmi_type, tol, tmp_path):
-    """VerticalVehicle-v0 on its reference FMU: model exchange gets every RK4 stage's wheelset
+    """VerticalVehicle-v1 on its reference FMU: model exchange gets every RK4 stage's wheelset
     input from the env (bit for bit); co-simulation passes each wheelset's Hermite
     derivatives over the 2 ms step, which differ from the env's piecewise interpolation at
     the wheelsets' fractional sample offsets (measured: 2.9e-7 of the floor acceleration,

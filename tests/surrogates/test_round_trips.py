@@ -47,7 +47,7 @@ def test_the_env_takes_a_resaved_memory_element(tmp_path):
     import railgym  # noqa: F401
 
     io.save(io.load(MEMORY), tmp_path / "again.json")
-    env = gym.make("railgym/VerticalSuspension-v0", surrogate=str(tmp_path / "again.json"))
+    env = gym.make("railgym/VerticalSuspension-v1", surrogate=str(tmp_path / "again.json"))
     env.reset(seed=0)
     assert np.isfinite(env.step(np.zeros(1, np.float32))[1])
 

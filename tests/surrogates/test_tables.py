@@ -65,7 +65,7 @@ def test_recipe_multibody_table_to_a_vertical_element(record, tmp_path):
         output="m2*a2",
         units={"x1-x2": "m", "v1-v2": "m/s", "m2*a2": "N"},
     )
-    env = gym.make("railgym/VerticalSuspension-v0", surrogate=str(element), duration=1.0)
+    env = gym.make("railgym/VerticalSuspension-v1", surrogate=str(element), duration=1.0)
     env.reset(seed=0)
     for _ in range(100):
         obs, r, term, trunc, _ = env.step(np.zeros(env.action_space.shape, np.float32))

@@ -16,7 +16,7 @@ from railgym.vehicles.vertical import bump_stop_force, load_vehicle, simulate
 from surrogates.models.kriging import Kriging, kriging_eval_into, kriging_scratch
 
 VEH = load_vehicle("manchester")
-ENV_ID = "railgym/VerticalSuspension-v0"
+ENV_ID = "railgym/VerticalSuspension-v1"
 #: the element's training box: deflection (m), deflection rate (m/s)
 HALF = np.array([0.02, 0.15])
 
@@ -193,13 +193,13 @@ def test_kriging_vector_env_equals_single_envs():
 
 
 def test_kriging_raise_policy_and_the_whole_vehicle_refusal():
-    """simulate honours extrapolation='raise'; VerticalVehicle-v0 refuses a Kriging by name."""
+    """simulate honours extrapolation='raise'; VerticalVehicle-v1 refuses a Kriging by name."""
     model = _fit(extrapolation="raise")
     z = np.zeros(2001)
     with pytest.raises(ValueError, match="'raise'"):
         simulate("surrogate", VEH, z, z, 1e-3, force_a=3e4, surrogate=model, sample_every=10)
     with pytest.raises(val.FieldError, match="surrogate.*Kriging"):
-        gym.make("railgym/VerticalVehicle-v0", surrogate=model)
+        gym.make("railgym/VerticalVehicle-v1", surrogate=model)
 
 
 def test_memory_form_kriging_force_is_its_prediction_plus_the_bump_stop_law():

@@ -28,7 +28,7 @@ from railgym.vehicles.vertical import bump_stop_force
 from surrogates.memory import maxwell_state
 from surrogates.models.lpr import LegendreRegression
 
-ID = "railgym/VerticalVehicle-v0"
+ID = "railgym/VerticalVehicle-v1"
 DT = 2e-3
 SPEED = 40.0
 #: track z(x) = Σ A·sin(2π x/λ + φ): (amplitude m, wavelength m, phase)

@@ -12,7 +12,7 @@ from railgym.comfort import WeightingFilter, sperling_b, weighted_rms
 from railgym.envs.vertical import VerticalSuspensionEnv
 from railgym.wrappers import CrashSafety, ReferenceShadow, RideComfort
 
-ENV_ID = "railgym/VerticalSuspension-v0"
+ENV_ID = "railgym/VerticalSuspension-v1"
 # ISO 2631-1:1997 Table 3, Wk weighting factors (x 1000) at nominal frequencies (Hz)
 TABLE3_WK = {1.0: 482, 4.0: 967, 8.0: 1036, 16.0: 768, 31.5: 405}
 
@@ -118,7 +118,7 @@ def test_ride_comfort_on_the_vertical_env_and_reset_clears():
 
 def test_ride_comfort_rates_every_floor_point_of_the_vehicle():
     # issue 21: the vehicle's info["carbody_acc"] is (3,) (front, centre, rear) and crashed
-    env = RideComfort(gym.make("railgym/VerticalVehicle-v0", duration=2.0))
+    env = RideComfort(gym.make("railgym/VerticalVehicle-v1", duration=2.0))
     infos, _ = run(env, actions=np.zeros((200, 2), np.float32), seed=1)
     acc = np.array([i["carbody_acc"] for i in infos])
     assert acc.shape == (200, 3)
@@ -128,7 +128,7 @@ def test_ride_comfort_rates_every_floor_point_of_the_vehicle():
     np.testing.assert_allclose(infos[-1]["comfort_aw"], expected, rtol=1e-12)
     assert c["Wz"].shape == (3,) and np.all(c["Wz"] > 0) and len(c["label"]) == 3
     # one point chosen: the scalar statistics of that column
-    centre = RideComfort(gym.make("railgym/VerticalVehicle-v0", duration=2.0), point=1)
+    centre = RideComfort(gym.make("railgym/VerticalVehicle-v1", duration=2.0), point=1)
     infos, _ = run(centre, actions=np.zeros((200, 2), np.float32), seed=1)
     assert infos[-1]["comfort"]["a_w"] == pytest.approx(expected[1], rel=1e-12)
     assert isinstance(infos[-1]["comfort_acc_w"], float)
@@ -263,7 +263,7 @@ def test_shadow_through_gym_make_and_unsupported_env():
 
 # ------------------------------------------------------------------------------ CrashSafety
 class FakeCrashEnv(gym.Env):
-    """Two cars, two zones, a scripted 4-step crash with the TrainCrash-v0 info keys."""
+    """Two cars, two zones, a scripted 4-step crash with the TrainCrash-v1 info keys."""
 
     observation_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
     action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
@@ -305,7 +305,7 @@ def test_crash_safety_hand_computed_on_scripted_episode():
 
 
 def test_crash_safety_on_the_crash_env_obeys_kinematics_and_energy():
-    env = CrashSafety(gym.make("railgym/TrainCrash-v0", backend="reference"))
+    env = CrashSafety(gym.make("railgym/TrainCrash-v1", backend="reference"))
     infos, _ = run(env, actions=np.zeros((5000, 2), np.float32), seed=0)
     info, s = infos[-1], infos[-1]["crash_safety"]
     np.testing.assert_allclose(s["peak_decel_g"], info["peak_decel_g"], rtol=1e-12)

@@ -5,7 +5,7 @@ reference runs spanning the envelope: initial speeds :data:`FIT_SPEEDS_KMH` × a
 scales :data:`FIT_SCALES` (the same scale in every zone, constant over the run), pooled into
 one fit (:func:`~railgym.vehicles.crash.build_crash_surrogate`), not refitted per speed. The
 files live in ``railgym/data/crash_elements_<scenario>.json`` with the train's content key
-(:func:`train_key`); ``TrainCrash-v0`` without ``surrogate=`` loads the file whose key matches
+(:func:`train_key`); ``TrainCrash-v1`` without ``surrogate=`` loads the file whose key matches
 its scenario (:func:`packaged_surrogate`), so every packaged scenario of that train (``paper``,
 ``envelope``, ``speed25``, ``speed50``, ...) shares it. Regenerate with::
 
@@ -224,7 +224,7 @@ def packaged_surrogate(
 ) -> CrashSurrogate | None:
     """The packaged elements whose train key matches ``scenario`` (their ``source`` set to
     its name), or ``None`` if no packaged file fits it. ``release``: ``""`` the current
-    elements, ``"v0"`` those of ``TrainCrash-v0`` (``railgym/data/v0/``, one mass per car)."""
+    elements, ``"v0"`` those of ``TrainCrash-v1`` (``railgym/data/v0/``, one mass per car)."""
     key = train_key(scenario)
     folder = resources.files("railgym").joinpath(*_DATA, *((release,) if release else ()))
     for entry in sorted(folder.iterdir(), key=lambda p: p.name):

@@ -4,7 +4,7 @@ The paper learns its crash elements (eq. 4) from an LS-DYNA run. Here the run's 
 read by :mod:`surrogates.lsdyna` and turned into the time histories railgym's own reference model
 produces, so that :func:`railgym.vehicles.crash.build_crash_surrogate` fits the elements exactly
 as it does on :func:`~railgym.vehicles.crash.simulate_reference` results, and
-``gym.make("railgym/TrainCrash-v0", surrogate=elements)`` runs on them.
+``gym.make("railgym/TrainCrash-v1", surrogate=elements)`` runs on them.
 
 What is taken from the FE output (:func:`crash_result_from_fe`):
 

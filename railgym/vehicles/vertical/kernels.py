@@ -258,7 +258,7 @@ def surrogate_arrays(
         if not kriging:
             raise ValueError(
                 "surrogate is a Kriging, which runs in the one-bogie vertical model only "
-                "(VerticalSuspension-v0, railgym.vehicles.vertical.simulate); use an LPR "
+                "(VerticalSuspension-v1, railgym.vehicles.vertical.simulate); use an LPR "
                 "element here"
             )
         return _kriging_arrays(arrays, form, dt)

@@ -1,4 +1,4 @@
-"""FE output → crash elements: synthetic crash → nodout/rcforc → readers → TrainCrash-v0."""
+"""FE output → crash elements: synthetic crash → nodout/rcforc → readers → TrainCrash-v1."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from railgym.vehicles.crash.fe import (
 from surrogates import io
 from surrogates.lsdyna import write_nodout, write_rcforc
 
-ENV_ID = "railgym/TrainCrash-v0"
+ENV_ID = "railgym/TrainCrash-v1"
 NODES = (1001, 2001)  # lead car, car 2
 
 
