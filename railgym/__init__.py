@@ -6,6 +6,6 @@ The physics (:mod:`railgym.track`, :mod:`railgym.vehicles`) does not use gymnasi
 
 from railgym.registration import register_envs
 
-__version__ = "0.1.0"
+__version__ = "0.3.0"
 
 register_envs()

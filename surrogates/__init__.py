@@ -12,7 +12,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-__version__ = "0.1.0"
+__version__ = "0.3.0"
 
 _LAZY = {
     "LegendreRegression": "surrogates.models.lpr",
