@@ -36,12 +36,13 @@ from agents.controllers import (
     VehicleLQR,
 )
 from agents.lqg import LQG, VehicleLQG
-from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, env_family, load_policy_weights
+from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, load_policy_weights
 from agents.policy_zip import find_source, zip_network
 from agents.pretrained import PRETRAINED, pretrained_zip
 from railgym import _validation as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
+from railgym.registration import env_family
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 VEHICLE_ID = "railgym/VerticalVehicle-v1"

@@ -156,10 +156,3 @@ def load_policy_weights(
         ) from None
     net.set_training_mode(False)
     return net
-
-
-def env_family(env_id: str) -> str:
-    """``env_id`` without its version (``railgym/TrainCrash-v1`` → ``railgym/TrainCrash``):
-    the versions of an env share its spaces and reference model, so a policy trained on one
-    runs on the others."""
-    return env_id.rsplit("-v", 1)[0]

@@ -29,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.policy_io import env_family, write_manifest
+from agents.policy_io import write_manifest
+from railgym.registration import env_family
 
 __all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
 

@@ -317,7 +317,7 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
     envelope = f.get("envelope", None)
     if envelope is not None:
         from agents.envelope import ENVELOPE_ENVS, check_envelope
-        from agents.policy_io import env_family
+        from railgym.registration import env_family
 
         if env_family(env_id) not in ENVELOPE_ENVS:
             raise val.FieldError("envelope", f"is for {list(ENVELOPE_ENVS)}, not {env_id}")

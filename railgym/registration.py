@@ -35,6 +35,13 @@ ENVS = {
 }
 
 
+def env_family(env_id: str) -> str:
+    """``env_id`` without its version (``railgym/TrainCrash-v1`` → ``railgym/TrainCrash``):
+    the versions of an env share its spaces and reference model, so a policy trained on one
+    runs on the others."""
+    return env_id.rsplit("-v", 1)[0]
+
+
 def register_envs() -> None:
     """Register every railgym environment once (idempotent)."""
     for env_id, (entry, vector_entry) in ENVS.items():

@@ -76,7 +76,7 @@ def test_a_loaded_passive_element_has_its_slope_minima():
         ("monotone", [True], r"model\.params\.monotone must be True/False or 3 bools"),
         ("grid_size", 1, r"model\.params\.grid_size must be an integer >= 2"),
         ("degree", [14, 14], r"model\.params\.degree=\(14, 14\) does not fit .* 3 inputs"),
-        ("degree", [14, 14, 8], r"model\.state\.exponents \(38 terms\) are not the terms"),
+        ("degree", [14, 14, 8], r"model\.state\.exponents \(\d+ terms\) are not the terms"),
     ],
 )
 def test_parameters_inconsistent_with_the_model_are_refused_at_load(
