@@ -154,3 +154,70 @@ def test_the_vector_env_flags_per_sub_env():
         _, _, _, _, info = venv.step(rng.choice([-1.0, 1.0], (2, 2)).astype(np.float32))
     assert info["outside_element"].dtype == bool and info["outside_element"].shape == (2,)
     assert info["outside_element"].any()
+
+
+def _vertical_stress(backend, track_class, factor, seed, static=False, num_envs=None):
+    """Bang-bang run of VerticalSuspension-v1 (single env, or the native vector env of
+    ``num_envs`` stopped one step before truncation); the range (n, 2) of δ = x1 − x2 (m)
+    over the steps, the last info and the element's training range of δ (m)."""
+    from railgym.track import class_speed
+    from railgym.vehicles.collect import default_vertical_surrogate
+
+    kwargs = {
+        "backend": backend,
+        "surrogate": default_vertical_surrogate("static")
+        if static and backend == "surrogate"
+        else None,
+        "track_class": track_class,
+        "speed": factor * class_speed(track_class),
+        "duration": 5.0,
+    }
+    if num_envs is None:
+        env, shape = gym.make("railgym/VerticalSuspension-v1", **kwargs), (1,)
+    else:
+        env = gym.make_vec(
+            "railgym/VerticalSuspension-v1",
+            num_envs=num_envs,
+            vectorization_mode="vector_entry_point",
+            **kwargs,
+        )
+        shape = (num_envs, 1)
+    env.reset(seed=seed)
+    sim, rng = env.unwrapped.sim, np.random.default_rng(seed)
+    span = np.array([[np.inf, -np.inf]] * sim.n)
+    for _ in range(sim.cfg.n_steps - 1):
+        _, _, _, _, info = env.step(rng.choice([-1.0, 1.0], shape).astype(np.float32))
+        d = sim.state[:, 0] - sim.state[:, 2]
+        span[:, 0], span[:, 1] = np.minimum(span[:, 0], d), np.maximum(span[:, 1], d)
+    return span, info, sim.lpr.lo[0], sim.lpr.up[0]
+
+
+@pytest.mark.parametrize("static", [False, True])
+def test_a_vertical_excursion_beyond_the_element_is_flagged(static):
+    ((lo, hi),), info, e_lo, e_hi = _vertical_stress("surrogate", 4, 1.9, 2, static)
+    assert lo < e_lo or hi > e_hi  # the stress case leaves the element's training range
+    assert info["outside_element"] is True
+    ((r_lo, r_hi),), ref_info, _, _ = _vertical_stress("reference", 4, 1.9, 2, static)
+    assert ref_info["outside_element"] is False
+    if static:  # the paper's static element goes 27 % beyond the reference's deflection
+        assert max(-lo, hi) > 1.2 * max(-r_lo, r_hi)
+
+
+@pytest.mark.parametrize("backend", ["reference", "linear"])
+def test_the_reference_and_linear_backends_never_flag(backend):
+    _, info, _, _ = _vertical_stress(backend, 3, 2.0, 2)
+    assert info["outside_element"] is False
+
+
+def test_a_class_5_ride_inside_the_element_is_not_flagged():
+    ((lo, hi),), info, e_lo, e_hi = _vertical_stress("surrogate", 5, 1.0, 0)
+    assert e_lo < lo and hi < e_hi
+    assert info["outside_element"] is False
+
+
+def test_the_vertical_vector_env_flags_per_sub_env():
+    span, info, e_lo, e_hi = _vertical_stress("surrogate", 2, 1.7, 0, static=True, num_envs=4)
+    flags = info["outside_element"]
+    assert flags.dtype == bool and flags.shape == (4,)
+    np.testing.assert_array_equal(flags, (span[:, 0] < e_lo) | (span[:, 1] > e_hi))
+    assert flags.any() and not flags.all()

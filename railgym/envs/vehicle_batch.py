@@ -33,7 +33,7 @@ from railgym.vehicles.vehicle import (
     mode_shape,
     wheelset_offsets,
 )
-from railgym.vehicles.vertical import RAISE_MODE
+from railgym.vehicles.vertical import RAISE_MODE, deflection_envelope, outside_envelope
 
 __all__ = [
     "ACC_REF",
@@ -177,8 +177,7 @@ def _mark_outside(state, a, phi_a, envelope, outside):
         x = state[i]
         for b in range(2):
             xb = a if b == 0 else -a
-            d = x[3 + 2 * b] - x[0] - xb * x[1] - phi_a * x[2]
-            if d < envelope[0] or d > envelope[1]:
+            if outside_envelope(x[3 + 2 * b] - x[0] - xb * x[1] - phi_a * x[2], envelope):
                 outside[i] = True
 
 
@@ -362,14 +361,7 @@ class VehicleBatch:
         )
         self.speed = np.zeros(n)
         self.track_class = np.zeros(n, np.int64)
-        # deflection range (m) of the element's training data, i.e. of the reference runs it
-        # was fitted on; the other backends are their own reference
-        surrogate = cfg.variant == "surrogate"
-        self.envelope = (
-            np.array([lpr[2][0], lpr[3][0]], dtype=float)
-            if surrogate
-            else np.array([-np.inf, np.inf])
-        )
+        self.envelope = deflection_envelope(cfg.variant == "surrogate", self.lpr)
         self.outside = np.zeros(n, np.bool_)
         self._link()
 

@@ -29,7 +29,9 @@ from railgym.vehicles.vertical import (
     advance_linear,
     advance_static,
     advance_surrogate,
+    deflection_envelope,
     initial_state,
+    outside_envelope,
     step_outputs,
 )
 from railgym.vehicles.vertical.kernels import check_variant
@@ -110,6 +112,7 @@ class StepCfg(NamedTuple):
     w_force: float
     inv_scale: np.ndarray  #: float64 (n_obs,) 1/scale of each observation channel
     flag_ood: bool  #: "raise" policy: flag steps with out-of-domain surrogate evaluations
+    envelope: np.ndarray  #: float64 (2,) δ range of the element's training data, m
 
 
 class StepResult(NamedTuple):
@@ -125,28 +128,32 @@ class StepResult(NamedTuple):
     extrapolated: np.ndarray
 
 
-#: the ``info`` layout of the single and the vector env, declared once: key, integer-valued
+#: the ``info`` layout of the single and the vector env, declared once: key, Python type of
+#: the single env's value (the vector env's arrays are float64, int64 and bool)
 INFO_KEYS = (
-    ("time", False),  # s
-    ("carbody_acc", False),  # m/s²
-    ("out_of_domain", True),
-    ("bump_stop_contacts", True),
-    ("rms_carbody_acc", False),  # m/s²
-    ("actuator_force", False),  # N
+    ("time", float),  # s
+    ("carbody_acc", float),  # m/s²
+    ("out_of_domain", int),
+    ("bump_stop_contacts", int),
+    ("outside_element", bool),  # δ left the element's training range this episode
+    ("rms_carbody_acc", float),  # m/s²
+    ("actuator_force", float),  # N
 )
 _INFO = [key for key, _ in INFO_KEYS]
-I_TIME, I_ACC, I_OOD, I_CONTACTS, I_RMS, I_FORCE = (
+I_TIME, I_ACC, I_OOD, I_CONTACTS, I_OUTSIDE, I_RMS, I_FORCE = (
     _INFO.index(k)
     for k in (
         "time",
         "carbody_acc",
         "out_of_domain",
         "bump_stop_contacts",
+        "outside_element",
         "rms_carbody_acc",
         "actuator_force",
     )
 )
-_INT_INFO = tuple(j for j, (_, is_int) in enumerate(INFO_KEYS) if is_int)
+_DTYPES = {int: np.int64, bool: np.bool_}
+_CAST_INFO = tuple((j, _DTYPES[kind]) for j, (_, kind) in enumerate(INFO_KEYS) if kind in _DTYPES)
 
 _LINEAR, _STATIC, _DYNAMIC = (check_variant(v) for v in ("linear", "static", "dynamic"))
 
@@ -223,6 +230,8 @@ def _post_step(state, z, zdot, out, force, cnt, res, sc):
         res.info[i, I_CONTACTS] = cnt.contacts[i]
         res.info[i, I_RMS] = math.sqrt(cnt.acc_sq[i] / max(cnt.steps[i], 1))
         res.info[i, I_FORCE] = force[i]
+        if outside_envelope(state[i, 0] - state[i, 2], sc.envelope):
+            res.info[i, I_OUTSIDE] = 1.0  # stays set until the reset of vehicle i
         res.truncated[i] = cnt.steps[i] >= sc.n_steps
         if sc.flag_ood:
             res.extrapolated[i] = out.count[i, 1] > 0
@@ -306,6 +315,7 @@ class VerticalBatch:
             w_force=w[2],
             inv_scale=self.inv_scale,
             flag_ood=lpr.mode == RAISE_MODE,
+            envelope=deflection_envelope(cfg.variant == "surrogate", lpr),
         )
         self.res = StepResult(
             np.zeros((n, len(cfg.obs_names))),
@@ -407,12 +417,13 @@ class VerticalBatch:
                 "carbody_acc": row[I_ACC],
                 "out_of_domain": int(row[I_OOD]),
                 "bump_stop_contacts": int(row[I_CONTACTS]),
+                "outside_element": bool(row[I_OUTSIDE]),
                 "rms_carbody_acc": row[I_RMS],
                 "actuator_force": row[I_FORCE],
             }
         out = {key: self.info_rows[:, j].copy() for j, key in enumerate(_INFO)}
-        for j in _INT_INFO:
-            out[_INFO[j]] = out[_INFO[j]].astype(np.int64)
+        for j, dtype in _CAST_INFO:
+            out[_INFO[j]] = out[_INFO[j]].astype(dtype)
         return out
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:

@@ -73,6 +73,8 @@ from railgym.vehicles.vertical.elements import (
     bump_stop_force,
     damper_force,
     damper_velocity,
+    deflection_envelope,
+    outside_envelope,
 )
 from railgym.vehicles.vertical.kernels import (
     DEFAULT_DT,
@@ -136,9 +138,11 @@ __all__ = [
     "bump_stop_force",
     "damper_force",
     "damper_velocity",
+    "deflection_envelope",
     "element_response",
     "initial_state",
     "load_vehicle",
+    "outside_envelope",
     "simulate",
     "state_size",
     "step_outputs",
