@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from railgym.vehicles.vertical.elements import bump_stop_force
-from surrogates.models.lpr import lpr_eval_into, lpr_scratch
+from surrogates.models.lpr import additive_terms, lpr_eval_into, lpr_scratch
 
 __all__ = ["LANES", "LANES_MIN", "hermite", "lanes_block"]
 
@@ -151,7 +151,9 @@ def _element_memory(w, lpr, lw, u, nb):
             for l in range(nb):
                 w[_S + j, l] += c1 * w[_TM + j, l]
     older, newer = _A, _B  # rows of P_{k-1}, P_k (3 each); P_{k+1} overwrites P_{k-1}
-    for k in range(1, n - 1):
+    m0, m1, m2 = additive_terms(table, 0), additive_terms(table, 1), additive_terms(table, 2)
+    mi = min(m0, m1, m2)
+    for k in range(1, mi - 1):
         ck, ek = lw[4, k], lw[5, k]
         c0, c1, c2 = table[0, k + 1], table[1, k + 1], table[2, k + 1]
         for l in range(nb):  # the three chains interleaved, as lpr_additive_inside
@@ -165,6 +167,15 @@ def _element_memory(w, lpr, lw, u, nb):
             w[older + 1, l] = n1
             w[older + 2, l] = n2
         older, newer = newer, older
+    for j, mj in ((0, m0), (1, m1), (2, m2)):  # the longer chains on their own
+        o, nw = older + j, newer + j
+        for k in range(max(mi - 1, 1), mj - 1):
+            ck, ek, ct = lw[4, k], lw[5, k], table[j, k + 1]
+            for l in range(nb):
+                nx = ck * w[_TM + j, l] * w[nw, l] - ek * w[o, l]
+                w[_S + j, l] += ct * nx
+                w[o, l] = nx
+            o, nw = nw, o
     outside = 0.0
     for l in range(nb):
         w[_EL, l] = w[_S, l] + w[_S + 1, l] + w[_S + 2, l]

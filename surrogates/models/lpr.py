@@ -448,6 +448,18 @@ def additive_table(exponents: np.ndarray, coef: np.ndarray) -> np.ndarray | None
 
 
 @njit(cache=True, inline="always")
+def additive_terms(table: np.ndarray, j: int) -> int:
+    """Terms of input ``j`` that an additive sum over ``table`` (from :func:`additive_table`)
+    evaluates: up to its last nonzero coefficient (at least ``P_0, P_1``, at most the table
+    width). The exact zeros after it add nothing to a sum inside the box (finite ``P_k``), so
+    stopping there gives the same bits."""
+    k = table.shape[1] - 1
+    while k > 1 and table[j, k] == 0.0:
+        k -= 1
+    return k + 1
+
+
+@njit(cache=True, inline="always")
 def lpr_additive_inside(
     u: np.ndarray, table: np.ndarray, lower: np.ndarray, work: np.ndarray
 ) -> float:
@@ -468,7 +480,9 @@ def lpr_additive_inside(
             s0 += table[0, 1] * t0
             s1 += table[1, 1] * t1
         a0, a1, b0, b1 = 1.0, 1.0, t0, t1
-        for k in range(1, n - 1):
+        m0, m1 = additive_terms(table, 0), additive_terms(table, 1)
+        mi = min(m0, m1)
+        for k in range(1, mi - 1):
             ck = work[3, k]
             ek = work[4, k]
             n0 = ck * t0 * b0 - ek * a0
@@ -476,6 +490,14 @@ def lpr_additive_inside(
             s0 += table[0, k + 1] * n0
             s1 += table[1, k + 1] * n1
             a0, b0, a1, b1 = b0, n0, b1, n1
+        for k in range(max(mi - 1, 1), m0 - 1):  # the longer chain on its own
+            n0 = work[3, k] * t0 * b0 - work[4, k] * a0
+            s0 += table[0, k + 1] * n0
+            a0, b0 = b0, n0
+        for k in range(max(mi - 1, 1), m1 - 1):
+            n1 = work[3, k] * t1 * b1 - work[4, k] * a1
+            s1 += table[1, k + 1] * n1
+            a1, b1 = b1, n1
         return s0 + s1
     if d == 3:
         # the vehicle's memory element: three interleaved recurrences (independent chains)
@@ -490,7 +512,9 @@ def lpr_additive_inside(
             s1 += table[1, 1] * t1
             s2 += table[2, 1] * t2
         a0, a1, a2, b0, b1, b2 = 1.0, 1.0, 1.0, t0, t1, t2
-        for k in range(1, n - 1):
+        m0, m1, m2 = additive_terms(table, 0), additive_terms(table, 1), additive_terms(table, 2)
+        mi = min(m0, m1, m2)
+        for k in range(1, mi - 1):
             ck = work[4, k]
             ek = work[5, k]
             n0 = ck * t0 * b0 - ek * a0
@@ -500,6 +524,18 @@ def lpr_additive_inside(
             s1 += table[1, k + 1] * n1
             s2 += table[2, k + 1] * n2
             a0, b0, a1, b1, a2, b2 = b0, n0, b1, n1, b2, n2
+        for k in range(max(mi - 1, 1), m0 - 1):  # the longer chains on their own
+            n0 = work[4, k] * t0 * b0 - work[5, k] * a0
+            s0 += table[0, k + 1] * n0
+            a0, b0 = b0, n0
+        for k in range(max(mi - 1, 1), m1 - 1):
+            n1 = work[4, k] * t1 * b1 - work[5, k] * a1
+            s1 += table[1, k + 1] * n1
+            a1, b1 = b1, n1
+        for k in range(max(mi - 1, 1), m2 - 1):
+            n2 = work[4, k] * t2 * b2 - work[5, k] * a2
+            s2 += table[2, k + 1] * n2
+            a2, b2 = b2, n2
         return s0 + s1 + s2
     value = 0.0
     for j in range(d):
@@ -509,7 +545,7 @@ def lpr_additive_inside(
         value += table[j, 0]
         if n > 1:
             value += table[j, 1] * t
-        for k in range(1, n - 1):
+        for k in range(1, additive_terms(table, j) - 1):
             nb = work[d + 1, k] * t * b - work[d + 2, k] * a
             value += table[j, k + 1] * nb
             a = b

@@ -356,3 +356,48 @@ def test_additive_fast_path_equals_predict_inside_the_box(degree) -> None:
     if d >= 2:
         coupled = LegendreRegression(degree=3, interactions=True).fit(U[:, :2], V)
         assert additive_table(*coupled.kernel_arrays()[:2]) is None
+
+
+def _additive_full_width(u, table, lower, work) -> float:
+    """Every input's recurrence to the table width (its zero terms too), in the order of the
+    kernel's two- and three-input paths."""
+    d, n = table.shape
+    s = [table[0, 0]] + [0.0] * (d - 1)
+    for j in range(1, d):
+        s[0] = s[0] + table[j, 0]
+    t = [(u[j] - lower[j]) * work[d + 3, j] - 1.0 for j in range(d)]
+    for j in range(d):
+        s[j] += table[j, 1] * t[j]
+        a, b = 1.0, t[j]
+        for k in range(1, n - 1):
+            nx = work[d + 1, k] * t[j] * b - work[d + 2, k] * a
+            s[j] += table[j, k + 1] * nx
+            a, b = b, nx
+    total = s[0]
+    for j in range(1, d):
+        total = total + s[j]
+    return total
+
+
+@pytest.mark.parametrize("degree", [(14, 14, 20), (20, 3, 9), (2, 9), (9, 1)])
+def test_additive_fast_path_stops_at_each_degree_with_the_same_bits(degree) -> None:
+    """Stopping each input's recurrence at its own degree drops only exact zero terms: the
+    same bits as summing to the table width, also where the sum is zero or -0.0."""
+    d = len(degree)
+    rng = np.random.default_rng(11)
+    lo, hi = -np.linspace(0.1, 0.3, d), np.linspace(0.2, 0.5, d)
+    U = lo + (hi - lo) * rng.random((500, d))
+    model = LegendreRegression(degree=degree).fit(U, np.cos(5 * U).sum(axis=1))
+    E, c, lo, hi, _ = model.kernel_arrays()
+    table = additive_table(E, c)
+    assert table.shape[1] == max(degree) + 1
+    work = lpr_scratch(E, lo, hi)
+    Uq = np.vstack([lo + (hi - lo) * rng.random((300, d)), lo, hi, 0.5 * (lo + hi)])
+    got = np.array([lpr_additive_inside(u, table, lo, work) for u in Uq])
+    want = np.array([_additive_full_width(u, table, lo, work) for u in Uq])
+    assert got.tobytes() == want.tobytes()
+    zero = np.zeros_like(table)
+    zero[0, 0] = -0.0
+    assert np.signbit(lpr_additive_inside(Uq[0], zero, lo, work)) == np.signbit(
+        _additive_full_width(Uq[0], zero, lo, work)
+    )

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 from railgym.vehicles.vertical.elements import bump_stop_force
-from surrogates.models.lpr import lpr_eval_into, lpr_scratch
+from surrogates.models.lpr import additive_terms, lpr_eval_into, lpr_scratch
 
 __all__ = ["LANES", "LANES_MIN", "PARALLEL_MIN", "advance_lanes", "advance_lanes_parallel"]
 
@@ -88,7 +88,7 @@ def _element(w, lpr, lw, u, nb):
                 w[_S + j, l] += c1 * w[_T + j, l]
     for j in range(d):
         older, newer = _A + j, _B + j  # rows of P_{k-1}, P_k; P_{k+1} overwrites P_{k-1}
-        for k in range(1, n - 1):
+        for k in range(1, additive_terms(table, j) - 1):  # up to its last nonzero term
             ck, ek, ct = lw[d + 1, k], lw[d + 2, k], table[j, k + 1]
             for l in range(nb):
                 nx = ck * w[_T + j, l] * w[newer, l] - ek * w[older, l]
