@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
-from surrogates.fmi.model_description import BASE_UNITS, Variable
+from surrogates.fmi.model_description import Variable, interface_lines
 
 __all__ = ["Variable", "describe"]
 
@@ -55,36 +55,7 @@ def describe(
         'generationTool="railgym railgym.fmu" variableNamingConvention="structured" '
         'numberOfEventIndicators="0">',
     ]
-    files = "".join(f"<File name={quoteattr(f)}/>" for f in source_files)
-    common = (
-        f'modelIdentifier={quoteattr(model_identifier)} canGetAndSetFMUstate="false" '
-        'canSerializeFMUstate="false" providesDirectionalDerivative="false" '
-        'canNotUseMemoryManagementFunctions="true"'
-    )
-    if "me" in kinds:
-        lines.append(
-            f'  <ModelExchange {common} completedIntegratorStepNotNeeded="true">'
-            f"<SourceFiles>{files}</SourceFiles></ModelExchange>"
-        )
-    if "cs" in kinds:
-        interp = ' canInterpolateInputs="true"' if interpolate_inputs else ""
-        lines.append(
-            f'  <CoSimulation {common} canHandleVariableCommunicationStepSize="true"{interp}>'
-            f"<SourceFiles>{files}</SourceFiles></CoSimulation>"
-        )
-    if units:
-        lines.append("  <UnitDefinitions>")
-        for u in units:
-            base = BASE_UNITS.get(u)
-            if base is None:
-                lines.append(f"    <Unit name={quoteattr(u)}/>")
-            else:
-                exps = "".join(f' {k}="{e}"' for k, e in base.items())
-                lines.append(f"    <Unit name={quoteattr(u)}><BaseUnit{exps}/></Unit>")
-        lines.append("  </UnitDefinitions>")
-    lines.append('  <LogCategories><Category name="logStatusError"/></LogCategories>')
-    lines.append('  <DefaultExperiment startTime="0.0" stopTime="1.0"/>')
-    lines.append("  <ModelVariables>")
+    lines += interface_lines(model_identifier, kinds, source_files, units, interpolate_inputs)
     vr = 0
     for var in inputs:
         lines.append(_real(var, vr, "input", "", ' start="0.0"'))

@@ -60,6 +60,50 @@ def fmi_names(names: Sequence[str]) -> list[str]:
     return out
 
 
+def interface_lines(
+    model_identifier: str,
+    kinds: Sequence[str],
+    source_files: Sequence[str],
+    units: Sequence[str],
+    interpolate_inputs: bool = False,
+) -> list[str]:
+    """Lines of ``modelDescription.xml`` from the ``ModelExchange`` / ``CoSimulation``
+    elements (``kinds`` ⊆ ``("me", "cs")``) through ``UnitDefinitions``, ``LogCategories``
+    and ``DefaultExperiment`` to the opening ``ModelVariables`` tag."""
+    lines: list[str] = []
+    files = "".join(f"<File name={quoteattr(f)}/>" for f in source_files)
+    common = (
+        f'modelIdentifier={quoteattr(model_identifier)} canGetAndSetFMUstate="false" '
+        'canSerializeFMUstate="false" providesDirectionalDerivative="false" '
+        'canNotUseMemoryManagementFunctions="true"'
+    )
+    if "me" in kinds:
+        lines.append(
+            f'  <ModelExchange {common} completedIntegratorStepNotNeeded="true">'
+            f"<SourceFiles>{files}</SourceFiles></ModelExchange>"
+        )
+    if "cs" in kinds:
+        interp = ' canInterpolateInputs="true"' if interpolate_inputs else ""
+        lines.append(
+            f'  <CoSimulation {common} canHandleVariableCommunicationStepSize="true"{interp}>'
+            f"<SourceFiles>{files}</SourceFiles></CoSimulation>"
+        )
+    if units:
+        lines.append("  <UnitDefinitions>")
+        for u in units:
+            base = BASE_UNITS.get(u)
+            if base is None:
+                lines.append(f"    <Unit name={quoteattr(u)}/>")
+            else:
+                exps = "".join(f' {k}="{e}"' for k, e in base.items())
+                lines.append(f"    <Unit name={quoteattr(u)}><BaseUnit{exps}/></Unit>")
+        lines.append("  </UnitDefinitions>")
+    lines.append('  <LogCategories><Category name="logStatusError"/></LogCategories>')
+    lines.append('  <DefaultExperiment startTime="0.0" stopTime="1.0"/>')
+    lines.append("  <ModelVariables>")
+    return lines
+
+
 def model_description(
     *,
     model_identifier: str,
@@ -80,35 +124,7 @@ def model_description(
         'generationTool="railgym surrogates.fmi" variableNamingConvention="flat" '
         'numberOfEventIndicators="0">',
     ]
-    files = "".join(f"<File name={quoteattr(f)}/>" for f in source_files)
-    common = (
-        f'modelIdentifier={quoteattr(model_identifier)} canGetAndSetFMUstate="false" '
-        'canSerializeFMUstate="false" providesDirectionalDerivative="false" '
-        'canNotUseMemoryManagementFunctions="true"'
-    )
-    if "me" in kinds:
-        lines.append(
-            f'  <ModelExchange {common} completedIntegratorStepNotNeeded="true">'
-            f"<SourceFiles>{files}</SourceFiles></ModelExchange>"
-        )
-    if "cs" in kinds:
-        lines.append(
-            f'  <CoSimulation {common} canHandleVariableCommunicationStepSize="true">'
-            f"<SourceFiles>{files}</SourceFiles></CoSimulation>"
-        )
-    if units:
-        lines.append("  <UnitDefinitions>")
-        for u in units:
-            base = BASE_UNITS.get(u)
-            if base is None:
-                lines.append(f"    <Unit name={quoteattr(u)}/>")
-            else:
-                exps = "".join(f' {k}="{e}"' for k, e in base.items())
-                lines.append(f"    <Unit name={quoteattr(u)}><BaseUnit{exps}/></Unit>")
-        lines.append("  </UnitDefinitions>")
-    lines.append('  <LogCategories><Category name="logStatusError"/></LogCategories>')
-    lines.append('  <DefaultExperiment startTime="0.0" stopTime="1.0"/>')
-    lines.append("  <ModelVariables>")
+    lines += interface_lines(model_identifier, kinds, source_files, units)
     for vr, (var, start) in enumerate(zip(inputs, starts, strict=True)):
         unit = f" unit={quoteattr(var.unit)}" if var.unit else ""
         lines.append(
