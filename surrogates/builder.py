@@ -16,7 +16,7 @@ import numpy as np
 from surrogates.metrics import paper_error, rms_normalised_error, timer
 from surrogates.models import SurrogateModel
 from surrogates.models.base import as_inputs, as_outputs, check_domain
-from surrogates.models.validation import check_choice, check_int
+from surrogates.models.validation import choice, integer
 from surrogates.sampling import METHODS, select
 from surrogates.selection import (
     SelectionResult,
@@ -133,16 +133,16 @@ def build(
     U = as_inputs(U)
     V = as_outputs(V, U.shape[0])
     n = U.shape[0]
-    check_choice(kind, ("lpr", "kriging"), "kind")
-    check_choice(selection, ("oob", "kfold"), "selection")
-    check_choice(sampling, METHODS, "sampling")
-    m = check_int(m, "m", 1)
+    choice(kind, "kind", ("lpr", "kriging"))
+    choice(selection, "selection", ("oob", "kfold"))
+    choice(sampling, "sampling", METHODS)
+    m = integer(m, "m", 1)
     if selection == "oob" and m >= n:
         raise ValueError(f"m = {m} leaves no out-of-bag samples out of n = {n}: use m < n")
     if m > n:
         raise ValueError(f"m = {m} exceeds the number of samples n = {n}")
     if selection == "kfold":
-        check_int(k, "k", 2, m)
+        integer(k, "k", 2, m)
     check_domain(U.min(axis=0), U.max(axis=0), "U column")
     if not np.isfinite(np.std(V)):
         raise ValueError("V overflows float64 (its spread is not finite): rescale the output")
