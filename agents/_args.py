@@ -9,36 +9,27 @@ from typing import Any
 
 from railgym import _validation as val
 from railgym.envs.vertical_batch import LIMITS
+from surrogates.checks import bounded_int, seed_number
 
 __all__ = [
+    "MAX_EPISODES",
     "add_parallel_arguments",
     "bounded_int",
     "bounded_real",
     "check_parallel",
     "check_speed_kmh",
     "duration_s",
+    "episodes",
+    "seed_number",
     "speed_kmh",
+    "track_class",
 ]
 
+#: most episodes (sub-envs) of one evaluation case: ``--episodes`` and ``episodes=``
+MAX_EPISODES = 1000
 #: highest speed accepted by ``--speed``, km/h: a sanity bound above twice the FRA class 6
 #: limit of 177 km/h
 MAX_SPEED_KMH = 400.0
-
-
-def bounded_int(lo: int, hi: int | None = None) -> Callable[[str], int]:
-    """An integer ``lo <= n (<= hi)``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-        if value < lo or (hi is not None and value > hi):
-            span = f">= {lo}" if hi is None else f"in {lo}..{hi}"
-            raise argparse.ArgumentTypeError(f"must be an integer {span}, got {text}")
-        return value
-
-    return parse
 
 
 def bounded_real(what: str, unit: str, top: float) -> Callable[[str], float]:
@@ -62,6 +53,10 @@ def bounded_real(what: str, unit: str, top: float) -> Callable[[str], float]:
 speed_kmh = bounded_real("speed", "km/h", MAX_SPEED_KMH)
 #: ``--duration``: s, ``0 < t <= LIMITS["duration"]`` (the envs' limit)
 duration_s = bounded_real("duration", "s", LIMITS["duration"])
+#: ``--track-class``: an FRA track class, 1..6
+track_class = bounded_int(1, 6)
+#: ``--episodes``: held-out episodes per case, ``1..MAX_EPISODES``
+episodes = bounded_int(1, MAX_EPISODES)
 
 
 def check_speed_kmh(value: Any, field: str) -> float:

@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import add_parallel_arguments, bounded_int, check_parallel
+from agents._args import add_parallel_arguments, check_parallel, seed_number
 from agents._extras import MissingExtraError, report_missing
 from agents.controllers import Passive, Skyhook
 from railgym import _validation as val
@@ -217,7 +217,7 @@ def _out_arguments(
     )
     parser.add_argument(
         "--seed",
-        type=bounded_int(0),
+        type=seed_number,
         default=0,
         help="seed of the training track, sampling and folds",
     )

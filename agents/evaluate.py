@@ -37,11 +37,13 @@ import numpy as np
 from agents import crash_report
 from agents._args import (
     add_parallel_arguments,
-    bounded_int,
     check_parallel,
     check_speed_kmh,
     duration_s,
+    episodes,
+    seed_number,
     speed_kmh,
+    track_class,
 )
 from agents.gap import run_gap
 from agents.policies import (
@@ -238,18 +240,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fmu-map", type=Path, help="backend fmu: its mapping file (YAML)")
     parser.add_argument(
         "--track-class",
-        type=bounded_int(1, 6),
+        type=track_class,
         nargs="+",
         default=[4, 6],
         help="vertical, vehicle: FRA track classes 1..6",
     )
     parser.add_argument(
         "--episodes",
-        type=bounded_int(1, MAX_EPISODES),
+        type=episodes,
         default=10,
         help=f"vertical, vehicle: episodes per case, 1..{MAX_EPISODES} (one sub-env each)",
     )
-    parser.add_argument("--seed", type=bounded_int(0), default=1000, help="track seed of sub-env 0")
+    parser.add_argument("--seed", type=seed_number, default=1000, help="track seed of sub-env 0")
     parser.add_argument("--env", choices=["vertical", "vehicle", "crash"], default="vertical")
     parser.add_argument(
         "--speed",

@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import check_speed_kmh
+from agents._args import MAX_EPISODES, check_speed_kmh
 from agents._extras import require
 from agents.controllers import (
     LQR,
@@ -48,7 +48,6 @@ ENV_ID = "railgym/VerticalSuspension-v1"
 VEHICLE_ID = "railgym/VerticalVehicle-v1"
 CRASH_ID = "railgym/TrainCrash-v1"
 #: most episodes per class (one vector sub-env each)
-MAX_EPISODES = 1000
 CONTROLLERS = {
     "passive": (Passive, {}, {}),
     "skyhook": (Skyhook, {"mode": "active"}, {}),

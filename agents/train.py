@@ -55,7 +55,7 @@ import yaml
 from gymnasium.vector import AutoresetMode, VectorEnv
 from tqdm import tqdm
 
-from agents._args import bounded_int
+from agents._args import bounded_int, seed_number
 from agents._extras import extra_error, report_missing
 
 try:  # the 'agents' extra
@@ -457,7 +457,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=None,
         help="override n_timesteps",
     )
-    parser.add_argument("--seed", type=bounded_int(0, MAX_SEED), default=None, help="override seed")
+    parser.add_argument("--seed", type=seed_number, default=None, help="override seed")
     parser.add_argument(
         "--algo",
         choices=sorted(ALGOS),

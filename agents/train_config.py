@@ -54,6 +54,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 
 from railgym import _validation as val
+from surrogates.checks import MAX_SEED
 
 __all__ = ["ALGOS", "TrainConfig", "hyperparameters", "load_config"]
 
@@ -83,8 +84,6 @@ RLZOO_ONLY = (
 )
 #: most torch CPU threads
 MAX_THREADS = 256
-#: largest seed (numpy and torch accept 32-bit seeds everywhere)
-MAX_SEED = 2**32 - 1
 #: most environment steps of one run (and most steps between evaluations or checkpoints):
 #: days of training at the envs' speeds; a larger count is a typo, not a plan
 MAX_TIMESTEPS = 10**9
