@@ -13,6 +13,7 @@ from surrogates.checks import bounded_int, seed_number
 
 __all__ = [
     "MAX_EPISODES",
+    "VEHICLE_DURATION_S",
     "add_parallel_arguments",
     "bounded_int",
     "bounded_real",
@@ -23,6 +24,7 @@ __all__ = [
     "seed_number",
     "speed_kmh",
     "track_class",
+    "vehicle_cases",
 ]
 
 #: most episodes (sub-envs) of one evaluation case: ``--episodes`` and ``episodes=``
@@ -57,6 +59,8 @@ duration_s = bounded_real("duration", "s", LIMITS["duration"])
 track_class = bounded_int(1, 6)
 #: ``--episodes``: held-out episodes per case, ``1..MAX_EPISODES``
 episodes = bounded_int(1, MAX_EPISODES)
+#: s, an episode of a whole-vehicle evaluation case when ``--duration`` is not given
+VEHICLE_DURATION_S = 20.0
 
 
 def check_speed_kmh(value: Any, field: str) -> float:
@@ -66,6 +70,22 @@ def check_speed_kmh(value: Any, field: str) -> float:
         return speed_kmh(repr(number))
     except argparse.ArgumentTypeError as err:
         raise val.FieldError(field, str(err)) from None
+
+
+def vehicle_cases(args: argparse.Namespace) -> dict[str, Any]:
+    """The case keywords of ``evaluate_vehicle`` / ``gap_vehicle`` from the flags of
+    ``railgym evaluate --env vehicle`` (track classes, speeds, episodes, seed, duration, trust,
+    workers, address)."""
+    return {
+        "track_classes": args.track_class,
+        "speeds_kmh": args.speed or [None],
+        "episodes": args.episodes,
+        "seed": args.seed,
+        "duration": VEHICLE_DURATION_S if args.duration is None else args.duration,
+        "trust": args.trust,
+        "workers": args.workers,
+        "address": args.address,
+    }
 
 
 def add_parallel_arguments(

@@ -36,6 +36,7 @@ import numpy as np
 
 from agents import crash_report
 from agents._args import (
+    VEHICLE_DURATION_S,
     add_parallel_arguments,
     check_parallel,
     check_speed_kmh,
@@ -44,6 +45,7 @@ from agents._args import (
     seed_number,
     speed_kmh,
     track_class,
+    vehicle_cases,
 )
 from agents.gap import run_gap
 from agents.policies import (
@@ -263,7 +265,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration",
         type=duration_s,
-        help="vehicle: seconds per episode (default 20)",
+        help=f"vehicle: seconds per episode (default {VEHICLE_DURATION_S:g})",
     )
     parser.add_argument(
         "--gap",
@@ -328,19 +330,7 @@ def run(args: argparse.Namespace) -> int:
     check_parallel(args)
     policies = ["passive", "skyhook"] + [p for p in args.policy if p not in ("passive", "skyhook")]
     if args.env == "vehicle":
-        rows = evaluate_vehicle(
-            policies,
-            args.backend,
-            args.track_class,
-            args.speed or [None],
-            args.episodes,
-            args.seed,
-            20.0 if args.duration is None else args.duration,
-            args.trust,
-            args.workers,
-            args.address,
-            fmu,
-        )
+        rows = evaluate_vehicle(policies, args.backend, env_kwargs=fmu, **vehicle_cases(args))
         print(
             f"VerticalVehicle-v1, backend: {args.backend}, {args.episodes} episodes per case "
             f"(seeds {args.seed}+i); per floor point front/centre/rear; Δa_w: reduction of the "

@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import MAX_EPISODES, check_speed_kmh
+from agents._args import MAX_EPISODES, VEHICLE_DURATION_S, check_speed_kmh
 from agents._extras import require
 from agents.controllers import (
     LQR,
@@ -307,7 +307,7 @@ def evaluate_vehicle(
     speeds_kmh: Sequence[float | None] = (None,),
     episodes: int = 10,
     seed: int = 1000,
-    duration: float = 20.0,
+    duration: float = VEHICLE_DURATION_S,
     trust: bool = False,
     workers: int = 1,
     address: str | None = None,
