@@ -27,6 +27,7 @@ _LAZY = {
 #: submodules reachable as attributes after a plain ``import surrogates`` (``surrogates.io``)
 _SUBMODULES = (
     "builder",
+    "checks",
     "features",
     "fmi",
     "io",

@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from railgym import _validation as val
 from railgym.track import class_speed, track_time_input
 from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle, simulate
-from surrogates.models.validation import check_seed
 
 DESIGNS = ("paper", "envelope")
 
@@ -114,7 +114,7 @@ def band_limited_force(n: int, dt: float, band: float, f_max: float, seed: Any) 
     filter, FFT), scaled so that its peak ``max|F|`` is exactly ``f_max``."""
     if n < 2:
         raise ValueError(f"n must be at least 2 samples, got {n}")
-    rng = np.random.default_rng(check_seed(seed))
+    rng = np.random.default_rng(val.random_seed(seed, "seed"))
     spectrum = np.fft.rfft(rng.standard_normal(n))
     spectrum[np.fft.rfftfreq(n, dt) > band] = 0.0
     spectrum[0] = 0.0

@@ -37,8 +37,6 @@ __all__ = [
     "CrushZone",
     "Envelope",
     "Obstacle",
-    "check_int",
-    "check_real",
     "load_scenario",
     "parse_scenario",
     "scenario_names",
@@ -76,27 +74,6 @@ LIMITS: dict[str, tuple[float, float]] = {
 }
 #: largest initial speed override, m/s (``speed_kmh``'s limit)
 MAX_SPEED = LIMITS["speed_kmh"][1] / 3.6
-
-
-def check_real(
-    name: str,
-    value: Any,
-    low: float | None = None,
-    high: float | None = None,
-    *,
-    low_open: bool = False,
-    high_open: bool = False,
-) -> float:
-    """``value`` as a float if it is a finite real number (Python or numpy, not a bool) within
-    ``[low, high]`` (bounds ``None`` = unbounded; ``*_open`` excludes the bound); else
-    ``ValueError`` naming ``name`` (:func:`railgym._validation.in_range`)."""
-    return val.in_range(value, name, low, high, lo_open=low_open, hi_open=high_open)
-
-
-def check_int(name: str, value: Any, low: int, high: int) -> int:
-    """``value`` as an int if it is an integer (Python or numpy, not a bool) in [low, high];
-    else ``ValueError`` naming ``name`` (:func:`railgym._validation.integer`)."""
-    return val.integer(value, name, low, high)
 
 
 @dataclass(frozen=True)
@@ -277,9 +254,9 @@ class CrashScenario:
         """Copy with another number of cars and/or initial speed (m/s)."""
         out = self
         if n_cars is not None:
-            out = replace(out, n_cars=check_int("n_cars", n_cars, *LIMITS["n_cars"]))
+            out = replace(out, n_cars=val.integer(n_cars, "n_cars", *LIMITS["n_cars"]))
         if speed is not None:
-            speed = check_real("speed (m/s)", speed, 0.0, MAX_SPEED, low_open=True)
+            speed = val.in_range(speed, "speed (m/s)", 0.0, MAX_SPEED, lo_open=True)
             out = replace(out, speed=speed)
         return out
 
