@@ -23,8 +23,8 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
-from railgym import _validation as val
-from surrogates.models.validation import check_seed
+from railgym import _checks as val
+from surrogates.models.checks import check_seed
 
 __all__ = [
     "TrackClassParameters",

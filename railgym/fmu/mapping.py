@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 __all__ = ["ENV_SIGNALS", "FMUError", "Mapping", "Signal", "UNITS", "load_mapping"]
 

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.track import class_speed, track_time_input
 from railgym.vehicles.collect_design import DESIGNS, CollectionDesign, collect_design, design_named
 from railgym.vehicles.vertical import (

@@ -22,7 +22,7 @@ import numpy as np
 
 from railgym.track import class_speed, track_time_input
 from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle, simulate
-from surrogates.models.validation import check_seed
+from surrogates.models.checks import check_seed
 
 DESIGNS = ("paper", "envelope")
 

@@ -37,7 +37,7 @@ from railgym.vehicles.vehicle import (
     kernel_params,
     load_whole_vehicle,
     lpr_arrays,
-    make_batch,
+    new_arrays,
     wheelset_offsets,
 )
 from surrogates.memory import TauSelection
@@ -133,7 +133,7 @@ def collect_vehicle(
     span = 2.0 * (veh.bogie_semi_spacing + veh.semi_wheelbase)
     m = n_steps + math.ceil(span / (min(design.speeds) * dt)) + 2
     kind = check_variant("dynamic")
-    bt, out = make_batch(len(cases), "dynamic", m)
+    bt, out = new_arrays(len(cases), "dynamic", m)
     forces = np.zeros((len(cases), 2, n_steps))
     for i, (track_class, v, seed, excited) in enumerate(cases):
         dx = v * dt

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.track import class_speed, fra_profile_with_slope
 from railgym.vehicles.collect import MEMORY_SAMPLE_RATE, _element_pairs, _initial_pairs
 from railgym.vehicles.vehicle import (
@@ -26,7 +26,7 @@ from railgym.vehicles.vehicle import (
     kernel_params,
     load_whole_vehicle,
     lpr_arrays,
-    make_batch,
+    new_arrays,
     wheelset_offsets,
 )
 from surrogates.memory import element_form
@@ -74,7 +74,7 @@ def run_vehicle_policy(
 ) -> dict[str, Any]:
     """One closed-loop run recorded at every integration step of ``DEFAULT_DT`` (s).
 
-    ``track`` is ``(z, zdot, offsets)`` of :class:`~railgym.vehicles.vehicle.Batch`; the law
+    ``track`` is ``(z, zdot, offsets)`` of :class:`~railgym.vehicles.vehicle.VehicleArrays`; the law
     gets the raw observation (:data:`RAW_VEHICLE_OBSERVATION`) every ``n_sub`` steps. Returns
     ``t`` (s), per bogie ``delta`` (m), ``delta_dot`` (m/s), ``force`` (F_s, N) as (2, n + 1)
     arrays, ``acc`` (floor points at the control steps, (n // n_sub, 3), m/s²), ``ood`` and
@@ -84,7 +84,7 @@ def run_vehicle_policy(
     kind = check_variant(variant)
     lpr = lpr_arrays(element if variant == "surrogate" else None, dt)
     z, zdot, off = track
-    bt, out = make_batch(1, variant, z.size, lpr)
+    bt, out = new_arrays(1, variant, z.size, lpr)
     bt.z[0], bt.zdot[0], bt.off[0] = z, zdot, off
     p, e = kernel_params(vehicle), vehicle.suspension.kernel_params().record()
     rec = np.full((3, 2, n_steps + 1), np.nan)

@@ -51,7 +51,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.vehicles.vehicle_lanes import LANES, LANES_MIN, hermite, lanes_block
 from railgym.vehicles.vertical import (
     DIVERGENCE_DISPLACEMENT,
@@ -161,7 +161,7 @@ def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVe
     """Load a whole vehicle: a packaged name or the path of a ``.yaml`` file with the
     sections ``base`` (name or path of the one-bogie vehicle) and ``whole_vehicle``.
 
-    The "name or path" rule is :func:`railgym._validation.resolve_yaml`'s; errors in a file
+    The "name or path" rule is :func:`railgym._checks.resolve_yaml`'s; errors in a file
     name the file and the field.
     """
     text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))
@@ -219,7 +219,7 @@ class Lpr(NamedTuple):
     additive: bool
 
 
-class Batch(NamedTuple):
+class VehicleArrays(NamedTuple):
     """Per-vehicle arrays the kernel works on (``n`` vehicles)."""
 
     state: np.ndarray  # (n, s), updated in place
@@ -406,7 +406,7 @@ class Work(NamedTuple):
 
 @njit(cache=True, error_model="numpy", _nrt=True)
 def advance(kind, bt, n_sub, dt, p, e, lpr, out):
-    """Advance every vehicle of the batch ``bt`` (:class:`Batch`) by ``n_sub`` RK4 steps of
+    """Advance every vehicle of the batch ``bt`` (:class:`VehicleArrays`) by ``n_sub`` RK4 steps of
     ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``p``:
     :class:`Params`, ``e``: the suspension record (``SuspensionParams.record()``), ``lpr``:
     :class:`Lpr`.
@@ -565,11 +565,13 @@ def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):
 
 
 # ======================================================================== utilities
-def make_batch(n: int, variant: str, n_samples: int, lpr: Lpr | None = None) -> tuple[Batch, Out]:
-    """Zeroed :class:`Batch` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples
+def new_arrays(
+    n: int, variant: str, n_samples: int, lpr: Lpr | None = None
+) -> tuple[VehicleArrays, Out]:
+    """Zeroed :class:`VehicleArrays` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples
     (states sized by :func:`state_size` for the element ``lpr``)."""
     s = state_size(variant, lpr)
-    bt = Batch(
+    bt = VehicleArrays(
         np.zeros((n, s)),
         np.zeros((n, n_samples)),
         np.zeros((n, n_samples)),
@@ -613,7 +615,7 @@ def simulate(
     zdot = np.atleast_2d(np.asarray(zdot, dtype=float))
     n = z.shape[0]
     lpr = lpr_arrays(surrogate if variant == "surrogate" else None, float(dt))
-    bt, out = make_batch(n, variant, z.shape[1], lpr)
+    bt, out = new_arrays(n, variant, z.shape[1], lpr)
     bt.z[:] = z
     bt.zdot[:] = zdot
     bt.off[:] = np.broadcast_to(np.asarray(offsets, dtype=float), (n, 4))

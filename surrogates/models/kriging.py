@@ -31,8 +31,7 @@ from scipy.optimize import OptimizeResult, minimize
 from threadpoolctl import threadpool_limits
 
 from surrogates.models.base import SurrogateModel, as_inputs
-from surrogates.models.lpr import EXTRAPOLATION_MODES
-from surrogates.models.validation import (
+from surrogates.models.checks import (
     ModelFieldError,
     check_choice,
     check_float,
@@ -41,6 +40,7 @@ from surrogates.models.validation import (
     field,
     field_array,
 )
+from surrogates.models.lpr import EXTRAPOLATION_MODES
 
 KERNELS = ("gaussian", "matern52")
 TRENDS = ("constant", "linear")

@@ -1,4 +1,4 @@
-"""What both crash models share: the outputs of the batch kernels (:class:`BatchOutputs`), the
+"""What both crash models share: the outputs of the batch kernels (:class:`StepOutputs`), the
 recorders' :class:`Record` and :class:`StopRule`, the recorded :class:`CrashResult`, the
 divergence guard and the time-step rounding."""
 
@@ -16,7 +16,7 @@ from railgym.vehicles.crash.scenario import CrashScenario
 
 __all__ = [
     "V_EPS",
-    "BatchOutputs",
+    "StepOutputs",
     "CrashResult",
     "Record",
     "StopRule",
@@ -35,7 +35,7 @@ PARALLEL_CHUNKS = 64
 V_EPS = 0.01
 
 
-class BatchOutputs(NamedTuple):
+class StepOutputs(NamedTuple):
     """What the batch kernels report after each call, one row per simulation.
 
     Attributes
@@ -61,11 +61,11 @@ class BatchOutputs(NamedTuple):
     stored: np.ndarray
 
 
-def new_outputs(n: int, n_bodies: int, n_zones: int) -> BatchOutputs:
-    """Zeroed :class:`BatchOutputs` of ``n`` simulations."""
+def new_outputs(n: int, n_bodies: int, n_zones: int) -> StepOutputs:
+    """Zeroed :class:`StepOutputs` of ``n`` simulations."""
     body = [np.zeros((n, n_bodies)) for _ in range(3)]
     zone = [np.zeros((n, n_zones)) for _ in range(4)]
-    return BatchOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
+    return StepOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
 
 
 class StopRule(NamedTuple):

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.vehicles.crash.criteria import CriteriaLimits
 from railgym.vehicles.crash.zone import _envelope
 
@@ -89,13 +89,13 @@ def check_real(
 ) -> float:
     """``value`` as a float if it is a finite real number (Python or numpy, not a bool) within
     ``[low, high]`` (bounds ``None`` = unbounded; ``*_open`` excludes the bound); else
-    ``ValueError`` naming ``name`` (:func:`railgym._validation.in_range`)."""
+    ``ValueError`` naming ``name`` (:func:`railgym._checks.in_range`)."""
     return val.in_range(value, name, low, high, lo_open=low_open, hi_open=high_open)
 
 
 def check_int(name: str, value: Any, low: int, high: int) -> int:
     """``value`` as an int if it is an integer (Python or numpy, not a bool) in [low, high];
-    else ``ValueError`` naming ``name`` (:func:`railgym._validation.integer`)."""
+    else ``ValueError`` naming ``name`` (:func:`railgym._checks.integer`)."""
     return val.integer(value, name, low, high)
 
 
@@ -285,7 +285,7 @@ class CrashScenario:
 
 
 class _Fields(val.Fields):
-    """:class:`railgym._validation.Fields` of one scenario mapping: unknown keys rejected up
+    """:class:`railgym._checks.Fields` of one scenario mapping: unknown keys rejected up
     front, numbers checked against the documented :data:`LIMITS` in the file's units, i.e.
     before any unit conversion."""
 
@@ -471,7 +471,7 @@ def _deep_merge(base: dict, over: dict) -> dict:
 
 def _read_yaml(name_or_path: str | Path) -> tuple[dict, Path | None]:
     """Raw ``crash`` mapping of a packaged scenario name or a YAML path
-    (:func:`railgym._validation.resolve_yaml`) and the file's folder (``None`` if packaged)."""
+    (:func:`railgym._checks.resolve_yaml`) and the file's folder (``None`` if packaged)."""
     text, source = val.resolve_yaml(name_or_path, "crash scenario", "railgym", _CONFIG_DIR)
     doc = val.load_yaml(text, source)
     if not isinstance(doc, dict) or not isinstance(doc.get("crash"), dict):

@@ -3,7 +3,7 @@
 :class:`VerticalVehicle` holds one bogie and its carbody share with the element sections of
 ``configs/vehicles/*.yaml``; :meth:`VerticalVehicle.kernel_params` turns it into the
 :class:`SuspensionParams` NamedTuple that the compiled kernels read by field name. Every value
-is checked by :mod:`railgym._validation`, and errors name the field path (``damper.c_rebound``)
+is checked by :mod:`railgym._checks`, and errors name the field path (``damper.c_rebound``)
 and, when loaded from a file, the file.
 """
 
@@ -17,7 +17,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 __all__ = [
     "AirSpring",
@@ -351,7 +351,7 @@ def vehicle_from_dict(d: Any) -> VerticalVehicle:
 def load_vehicle(name_or_path: str | Path = "manchester") -> VerticalVehicle:
     """Load a vehicle: a packaged name (``"manchester"``) or the path of a ``.yaml`` file.
 
-    The "name or path" rule is :func:`railgym._validation.resolve_yaml`'s; errors in a file
+    The "name or path" rule is :func:`railgym._checks.resolve_yaml`'s; errors in a file
     name the file and the field.
     """
     text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))
