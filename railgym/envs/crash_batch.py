@@ -27,7 +27,7 @@ from railgym.envs.crash_step import (
     info_layout,
     plain,
 )
-from railgym.vehicles.crash import PARALLEL_MIN, CrashModel, CrashScenario, StepOutputs
+from railgym.vehicles.crash import PARALLEL_MIN, CrashModel, CrashOutputs, CrashScenario
 
 __all__ = ["CrashBatch", "CrashConfig"]
 
@@ -162,7 +162,7 @@ class CrashBatch:
         """Named views of the buffer and the kernel arguments (again after a copy: a pickled
         view is a detached array)."""
         views = [self._view(f) for f in range(self._fields.shape[0])]
-        self.out = StepOutputs(*views[:_ENV])
+        self.out = CrashOutputs(*views[:_ENV])
         self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
         self.state = self._state_type(*views[_STATE:])
         model = self.model

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from railgym.vehicles.crash.outputs import StepOutputs, _check_run, _steps, new_outputs
+from railgym.vehicles.crash.outputs import CrashOutputs, _check_run, _steps, new_outputs
 from railgym.vehicles.crash.reference import (
     ReferenceParams,
     ReferenceState,
@@ -80,7 +80,7 @@ class CrashModel:
             return _new_reference_state(n, self.masses, nz)
         return _new_surrogate_state(n, self.masses, nz)
 
-    def new_outputs(self, n: int) -> StepOutputs:
+    def new_outputs(self, n: int) -> CrashOutputs:
         """Zeroed outputs of ``n`` simulations."""
         return new_outputs(n, len(self.body_names), len(self.zone_names))
 
@@ -98,7 +98,7 @@ class CrashModel:
     def reset(
         self,
         state: ReferenceState | SurrogateState,
-        out: StepOutputs,
+        out: CrashOutputs,
         i: int,
         speed: float,
         payload: np.ndarray | None = None,
@@ -114,7 +114,7 @@ class CrashModel:
     def step(
         self,
         state: ReferenceState | SurrogateState,
-        out: StepOutputs,
+        out: CrashOutputs,
         scale: np.ndarray,
         active: np.ndarray,
         div: np.ndarray,

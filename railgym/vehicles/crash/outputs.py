@@ -1,4 +1,4 @@
-"""What both crash models share: the outputs of the batch kernels (:class:`StepOutputs`), the
+"""What both crash models share: the outputs of the batch kernels (:class:`CrashOutputs`), the
 recorders' :class:`Record` and :class:`StopRule`, the recorded :class:`CrashResult`, the
 divergence guard and the time-step rounding."""
 
@@ -16,7 +16,7 @@ from railgym.vehicles.crash.scenario import CrashScenario
 
 __all__ = [
     "V_EPS",
-    "StepOutputs",
+    "CrashOutputs",
     "CrashResult",
     "Record",
     "StopRule",
@@ -35,7 +35,7 @@ PARALLEL_CHUNKS = 64
 V_EPS = 0.01
 
 
-class StepOutputs(NamedTuple):
+class CrashOutputs(NamedTuple):
     """What the batch kernels report after each call, one row per simulation.
 
     Attributes
@@ -61,11 +61,11 @@ class StepOutputs(NamedTuple):
     stored: np.ndarray
 
 
-def new_outputs(n: int, n_bodies: int, n_zones: int) -> StepOutputs:
-    """Zeroed :class:`StepOutputs` of ``n`` simulations."""
+def new_outputs(n: int, n_bodies: int, n_zones: int) -> CrashOutputs:
+    """Zeroed :class:`CrashOutputs` of ``n`` simulations."""
     body = [np.zeros((n, n_bodies)) for _ in range(3)]
     zone = [np.zeros((n, n_zones)) for _ in range(4)]
-    return StepOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
+    return CrashOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
 
 
 class StopRule(NamedTuple):

@@ -349,7 +349,7 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
     Parameters
     ----------
     state : :class:`ReferenceState`, updated in place.
-    out : :class:`StepOutputs`; ``crush``, ``work`` and ``dissipated`` are also read back.
+    out : :class:`CrashOutputs`; ``crush``, ``work`` and ``dissipated`` are also read back.
     params : :class:`ReferenceParams` of the chain.
     scale : (n, zones) absorber force scale of each zone (:func:`absorber_zone_force`).
     active : (n,) which simulations to advance.
