@@ -84,8 +84,8 @@ def run_vehicle_policy(
     kind = check_variant(variant)
     lpr = lpr_arrays(element if variant == "surrogate" else None, dt)
     z, zdot, off = track
-    bt, out = new_arrays(1, variant, z.size, lpr)
-    bt.z[0], bt.zdot[0], bt.off[0] = z, zdot, off
+    arrays, out = new_arrays(1, variant, z.size, lpr)
+    arrays.z[0], arrays.zdot[0], arrays.off[0] = z, zdot, off
     p, e = kernel_params(vehicle), vehicle.suspension.kernel_params().record()
     rec = np.full((3, 2, n_steps + 1), np.nan)
     rec[:, :, 0] = 0.0
@@ -94,17 +94,17 @@ def run_vehicle_policy(
     ood = 0
     for k in range(n_steps):
         if k % n_sub == 0:
-            raw[:N_MECH] = bt.state[0, :N_MECH]
+            raw[:N_MECH] = arrays.state[0, :N_MECH]
             raw[N_MECH : N_MECH + 5] = out.acc[0]
             for j in range(4):
                 raw[N_MECH + 5 + j], raw[N_MECH + 9 + j] = hermite(z, zdot, k + off[j], dt)
-            bt.force[0] = law(raw)
-        advance(kind, bt, 1, dt, p, e, lpr, out)
-        bt.k[0] += 1
+            arrays.force[0] = law(raw)
+        advance(kind, arrays, 1, dt, p, e, lpr, out)
+        arrays.k[0] += 1
         ood += int(out.count[0, 1])
         if out.div[0]:
             break
-        x = bt.state[0]
+        x = arrays.state[0]
         for b, xb in enumerate((p.a, -p.a)):
             rec[0, b, k + 1] = x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]
             rec[1, b, k + 1] = x[10 + 2 * b] - x[7] - xb * x[8] - p.phi_a * x[9]

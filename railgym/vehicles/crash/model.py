@@ -145,7 +145,7 @@ def crash_model(
     safety : reference time-step safety factor; dt : largest surrogate step, s (both as in
         the ``simulate_*`` functions, which record with the same kernels).
     """
-    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    scenario = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
     if backend not in MODEL_BACKENDS:
         raise ValueError(f"backend must be one of {MODEL_BACKENDS}, got {backend!r}")
     _check_run(sample_dt, sample_dt)
@@ -154,28 +154,28 @@ def crash_model(
             raise ValueError(
                 "surrogate is only used by backend='surrogate', got one for 'reference'"
             )
-        system = _build_chain(sc)
+        system = _build_chain(scenario)
         step, n_sub = _reference_steps(system, sample_dt, safety)
         p = system.params
-        car_nodes = np.column_stack([p.body_start, p.body_end])[: sc.n_cars]
+        car_nodes = np.column_stack([p.body_start, p.body_end])[: scenario.n_cars]
     else:
         if surrogate is None:
             raise ValueError("surrogate is required for backend='surrogate'")
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
-        system = _surrogate_system(sc, surrogate)
+        system = _surrogate_system(scenario, surrogate)
         step, n_sub = _steps(sample_dt, dt)
         p = system.params
-        car_nodes = np.column_stack([p.body_start, p.body_end])[: sc.n_cars]
+        car_nodes = np.column_stack([p.body_start, p.body_end])[: scenario.n_cars]
     return CrashModel(
         backend=backend,
-        scenario=sc,
+        scenario=scenario,
         sample_dt=float(sample_dt),
         dt=step,
         n_sub=n_sub,
         params=system.params,
         masses=system.params.m,
-        v_unit=system.v0 / sc.speed,
+        v_unit=system.v0 / scenario.speed,
         car_nodes=car_nodes,
         body_names=system.body_names,
         zone_names=system.zone_names,

@@ -183,11 +183,14 @@ class CrashResult:
 
     def intrusion(self) -> dict[str, float]:
         """Largest crush beyond each zone's absorber stroke (structure crush), m."""
-        sc = self.scenario
-        zones = {"wall": sc.wall, "obstacle": sc.obstacle.zone if sc.obstacle else None}
+        scenario = self.scenario
+        zones = {
+            "wall": scenario.wall,
+            "obstacle": scenario.obstacle.zone if scenario.obstacle else None,
+        }
         out = {}
         for j, name in enumerate(self.zone_names):
-            zone = zones.get(name, sc.interface)
+            zone = zones.get(name, scenario.interface)
             out[name] = max(0.0, float(self.permanent_set[:, j].max()) - zone.absorber_stroke)
         return out
 
@@ -228,9 +231,14 @@ def _check_run(duration: float, sample_dt: float) -> None:
 
 def zone_absorber_strokes(result: CrashResult) -> np.ndarray:
     """Absorber stroke (m) of each zone of ``result`` (``wall``, ``interface_k``, ``obstacle``)."""
-    sc = result.scenario
-    zones = {"wall": sc.wall, "obstacle": sc.obstacle.zone if sc.obstacle else None}
-    return np.array([(zones.get(n) or sc.interface).absorber_stroke for n in result.zone_names])
+    scenario = result.scenario
+    zones = {
+        "wall": scenario.wall,
+        "obstacle": scenario.obstacle.zone if scenario.obstacle else None,
+    }
+    return np.array(
+        [(zones.get(n) or scenario.interface).absorber_stroke for n in result.zone_names]
+    )
 
 
 def result_criteria(
