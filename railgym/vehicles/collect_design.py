@@ -25,6 +25,8 @@ from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle, simulate
 from surrogates.models.checks import check_seed
 
 DESIGNS = ("paper", "envelope")
+#: sample rate of the memory element's training data and of the refinement samples, Hz
+MEMORY_SAMPLE_RATE = 200.0
 
 
 def _number(v: Any) -> float | None:
@@ -203,6 +205,7 @@ def collect_design(
 __all__ = [
     "DESIGNS",
     "ENVELOPE",
+    "MEMORY_SAMPLE_RATE",
     "PAPER",
     "CollectionDesign",
     "band_limited_force",
