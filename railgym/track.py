@@ -23,7 +23,7 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 __all__ = [
     "TrackClassParameters",

@@ -16,7 +16,7 @@ import numpy as np
 from surrogates.metrics import paper_error, rms_normalised_error, timer
 from surrogates.models import SurrogateModel
 from surrogates.models.base import as_inputs, as_outputs, check_domain
-from surrogates.models.validation import choice, integer
+from surrogates.models.checks import choice, integer
 from surrogates.sampling import METHODS, select
 from surrogates.selection import (
     Factory,

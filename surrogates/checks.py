@@ -5,8 +5,8 @@ Each check takes the value and its *field path* (``"speed"``, ``"damper.c_reboun
 type, or raises an error whose message starts with that path. The error class is the layer's:
 :class:`Checks` binds the checks to two constructors ``error(field, message)`` (a bad value)
 and ``type_error(field, message)`` (a value of the wrong type). ``surrogates`` binds them to
-:class:`surrogates.models.validation.ModelFieldError`, ``railgym`` to
-``railgym._validation.FieldError`` / ``FieldTypeError``; both expose the bound checks under
+:class:`surrogates.models.checks.ModelFieldError`, ``railgym`` to
+``railgym._checks.FieldError`` / ``FieldTypeError``; both expose the bound checks under
 the names below, so that ``choice(value, field, options)`` reads the same everywhere.
 
 Rules

@@ -32,13 +32,13 @@ from scipy.linalg import qr, solve_triangular
 from scipy.optimize import nnls
 
 from surrogates.models.base import SurrogateModel
+from surrogates.models.checks import ModelFieldError, legendre_degree
 from surrogates.models.lpr import (
     LegendreRegression,
     design_matrix,
     legendre_derivative,
     legendre_table,
 )
-from surrogates.models.validation import ModelFieldError, legendre_degree
 
 #: rounds of adding the violated minima of the slopes as constraints
 MAX_REFINE_ROUNDS = 10

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from surrogates.models.validation import random_seed
+from surrogates.models.checks import random_seed
 
 METHODS = ("ga", "greedy", "random")
 GA_DEFAULTS: dict[str, Any] = {

@@ -17,7 +17,7 @@ import numpy as np
 from surrogates.metrics import average_absolute_error, rms_normalised_error
 from surrogates.models import SurrogateModel, model_class
 from surrogates.models.base import as_inputs, as_outputs
-from surrogates.models.validation import random_seed
+from surrogates.models.checks import random_seed
 
 Factory = Callable[[Any], SurrogateModel]
 Progress = Callable[[int, int], None] | None

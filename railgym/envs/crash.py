@@ -28,19 +28,19 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.base import BatchEnv, BatchVectorEnv
 from railgym.envs.crash_batch import CrashBatch, CrashConfig
 from railgym.envs.crash_step import INFO_FIELDS, REWARD_TERMS, Criteria
 from railgym.vehicles.crash import (
     LIMITS,
     VARIANTS,
-    CrashBatchModel,
+    CrashModel,
     CrashScenario,
     CrashSurrogate,
     CrushZone,
     build_crash_surrogate,
-    crash_batch_model,
+    crash_model,
     load_scenario,
     simulate_reference,
 )
@@ -193,15 +193,13 @@ def env_surrogate(
     return packaged if packaged is not None else default_surrogate(scenario, variant)
 
 
-def make_model(
-    cfg: CrashConfig, surrogate: Any, variant: str, release: str = ""
-) -> CrashBatchModel:
+def make_model(cfg: CrashConfig, surrogate: Any, variant: str, release: str = "") -> CrashModel:
     """Batch model of the configured backend; ``surrogate`` = elements or ``None``
     (:func:`env_surrogate` of ``release``)."""
     if cfg.backend == "reference":
         if surrogate is not None:
             raise ValueError("surrogate is only used by backend='surrogate', not 'reference'")
-        return crash_batch_model(cfg.scenario, "reference", cfg.control_dt)
+        return crash_model(cfg.scenario, "reference", cfg.control_dt)
     if surrogate is None:
         if variant not in VARIANTS:
             raise ValueError(f"surrogate_variant must be one of {VARIANTS}, got {variant!r}")
@@ -216,7 +214,7 @@ def make_model(
             f"surrogate was built for scenario {surrogate.source!r}, not {cfg.scenario.name!r}"
         )
     try:
-        return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
+        return crash_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
     except (ValueError, AttributeError, TypeError, IndexError) as err:
         raise ValueError(f"surrogate does not fit this env: {err}") from err
 

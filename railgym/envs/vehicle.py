@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.base import BatchEnv, BatchVectorEnv, step_grid
 from railgym.envs.vehicle_batch import (
     ACC_REF,

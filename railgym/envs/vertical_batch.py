@@ -16,7 +16,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.compiled import compiled_entry
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input

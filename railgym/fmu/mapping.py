@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 from xml.etree import ElementTree
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 __all__ = ["ENV_SIGNALS", "FMUError", "Mapping", "Signal", "UNITS", "load_mapping"]
 

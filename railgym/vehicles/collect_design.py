@@ -20,11 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.track import class_speed, track_time_input
 from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle, simulate
 
 DESIGNS = ("paper", "envelope")
+#: sample rate of the memory element's training data and of the refinement samples, Hz
+MEMORY_SAMPLE_RATE = 200.0
 
 
 def _number(v: Any) -> float | None:
@@ -203,6 +205,7 @@ def collect_design(
 __all__ = [
     "DESIGNS",
     "ENVELOPE",
+    "MEMORY_SAMPLE_RATE",
     "PAPER",
     "CollectionDesign",
     "band_limited_force",

@@ -25,7 +25,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from surrogates.models.validation import (
+from surrogates.models.checks import (
     DataConversionWarning,
     ModelFieldError,
     choice,

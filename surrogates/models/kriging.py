@@ -31,8 +31,7 @@ from scipy.optimize import OptimizeResult, minimize
 from threadpoolctl import threadpool_limits
 
 from surrogates.models.base import SurrogateModel, as_inputs
-from surrogates.models.lpr import EXTRAPOLATION_MODES
-from surrogates.models.validation import (
+from surrogates.models.checks import (
     ModelFieldError,
     choice,
     field,
@@ -44,6 +43,7 @@ from surrogates.models.validation import (
     real,
     real_or_nan,
 )
+from surrogates.models.lpr import EXTRAPOLATION_MODES
 
 KERNELS = ("gaussian", "matern52")
 TRENDS = ("constant", "linear")

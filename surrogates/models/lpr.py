@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from surrogates.models.base import EXTRAPOLATION_POLICIES, SurrogateModel
-from surrogates.models.validation import (
+from surrogates.models.checks import (
     MAX_DEGREE,
     ModelFieldError,
     boolean,

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.vehicles.crash.criteria import CriteriaLimits
 from railgym.vehicles.crash.zone import _envelope
 
@@ -262,7 +262,7 @@ class CrashScenario:
 
 
 class _Fields(val.Fields):
-    """:class:`railgym._validation.Fields` of one scenario mapping: unknown keys rejected up
+    """:class:`railgym._checks.Fields` of one scenario mapping: unknown keys rejected up
     front, numbers checked against the documented :data:`LIMITS` in the file's units, i.e.
     before any unit conversion."""
 
@@ -448,7 +448,7 @@ def _deep_merge(base: dict, over: dict) -> dict:
 
 def _read_yaml(name_or_path: str | Path) -> tuple[dict, Path | None]:
     """Raw ``crash`` mapping of a packaged scenario name or a YAML path
-    (:func:`railgym._validation.resolve_yaml`) and the file's folder (``None`` if packaged)."""
+    (:func:`railgym._checks.resolve_yaml`) and the file's folder (``None`` if packaged)."""
     text, source = val.resolve_yaml(name_or_path, "crash scenario", "railgym", _CONFIG_DIR)
     doc = val.load_yaml(text, source)
     if not isinstance(doc, dict) or not isinstance(doc.get("crash"), dict):

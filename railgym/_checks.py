@@ -1,4 +1,4 @@
-"""Validation of arguments, configs and YAML files: one rule set, errors that name the field.
+"""Checks of arguments, configs and YAML files: one rule set, errors that name the field.
 
 Every helper takes the value and its *field path* (``"speed"``, ``"damper.c_rebound"``,
 ``"reward_weights['force']"``) and returns the value in a canonical Python type, or raises
