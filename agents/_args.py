@@ -25,6 +25,7 @@ __all__ = [
     "speed_kmh",
     "track_class",
     "vehicle_cases",
+    "vertical_cases",
 ]
 
 #: most episodes (sub-envs) of one evaluation case: ``--episodes`` and ``episodes=``
@@ -72,20 +73,24 @@ def check_speed_kmh(value: Any, field: str) -> float:
         raise val.FieldError(field, str(err)) from None
 
 
-def vehicle_cases(args: argparse.Namespace) -> dict[str, Any]:
-    """The case keywords of ``evaluate_vehicle`` / ``gap_vehicle`` from the flags of
-    ``railgym evaluate --env vehicle`` (track classes, speeds, episodes, seed, duration, trust,
-    workers, address)."""
+def vertical_cases(args: argparse.Namespace) -> dict[str, Any]:
+    """The case keywords of ``evaluate_sweep`` / ``gap_vertical`` from the flags of
+    ``railgym evaluate`` (track classes, episodes, seed, trust, workers, address)."""
     return {
         "track_classes": args.track_class,
-        "speeds_kmh": args.speed or [None],
         "episodes": args.episodes,
         "seed": args.seed,
-        "duration": VEHICLE_DURATION_S if args.duration is None else args.duration,
         "trust": args.trust,
         "workers": args.workers,
         "address": args.address,
     }
+
+
+def vehicle_cases(args: argparse.Namespace) -> dict[str, Any]:
+    """:func:`vertical_cases` and the speeds and duration of ``railgym evaluate --env
+    vehicle``: the case keywords of ``evaluate_vehicle`` / ``gap_vehicle``."""
+    duration = VEHICLE_DURATION_S if args.duration is None else args.duration
+    return {**vertical_cases(args), "speeds_kmh": args.speed or [None], "duration": duration}
 
 
 def add_parallel_arguments(

@@ -46,6 +46,7 @@ from agents._args import (
     speed_kmh,
     track_class,
     vehicle_cases,
+    vertical_cases,
 )
 from agents.gap import run_gap
 from agents.policies import (
@@ -343,17 +344,7 @@ def run(args: argparse.Namespace) -> int:
         {"--speed": args.speed is not None, "--duration": args.duration is not None},
         "--env vehicle and crash",
     )
-    rows = evaluate_sweep(
-        policies,
-        args.backend,
-        args.track_class,
-        args.episodes,
-        args.seed,
-        args.trust,
-        args.workers,
-        args.address,
-        fmu,
-    )
+    rows = evaluate_sweep(policies, args.backend, env_kwargs=fmu, **vertical_cases(args))
     print(
         f"backend: {args.backend}, {args.episodes} episodes per class (seeds {args.seed}+i); "
         "Δa_w: reduction of the Wk-weighted RMS vs passive"

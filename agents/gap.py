@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from agents import crash_report
-from agents._args import VEHICLE_DURATION_S, vehicle_cases
+from agents._args import VEHICLE_DURATION_S, vehicle_cases, vertical_cases
 from agents.crash_baselines import rollout
 from agents.policies import CRASH_ID, evaluate_vehicle, load_policy
 from agents.sweeps import evaluate_sweep
@@ -233,16 +233,7 @@ def run_gap(args: argparse.Namespace) -> int:
         for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
             if given is not None:
                 raise ValueError(f"{flag}: only for --env vehicle and crash, not --env vertical")
-        rows = gap_vertical(
-            args.policy,
-            args.track_class,
-            args.episodes,
-            args.seed,
-            args.trust,
-            args.workers,
-            args.address,
-            backends,
-        )
+        rows = gap_vertical(args.policy, backends=backends, **vertical_cases(args))
         print(
             f"VerticalSuspension-v1, {args.episodes} episodes per track class "
             f"(seeds {args.seed}+i); {what}"
