@@ -1,9 +1,11 @@
-"""argparse value types of the commands: a bad value is a one-line error naming the flag."""
+"""argparse value types of the commands (a bad value is a one-line error naming the flag), and
+the one-line error of a command that fails (:func:`error_status`)."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -20,6 +22,7 @@ __all__ = [
     "check_parallel",
     "check_speed_kmh",
     "duration_s",
+    "error_status",
     "episodes",
     "seed_number",
     "speed_kmh",
@@ -91,6 +94,19 @@ def vehicle_cases(args: argparse.Namespace) -> dict[str, Any]:
     vehicle``: the case keywords of ``evaluate_vehicle`` / ``gap_vehicle``."""
     duration = VEHICLE_DURATION_S if args.duration is None else args.duration
     return {**vertical_cases(args), "speeds_kmh": args.speed or [None], "duration": duration}
+
+
+def error_status(prog: str, err: Exception, debug: bool = False) -> int:
+    """Exit status of the command ``prog`` that raised ``err``, after its one line on stderr:
+    ``prog: error: …`` and 2 for a user error (``ValueError``, ``OSError``), else ``prog:
+    Type: … (--debug shows the traceback)`` and 1; ``debug`` (``--debug``) re-raises ``err``."""
+    if debug:
+        raise err
+    if isinstance(err, ValueError | OSError):
+        print(f"{prog}: error: {err}", file=sys.stderr)
+        return 2
+    print(f"{prog}: {type(err).__name__}: {err} (--debug shows the traceback)", file=sys.stderr)
+    return 1
 
 
 def add_parallel_arguments(

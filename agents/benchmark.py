@@ -34,7 +34,14 @@ from typing import Any, NamedTuple
 import numpy as np
 import yaml
 
-from agents._args import add_parallel_arguments, bounded_int, check_parallel, episodes, seed_number
+from agents._args import (
+    add_parallel_arguments,
+    bounded_int,
+    check_parallel,
+    episodes,
+    error_status,
+    seed_number,
+)
 from agents.policies import CRASH_ID, ENV_ID, VEHICLE_ID, evaluate_vehicle, load_policy
 from agents.sweeps import evaluate_sweep
 from agents.train_config import MAX_SEED, load_config
@@ -358,8 +365,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.address,
         )
     except (ValueError, OSError) as err:
-        print(f"{parser.prog}: error: {err}", file=sys.stderr)
-        return 2
+        return error_status(parser.prog, err)
     print(f"results.csv, learning_curve.png and table.md in {out}/")
     return 0
 

@@ -61,7 +61,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-from agents._args import bounded_int, seed_number
+from agents._args import bounded_int, error_status, seed_number
 from agents._extras import extra_error, report_missing
 from agents.policy_io import RLLIB_MODULE_PATH, sha256
 from railgym import _checks as val
@@ -371,10 +371,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.config, args.out, args.iterations, args.seed, args.address, args.overwrite
         )
     except (ValueError, OSError) as err:
-        if args.debug:
-            raise
-        print(f"{parser.prog}: error: {err}", file=sys.stderr)
-        return 2
+        return error_status(parser.prog, err, args.debug)
     run = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
     print(
         f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s); "
