@@ -17,7 +17,7 @@ import railgym
 from agents.train_config import RUN_KEY
 from railgym.report.output import write_text_atomic
 
-__all__ = ["versions", "write_config", "write_csv"]
+__all__ = ["read_run", "speed_text", "versions", "write_config", "write_csv"]
 
 
 class _YamlConfig(Protocol):
@@ -40,6 +40,17 @@ def write_config(out: Path, cfg: _YamlConfig, run: dict[str, Any]) -> None:
     data = cfg.to_yaml_dict()
     data[RUN_KEY] = run
     write_text_atomic(out / "config.yaml", yaml.safe_dump(data, sort_keys=False))
+
+
+def read_run(out: Path) -> dict[str, Any]:
+    """The run record of the run folder ``out`` (the ``run:`` section of its config.yaml)."""
+    run: dict[str, Any] = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
+    return run
+
+
+def speed_text(run: dict[str, Any]) -> str:
+    """``N steps in W s (S steps/s)`` of a run record, the first words of a trainer's summary."""
+    return f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s)"
 
 
 def write_csv(path: Path, rows: list[dict[str, Any]]) -> None:

@@ -51,7 +51,6 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import yaml
 from gymnasium.vector import AutoresetMode, VectorEnv
 from tqdm import tqdm
 
@@ -72,12 +71,11 @@ except ImportError as _err:
 
 from agents.envelope import EnvelopeVectorEnv, check_envelope
 from agents.policy_io import write_manifest
-from agents.run_files import versions, write_config
+from agents.run_files import read_run, speed_text, versions, write_config
 from agents.train_config import (
     ALGOS,
     MAX_SEED,
     MAX_TIMESTEPS,
-    RUN_KEY,
     VECTORIZATION_MODES,
     hyperparameters,
     load_config,
@@ -480,11 +478,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     except Exception as err:
         return error_status(parser.prog, err, args.debug)
-    run = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
-    print(
-        f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s); "
-        f"model, logs and config in {out}/"
-    )
+    print(f"{speed_text(read_run(out))}; model, logs and config in {out}/")
     return 0
 
 

@@ -59,7 +59,6 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import yaml
 
 from agents._args import bounded_int, error_status, seed_number
 from agents._extras import extra_error, report_missing
@@ -79,7 +78,7 @@ try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' ex
     from ray.rllib.core.rl_module.rl_module import RLModule
     from ray.tune.registry import register_env
 
-    from agents.run_files import versions, write_config, write_csv
+    from agents.run_files import read_run, speed_text, versions, write_config, write_csv
     from agents.train import evaluate, make_vec
     from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, _kwargs
 except ImportError as _err:
@@ -372,11 +371,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     except (ValueError, OSError) as err:
         return error_status(parser.prog, err, args.debug)
-    run = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
-    print(
-        f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s); "
-        f"evaluation reward {run['eval']['mean_reward']:.4g}; checkpoint, logs in {out}/"
-    )
+    run = read_run(out)
+    reward = run["eval"]["mean_reward"]
+    print(f"{speed_text(run)}; evaluation reward {reward:.4g}; checkpoint, logs in {out}/")
     return 0
 
 
