@@ -26,6 +26,7 @@ __all__ = [
     "RLLIB_MODULE_PATH",
     "check_manifest",
     "load_policy_weights",
+    "refuse_untrusted",
     "sha256",
     "write_manifest",
 ]
@@ -83,12 +84,21 @@ def check_manifest(path: str | Path, trust: bool = False) -> None:
             problem = f"it is not listed in {manifest}"
         elif expected != sha256(path):
             problem = f"its SHA-256 differs from the one in {manifest}"
-    if problem is None:
-        return
-    msg = f"policy {path}: {problem}, so it was not written by this run's training"
+    if problem is not None:
+        refuse_untrusted(
+            f"policy {path}: {problem}, so it was not written by this run's training",
+            trust,
+            "; pass --trust to load its weights anyway",
+            "; loading its network weights because of --trust",
+        )
+
+
+def refuse_untrusted(message: str, trust: bool, refused: str, trusted: str) -> None:
+    """A file that failed its manifest check: ``ValueError(message + refused)``, or with
+    ``trust`` a ``UserWarning`` ``message + trusted`` (pointing at the loader's caller)."""
     if not trust:
-        raise ValueError(f"{msg}; pass --trust to load its weights anyway")
-    warnings.warn(f"{msg}; loading its network weights because of --trust", stacklevel=2)
+        raise ValueError(message + refused)
+    warnings.warn(message + trusted, stacklevel=3)
 
 
 def _weights(path: Path) -> dict[str, Any]:

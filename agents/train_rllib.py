@@ -51,7 +51,6 @@ import inspect
 import json
 import sys
 import time
-import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -62,7 +61,7 @@ import numpy as np
 
 from agents._args import bounded_int, error_status, seed_number
 from agents._extras import extra_error, report_missing
-from agents.policy_io import RLLIB_MODULE_PATH, sha256
+from agents.policy_io import RLLIB_MODULE_PATH, refuse_untrusted, sha256
 from railgym import _checks as val
 from railgym.report.output import prepare_output_dir, write_text_atomic
 
@@ -260,12 +259,13 @@ def check_checkpoint_manifest(checkpoint: Path, trust: bool = False) -> None:
         }
         same = set(files) == set(listed) and all(sha256(files[k]) == listed[k] for k in files)
         problem = None if same else f"its files differ from those listed in {manifest}"
-    if problem is None:
-        return
-    msg = f"RLlib checkpoint {checkpoint}: {problem}; it is a pickle and may run code"
-    if not trust:
-        raise ValueError(f"{msg} (pass trust=True / --trust to load it anyway)")
-    warnings.warn(f"{msg}; loading it because of trust", stacklevel=2)
+    if problem is not None:
+        refuse_untrusted(
+            f"RLlib checkpoint {checkpoint}: {problem}; it is a pickle and may run code",
+            trust,
+            " (pass trust=True / --trust to load it anyway)",
+            "; loading it because of trust",
+        )
 
 
 def load_rllib_policy(checkpoint: str | Path, env_id: str, trust: bool = False) -> RLlibPolicy:
