@@ -20,11 +20,15 @@ ROUNDS = 7
 
 
 def run() -> list[dict]:
-    """Rows of measurements (see ``benchmarks/__main__.py``).
+    """Rows of measurements (see ``benchmarks/__main__.py``): the single env, then the
+    vector env."""
+    return _single_rows() + _vector_rows()
 
-    The single-env ratio is the median over ``ROUNDS`` rounds, each timing CartPole and then
-    the vehicle env for 4000 steps (two episodes, ends and resets included).
-    """
+
+def _single_rows() -> list[dict]:
+    """Single-env step of each backend against CartPole: the ratio is the median over
+    ``ROUNDS`` rounds, each timing CartPole and then the vehicle env for 4000 steps (two
+    episodes, ends and resets included)."""
     cart = gym.make("CartPole-v1")
     zero = np.zeros(2, np.float32)
     envs = {
@@ -61,6 +65,12 @@ def run() -> list[dict]:
         row("  of which the compiled call", compiled, "µs", context="surrogate, kernel + book"),
         row("  of which the Python shell", shell, "µs", context="check, info, obs, wrappers"),
     ]
+    return rows
+
+
+def _vector_rows() -> list[dict]:
+    """Vector env (1024) env-steps/s against VerticalSuspension-v1's, and with the memory
+    element against the static one (median of ``ROUNDS`` interleaved rounds)."""
     n = 1024
     v0 = gym.make_vec(
         "railgym/VerticalSuspension-v1", num_envs=n, vectorization_mode="vector_entry_point"
@@ -84,7 +94,7 @@ def run() -> list[dict]:
     r, r_static = (float(np.median(rates[f])) for f in ("maxwell", "static"))
     ratio = float(np.median(np.array(rates["maxwell"]) / np.array(rates["static"])))
     del venvs
-    rows += [
+    return [
         row(
             f"VerticalSuspension vector ({n}) (anchor)",
             r_v0 / 1e6,
@@ -107,7 +117,6 @@ def run() -> list[dict]:
             f"median of {ROUNDS} interleaved rounds",
         ),
     ]
-    return rows
 
 
 if __name__ == "__main__":
