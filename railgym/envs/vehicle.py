@@ -221,7 +221,7 @@ def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
     """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
     (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
     default is the packaged memory element (``vertical_lpr.json``, docs/validation.md)."""
-    return _surrogate_arrays(backend, surrogate, dt)
+    return _surrogate_arrays(backend, surrogate, dt, relaxation=True)
 
 
 class _VehicleAccessors:

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from railgym.track import fra_profile_with_slope
-from railgym.vehicles.collect import memory_training_data, save_vertical_surrogate
+from railgym.vehicles.collect import WARMUP, memory_training_data, save_vertical_surrogate
 from railgym.vehicles.collect_design import band_limited_force
 from railgym.vehicles.vehicle import (
     DEFAULT_DT,
@@ -40,7 +40,8 @@ from railgym.vehicles.vehicle import (
     make_batch,
     wheelset_offsets,
 )
-from surrogates.memory import TauSelection
+from railgym.vehicles.vertical import bump_stop_force, load_vehicle
+from surrogates.memory import TauSelection, fit_relaxation, law_document, shortest_time_constant
 from surrogates.models import SurrogateModel
 from surrogates.passive import PassiveLegendreRegression
 from surrogates.selection import select_kfold
@@ -191,20 +192,35 @@ def build_vehicle_surrogate(
     k: int = 5,
     seed: int = 0,
     vehicle: str = "manchester_whole",
+    relaxation: bool = True,
+    data: dict[str, Any] | None = None,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
     """The whole vehicle's memory element: passive ``F̂(δ, δ̇, ζ)`` plus the bump-stop law,
-    ``τ`` and degrees by ``k``-fold CV on :func:`collect_vehicle` data (both bogies pooled).
+    fitted on :func:`collect_vehicle` data (both bogies pooled), degrees by ``k``-fold CV.
+
+    With ``relaxation`` the Maxwell state follows a nonlinear two-slope relaxation law
+    ``ṡ = g(δ − s)`` (:func:`surrogates.memory.two_slope_relaxation`: direction-dependent
+    time constants and a blow-off knee, the series stiffness and damper of the reference),
+    fitted first (:func:`surrogates.memory.fit_relaxation`); otherwise the linear law, ``τ``
+    chosen among ``taus`` by CV. ``data``: a :func:`collect_vehicle` result to reuse.
 
     Returns ``(model, selection, data)`` as
-    :func:`~railgym.vehicles.collect.build_memory_surrogate` does.
+    :func:`~railgym.vehicles.collect.build_memory_surrogate` does (the selection's ``τ`` of a
+    relaxation law is its shortest time constant).
     """
-    data = collect_vehicle(design, vehicle)
+    if data is None:
+        data = collect_vehicle(design, vehicle)
     base = load_whole_vehicle(vehicle).suspension.name
     degrees = list(degrees)
+    if relaxation:
+        law = fit_relaxation(_law_runs(data, base)).law
+        cases = {shortest_time_constant(law): law}
+    else:
+        cases = {float(tau): None for tau in taus}
     sel = TauSelection()
     pairs = {}
-    for tau in taus:
-        U, V = memory_training_data(data, tau, ("bump_stop",), base)
+    for tau, law in cases.items():
+        U, V = memory_training_data(data, tau, ("bump_stop",), base, law)
         res = select_kfold(
             lambda deg: PassiveLegendreRegression(degree=deg), degrees, U, V, k=k, seed=seed
         )
@@ -217,8 +233,23 @@ def build_vehicle_surrogate(
     U, V = pairs[best["tau"]]
     model = PassiveLegendreRegression(degree=best["degree"]).fit(U, V)
     model.features_ = {"form": "maxwell", "tau": best["tau"], "known_physics": ["bump_stop"]}
+    law = cases[best["tau"]]
+    if law is not None:
+        model.features_["relaxation"] = law_document(law)
     data["U_memory"], data["V_memory"] = U, V
     return model, sel, data
+
+
+def _law_runs(data: dict[str, Any], base: str) -> list[dict[str, Any]]:
+    """The runs of ``data`` as :func:`~surrogates.memory.fit_relaxation` takes them: the
+    samples after ``WARMUP``, force less the bump-stop law (the element's known physics)."""
+    p = load_vehicle(base).kernel_params()
+    out = []
+    for r in data["runs"]:
+        rows = r["rows"][r["t"][r["rows"]] >= WARMUP]
+        bump = np.array([bump_stop_force(x, p) for x in r["delta"][rows]])
+        out.append({**r, "rows": rows, "force": r["force"][rows] - bump})
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -7,9 +7,9 @@ that of :func:`railgym.vehicles.vehicle._advance_one` operation for operation (t
 evaluation that of :func:`~surrogates.models.lpr.lpr_eval_into` for two inputs), so both
 kernels give bit-identical results (tested). A memory element (three inputs, additive) adds
 the two Maxwell states in rows of their own after those of the static layout (which keeps its
-rows and loops) and is summed along its Legendre recurrences as
-:func:`~surrogates.models.lpr.lpr_additive_inside` does. Element inputs outside the training
-box are evaluated lane by lane by ``lpr_eval_into``.
+rows and loops; a nonlinear relaxation law is evaluated lane by lane) and is summed along its
+Legendre recurrences as :func:`~surrogates.models.lpr.lpr_additive_inside` does. Element
+inputs outside the training box are evaluated lane by lane by ``lpr_eval_into``.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from railgym.vehicles.vertical.elements import bump_stop_force
+from surrogates.memory import relaxation_rate
 from surrogates.models.lpr import additive_terms, lpr_eval_into, lpr_scratch
 
 __all__ = ["LANES", "LANES_MIN", "hermite", "lanes_block"]
@@ -206,10 +207,16 @@ def _rhs(w, pt, xr, wr, dr, mr, p, q, lpr, lw, u, nb):
             w[_U, l] = zb - (w[xr, l] + xi * w[xr + 1, l] + p.phi_a * w[xr + 2, l])
             w[_U + 1, l] = vb - (w[xr + 7, l] + xi * w[xr + 8, l] + p.phi_a * w[xr + 9, l])
         if tau > 0.0:
-            for l in range(nb):
-                sm = w[mr + i, l]
-                w[_UZ, l] = w[_U, l] - sm
-                w[mdr + i, l] = (w[_U, l] - sm) / tau
+            if lpr.relax_z.shape[0] > 0:
+                for l in range(nb):
+                    sm = w[mr + i, l]
+                    w[_UZ, l] = w[_U, l] - sm
+                    w[mdr + i, l] = relaxation_rate(w[_U, l] - sm, lpr.relax_z, lpr.relax_r)
+            else:
+                for l in range(nb):
+                    sm = w[mr + i, l]
+                    w[_UZ, l] = w[_U, l] - sm
+                    w[mdr + i, l] = (w[_U, l] - sm) / tau
             _element_memory(w, lpr, lw, u, nb)
         else:
             _element(w, pt, lpr, lw, u, nb)
