@@ -458,7 +458,7 @@ def _element_pairs(
     form = element_form(getattr(model, "features_", None))
     data = {"runs": [{**run, "rows": rows}]}
     if form.form == "maxwell":
-        return memory_training_data(data, form.tau, form.known_physics, vehicle)
+        return memory_training_data(data, form.tau, form.known_physics, vehicle, form.relaxation)
     keep = rows[run["t"][rows] >= WARMUP]
     return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
 

@@ -1,6 +1,7 @@
-"""The whole vehicle on a memory (Maxwell-state) element at both bogies: the compiled kernel
-against an independent numpy RK4, a synthetic Maxwell element recovered from the data of both
-bogies, lane kernel = per-vehicle kernel, and the env with a memory element."""
+"""The whole vehicle on a memory (Maxwell-state) element at both bogies, with the linear or a
+nonlinear relaxation law of the state: the compiled kernel against an independent numpy RK4,
+a synthetic Maxwell element recovered from the data of both bogies, lane kernel =
+per-vehicle kernel, and the env with a memory element."""
 
 import gymnasium as gym
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 
 import railgym  # noqa: F401
 from railgym.vehicles.collect import default_vertical_surrogate, memory_training_data
+from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 from railgym.vehicles.vehicle import (
     N_MECH,
     PARALLEL_MIN,
@@ -45,6 +47,30 @@ def memory():
     return default_vertical_surrogate("maxwell")
 
 
+@pytest.fixture(scope="module", params=["one-bogie", "whole-vehicle"])
+def element(request):
+    """The packaged memory elements: the one-bogie one (linear Maxwell law) and the whole
+    vehicle's default (nonlinear relaxation law)."""
+    if request.param == "one-bogie":
+        return default_vertical_surrogate("maxwell")
+    return default_vehicle_surrogate()
+
+
+def relaxation(element):
+    """``g(ζ)`` of the element's Maxwell state (numpy, independent of the kernels'):
+    ``ζ/τ`` or the piecewise-linear law, continued linearly beyond its end knots."""
+    law = element.features_.get("relaxation")
+    if law is None:
+        return lambda z: z / element.features_["tau"]
+    k, r = np.array(law["zeta"]), np.array(law["rate"])
+
+    def g(z):
+        j = int(np.clip(np.searchsorted(k, z) - 1, 0, k.size - 2))
+        return r[j] + (r[j + 1] - r[j]) * (z - k[j]) / (k[j + 1] - k[j])
+
+    return g
+
+
 def track(x):
     """Height (m) and slope of the analytic track at positions ``x`` (m)."""
     z = sum(a * np.sin(2 * np.pi * x / lam + ph) for a, lam, ph in WAVES)
@@ -64,7 +90,7 @@ def numpy_rk4(vehicle, element, force, n_steps):
     wq = 2 * np.pi * vehicle.bending_frequency
     mq, mc, jc = vehicle.bending_modal_mass, vehicle.carbody_mass, vehicle.carbody_pitch_inertia
     mb, jb = vehicle.bogie_mass, vehicle.bogie_pitch_inertia
-    tau = element.features_["tau"]
+    rate = relaxation(element)
     pos = vehicle.wheelset_positions - vehicle.wheelset_positions[-1]
 
     def rhs(t, x):
@@ -79,7 +105,7 @@ def numpy_rk4(vehicle, element, force, n_steps):
             dd = vb[i] - vc - xi * wc - phi * vq
             u = np.array([[d, dd, d - sm[i]]])
             f[i] = element.predict(u)[0] + bump_stop_force(d, e) + force[i]
-            dx[14 + i] = (d - sm[i]) / tau
+            dx[14 + i] = rate(d - sm[i])
             p_lead = 0.5 * s.k1 * (w[2 * i] - zb[i] - b * tb[i]) + 0.5 * s.c1 * (
                 wd[2 * i] - vb[i] - b * wb[i]
             )
@@ -108,10 +134,11 @@ def numpy_rk4(vehicle, element, force, n_steps):
     return np.array(xs), floor
 
 
-def test_memory_kernel_matches_an_independent_numpy_rk4(vehicle, memory):
-    """Scalar kernel with the packaged memory element at both bogies, actuators pushing, against
+def test_memory_kernel_matches_an_independent_numpy_rk4(vehicle, element):
+    """Scalar kernel with a packaged memory element at both bogies, actuators pushing, against
     the numpy RK4 of the same equations on the analytic track (the kernel's Hermite track
     samples add ~1e-7 relative)."""
+    memory = element
     n_steps = 250
     force = np.array([3000.0, -2000.0])
     off = wheelset_offsets(vehicle, SPEED, DT)
@@ -192,7 +219,7 @@ def test_synthetic_maxwell_element_is_recovered_at_both_bogies(vehicle):
 
 
 @pytest.mark.parametrize("n", [LANES_MIN + 3, 2 * LANES + 5, PARALLEL_MIN + 37])
-def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle, memory, n):
+def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle, element, n):
     """``advance`` (lane kernel) with the memory element equals ``advance_serial`` bit for bit,
     Maxwell states included, through bump-stop contact, inputs outside the box and a
     diverging vehicle."""
@@ -205,7 +232,7 @@ def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle
     force = rng.uniform(-2e4, 2e4, (n, 2))
     p = kernel_params(vehicle)
     e = vehicle.suspension.kernel_params().record()
-    lpr = lpr_arrays(memory, DT)
+    lpr = lpr_arrays(element, DT)
     runs = []
     for step in (advance_serial, advance):
         bt, out = make_batch(n, "surrogate", samples, lpr)
