@@ -388,3 +388,21 @@ def test_synthetic_relaxation_law_is_recovered_at_both_bogies(vehicle):
     again = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=fitted)
     a, b = again["acc"][0, :, :3], rec["acc"][0, :, :3]
     assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
+
+
+@pytest.mark.slow
+def test_rebuilding_the_packaged_vehicle_element_gives_the_same_model():
+    """The whole vehicle's recipe at the packaged element's degrees (the full degree search is
+    the regeneration command): the same relaxation law and the same force map."""
+    from railgym.vehicles.collect_vehicle import build_vehicle_surrogate
+
+    packaged = default_vehicle_surrogate()
+    degree = tuple(packaged.degree)
+    model, sel, data = build_vehicle_surrogate(degrees=[degree])
+    assert sel.best[1] == degree
+    law, want = model.features_["relaxation"], packaged.features_["relaxation"]
+    np.testing.assert_allclose(law["zeta"], want["zeta"], rtol=1e-9)
+    np.testing.assert_allclose(law["rate"], want["rate"], rtol=1e-9)
+    U = data["U_memory"]
+    scale = np.abs(data["V_memory"]).max()
+    np.testing.assert_allclose(model.predict(U), packaged.predict(U), rtol=0, atol=1e-8 * scale)
