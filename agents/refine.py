@@ -27,6 +27,7 @@ from railgym.vehicles.collect import (
     refine,
     save_vertical_surrogate,
 )
+from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 from railgym.vehicles.refine_vehicle import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from railgym.vehicles.refinement import RefineOptions
 from surrogates import io
@@ -131,8 +132,11 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--out {args.out}: exists; pass --overwrite to replace it")
     if args.out is not None and not args.out.parent.is_dir():  # before the rounds of work
         raise ValueError(f"--out {args.out}: the folder {str(args.out.parent)!r} does not exist")
-    model = default_vertical_surrogate() if args.model is None else io.load(args.model)
     vehicle = getattr(args, "env", "vertical") == "vehicle"
+    if args.model is not None:
+        model = io.load(args.model)
+    else:
+        model = default_vehicle_surrogate() if vehicle else default_vertical_surrogate()
     if vehicle:
         if args.fmu_map is not None or args.fmu is not None:
             raise ValueError("--fmu-map/--fmu: an FMU reference is one bogie; use --env vertical")

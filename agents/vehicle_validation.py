@@ -2,7 +2,7 @@
 carbody acceleration at each floor point (front, centre, rear) over unseen tracks.
 
     python -m agents.vehicle_validation --seeds 20 --track-class 3 4 5 6
-    python -m agents.vehicle_validation --element static --controller modal-skyhook lqr
+    python -m agents.vehicle_validation --element vehicle maxwell --controller modal-skyhook lqr
 
 For each class, controller and element, a native vector env with the surrogate and one with
 the reference backend run the same ``n_seeds`` tracks (sub-env ``i`` on seed ``seed + i``) in
@@ -24,6 +24,7 @@ import railgym  # noqa: F401  (registers the environments)
 from agents._args import duration_s, episodes, track_class
 from agents.policies import VEHICLE_CONTROLLERS, VEHICLE_ID
 from railgym.vehicles.collect import default_vertical_surrogate
+from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 
 __all__ = ["FLOOR", "floor_errors", "main", "validation_rows"]
 
@@ -124,10 +125,25 @@ def format_rows(rows: Sequence[Mapping[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def _packaged(name: str) -> Any:
+    """A packaged element by name (``vehicle``, ``maxwell``, ``static``), else ``name`` (a path)."""
+    if name == "vehicle":
+        return default_vehicle_surrogate()
+    if name in ("maxwell", "static"):
+        return default_vertical_surrogate(name)
+    return name
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the table (relative RMS error, %, median / 90th percentile / max per floor point)."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--element", nargs="+", default=["maxwell"], help="packaged form or JSON")
+    parser.add_argument(
+        "--element",
+        nargs="+",
+        default=["vehicle"],
+        help="packaged element (vehicle: the env's default; maxwell, static: the one-bogie "
+        "elements) or JSON",
+    )
     parser.add_argument("--track-class", type=track_class, nargs="+", default=[3, 4, 5, 6])
     parser.add_argument("--controller", nargs="+", default=["passive"])
     parser.add_argument("--seeds", type=episodes, default=20, help="tracks per class")
@@ -136,9 +152,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for c in args.controller:
         if c not in VEHICLE_CONTROLLERS:
             parser.error(f"--controller must be among {sorted(VEHICLE_CONTROLLERS)}, got {c!r}")
-    elements = {
-        e: default_vertical_surrogate(e) if e in ("maxwell", "static") else e for e in args.element
-    }
+    elements = {e: _packaged(e) for e in args.element}
     rows = validation_rows(elements, args.track_class, args.controller, args.seeds, args.duration)
     print(format_rows(rows))
     return 0

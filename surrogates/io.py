@@ -9,7 +9,10 @@ File layout (``schema_version`` 2)::
      "metadata": {...}}
 
 ``form``, ``tau`` and ``known_physics`` are the element's feature form
-(:mod:`surrogates.memory`); version 1 files (without them) load as the static form.
+(:mod:`surrogates.memory`); version 1 files (without them) load as the static form. An
+element with a nonlinear relaxation law adds ``"relaxation": {"zeta": [m], "rate": [m/s]}``
+to ``features`` and is written as ``schema_version`` 3 (so that a reader of version 2, which
+would ignore the law, refuses it); the others are still written as version 2.
 """
 
 from __future__ import annotations
@@ -25,13 +28,15 @@ from typing import Any
 
 import numpy as np
 
-from surrogates.memory import element_form
+from surrogates.memory import element_form, law_document
 from surrogates.models import SurrogateModel, model_class
 from surrogates.models.checks import ModelFieldError
 
 SCHEMA_VERSION = 2
+#: schema version of a file whose element has a relaxation law (``features.relaxation``)
+RELAXATION_VERSION = 3
 #: schema versions this module reads
-READABLE_VERSIONS = (1, 2)
+READABLE_VERSIONS = (1, 2, 3)
 FORMAT = "surrogates-model"
 
 
@@ -44,8 +49,10 @@ def model_to_document(
     form: str | None = None,
     tau: float | None = None,
     known_physics: Sequence[str] | None = None,
+    relaxation: Any = None,
 ) -> dict[str, Any]:
-    """The JSON document :func:`save` writes; ``form``, ``tau`` (s), ``known_physics`` as in
+    """The JSON document :func:`save` writes; ``form``, ``tau`` (s), ``known_physics`` and
+    ``relaxation`` (a law ``(zeta, rate)`` or its mapping) as in
     :func:`surrogates.memory.element_form`.
 
     An argument left ``None`` keeps what the model read from its file (``features_`` and
@@ -59,6 +66,7 @@ def model_to_document(
         form = read.get("form", "static")
         tau = read.get("tau") if tau is None else tau
         known_physics = read.get("known_physics", []) if known_physics is None else known_physics
+        relaxation = read.get("relaxation") if relaxation is None else relaxation
     if inputs is None:
         inputs = read.get("inputs") or [f"u{i + 1}" for i in range(n_in)]
     inputs = list(inputs)
@@ -66,11 +74,15 @@ def model_to_document(
         raise ValueError(f"inputs names {len(inputs)} features, the model has {n_in}")
     extra = {k: v for k, v in read.items() if k == "descriptions"}
     shape = {"form": form, "tau": tau, "known_physics": list(known_physics or ())}
-    element_form(shape, n_in, "features")
+    if relaxation is not None:
+        shape["relaxation"] = relaxation
+    law = element_form(shape, n_in, "features").relaxation
+    if law is not None:
+        shape["relaxation"] = law_document(law)
     if metadata is None:
         metadata = getattr(model, "metadata_", None)
     return {
-        "schema_version": SCHEMA_VERSION,
+        "schema_version": SCHEMA_VERSION if law is None else RELAXATION_VERSION,
         "format": FORMAT,
         "model": d,
         "features": {
@@ -118,6 +130,11 @@ def model_from_document(doc: Any, source: str = "document") -> SurrogateModel:
     except ValueError as exc:
         raise ModelFieldError(f"{source}: invalid 'model' field: {exc}") from None
     model.features_ = _check_features(doc["features"], model.n_features_in_, source)
+    if model.features_.get("relaxation") is not None and version < RELAXATION_VERSION:
+        raise ModelFieldError(
+            f"{source}: field 'features.relaxation' needs schema_version {RELAXATION_VERSION}, "
+            f"the file has {version}"
+        )
     metadata = doc.get("metadata", {})
     if not isinstance(metadata, dict):
         raise ModelFieldError(f"{source}: field 'metadata' must be a JSON object")

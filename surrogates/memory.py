@@ -11,6 +11,15 @@ form adds one internal state, a first-order filtered deflection ``s``::
 in series with a linear damper ``c`` and ``τ = c/k``, ``s`` is exactly the damper's
 displacement and ``F = k·ζ``. The paper's memoryless form is ``"static"``, ``u = (δ, δ̇)``.
 
+A ``"maxwell"`` element may carry a nonlinear **relaxation law** instead of the linear one:
+``ṡ = g(δ − s)`` with ``g`` a monotone piecewise-linear function of ``ζ`` (knots ``zeta``,
+values ``rate``, continued linearly beyond the end knots; ``g(0) = 0``). With
+``g(ζ) = v_d(k·ζ)`` it is exactly a stiffness ``k`` in series with a nonlinear dashpot of
+force–velocity law ``v_d`` (e.g. a damper with direction-dependent slopes and a blow-off
+knee: :func:`two_slope_relaxation`); the linear law ``g(ζ) = ζ/τ`` is the plain form.
+The law is fitted with the element (:func:`fit_relaxation`); its ``tau`` is the shortest
+time constant of the law (its steepest segment), which bounds the integration step.
+
 Training features are built from sampled time histories by :func:`maxwell_state`, the exact
 solution of the ζ equation for a deflection linear between samples (first-order hold);
 inside a vehicle kernel ``s`` is integrated with the other states (``ṡ = (δ − s)/τ``,
@@ -25,6 +34,8 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
+from scipy.optimize import minimize
 
 from surrogates.features import _time, _vector
 from surrogates.models import SurrogateModel
@@ -44,6 +55,9 @@ class ElementForm(NamedTuple):
     form: str  #: a key of :data:`FEATURE_FORMS`
     tau: float | None  #: Maxwell time constant, s (``None`` for ``"static"``)
     known_physics: tuple[str, ...]  #: entries of :data:`KNOWN_PHYSICS`
+    #: nonlinear relaxation law ``(zeta knots m, rates m/s)`` of a ``"maxwell"`` element;
+    #: ``None``: the linear law ``ṡ = (δ − s)/τ``
+    relaxation: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def element_form(
@@ -77,12 +91,199 @@ def element_form(
             f"{source}: field 'features.known_physics' must list entries of "
             f"{list(KNOWN_PHYSICS)}, got {known!r}"
         )
+    relaxation = None
+    if features.get("relaxation") is not None:
+        if form != "maxwell":
+            raise ModelFieldError(
+                f"{source}: field 'features.relaxation' needs form 'maxwell', got {form!r}"
+            )
+        try:
+            relaxation = relaxation_law(features["relaxation"])
+        except ValueError as exc:
+            raise ModelFieldError(f"{source}: field 'features.relaxation': {exc}") from None
     if form == "maxwell" and n_inputs is not None and n_inputs != len(FEATURE_FORMS[form]):
         raise ModelFieldError(
             f"{source}: feature form {form!r} has {len(FEATURE_FORMS[form])} inputs "
             f"{FEATURE_FORMS[form]}, the model has {n_inputs}"
         )
-    return ElementForm(form, tau, tuple(known))
+    return ElementForm(form, tau, tuple(known), relaxation)
+
+
+def relaxation_law(law: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Validated relaxation law ``(zeta, rate)`` of a mapping ``{"zeta": [...], "rate":
+    [...]}`` (or a pair): at least 3 knots, knots and rates finite and strictly increasing
+    (a monotone law: the state relaxes towards ``δ``), ``0`` among the knots with rate 0.
+
+    Raises ``ValueError`` naming ``zeta`` or ``rate``.
+    """
+    if isinstance(law, Mapping):
+        if set(law) != {"zeta", "rate"}:
+            raise ValueError(f"must hold exactly the keys 'zeta' and 'rate', got {sorted(law)}")
+        z, r = law["zeta"], law["rate"]
+    else:
+        z, r = law
+    try:
+        z = np.array(z, dtype=np.float64)
+        r = np.array(r, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("zeta and rate must be lists of numbers") from None
+    if z.ndim != 1 or z.size < 3 or r.shape != z.shape:
+        raise ValueError(
+            f"zeta and rate must be lists of the same length >= 3, got {z.shape}, {r.shape}"
+        )
+    for name, v in (("zeta", z), ("rate", r)):
+        if not (np.all(np.isfinite(v)) and np.all(np.diff(v) > 0)):
+            raise ValueError(f"{name} must be finite and strictly increasing, got {v.tolist()}")
+    zero = np.flatnonzero(z == 0.0)
+    if zero.size != 1 or r[zero[0]] != 0.0:
+        raise ValueError("zeta must contain 0 with rate 0 (the state rests at s = δ)")
+    return z, r
+
+
+def law_document(law: tuple[np.ndarray, np.ndarray]) -> dict[str, list[float]]:
+    """The ``features.relaxation`` mapping of a law ``(zeta, rate)``."""
+    return {"zeta": [float(v) for v in law[0]], "rate": [float(v) for v in law[1]]}
+
+
+def shortest_time_constant(law: tuple[np.ndarray, np.ndarray]) -> float:
+    """Shortest time constant ``min Δζ/Δg`` of a relaxation law's segments, s."""
+    z, r = law
+    return float(np.min(np.diff(z) / np.diff(r)))
+
+
+@njit(cache=True, error_model="numpy")
+def relaxation_rate(z: float, knots: np.ndarray, rates: np.ndarray) -> float:
+    """``g(ζ)`` of a piecewise-linear relaxation law (m/s), linear beyond the end knots."""
+    n = knots.shape[0]
+    j = 0
+    while j < n - 2 and z > knots[j + 1]:
+        j += 1
+    return rates[j] + (rates[j + 1] - rates[j]) * (z - knots[j]) / (knots[j + 1] - knots[j])
+
+
+@njit(cache=True, error_model="numpy")
+def _relaxed(delta: np.ndarray, h: np.ndarray, knots: np.ndarray, rates: np.ndarray) -> np.ndarray:
+    zeta = np.zeros(delta.size)
+    s = delta[0]
+    for k in range(h.size):
+        d0, d1, dt = delta[k], delta[k + 1], h[k]
+        dm = 0.5 * (d0 + d1)
+        k1 = relaxation_rate(d0 - s, knots, rates)
+        k2 = relaxation_rate(dm - (s + 0.5 * dt * k1), knots, rates)
+        k3 = relaxation_rate(dm - (s + 0.5 * dt * k2), knots, rates)
+        k4 = relaxation_rate(d1 - (s + dt * k3), knots, rates)
+        s = s + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        zeta[k + 1] = d1 - s
+    return zeta
+
+
+def relaxed_state(delta: Any, t: Any, law: Any) -> np.ndarray:
+    """Internal input ``ζ = δ − s`` of a state with relaxation law ``ṡ = g(δ − s)`` along a
+    sampled deflection: one classic RK4 step per sample interval, ``δ`` linear between the
+    samples; relaxed start (``ζ = 0``).
+
+    Parameters
+    ----------
+    delta : deflection (n,), m.  t : sample times (n,), s, strictly increasing.
+    law : relaxation law (:func:`relaxation_law`).
+
+    Returns
+    -------
+    zeta : (n,), m.
+    """
+    t = _time(t)
+    delta = _vector(delta, "delta", t.size)
+    z, r = relaxation_law(law)
+    return _relaxed(delta, np.diff(t), z, r)
+
+
+def two_slope_relaxation(
+    tau_c: float, tau_r: float, zeta_c: float, zeta_r: float, ratio: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Relaxation law of a stiffness in series with a two-slope dashpot: time constant
+    ``tau_c`` (s) for ``ζ > 0`` (compression) and ``tau_r`` for ``ζ < 0`` up to the knees
+    ``zeta_c``, ``−zeta_r`` (m), beyond them the rate grows ``1/ratio`` times faster
+    (a damper's blow-off, ``0 < ratio``)."""
+    zk = np.array([-2.0 * zeta_r, -zeta_r, 0.0, zeta_c, 2.0 * zeta_c])
+    rk = np.array(
+        [
+            -(zeta_r + zeta_r / ratio) / tau_r,
+            -zeta_r / tau_r,
+            0.0,
+            zeta_c / tau_c,
+            (zeta_c + zeta_c / ratio) / tau_c,
+        ]
+    )
+    return zk, rk
+
+
+class RelaxationFit(NamedTuple):
+    """Result of :func:`fit_relaxation`: the law, its parameters
+    ``(tau_c, tau_r, zeta_c, zeta_r, ratio)`` (s, s, m, m, 1) and the fit's RMS residual (N)."""
+
+    law: tuple[np.ndarray, np.ndarray]
+    params: tuple[float, ...]
+    rms: float
+
+
+def _additive_design(
+    U: np.ndarray, lo: np.ndarray, up: np.ndarray, degrees: Sequence[int]
+) -> np.ndarray:
+    cols = [np.ones((U.shape[0], 1))]
+    for j, n in enumerate(degrees):
+        t = 2.0 * (U[:, j] - lo[j]) / (up[j] - lo[j]) - 1.0
+        cols.append(np.polynomial.legendre.legvander(t, n)[:, 1:])
+    return np.hstack(cols)
+
+
+def fit_relaxation(
+    runs: Sequence[Mapping[str, Any]],
+    degrees: Sequence[int] = (14, 14, 9),
+    start: Sequence[float] = (8e-3, 8e-3, 1e-3, 1e-3, 0.5),
+    max_evaluations: int = 400,
+) -> RelaxationFit:
+    """Fit a :func:`two_slope_relaxation` law to element data.
+
+    For each candidate law the state ``ζ`` of every run is integrated
+    (:func:`relaxed_state`) and an additive Legendre polynomial in ``(δ, δ̇, ζ)`` of
+    ``degrees`` is fitted by least squares; Nelder–Mead (in log parameters, ``ratio ≤ 1``)
+    minimises its RMS residual.
+
+    Parameters
+    ----------
+    runs : mappings with ``t`` (s), ``delta`` (m), ``delta_dot`` (m/s) full histories, the
+        sample indices ``rows`` used in the fit and ``force`` (N) at those rows.
+    degrees : degrees of the inner additive polynomial in ``(δ, δ̇, ζ)``.
+    start : initial ``(tau_c, tau_r, zeta_c, zeta_r, ratio)``.
+    max_evaluations : Nelder–Mead budget.
+    """
+    V = np.concatenate([np.asarray(r["force"], float) for r in runs])
+    fixed = [(np.asarray(r["delta"], float), np.diff(_time(r["t"]))) for r in runs]
+    base = np.concatenate([np.column_stack([r["delta"], r["delta_dot"]])[r["rows"]] for r in runs])
+
+    def params(x: np.ndarray) -> tuple[float, ...]:
+        p = np.exp(x)
+        p[4] = min(p[4], 1.0)
+        return tuple(float(v) for v in p)
+
+    def residual(x: np.ndarray) -> float:
+        z, r = two_slope_relaxation(*params(x))
+        zeta = np.concatenate(
+            [_relaxed(d, h, z, r)[run["rows"]] for (d, h), run in zip(fixed, runs, strict=True)]
+        )
+        U = np.column_stack([base, zeta])
+        A = _additive_design(U, U.min(0), U.max(0), degrees)
+        c, *_ = np.linalg.lstsq(A, V, rcond=None)
+        return float(np.sqrt(np.mean((A @ c - V) ** 2)))
+
+    res = minimize(
+        residual,
+        np.log(np.asarray(start, float)),
+        method="Nelder-Mead",
+        options={"maxfev": max_evaluations, "xatol": 1e-3, "fatol": 1e-3},
+    )
+    p = params(res.x)
+    return RelaxationFit(two_slope_relaxation(*p), p, float(res.fun))
 
 
 def _tau(tau: Any) -> float:
@@ -125,7 +326,12 @@ def maxwell_state(delta: Any, t: Any, tau: float, zeta0: float = 0.0) -> np.ndar
 
 
 def memory_features(
-    delta: Any, delta_dot: Any, t: Any, tau: float | None = None, form: str = "maxwell"
+    delta: Any,
+    delta_dot: Any,
+    t: Any,
+    tau: float | None = None,
+    form: str = "maxwell",
+    relaxation: Any = None,
 ) -> np.ndarray:
     """Inputs of a suspension element of feature form ``form`` from its time histories.
 
@@ -135,11 +341,14 @@ def memory_features(
     t : sample times (n,), s.
     tau : Maxwell time constant, s (required for ``"maxwell"``, ignored for ``"static"``).
     form : a key of :data:`FEATURE_FORMS`.
+    relaxation : nonlinear relaxation law of the ``"maxwell"`` state (:func:`relaxation_law`;
+        ``tau`` is then not used).
 
     Returns
     -------
-    U : (n, 2) ``(δ, δ̇)`` or (n, 3) ``(δ, δ̇, ζ)`` with ζ from :func:`maxwell_state` (relaxed
-    start); discard the first few ``τ`` of a record that does not start at rest.
+    U : (n, 2) ``(δ, δ̇)`` or (n, 3) ``(δ, δ̇, ζ)`` with ζ from :func:`maxwell_state` or
+    :func:`relaxed_state` (relaxed start); discard the first few ``τ`` of a record that does
+    not start at rest.
     """
     if form not in FEATURE_FORMS:
         raise ValueError(f"form must be one of {sorted(FEATURE_FORMS)}, got {form!r}")
@@ -148,6 +357,8 @@ def memory_features(
     delta_dot = _vector(delta_dot, "delta_dot", t.size)
     if form == "static":
         return np.column_stack([delta, delta_dot])
+    if relaxation is not None:
+        return np.column_stack([delta, delta_dot, relaxed_state(delta, t, relaxation)])
     if tau is None:
         raise ValueError("tau is required for the 'maxwell' feature form")
     return np.column_stack([delta, delta_dot, maxwell_state(delta, t, tau)])

@@ -26,7 +26,7 @@ FIGURES: dict[tuple[str, str], tuple[int, float, float]] = {
     ("railgym/VerticalSuspension-v1", "reference"): (2000, -2563.622377679609, 6558.676906824112),
     ("railgym/VerticalVehicle-v0", "surrogate"): (2000, -3174.296289179717, 10816.840341687202),
     ("railgym/VerticalVehicle-v0", "reference"): (2000, -3316.370003421834, 10794.997714400291),
-    ("railgym/VerticalVehicle-v1", "surrogate"): (2000, -3291.4435515151704, 10769.119952440262),
+    ("railgym/VerticalVehicle-v1", "surrogate"): (2000, -3309.0886829455762, 10783.883130550385),
     ("railgym/VerticalVehicle-v1", "reference"): (2000, -3316.370003421834, 10794.997714400291),
     ("railgym/TrainCrash-v0", "surrogate"): (458, -203.9223247835869, 3201.7601475715637),
     ("railgym/TrainCrash-v0", "reference"): (451, -198.0368619824061, 3158.0491943359375),

@@ -38,6 +38,7 @@ from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_parameters, class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
+from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -220,8 +221,8 @@ def _batch(
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
     """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
     (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
-    default is the packaged memory element (``vertical_lpr.json``, docs/validation.md)."""
-    return _surrogate_arrays(backend, surrogate, dt)
+    default is the packaged whole-vehicle element (``vehicle_lpr.json``, docs/validation.md)."""
+    return _surrogate_arrays(backend, surrogate, dt, relaxation=True)
 
 
 class _VehicleAccessors:
@@ -288,8 +289,9 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
     """
 
     #: packaged element used without ``surrogate=``, ``(form, release)`` of
-    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
-    #: element; ``("static", "")`` for ``VerticalVehicle-v1`` (docs: *Version history*)
+    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the whole
+    #: vehicle's element (:func:`~railgym.vehicles.collect_vehicle.default_vehicle_surrogate`);
+    #: ``("static", "")`` for ``VerticalVehicle-v0`` (docs: *Version history*)
     default_element: tuple[str, str] | None = None
 
     def __init__(
@@ -341,8 +343,11 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         self.profile = load_profile(profile)
         if self.profile is None:
             check_band_speed(self.cfg.band, self.speeds[1], self.cfg.dt)
-        if surrogate is None and backend == "surrogate" and self.default_element is not None:
-            surrogate = default_vertical_surrogate(*self.default_element)
+        if surrogate is None and backend == "surrogate":
+            if self.default_element is None:
+                surrogate = default_vehicle_surrogate()
+            else:
+                surrogate = default_vertical_surrogate(*self.default_element)
         lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
         self._fmu_args = (backend, fmu, fmu_map)
         sim = _batch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED), *self._fmu_args)
@@ -451,7 +456,7 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
 
 
 class VerticalVehicleEnvV0(VerticalVehicleEnv):
-    """``VerticalVehicle-v1``: the static packaged element by default (``surrogate=`` takes
+    """``VerticalVehicle-v0``: the static packaged element by default (``surrogate=`` takes
     any element, memory elements included); everything else as :class:`VerticalVehicleEnv`
     (docs/envs/vehicle_vertical.md, *Version history*)."""
 

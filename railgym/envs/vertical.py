@@ -138,13 +138,16 @@ def make_config(
     )
 
 
-def _surrogate_arrays(backend: str, surrogate: Any, dt: float, kriging: bool = False) -> LprArrays:
+def _surrogate_arrays(
+    backend: str, surrogate: Any, dt: float, kriging: bool = False, relaxation: bool = False
+) -> LprArrays:
     """Kernel arrays of the surrogate element: packaged default, a JSON path or a model.
 
     ``surrogate=`` for a backend that does not use it gives a ``UserWarning`` (it is ignored);
     a model whose inputs do not match its feature form (static: δ, δ̇; maxwell: δ, δ̇, δ − s)
     or whose ``τ`` is below ``dt/2`` (s) is rejected, and so is a Kriging unless ``kriging``
-    is set (the one-bogie kernels evaluate it).
+    is set (the one-bogie kernels evaluate it), and so is a relaxation law unless
+    ``relaxation`` is set (the whole vehicle's kernels integrate it).
     """
     if backend != "surrogate":
         if surrogate is not None:
@@ -170,7 +173,7 @@ def _surrogate_arrays(backend: str, surrogate: Any, dt: float, kriging: bool = F
             f"got {type(surrogate).__name__}",
         )
     try:
-        lpr = surrogate_arrays(surrogate, dt, kriging)
+        lpr = surrogate_arrays(surrogate, dt, kriging, relaxation)
     except ValueError as exc:
         raise val.FieldError("surrogate", str(exc), full=True) from None
     _check_element_units(surrogate, lpr.lo.shape[0])

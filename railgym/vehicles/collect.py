@@ -65,7 +65,13 @@ from railgym.vehicles.vertical import (
 from surrogates import io
 from surrogates.builder import BuildReport, build
 from surrogates.features import vertical_features
-from surrogates.memory import KNOWN_PHYSICS, TauSelection, element_form, maxwell_state
+from surrogates.memory import (
+    KNOWN_PHYSICS,
+    TauSelection,
+    element_form,
+    maxwell_state,
+    relaxed_state,
+)
 from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression
 from surrogates.passive import PassiveLegendreRegression
@@ -211,10 +217,12 @@ def memory_training_data(
     tau: float,
     known_physics: Iterable[str] = ("bump_stop",),
     vehicle: str = "manchester",
+    relaxation: Any = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of the memory element from a :func:`collect_design` result.
 
-    ``ζ = δ − s`` is built from each run's full-rate history (:func:`maxwell_state`, relaxed
+    ``ζ = δ − s`` is built from each run's full-rate history (:func:`maxwell_state`, or
+    :func:`~surrogates.memory.relaxed_state` with a nonlinear ``relaxation`` law; relaxed
     start) and taken at the run's ``rows`` after :data:`WARMUP`; with ``"bump_stop"`` in
     ``known_physics`` the output is ``F_s − F_bump(δ)``.
 
@@ -229,7 +237,10 @@ def memory_training_data(
     for r in data["runs"]:
         rows = r["rows"][r["t"][r["rows"]] >= WARMUP]
         d = r["delta"]
-        zeta = maxwell_state(d, r["t"], tau)
+        if relaxation is None:
+            zeta = maxwell_state(d, r["t"], tau)
+        else:
+            zeta = relaxed_state(d, r["t"], relaxation)
         force = r["force"][rows]
         if "bump_stop" in known:
             force = force - np.array([bump_stop_force(x, p) for x in d[rows]])
@@ -355,6 +366,7 @@ def save_vertical_surrogate(
         form=form,
         tau=feat.get("tau"),
         known_physics=feat.get("known_physics", []),
+        relaxation=feat.get("relaxation"),
         metadata={
             "source": source,
             "command": command or f"python -m railgym.vehicles.collect --features {form}",
@@ -451,7 +463,7 @@ def _element_pairs(
     form = element_form(getattr(model, "features_", None))
     data = {"runs": [{**run, "rows": rows}]}
     if form.form == "maxwell":
-        return memory_training_data(data, form.tau, form.known_physics, vehicle)
+        return memory_training_data(data, form.tau, form.known_physics, vehicle, form.relaxation)
     keep = rows[run["t"][rows] >= WARMUP]
     return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
 

@@ -16,7 +16,12 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.track import fra_profile_with_slope
-from railgym.vehicles.collect import _element_pairs, _initial_pairs
+from railgym.vehicles.collect import (
+    _element_pairs,
+    _initial_pairs,
+    memory_training_data,
+)
+from railgym.vehicles.collect_vehicle import VEHICLE_DESIGN, collect_vehicle
 from railgym.vehicles.refinement import RefineOptions, holdout_error, refit_worst
 from railgym.vehicles.vehicle import (
     DEFAULT_DT,
@@ -123,6 +128,15 @@ def run_vehicle_policy(
     }
 
 
+def _vehicle_pairs(model: SurrogateModel, vehicle: str) -> tuple[np.ndarray, np.ndarray]:
+    """Training pairs of the whole vehicle's recipe (:data:`VEHICLE_DESIGN`) in the feature
+    form of ``model`` (an element with a relaxation law)."""
+    form = element_form(getattr(model, "features_", None))
+    base = load_whole_vehicle(vehicle).suspension.name
+    data = collect_vehicle(VEHICLE_DESIGN, vehicle)
+    return memory_training_data(data, form.tau, form.known_physics, base, form.relaxation)
+
+
 def refine_vehicle(
     model: SurrogateModel,
     policy: Any,
@@ -154,7 +168,12 @@ def refine_vehicle(
     v0 = o.speed_or_class()
     off = wheelset_offsets(veh, v0, dt)
     m = n_steps + int(np.ceil(off.max())) + 2
-    U, V = _initial_pairs(model, base) if data is None else (np.asarray(data[0]), data[1])
+    if data is not None:
+        U, V = np.asarray(data[0]), data[1]
+    elif element_form(getattr(model, "features_", None)).relaxation is not None:
+        U, V = _vehicle_pairs(model, vehicle)
+    else:
+        U, V = _initial_pairs(model, base)
     V = np.asarray(V, dtype=np.float64)
 
     def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -28,8 +28,9 @@ two bogies carrying half the carbody each, the model reduces to the one-bogie mo
 State per vehicle: positions ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]``, then their rates;
 ``"dynamic"`` appends ``[Δp_b, Δp_r, y]`` of bogie 0 and then of bogie 1; ``"surrogate"``
 with a memory element (:mod:`surrogates.memory`, ``"maxwell"`` form) appends the Maxwell
-states ``[s_0, s_1]`` of the two bogies (``ṡ_i = (δ_i − s_i)/τ``, element inputs
-``(δ_i, δ̇_i, δ_i − s_i)``), the same element at each bogie (:func:`state_size`). An
+states ``[s_0, s_1]`` of the two bogies (``ṡ_i = (δ_i − s_i)/τ``, or ``g(δ_i − s_i)`` with
+the element's nonlinear relaxation law; element inputs ``(δ_i, δ̇_i, δ_i − s_i)``), the
+same element at each bogie (:func:`state_size`). An
 element with the ``"bump_stop"`` known physics adds the vehicle's bump-stop law to ``F̂``.
 
 Track input: one profile per vehicle sampled on the time grid of the rear wheelset,
@@ -65,6 +66,7 @@ from railgym.vehicles.vertical.elements import (
     dynamic_element,
     in_contact,
 )
+from surrogates.memory import relaxation_rate
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside, lpr_scratch
 
 VARIANTS = ("linear", "static", "dynamic", "surrogate")
@@ -217,6 +219,8 @@ class Lpr(NamedTuple):
     bump: bool  # add the vehicle's bump-stop law to the element's value
     table: np.ndarray  # additive coefficient table (memory element's fast path)
     additive: bool
+    relax_z: np.ndarray  # knots of a nonlinear relaxation law ṡ = g(δ − s), m (empty: linear)
+    relax_r: np.ndarray  # its rates at the knots, m/s
 
 
 class VehicleArrays(NamedTuple):
@@ -267,7 +271,7 @@ def kernel_params(vehicle: WholeVehicle, flexible: bool = True) -> Params:
 def lpr_arrays(surrogate: Any = None, dt: float | None = None) -> Lpr:
     """:class:`Lpr` of a fitted LPR model (or its ``kernel_arrays()``), static or memory
     form; placeholders for None. ``dt`` (s), when given, is checked against ``2τ``."""
-    return Lpr(*surrogate_arrays(surrogate, dt)[: len(Lpr._fields)])
+    return Lpr(*surrogate_arrays(surrogate, dt, relaxation=True)[: len(Lpr._fields)])
 
 
 def state_size(variant: str, lpr: Lpr | None = None) -> int:
@@ -368,7 +372,10 @@ def _rhs(
             if memory:
                 sm = state[N_MECH + i]
                 element_input[2] = d - sm
-                rates[N_MECH + i] = (d - sm) / lpr.tau
+                if lpr.relax_z.shape[0] > 0:
+                    rates[N_MECH + i] = relaxation_rate(d - sm, lpr.relax_z, lpr.relax_r)
+                else:
+                    rates[N_MECH + i] = (d - sm) / lpr.tau
             out_i = lpr_is_outside(element_input, lpr.lo, lpr.up)
             if out_i:
                 outside += 1

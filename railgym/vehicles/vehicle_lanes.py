@@ -7,9 +7,9 @@ that of :func:`railgym.vehicles.vehicle._advance_one` operation for operation (t
 evaluation that of :func:`~surrogates.models.lpr.lpr_eval_into` for two inputs), so both
 kernels give bit-identical results (tested). A memory element (three inputs, additive) adds
 the two Maxwell states in rows of their own after those of the static layout (which keeps its
-rows and loops) and is summed along its Legendre recurrences as
-:func:`~surrogates.models.lpr.lpr_additive_inside` does. Element inputs outside the training
-box are evaluated lane by lane by ``lpr_eval_into``.
+rows and loops; a nonlinear relaxation law is evaluated lane by lane) and is summed along its
+Legendre recurrences as :func:`~surrogates.models.lpr.lpr_additive_inside` does. Element
+inputs outside the training box are evaluated lane by lane by ``lpr_eval_into``.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from railgym.vehicles.vertical.elements import bump_stop_force
+from surrogates.memory import relaxation_rate
 from surrogates.models.lpr import additive_terms, lpr_eval_into, lpr_scratch
 
 __all__ = ["LANES", "LANES_MIN", "hermite", "lanes_block"]
@@ -246,10 +247,16 @@ def _rhs(
                 + params.phi_a * block[state_row + 9, l]
             )
         if tau > 0.0:
-            for l in range(n_lanes):
-                sm = block[maxwell_row + i, l]
-                block[_UZ, l] = block[_U, l] - sm
-                block[mdr + i, l] = (block[_U, l] - sm) / tau
+            if lpr.relax_z.shape[0] > 0:
+                for l in range(n_lanes):
+                    sm = block[maxwell_row + i, l]
+                    block[_UZ, l] = block[_U, l] - sm
+                    block[mdr + i, l] = relaxation_rate(block[_U, l] - sm, lpr.relax_z, lpr.relax_r)
+            else:
+                for l in range(n_lanes):
+                    sm = block[maxwell_row + i, l]
+                    block[_UZ, l] = block[_U, l] - sm
+                    block[mdr + i, l] = (block[_U, l] - sm) / tau
             _element_memory(block, lpr, lpr_work, element_input, n_lanes)
         else:
             _element(block, legendre, lpr, lpr_work, element_input, n_lanes)

@@ -219,12 +219,29 @@ def test_wk_weighted_reward_and_rendering():
 
 def test_memory_element_is_the_default_and_static_is_accepted():
     from railgym.vehicles.collect import default_vertical_surrogate
+    from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 
     env = gym.make("railgym/VerticalVehicle-v1", backend="surrogate", duration=0.2)
-    memory = default_vertical_surrogate("maxwell").kernel_arrays()[1]
-    np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, memory)
+    default = default_vehicle_surrogate()
+    np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, default.kernel_arrays()[1])
+    law = default.features_["relaxation"]
+    np.testing.assert_array_equal(env.unwrapped.sim.lpr.relax_z, law["zeta"])
+    np.testing.assert_array_equal(env.unwrapped.sim.lpr.relax_r, law["rate"])
     assert env.unwrapped.sim.lpr.tau > 0 and env.unwrapped.state.shape == (16,)
+    one_bogie = default_vertical_surrogate("maxwell")
+    env = gym.make("railgym/VerticalVehicle-v1", surrogate=one_bogie, duration=0.2)
+    assert env.unwrapped.sim.lpr.relax_z.size == 0 and env.unwrapped.state.shape == (16,)
     static = default_vertical_surrogate("static")
     env = gym.make("railgym/VerticalVehicle-v1", surrogate=static, duration=0.2)
     np.testing.assert_array_equal(env.unwrapped.sim.lpr.coef, static.kernel_arrays()[1])
     assert env.unwrapped.state.shape == (14,)
+
+
+def test_one_bogie_env_refuses_an_element_with_a_relaxation_law():
+    """The whole vehicle's element carries a nonlinear relaxation law that only the whole
+    vehicle's kernels integrate: the one-bogie env refuses it, naming the field."""
+    from railgym._checks import FieldError
+    from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+
+    with pytest.raises(FieldError, match="surrogate.*relaxation"):
+        gym.make("railgym/VerticalSuspension-v1", surrogate=default_vehicle_surrogate())

@@ -117,7 +117,7 @@ DOC_ROWS: list[tuple[str, dict[str, Any], Mutation, str]] = [
     ("kind-number", LPR_DOC, _set("model.kind", 3), "model.kind"),
     ("model-missing", LPR_DOC, _drop("model"), "'model'"),
     ("model-string", LPR_DOC, _set("model", "lpr"), "model.kind"),
-    ("schema-future", LPR_DOC, _set("schema_version", 3), "schema_version"),
+    ("schema-future", LPR_DOC, _set("schema_version", 4), "schema_version"),
     ("schema-bool", LPR_DOC, _set("schema_version", True), "schema_version"),
     ("schema-missing", LPR_DOC, _drop("schema_version"), "schema_version"),
     ("format-wrong", LPR_DOC, _set("format", "pickle"), "'format'"),

@@ -1,6 +1,7 @@
-"""The whole vehicle on a memory (Maxwell-state) element at both bogies: the compiled kernel
-against an independent numpy RK4, a synthetic Maxwell element recovered from the data of both
-bogies, lane kernel = per-vehicle kernel, and the env with a memory element."""
+"""The whole vehicle on a memory (Maxwell-state) element at both bogies, with the linear or a
+nonlinear relaxation law of the state: the compiled kernel against an independent numpy RK4,
+a synthetic Maxwell element recovered from the data of both bogies, lane kernel =
+per-vehicle kernel, and the env with a memory element."""
 
 import gymnasium as gym
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 
 import railgym  # noqa: F401
 from railgym.vehicles.collect import default_vertical_surrogate, memory_training_data
+from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 from railgym.vehicles.vehicle import (
     N_MECH,
     PARALLEL_MIN,
@@ -45,6 +47,30 @@ def memory():
     return default_vertical_surrogate("maxwell")
 
 
+@pytest.fixture(scope="module", params=["one-bogie", "whole-vehicle"])
+def element(request):
+    """The packaged memory elements: the one-bogie one (linear Maxwell law) and the whole
+    vehicle's default (nonlinear relaxation law)."""
+    if request.param == "one-bogie":
+        return default_vertical_surrogate("maxwell")
+    return default_vehicle_surrogate()
+
+
+def relaxation(element):
+    """``g(ζ)`` of the element's Maxwell state (numpy, independent of the kernels'):
+    ``ζ/τ`` or the piecewise-linear law, continued linearly beyond its end knots."""
+    law = element.features_.get("relaxation")
+    if law is None:
+        return lambda z: z / element.features_["tau"]
+    k, r = np.array(law["zeta"]), np.array(law["rate"])
+
+    def g(z):
+        j = int(np.clip(np.searchsorted(k, z) - 1, 0, k.size - 2))
+        return r[j] + (r[j + 1] - r[j]) * (z - k[j]) / (k[j + 1] - k[j])
+
+    return g
+
+
 def track(x):
     """Height (m) and slope of the analytic track at positions ``x`` (m)."""
     z = sum(a * np.sin(2 * np.pi * x / lam + ph) for a, lam, ph in WAVES)
@@ -64,7 +90,7 @@ def numpy_rk4(vehicle, element, force, n_steps):
     wq = 2 * np.pi * vehicle.bending_frequency
     mq, mc, jc = vehicle.bending_modal_mass, vehicle.carbody_mass, vehicle.carbody_pitch_inertia
     mb, jb = vehicle.bogie_mass, vehicle.bogie_pitch_inertia
-    tau = element.features_["tau"]
+    rate = relaxation(element)
     pos = vehicle.wheelset_positions - vehicle.wheelset_positions[-1]
 
     def rhs(t, x):
@@ -79,7 +105,7 @@ def numpy_rk4(vehicle, element, force, n_steps):
             dd = vb[i] - vc - xi * wc - phi * vq
             u = np.array([[d, dd, d - sm[i]]])
             f[i] = element.predict(u)[0] + bump_stop_force(d, e) + force[i]
-            dx[14 + i] = (d - sm[i]) / tau
+            dx[14 + i] = rate(d - sm[i])
             p_lead = 0.5 * s.k1 * (w[2 * i] - zb[i] - b * tb[i]) + 0.5 * s.c1 * (
                 wd[2 * i] - vb[i] - b * wb[i]
             )
@@ -108,10 +134,11 @@ def numpy_rk4(vehicle, element, force, n_steps):
     return np.array(xs), floor
 
 
-def test_memory_kernel_matches_an_independent_numpy_rk4(vehicle, memory):
-    """Scalar kernel with the packaged memory element at both bogies, actuators pushing, against
+def test_memory_kernel_matches_an_independent_numpy_rk4(vehicle, element):
+    """Scalar kernel with a packaged memory element at both bogies, actuators pushing, against
     the numpy RK4 of the same equations on the analytic track (the kernel's Hermite track
     samples add ~1e-7 relative)."""
+    memory = element
     n_steps = 250
     force = np.array([3000.0, -2000.0])
     off = wheelset_offsets(vehicle, SPEED, DT)
@@ -192,7 +219,7 @@ def test_synthetic_maxwell_element_is_recovered_at_both_bogies(vehicle):
 
 
 @pytest.mark.parametrize("n", [LANES_MIN + 3, 2 * LANES + 5, PARALLEL_MIN + 37])
-def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle, memory, n):
+def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle, element, n):
     """``advance`` (lane kernel) with the memory element equals ``advance_serial`` bit for bit,
     Maxwell states included, through bump-stop contact, inputs outside the box and a
     diverging vehicle."""
@@ -205,7 +232,7 @@ def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle
     force = rng.uniform(-2e4, 2e4, (n, 2))
     p = kernel_params(vehicle)
     e = vehicle.suspension.kernel_params().record()
-    lpr = lpr_arrays(memory, DT)
+    lpr = lpr_arrays(element, DT)
     runs = []
     for step in (advance_serial, advance):
         bt, out = new_arrays(n, "surrogate", samples, lpr)
@@ -306,3 +333,76 @@ def test_vehicle_validation_cli_prints_small_errors_for_the_memory_element(capsy
     cells = [c.strip() for c in line.split("|")[4:7]]
     medians = [float(c.split("/")[0]) for c in cells]
     assert all(0.0 < v < 15.0 for v in medians), line
+
+
+def test_synthetic_relaxation_law_is_recovered_at_both_bogies(vehicle):
+    """A vehicle whose secondary elements are ``F = k·δ + c·δ̇ + k_s·ζ`` with a two-slope
+    relaxation law of the state: ``fit_relaxation`` on the pooled data of both bogies
+    (deflections recorded by the kernel) recovers the law, and the refitted element
+    reproduces the floor accelerations."""
+    from surrogates.memory import fit_relaxation, shortest_time_constant, two_slope_relaxation
+
+    law_params = (5e-3, 8e-3, 1e-4, 1.5e-4, 0.3)
+    law = two_slope_relaxation(*law_params)
+    truth, _ = synthetic_element(0.01)
+    truth.features_ = {
+        "form": "maxwell",
+        "tau": shortest_time_constant(law),
+        "known_physics": [],
+        "relaxation": {"zeta": law[0].tolist(), "rate": law[1].tolist()},
+    }
+    off = wheelset_offsets(vehicle, SPEED, DT)
+    n_steps = 1500
+    m = n_steps + int(off.max()) + 3
+    z, dz = track(SPEED * DT * np.arange(m))
+    rec = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=truth)
+    p = kernel_params(vehicle)
+    x = np.concatenate([np.zeros((1, N_MECH + 2)), rec["states"][0]])
+    t = np.arange(n_steps + 1) * DT
+    runs = []
+    for i, xi in enumerate((p.a, -p.a)):
+        d = x[:, 3 + 2 * i] - x[:, 0] - xi * x[:, 1] - p.phi_a * x[:, 2]
+        dd = x[:, 10 + 2 * i] - x[:, 7] - xi * x[:, 8] - p.phi_a * x[:, 9]
+        zeta = d - x[:, N_MECH + i]
+        assert zeta.max() > 2 * law_params[2] and zeta.min() < -2 * law_params[3]  # past knees
+        rows = np.arange(25, t.size)
+        force = np.concatenate([[0.0], rec["fs"][0, :, i]])[rows]
+        runs.append({"t": t, "delta": d, "delta_dot": dd, "rows": rows, "force": force})
+    fit = fit_relaxation(runs, degrees=(1, 1, 1), start=(8e-3, 8e-3, 3e-4, 3e-4, 0.5))
+    np.testing.assert_allclose(fit.params[:4], law_params[:4], rtol=0.03)
+    # few samples lie far past the knees: the blow-off ratio is the least determined
+    assert fit.params[4] == pytest.approx(law_params[4], rel=0.06)
+    V = np.concatenate([r["force"] for r in runs])
+    assert fit.rms < 0.01 * np.sqrt(np.mean(V**2))
+    data = {"runs": [{**r, "rows": np.arange(t.size), "force": np.zeros(t.size)} for r in runs]}
+    for r, run in zip(data["runs"], runs, strict=True):
+        r["force"][run["rows"]] = run["force"]
+        r["rows"] = run["rows"]
+    U, V = memory_training_data(data, 0.0, (), "manchester", fit.law)
+    fitted = LegendreRegression(degree=(1, 1, 1)).fit(U, V)
+    fitted.features_ = {
+        **truth.features_,
+        "relaxation": {"zeta": list(fit.law[0]), "rate": list(fit.law[1])},
+    }
+    fitted.features_["tau"] = shortest_time_constant(fit.law)
+    again = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=fitted)
+    a, b = again["acc"][0, :, :3], rec["acc"][0, :, :3]
+    assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
+
+
+@pytest.mark.slow
+def test_rebuilding_the_packaged_vehicle_element_gives_the_same_model():
+    """The whole vehicle's recipe at the packaged element's degrees (the full degree search is
+    the regeneration command): the same relaxation law and the same force map."""
+    from railgym.vehicles.collect_vehicle import build_vehicle_surrogate
+
+    packaged = default_vehicle_surrogate()
+    degree = tuple(packaged.degree)
+    model, sel, data = build_vehicle_surrogate(degrees=[degree])
+    assert sel.best[1] == degree
+    law, want = model.features_["relaxation"], packaged.features_["relaxation"]
+    np.testing.assert_allclose(law["zeta"], want["zeta"], rtol=1e-9)
+    np.testing.assert_allclose(law["rate"], want["rate"], rtol=1e-9)
+    U = data["U_memory"]
+    scale = np.abs(data["V_memory"]).max()
+    np.testing.assert_allclose(model.predict(U), packaged.predict(U), rtol=0, atol=1e-8 * scale)

@@ -167,7 +167,7 @@ def test_maxwell_element_round_trips_through_json(tmp_path, passive):
     back = io.load(path)
     assert type(back) is type(model)
     assert back.kind == ("lpr_passive" if passive else "lpr")
-    assert element_form(back.features_) == ("maxwell", TAU, ("bump_stop",))
+    assert element_form(back.features_) == ("maxwell", TAU, ("bump_stop",), None)
     U = np.random.default_rng(1).uniform(-0.05, 0.05, (50, 3))
     np.testing.assert_array_equal(back.predict(U), model.predict(U))
     assert all(
@@ -198,7 +198,7 @@ def test_schema_version_1_loads_as_the_static_form(tmp_path):
     path = tmp_path / "v1.json"
     path.write_text(json.dumps(doc))
     back = io.load(path)
-    assert element_form(back.features_) == ("static", None, ())
+    assert element_form(back.features_) == ("static", None, (), None)
     U = np.random.default_rng(2).uniform(-1, 1, (20, 2))
     np.testing.assert_array_equal(back.predict(U), model.predict(U))
     assert surrogate_arrays(back).tau == 0.0

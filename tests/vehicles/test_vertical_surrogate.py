@@ -38,7 +38,7 @@ def test_rebuilding_the_packaged_memory_element_gives_the_same_model(packaged):
     """The recipe at its chosen τ and degrees (the full search is the regeneration command)."""
     form = element_form(packaged.features_)
     chosen = packaged.metadata_["report"]["chosen"]
-    assert form == ("maxwell", chosen["tau"], ("bump_stop",))
+    assert form == ("maxwell", chosen["tau"], ("bump_stop",), None)
     degree = tuple(packaged.degree)
     model, sel, data = build_memory_surrogate(taus=(form.tau,), degrees=[degree])
     assert sel.best == (form.tau, degree)

@@ -52,6 +52,10 @@ class LprArrays(NamedTuple):
     bump: bool  #: known physics: add :func:`bump_stop_force` of the vehicle to ``F̂``
     table: np.ndarray  #: float64 (d, nmax + 1) additive coefficient table (``additive_table``)
     additive: bool  #: ``table`` holds the model (no coupled terms): fast path inside the box
+    #: knots ``ζ`` (m) of the Maxwell state's nonlinear relaxation law ``ṡ = g(δ − s)``
+    #: (:mod:`surrogates.memory`; empty: the linear law ``(δ − s)/τ``); whole vehicle only
+    relax_z: np.ndarray = _NONE1
+    relax_r: np.ndarray = _NONE1  #: its rates ``g`` at the knots, m/s
     kriging: bool = False  #: the element is a Kriging (the fields below), not an LPR
     xs: np.ndarray = _NONE2  #: Kriging: float64 (n, d) training inputs in the unit box
     xs_ell: np.ndarray = _NONE2  #: Kriging: float64 (n, d) ``xs / ℓ``

@@ -21,7 +21,7 @@ from railgym.vehicles.vertical.lanes import (
     advance_lanes,
     advance_lanes_parallel,
 )
-from surrogates.memory import FEATURE_FORMS, element_form
+from surrogates.memory import FEATURE_FORMS, element_form, shortest_time_constant
 from surrogates.models.kriging import KrigingArrays
 from surrogates.models.lpr import EXTRAPOLATION_MODES, additive_table, lpr_scratch
 
@@ -227,7 +227,7 @@ KERNELS = {
 
 
 def surrogate_arrays(
-    surrogate: Any = None, dt: float | None = None, kriging: bool = False
+    surrogate: Any = None, dt: float | None = None, kriging: bool = False, relaxation: bool = False
 ) -> LprArrays:
     """:class:`LprArrays` from a fitted LPR model (or its ``kernel_arrays()`` tuple), or with
     ``kriging=True`` also from a fitted :class:`~surrogates.models.kriging.Kriging`.
@@ -238,7 +238,9 @@ def surrogate_arrays(
     them. ``dt`` (s), when given, must not exceed ``2τ`` (RK4 stability of the Maxwell
     state). A model whose input count does not match its form (2 static, 3 maxwell) is
     rejected, and so is a Kriging unless ``kriging`` is set (the vertical kernels of this
-    package evaluate it; kernels that read the LPR fields only do not).
+    package evaluate it; kernels that read the LPR fields only do not), and a memory element
+    with a nonlinear relaxation law unless ``relaxation`` is set (the whole vehicle's kernels
+    integrate it, the one-bogie kernels do not).
     """
     if surrogate is None:
         return LprArrays(
@@ -283,9 +285,18 @@ def surrogate_arrays(
         raise ValueError(f"surrogate extrapolation mode must be one of {EXTRAPOLATION_MODES}")
     tau, bump = _form_physics(form, dt)
     table = additive_table(exps, coef)
-    if table is None:
-        return LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
-    return LprArrays(exps, coef, lo, up, int(mode), tau, bump, table, True)
+    arrays = LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
+    if table is not None:
+        arrays = arrays._replace(table=table, additive=True)
+    if form.relaxation is not None:
+        if not relaxation:
+            raise ValueError(
+                "surrogate has a nonlinear relaxation law (features.relaxation), which the "
+                "whole vehicle's kernels integrate (VerticalVehicle-v1, "
+                "railgym.vehicles.vehicle); the one-bogie model takes the linear Maxwell form"
+            )
+        arrays = arrays._replace(relax_z=form.relaxation[0], relax_r=form.relaxation[1])
+    return arrays
 
 
 def _form_physics(form: Any, dt: float | None) -> tuple[float, bool]:
@@ -296,6 +307,13 @@ def _form_physics(form: Any, dt: float | None) -> tuple[float, bool]:
         raise ValueError(
             f"surrogate features.tau = {tau} s is below half the integration step dt = {dt} s"
         )
+    if dt is not None and form.relaxation is not None:
+        fastest = shortest_time_constant(form.relaxation)
+        if dt > 2.0 * fastest:
+            raise ValueError(
+                f"surrogate features.relaxation has a time constant of {fastest} s, below "
+                f"half the integration step dt = {dt} s"
+            )
     return tau, "bump_stop" in form.known_physics
 
 
@@ -307,6 +325,8 @@ def _kriging_arrays(k: KrigingArrays, form: Any, dt: float | None) -> LprArrays:
             f"surrogate of feature form {form.form!r} must have {d} inputs "
             f"{FEATURE_FORMS[form.form]}; got a Kriging with {k.lo.shape[0]}"
         )
+    if form.relaxation is not None:
+        raise ValueError("a Kriging element takes the linear Maxwell form (no relaxation law)")
     tau, bump = _form_physics(form, dt)
     return LprArrays(
         np.zeros((1, d), np.int64),
@@ -318,15 +338,15 @@ def _kriging_arrays(k: KrigingArrays, form: Any, dt: float | None) -> LprArrays:
         bump,
         np.zeros((d, 1)),
         False,
-        True,
-        k.xs,
-        k.xs_ell,
-        k.ell,
-        k.weights,
-        k.beta,
-        k.y_mean,
-        k.y_std,
-        k.kernel,
+        kriging=True,
+        xs=k.xs,
+        xs_ell=k.xs_ell,
+        ell=k.ell,
+        weights=k.weights,
+        beta=k.beta,
+        y_mean=k.y_mean,
+        y_std=k.y_std,
+        kernel=k.kernel,
     )
 
 
