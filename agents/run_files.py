@@ -17,7 +17,7 @@ import railgym
 from agents.train_config import RUN_KEY
 from railgym.report.output import write_text_atomic
 
-__all__ = ["read_run", "speed_text", "versions", "write_config", "write_csv"]
+__all__ = ["read_run", "run_folder", "speed_text", "versions", "write_config", "write_csv"]
 
 
 class _YamlConfig(Protocol):
@@ -40,6 +40,16 @@ def write_config(out: Path, cfg: _YamlConfig, run: dict[str, Any]) -> None:
     data = cfg.to_yaml_dict()
     data[RUN_KEY] = run
     write_text_atomic(out / "config.yaml", yaml.safe_dump(data, sort_keys=False))
+
+
+def run_folder(config: Any, out: str | Path | None) -> Path:
+    """The output folder of a run: ``out``, else ``runs/<config stem>/`` in the working
+    folder (``out`` is required when the config is a dict)."""
+    if out is not None:
+        return Path(out)
+    if isinstance(config, dict):
+        raise ValueError("out is required when the config is given as a dict")
+    return Path("runs") / Path(config).stem
 
 
 def read_run(out: Path) -> dict[str, Any]:

@@ -71,7 +71,7 @@ except ImportError as _err:
 
 from agents.envelope import EnvelopeVectorEnv, check_envelope
 from agents.policy_io import write_manifest
-from agents.run_files import read_run, speed_text, versions, write_config
+from agents.run_files import read_run, run_folder, speed_text, versions, write_config
 from agents.train_config import (
     ALGOS,
     MAX_SEED,
@@ -372,10 +372,7 @@ def train(
     starts.
     """
     cfg = load_config(config, algo)
-    if out is None:
-        if isinstance(config, dict):
-            raise ValueError("out is required when the config is given as a dict")
-        out = Path("runs") / Path(config).stem
+    out = run_folder(config, out)
     if total_timesteps is not None:
         cfg.n_timesteps = val.integer(total_timesteps, "total_timesteps", 1, MAX_TIMESTEPS)
     if seed is not None:

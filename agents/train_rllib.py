@@ -77,7 +77,14 @@ try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' ex
     from ray.rllib.core.rl_module.rl_module import RLModule
     from ray.tune.registry import register_env
 
-    from agents.run_files import read_run, speed_text, versions, write_config, write_csv
+    from agents.run_files import (
+        read_run,
+        run_folder,
+        speed_text,
+        versions,
+        write_config,
+        write_csv,
+    )
     from agents.train import evaluate, make_vec
     from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, _kwargs
 except ImportError as _err:
@@ -305,10 +312,7 @@ def train_rllib(
     ``iterations`` and ``seed`` override the config; ``address`` joins a Ray cluster.
     """
     cfg = load_rllib_config(config)
-    if out is None:
-        if isinstance(config, dict):
-            raise ValueError("out is required when the config is given as a dict")
-        out = Path("runs") / Path(config).stem
+    out = run_folder(config, out)
     if iterations is not None:
         cfg.iterations = val.integer(iterations, "iterations", 1, MAX_ITERATIONS)
     if seed is not None:
