@@ -143,25 +143,16 @@ def test_envelope_evaluation_of_the_baselines_at_one_speed(capsys):
     assert envelope_table(rows) in out and out.count("| 40 |") == 6
 
 
-def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_path):
+def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_path, tiny_ppo_block):
     pytest.importorskip("stable_baselines3")
     from agents.train import train
 
-    block = {
-        "algo": "ppo",
-        "n_timesteps": 64,
-        "n_envs": 1,
-        "seed": 0,
-        "vectorization_mode": "sync",
-        "env_kwargs": {"backend": "surrogate", "scenario": "envelope", "control_dt": 0.005},
-        "eval_freq": 10**6,
-        "n_eval_episodes": 1,
-        "checkpoint_freq": 10**6,
-        "n_steps": 64,
-        "batch_size": 64,
-        "n_epochs": 1,
-        "policy_kwargs": {"net_arch": [8]},
-    }
+    block = tiny_ppo_block(
+        n_timesteps=64,
+        n_envs=1,
+        vectorization_mode="sync",
+        env_kwargs={"backend": "surrogate", "scenario": "envelope", "control_dt": 0.005},
+    )
     out = train({"railgym/TrainCrash-v1": block}, tmp_path / "ppo_crash", progress=False)
     rows = evaluate_envelope([str(out / "model.zip"), "passive"], speeds_kmh=(30.0,))
     names = ("passive", "best constant", "speed-adaptive", "ppo_crash")
@@ -171,24 +162,11 @@ def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_pa
         assert np.all(np.isfinite(c.peak_decel_g)) and np.all(c.intrusion_m >= 0.0)
 
 
-def test_vehicle_policy_zip_is_loaded_with_the_manifest(tmp_path, capsys):
+def test_vehicle_policy_zip_is_loaded_with_the_manifest(tmp_path, capsys, tiny_ppo_block):
     pytest.importorskip("stable_baselines3")
     from agents.train import train
 
-    block = {
-        "algo": "ppo",
-        "n_timesteps": 128,
-        "n_envs": 2,
-        "seed": 0,
-        "env_kwargs": {"backend": "linear", "duration": 1.0},
-        "eval_freq": 10**6,
-        "n_eval_episodes": 1,
-        "checkpoint_freq": 10**6,
-        "n_steps": 64,
-        "batch_size": 64,
-        "n_epochs": 1,
-        "policy_kwargs": {"net_arch": [8]},
-    }
+    block = tiny_ppo_block()
     out = train({VEHICLE_ID: block}, tmp_path / "ppo_vehicle", progress=False)
     zip_path = str(out / "model.zip")
     with pytest.raises(ValueError, match="trained on railgym/VerticalVehicle-v1"):

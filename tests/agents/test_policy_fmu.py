@@ -202,7 +202,9 @@ class _Zero:
         return np.zeros(1, np.float32), None
 
 
-def test_whole_vehicle_policy_fmu_has_two_forces_named_like_the_vehicle_fmu(tmp_path):
+def test_whole_vehicle_policy_fmu_has_two_forces_named_like_the_vehicle_fmu(
+    tmp_path, tiny_ppo_block
+):
     """A VerticalVehicle-v1 policy: 11 observation inputs, two force outputs, each equal to
     predict × f_max; its names are the whole-vehicle reference FMU's outputs and inputs."""
     from agents.evaluate import load_policy
@@ -211,17 +213,7 @@ def test_whole_vehicle_policy_fmu_has_two_forces_named_like_the_vehicle_fmu(tmp_
     from railgym.fmu.reference import VEHICLE_INPUTS, VEHICLE_OUTPUTS
 
     vid = "railgym/VerticalVehicle-v1"
-    block = {
-        "algo": "ppo",
-        "n_timesteps": 128,
-        "n_envs": 2,
-        "seed": 0,
-        "env_kwargs": {"backend": "linear", "duration": 1.0},
-        "eval_freq": 10**6,
-        "n_eval_episodes": 1,
-        "checkpoint_freq": 10**6,
-        **BLOCKS["ppo"],
-    }
+    block = tiny_ppo_block(**BLOCKS["ppo"])
     run = train({vid: block}, tmp_path / "ppo_vehicle", progress=False)
     fmu, _ = export_policy(run / "model.zip", tmp_path / "controller.fmu")
     md = fmpy.read_model_description(str(fmu))

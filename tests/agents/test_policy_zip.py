@@ -139,23 +139,10 @@ def test_bare_zip_on_other_env_settings_is_a_clear_error(tmp_path):
         load_policy(str(tmp_path / "alone" / "m.zip"), trust=True)
 
 
-def test_agents_train_checkpoint_is_evaluated(tmp_path):
+def test_agents_train_checkpoint_is_evaluated(tmp_path, tiny_ppo_block):
     """runs/NAME/checkpoints/model_N_steps.zip: the run's config.yaml two folders up, and the
     checkpoints' own manifest written by agents.train."""
-    block = {
-        "algo": "ppo",
-        "n_timesteps": 128,
-        "n_envs": 2,
-        "seed": 0,
-        "env_kwargs": {"backend": "linear", "duration": 1.0},
-        "eval_freq": 10**6,
-        "n_eval_episodes": 1,
-        "checkpoint_freq": 64,
-        "n_steps": 32,
-        "batch_size": 64,
-        "n_epochs": 1,
-        "policy_kwargs": {"net_arch": [8]},
-    }
+    block = tiny_ppo_block(checkpoint_freq=64, n_steps=32)
     out = train({"railgym/VerticalVehicle-v1": block}, tmp_path / "ppo_vehicle", progress=False)
     checkpoint = out / "checkpoints" / "model_64_steps.zip"
     assert (out / "checkpoints" / "manifest.json").is_file()

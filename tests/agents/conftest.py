@@ -1,0 +1,34 @@
+"""Fixtures shared by the agents tests."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+
+
+@pytest.fixture
+def tiny_ppo_block() -> Callable[..., dict[str, Any]]:
+    """``tiny_ppo_block(**overrides)``: the ``agents.train`` config block of a PPO run of
+    seconds (128 steps on two envs of VerticalVehicle-v1's linear backend, 1 s episodes, no
+    evaluation or checkpoint during the run, an 8-unit network), with ``overrides``."""
+
+    def block(**overrides: Any) -> dict[str, Any]:
+        return {
+            "algo": "ppo",
+            "n_timesteps": 128,
+            "n_envs": 2,
+            "seed": 0,
+            "env_kwargs": {"backend": "linear", "duration": 1.0},
+            "eval_freq": 10**6,
+            "n_eval_episodes": 1,
+            "checkpoint_freq": 10**6,
+            "n_steps": 64,
+            "batch_size": 64,
+            "n_epochs": 1,
+            "policy_kwargs": {"net_arch": [8]},
+            **overrides,
+        }
+
+    return block
