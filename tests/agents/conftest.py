@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 import pytest
 
 
@@ -32,3 +33,21 @@ def tiny_ppo_block() -> Callable[..., dict[str, Any]]:
         }
 
     return block
+
+
+@pytest.fixture
+def controlled_episode() -> Callable[[Any, Any, int], tuple[np.ndarray, dict[str, Any]]]:
+    """``controlled_episode(env, controller, seed)``: one episode of ``controller`` from
+    ``env.reset(seed=seed)``; the RMS over the steps of ``info["carbody_acc"]`` (per floor
+    point) and the last step's info."""
+
+    def run(env: Any, controller: Any, seed: int) -> tuple[np.ndarray, dict[str, Any]]:
+        obs, _ = env.reset(seed=seed)
+        acc = []
+        while True:
+            obs, _, term, trunc, info = env.step(controller.predict(obs)[0])
+            acc.append(info["carbody_acc"])
+            if term or trunc:
+                return np.sqrt(np.mean(np.square(acc), axis=0)), info
+
+    return run

@@ -3,6 +3,7 @@ import json
 import pickle
 import sys
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
@@ -45,26 +46,19 @@ def test_evaluate_crash_passive_row():
     assert row["peak_reduction_%"] == 0.0
 
 
-def _single_vehicle_runs(kwargs: dict, seeds: list[int]) -> tuple[np.ndarray, np.ndarray]:
+def _single_vehicle_runs(
+    episode: Callable, kwargs: dict, seeds: list[int]
+) -> tuple[np.ndarray, np.ndarray]:
     """RMS floor accelerations (from every step's ``carbody_acc``) and the end-of-episode
     Wk a_w of single envs under skyhook per bogie, one row per seed."""
-    rms, a_w = [], []
+    runs = []
     for seed in seeds:
         env = gym.make(VEHICLE_ID, **kwargs)
-        ctrl = BogieSkyhook(env)
-        obs, _ = env.reset(seed=seed)
-        acc = []
-        while True:
-            obs, _, term, trunc, info = env.step(ctrl.predict(obs)[0])
-            acc.append(info["carbody_acc"])
-            if term or trunc:
-                break
-        rms.append(np.sqrt(np.mean(np.square(acc), axis=0)))
-        a_w.append(info["comfort"]["a_w"])
-    return np.array(rms), np.array(a_w)
+        runs.append(episode(env, BogieSkyhook(env), seed))
+    return np.array([rms for rms, _ in runs]), np.array([i["comfort"]["a_w"] for _, i in runs])
 
 
-def test_evaluate_vehicle_rows_are_the_means_of_single_envs_per_floor_point():
+def test_evaluate_vehicle_rows_are_the_means_of_single_envs_per_floor_point(controlled_episode):
     kw = {"backend": "linear", "track_classes": (6,), "episodes": 2, "seed": 3, "duration": 6.0}
     rows = evaluate_vehicle(["passive", "skyhook"], speeds_kmh=(None, 100.0), **kw)
     assert [(r["policy"], round(r["speed_kmh"], 6)) for r in rows] == [
@@ -74,7 +68,8 @@ def test_evaluate_vehicle_rows_are_the_means_of_single_envs_per_floor_point():
         ("skyhook", 100.0),
     ]
     env_kw = {"backend": "linear", "track_class": 6, "speed": 100 / 3.6, "duration": 6.0}
-    rms, a_w = _single_vehicle_runs(env_kw, [3, 4])  # sub-env i = single env of seed 3 + i
+    # sub-env i = the single env of seed 3 + i
+    rms, a_w = _single_vehicle_runs(controlled_episode, env_kw, [3, 4])
     np.testing.assert_allclose(rows[3]["rms_acc"], rms.mean(axis=0), rtol=1e-9)
     np.testing.assert_allclose(rows[3]["a_w"], a_w.mean(axis=0), rtol=1e-9)
     passive, sky = rows[0], rows[1]

@@ -8,16 +8,6 @@ from railgym.envs.vehicle import VerticalVehicleEnv, VerticalVehicleVectorEnv
 from railgym.envs.vertical import VerticalSuspensionEnv
 
 
-def episode_rms(env, ctrl, seed):
-    obs, _ = env.reset(seed=seed)
-    acc = []
-    while True:
-        obs, _, term, trunc, info = env.step(ctrl.predict(obs)[0])
-        acc.append(info["carbody_acc"])
-        if term or trunc:
-            return np.sqrt(np.mean(np.array(acc) ** 2, axis=0)), info
-
-
 def test_shapes_single_and_batch_and_v0_unchanged():
     env = VerticalVehicleEnv(backend="linear", duration=1.0)
     obs, _ = env.reset(seed=0)
@@ -69,14 +59,16 @@ def test_modal_skyhook_splits_bounce_and_pitch():
     assert ctrl.c_bounce == pytest.approx(2 * 0.2 * np.sqrt(2 * 8.6e5 * 32000.0))
 
 
-def test_lqr_is_stabilising_and_beats_passive_and_skyhook_on_the_linear_model():
+def test_lqr_is_stabilising_and_beats_passive_and_skyhook_on_the_linear_model(
+    controlled_episode,
+):
     kw = {"backend": "linear", "duration": 8.0, "observation": "full"}
     env = VerticalVehicleEnv(**kw)
     lqr = VehicleLQR(env)
     assert lqr.K.shape == (2, 14)
     assert np.max(lqr.closed_loop_poles().real) < 0
     rms = {
-        name: episode_rms(env, ctrl, seed=1)[0]
+        name: controlled_episode(env, ctrl, seed=1)[0]
         for name, ctrl in (("passive", Passive(env)), ("skyhook", BogieSkyhook(env)), ("lqr", lqr))
     }
     assert np.mean(rms["skyhook"]) < np.mean(rms["passive"])
