@@ -1,44 +1,41 @@
-"""argparse value types of the commands: a bad value is a one-line error naming the flag."""
+"""argparse value types of the commands (a bad value is a one-line error naming the flag), and
+the one-line error of a command that fails (:func:`error_status`)."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable
 from typing import Any
 
 from railgym import _checks as val
 from railgym.envs.vertical_batch import LIMITS
+from surrogates.checks import bounded_int, seed_number
 
 __all__ = [
+    "MAX_EPISODES",
+    "VEHICLE_DURATION_S",
     "add_parallel_arguments",
     "bounded_int",
     "bounded_real",
     "check_parallel",
     "check_speed_kmh",
     "duration_s",
+    "error_status",
+    "episodes",
+    "seed_number",
     "speed_kmh",
+    "track_class",
+    "vehicle_cases",
+    "vertical_cases",
 ]
 
+#: most episodes (sub-envs) of one evaluation case: ``--episodes`` and ``episodes=``
+MAX_EPISODES = 1000
 #: highest speed accepted by ``--speed``, km/h: a sanity bound above twice the FRA class 6
 #: limit of 177 km/h
 MAX_SPEED_KMH = 400.0
-
-
-def bounded_int(lo: int, hi: int | None = None) -> Callable[[str], int]:
-    """An integer ``lo <= n (<= hi)``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-        if value < lo or (hi is not None and value > hi):
-            span = f">= {lo}" if hi is None else f"in {lo}..{hi}"
-            raise argparse.ArgumentTypeError(f"must be an integer {span}, got {text}")
-        return value
-
-    return parse
 
 
 def bounded_real(what: str, unit: str, top: float) -> Callable[[str], float]:
@@ -62,6 +59,12 @@ def bounded_real(what: str, unit: str, top: float) -> Callable[[str], float]:
 speed_kmh = bounded_real("speed", "km/h", MAX_SPEED_KMH)
 #: ``--duration``: s, ``0 < t <= LIMITS["duration"]`` (the envs' limit)
 duration_s = bounded_real("duration", "s", LIMITS["duration"])
+#: ``--track-class``: an FRA track class, 1..6
+track_class = bounded_int(1, 6)
+#: ``--episodes``: held-out episodes per case, ``1..MAX_EPISODES``
+episodes = bounded_int(1, MAX_EPISODES)
+#: s, an episode of a whole-vehicle evaluation case when ``--duration`` is not given
+VEHICLE_DURATION_S = 20.0
 
 
 def check_speed_kmh(value: Any, field: str) -> float:
@@ -71,6 +74,39 @@ def check_speed_kmh(value: Any, field: str) -> float:
         return speed_kmh(repr(number))
     except argparse.ArgumentTypeError as err:
         raise val.FieldError(field, str(err)) from None
+
+
+def vertical_cases(args: argparse.Namespace) -> dict[str, Any]:
+    """The case keywords of ``evaluate_sweep`` / ``gap_vertical`` from the flags of
+    ``railgym evaluate`` (track classes, episodes, seed, trust, workers, address)."""
+    return {
+        "track_classes": args.track_class,
+        "episodes": args.episodes,
+        "seed": args.seed,
+        "trust": args.trust,
+        "workers": args.workers,
+        "address": args.address,
+    }
+
+
+def vehicle_cases(args: argparse.Namespace) -> dict[str, Any]:
+    """:func:`vertical_cases` and the speeds and duration of ``railgym evaluate --env
+    vehicle``: the case keywords of ``evaluate_vehicle`` / ``gap_vehicle``."""
+    duration = VEHICLE_DURATION_S if args.duration is None else args.duration
+    return {**vertical_cases(args), "speeds_kmh": args.speed or [None], "duration": duration}
+
+
+def error_status(prog: str, err: Exception, debug: bool = False) -> int:
+    """Exit status of the command ``prog`` that raised ``err``, after its one line on stderr:
+    ``prog: error: …`` and 2 for a user error (``ValueError``, ``OSError``), else ``prog:
+    Type: … (--debug shows the traceback)`` and 1; ``debug`` (``--debug``) re-raises ``err``."""
+    if debug:
+        raise err
+    if isinstance(err, ValueError | OSError):
+        print(f"{prog}: error: {err}", file=sys.stderr)
+        return 2
+    print(f"{prog}: {type(err).__name__}: {err} (--debug shows the traceback)", file=sys.stderr)
+    return 1
 
 
 def add_parallel_arguments(

@@ -34,7 +34,14 @@ from typing import Any, NamedTuple
 import numpy as np
 import yaml
 
-from agents._args import add_parallel_arguments, bounded_int, check_parallel
+from agents._args import (
+    add_parallel_arguments,
+    bounded_int,
+    check_parallel,
+    episodes,
+    error_status,
+    seed_number,
+)
 from agents.policies import CRASH_ID, ENV_ID, VEHICLE_ID, evaluate_vehicle, load_policy
 from agents.sweeps import evaluate_sweep
 from agents.train_config import MAX_SEED, load_config
@@ -337,11 +344,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("config", help="agents.train config: YAML file or packaged name")
     parser.add_argument("--seeds", type=bounded_int(1, 1000), default=3, help="training seeds")
-    parser.add_argument("--first-seed", type=bounded_int(0, MAX_SEED), default=0)
+    parser.add_argument("--first-seed", type=seed_number, default=0)
     parser.add_argument("--timesteps", type=bounded_int(1), help="override n_timesteps")
-    parser.add_argument(
-        "--episodes", type=bounded_int(1, 1000), default=10, help="held-out episodes per case"
-    )
+    parser.add_argument("--episodes", type=episodes, default=10, help="held-out episodes per case")
     parser.add_argument("--out", type=Path, help="output folder (default runs/benchmark_<stem>)")
     parser.add_argument("--overwrite", action="store_true", help="write into a non-empty --out")
     add_parallel_arguments(parser, "", "the seeds", "the numbers do")
@@ -360,8 +365,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.address,
         )
     except (ValueError, OSError) as err:
-        print(f"{parser.prog}: error: {err}", file=sys.stderr)
-        return 2
+        return error_status(parser.prog, err)
     print(f"results.csv, learning_curve.png and table.md in {out}/")
     return 0
 

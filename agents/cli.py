@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import add_parallel_arguments, bounded_int, check_parallel
+from agents._args import add_parallel_arguments, check_parallel, error_status, seed_number
 from agents._extras import MissingExtraError, report_missing
 from agents.controllers import Passive, Skyhook
 from railgym import _checks as val
@@ -217,7 +217,7 @@ def _out_arguments(
     )
     parser.add_argument(
         "--seed",
-        type=bounded_int(0),
+        type=seed_number,
         default=0,
         help="seed of the training track, sampling and folds",
     )
@@ -297,19 +297,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             raise
         return report_missing(err, f"railgym {args.command}", args.command)
-    except (ValueError, OSError) as err:
-        if args.debug:
-            raise
-        print(f"railgym {args.command}: error: {err}", file=sys.stderr)
-        return 2
     except Exception as err:
-        if args.debug:
-            raise
-        print(
-            f"railgym {args.command}: {type(err).__name__}: {err} (--debug shows the traceback)",
-            file=sys.stderr,
-        )
-        return 1
+        return error_status(f"railgym {args.command}", err, args.debug)
 
 
 if __name__ == "__main__":

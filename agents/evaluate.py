@@ -36,12 +36,17 @@ import numpy as np
 
 from agents import crash_report
 from agents._args import (
+    VEHICLE_DURATION_S,
     add_parallel_arguments,
-    bounded_int,
     check_parallel,
     check_speed_kmh,
     duration_s,
+    episodes,
+    seed_number,
     speed_kmh,
+    track_class,
+    vehicle_cases,
+    vertical_cases,
 )
 from agents.gap import run_gap
 from agents.policies import (
@@ -238,18 +243,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fmu-map", type=Path, help="backend fmu: its mapping file (YAML)")
     parser.add_argument(
         "--track-class",
-        type=bounded_int(1, 6),
+        type=track_class,
         nargs="+",
         default=[4, 6],
         help="vertical, vehicle: FRA track classes 1..6",
     )
     parser.add_argument(
         "--episodes",
-        type=bounded_int(1, MAX_EPISODES),
+        type=episodes,
         default=10,
         help=f"vertical, vehicle: episodes per case, 1..{MAX_EPISODES} (one sub-env each)",
     )
-    parser.add_argument("--seed", type=bounded_int(0), default=1000, help="track seed of sub-env 0")
+    parser.add_argument("--seed", type=seed_number, default=1000, help="track seed of sub-env 0")
     parser.add_argument("--env", choices=["vertical", "vehicle", "crash"], default="vertical")
     parser.add_argument(
         "--speed",
@@ -261,7 +266,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration",
         type=duration_s,
-        help="vehicle: seconds per episode (default 20)",
+        help=f"vehicle: seconds per episode (default {VEHICLE_DURATION_S:g})",
     )
     parser.add_argument(
         "--gap",
@@ -326,19 +331,7 @@ def run(args: argparse.Namespace) -> int:
     check_parallel(args)
     policies = ["passive", "skyhook"] + [p for p in args.policy if p not in ("passive", "skyhook")]
     if args.env == "vehicle":
-        rows = evaluate_vehicle(
-            policies,
-            args.backend,
-            args.track_class,
-            args.speed or [None],
-            args.episodes,
-            args.seed,
-            20.0 if args.duration is None else args.duration,
-            args.trust,
-            args.workers,
-            args.address,
-            fmu,
-        )
+        rows = evaluate_vehicle(policies, args.backend, env_kwargs=fmu, **vehicle_cases(args))
         print(
             f"VerticalVehicle-v1, backend: {args.backend}, {args.episodes} episodes per case "
             f"(seeds {args.seed}+i); per floor point front/centre/rear; Δa_w: reduction of the "
@@ -351,17 +344,7 @@ def run(args: argparse.Namespace) -> int:
         {"--speed": args.speed is not None, "--duration": args.duration is not None},
         "--env vehicle and crash",
     )
-    rows = evaluate_sweep(
-        policies,
-        args.backend,
-        args.track_class,
-        args.episodes,
-        args.seed,
-        args.trust,
-        args.workers,
-        args.address,
-        fmu,
-    )
+    rows = evaluate_sweep(policies, args.backend, env_kwargs=fmu, **vertical_cases(args))
     print(
         f"backend: {args.backend}, {args.episodes} episodes per class (seeds {args.seed}+i); "
         "Δa_w: reduction of the Wk-weighted RMS vs passive"

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from agents import crash_report
+from agents._args import VEHICLE_DURATION_S, vehicle_cases, vertical_cases
 from agents.crash_baselines import rollout
 from agents.policies import CRASH_ID, evaluate_vehicle, load_policy
 from agents.sweeps import evaluate_sweep
@@ -96,7 +97,7 @@ def gap_vehicle(
     speeds_kmh: Sequence[float | None] = (None,),
     episodes: int = 10,
     seed: int = 1000,
-    duration: float = 20.0,
+    duration: float = VEHICLE_DURATION_S,
     trust: bool = False,
     workers: int = 1,
     address: str | None = None,
@@ -224,18 +225,7 @@ def run_gap(args: argparse.Namespace) -> int:
         rows = gap_crash(args.policy, args.speed, trust=args.trust, backends=backends)
         print(f"TrainCrash-v1 envelope scenario, held-out cases; {what}")
     elif args.env == "vehicle":
-        rows = gap_vehicle(
-            args.policy,
-            args.track_class,
-            args.speed or [None],
-            args.episodes,
-            args.seed,
-            20.0 if args.duration is None else args.duration,
-            args.trust,
-            args.workers,
-            args.address,
-            backends,
-        )
+        rows = gap_vehicle(args.policy, backends=backends, **vehicle_cases(args))
         print(
             f"VerticalVehicle-v1, {args.episodes} episodes per case (seeds {args.seed}+i); {what}"
         )
@@ -243,16 +233,7 @@ def run_gap(args: argparse.Namespace) -> int:
         for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
             if given is not None:
                 raise ValueError(f"{flag}: only for --env vehicle and crash, not --env vertical")
-        rows = gap_vertical(
-            args.policy,
-            args.track_class,
-            args.episodes,
-            args.seed,
-            args.trust,
-            args.workers,
-            args.address,
-            backends,
-        )
+        rows = gap_vertical(args.policy, backends=backends, **vertical_cases(args))
         print(
             f"VerticalSuspension-v1, {args.episodes} episodes per track class "
             f"(seeds {args.seed}+i); {what}"

@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import check_speed_kmh
+from agents._args import MAX_EPISODES, VEHICLE_DURATION_S, check_speed_kmh
 from agents._extras import require
 from agents.controllers import (
     LQR,
@@ -37,7 +37,7 @@ from agents.controllers import (
 )
 from agents.lqg import LQG, VehicleLQG
 from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, load_policy_weights
-from agents.policy_zip import find_source, zip_network
+from agents.policy_zip import PolicySource, find_source, zip_network
 from agents.pretrained import PRETRAINED, pretrained_zip
 from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
@@ -48,7 +48,6 @@ ENV_ID = "railgym/VerticalSuspension-v1"
 VEHICLE_ID = "railgym/VerticalVehicle-v1"
 CRASH_ID = "railgym/TrainCrash-v1"
 #: most episodes per class (one vector sub-env each)
-MAX_EPISODES = 1000
 CONTROLLERS = {
     "passive": (Passive, {}, {}),
     "skyhook": (Skyhook, {"mode": "active"}, {}),
@@ -111,39 +110,13 @@ def load_policy(
             f"policy must be {names}an existing stable-baselines3 .zip or an RLlib checkpoint "
             f"folder, got {policy!r}"
         )
-    require("loading a stable-baselines3 policy", "torch", "stable_baselines3")
-    check_manifest(path, trust)
-    from agents.train_config import ACTIVATIONS, ALGOS, hyperparameters, load_config
+    return _sb3_policy(path, env_id, trust, pretrained)
 
-    source = find_source(path)
-    obs_shape = None
-    if source.kind == "agents.train":
-        cfg = load_config(source.config)
-        trained_on, algo, policy_name = cfg.env_id, cfg.algo, cfg.policy
-        hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
-        net_kwargs = dict(hyper.get("policy_kwargs") or {})
-        if "use_sde" in hyper:
-            net_kwargs["use_sde"] = hyper["use_sde"]
-        env_kwargs = cfg.env_kwargs
-    else:  # rl-zoo3 or a bare zip: the network from the zip's data entry
-        algo, policy_name, net_kwargs, obs_shape = zip_network(path)
-        if "activation_fn" in net_kwargs:
-            act = net_kwargs["activation_fn"]
-            if act not in ACTIVATIONS:
-                raise ValueError(f"policy {path}: activation {act!r} is not supported")
-            net_kwargs["activation_fn"] = ACTIVATIONS[act]
-        trained_on, env_kwargs = source.env_id or env_id, source.env_kwargs
-    where = source.config or path
-    if env_family(trained_on) != env_family(env_id):
-        raise ValueError(f"{where}: the policy was trained on {trained_on}, not {env_id}")
-    if trained_on != env_id and not pretrained:
-        warnings.warn(
-            f"{where}: the policy was trained on {trained_on} and runs on {env_id} (same "
-            "spaces and reference model; the surrogate differs between versions)",
-            UserWarning,
-            stacklevel=2,
-        )
-    keep = {
+
+#: the env arguments a trained policy carries to the env it runs on (they shape its
+#: observation and action); the others are the run's own
+POLICY_ENV_KWARGS = frozenset(
+    {
         "observation",
         "sensor_noise",
         "f_max",
@@ -157,9 +130,64 @@ def load_policy(
         "flexible",
         "vehicle",
     }
-    env_kwargs = {k: v for k, v in env_kwargs.items() if k in keep}
+)
 
+
+class _Network(NamedTuple):
+    """What a stable-baselines3 zip was trained with."""
+
+    trained_on: str  #: env id
+    algo: str
+    policy: str  #: SB3 policy class name
+    net_kwargs: dict[str, Any]
+    env_kwargs: dict[str, Any]
+    obs_shape: tuple[int, ...] | None  #: from the zip's data entry (``None``: from a config)
+
+
+def _network(path: Path, source: PolicySource, env_id: str) -> _Network:
+    """The network and env of the zip ``path``: from its run's ``config.yaml`` (agents.train),
+    else from the zip's data entry (rl-zoo3 or a bare zip)."""
+    from agents.train_config import ACTIVATIONS, ALGOS, hyperparameters, load_config
+
+    if source.kind == "agents.train":
+        cfg = load_config(source.config)
+        hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
+        net_kwargs = dict(hyper.get("policy_kwargs") or {})
+        if "use_sde" in hyper:
+            net_kwargs["use_sde"] = hyper["use_sde"]
+        return _Network(cfg.env_id, cfg.algo, cfg.policy, net_kwargs, cfg.env_kwargs, None)
+    algo, policy_name, net_kwargs, obs_shape = zip_network(path)
+    if "activation_fn" in net_kwargs:
+        act = net_kwargs["activation_fn"]
+        if act not in ACTIVATIONS:
+            raise ValueError(f"policy {path}: activation {act!r} is not supported")
+        net_kwargs["activation_fn"] = ACTIVATIONS[act]
+    trained_on = source.env_id or env_id
+    return _Network(trained_on, algo, policy_name, net_kwargs, source.env_kwargs, obs_shape)
+
+
+def _sb3_policy(
+    path: Path, env_id: str, trust: bool, pretrained: bool
+) -> tuple[Any, dict[str, Any], str]:
+    """:func:`load_policy` of a stable-baselines3 zip: manifest checked, weights only."""
+    require("loading a stable-baselines3 policy", "torch", "stable_baselines3")
+    check_manifest(path, trust)
+    source = find_source(path)
+    network = _network(path, source, env_id)
+    trained_on = network.trained_on
+    where = source.config or path
+    if env_family(trained_on) != env_family(env_id):
+        raise ValueError(f"{where}: the policy was trained on {trained_on}, not {env_id}")
+    if trained_on != env_id and not pretrained:
+        warnings.warn(
+            f"{where}: the policy was trained on {trained_on} and runs on {env_id} (same "
+            "spaces and reference model; the surrogate differs between versions)",
+            UserWarning,
+            stacklevel=3,
+        )
+    env_kwargs = {k: v for k, v in network.env_kwargs.items() if k in POLICY_ENV_KWARGS}
     probe = gym.make(env_id, **env_kwargs)  # the single env's spaces
+    obs_shape = network.obs_shape
     if obs_shape is not None and obs_shape != probe.observation_space.shape:
         raise ValueError(
             f"policy {path}: it takes observations of shape {obs_shape}, the env gives "
@@ -167,7 +195,12 @@ def load_policy(
             "config.yaml, or rl-zoo3's folder, beside it)"
         )
     net = load_policy_weights(
-        path, algo, policy_name, net_kwargs, probe.observation_space, probe.action_space
+        path,
+        network.algo,
+        network.policy,
+        network.net_kwargs,
+        probe.observation_space,
+        probe.action_space,
     )
     probe.close()
     run = (source.config.parent if source.kind == "agents.train" else path.parent).name
@@ -274,7 +307,7 @@ def evaluate_vehicle(
     speeds_kmh: Sequence[float | None] = (None,),
     episodes: int = 10,
     seed: int = 1000,
-    duration: float = 20.0,
+    duration: float = VEHICLE_DURATION_S,
     trust: bool = False,
     workers: int = 1,
     address: str | None = None,

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from agents._args import error_status
 from agents.policy_io import write_manifest
 from railgym.registration import env_family
 
@@ -106,8 +107,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         dst = install(args.name, args.benchmark_dir, args.overwrite)
     except (ValueError, OSError) as err:
-        print(f"{parser.prog}: error: {err}", file=sys.stderr)
-        return 2
+        return error_status(parser.prog, err)
     print(f"{args.name}: {dst}")
     return 0
 

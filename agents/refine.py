@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import bounded_int, duration_s
+from agents._args import bounded_int, duration_s, seed_number, track_class
 from agents.policies import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICLE_ID, load_policy
 from railgym.envs.vehicle import VerticalVehicleEnv
 from railgym.envs.vertical import VerticalSuspensionEnv
@@ -110,13 +110,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--model", type=Path, help="element JSON (default: the packaged one)")
     parser.add_argument("--rounds", type=bounded_int(0, 50), default=3, help="rounds K")
-    parser.add_argument("--track-class", type=bounded_int(1, 6), default=5, help="FRA class")
+    parser.add_argument("--track-class", type=track_class, default=5, help="FRA class")
     parser.add_argument("--duration", type=duration_s, default=10.0, help="s per track")
     parser.add_argument("--tracks", type=bounded_int(1, 100), default=2, help="tracks per round")
     parser.add_argument(
         "--add", type=bounded_int(1, 10**6), default=400, help="samples added per round"
     )
-    parser.add_argument("--seed", type=bounded_int(0), default=0, help="seed of the tracks")
+    parser.add_argument("--seed", type=seed_number, default=0, help="seed of the tracks")
     parser.add_argument("--out", type=Path, help="write the refined element (model JSON)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     parser.add_argument(

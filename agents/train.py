@@ -55,7 +55,7 @@ import yaml
 from gymnasium.vector import AutoresetMode, VectorEnv
 from tqdm import tqdm
 
-from agents._args import bounded_int
+from agents._args import bounded_int, error_status, seed_number
 from agents._extras import extra_error, report_missing
 
 try:  # the 'agents' extra
@@ -457,7 +457,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=None,
         help="override n_timesteps",
     )
-    parser.add_argument("--seed", type=bounded_int(0, MAX_SEED), default=None, help="override seed")
+    parser.add_argument("--seed", type=seed_number, default=None, help="override seed")
     parser.add_argument(
         "--algo",
         choices=sorted(ALGOS),
@@ -478,19 +478,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.overwrite,
             args.algo,
         )
-    except (ValueError, OSError) as err:
-        if args.debug:
-            raise
-        print(f"{parser.prog}: error: {err}", file=sys.stderr)
-        return 2
     except Exception as err:
-        if args.debug:
-            raise
-        print(
-            f"{parser.prog}: {type(err).__name__}: {err} (--debug shows the traceback)",
-            file=sys.stderr,
-        )
-        return 1
+        return error_status(parser.prog, err, args.debug)
     run = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
     print(
         f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s); "

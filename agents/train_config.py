@@ -54,6 +54,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 
 from railgym import _checks as val
+from surrogates.checks import MAX_SEED
 
 __all__ = ["ALGOS", "TrainConfig", "hyperparameters", "load_config"]
 
@@ -83,8 +84,6 @@ RLZOO_ONLY = (
 )
 #: most torch CPU threads
 MAX_THREADS = 256
-#: largest seed (numpy and torch accept 32-bit seeds everywhere)
-MAX_SEED = 2**32 - 1
 #: most environment steps of one run (and most steps between evaluations or checkpoints):
 #: days of training at the envs' speeds; a larger count is a typo, not a plan
 MAX_TIMESTEPS = 10**9
@@ -253,15 +252,9 @@ def hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[st
     return out
 
 
-def load_config(config: str | Path | dict[str, Any], algo: str | None = None) -> TrainConfig:
-    """Read and validate a config: path of a ``.yaml`` / ``.yml`` file, the name of a packaged
-    config (``ppo_vertical``, see ``railgym/configs/agents/``) or the content as a dict.
-
-    rl-zoo3's hyperparameter files are read too: they have no ``algo`` (rl-zoo3 takes it
-    from ``--algo``), which ``algo`` then gives; their evaluation and checkpoint settings take
-    the defaults here. A missing ``seed`` is drawn from the OS entropy, so that it can be
-    recorded.
-    """
+def _env_block(config: str | Path | dict[str, Any]) -> tuple[str, dict[str, Any]]:
+    """The env id and its settings of a config (file, packaged name or dict): exactly one
+    top-level key, a registered env, an SB3 (not RLlib) run."""
     if isinstance(config, str | Path):
         text, source = val.resolve_yaml(config, "config", "railgym", ("configs", "agents"))
         config = val.load_yaml(text, source)
@@ -291,6 +284,33 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
         raise val.FieldError(
             "trainer", "is 'rllib': train this file with python -m agents.train_rllib"
         )
+    return env_id, block
+
+
+def _envelope(envelope: Any, env_id: str, mode: str | None) -> dict[str, Any] | None:
+    """The checked ``envelope`` of a crash-env run as a dict (``None``: none)."""
+    if envelope is None:
+        return None
+    from agents.envelope import ENVELOPE_ENVS, check_envelope
+    from railgym.registration import env_family
+
+    if env_family(env_id) not in ENVELOPE_ENVS:
+        raise val.FieldError("envelope", f"is for {list(ENVELOPE_ENVS)}, not {env_id}")
+    if mode == "sync":
+        raise val.FieldError("envelope", "needs the native vector env, not sync")
+    return check_envelope(envelope).to_dict()
+
+
+def load_config(config: str | Path | dict[str, Any], algo: str | None = None) -> TrainConfig:
+    """Read and validate a config: path of a ``.yaml`` / ``.yml`` file, the name of a packaged
+    config (``ppo_vertical``, see ``railgym/configs/agents/``) or the content as a dict.
+
+    rl-zoo3's hyperparameter files are read too: they have no ``algo`` (rl-zoo3 takes it
+    from ``--algo``), which ``algo`` then gives; their evaluation and checkpoint settings take
+    the defaults here. A missing ``seed`` is drawn from the OS entropy, so that it can be
+    recorded.
+    """
+    env_id, block = _env_block(config)
     f = val.Fields(block, "")
     if algo is not None:
         algo = val.choice(algo, "--algo", sorted(ALGOS))
@@ -314,16 +334,7 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
     run_keys = set(TrainConfig.__dataclass_fields__) - {"env_id", "hyperparameters"}
     hyper = {k: v for k, v in block.items() if k not in run_keys}
     hyperparameters(ALGOS[algo], hyper)  # validates; applied by train()
-    envelope = f.get("envelope", None)
-    if envelope is not None:
-        from agents.envelope import ENVELOPE_ENVS, check_envelope
-        from railgym.registration import env_family
-
-        if env_family(env_id) not in ENVELOPE_ENVS:
-            raise val.FieldError("envelope", f"is for {list(ENVELOPE_ENVS)}, not {env_id}")
-        if mode == "sync":
-            raise val.FieldError("envelope", "needs the native vector env, not sync")
-        envelope = check_envelope(envelope).to_dict()
+    envelope = _envelope(f.get("envelope", None), env_id, mode)
     return TrainConfig(
         env_id=env_id,
         algo=algo,

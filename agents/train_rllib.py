@@ -61,7 +61,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-from agents._args import bounded_int
+from agents._args import bounded_int, error_status, seed_number
 from agents._extras import extra_error, report_missing
 from agents.policy_io import RLLIB_MODULE_PATH, sha256
 from railgym import _checks as val
@@ -362,7 +362,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--iterations", type=bounded_int(1, MAX_ITERATIONS), default=None, help="override"
     )
-    parser.add_argument("--seed", type=bounded_int(0, MAX_SEED), default=None, help="override seed")
+    parser.add_argument("--seed", type=seed_number, default=None, help="override seed")
     parser.add_argument("--address", default=None, help="Ray cluster to join (HOST:PORT)")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     args = parser.parse_args(argv)
@@ -371,10 +371,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.config, args.out, args.iterations, args.seed, args.address, args.overwrite
         )
     except (ValueError, OSError) as err:
-        if args.debug:
-            raise
-        print(f"{parser.prog}: error: {err}", file=sys.stderr)
-        return 2
+        return error_status(parser.prog, err, args.debug)
     run = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
     print(
         f"{run['timesteps']} steps in {run['wall_s']} s ({run['steps_per_s']} steps/s); "

@@ -21,6 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
+from agents._args import duration_s, episodes, track_class
 from agents.policies import VEHICLE_CONTROLLERS, VEHICLE_ID
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
@@ -143,10 +144,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="packaged element (vehicle: the env's default; maxwell, static: the one-bogie "
         "elements) or JSON",
     )
-    parser.add_argument("--track-class", type=int, nargs="+", default=[3, 4, 5, 6])
+    parser.add_argument("--track-class", type=track_class, nargs="+", default=[3, 4, 5, 6])
     parser.add_argument("--controller", nargs="+", default=["passive"])
-    parser.add_argument("--seeds", type=int, default=20)
-    parser.add_argument("--duration", type=float, default=20.0)
+    parser.add_argument("--seeds", type=episodes, default=20, help="tracks per class")
+    parser.add_argument("--duration", type=duration_s, default=20.0, help="s per track")
     args = parser.parse_args(argv)
     for c in args.controller:
         if c not in VEHICLE_CONTROLLERS:

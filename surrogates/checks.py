@@ -25,17 +25,25 @@ field)``; ``choice(v, field, options)``; ``sequence(v, field, length=None)`` →
 ``mapping(v, field)``; ``numeric_array(v, field, shape=None)`` → float64 array (rejects bool,
 complex, string and object data and non-finite values); ``random_seed(v, field)`` → a seed
 ``numpy.random.default_rng`` takes.
+
+Command-line flags get the same bounds through argparse types: :func:`bounded_int` and
+:data:`seed_number` (``--seed`` of every command, ``0 … MAX_SEED``).
 """
 
 from __future__ import annotations
 
+import argparse
 import math
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Checks", "ErrorFactory", "is_number"]
+__all__ = ["MAX_SEED", "Checks", "ErrorFactory", "bounded_int", "is_number", "seed_number"]
+
+#: largest seed the commands and training configs accept (numpy's legacy seeding and
+#: stable-baselines3 take 32-bit seeds)
+MAX_SEED = 2**32 - 1
 
 #: builds the exception of a failed check from the field path and the rest of the message
 ErrorFactory = Callable[[str, str], Exception]
@@ -197,3 +205,24 @@ class Checks:
         raise self.error(
             field, f"must be None, a non-negative integer or a numpy Generator, got {value!r}"
         )
+
+
+def bounded_int(lo: int, hi: int | None = None) -> Callable[[str], int]:
+    """argparse type of an integer flag ``lo <= n (<= hi)``; a bad value is argparse's
+    one-line error naming the flag."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        if value < lo or (hi is not None and value > hi):
+            span = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+            raise argparse.ArgumentTypeError(f"must be an integer {span}, got {text}")
+        return value
+
+    return parse
+
+
+#: ``--seed`` of every command (tracks, sampling, training): ``0 <= seed <= MAX_SEED``
+seed_number = bounded_int(0, MAX_SEED)

@@ -15,6 +15,7 @@ import numpy as np
 
 from surrogates import io
 from surrogates.builder import build
+from surrogates.checks import MAX_SEED
 from surrogates.models.checks import MAX_DEGREE
 
 
@@ -69,7 +70,7 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--m", type=int, default=101, help="number of training samples")
     b.add_argument("--sampling", choices=["ga", "greedy", "random"], default="ga")
     b.add_argument("--selection", choices=["oob", "kfold"], default="oob")
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--seed", type=int, default=0, help=f"seed of the sampling, 0..{MAX_SEED}")
     b.add_argument("--units", nargs="*", default=[], help="NAME=UNIT pairs, e.g. F=N")
     b.add_argument("--report", help="also write the build report as JSON here")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -146,8 +147,8 @@ def _build(args: argparse.Namespace) -> int:
         raise UsageError(f"--inputs/--output name the column(s) {dups} more than once")
     if args.m < 1:
         raise UsageError(f"--m must be >= 1, got {args.m}")
-    if args.seed < 0:
-        raise UsageError(f"--seed must be >= 0, got {args.seed}")
+    if not 0 <= args.seed <= MAX_SEED:  # the bound of every command's --seed
+        raise UsageError(f"--seed must be an integer in 0..{MAX_SEED}, got {args.seed}")
     candidates = _candidates(args, len(args.inputs))
     _check_output(args.model, "-o", args.overwrite)
     if args.report:

@@ -384,6 +384,75 @@ def _frame_size(width: int, height: int) -> None:
         raise ValueError(f"width and height must be >= 16 px, got {width} x {height}")
 
 
+def _track_window(state: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """``track_x`` (strictly increasing, >= 2 points) and ``track_z`` of ``state``."""
+    tx = _vector(state, "track_x")
+    tz = _vector(state, "track_z", tx.size)
+    if tx.size < 2 or np.any(np.diff(tx) <= 0):
+        raise ValueError("state['track_x'] must be strictly increasing with >= 2 points")
+    return tx, tz
+
+
+def _draw_track(
+    img: np.ndarray,
+    s: float,
+    tx: np.ndarray,
+    tz: np.ndarray,
+    y_track0: float,
+    k: float,
+    col: Mapping[str, Color],
+) -> None:
+    """The track around position ``s`` (m) across the frame: ground below the profile
+    (heights ``k`` px/m above the row ``y_track0``), its top 3 px drawn as the rail."""
+    h, w = img.shape[:2]
+    cols = np.arange(w) + 0.5
+    track_pos = s + (cols - 0.5 * w) * (tx[-1] - tx[0]) / w
+    y_prof = y_track0 - k * np.interp(track_pos, tx, tz)
+    top = int(np.floor(np.clip(y_prof.min(), 0, h)))
+    bottom = min(int(np.ceil(np.clip(y_prof.max(), 0, h))) + 3, h)
+    _paint(img[bottom:], _rgb(col["ground"]))
+    rows = np.arange(top, bottom)[:, None] + 0.5
+    band = img[top:bottom]
+    band[rows >= y_prof[None, :]] = col["ground"]
+    band[(rows >= y_prof[None, :]) & (rows < y_prof[None, :] + 3)] = col["rail"]
+
+
+def _draw_secondary(
+    img: np.ndarray,
+    xc: float,
+    body_bottom: float,
+    bogie_top: float,
+    force_ratio: float,
+    col: Mapping[str, Color],
+) -> None:
+    """Secondary suspension between the carbody (row ``body_bottom``) and the bogie
+    (``bogie_top``) centred at column ``xc``: air spring (two lobes), damper, and the actuator
+    arrow and gauge of ``force_ratio`` = force / f_max."""
+    h, w = img.shape[:2]
+    ds = 0.10 * w
+    lobe = 0.025 * w
+    _fill_spans(
+        img,
+        xc - ds,
+        body_bottom,
+        bogie_top,
+        lambda u: lobe * (0.55 + 0.45 * np.abs(np.sin(2 * np.pi * u))),
+        col["air_spring"],
+    )
+    draw_damper(img, xc + ds, body_bottom, bogie_top, col["damper"], 0.6 * lobe)
+    ratio = float(np.clip(force_ratio, -1.0, 1.0))
+    length = 0.45 * 0.14 * h * ratio
+    arrow = col["actuator_push"] if ratio > 0 else col["actuator_pull"]
+    fill_rect(img, xc, 11, xc + ratio * (xc - 4), 16, arrow)
+    if abs(length) >= 1.0:
+        y_mid = 0.5 * (body_bottom + bogie_top)
+        y_tip = y_mid - length
+        head = min(0.4 * abs(length), 0.03 * h)
+        y_neck = y_tip + math.copysign(head, length)
+        fill_rect(img, xc - 2, y_mid, xc + 2, y_neck, arrow)
+        _fill_spans(img, xc, y_tip, y_neck, lambda u: 0.012 * w * u, arrow)
+
+
 # --------------------------------------------------------------------------- vertical scene
 def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 400) -> np.ndarray:
     """Frame of the vertical vehicle model.
@@ -414,10 +483,7 @@ def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 40
     force, f_max = _scalar(state, "force_a"), _scalar(state, "f_max")
     if f_max <= 0:
         raise ValueError(f"state['f_max'] must be > 0 N, got {f_max}")
-    tx = _vector(state, "track_x")
-    tz = _vector(state, "track_z", tx.size)
-    if tx.size < 2 or np.any(np.diff(tx) <= 0):
-        raise ValueError("state['track_x'] must be strictly increasing with >= 2 points")
+    tx, tz = _track_window(state)
     s = _scalar(state, "s") if "s" in state else 0.5 * (tx[0] + tx[-1])
     col = VERTICAL_COLORS
     w, h = int(width), int(height)
@@ -425,18 +491,8 @@ def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 40
     img = canvas(w, h, col["background"])
     _progress_bar(img, state, col)
 
-    # Track: ground below the profile, its top 3 px drawn as the rail.
     y_track0 = 0.82 * h
-    cols = np.arange(w) + 0.5
-    track_pos = s + (cols - 0.5 * w) * (tx[-1] - tx[0]) / w
-    y_prof = y_track0 - k * np.interp(track_pos, tx, tz)
-    top = int(np.floor(np.clip(y_prof.min(), 0, h)))
-    bottom = min(int(np.ceil(np.clip(y_prof.max(), 0, h))) + 3, h)
-    _paint(img[bottom:], _rgb(col["ground"]))
-    rows = np.arange(top, bottom)[:, None] + 0.5
-    band = img[top:bottom]
-    band[rows >= y_prof[None, :]] = col["ground"]
-    band[(rows >= y_prof[None, :]) & (rows < y_prof[None, :] + 3)] = col["rail"]
+    _draw_track(img, s, tx, tz, y_track0, k, col)
 
     # Geometry (px) at zero displacements, shifted by k * displacement.
     xc = 0.5 * w
@@ -456,29 +512,7 @@ def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 40
     fill_circle(img, xc, y_wheel, r_wheel, col["wheel"])
     _box(img, xc, y_bogie, 0.30 * w, bogie_h, col["bogie"], col["outline"])
 
-    # Secondary suspension: air spring (two lobes), damper, actuator arrow.
-    ds = 0.10 * w
-    lobe = 0.025 * w
-    _fill_spans(
-        img,
-        xc - ds,
-        body_bottom,
-        bogie_top,
-        lambda u: lobe * (0.55 + 0.45 * np.abs(np.sin(2 * np.pi * u))),
-        col["air_spring"],
-    )
-    draw_damper(img, xc + ds, body_bottom, bogie_top, col["damper"], 0.6 * lobe)
-    ratio = float(np.clip(force / f_max, -1.0, 1.0))
-    length = 0.45 * 0.14 * h * ratio
-    arrow = col["actuator_push"] if ratio > 0 else col["actuator_pull"]
-    fill_rect(img, xc, 11, xc + ratio * (xc - 4), 16, arrow)
-    if abs(length) >= 1.0:
-        y_mid = 0.5 * (body_bottom + bogie_top)
-        y_tip = y_mid - length
-        head = min(0.4 * abs(length), 0.03 * h)
-        y_neck = y_tip + math.copysign(head, length)
-        fill_rect(img, xc - 2, y_mid, xc + 2, y_neck, arrow)
-        _fill_spans(img, xc, y_tip, y_neck, lambda u: 0.012 * w * u, arrow)
+    _draw_secondary(img, xc, body_bottom, bogie_top, force / f_max, col)
     _box(img, xc, y_body, 0.80 * w, body_h, col["carbody"], col["outline"])
     draw_caption(img, state, col["outline"], DISPLACEMENT_PX_PER_M / SCHEMATIC_PX_PER_M)
     return img

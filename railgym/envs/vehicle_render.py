@@ -4,7 +4,7 @@ wheelsets on the track profile (primitives of :mod:`railgym.envs.rendering`)."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -50,6 +50,52 @@ def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400
     height plus its displacement. Actuator bars above the bogies: green pushing the carbody
     up, red pulling, length ``|force|/f_max``.
     """
+    arr = _state_arrays(state, width, height)
+    w, h = int(width), int(height)
+    col = VERTICAL_COLORS
+    tx = arr["track_x"]
+    r_wheel = 0.04 * h
+    y_rail = 0.85 * h
+    y_bogie0 = y_rail - 2 * r_wheel - 0.08 * h
+    k = DISPLACEMENT_PX_PER_M * h / 400.0
+    g = _Geometry(tx[0], w / (tx[-1] - tx[0]), k, y_bogie0, y_bogie0 - 0.14 * h)
+    img = canvas(w, h, col["background"])
+    if "time" in state and "duration" in state and float(state["duration"]) > 0:
+        frac = min(max(float(state["time"]) / float(state["duration"]), 0.0), 1.0)
+        fill_rect(img, 4, 4, w - 4, 8, col["bar_back"])
+        fill_rect(img, 4, 4, 4 + frac * (w - 8), 8, col["bar_front"])
+
+    # track: ground under the exaggerated profile, rail on top
+    cols = np.arange(w) + 0.5
+    y_prof = y_rail - g.k * np.interp(tx[0] + cols / g.sx, tx, arr["track_z"])
+    rows = np.arange(h)[:, None] + 0.5
+    img[rows >= y_prof[None, :]] = col["ground"]
+    img[(rows >= y_prof[None, :]) & (rows < y_prof[None, :] + 3)] = col["rail"]
+
+    _draw_running_gear(img, arr, g, y_rail, r_wheel)
+    _draw_carbody(img, arr, g)
+    _draw_secondaries(img, arr, g)
+    draw_caption(img, state, col["outline"], g.k / g.sx)  # vertical over horizontal scale
+    return img
+
+
+class _Geometry(NamedTuple):
+    """Scales of a frame: lengths ``sx`` px/m from ``x0``, heights ``k`` px/m (exaggerated);
+    rows of the bogies (``y_bogie0``) and of the carbody floor at zero displacement."""
+
+    x0: float
+    sx: float
+    k: float
+    y_bogie0: float
+    y_floor0: float
+
+    def px(self, x: Any) -> Any:
+        """Column of the position ``x`` (m)."""
+        return (np.asarray(x) - self.x0) * self.sx
+
+
+def _state_arrays(state: Mapping[str, Any], width: int, height: int) -> dict[str, np.ndarray]:
+    """The keys of :data:`_KEYS` as finite float arrays; the frame at least 64 px."""
     for key in _KEYS:
         if key not in state:
             raise ValueError(f"render state is missing {key!r}")
@@ -59,67 +105,62 @@ def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400
             raise ValueError(f"render state {k!r} must be finite")
     if int(width) < 64 or int(height) < 64:
         raise ValueError(f"width and height must be >= 64 px, got {width} x {height}")
-    w, h = int(width), int(height)
+    return arr
+
+
+def _draw_running_gear(
+    img: np.ndarray, arr: dict[str, np.ndarray], g: _Geometry, y_rail: float, r_wheel: float
+) -> None:
+    """Wheels on the rail with their primary springs, and the pitched bogie frames."""
     col = VERTICAL_COLORS
-    k = DISPLACEMENT_PX_PER_M * h / 400.0
-    tx = arr["track_x"]
-    sx = w / (tx[-1] - tx[0])
-
-    def px(x: Any) -> Any:
-        return (np.asarray(x) - tx[0]) * sx
-
-    img = canvas(w, h, col["background"])
-    if "time" in state and "duration" in state and float(state["duration"]) > 0:
-        frac = min(max(float(state["time"]) / float(state["duration"]), 0.0), 1.0)
-        fill_rect(img, 4, 4, w - 4, 8, col["bar_back"])
-        fill_rect(img, 4, 4, 4 + frac * (w - 8), 8, col["bar_front"])
-
-    # track: ground under the exaggerated profile, rail on top
-    y_rail = 0.85 * h
-    cols = np.arange(w) + 0.5
-    y_prof = y_rail - k * np.interp(tx[0] + cols / sx, tx, arr["track_z"])
-    rows = np.arange(h)[:, None] + 0.5
-    img[rows >= y_prof[None, :]] = col["ground"]
-    img[(rows >= y_prof[None, :]) & (rows < y_prof[None, :] + 3)] = col["rail"]
-
-    r_wheel = 0.04 * h
-    y_bogie0 = y_rail - 2 * r_wheel - 0.08 * h
-    y_floor0 = y_bogie0 - 0.14 * h
-    for j, (xw, zw) in enumerate(zip(px(arr["wheel_x"]), arr["wheel_z"], strict=True)):
+    k = g.k
+    for j, (xw, zw) in enumerate(zip(g.px(arr["wheel_x"]), arr["wheel_z"], strict=True)):
         yw = y_rail - r_wheel - k * zw
         fill_circle(img, xw, yw, r_wheel, col["wheel"])
         i = j // 2
         e = 1.0 if j % 2 == 0 else -1.0
         xb_m = arr["wheel_x"][j] - arr["bogie_x"][i]
-        yb = y_bogie0 - k * (arr["bogie_z"][i] + xb_m * arr["bogie_pitch"][i])
+        yb = g.y_bogie0 - k * (arr["bogie_z"][i] + xb_m * arr["bogie_pitch"][i])
         draw_spring(
             img, xw - 0.15 * e * r_wheel, yb, yw, col["primary_spring"], 4, 0.25 * r_wheel, 2
         )
     # bogie frames: beams through the wheelset points, pitched
+    h = img.shape[0]
     b = 0.5 * abs(arr["wheel_x"][0] - arr["wheel_x"][1])
     for i in range(2):
         xs = arr["bogie_x"][i] + np.array([-1.3 * b, 1.3 * b])
-        ys = y_bogie0 - k * (arr["bogie_z"][i] + (xs - arr["bogie_x"][i]) * arr["bogie_pitch"][i])
-        draw_polyline(img, px(xs), ys, col["bogie"], int(0.035 * h))
-    # carbody: a band above the (bent, pitched) floor line
+        ys = g.y_bogie0 - k * (arr["bogie_z"][i] + (xs - arr["bogie_x"][i]) * arr["bogie_pitch"][i])
+        draw_polyline(img, g.px(xs), ys, col["bogie"], int(0.035 * h))
+
+
+def _draw_carbody(img: np.ndarray, arr: dict[str, np.ndarray], g: _Geometry) -> None:
+    """The carbody: a band above its (bent, pitched) floor line."""
+    col = VERTICAL_COLORS
+    h, w = img.shape[:2]
+    cols = np.arange(w) + 0.5
+    rows = np.arange(h)[:, None] + 0.5
     bx = arr["body_x"]
-    floor = y_floor0 - k * np.interp(tx[0] + cols / sx, bx, arr["body_z"])
-    inside = (tx[0] + cols / sx >= bx[0]) & (tx[0] + cols / sx <= bx[-1])
+    floor = g.y_floor0 - g.k * np.interp(g.x0 + cols / g.sx, bx, arr["body_z"])
+    inside = (g.x0 + cols / g.sx >= bx[0]) & (g.x0 + cols / g.sx <= bx[-1])
     body_h = 0.3 * h
     mask = inside[None, :] & (rows <= floor[None, :]) & (rows >= floor[None, :] - body_h)
     img[mask] = col["carbody"]
-    draw_polyline(img, px(bx), y_floor0 - k * arr["body_z"], col["outline"], 2)
-    # secondary suspension and actuators at each bogie
+    draw_polyline(img, g.px(bx), g.y_floor0 - g.k * arr["body_z"], col["outline"], 2)
+
+
+def _draw_secondaries(img: np.ndarray, arr: dict[str, np.ndarray], g: _Geometry) -> None:
+    """Secondary suspension (air spring, damper) at each bogie and the actuator bars above."""
+    col = VERTICAL_COLORS
+    h, w = img.shape[:2]
+    bx = arr["body_x"]
     f_max = float(arr["f_max"])
     for i in range(2):
-        xb = float(px(arr["bogie_x"][i]))
-        yb = y_bogie0 - k * arr["bogie_z"][i] - 0.02 * h
-        yf = y_floor0 - k * np.interp(arr["bogie_x"][i], bx, arr["body_z"])
+        xb = float(g.px(arr["bogie_x"][i]))
+        yb = g.y_bogie0 - g.k * arr["bogie_z"][i] - 0.02 * h
+        yf = g.y_floor0 - g.k * np.interp(arr["bogie_x"][i], bx, arr["body_z"])
         draw_spring(img, xb - 0.02 * w, yf, yb, col["air_spring"], 3, 0.01 * w, 2)
         ratio = float(np.clip(arr["force"][i] / f_max, -1.0, 1.0)) if f_max > 0 else 0.0
         color = col["actuator_push"] if ratio > 0 else col["actuator_pull"]
         draw_line(img, xb + 0.02 * w, yb, xb + 0.02 * w, yf, col["damper"], 2)
         if ratio != 0.0:
             fill_rect(img, xb - 0.04 * w, 14, xb - 0.04 * w + ratio * 0.08 * w, 20, color)
-    draw_caption(img, state, col["outline"], k / sx)  # vertical over horizontal scale
-    return img

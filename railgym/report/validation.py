@@ -211,6 +211,26 @@ def _cell(c: _Cell) -> list[tuple[str, str, tuple[float, ...]]]:
     return rows
 
 
+def _row(element: str, cls: int, controller: str, e: np.ndarray) -> dict[str, Any]:
+    """One row of the matrix from the per-seed errors ``e`` (seeds × [relative RMS
+    acceleration error, x2, v2, ẍ2 errors]); a diverged seed has a non-finite error."""
+    rel = e[:, 0]
+    finite = np.isfinite(rel)
+    return {
+        "element": element,
+        "class": cls,
+        "controller": controller,
+        "median": float(np.median(rel)),
+        "p90": float(np.percentile(rel, 90)),
+        "max": float(np.max(rel)),
+        "eq9": tuple(float(np.median(e[finite, j])) for j in (1, 2, 3))
+        if finite.any()
+        else (np.inf,) * 3,
+        "diverged": int(np.sum(~finite)),
+        "errors": rel.tolist(),
+    }
+
+
 def validation_matrix(
     elements: Mapping[str, Any],
     classes: tuple[int, ...] = CLASSES,
@@ -270,26 +290,7 @@ def validation_matrix(
                 errs.setdefault((ename, cls, cname), []).append(e)
         if progress is not None:
             progress(f"validation class {cls}")
-    rows = []
-    for (ename, cls, cname), e in errs.items():
-        e = np.array(e)
-        rel = e[:, 0]
-        finite = np.isfinite(rel)
-        rows.append(
-            {
-                "element": ename,
-                "class": cls,
-                "controller": cname,
-                "median": float(np.median(rel)),
-                "p90": float(np.percentile(rel, 90)),
-                "max": float(np.max(rel)),
-                "eq9": tuple(float(np.median(e[finite, j])) for j in (1, 2, 3))
-                if finite.any()
-                else (np.inf,) * 3,
-                "diverged": int(np.sum(~finite)),
-                "errors": rel.tolist(),
-            }
-        )
+    rows = [_row(ename, cls, cname, np.array(e)) for (ename, cls, cname), e in errs.items()]
     return {
         "rows": rows,
         "published": PAPER["table8"],

@@ -7,6 +7,7 @@ The FMU (a zip archive) holds::
     sources/lpr.h, lpr_element.h   the Legendre evaluation and the element built on it
     sources/element_data.h         generated: coefficients, exponents, training box, policy
     sources/fmi2*.h                FMI 2.0.1 standard headers (2-clause BSD, Modelica Association)
+    sources/fmi2_common.h          the FMI functions shared by every FMU of surrogates and railgym
     binaries/<platform>/<id>.<ext> shared library built here with the system C compiler
     resources/element.json         the saved model document the FMU was generated from
 
@@ -46,7 +47,8 @@ from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression
 
 KINDS = ("me", "cs", "both")
-HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+#: shipped in every FMU: the FMI 2.0.1 standard headers and the FMI functions all our FMUs share
+HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h", "fmi2_common.h")
 SOURCE_FILES = ("element.c",)
 #: compiler flags; no floating-point contraction, so the C arithmetic matches numpy's
 CFLAGS = ("-shared", "-fPIC", "-O2", "-std=c99", "-ffp-contract=off")

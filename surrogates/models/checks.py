@@ -67,7 +67,6 @@ def _model_error(field: str, message: str) -> ModelFieldError:
 #: :class:`ModelFieldError` for bad values and values of the wrong type alike
 _CHECKS = Checks(_model_error, _model_error)
 real = _CHECKS.real
-in_range = _CHECKS.in_range
 positive = _CHECKS.positive
 non_negative = _CHECKS.non_negative
 integer = _CHECKS.integer

@@ -84,6 +84,11 @@ ROWS = [
     ("train", "{cfg} --timesteps 0", "--timesteps"),
     ("train", "{cfg} --timesteps abc", "--timesteps"),
     ("train", "{cfg} --seed -1", "--seed"),
+    # one bound for every command's --seed: 0 .. 2**32 - 1
+    ("train", "{cfg} --seed 4294967296", "--seed"),
+    ("railgym", "paper --seed 4294967296", "--seed"),
+    ("railgym", "evaluate skyhook --seed 4294967296", "--seed"),
+    ("railgym", "refine skyhook --seed 4294967296", "--seed"),
     ("train", "{cfg} --out {nonempty}", "--out"),
     ("train", "{cfg} --out {file}", "--out"),
 ]
@@ -136,3 +141,27 @@ def test_bad_command_line_is_one_clear_error(places, capsys, prog, argv, names):
     assert "error:" in last
     assert re.search(names, last), last
     assert sorted(p.name for p in Path("nonempty").iterdir()) == ["keep.txt"]  # nothing written
+
+
+FE = "--nodout n --rcforc r --units mm-ms-kg-kN --car-nodes 1 --wall-contact 1 -o e.json"
+
+
+@pytest.mark.parametrize(
+    ("module", "argv", "flag"),
+    [
+        ("agents.vehicle_validation", "--duration 0", "--duration"),
+        ("agents.vehicle_validation", "--duration 601", "--duration"),
+        ("agents.vehicle_validation", "--track-class 7", "--track-class"),
+        ("agents.vehicle_validation", "--seeds 0", "--seeds"),
+        ("railgym.vehicles.crash.fe", f"{FE} --interface-contacts 2 --seed -1", "--seed"),
+    ],
+)
+def test_module_commands_share_the_bounds_of_the_railgym_flags(module, argv, flag, capsys):
+    """The ``python -m`` commands parse ``--duration``, ``--track-class``, ``--seeds`` and
+    ``--seed`` with the same types (and bounds) as ``railgym evaluate``."""
+    import importlib
+
+    with pytest.raises(SystemExit) as exc:
+        importlib.import_module(module).main(argv.split())
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert exc.value.code == 2 and f"argument {flag}" in last, last

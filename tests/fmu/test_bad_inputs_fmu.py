@@ -145,7 +145,7 @@ CASES = [
         {
             "c": _in_do_step(
                 "    if (currentCommunicationPoint > 0.05) {\n"
-                '        logmsg(m, fmi2Error, "test: pump failure");\n'
+                '        fmu_log(m, fmi2Error, "test: pump failure");\n'
                 "        return fmi2Error;\n    }\n"
             )
         },

@@ -15,6 +15,9 @@
  * n = round(H / MD_DT) (at least 1) equal substeps. The inputs over the step are the Taylor
  * polynomials u(t_c + s) = u + u' s + u'' s^2/2 + u''' s^3/6 from fmi2SetRealInputDerivatives
  * (orders 1 to 3; all zero after an fmi2SetReal of that input, i.e. a held input).
+ *
+ * The FMI functions shared with the surrogate elements' FMUs are in fmi2_common.h (shipped by
+ * surrogates.fmi).
  */
 #include <math.h>
 #include <stdarg.h>
@@ -31,109 +34,24 @@
 #define VR_END (MD_NU + MD_NY + 2 * MD_NX)
 #define MAX_ORDER 3
 
+#define FMU_GUID MD_GUID
+#define FMU_NOUN "model"
+#include "fmi2_common.h"
+
 typedef struct {
+    FmuBase base;
     double x[MD_NX];
     double u[MD_NU];
     double du[MD_NU][MAX_ORDER];
-    double time;
-    fmi2Type type;
-    fmi2Boolean logging;
-    fmi2CallbackFunctions cb;
-    char *name;
 } Model;
 
-static void logmsg(Model *m, fmi2Status status, const char *fmt, ...) {
-    char buf[512];
-    va_list ap;
-    if (m == NULL || m->cb.logger == NULL) return;
-    if (status == fmi2OK && !m->logging) return;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
-    m->cb.logger(m->cb.componentEnvironment, m->name, status, "logStatusError", "%s", buf);
-}
+static fmi2Component fmu_new(void) { return calloc(1, sizeof(Model)); }
 
-static void reset_model(Model *m) {
+static void fmu_reset(fmi2Component c) {
+    Model *m = (Model *)c;
     memset(m->x, 0, sizeof m->x);
     memset(m->du, 0, sizeof m->du);
     memset(m->u, 0, sizeof m->u);
-    m->time = 0.0;
-}
-
-const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
-const char *fmi2GetVersion(void) { return fmi2Version; }
-
-fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
-                               const fmi2String categories[]) {
-    (void)nCategories;
-    (void)categories;
-    ((Model *)c)->logging = loggingOn;
-    return fmi2OK;
-}
-
-fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
-                              fmi2String fmuResourceLocation,
-                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
-                              fmi2Boolean loggingOn) {
-    Model *m;
-    (void)fmuResourceLocation;
-    (void)visible;
-    if (functions == NULL || fmuGUID == NULL || strcmp(fmuGUID, MD_GUID) != 0) {
-        if (functions != NULL && functions->logger != NULL) {
-            functions->logger(functions->componentEnvironment, instanceName, fmi2Error,
-                              "logStatusError", "GUID %s does not match this FMU (%s)",
-                              fmuGUID ? fmuGUID : "(null)", MD_GUID);
-        }
-        return NULL;
-    }
-    m = (Model *)calloc(1, sizeof(Model));
-    if (m == NULL) return NULL;
-    m->name = (char *)malloc(strlen(instanceName ? instanceName : "") + 1);
-    if (m->name == NULL) {
-        free(m);
-        return NULL;
-    }
-    strcpy(m->name, instanceName ? instanceName : "");
-    m->cb = *functions;
-    m->type = fmuType;
-    m->logging = loggingOn;
-    reset_model(m);
-    return (fmi2Component)m;
-}
-
-void fmi2FreeInstance(fmi2Component c) {
-    Model *m = (Model *)c;
-    if (m == NULL) return;
-    free(m->name);
-    free(m);
-}
-
-fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
-                               fmi2Real tolerance, fmi2Real startTime,
-                               fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-    (void)toleranceDefined;
-    (void)tolerance;
-    (void)stopTimeDefined;
-    (void)stopTime;
-    ((Model *)c)->time = startTime;
-    return fmi2OK;
-}
-
-fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
-    (void)c;
-    return fmi2OK;
-}
-fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
-    (void)c;
-    return fmi2OK;
-}
-fmi2Status fmi2Terminate(fmi2Component c) {
-    (void)c;
-    return fmi2OK;
-}
-fmi2Status fmi2Reset(fmi2Component c) {
-    reset_model((Model *)c);
-    return fmi2OK;
 }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
@@ -154,7 +72,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         } else if (r < VR_END) {
             value[i] = dx[r - VR_DX];
         } else {
-            logmsg(m, fmi2Error, "fmi2GetReal: no such value reference %u", (unsigned)r);
+            fmu_log(m, fmi2Error, "fmi2GetReal: no such value reference %u", (unsigned)r);
             return fmi2Error;
         }
     }
@@ -169,11 +87,11 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     for (i = 0; i < nvr; i++) {
         fmi2ValueReference r = vr[i];
         if (r >= VR_Y) {
-            logmsg(m, fmi2Error, "fmi2SetReal: value reference %u is not an input", (unsigned)r);
+            fmu_log(m, fmi2Error, "fmi2SetReal: value reference %u is not an input", (unsigned)r);
             return fmi2Error;
         }
         if (!isfinite(value[i])) {
-            logmsg(m, fmi2Error, "input %u set to a non-finite value", (unsigned)r);
+            fmu_log(m, fmi2Error, "input %u set to a non-finite value", (unsigned)r);
             return fmi2Error;
         }
         m->u[r] = value[i];
@@ -182,130 +100,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     return fmi2OK;
 }
 
-static fmi2Status no_variables(fmi2Component c, size_t nvr, const char *what) {
-    if (nvr == 0) return fmi2OK;
-    logmsg((Model *)c, fmi2Error, "%s: the model has no such variables", what);
-    return fmi2Error;
-}
-
-fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          fmi2Integer value[]) {
-    (void)vr;
-    (void)value;
-    return no_variables(c, nvr, "fmi2GetInteger");
-}
-fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          fmi2Boolean value[]) {
-    (void)vr;
-    (void)value;
-    return no_variables(c, nvr, "fmi2GetBoolean");
-}
-fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                         fmi2String value[]) {
-    (void)vr;
-    (void)value;
-    return no_variables(c, nvr, "fmi2GetString");
-}
-fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Integer value[]) {
-    (void)vr;
-    (void)value;
-    return no_variables(c, nvr, "fmi2SetInteger");
-}
-fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Boolean value[]) {
-    (void)vr;
-    (void)value;
-    return no_variables(c, nvr, "fmi2SetBoolean");
-}
-fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                         const fmi2String value[]) {
-    (void)vr;
-    (void)value;
-    return no_variables(c, nvr, "fmi2SetString");
-}
-
-static fmi2Status unsupported(fmi2Component c, const char *what) {
-    logmsg((Model *)c, fmi2Error, "%s is not supported by this FMU", what);
-    return fmi2Error;
-}
-
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)s;
-    return unsupported(c, "fmi2GetFMUstate");
-}
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
-    (void)s;
-    return unsupported(c, "fmi2SetFMUstate");
-}
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)s;
-    return unsupported(c, "fmi2FreeFMUstate");
-}
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *size) {
-    (void)s;
-    (void)size;
-    return unsupported(c, "fmi2SerializedFMUstateSize");
-}
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte state[],
-                                 size_t size) {
-    (void)s;
-    (void)state;
-    (void)size;
-    return unsupported(c, "fmi2SerializeFMUstate");
-}
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte state[], size_t size,
-                                   fmi2FMUstate *s) {
-    (void)state;
-    (void)size;
-    (void)s;
-    return unsupported(c, "fmi2DeSerializeFMUstate");
-}
-fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown[],
-                                        size_t nUnknown, const fmi2ValueReference vKnown[],
-                                        size_t nKnown, const fmi2Real dvKnown[],
-                                        fmi2Real dvUnknown[]) {
-    (void)vUnknown;
-    (void)nUnknown;
-    (void)vKnown;
-    (void)nKnown;
-    (void)dvKnown;
-    (void)dvUnknown;
-    return unsupported(c, "fmi2GetDirectionalDerivative");
-}
-
 /* ------------------------------------------------------------------ model exchange */
-fmi2Status fmi2EnterEventMode(fmi2Component c) {
-    (void)c;
-    return fmi2OK;
-}
-fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
-    (void)c;
-    info->newDiscreteStatesNeeded = fmi2False;
-    info->terminateSimulation = fmi2False;
-    info->nominalsOfContinuousStatesChanged = fmi2False;
-    info->valuesOfContinuousStatesChanged = fmi2False;
-    info->nextEventTimeDefined = fmi2False;
-    info->nextEventTime = 0.0;
-    return fmi2OK;
-}
-fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
-    (void)c;
-    return fmi2OK;
-}
-fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
-                                       fmi2Boolean *enterEventMode,
-                                       fmi2Boolean *terminateSimulation) {
-    (void)c;
-    (void)noSetFMUStatePriorToCurrentPoint;
-    *enterEventMode = fmi2False;
-    *terminateSimulation = fmi2False;
-    return fmi2OK;
-}
-fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
-    ((Model *)c)->time = time;
-    return fmi2OK;
-}
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
     Model *m = (Model *)c;
     size_t j;
@@ -345,7 +140,7 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
     size_t i;
     for (i = 0; i < nvr; i++) {
         if (vr[i] >= VR_Y || order[i] < 1 || order[i] > MAX_ORDER || !isfinite(value[i])) {
-            logmsg(m, fmi2Error,
+            fmu_log(m, fmi2Error,
                    "fmi2SetRealInputDerivatives: value reference %u, order %d not supported "
                    "(inputs 0..%d, orders 1..%d, finite values)",
                    (unsigned)vr[i], (int)order[i], MD_NU - 1, MAX_ORDER);
@@ -355,16 +150,6 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
     }
     return fmi2OK;
 }
-fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                        size_t nvr, const fmi2Integer order[],
-                                        fmi2Real value[]) {
-    (void)vr;
-    (void)nvr;
-    (void)order;
-    (void)value;
-    return unsupported(c, "fmi2GetRealOutputDerivatives");
-}
-
 static void inputs_at(const Model *m, double s, double *u) {
     int j;
     for (j = 0; j < MD_NU; j++) {
@@ -382,7 +167,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
     int n, i, j;
     (void)noSetFMUStatePriorToCurrentCommunicationPoint;
     if (!(communicationStepSize >= 0.0) || !isfinite(communicationStepSize)) {
-        logmsg(m, fmi2Error, "fmi2DoStep: bad step size %g", communicationStepSize);
+        fmu_log(m, fmi2Error, "fmi2DoStep: bad step size %g", communicationStepSize);
         return fmi2Error;
     }
     n = (int)floor(communicationStepSize / MD_DT + 0.5);
@@ -405,7 +190,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
         }
         for (j = 0; j < MD_NX; j++) {
             if (!isfinite(m->x[j])) {
-                logmsg(m, fmi2Error, "fmi2DoStep: the state became non-finite at t = %g s",
+                fmu_log(m, fmi2Error, "fmi2DoStep: the state became non-finite at t = %g s",
                        currentCommunicationPoint + s0 + h);
                 return fmi2Error;
             }
@@ -415,37 +200,6 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
     inputs_at(m, communicationStepSize, ua);
     for (j = 0; j < MD_NU; j++) m->u[j] = ua[j];
     memset(m->du, 0, sizeof m->du);
-    m->time = currentCommunicationPoint + communicationStepSize;
+    m->base.time = currentCommunicationPoint + communicationStepSize;
     return fmi2OK;
-}
-
-fmi2Status fmi2CancelStep(fmi2Component c) { return unsupported(c, "fmi2CancelStep"); }
-fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    (void)s;
-    (void)value;
-    return unsupported(c, "fmi2GetStatus");
-}
-fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    if (s == fmi2LastSuccessfulTime) {
-        *value = ((Model *)c)->time;
-        return fmi2OK;
-    }
-    return unsupported(c, "fmi2GetRealStatus");
-}
-fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    (void)s;
-    (void)value;
-    return unsupported(c, "fmi2GetIntegerStatus");
-}
-fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    if (s == fmi2Terminated) {
-        *value = fmi2False;
-        return fmi2OK;
-    }
-    return unsupported(c, "fmi2GetBooleanStatus");
-}
-fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    (void)s;
-    (void)value;
-    return unsupported(c, "fmi2GetStringStatus");
 }

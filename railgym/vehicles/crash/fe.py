@@ -54,6 +54,7 @@ from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import MAX_NODES_PER_CAR as MAX_NODES
 from railgym.vehicles.crash.surrogate import CrashElement, CrashSurrogate, build_crash_surrogate
 from surrogates import io
+from surrogates.checks import seed_number
 from surrogates.features import TimeHistory
 from surrogates.models.base import _jsonable
 from surrogates.selection import SelectionResult
@@ -393,7 +394,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--axis", choices=list(AXES), default="x")
     p.add_argument("--direction", type=float, choices=[1.0, -1.0], default=1.0)
     p.add_argument("--start-time", type=float, default=None, help="first contact, s")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed_number, default=0)
     p.add_argument("-o", "--output", required=True, help="where to write the elements JSON")
     p.add_argument("--fmu-dir", help="also export each element as <name>.fmu (co-simulation)")
     p.add_argument("--overwrite", action="store_true")
