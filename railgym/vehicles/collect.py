@@ -282,6 +282,27 @@ def build_memory_surrogate(
             progress=_stage(progress, "reference runs"),
         )
     cls = PassiveLegendreRegression if passive else LegendreRegression
+    model, selection = select_memory_element(
+        data, taus, degrees, cls, known_physics, vehicle, k, seed, progress
+    )
+    return model, selection, data
+
+
+def select_memory_element(
+    data: dict[str, Any],
+    taus: Sequence[float],
+    degrees: Iterable[Any],
+    cls: Callable[..., SurrogateModel],
+    known_physics: Sequence[str],
+    vehicle: str,
+    k: int,
+    seed: int,
+    progress: Callable[[str, int, int], None] | None = None,
+) -> tuple[SurrogateModel, TauSelection]:
+    """The memory element of class ``cls`` on collected ``data`` (:func:`memory_training_data`
+    of ``vehicle``) with ``τ`` among ``taus`` (s) and the degrees among ``degrees`` chosen by
+    ``k``-fold CV (folds shuffled by ``seed``); its training pairs go to
+    ``data["U_memory"], data["V_memory"]``. Arguments as :func:`build_memory_surrogate`."""
     degrees = list(degrees)
     out = TauSelection()
     pairs = {}
@@ -310,7 +331,7 @@ def build_memory_surrogate(
         "known_physics": list(known_physics),
     }
     data["U_memory"], data["V_memory"] = U, V
-    return model, out, data
+    return model, out
 
 
 _FEATURES = {

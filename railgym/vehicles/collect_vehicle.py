@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from railgym.track import fra_profile_with_slope
-from railgym.vehicles.collect import memory_training_data, save_vertical_surrogate
+from railgym.vehicles.collect import save_vertical_surrogate, select_memory_element
 from railgym.vehicles.collect_design import band_limited_force
 from railgym.vehicles.vehicle import (
     DEFAULT_DT,
@@ -43,7 +43,6 @@ from railgym.vehicles.vehicle import (
 from surrogates.memory import TauSelection
 from surrogates.models import SurrogateModel
 from surrogates.passive import PassiveLegendreRegression
-from surrogates.selection import select_kfold
 
 __all__ = [
     "VEHICLE_DEGREES",
@@ -200,24 +199,9 @@ def build_vehicle_surrogate(
     """
     data = collect_vehicle(design, vehicle)
     base = load_whole_vehicle(vehicle).suspension.name
-    degrees = list(degrees)
-    sel = TauSelection()
-    pairs = {}
-    for tau in taus:
-        U, V = memory_training_data(data, tau, ("bump_stop",), base)
-        res = select_kfold(
-            lambda deg: PassiveLegendreRegression(degree=deg), degrees, U, V, k=k, seed=seed
-        )
-        row = next(r for r in res.table if r["candidate"] == res.best)
-        sel.table.append({"tau": tau, "degree": res.best, "rms": row["rms"], "nrms": row["nrms"]})
-        sel.results.append(res)
-        pairs[tau] = (U, V)
-    best = min(sel.table, key=lambda r: r["rms"])
-    sel.best = (best["tau"], best["degree"])
-    U, V = pairs[best["tau"]]
-    model = PassiveLegendreRegression(degree=best["degree"]).fit(U, V)
-    model.features_ = {"form": "maxwell", "tau": best["tau"], "known_physics": ["bump_stop"]}
-    data["U_memory"], data["V_memory"] = U, V
+    model, sel = select_memory_element(
+        data, taus, degrees, PassiveLegendreRegression, ("bump_stop",), base, k, seed
+    )
     return model, sel, data
 
 

@@ -44,8 +44,7 @@ from railgym.vehicles.crash.outputs import (
     _crash_over,
     _healthy,
     _steps,
-    new_outputs,
-    new_record,
+    one_train,
     recorded_result,
 )
 from railgym.vehicles.crash.scenario import CrashScenario, CrushZone, Obstacle, load_scenario
@@ -546,12 +545,7 @@ def simulate_reference(
     _check_run(duration, sample_dt)
     ch = _build_chain(scenario)
     dt, n_sub = _reference_steps(ch, sample_dt, safety)
-    n_samples = int(round(duration / sample_dt)) + 1
-    nb, nz = len(ch.body_names), len(ch.zone_names)
-    state = _new_reference_state(1, ch.params.m, nz)
-    state.v[0] = ch.v0
-    out = new_outputs(1, nb, nz)
-    rec = new_record(n_samples, nb, nz, energies=True)
+    state, out, rec = one_train(ch, _new_reference_state, duration, sample_dt, energies=True)
     t0 = time.perf_counter()
     n = _record_reference(
         state, out, ch.params, dt, n_sub, StopRule(stop_when_over, v_stop, f_stop), rec
