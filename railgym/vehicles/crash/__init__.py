@@ -79,6 +79,7 @@ from railgym.vehicles.crash.scenario import (
 from railgym.vehicles.crash.surrogate import (
     VARIANTS,
     CrashElement,
+    CrashFitOptions,
     CrashSurrogate,
     TrainingSet,
     build_crash_surrogate,
@@ -113,6 +114,7 @@ __all__ = [
     "CrashModel",
     "CrashCriteria",
     "CrashElement",
+    "CrashFitOptions",
     "CrashResult",
     "CrashScenario",
     "CrashSurrogate",

@@ -39,6 +39,7 @@ from surrogates.selection import factory_for, select_kfold
 __all__ = [
     "VARIANTS",
     "CrashElement",
+    "CrashFitOptions",
     "CrashSurrogate",
     "TrainingSet",
     "build_crash_surrogate",
@@ -266,6 +267,33 @@ def build_crash_surrogate(
         (``"hysteretic"``) is then one LPR per stage (:func:`fit_piecewise`, degrees by CV
         among ``degrees`` or :data:`~railgym.vehicles.crash.piecewise.PIECE_DEGREES`).
     """
+    refs = _check_build(reference, variant, nodes_per_car)
+    scenario = refs[0].scenario
+    t0 = time.perf_counter()
+    absorber = {
+        "wall": scenario.wall.absorber_stroke,
+        "interface": scenario.interface.absorber_stroke,
+    }
+    feature = "com" if nodes_per_car == 1 else "zone"
+    fit = CrashFitOptions(variant, seed, max_degree, degrees, nodes_per_car, knots)
+    elements = {
+        name: _fit_element(name, data, run_scale, absorber[name], fit)
+        for name, (data, run_scale) in _pooled_training_data(refs, feature).items()
+    }
+    return CrashSurrogate(
+        variant=variant,
+        elements=elements,
+        source=scenario.name,
+        build_time=time.perf_counter() - t0,
+        nodes_per_car=int(nodes_per_car),
+    )
+
+
+def _check_build(
+    reference: CrashResult | list[CrashResult], variant: str, nodes_per_car: Any
+) -> list[CrashResult]:
+    """The reference results of :func:`build_crash_surrogate`; ``ValueError`` naming a bad
+    argument."""
     if isinstance(nodes_per_car, bool) or not isinstance(nodes_per_car, int | np.integer):
         raise ValueError(f"nodes_per_car must be an integer, got {nodes_per_car!r}")
     if not 1 <= nodes_per_car <= MAX_NODES_PER_CAR:
@@ -278,77 +306,81 @@ def build_crash_surrogate(
     for ref in refs:
         if ref.model != "reference":
             raise ValueError(f"reference must be a reference-model result, got {ref.model!r}")
-    scenario = refs[0].scenario
-    t0 = time.perf_counter()
-    elements = {}
-    absorber = {
-        "wall": scenario.wall.absorber_stroke,
-        "interface": scenario.interface.absorber_stroke,
-    }
-    feature = "com" if nodes_per_car == 1 else "zone"
-    for name, (data, run_scale) in _pooled_training_data(refs, feature).items():
-        u, f, rate, loading, series = data
-        # nominal envelope: the loading forces of a scaled absorber divided by its scale
-        nominal = f / np.where(u <= absorber[name], run_scale, 1.0)
-        unilateral = name == "wall"
-        sel: dict[str, Any] = {}
-        n: dict[str, int] = {}
-        kt = slack = 0.0
-        unload = None
-        if variant == "paper":
-            lo, un = loading, ~loading
-            load, sel["loading"] = _fit_lpr(u[lo], nominal[lo], max_degree, seed, degrees)
-            unload, sel["unloading"] = _fit_lpr(u[un], f[un], max_degree, seed, degrees)
-            n = {"loading": int(lo.sum()), "unloading": int(un.sum())}
-            rng = {
-                "loading": (nominal[lo].min(), nominal[lo].max()),
-                "unloading": (f[un].min(), f[un].max()),
-            }
-            ku = _unloading_stiffness(u, f, rate, series)
+    return refs
+
+
+@dataclass(frozen=True)
+class CrashFitOptions:
+    """How the crash elements are fitted: the arguments of :func:`build_crash_surrogate`
+    after ``reference`` (documented there), for callers that pass them on
+    (:func:`railgym.vehicles.crash.fe.crash_surrogate_from_fe`)."""
+
+    variant: str = "hysteretic"
+    seed: int = 0
+    max_degree: int = 30
+    degrees: Any = None
+    nodes_per_car: int = 1
+    knots: dict[str, Any] | None = None
+
+
+def _fit_element(
+    name: str, data: tuple, run_scale: np.ndarray, absorber: float, fit: CrashFitOptions
+) -> CrashElement:
+    """The element ``name`` fitted on its pooled training ``data`` (:func:`_pooled_training_data`)
+    with the run scales ``run_scale`` applied within the ``absorber`` stroke (m)."""
+    u, f, rate, loading, series = data
+    # nominal envelope: the loading forces of a scaled absorber divided by its scale
+    env_scale = np.where(u <= absorber, run_scale, 1.0)
+    nominal = f / env_scale
+    unilateral = name == "wall"
+    sel: dict[str, Any] = {}
+    kt = slack = 0.0
+    unload = None
+    ku = _unloading_stiffness(u, f, rate, series)
+    if fit.variant == "paper":
+        lo, un = loading, ~loading
+        load, sel["loading"] = _fit_lpr(u[lo], nominal[lo], fit.max_degree, fit.seed, fit.degrees)
+        unload, sel["unloading"] = _fit_lpr(u[un], f[un], fit.max_degree, fit.seed, fit.degrees)
+        n = {"loading": int(lo.sum()), "unloading": int(un.sum())}
+        rng = {
+            "loading": (nominal[lo].min(), nominal[lo].max()),
+            "unloading": (f[un].min(), f[un].max()),
+        }
+    else:
+        vg = virgin_loading(u, rate, series) & (f > 0)
+        uu = np.concatenate(([0.0], u[vg]))
+        ff = np.concatenate(([0.0], nominal[vg]))
+        if fit.knots is not None and name in fit.knots:
+            cands = PIECE_DEGREES if fit.degrees is None else fit.degrees
+            load, tables = fit_piecewise(uu, ff, fit.knots[name], fit.seed, cands)
+            sel.update({f"loading_{i}": t for i, t in enumerate(tables)})
         else:
-            vg = virgin_loading(u, rate, series) & (f > 0)
-            uu = np.concatenate(([0.0], u[vg]))
-            ff = np.concatenate(([0.0], nominal[vg]))
-            if knots is not None and name in knots:
-                cands = PIECE_DEGREES if degrees is None else degrees
-                load, tables = fit_piecewise(uu, ff, knots[name], seed, cands)
-                sel.update({f"loading_{i}": t for i, t in enumerate(tables)})
-            else:
-                load, sel["loading"] = _fit_lpr(uu, ff, max_degree, seed, degrees)
-            ku = _unloading_stiffness(u, f, rate, series)
-            n = {"loading": int(uu.size)}
-            rng = {"loading": (0.0, ff.max())}
-            tension = f < 0
-            if not unilateral and np.count_nonzero(tension) >= 5:
-                # f = k_t (u − u_p + ŝ) on the tension samples, u_p the permanent set of each
-                # run's history (its absorber scale applied), so runs with different sets pool
-                env_scale = np.where(u <= absorber[name], run_scale, 1.0)
-                up = _permanent_set_history(u, series, load, ku, env_scale)
-                stretch = u[tension] - up[tension]
-                A = np.column_stack([stretch, np.ones(np.count_nonzero(tension))])
-                (kt, c), *_ = np.linalg.lstsq(A, f[tension], rcond=None)
-                slack = max(0.0, float(c / kt)) if kt > 0 else 0.0
-                kt = max(float(kt), 0.0)
-                n["tension"] = int(np.count_nonzero(tension))
-        elements[name] = CrashElement(
-            name=name,
-            variant=variant,
-            loading=load,
-            unloading=unload,
-            unloading_stiffness=ku,
-            tension_stiffness=kt,
-            slack=slack,
-            unilateral=unilateral,
-            force_range={k: (float(a), float(b)) for k, (a, b) in rng.items()},
-            selection=sel,
-            n_samples=n,
-        )
-    return CrashSurrogate(
-        variant=variant,
-        elements=elements,
-        source=scenario.name,
-        build_time=time.perf_counter() - t0,
-        nodes_per_car=int(nodes_per_car),
+            load, sel["loading"] = _fit_lpr(uu, ff, fit.max_degree, fit.seed, fit.degrees)
+        n = {"loading": int(uu.size)}
+        rng = {"loading": (0.0, ff.max())}
+        tension = f < 0
+        if not unilateral and np.count_nonzero(tension) >= 5:
+            # f = k_t (u − u_p + ŝ) on the tension samples, u_p the permanent set of each
+            # run's history (its absorber scale applied), so runs with different sets pool
+            up = _permanent_set_history(u, series, load, ku, env_scale)
+            stretch = u[tension] - up[tension]
+            A = np.column_stack([stretch, np.ones(np.count_nonzero(tension))])
+            (kt, c), *_ = np.linalg.lstsq(A, f[tension], rcond=None)
+            slack = max(0.0, float(c / kt)) if kt > 0 else 0.0
+            kt = max(float(kt), 0.0)
+            n["tension"] = int(np.count_nonzero(tension))
+    return CrashElement(
+        name=name,
+        variant=fit.variant,
+        loading=load,
+        unloading=unload,
+        unloading_stiffness=ku,
+        tension_stiffness=kt,
+        slack=slack,
+        unilateral=unilateral,
+        force_range={k: (float(a), float(b)) for k, (a, b) in rng.items()},
+        selection=sel,
+        n_samples=n,
     )
 
 
