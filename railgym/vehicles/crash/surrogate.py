@@ -44,6 +44,7 @@ __all__ = [
     "build_crash_surrogate",
     "crash_errors",
     "crash_training_data",
+    "plastic_loading",
     "virgin_loading",
 ]
 
@@ -184,6 +185,34 @@ def virgin_loading(
     return out
 
 
+def plastic_loading(
+    u: np.ndarray,
+    f: np.ndarray,
+    stiffness: float,
+    series: np.ndarray | None = None,
+    tol: float = 1e-6,
+) -> np.ndarray:
+    """Mask of the samples on the loading envelope: inside plastic flow.
+
+    The permanent set a sample implies under elastic unloading of stiffness ``k_u`` is
+    ``u − f / k_u`` (m); a sample is on the envelope where that set grows by more than ``tol``
+    (m) over the interval before it and the one after it, in the same time history
+    (``series``, default one). Samples on an elastic line are left out even at the largest
+    crush reached so far: reloading after an unload, and the elastic rise of a zone whose
+    scaled envelope there is steeper than ``k_u`` (an absorber scale above 1 on the first
+    rise), whose forces are not the envelope's.
+    """
+    series = np.zeros(u.size, dtype=np.int64) if series is None else series
+    out = np.zeros(u.size, dtype=bool)
+    for k in np.unique(series):
+        i = np.flatnonzero(series == k)
+        if i.size < 3:
+            continue
+        grow = np.diff(u[i] - f[i] / stiffness) > tol
+        out[i[1:-1]] = grow[:-1] & grow[1:]
+    return out
+
+
 def _fit_lpr(
     u: np.ndarray, f: np.ndarray, max_degree: int, seed: int, degrees: Any = None
 ) -> tuple[Any, Any]:
@@ -292,6 +321,7 @@ def build_crash_surrogate(
         n: dict[str, int] = {}
         kt = slack = 0.0
         unload = None
+        ku = _unloading_stiffness(u, f, rate, series)
         if variant == "paper":
             lo, un = loading, ~loading
             load, sel["loading"] = _fit_lpr(u[lo], nominal[lo], max_degree, seed, degrees)
@@ -301,9 +331,13 @@ def build_crash_surrogate(
                 "loading": (nominal[lo].min(), nominal[lo].max()),
                 "unloading": (f[un].min(), f[un].max()),
             }
-            ku = _unloading_stiffness(u, f, rate, series)
         else:
-            vg = virgin_loading(u, rate, series) & (f > 0)
+            # the zone crush's own law: plastic flow; the centre-of-mass feature holds carbody
+            # elasticity as well, so there the samples at the largest crush so far
+            if feature == "zone":
+                vg = plastic_loading(u, f, ku, series) & (f > 0)
+            else:
+                vg = virgin_loading(u, rate, series) & (f > 0)
             uu = np.concatenate(([0.0], u[vg]))
             ff = np.concatenate(([0.0], nominal[vg]))
             if knots is not None and name in knots:
@@ -312,7 +346,6 @@ def build_crash_surrogate(
                 sel.update({f"loading_{i}": t for i, t in enumerate(tables)})
             else:
                 load, sel["loading"] = _fit_lpr(uu, ff, max_degree, seed, degrees)
-            ku = _unloading_stiffness(u, f, rate, series)
             n = {"loading": int(uu.size)}
             rng = {"loading": (0.0, ff.max())}
             tension = f < 0
