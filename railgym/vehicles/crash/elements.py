@@ -35,6 +35,7 @@ import numpy as np
 from railgym.vehicles.crash.batch import CrashBatchModel, crash_batch_model
 from railgym.vehicles.crash.fe import load_crash_surrogate, save_crash_surrogate
 from railgym.vehicles.crash.outputs import CrashResult
+from railgym.vehicles.crash.piecewise import PIECE_DEGREES
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import CrashSurrogate, build_crash_surrogate
 
@@ -345,7 +346,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "absorber_scales": [list(s) for s in FIT_SCALES],
         "payloads_t": [list(p) for p in FIT_PAYLOADS_T],
         "nodes_per_car": NODES_PER_CAR,
-        "degrees": list(FIT_DEGREES),
+        "degrees": list(PIECE_DEGREES),
         "command": f"python -m railgym.vehicles.crash.elements --scenario {sc.name} --overwrite",
     }
     save_crash_surrogate(sur, out, overwrite=True, metadata=meta)

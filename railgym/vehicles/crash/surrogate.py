@@ -199,13 +199,14 @@ def plastic_loading(
 
     The permanent set a sample implies under elastic unloading of stiffness ``k_u`` (N/m) is
     ``u − f / k_u`` (m); plastic flow is where that set grows by more than ``tol`` (m) over the
-    interval before the sample and the one after it, in the same time history (``series``,
-    default one). This leaves out samples on an elastic line at the largest crush reached so
-    far: the end of a reload, and the elastic rise of a zone whose scaled envelope is steeper
-    there than ``k_u`` (an absorber scale above 1 on the first rise), whose forces are not the
-    envelope's; ``rate`` (m/s) as :func:`virgin_loading`. ``scale``: the envelope's scale at
-    each sample (default 1); a sample whose scale differs from the one before it is left out
-    too (after a step up of the scale the zone reloads elastically for part of the interval).
+    interval before the sample and the one after it, the zone in compression (``f > 0``) at
+    both ends of each, in the same time history (``series``, default one). This leaves out
+    samples on an elastic line at the largest crush reached so far: the end of a reload, and the
+    elastic rise of a zone whose scaled envelope is steeper there than ``k_u`` (an absorber
+    scale above 1 on the first rise), whose forces are not the envelope's; ``rate`` (m/s) as
+    :func:`virgin_loading`. ``scale``: the envelope's scale at each sample (default 1); a sample
+    whose scale differs from the one before it is left out too (after a step up of the scale the
+    zone reloads elastically for part of the interval).
     """
     series = np.zeros(u.size, dtype=np.int64) if series is None else series
     scale = np.ones(u.size) if scale is None else scale
@@ -214,7 +215,8 @@ def plastic_loading(
         i = np.flatnonzero(series == k)
         if i.size < 3:
             continue
-        grow = np.diff(u[i] - f[i] / stiffness) > tol
+        contact = f[i] > 0.0
+        grow = (np.diff(u[i] - f[i] / stiffness) > tol) & contact[:-1] & contact[1:]
         same = np.diff(scale[i]) == 0.0
         out[i[1:-1]] = grow[:-1] & grow[1:] & same[:-1]
     return out & virgin_loading(u, rate, series)
