@@ -85,6 +85,7 @@ from railgym.vehicles.crash.surrogate import (
     build_crash_surrogate,
     crash_errors,
     crash_training_data,
+    plastic_loading,
     virgin_loading,
 )
 from railgym.vehicles.crash.surrogate_model import (
@@ -149,6 +150,7 @@ __all__ = [
     "moving_average_peak",
     "parse_scenario",
     "peak_deceleration",
+    "plastic_loading",
     "rebound_energy_ratio",
     "reference_batch_step",
     "reference_time_step",

@@ -45,6 +45,7 @@ __all__ = [
     "build_crash_surrogate",
     "crash_errors",
     "crash_training_data",
+    "plastic_loading",
     "virgin_loading",
 ]
 
@@ -185,6 +186,43 @@ def virgin_loading(
     return out
 
 
+def plastic_loading(
+    u: np.ndarray,
+    f: np.ndarray,
+    rate: np.ndarray,
+    stiffness: float,
+    series: np.ndarray | None = None,
+    scale: np.ndarray | None = None,
+    tol: float = 1e-6,
+) -> np.ndarray:
+    """Mask of the samples on the loading envelope: on the virgin loading path
+    (:func:`virgin_loading`) and inside plastic flow.
+
+    The permanent set a sample implies under elastic unloading of stiffness ``k_u`` (N/m) is
+    ``u − f / k_u`` (m); plastic flow is where that set grows by more than ``tol`` (m) over the
+    interval before the sample and the one after it, the zone in compression (``f > 0``) at
+    both ends of each, in the same time history (``series``, default one). This leaves out
+    samples on an elastic line at the largest crush reached so far: the end of a reload, and the
+    elastic rise of a zone whose scaled envelope is steeper there than ``k_u`` (an absorber
+    scale above 1 on the first rise), whose forces are not the envelope's; ``rate`` (m/s) as
+    :func:`virgin_loading`. ``scale``: the envelope's scale at each sample (default 1); a sample
+    whose scale differs from the one before it is left out too (after a step up of the scale the
+    zone reloads elastically for part of the interval).
+    """
+    series = np.zeros(u.size, dtype=np.int64) if series is None else series
+    scale = np.ones(u.size) if scale is None else scale
+    out = np.zeros(u.size, dtype=bool)
+    for k in np.unique(series):
+        i = np.flatnonzero(series == k)
+        if i.size < 3:
+            continue
+        contact = f[i] > 0.0
+        grow = (np.diff(u[i] - f[i] / stiffness) > tol) & contact[:-1] & contact[1:]
+        same = np.diff(scale[i]) == 0.0
+        out[i[1:-1]] = grow[:-1] & grow[1:] & same[:-1]
+    return out & virgin_loading(u, rate, series)
+
+
 def _fit_lpr(
     u: np.ndarray, f: np.ndarray, max_degree: int, seed: int, degrees: Any = None
 ) -> tuple[Any, Any]:
@@ -212,17 +250,25 @@ def _unloading_stiffness(
     return float(np.sum(df[ok] * du[ok]) / np.sum(du[ok] ** 2))
 
 
+def _element_scale(scale: Any, name: str) -> float:
+    """Absorber scale of element type ``name`` in a run of absorber scale ``scale``: one number
+    for every zone, or a ``(wall, interface)`` pair."""
+    if np.ndim(scale) == 0:
+        return float(scale)
+    return float(scale[0 if name == "wall" else 1])
+
+
 def _pooled_training_data(
     references: list[CrashResult], feature: str = "com"
 ) -> dict[str, tuple[TrainingSet, np.ndarray]]:
     """:func:`crash_training_data` of several results pooled per element type (series
     numbered apart) with each sample's absorber scale (``result.extra["absorber_scale"]``,
-    default 1, the same in every zone of a run)."""
+    default 1: one number for every zone of a run, or a ``(wall, interface)`` pair)."""
     pooled: dict[str, list[tuple[TrainingSet, float]]] = {}
     for ref in references:
-        scale = float(ref.extra.get("absorber_scale", 1.0))
+        scale = ref.extra.get("absorber_scale", 1.0)
         for name, data in crash_training_data(ref, feature=feature).items():
-            pooled.setdefault(name, []).append((data, scale))
+            pooled.setdefault(name, []).append((data, _element_scale(scale, name)))
     out = {}
     for name, items in pooled.items():
         offset, parts, scales = 0, [], []
@@ -250,10 +296,10 @@ def build_crash_surrogate(
     ----------
     reference : output of :func:`simulate_reference`, or a list of reference results of one
         scenario (e.g. :func:`railgym.vehicles.crash.elements.envelope_runs`) pooled into one
-        element set. A run with absorber scale ``s`` (``result.extra["absorber_scale"]``)
-        contributes its loading forces divided by ``s`` within the absorber stroke, i.e. the
-        nominal envelope the element scales at run time; unloading samples (``k̂_u``) as they
-        are.
+        element set. A run with absorber scale ``s`` (``result.extra["absorber_scale"]``: one
+        number, or a ``(wall, interface)`` pair, each zone its own) contributes its loading
+        forces divided by ``s`` within the absorber stroke, i.e. the nominal envelope the
+        element scales at run time; unloading samples (``k̂_u``) as they are.
     variant : ``"paper"`` (loading/unloading LPR switched by the crush rate) or
         ``"hysteretic"`` (LPR envelope + elastic unloading, energy-consistent).
     seed : seed of the cross-validation folds.
@@ -347,7 +393,12 @@ def _fit_element(
             "unloading": (f[un].min(), f[un].max()),
         }
     else:
-        vg = virgin_loading(u, rate, series) & (f > 0)
+        # the zone crush's own law: plastic flow; the centre-of-mass feature (one mass per car)
+        # holds carbody elasticity as well, so there the samples at the largest crush so far
+        if fit.nodes_per_car > 1:
+            vg = plastic_loading(u, f, rate, ku, series, env_scale) & (f > 0)
+        else:
+            vg = virgin_loading(u, rate, series) & (f > 0)
         uu = np.concatenate(([0.0], u[vg]))
         ff = np.concatenate(([0.0], nominal[vg]))
         if fit.knots is not None and name in fit.knots:
