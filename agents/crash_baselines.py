@@ -154,8 +154,9 @@ def rollout(
     options: dict[str, Any] | None = None,
 ) -> list[Rollout]:
     """Run one episode of every sub-env of ``env`` under ``controller.predict`` (reset with
-    ``seed`` and ``options``); histories from the env's accessors (float64), each until its
-    sub-env terminates or truncates."""
+    ``seed`` and ``options``; ``deterministic=True``, so a stable-baselines3 policy acts by its
+    mean action, not a sample of its exploration noise); histories from the env's accessors
+    (float64), each until its sub-env terminates or truncates."""
     obs, _ = env.reset(seed=seed, options=options)
     n = env.num_envs
     rec: list[list[np.ndarray]] = [[] for _ in range(3)]
@@ -169,7 +170,7 @@ def rollout(
     length = np.zeros(n, np.int64)
     done = np.zeros(n, bool)
     while not done.all():
-        action, _ = controller.predict(obs)
+        action, _ = controller.predict(obs, deterministic=True)
         obs, _, term, trunc, _ = env.step(action)
         record()
         length[~done] += 1

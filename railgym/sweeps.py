@@ -25,7 +25,12 @@ from railgym import _checks as val
 from railgym.comfort import weighted_rms
 from railgym.parallel import run_tasks, spawn_seeds
 from railgym.track import class_speed, track_time_input
-from railgym.vehicles.collect_design import CollectionDesign, band_limited_force, design_named
+from railgym.vehicles.collect_design import (
+    CollectionDesign,
+    band_limited_force,
+    design_named,
+    run_record,
+)
 from railgym.vehicles.vertical import DEFAULT_DT, VARIANTS, load_vehicle, simulate
 
 
@@ -80,21 +85,8 @@ def collection_run(task: CollectionTask) -> dict[str, Any]:
         else np.zeros(n)
     )
     rec = simulate(task.variant, load_vehicle(task.vehicle), z, zdot, task.dt, force_a=fa)
-    m = rec["t"].size
-    return {
-        "track_class": task.track_class,
-        "speed": task.speed,
-        "seed": task.seed,
-        "excited": task.excited,
-        "t": rec["t"],
-        "delta": rec["x1"] - rec["x2"],
-        "delta_dot": rec["v1"] - rec["v2"],
-        "force": rec["F_s"],
-        "force_a": fa[: m - 1],
-        "a2": rec["a2"],
-        "contacts": rec["contacts"],
-        "rows": np.arange(0, m, task.every),
-    }
+    case = (task.track_class, task.speed, task.seed)
+    return run_record(case, task.excited, rec, fa, task.every)
 
 
 def collect_sweep(

@@ -69,6 +69,7 @@ from surrogates.memory import (
     KNOWN_PHYSICS,
     TauSelection,
     element_form,
+    law_document,
     maxwell_state,
     relaxed_state,
 )
@@ -293,11 +294,36 @@ def build_memory_surrogate(
             progress=_stage(progress, "reference runs"),
         )
     cls = PassiveLegendreRegression if passive else LegendreRegression
+    model, selection = select_memory_element(
+        data, taus, degrees, cls, known_physics, vehicle, k, seed, progress
+    )
+    return model, selection, data
+
+
+def select_memory_element(
+    data: dict[str, Any],
+    taus: Sequence[float],
+    degrees: Iterable[Any],
+    cls: Callable[..., SurrogateModel],
+    known_physics: Sequence[str],
+    vehicle: str,
+    k: int,
+    seed: int,
+    progress: Callable[[str, int, int], None] | None = None,
+    laws: dict[float, Any] | None = None,
+) -> tuple[SurrogateModel, TauSelection]:
+    """The memory element of class ``cls`` on collected ``data`` (:func:`memory_training_data`
+    of ``vehicle``) with ``τ`` among ``taus`` (s) and the degrees among ``degrees`` chosen by
+    ``k``-fold CV (folds shuffled by ``seed``); its training pairs go to
+    ``data["U_memory"], data["V_memory"]``. ``laws``: a nonlinear relaxation law per ``τ``
+    (:mod:`surrogates.memory`; stored in the model's features). Arguments as
+    :func:`build_memory_surrogate`."""
     degrees = list(degrees)
     out = TauSelection()
     pairs = {}
     for tau in taus:
-        U, V = memory_training_data(data, tau, known_physics, vehicle)
+        law = None if laws is None else laws[tau]
+        U, V = memory_training_data(data, tau, known_physics, vehicle, law)
         res = select_kfold(
             lambda deg: cls(degree=deg),
             degrees,
@@ -320,8 +346,10 @@ def build_memory_surrogate(
         "tau": best["tau"],
         "known_physics": list(known_physics),
     }
+    if laws is not None and laws[best["tau"]] is not None:
+        model.features_["relaxation"] = law_document(laws[best["tau"]])
     data["U_memory"], data["V_memory"] = U, V
-    return model, out, data
+    return model, out
 
 
 _FEATURES = {

@@ -127,6 +127,29 @@ def band_limited_force(n: int, dt: float, band: float, f_max: float, seed: Any) 
     return f_max * g / peak
 
 
+def run_record(
+    case: tuple[int, float, int], excited: bool, rec: dict[str, Any], fa: np.ndarray, every: int
+) -> dict[str, Any]:
+    """The run dict of :func:`collect_design` of the track ``case`` ``(track_class, speed m/s,
+    seed)`` from its :func:`~railgym.vehicles.vertical.simulate` record ``rec``, actuator force
+    ``fa`` (N) and training samples every ``every`` steps."""
+    m = rec["t"].size
+    return {
+        "track_class": case[0],
+        "speed": case[1],
+        "seed": case[2],
+        "excited": excited,
+        "t": rec["t"],
+        "delta": rec["x1"] - rec["x2"],
+        "delta_dot": rec["v1"] - rec["v2"],
+        "force": rec["F_s"],
+        "force_a": fa[: m - 1],
+        "a2": rec["a2"],
+        "contacts": rec["contacts"],
+        "rows": np.arange(0, m, every),
+    }
+
+
 def collect_design(
     design: str | CollectionDesign = "envelope",
     vehicle: str = "manchester",
@@ -178,23 +201,7 @@ def collect_design(
                 if run is None
                 else run(z, zdot, dt, fa)
             )
-            m = rec["t"].size
-            runs.append(
-                {
-                    "track_class": track_class,
-                    "speed": speed,
-                    "seed": seed,
-                    "excited": excited,
-                    "t": rec["t"],
-                    "delta": rec["x1"] - rec["x2"],
-                    "delta_dot": rec["v1"] - rec["v2"],
-                    "force": rec["F_s"],
-                    "force_a": fa[: m - 1],
-                    "a2": rec["a2"],
-                    "contacts": rec["contacts"],
-                    "rows": np.arange(0, m, every),
-                }
-            )
+            runs.append(run_record((track_class, speed, seed), excited, rec, fa, every))
         if progress is not None:
             progress(case + 1, len(cases))
     U = np.concatenate([np.column_stack([r["delta"], r["delta_dot"]])[r["rows"]] for r in runs])
@@ -211,4 +218,5 @@ __all__ = [
     "band_limited_force",
     "collect_design",
     "design_named",
+    "run_record",
 ]

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from railgym.track import fra_profile_with_slope
-from railgym.vehicles.collect import WARMUP, memory_training_data, save_vertical_surrogate
+from railgym.vehicles.collect import WARMUP, save_vertical_surrogate, select_memory_element
 from railgym.vehicles.collect_design import band_limited_force
 from railgym.vehicles.vehicle import (
     DEFAULT_DT,
@@ -49,11 +49,10 @@ from railgym.vehicles.vehicle import (
 )
 from railgym.vehicles.vertical import bump_stop_force, load_vehicle
 from surrogates import io
-from surrogates.memory import TauSelection, fit_relaxation, law_document, shortest_time_constant
+from surrogates.memory import TauSelection, fit_relaxation, shortest_time_constant
 from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression
 from surrogates.passive import PassiveLegendreRegression
-from surrogates.selection import select_kfold
 
 __all__ = [
     "VEHICLE_DEGREES",
@@ -234,31 +233,15 @@ def build_vehicle_surrogate(
     if data is None:
         data = collect_vehicle(design, vehicle)
     base = load_whole_vehicle(vehicle).suspension.name
-    degrees = list(degrees)
     if relaxation:
         law = fit_relaxation(_law_runs(data, base)).law
-        cases = {shortest_time_constant(law): law}
+        laws: dict[float, Any] = {shortest_time_constant(law): law}
     else:
-        cases = {float(tau): None for tau in taus}
+        laws = {float(tau): None for tau in taus}
     cls = PassiveLegendreRegression if passive else LegendreRegression
-    sel = TauSelection()
-    pairs = {}
-    for tau, law in cases.items():
-        U, V = memory_training_data(data, tau, ("bump_stop",), base, law)
-        res = select_kfold(lambda deg: cls(degree=deg), degrees, U, V, k=k, seed=seed)
-        row = next(r for r in res.table if r["candidate"] == res.best)
-        sel.table.append({"tau": tau, "degree": res.best, "rms": row["rms"], "nrms": row["nrms"]})
-        sel.results.append(res)
-        pairs[tau] = (U, V)
-    best = min(sel.table, key=lambda r: r["rms"])
-    sel.best = (best["tau"], best["degree"])
-    U, V = pairs[best["tau"]]
-    model = cls(degree=best["degree"]).fit(U, V)
-    model.features_ = {"form": "maxwell", "tau": best["tau"], "known_physics": ["bump_stop"]}
-    law = cases[best["tau"]]
-    if law is not None:
-        model.features_["relaxation"] = law_document(law)
-    data["U_memory"], data["V_memory"] = U, V
+    model, sel = select_memory_element(
+        data, list(laws), degrees, cls, ("bump_stop",), base, k, seed, laws=laws
+    )
     return model, sel, data
 
 

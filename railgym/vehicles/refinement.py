@@ -98,7 +98,8 @@ def holdout_error(
     for sur, ref in zip(runs, refs, strict=True):
         ood += sur["ood"]
         a, b = sur[key], ref[key]
-        ok = not sur["diverged"] and np.all(np.isfinite(a))
-        e = np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
-        errs.append(e if ok else np.full(np.shape(e), np.inf))
+        if sur["diverged"] or not np.all(np.isfinite(a)):
+            errs.append(np.full(np.shape(b)[1:], np.inf))
+        else:
+            errs.append(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)))
     return np.median(errs, axis=0), ood

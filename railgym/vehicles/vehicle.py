@@ -338,7 +338,7 @@ def _rhs(
     params,
     suspension,
     lpr,
-    element_input,
+    u,
     element_rates,
     lpr_work,
     rates,
@@ -348,7 +348,7 @@ def _rhs(
     m, rate m/s) and the ``actuator_force`` (2,) N; writes the secondary forces into
     ``secondary_force`` (2,) N; returns the number of out-of-domain surrogate evaluations.
     ``kind``: the variant's code (:func:`check_variant`); ``params``: :class:`Params`;
-    ``suspension``: one suspension record; ``element_input`` (d,), ``element_rates`` (3,) and
+    ``suspension``: one suspension record; ``u`` (d,) element inputs, ``element_rates`` (3,) and
     ``lpr_work`` are work arrays. A memory element's states are ``state[N_MECH + i]``; it is
     evaluated by the additive fast path inside its box, like the one-bogie kernel."""
     outside = 0
@@ -366,25 +366,23 @@ def _rhs(
         elif kind == 2:
             f = _dynamic_force(N_MECH + 3 * i, d, dd, state, suspension, element_rates, rates)
         else:
-            element_input[0] = d
-            element_input[1] = dd
+            u[0] = d
+            u[1] = dd
             memory = lpr.tau > 0.0
             if memory:
                 sm = state[N_MECH + i]
-                element_input[2] = d - sm
+                u[2] = d - sm
                 if lpr.relax_z.shape[0] > 0:
                     rates[N_MECH + i] = relaxation_rate(d - sm, lpr.relax_z, lpr.relax_r)
                 else:
                     rates[N_MECH + i] = (d - sm) / lpr.tau
-            out_i = lpr_is_outside(element_input, lpr.lo, lpr.up)
+            out_i = lpr_is_outside(u, lpr.lo, lpr.up)
             if out_i:
                 outside += 1
             if memory and lpr.additive and not out_i:
-                f = lpr_additive_inside(element_input, lpr.table, lpr.lo, lpr_work)
+                f = lpr_additive_inside(u, lpr.table, lpr.lo, lpr_work)
             else:
-                f = lpr_eval_into(
-                    element_input, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lpr_work
-                )
+                f = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lpr_work)
             if lpr.bump:
                 f += bump_stop_force(d, suspension)
         secondary_force[i] = f

@@ -86,7 +86,7 @@ def _inputs(block, arrays, i0, n_lanes, pos, dt, row):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _element(block, legendre, lpr, lpr_work, element_input, n_lanes):
+def _element(block, legendre, lpr, lpr_work, u, n_lanes):
     """LPR value of the inputs in rows ``_U`` into row ``_EL``; out-of-box flags added to
     row ``_OUT`` (as ``lpr_is_outside``)."""
     lo0, lo1, up0, up1 = lpr.lo[0], lpr.lo[1], lpr.up[0], lpr.up[1]
@@ -126,14 +126,12 @@ def _element(block, legendre, lpr, lpr_work, element_input, n_lanes):
         return
     for l in range(n_lanes):
         if block[_FB, l] > 0.0:
-            element_input[0], element_input[1] = block[_U, l], block[_U + 1, l]
-            block[_EL, l] = lpr_eval_into(
-                element_input, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lpr_work
-            )
+            u[0], u[1] = block[_U, l], block[_U + 1, l]
+            block[_EL, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lpr_work)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _element_memory(block, lpr, lpr_work, element_input, n_lanes):
+def _element_memory(block, lpr, lpr_work, u, n_lanes):
     """Value of an additive three-input (memory) element at the inputs in rows ``_U, _U + 1,
     _UZ`` into row ``_EL``: the operations of :func:`~surrogates.models.lpr.lpr_additive_inside`
     (three interleaved recurrences) lane by lane; lanes outside the box by ``lpr_eval_into``
@@ -196,14 +194,12 @@ def _element_memory(block, lpr, lpr_work, element_input, n_lanes):
     if outside > 0.0:
         for l in range(n_lanes):
             if block[_FB, l] > 0.0:
-                element_input[0], element_input[1], element_input[2] = (
+                u[0], u[1], u[2] = (
                     block[_U, l],
                     block[_U + 1, l],
                     block[_UZ, l],
                 )
-                block[_EL, l] = lpr_eval_into(
-                    element_input, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work
-                )
+                block[_EL, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -218,7 +214,7 @@ def _rhs(
     suspension,
     lpr,
     lpr_work,
-    element_input,
+    u,
     n_lanes,
 ):
     """Rates of the states in rows ``state_row`` of ``block`` into rows ``rate_row``
@@ -226,7 +222,7 @@ def _rhs(
     ``_FS``; out-of-box evaluations in row ``_OUT``. A memory element's Maxwell states are read
     from rows ``maxwell_row`` (``_M`` or ``_MT``), their rates written to rows
     ``_MK + 2·stage``; ``suspension``: the suspension record (bump-stop law of an element with
-    that known physics); ``legendre``, ``lpr_work`` and ``element_input`` are work arrays,
+    that known physics); ``legendre``, ``lpr_work`` and ``u`` (element inputs) are work arrays,
     ``n_lanes`` the block's vehicles."""
     tau = lpr.tau
     mdr = _MK + 2 * ((rate_row - _K) // 14)  # the stage's Maxwell-rate rows
@@ -257,9 +253,9 @@ def _rhs(
                     sm = block[maxwell_row + i, l]
                     block[_UZ, l] = block[_U, l] - sm
                     block[mdr + i, l] = (block[_U, l] - sm) / tau
-            _element_memory(block, lpr, lpr_work, element_input, n_lanes)
+            _element_memory(block, lpr, lpr_work, u, n_lanes)
         else:
-            _element(block, legendre, lpr, lpr_work, element_input, n_lanes)
+            _element(block, legendre, lpr, lpr_work, u, n_lanes)
         if lpr.bump:
             for l in range(n_lanes):
                 block[_EL, l] += bump_stop_force(block[_U, l], suspension)
@@ -319,7 +315,7 @@ def lanes_block(arrays, i0, n_sub, dt, params, suspension_record, lpr, out):
     block = np.zeros((_ROWS_MEMORY if memory else _ROWS, n_lanes))
     lpr_work = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     legendre = np.zeros((2, lpr_work.shape[1], n_lanes))
-    element_input = np.empty(lpr.lo.shape[0])
+    u = np.empty(lpr.lo.shape[0])
     for l in range(n_lanes):
         i = i0 + l
         for j in range(_N):
@@ -332,79 +328,27 @@ def lanes_block(arrays, i0, n_sub, dt, params, suspension_record, lpr, out):
     half = 0.5 * dt
     _inputs(block, arrays, i0, n_lanes, 0.0, dt, _W)
     for m in range(n_sub):
-        _rhs(
-            block,
-            legendre,
-            _X,
-            _W,
-            _K,
-            _M,
-            params,
-            suspension,
-            lpr,
-            lpr_work,
-            element_input,
-            n_lanes,
-        )
+        _rhs(block, legendre, _X, _W, _K, _M, params, suspension, lpr, lpr_work, u, n_lanes)
         for l in range(n_lanes):
             block[_OSUM, l] = block[_OUT, l]
         _inputs(block, arrays, i0, n_lanes, m + 0.5, dt, _WM)
         _stage(block, _K, half, n_lanes)
         if memory:
             _stage_memory(block, 0, half, n_lanes)
-        _rhs(
-            block,
-            legendre,
-            _XT,
-            _WM,
-            _K + 14,
-            _MT,
-            params,
-            suspension,
-            lpr,
-            lpr_work,
-            element_input,
-            n_lanes,
-        )
+        _rhs(block, legendre, _XT, _WM, _K + 14, _MT, params, suspension, lpr, lpr_work, u, n_lanes)
         for l in range(n_lanes):
             block[_OSUM, l] += block[_OUT, l]
         _stage(block, _K + 14, half, n_lanes)
         if memory:
             _stage_memory(block, 1, half, n_lanes)
-        _rhs(
-            block,
-            legendre,
-            _XT,
-            _WM,
-            _K + 28,
-            _MT,
-            params,
-            suspension,
-            lpr,
-            lpr_work,
-            element_input,
-            n_lanes,
-        )
+        _rhs(block, legendre, _XT, _WM, _K + 28, _MT, params, suspension, lpr, lpr_work, u, n_lanes)
         for l in range(n_lanes):
             block[_OSUM, l] += block[_OUT, l]
         _inputs(block, arrays, i0, n_lanes, m + 1.0, dt, _W)
         _stage(block, _K + 28, dt, n_lanes)
         if memory:
             _stage_memory(block, 2, dt, n_lanes)
-        _rhs(
-            block,
-            legendre,
-            _XT,
-            _W,
-            _K + 42,
-            _MT,
-            params,
-            suspension,
-            lpr,
-            lpr_work,
-            element_input,
-            n_lanes,
-        )
+        _rhs(block, legendre, _XT, _W, _K + 42, _MT, params, suspension, lpr, lpr_work, u, n_lanes)
         alive = 0.0
         for l in range(n_lanes):
             block[_OOD, l] += block[_ALIVE, l] * (block[_OSUM, l] + block[_OUT, l])
@@ -450,7 +394,7 @@ def lanes_block(arrays, i0, n_sub, dt, params, suspension_record, lpr, out):
             alive += a
         if alive == 0.0:
             break
-    _rhs(block, legendre, _X, _W, _K, _M, params, suspension, lpr, lpr_work, element_input, n_lanes)
+    _rhs(block, legendre, _X, _W, _K, _M, params, suspension, lpr, lpr_work, u, n_lanes)
     for l in range(n_lanes):
         i = i0 + l
         for j in range(_N):

@@ -96,3 +96,15 @@ def test_cli_gap_bad_flag_combinations_are_one_error_naming_the_flag(extra, flag
     assert main(["evaluate", "passive", "--gap", *extra]) == 2
     err = capsys.readouterr().err
     assert flag in err and "Traceback" not in err
+
+
+def test_crash_gap_of_a_trained_policy_against_itself_is_zero():
+    """A stable-baselines3 policy acts by its mean action: sampled exploration noise (torch's
+    global generator, not the env's seed) made the reference differ from itself by 14–27 %."""
+    pytest.importorskip("stable_baselines3")
+    rows = gap_crash(
+        ["ppo-crash"], speeds_kmh=[50.0], payloads_t=[(0.0, 0.0)], backends=("reference",) * 2
+    )
+    assert len(rows) == 8 and all(r["gap"] == 0.0 for r in rows)
+    peak = {r["metric"]: r["reference"] for r in rows}
+    assert 7.0 < peak["peak decel car 1 (g)"] < 10.0

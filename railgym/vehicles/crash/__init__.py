@@ -79,11 +79,13 @@ from railgym.vehicles.crash.scenario import (
 from railgym.vehicles.crash.surrogate import (
     VARIANTS,
     CrashElement,
+    CrashFitOptions,
     CrashSurrogate,
     TrainingSet,
     build_crash_surrogate,
     crash_errors,
     crash_training_data,
+    plastic_loading,
     virgin_loading,
 )
 from railgym.vehicles.crash.surrogate_model import (
@@ -113,6 +115,7 @@ __all__ = [
     "CrashModel",
     "CrashCriteria",
     "CrashElement",
+    "CrashFitOptions",
     "CrashResult",
     "CrashScenario",
     "CrashSurrogate",
@@ -147,6 +150,7 @@ __all__ = [
     "moving_average_peak",
     "parse_scenario",
     "peak_deceleration",
+    "plastic_loading",
     "rebound_energy_ratio",
     "reference_batch_step",
     "reference_time_step",

@@ -2,12 +2,15 @@
 
 One element set per train (cars, crush zones, barrier — not the speed) is fitted on
 reference runs spanning the envelope: initial speeds :data:`FIT_SPEEDS_KMH` × absorber force
-scales :data:`FIT_SCALES` (the same scale in every zone, constant over the run), pooled into
-one fit (:func:`~railgym.vehicles.crash.build_crash_surrogate`), not refitted per speed. The
-files live in ``railgym/data/crash_elements_<scenario>.json`` with the train's content key
-(:func:`train_key`); ``TrainCrash-v1`` without ``surrogate=`` loads the file whose key matches
-its scenario (:func:`packaged_surrogate`), so every packaged scenario of that train (``paper``,
-``envelope``, ``speed25``, ``speed50``, ...) shares it. Regenerate with::
+scales :data:`FIT_SCALES` (constant over the run; the same in every zone, and the soft wall
+with stiff interfaces and the reverse, which crush each zone furthest) × the lightest and
+heaviest payload, pooled into one fit (:func:`~railgym.vehicles.crash.build_crash_surrogate`),
+not refitted per speed; the envelope is fitted on the samples inside plastic flow
+(:func:`~railgym.vehicles.crash.plastic_loading`). The files live in
+``railgym/data/crash_elements_<scenario>.json`` with the train's content key
+(:func:`train_key`); ``TrainCrash-v1`` without ``surrogate=`` loads the file whose key
+matches its scenario (:func:`packaged_surrogate`), so every packaged scenario of that train
+(``paper``, ``envelope``, ``speed25``, ``speed50``, ...) shares it. Regenerate with::
 
     python -m railgym.vehicles.crash.elements --scenario paper --overwrite
 
@@ -25,12 +28,14 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from railgym.vehicles.crash.fe import load_crash_surrogate, save_crash_surrogate
 from railgym.vehicles.crash.model import CrashModel, crash_model
 from railgym.vehicles.crash.outputs import CrashResult
+from railgym.vehicles.crash.piecewise import PIECE_DEGREES
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import CrashSurrogate, build_crash_surrogate
 
@@ -53,9 +58,10 @@ __all__ = [
     "validation_matrix",
 ]
 
-#: initial speeds (km/h) and absorber scales of the fitting runs
+#: initial speeds (km/h) and absorber scales (wall, interfaces) of the fitting runs: each
+#: zone's crush reaches its largest with its own absorber soft and the others stiff
 FIT_SPEEDS_KMH = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
-FIT_SCALES = (0.7, 1.0, 1.3)
+FIT_SCALES = ((0.7, 0.7), (1.0, 1.0), (1.3, 1.3), (0.7, 1.3), (1.3, 0.7))
 #: payloads (t: lead, passenger car) of the fitting runs: the lightest and heaviest of the
 #: envelope (configs/crash/envelope.yaml)
 FIT_PAYLOADS_T = ((0.0, 0.0), (2.0, 8.0))
@@ -88,19 +94,21 @@ def train_key(scenario: CrashScenario) -> str:
 def batch_runs(
     model: CrashModel,
     speeds: Sequence[float],
-    scales: Sequence[float],
+    scales: Sequence[Any],
     duration: float = 2.0,
     payloads: Sequence[Sequence[float]] | None = None,
 ) -> list[CrashResult]:
     """Run ``model`` once per (speed m/s, absorber scale) pair, in one batch, each until its
-    crash is over (as the env's) or ``duration`` (s); sampled every ``model.sample_dt``;
-    ``payloads`` (one per run, kg per car) are added to the cars (default none)."""
-    n, nz = len(speeds), len(model.zone_names)
+    crash is over (as the env's) or ``duration`` (s); sampled every ``model.sample_dt``.
+    A scale is one number for every zone or a ``(wall, interface)`` pair (every other zone
+    the interface's); ``payloads`` (one per run, kg per car) are added to the cars (default
+    none)."""
+    n = len(speeds)
     state, out = model.new_state(n), model.new_outputs(n)
     for i, v in enumerate(speeds):
         load = None if payloads is None else np.asarray(payloads[i], dtype=np.float64)
         model.reset(state, out, i, float(v), load)
-    scale = np.repeat(np.asarray(scales, dtype=np.float64)[:, None], nz, axis=1)
+    scale = np.array([_zone_scales(s, model.zone_names) for s in scales])
     active, div = np.ones(n, np.bool_), np.zeros(n, np.bool_)
     perm = state.dp if model.backend == "reference" else state.up
     keys = ("x", "v", "a", "crush", "force")
@@ -143,7 +151,7 @@ def batch_runs(
                 scenario=model.scenario,
                 model="reference" if model.backend == "reference" else "surrogate",
                 extra={
-                    "absorber_scale": float(scales[i]),
+                    "absorber_scale": _scale_label(scales[i]),
                     "speed": float(speeds[i]),
                     "payload": [0.0] * model.scenario.n_cars if payloads is None else payloads[i],
                 },
@@ -152,7 +160,30 @@ def batch_runs(
     return results
 
 
-def _grid(speeds_kmh: Sequence[float], scales: Sequence[float]) -> tuple[list[float], list[float]]:
+def _zone_scales(scale: Any, zones: Sequence[str]) -> np.ndarray:
+    """Absorber scale of each zone (``zones``: names) of one number or a ``(wall, interface)``
+    pair."""
+    if np.ndim(scale) == 0:
+        return np.full(len(zones), float(scale))
+    wall, interface = (float(x) for x in scale)
+    return np.array([wall if z == "wall" else interface for z in zones])
+
+
+def _scale_label(scale: Any) -> float | tuple[float, float]:
+    """``scale`` as stored in a result's ``extra``: a number or a (wall, interface) tuple."""
+    if np.ndim(scale) == 0:
+        return float(scale)
+    wall, interface = (float(x) for x in scale)
+    return (wall, interface)
+
+
+def _scale_text(scale: Any) -> str:
+    """``0.7`` or ``0.7/1.3`` (wall/interface)."""
+    label = _scale_label(scale)
+    return f"{label:g}" if isinstance(label, float) else "/".join(f"{x:g}" for x in label)
+
+
+def _grid(speeds_kmh: Sequence[float], scales: Sequence[Any]) -> tuple[list[float], list[Any]]:
     pairs = [(v / 3.6, s) for v in speeds_kmh for s in scales]
     return [p[0] for p in pairs], [p[1] for p in pairs]
 
@@ -165,7 +196,7 @@ def _car_payloads(payload_t: Sequence[float], n_cars: int) -> list[float]:
 def envelope_runs(
     scenario: CrashScenario | str,
     speeds_kmh: Sequence[float] = FIT_SPEEDS_KMH,
-    scales: Sequence[float] = FIT_SCALES,
+    scales: Sequence[Any] = FIT_SCALES,
     payloads_t: Sequence[Sequence[float]] = ((0.0, 0.0),),
 ) -> list[CrashResult]:
     """Reference runs of every (speed km/h, absorber scale, payload (lead, passenger car) t)
@@ -183,7 +214,7 @@ def envelope_runs(
 def build_envelope_surrogate(
     scenario: CrashScenario | str,
     speeds_kmh: Sequence[float] = FIT_SPEEDS_KMH,
-    scales: Sequence[float] = FIT_SCALES,
+    scales: Sequence[Any] = FIT_SCALES,
     variant: str = "hysteretic",
     seed: int = 0,
     payloads_t: Sequence[Sequence[float]] = FIT_PAYLOADS_T,
@@ -208,7 +239,7 @@ def build_envelope_surrogate(
     )
     out.origin = (
         f"reference runs at {', '.join(f'{v:g}' for v in speeds_kmh)} km/h x absorber scales "
-        f"{', '.join(f'{s:g}' for s in scales)} x payloads "
+        f"{', '.join(_scale_text(s) for s in scales)} x payloads "
         f"{', '.join('/'.join(f'{x:g}' for x in p) for p in payloads_t)} t"
     )
     return out
@@ -312,10 +343,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         "variant": sur.variant,
         "scenario": sc.name,
         "speeds_kmh": list(FIT_SPEEDS_KMH),
-        "absorber_scales": list(FIT_SCALES),
+        "absorber_scales": [list(s) for s in FIT_SCALES],
         "payloads_t": [list(p) for p in FIT_PAYLOADS_T],
         "nodes_per_car": NODES_PER_CAR,
-        "degrees": list(FIT_DEGREES),
+        "degrees": list(PIECE_DEGREES),
         "command": f"python -m railgym.vehicles.crash.elements --scenario {sc.name} --overwrite",
     }
     save_crash_surrogate(sur, out, overwrite=True, metadata=meta)

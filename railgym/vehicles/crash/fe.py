@@ -52,7 +52,12 @@ from railgym.vehicles.crash.outputs import CrashResult
 from railgym.vehicles.crash.piecewise import PiecewiseEnvelope
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import MAX_NODES_PER_CAR as MAX_NODES
-from railgym.vehicles.crash.surrogate import CrashElement, CrashSurrogate, build_crash_surrogate
+from railgym.vehicles.crash.surrogate import (
+    CrashElement,
+    CrashFitOptions,
+    CrashSurrogate,
+    build_crash_surrogate,
+)
 from surrogates import io
 from surrogates.checks import seed_number
 from surrogates.features import TimeHistory
@@ -86,6 +91,45 @@ def _contact_force(
         have = sorted({k[1] for k in contacts})
         raise ValueError(f"contact {cid} is not in the rcforc data; it has contacts {have}")
     return np.abs(np.interp(t, th.t, th[f"{axis}_force"]))
+
+
+def _check_fe_ids(
+    nodes: Mapping[int, TimeHistory], car_nodes: Sequence[int], interface_contacts: Sequence[int]
+) -> tuple[list[int], list[int]]:
+    """``car_nodes`` and ``interface_contacts`` as int lists, checked against each other and
+    against the nodout ``nodes`` (one sample grid for all cars); ``ValueError`` naming them."""
+    car_nodes = [int(n) for n in car_nodes]
+    interface_contacts = [int(c) for c in interface_contacts]
+    if len(car_nodes) < 2:
+        raise ValueError(f"car_nodes needs one node per car and at least 2 cars, got {car_nodes}")
+    if len(interface_contacts) != len(car_nodes) - 1:
+        raise ValueError(
+            f"interface_contacts needs {len(car_nodes) - 1} ids (one per interface), "
+            f"got {interface_contacts}"
+        )
+    missing = [n for n in car_nodes if n not in nodes]
+    if missing:
+        raise ValueError(f"car_nodes {missing} are not in the nodout data; it has {sorted(nodes)}")
+    t = nodes[car_nodes[0]].t
+    for n in car_nodes[1:]:
+        if not np.array_equal(nodes[n].t, t):
+            raise ValueError(f"node {n} has other sample times than node {car_nodes[0]}")
+    return car_nodes, interface_contacts
+
+
+def _fe_window(t: np.ndarray, contact_times: list[np.ndarray], start_time: float | None) -> Any:
+    """Mask of the nodout times ``t`` (s) from ``start_time`` (default ``t[0]``) within the
+    times of every used contact; ``ValueError`` for fewer than 3 samples."""
+    t_end = min((tc[-1] for tc in contact_times), default=np.inf)
+    t_beg = max((tc[0] for tc in contact_times), default=-np.inf)
+    t0 = t[0] if start_time is None else float(start_time)
+    keep = (t >= t0) & (t >= t_beg) & (t <= t_end)
+    if np.count_nonzero(keep) < 3:
+        raise ValueError(
+            f"fewer than 3 nodout samples from start_time {t0} s within the rcforc times "
+            f"[{t_beg}, {t_end}] s"
+        )
+    return keep
 
 
 def crash_result_from_fe(
@@ -123,35 +167,12 @@ def crash_result_from_fe(
         raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
     if direction not in (1, -1, 1.0, -1.0):
         raise ValueError(f"direction must be +1 or -1, got {direction!r}")
-    car_nodes = [int(n) for n in car_nodes]
-    interface_contacts = [int(c) for c in interface_contacts]
-    if len(car_nodes) < 2:
-        raise ValueError(f"car_nodes needs one node per car and at least 2 cars, got {car_nodes}")
-    if len(interface_contacts) != len(car_nodes) - 1:
-        raise ValueError(
-            f"interface_contacts needs {len(car_nodes) - 1} ids (one per interface), "
-            f"got {interface_contacts}"
-        )
-    missing = [n for n in car_nodes if n not in nodes]
-    if missing:
-        raise ValueError(f"car_nodes {missing} are not in the nodout data; it has {sorted(nodes)}")
+    car_nodes, interface_contacts = _check_fe_ids(nodes, car_nodes, interface_contacts)
     sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
     sc = sc.with_overrides(n_cars=len(car_nodes))
-    t = nodes[car_nodes[0]].t
-    for n in car_nodes[1:]:
-        if not np.array_equal(nodes[n].t, t):
-            raise ValueError(f"node {n} has other sample times than node {car_nodes[0]}")
     used = [k for k in contacts if k[1] in (wall_contact, *interface_contacts)]
-    t_end = min((contacts[k].t[-1] for k in used), default=np.inf)
-    t_beg = max((contacts[k].t[0] for k in used), default=-np.inf)
-    t0 = t[0] if start_time is None else float(start_time)
-    keep = (t >= t0) & (t >= t_beg) & (t <= t_end)
-    if np.count_nonzero(keep) < 3:
-        raise ValueError(
-            f"fewer than 3 nodout samples from start_time {t0} s within the rcforc times "
-            f"[{t_beg}, {t_end}] s"
-        )
-    tk = t[keep]
+    keep = _fe_window(nodes[car_nodes[0]].t, [contacts[k].t for k in used], start_time)
+    tk = nodes[car_nodes[0]].t[keep]
     x = np.column_stack([nodes[n][f"{axis}_disp"][keep] for n in car_nodes]) * direction
     x -= x[0]
     v = np.column_stack([nodes[n][f"{axis}_vel"][keep] for n in car_nodes]) * direction
@@ -190,16 +211,15 @@ def crash_surrogate_from_fe(
     wall_contact: int,
     interface_contacts: Sequence[int],
     scenario: CrashScenario | str | Path = "paper",
-    variant: str = "hysteretic",
-    seed: int = 0,
-    max_degree: int = 30,
+    fit: CrashFitOptions | None = None,
     axis: str = "x",
     direction: float = 1.0,
     start_time: float | None = None,
 ) -> CrashSurrogate:
     """Read ``nodout`` and ``rcforc`` (unit set ``units``) and fit the crash elements.
 
-    Arguments as :func:`crash_result_from_fe` and :func:`build_crash_surrogate`.
+    Arguments as :func:`crash_result_from_fe`; ``fit``: the arguments of
+    :func:`build_crash_surrogate` (:class:`CrashFitOptions`, ``None``: its defaults).
     """
     t0 = time.perf_counter()
     result = crash_result_from_fe(
@@ -213,7 +233,10 @@ def crash_surrogate_from_fe(
         direction=direction,
         start_time=start_time,
     )
-    out = build_crash_surrogate(result, variant=variant, seed=seed, max_degree=max_degree)
+    f = CrashFitOptions() if fit is None else fit
+    out = build_crash_surrogate(
+        result, f.variant, f.seed, f.max_degree, f.degrees, f.nodes_per_car, f.knots
+    )
     out.origin = f"FE: {nodout}, {rcforc} ({units})"
     out.build_time = time.perf_counter() - t0
     return out
@@ -411,8 +434,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             wall_contact=args.wall_contact,
             interface_contacts=args.interface_contacts,
             scenario=args.scenario,
-            variant=args.variant,
-            seed=args.seed,
+            fit=CrashFitOptions(variant=args.variant, seed=args.seed),
             axis=args.axis,
             direction=args.direction,
             start_time=args.start_time,

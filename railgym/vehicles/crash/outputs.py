@@ -22,6 +22,7 @@ __all__ = [
     "StopRule",
     "new_outputs",
     "new_record",
+    "one_train",
     "result_criteria",
     "zone_absorber_strokes",
 ]
@@ -101,6 +102,19 @@ def new_record(n: int, n_bodies: int, n_zones: int, energies: bool) -> Record:
     zone = [np.zeros((n, n_zones)) for _ in range(3)]
     m = n if energies else 0
     return Record(*body, *zone, np.zeros((m, 5)), np.zeros((m, n_zones)))
+
+
+def one_train(
+    system: Any, new_state: Any, duration: float, sample_dt: float, energies: bool
+) -> tuple[Any, CrashOutputs, Record]:
+    """Kernel state (``new_state(1, masses, zones)``, moving at ``system.v0``), outputs and
+    record (every ``sample_dt`` s over ``duration`` s) of one train of a model's ``system``
+    (``params.m``, ``v0``, ``body_names``, ``zone_names``)."""
+    n_samples = int(round(duration / sample_dt)) + 1
+    nb, nz = len(system.body_names), len(system.zone_names)
+    state = new_state(1, system.params.m, nz)
+    state.v[0] = system.v0
+    return state, new_outputs(1, nb, nz), new_record(n_samples, nb, nz, energies=energies)
 
 
 @njit(cache=True)

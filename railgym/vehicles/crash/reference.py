@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
@@ -44,11 +44,10 @@ from railgym.vehicles.crash.outputs import (
     _crash_over,
     _healthy,
     _steps,
-    new_outputs,
-    new_record,
+    one_train,
     recorded_result,
 )
-from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
+from railgym.vehicles.crash.scenario import CrashScenario, CrushZone, Obstacle, load_scenario
 from railgym.vehicles.crash.zone import absorber_zone_force
 
 __all__ = [
@@ -159,129 +158,153 @@ class _Chain:
     omega_max: float  # Gershgorin bound of the highest angular frequency, rad/s
 
 
-def _build_chain(scenario: CrashScenario) -> _Chain:
-    types = [scenario.wall, scenario.interface] + (
-        [scenario.obstacle.zone] if scenario.obstacle else []
-    )
+def _zone_types(types: list[CrushZone]) -> ZoneTypes:
+    """:class:`ZoneTypes` of the zone types ``types`` (wall, interface, obstacle)."""
     P = max(len(z.stroke) for z in types)
     t_s = np.ones((len(types), P))
     t_f = np.zeros((len(types), P))
     for i, z in enumerate(types):
         t_s[i, : len(z.stroke)] = z.stroke
         t_f[i, : len(z.force)] = z.force
-    t_n = np.array([len(z.stroke) for z in types], dtype=np.int64)
-    t_kt = np.array([z.coupler.stiffness if z.coupler else 0.0 for z in types])
-    t_slack = np.array([z.coupler.slack if z.coupler else 0.0 for z in types])
+    return ZoneTypes(
+        stroke=t_s,
+        force=t_f,
+        n_points=np.array([len(z.stroke) for z in types], dtype=np.int64),
+        fold_amplitude=np.array([z.fold_amplitude for z in types]),
+        fold_wavelength=np.array([z.fold_wavelength for z in types]),
+        unloading_stiffness=np.array([z.unloading_stiffness for z in types]),
+        tension_stiffness=np.array([z.coupler.stiffness if z.coupler else 0.0 for z in types]),
+        slack=np.array([z.coupler.slack if z.coupler else 0.0 for z in types]),
+        absorber=np.array([z.absorber_stroke for z in types]),
+    )
 
-    m: list[float] = []
-    v0: list[float] = []
-    mu: list[float] = []
-    link_k: list[float] = []
-    link_c: list[float] = []
-    elem_zone: list[int] = []
-    zone_type: list[int] = []
-    zone_cc: list[float] = []
-    zone_front: list[int] = []
-    zone_back: list[int] = []
-    zone_names: list[str] = []
-    bodies: dict[str, tuple[int, int]] = {}
 
-    def add_zone(t: int, name: str, front: int, back: int, cc: float) -> int:
-        zone_type.append(t)
-        zone_cc.append(cc)
-        zone_front.append(front)
-        zone_back.append(back)
-        zone_names.append(name)
-        return len(zone_type) - 1
+@dataclass
+class _ChainLists:
+    """Nodes (mass, initial velocity, friction), elements (link stiffness and damping, zone)
+    and zone instances of a chain, appended front to back; ``bodies``: name → node range."""
 
-    wall_zone = -1
-    if scenario.obstacle is None:
-        wall_zone = add_zone(0, "wall", -1, 0, 0.0)
-    else:
-        ob = scenario.obstacle
-        m += [ob.mass - ob.face_mass, ob.face_mass]
-        v0 += [0.0, 0.0]
-        mu += [ob.friction] * 2
-        bodies["obstacle"] = (0, 2)
-        link_k.append(0.0)
-        link_c.append(0.0)
-        elem_zone.append(add_zone(2, "obstacle", 0, 1, 0.0))
-    masses = scenario.car_masses
-    for k in range(scenario.n_cars):
+    m: list[float] = field(default_factory=list)
+    v0: list[float] = field(default_factory=list)
+    mu: list[float] = field(default_factory=list)
+    link_k: list[float] = field(default_factory=list)
+    link_c: list[float] = field(default_factory=list)
+    elem_zone: list[int] = field(default_factory=list)
+    zone_type: list[int] = field(default_factory=list)
+    zone_cc: list[float] = field(default_factory=list)
+    zone_front: list[int] = field(default_factory=list)
+    zone_back: list[int] = field(default_factory=list)
+    zone_names: list[str] = field(default_factory=list)
+    bodies: dict[str, tuple[int, int]] = field(default_factory=dict)
+
+    def add_zone(self, t: int, name: str, front: int, back: int, cc: float) -> int:
+        """Index of a new zone instance of type ``t`` between nodes ``front`` and ``back``
+        (``-1``: the wall) with coupler damping ``cc`` (N·s/m)."""
+        self.zone_type.append(t)
+        self.zone_cc.append(cc)
+        self.zone_front.append(front)
+        self.zone_back.append(back)
+        self.zone_names.append(name)
+        return len(self.zone_type) - 1
+
+    def add_obstacle(self, ob: Obstacle) -> None:
+        """The obstacle's two nodes (body and face) and its crush zone between them."""
+        self.m += [ob.mass - ob.face_mass, ob.face_mass]
+        self.v0 += [0.0, 0.0]
+        self.mu += [ob.friction] * 2
+        self.bodies["obstacle"] = (0, 2)
+        self.link_k.append(0.0)
+        self.link_c.append(0.0)
+        self.elem_zone.append(self.add_zone(2, "obstacle", 0, 1, 0.0))
+
+    def add_car(self, scenario: CrashScenario, k: int) -> None:
+        """Car ``k`` (0: the lead): the zone joining it to the body in front (if any), its
+        nodes and its carbody links."""
         car = scenario.lead if k == 0 else scenario.passenger
-        first = len(m)
+        first = len(self.m)
         if first > 0:  # element joining the previous body to this car
-            link_k.append(0.0)
-            link_c.append(0.0)
+            self.link_k.append(0.0)
+            self.link_c.append(0.0)
             if k == 0:
-                elem_zone.append(add_zone(0, "wall", first - 1, first, 0.0))
+                self.elem_zone.append(self.add_zone(0, "wall", first - 1, first, 0.0))
             else:
                 cc = 0.0
                 if scenario.interface.coupler is not None:
+                    masses = scenario.car_masses
                     mred = masses[k - 1] * masses[k] / (masses[k - 1] + masses[k])
                     cp = scenario.interface.coupler
                     cc = 2 * cp.damping_ratio * math.sqrt(cp.stiffness * mred)
-                elem_zone.append(add_zone(1, f"interface_{k}", first - 1, first, cc))
+                self.elem_zone.append(self.add_zone(1, f"interface_{k}", first - 1, first, cc))
         n = car.n_nodes
         mi = np.full(n, car.mass / (n - 1))
         mi[[0, -1]] *= 0.5
-        m += mi.tolist()
-        v0 += [scenario.speed] * n
-        mu += [scenario.friction] * n
+        self.m += mi.tolist()
+        self.v0 += [scenario.speed] * n
+        self.mu += [scenario.friction] * n
         k_link = car.axial_rigidity / (car.length / (n - 1))
         for j in range(n - 1):
             mred = mi[j] * mi[j + 1] / (mi[j] + mi[j + 1])
-            link_k.append(k_link)
-            link_c.append(2 * car.damping_ratio * math.sqrt(k_link * mred))
-            elem_zone.append(-1)
-        bodies["lead" if k == 0 else f"car{k + 1}"] = (first, first + n)
+            self.link_k.append(k_link)
+            self.link_c.append(2 * car.damping_ratio * math.sqrt(k_link * mred))
+            self.elem_zone.append(-1)
+        self.bodies["lead" if k == 0 else f"car{k + 1}"] = (first, first + n)
 
-    m_arr = np.array(m)
-    # Gershgorin bound of M⁻¹K: ω² ≤ max_i 2 Σ_e k_e / m_i
-    k_elem = np.array(link_k)
-    ztype = np.array(zone_type, dtype=np.int64)
-    kz = np.array([max(types[t].unloading_stiffness, t_kt[t]) for t in zone_type])
-    for e, z in enumerate(elem_zone):
+
+def _omega_max(chain: _ChainLists, zone_stiffness: np.ndarray, wall_zone: int) -> float:
+    """Gershgorin bound of the highest angular frequency of M⁻¹K, rad/s:
+    ``ω² ≤ max_i 2 Σ_e k_e / m_i`` with each zone element at its ``zone_stiffness``."""
+    m = np.array(chain.m)
+    k_elem = np.array(chain.link_k)
+    for e, z in enumerate(chain.elem_zone):
         if z >= 0:
-            k_elem[e] = kz[z]
-    k_node = np.zeros(m_arr.size)
+            k_elem[e] = zone_stiffness[z]
+    k_node = np.zeros(m.size)
     k_node[:-1] += k_elem
     k_node[1:] += k_elem
     if wall_zone >= 0:
-        k_node[0] += kz[wall_zone]
-    omega_max = float(np.sqrt(np.max(2.0 * k_node / m_arr)))
+        k_node[0] += zone_stiffness[wall_zone]
+    return float(np.sqrt(np.max(2.0 * k_node / m)))
+
+
+def _build_chain(scenario: CrashScenario) -> _Chain:
+    """The reference chain of ``scenario``: the obstacle (if any) in front, then the cars."""
+    types = [scenario.wall, scenario.interface] + (
+        [scenario.obstacle.zone] if scenario.obstacle else []
+    )
+    zone_types = _zone_types(types)
+    chain = _ChainLists()
+    wall_zone = -1
+    if scenario.obstacle is None:
+        wall_zone = chain.add_zone(0, "wall", -1, 0, 0.0)
+    else:
+        chain.add_obstacle(scenario.obstacle)
+    for k in range(scenario.n_cars):
+        chain.add_car(scenario, k)
+    kt = zone_types.tension_stiffness
+    kz = np.array([max(types[t].unloading_stiffness, kt[t]) for t in chain.zone_type])
+    bodies = chain.bodies
     names = [n for n in bodies if n != "obstacle"] + (["obstacle"] if "obstacle" in bodies else [])
     return _Chain(
         params=ReferenceParams(
-            m=m_arr,
-            mu=np.array(mu),
+            m=np.array(chain.m),
+            mu=np.array(chain.mu),
             gravity=float(scenario.gravity),
             v_eps=V_EPS,
-            link_k=np.array(link_k),
-            link_c=np.array(link_c),
-            elem_zone=np.array(elem_zone, dtype=np.int64),
-            zone_type=ztype,
-            zone_cc=np.array(zone_cc),
-            zone_front=np.array(zone_front, dtype=np.int64),
-            zone_back=np.array(zone_back, dtype=np.int64),
+            link_k=np.array(chain.link_k),
+            link_c=np.array(chain.link_c),
+            elem_zone=np.array(chain.elem_zone, dtype=np.int64),
+            zone_type=np.array(chain.zone_type, dtype=np.int64),
+            zone_cc=np.array(chain.zone_cc),
+            zone_front=np.array(chain.zone_front, dtype=np.int64),
+            zone_back=np.array(chain.zone_back, dtype=np.int64),
             body_start=np.array([bodies[n][0] for n in names], dtype=np.int64),
             body_end=np.array([bodies[n][1] for n in names], dtype=np.int64),
-            types=ZoneTypes(
-                stroke=t_s,
-                force=t_f,
-                n_points=t_n,
-                fold_amplitude=np.array([z.fold_amplitude for z in types]),
-                fold_wavelength=np.array([z.fold_wavelength for z in types]),
-                unloading_stiffness=np.array([z.unloading_stiffness for z in types]),
-                tension_stiffness=t_kt,
-                slack=t_slack,
-                absorber=np.array([z.absorber_stroke for z in types]),
-            ),
+            types=zone_types,
         ),
-        v0=np.array(v0),
+        v0=np.array(chain.v0),
         body_names=names,
-        zone_names=zone_names,
-        omega_max=omega_max,
+        zone_names=chain.zone_names,
+        omega_max=_omega_max(chain, kz, wall_zone),
     )
 
 
@@ -522,12 +545,7 @@ def simulate_reference(
     _check_run(duration, sample_dt)
     ch = _build_chain(scenario)
     dt, n_sub = _reference_steps(ch, sample_dt, safety)
-    n_samples = int(round(duration / sample_dt)) + 1
-    nb, nz = len(ch.body_names), len(ch.zone_names)
-    state = _new_reference_state(1, ch.params.m, nz)
-    state.v[0] = ch.v0
-    out = new_outputs(1, nb, nz)
-    rec = new_record(n_samples, nb, nz, energies=True)
+    state, out, rec = one_train(ch, _new_reference_state, duration, sample_dt, energies=True)
     t0 = time.perf_counter()
     n = _record_reference(
         state, out, ch.params, dt, n_sub, StopRule(stop_when_over, v_stop, f_stop), rec

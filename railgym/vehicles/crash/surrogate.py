@@ -39,11 +39,13 @@ from surrogates.selection import factory_for, select_kfold
 __all__ = [
     "VARIANTS",
     "CrashElement",
+    "CrashFitOptions",
     "CrashSurrogate",
     "TrainingSet",
     "build_crash_surrogate",
     "crash_errors",
     "crash_training_data",
+    "plastic_loading",
     "virgin_loading",
 ]
 
@@ -184,6 +186,43 @@ def virgin_loading(
     return out
 
 
+def plastic_loading(
+    u: np.ndarray,
+    f: np.ndarray,
+    rate: np.ndarray,
+    stiffness: float,
+    series: np.ndarray | None = None,
+    scale: np.ndarray | None = None,
+    tol: float = 1e-6,
+) -> np.ndarray:
+    """Mask of the samples on the loading envelope: on the virgin loading path
+    (:func:`virgin_loading`) and inside plastic flow.
+
+    The permanent set a sample implies under elastic unloading of stiffness ``k_u`` (N/m) is
+    ``u − f / k_u`` (m); plastic flow is where that set grows by more than ``tol`` (m) over the
+    interval before the sample and the one after it, the zone in compression (``f > 0``) at
+    both ends of each, in the same time history (``series``, default one). This leaves out
+    samples on an elastic line at the largest crush reached so far: the end of a reload, and the
+    elastic rise of a zone whose scaled envelope is steeper there than ``k_u`` (an absorber
+    scale above 1 on the first rise), whose forces are not the envelope's; ``rate`` (m/s) as
+    :func:`virgin_loading`. ``scale``: the envelope's scale at each sample (default 1); a sample
+    whose scale differs from the one before it is left out too (after a step up of the scale the
+    zone reloads elastically for part of the interval).
+    """
+    series = np.zeros(u.size, dtype=np.int64) if series is None else series
+    scale = np.ones(u.size) if scale is None else scale
+    out = np.zeros(u.size, dtype=bool)
+    for k in np.unique(series):
+        i = np.flatnonzero(series == k)
+        if i.size < 3:
+            continue
+        contact = f[i] > 0.0
+        grow = (np.diff(u[i] - f[i] / stiffness) > tol) & contact[:-1] & contact[1:]
+        same = np.diff(scale[i]) == 0.0
+        out[i[1:-1]] = grow[:-1] & grow[1:] & same[:-1]
+    return out & virgin_loading(u, rate, series)
+
+
 def _fit_lpr(
     u: np.ndarray, f: np.ndarray, max_degree: int, seed: int, degrees: Any = None
 ) -> tuple[Any, Any]:
@@ -211,17 +250,25 @@ def _unloading_stiffness(
     return float(np.sum(df[ok] * du[ok]) / np.sum(du[ok] ** 2))
 
 
+def _element_scale(scale: Any, name: str) -> float:
+    """Absorber scale of element type ``name`` in a run of absorber scale ``scale``: one number
+    for every zone, or a ``(wall, interface)`` pair."""
+    if np.ndim(scale) == 0:
+        return float(scale)
+    return float(scale[0 if name == "wall" else 1])
+
+
 def _pooled_training_data(
     references: list[CrashResult], feature: str = "com"
 ) -> dict[str, tuple[TrainingSet, np.ndarray]]:
     """:func:`crash_training_data` of several results pooled per element type (series
     numbered apart) with each sample's absorber scale (``result.extra["absorber_scale"]``,
-    default 1, the same in every zone of a run)."""
+    default 1: one number for every zone of a run, or a ``(wall, interface)`` pair)."""
     pooled: dict[str, list[tuple[TrainingSet, float]]] = {}
     for ref in references:
-        scale = float(ref.extra.get("absorber_scale", 1.0))
+        scale = ref.extra.get("absorber_scale", 1.0)
         for name, data in crash_training_data(ref, feature=feature).items():
-            pooled.setdefault(name, []).append((data, scale))
+            pooled.setdefault(name, []).append((data, _element_scale(scale, name)))
     out = {}
     for name, items in pooled.items():
         offset, parts, scales = 0, [], []
@@ -249,10 +296,10 @@ def build_crash_surrogate(
     ----------
     reference : output of :func:`simulate_reference`, or a list of reference results of one
         scenario (e.g. :func:`railgym.vehicles.crash.elements.envelope_runs`) pooled into one
-        element set. A run with absorber scale ``s`` (``result.extra["absorber_scale"]``)
-        contributes its loading forces divided by ``s`` within the absorber stroke, i.e. the
-        nominal envelope the element scales at run time; unloading samples (``k̂_u``) as they
-        are.
+        element set. A run with absorber scale ``s`` (``result.extra["absorber_scale"]``: one
+        number, or a ``(wall, interface)`` pair, each zone its own) contributes its loading
+        forces divided by ``s`` within the absorber stroke, i.e. the nominal envelope the
+        element scales at run time; unloading samples (``k̂_u``) as they are.
     variant : ``"paper"`` (loading/unloading LPR switched by the crush rate) or
         ``"hysteretic"`` (LPR envelope + elastic unloading, energy-consistent).
     seed : seed of the cross-validation folds.
@@ -266,6 +313,33 @@ def build_crash_surrogate(
         (``"hysteretic"``) is then one LPR per stage (:func:`fit_piecewise`, degrees by CV
         among ``degrees`` or :data:`~railgym.vehicles.crash.piecewise.PIECE_DEGREES`).
     """
+    refs = _check_build(reference, variant, nodes_per_car)
+    scenario = refs[0].scenario
+    t0 = time.perf_counter()
+    absorber = {
+        "wall": scenario.wall.absorber_stroke,
+        "interface": scenario.interface.absorber_stroke,
+    }
+    feature = "com" if nodes_per_car == 1 else "zone"
+    fit = CrashFitOptions(variant, seed, max_degree, degrees, nodes_per_car, knots)
+    elements = {
+        name: _fit_element(name, data, run_scale, absorber[name], fit)
+        for name, (data, run_scale) in _pooled_training_data(refs, feature).items()
+    }
+    return CrashSurrogate(
+        variant=variant,
+        elements=elements,
+        source=scenario.name,
+        build_time=time.perf_counter() - t0,
+        nodes_per_car=int(nodes_per_car),
+    )
+
+
+def _check_build(
+    reference: CrashResult | list[CrashResult], variant: str, nodes_per_car: Any
+) -> list[CrashResult]:
+    """The reference results of :func:`build_crash_surrogate`; ``ValueError`` naming a bad
+    argument."""
     if isinstance(nodes_per_car, bool) or not isinstance(nodes_per_car, int | np.integer):
         raise ValueError(f"nodes_per_car must be an integer, got {nodes_per_car!r}")
     if not 1 <= nodes_per_car <= MAX_NODES_PER_CAR:
@@ -278,77 +352,86 @@ def build_crash_surrogate(
     for ref in refs:
         if ref.model != "reference":
             raise ValueError(f"reference must be a reference-model result, got {ref.model!r}")
-    scenario = refs[0].scenario
-    t0 = time.perf_counter()
-    elements = {}
-    absorber = {
-        "wall": scenario.wall.absorber_stroke,
-        "interface": scenario.interface.absorber_stroke,
-    }
-    feature = "com" if nodes_per_car == 1 else "zone"
-    for name, (data, run_scale) in _pooled_training_data(refs, feature).items():
-        u, f, rate, loading, series = data
-        # nominal envelope: the loading forces of a scaled absorber divided by its scale
-        nominal = f / np.where(u <= absorber[name], run_scale, 1.0)
-        unilateral = name == "wall"
-        sel: dict[str, Any] = {}
-        n: dict[str, int] = {}
-        kt = slack = 0.0
-        unload = None
-        if variant == "paper":
-            lo, un = loading, ~loading
-            load, sel["loading"] = _fit_lpr(u[lo], nominal[lo], max_degree, seed, degrees)
-            unload, sel["unloading"] = _fit_lpr(u[un], f[un], max_degree, seed, degrees)
-            n = {"loading": int(lo.sum()), "unloading": int(un.sum())}
-            rng = {
-                "loading": (nominal[lo].min(), nominal[lo].max()),
-                "unloading": (f[un].min(), f[un].max()),
-            }
-            ku = _unloading_stiffness(u, f, rate, series)
+    return refs
+
+
+@dataclass(frozen=True)
+class CrashFitOptions:
+    """How the crash elements are fitted: the arguments of :func:`build_crash_surrogate`
+    after ``reference`` (documented there), for callers that pass them on
+    (:func:`railgym.vehicles.crash.fe.crash_surrogate_from_fe`)."""
+
+    variant: str = "hysteretic"
+    seed: int = 0
+    max_degree: int = 30
+    degrees: Any = None
+    nodes_per_car: int = 1
+    knots: dict[str, Any] | None = None
+
+
+def _fit_element(
+    name: str, data: tuple, run_scale: np.ndarray, absorber: float, fit: CrashFitOptions
+) -> CrashElement:
+    """The element ``name`` fitted on its pooled training ``data`` (:func:`_pooled_training_data`)
+    with the run scales ``run_scale`` applied within the ``absorber`` stroke (m)."""
+    u, f, rate, loading, series = data
+    # nominal envelope: the loading forces of a scaled absorber divided by its scale
+    env_scale = np.where(u <= absorber, run_scale, 1.0)
+    nominal = f / env_scale
+    unilateral = name == "wall"
+    sel: dict[str, Any] = {}
+    kt = slack = 0.0
+    unload = None
+    ku = _unloading_stiffness(u, f, rate, series)
+    if fit.variant == "paper":
+        lo, un = loading, ~loading
+        load, sel["loading"] = _fit_lpr(u[lo], nominal[lo], fit.max_degree, fit.seed, fit.degrees)
+        unload, sel["unloading"] = _fit_lpr(u[un], f[un], fit.max_degree, fit.seed, fit.degrees)
+        n = {"loading": int(lo.sum()), "unloading": int(un.sum())}
+        rng = {
+            "loading": (nominal[lo].min(), nominal[lo].max()),
+            "unloading": (f[un].min(), f[un].max()),
+        }
+    else:
+        # the zone crush's own law: plastic flow; the centre-of-mass feature (one mass per car)
+        # holds carbody elasticity as well, so there the samples at the largest crush so far
+        if fit.nodes_per_car > 1:
+            vg = plastic_loading(u, f, rate, ku, series, env_scale) & (f > 0)
         else:
             vg = virgin_loading(u, rate, series) & (f > 0)
-            uu = np.concatenate(([0.0], u[vg]))
-            ff = np.concatenate(([0.0], nominal[vg]))
-            if knots is not None and name in knots:
-                cands = PIECE_DEGREES if degrees is None else degrees
-                load, tables = fit_piecewise(uu, ff, knots[name], seed, cands)
-                sel.update({f"loading_{i}": t for i, t in enumerate(tables)})
-            else:
-                load, sel["loading"] = _fit_lpr(uu, ff, max_degree, seed, degrees)
-            ku = _unloading_stiffness(u, f, rate, series)
-            n = {"loading": int(uu.size)}
-            rng = {"loading": (0.0, ff.max())}
-            tension = f < 0
-            if not unilateral and np.count_nonzero(tension) >= 5:
-                # f = k_t (u − u_p + ŝ) on the tension samples, u_p the permanent set of each
-                # run's history (its absorber scale applied), so runs with different sets pool
-                env_scale = np.where(u <= absorber[name], run_scale, 1.0)
-                up = _permanent_set_history(u, series, load, ku, env_scale)
-                stretch = u[tension] - up[tension]
-                A = np.column_stack([stretch, np.ones(np.count_nonzero(tension))])
-                (kt, c), *_ = np.linalg.lstsq(A, f[tension], rcond=None)
-                slack = max(0.0, float(c / kt)) if kt > 0 else 0.0
-                kt = max(float(kt), 0.0)
-                n["tension"] = int(np.count_nonzero(tension))
-        elements[name] = CrashElement(
-            name=name,
-            variant=variant,
-            loading=load,
-            unloading=unload,
-            unloading_stiffness=ku,
-            tension_stiffness=kt,
-            slack=slack,
-            unilateral=unilateral,
-            force_range={k: (float(a), float(b)) for k, (a, b) in rng.items()},
-            selection=sel,
-            n_samples=n,
-        )
-    return CrashSurrogate(
-        variant=variant,
-        elements=elements,
-        source=scenario.name,
-        build_time=time.perf_counter() - t0,
-        nodes_per_car=int(nodes_per_car),
+        uu = np.concatenate(([0.0], u[vg]))
+        ff = np.concatenate(([0.0], nominal[vg]))
+        if fit.knots is not None and name in fit.knots:
+            cands = PIECE_DEGREES if fit.degrees is None else fit.degrees
+            load, tables = fit_piecewise(uu, ff, fit.knots[name], fit.seed, cands)
+            sel.update({f"loading_{i}": t for i, t in enumerate(tables)})
+        else:
+            load, sel["loading"] = _fit_lpr(uu, ff, fit.max_degree, fit.seed, fit.degrees)
+        n = {"loading": int(uu.size)}
+        rng = {"loading": (0.0, ff.max())}
+        tension = f < 0
+        if not unilateral and np.count_nonzero(tension) >= 5:
+            # f = k_t (u − u_p + ŝ) on the tension samples, u_p the permanent set of each
+            # run's history (its absorber scale applied), so runs with different sets pool
+            up = _permanent_set_history(u, series, load, ku, env_scale)
+            stretch = u[tension] - up[tension]
+            A = np.column_stack([stretch, np.ones(np.count_nonzero(tension))])
+            (kt, c), *_ = np.linalg.lstsq(A, f[tension], rcond=None)
+            slack = max(0.0, float(c / kt)) if kt > 0 else 0.0
+            kt = max(float(kt), 0.0)
+            n["tension"] = int(np.count_nonzero(tension))
+    return CrashElement(
+        name=name,
+        variant=fit.variant,
+        loading=load,
+        unloading=unload,
+        unloading_stiffness=ku,
+        tension_stiffness=kt,
+        slack=slack,
+        unilateral=unilateral,
+        force_range={k: (float(a), float(b)) for k, (a, b) in rng.items()},
+        selection=sel,
+        n_samples=n,
     )
 
 

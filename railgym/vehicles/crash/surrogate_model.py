@@ -20,8 +20,7 @@ from railgym.vehicles.crash.outputs import (
     _check_run,
     _crash_over,
     _steps,
-    new_outputs,
-    new_record,
+    one_train,
     recorded_result,
 )
 from railgym.vehicles.crash.piecewise import PiecewiseEnvelope
@@ -695,12 +694,7 @@ def simulate_surrogate(
         raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
     dt, n_sub = _steps(sample_dt, dt)
     sy = _surrogate_system(scenario, surrogate)
-    n_samples = int(round(duration / sample_dt)) + 1
-    nb, ne = len(sy.body_names), len(sy.zone_names)
-    state = _new_surrogate_state(1, sy.params.m, ne)
-    state.v[0] = sy.v0
-    out = new_outputs(1, nb, ne)
-    rec = new_record(n_samples, nb, ne, energies=False)
+    state, out, rec = one_train(sy, _new_surrogate_state, duration, sample_dt, energies=False)
     stop = StopRule(stop_when_over, v_stop, f_stop)
     t0 = time.perf_counter()
     n = _record_surrogate(state, out, sy.params, dt, n_sub, stop, rec)

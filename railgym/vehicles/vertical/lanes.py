@@ -54,7 +54,7 @@ _ROWS = 58
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _element(block, lpr, lpr_work, element_input, n_lanes):
+def _element(block, lpr, lpr_work, u, n_lanes):
     """Element force ``F̂(u)`` into row ``_FS`` from the inputs in rows ``_U``: the additive
     Legendre sums of :func:`~surrogates.models.lpr.lpr_additive_inside` lane-parallel, then
     the lanes outside the box by :func:`~surrogates.models.lpr.lpr_eval_into`."""
@@ -107,18 +107,16 @@ def _element(block, lpr, lpr_work, element_input, n_lanes):
         for l in range(n_lanes):
             if block[_OUT, l] > 0.0:
                 for j in range(d):
-                    element_input[j] = block[_U + j, l]
-                block[_FS, l] = lpr_eval_into(
-                    element_input, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work
-                )
+                    u[j] = block[_U + j, l]
+                block[_FS, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _rhs(block, state_row, rate_row, track_row, suspension, lpr, lpr_work, element_input, n_lanes):
+def _rhs(block, state_row, rate_row, track_row, suspension, lpr, lpr_work, u, n_lanes):
     """Derivatives of the states in rows ``state_row`` of ``block`` into rows ``rate_row`` with
     the track input in rows ``track_row, track_row + 1``; the force in row ``_FS``, the outside
     flags in row ``_OUT``. ``suspension``: the suspension record; ``lpr_work`` and
-    ``element_input`` are work arrays, ``n_lanes`` the block's vehicles."""
+    ``u`` (element inputs) are work arrays, ``n_lanes`` the block's vehicles."""
     tau = lpr.tau
     for l in range(n_lanes):
         block[_U, l] = block[state_row, l] - block[state_row + 2, l]
@@ -130,7 +128,7 @@ def _rhs(block, state_row, rate_row, track_row, suspension, lpr, lpr_work, eleme
     else:
         for l in range(n_lanes):
             block[rate_row + 4, l] = 0.0
-    _element(block, lpr, lpr_work, element_input, n_lanes)
+    _element(block, lpr, lpr_work, u, n_lanes)
     k1, c1, m1, m2 = suspension.k1, suspension.c1, suspension.m1, suspension.m2
     bump = lpr.bump
     for l in range(n_lanes):
@@ -165,7 +163,7 @@ def _block(state, z, zdot, k0, n_sub, dt, force_a, suspension_record, lpr, out, 
     n_lanes = min(LANES, n - i0)
     block = np.zeros((_ROWS, n_lanes))
     lpr_work = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
-    element_input = np.empty(lpr.lo.shape[0])
+    u = np.empty(lpr.lo.shape[0])
     for l in range(n_lanes):
         i = i0 + l
         for j in range(s):
@@ -185,19 +183,19 @@ def _block(state, z, zdot, k0, n_sub, dt, force_a, suspension_record, lpr, out, 
             block[_ZA, l], block[_ZDA, l], block[_ZB, l], block[_ZDB, l] = za, zda, zb, zdb
             block[_ZM, l] = 0.5 * (za + zb) + dt8 * (zda - zdb)
             block[_ZDM, l] = c3 * (zb - za) - 0.25 * (zda + zdb)
-        _rhs(block, _X, _K, _ZA, suspension, lpr, lpr_work, element_input, n_lanes)
+        _rhs(block, _X, _K, _ZA, suspension, lpr, lpr_work, u, n_lanes)
         for l in range(n_lanes):
             block[_OSUM, l] = block[_OUT, l]
         _stage(block, _K, half, n_lanes)
-        _rhs(block, _XT, _K + 5, _ZM, suspension, lpr, lpr_work, element_input, n_lanes)
+        _rhs(block, _XT, _K + 5, _ZM, suspension, lpr, lpr_work, u, n_lanes)
         for l in range(n_lanes):
             block[_OSUM, l] += block[_OUT, l]
         _stage(block, _K + 5, half, n_lanes)
-        _rhs(block, _XT, _K + 10, _ZM, suspension, lpr, lpr_work, element_input, n_lanes)
+        _rhs(block, _XT, _K + 10, _ZM, suspension, lpr, lpr_work, u, n_lanes)
         for l in range(n_lanes):
             block[_OSUM, l] += block[_OUT, l]
         _stage(block, _K + 10, dt, n_lanes)
-        _rhs(block, _XT, _K + 15, _ZB, suspension, lpr, lpr_work, element_input, n_lanes)
+        _rhs(block, _XT, _K + 15, _ZB, suspension, lpr, lpr_work, u, n_lanes)
         alive = 0.0
         for l in range(n_lanes):
             block[_OSUM, l] += block[_OUT, l]
@@ -227,7 +225,7 @@ def _block(state, z, zdot, k0, n_sub, dt, force_a, suspension_record, lpr, out, 
         i = i0 + l
         ke = k0[i] + n_sub
         block[_ZA, l], block[_ZDA, l] = z[i, ke], zdot[i, ke]
-    _rhs(block, _X, _K, _ZA, suspension, lpr, lpr_work, element_input, n_lanes)
+    _rhs(block, _X, _K, _ZA, suspension, lpr, lpr_work, u, n_lanes)
     for l in range(n_lanes):
         i = i0 + l
         for j in range(s):

@@ -13,6 +13,7 @@ from numba import njit
 
 from railgym import _checks as val
 from railgym.vehicles.vertical.elements import (
+    LprArrays,
     bump_stop_force,
     damper_force,
     dynamic_element,
@@ -40,6 +41,11 @@ class _Record(NamedTuple):
     acc: np.ndarray  #: float64 (m, 2) accelerations, m/s²
     fs: np.ndarray  #: float64 (m,) secondary-suspension force, N
     counts: np.ndarray  #: int64 (2,) contacts, out-of-domain evaluations
+
+    @classmethod
+    def zeros(cls, m: int, s: int) -> _Record:
+        """Zeroed buffers of ``m`` instants of ``s`` states."""
+        return cls(np.zeros((m, s)), np.zeros((m, 2)), np.zeros(m), np.zeros(2, np.int64))
 
 
 @njit(cache=True)
@@ -100,9 +106,8 @@ def simulate(
         shape (N // sample_every,), held over that interval.
     surrogate
         Fitted LPR or Kriging model (or an LPR's ``kernel_arrays()``), required for
-        ``"surrogate"``. With the
-        ``"raise"`` extrapolation policy an input outside the training box raises
-        ``ValueError``.
+        ``"surrogate"``. With the ``"raise"`` extrapolation policy an input outside the
+        training box raises ``ValueError``.
     sample_every
         Record every ``sample_every``-th step (the substeps of one kernel call).
     x0
@@ -122,39 +127,16 @@ def simulate(
     kind = check_variant(variant)
     if not isinstance(vehicle, VerticalVehicle):
         raise ValueError(f"vehicle must be a VerticalVehicle, got {type(vehicle).__name__}")
-    z = np.ascontiguousarray(val.numeric_array(z, "z"))
-    zdot = np.ascontiguousarray(val.numeric_array(zdot, "zdot"))
-    if z.ndim != 1 or z.size < 2:
-        raise ValueError(f"z must be 1-D with at least 2 samples, got shape {z.shape}")
-    if zdot.shape != z.shape:
-        raise ValueError(f"zdot has shape {zdot.shape}, expected {z.shape} like z")
+    z, zdot = _track_input(z, zdot)
     dt = val.positive(dt, "dt")
     sample_every = val.integer(sample_every, "sample_every", min=1)
     n_int = (z.size - 1) // sample_every
-    if force_a is None:
-        fa = np.zeros(n_int)
-    elif np.ndim(force_a) == 0:
-        fa = np.full(n_int, val.real(force_a, "force_a"))
-    else:
-        fa = val.numeric_array(force_a, "force_a")
-        if fa.shape != (n_int,):
-            raise ValueError(f"force_a must be a scalar or have shape ({n_int},), got {fa.shape}")
+    fa = _actuator_force(force_a, n_int)
     if variant == "surrogate" and surrogate is None:
         raise ValueError("surrogate is required for variant 'surrogate'")
     lpr = surrogate_arrays(surrogate if variant == "surrogate" else None, dt, kriging=True)
-    s = state_size(variant, lpr)
-    state = initial_state(variant, lpr=lpr)
-    if x0 is not None:
-        x0 = val.numeric_array(x0, "x0")
-        if s == 5 and variant == "surrogate" and x0.shape == (4,):
-            x0 = np.append(x0, x0[0] - x0[2])  # Maxwell state started relaxed, s = δ
-        state[0] = val.numeric_array(x0, "x0", (s,))
-    rec = _Record(
-        np.zeros((n_int + 1, s)),
-        np.zeros((n_int + 1, 2)),
-        np.zeros(n_int + 1),
-        np.zeros(2, np.int64),
-    )
+    state = _start_state(variant, lpr, x0)
+    rec = _Record.zeros(n_int + 1, state.shape[1])
     done = _simulate_loop(
         kind,
         state,
@@ -173,6 +155,49 @@ def simulate(
             f"surrogate input left its training box ({int(rec.counts[1])} evaluations) and "
             "its extrapolation policy is 'raise'"
         )
+    return _result(variant, rec, done, n_int, sample_every, dt)
+
+
+def _track_input(z: Any, zdot: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``z`` (m) and ``zdot`` (m/s) as contiguous float arrays of one shape (N+1,), N ≥ 1."""
+    z = np.ascontiguousarray(val.numeric_array(z, "z"))
+    zdot = np.ascontiguousarray(val.numeric_array(zdot, "zdot"))
+    if z.ndim != 1 or z.size < 2:
+        raise ValueError(f"z must be 1-D with at least 2 samples, got shape {z.shape}")
+    if zdot.shape != z.shape:
+        raise ValueError(f"zdot has shape {zdot.shape}, expected {z.shape} like z")
+    return z, zdot
+
+
+def _actuator_force(force_a: Any, n_int: int) -> np.ndarray:
+    """Actuator force (N) of each of the ``n_int`` recorded intervals (see :func:`simulate`)."""
+    if force_a is None:
+        return np.zeros(n_int)
+    if np.ndim(force_a) == 0:
+        return np.full(n_int, val.real(force_a, "force_a"))
+    fa = val.numeric_array(force_a, "force_a")
+    if fa.shape != (n_int,):
+        raise ValueError(f"force_a must be a scalar or have shape ({n_int},), got {fa.shape}")
+    return fa
+
+
+def _start_state(variant: str, lpr: LprArrays, x0: Any) -> np.ndarray:
+    """Initial state (1, s) of :func:`simulate`: ``x0`` or the static equilibrium."""
+    s = state_size(variant, lpr)
+    state = initial_state(variant, lpr=lpr)
+    if x0 is not None:
+        x0 = val.numeric_array(x0, "x0")
+        if s == 5 and variant == "surrogate" and x0.shape == (4,):
+            x0 = np.append(x0, x0[0] - x0[2])  # Maxwell state started relaxed, s = δ
+        state[0] = val.numeric_array(x0, "x0", (s,))
+    return state
+
+
+def _result(
+    variant: str, rec: _Record, done: int, n_int: int, sample_every: int, dt: float
+) -> dict[str, Any]:
+    """The record of :func:`simulate` up to sample ``done`` (every ``sample_every`` steps of
+    ``dt`` s)."""
     m = done + 1
     out: dict[str, Any] = {
         "t": np.arange(m) * sample_every * dt,

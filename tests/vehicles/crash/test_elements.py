@@ -34,8 +34,8 @@ def _run(env):
 
 @pytest.mark.slow
 def test_rebuilding_the_packaged_elements_gives_the_packaged_file(tmp_path):
-    """The documented command rebuilds the file: same fit, same forces on a dense grid (the
-    fit takes about two minutes: 72 reference runs, cross-validated pieces)."""
+    """The documented command rebuilds the file: same fit, same forces on a dense grid (60
+    reference runs, cross-validated pieces)."""
     assert main(["--scenario", "paper", "--out", str(tmp_path / "e.json")]) == 0
     with pytest.raises(SystemExit):  # an existing file needs --overwrite
         main(["--scenario", "paper", "--out", str(tmp_path / "e.json")])
@@ -55,8 +55,12 @@ def test_rebuilding_the_packaged_elements_gives_the_packaged_file(tmp_path):
 
 def test_envelope_runs_cover_the_grid_and_scale_the_absorbers():
     runs = envelope_runs("paper", speeds_kmh=(40.0,), scales=FIT_SCALES)
-    crush = [r.crush[:, 0].max() for r in runs]
-    assert crush[0] > crush[1] > crush[2]  # softer absorbers crush further
+    crush = np.array([r.crush.max(axis=0) for r in runs])  # (runs, zones: wall, interface)
+    assert crush[0, 0] > crush[1, 0] > crush[2, 0]  # softer absorbers crush further
+    # each zone crushes furthest with its own absorber soft and the other stiff
+    scales = [r.extra["absorber_scale"] for r in runs]
+    assert np.argmax(crush[:, 0]) == scales.index((0.7, 1.3))
+    assert np.argmax(crush[:, 1]) == scales.index((1.3, 0.7))
     passive = simulate_reference("paper")  # the batch recorder = the reference recorder
     np.testing.assert_array_equal(runs[1].a[: passive.t.size - 1], passive.a[:-1])
     assert {r.extra["absorber_scale"] for r in runs} == set(FIT_SCALES)
@@ -121,15 +125,17 @@ def test_fitting_payloads_are_the_envelopes_extremes():
 def test_packaged_elements_hold_on_the_reference_across_actions():
     """Cells of the matrix of docs/envs/crash.md through the vector env on both backends
     (rate-limited absorbers, 1 ms control): the slowest and fastest speed × the lightest and
-    heaviest payload × the extreme constant actions, and 4 random action sequences at 40 km/h.
-    Each car's peak and 10 ms deceleration and each zone's largest crush within 3 % / 4 %
-    (measured on these cells: 1.9 % / 2.5 %; over the whole matrix 4.9 % with constant actions,
-    6.1 % with random sequences; the one-mass elements were off by up to 45 % here)."""
+    heaviest payload × the extreme constant actions, and 4 random action sequences at 40 and
+    at 50 km/h. Each car's peak and 10 ms deceleration and each zone's largest crush within
+    1 % / 1.5 % (measured on these cells: 0.3 % / 0.4 %; the elements fitted on every sample at
+    the largest crush, before plastic flow was required, 1.9 % / 5.9 %; the one-mass elements
+    were off by up to 45 % here)."""
     const = constant_action_cases(speeds_kmh=(25.0, 50.0), actions=(-1.0, 1.0))
     assert len(const) == 8 and {c.payload_t for c in const} == {(0.0, 0.0), (2.0, 8.0)}
     for metric, worst in worst_errors(const).items():
-        assert np.all(worst < 0.03), metric
-    rand = random_action_cases(speeds_kmh=(40.0,), n_sequences=4, seed=3)
-    assert len({c.payload_t for c in rand}) == 4  # payloads drawn per sequence
-    for metric, worst in worst_errors(rand).items():
-        assert np.all(worst < 0.04), metric
+        assert np.all(worst < 0.01), metric
+    for kmh, seed in ((40.0, 3), (50.0, 2)):
+        rand = random_action_cases(speeds_kmh=(kmh,), n_sequences=4, seed=seed)
+        assert len({c.payload_t for c in rand}) == 4  # payloads drawn per sequence
+        for metric, worst in worst_errors(rand).items():
+            assert np.all(worst < 0.015), (kmh, metric)
