@@ -12,19 +12,17 @@ divergence. The batch cannot be copied or pickled (an FMU instance lives in it).
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from railgym.envs.vertical_batch import VerticalBatch, VerticalConfig, _post_step
 from railgym.fmu.mapping import Mapping
-from railgym.fmu.runner import FMURunner
+from railgym.fmu.runner import FMUInstances, FMURunner
 from railgym.vehicles.vertical import LprArrays, VerticalVehicle
 
 __all__ = ["FMUBatch"]
 
 
-class FMUBatch(VerticalBatch):
+class FMUBatch(FMUInstances, VerticalBatch):
     """``n`` vertical vehicles, each an instance of the FMU of ``mapping``."""
 
     def __init__(
@@ -40,15 +38,6 @@ class FMUBatch(VerticalBatch):
         self.runners = [FMURunner(mapping, cfg.dt, cfg.n_sub) for _ in range(n)]
         keys = self.runners[0].out_keys
         self._cols = {k: keys.index(k) for k in keys}
-
-    def __getstate__(self) -> dict[str, Any]:
-        raise TypeError("an env with backend='fmu' cannot be copied or pickled (FMU instance)")
-
-    def reset_state(self, i: int) -> None:
-        """Vehicle ``i`` at rest, its FMU instance reset to t = 0."""
-        super().reset_state(i)
-        if hasattr(self, "runners"):
-            self.runners[i].reset()
 
     def advance(self) -> None:
         """One control step of every FMU with the stored actions."""

@@ -31,7 +31,7 @@ import numpy as np
 
 from railgym.fmu.mapping import FMUError, Mapping
 
-__all__ = ["FMURunner", "hermite_derivatives"]
+__all__ = ["FMUInstances", "FMURunner", "hermite_derivatives"]
 
 _P_DOUBLE = ctypes.POINTER(ctypes.c_double)
 
@@ -375,3 +375,19 @@ class FMURunner:
     def _free(self) -> None:
         self.fmu.terminate()
         self.fmu.freeInstance()
+
+
+class FMUInstances:
+    """Mixin of an env batch that steps one :class:`FMURunner` per vehicle (``runners``): the
+    FMU instances cannot be copied, and each is reset with its vehicle."""
+
+    runners: list[FMURunner]
+
+    def __getstate__(self) -> dict[str, Any]:
+        raise TypeError("an env with backend='fmu' cannot be copied or pickled (FMU instance)")
+
+    def reset_state(self, i: int) -> None:
+        """Vehicle ``i`` at rest, its FMU instance reset to t = 0."""
+        super().reset_state(i)  # the env batch after this mixin in the MRO
+        if hasattr(self, "runners"):
+            self.runners[i].reset()

@@ -16,14 +16,12 @@ the episode as a divergence. Not picklable (an FMU instance lives in it).
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from railgym import _checks as val
 from railgym.envs.vehicle_batch import VehicleBatch, VehicleConfig, book_step
 from railgym.fmu.mapping import Mapping
-from railgym.fmu.runner import FMURunner
+from railgym.fmu.runner import FMUInstances, FMURunner
 from railgym.vehicles.vehicle import Lpr, WholeVehicle, hermite
 
 __all__ = ["FMUVehicleBatch"]
@@ -32,7 +30,7 @@ _FLOOR = ("acc_front", "acc_centre", "acc_rear")
 _BOGIE = ("bogie_acc_front", "bogie_acc_rear")
 
 
-class FMUVehicleBatch(VehicleBatch):
+class FMUVehicleBatch(FMUInstances, VehicleBatch):
     """``n`` whole vehicles, each an instance of the FMU of ``mapping``."""
 
     def __init__(
@@ -56,15 +54,6 @@ class FMUVehicleBatch(VehicleBatch):
         keys = self.runners[0].out_keys
         self._cols = {k: keys.index(k) for k in keys}
         self._susp = vehicle.suspension.kernel_params()
-
-    def __getstate__(self) -> dict[str, Any]:
-        raise TypeError("an env with backend='fmu' cannot be copied or pickled (FMU instance)")
-
-    def reset_state(self, i: int) -> None:
-        """Vehicle ``i`` at rest, its FMU instance reset to t = 0."""
-        super().reset_state(i)
-        if hasattr(self, "runners"):
-            self.runners[i].reset()
 
     def _wheel_inputs(self, i: int) -> tuple[np.ndarray, ...]:
         """Track height and rate at the four wheelsets over the step (4, n_sub + 1) and at
