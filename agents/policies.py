@@ -26,6 +26,7 @@ import numpy as np
 import railgym  # noqa: F401  (registers the environments)
 from agents._args import check_speed_kmh
 from agents._extras import require
+from agents.action_hold import HeldPolicy
 from agents.controllers import (
     LQR,
     BogieSkyhook,
@@ -116,7 +117,7 @@ def load_policy(
     from agents.train_config import ACTIVATIONS, ALGOS, hyperparameters, load_config
 
     source = find_source(path)
-    obs_shape = None
+    obs_shape, hold = None, 1
     if source.kind == "agents.train":
         cfg = load_config(source.config)
         trained_on, algo, policy_name = cfg.env_id, cfg.algo, cfg.policy
@@ -124,7 +125,7 @@ def load_policy(
         net_kwargs = dict(hyper.get("policy_kwargs") or {})
         if "use_sde" in hyper:
             net_kwargs["use_sde"] = hyper["use_sde"]
-        env_kwargs = cfg.env_kwargs
+        env_kwargs, hold = cfg.env_kwargs, cfg.action_hold
     else:  # rl-zoo3 or a bare zip: the network from the zip's data entry
         algo, policy_name, net_kwargs, obs_shape = zip_network(path)
         if "activation_fn" in net_kwargs:
@@ -173,6 +174,8 @@ def load_policy(
     run = (source.config.parent if source.kind == "agents.train" else path.parent).name
     final = path.parent.name == run and path.stem in ("model", env_id.replace("/", "-"))
     label = run if final else f"{run}/{path.stem}"
+    if hold > 1:  # trained to decide every `hold` steps: one held phase per factory call
+        return (lambda env: HeldPolicy(net, hold)), env_kwargs, label
     return (lambda env: net), env_kwargs, label
 
 
