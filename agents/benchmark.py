@@ -220,7 +220,8 @@ def _baseline_curve_values(cfg: Any) -> dict[str, float]:
 
 
 def plot_curves(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str, float]) -> Path:
-    """``learning_curve.png``: mean and min–max band over the seeds, baselines as lines."""
+    """``learning_curve.png``: mean and min–max band over the seeds, baselines as lines; the
+    x axis counts env steps (decisions × ``action_hold``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -229,7 +230,7 @@ def plot_curves(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str, 
     column, how, label = CURVES[cfg.env_id]
     curves = [_curve(out / f"seed_{s}" / "eval.csv", column, how) for s in seeds]
     n = min(len(c[0]) for c in curves)
-    steps = curves[0][0][:n]
+    steps = curves[0][0][:n] * cfg.action_hold  # eval.csv counts decisions
     vals = np.array([c[1][:n] for c in curves])
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=120)
     ax.plot(steps, vals.mean(axis=0), color="C0", label=f"{cfg.algo} (mean of {len(seeds)} seeds)")

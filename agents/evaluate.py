@@ -153,9 +153,11 @@ def evaluate_crash(
     for v in bar(speeds_kmh, desc="speeds"):
         passive = None
         for factory, env_kwargs, label in loaded:
-            env = gym.make(CRASH_ID, backend=backend, **{**env_kwargs, "speed": v / 3.6})
+            # the speed as a reset option: the observation keeps the scales the policy was
+            # trained with (an explicit `speed` would rescale an envelope's velocities)
+            env = gym.make(CRASH_ID, backend=backend, **env_kwargs)
             ctrl = factory(env) if factory else None
-            obs, _ = env.reset(seed=0)
+            obs, _ = env.reset(seed=0, options={"speed_kmh": v})
             while True:
                 if ctrl is None:
                     action = np.zeros(env.action_space.shape, np.float32)

@@ -26,6 +26,7 @@ import numpy as np
 import railgym  # noqa: F401  (registers the environments)
 from agents._args import MAX_EPISODES, VEHICLE_DURATION_S, check_speed_kmh
 from agents._extras import require
+from agents.action_hold import HeldPolicy
 from agents.controllers import (
     LQR,
     BogieSkyhook,
@@ -142,6 +143,7 @@ class _Network(NamedTuple):
     net_kwargs: dict[str, Any]
     env_kwargs: dict[str, Any]
     obs_shape: tuple[int, ...] | None  #: from the zip's data entry (``None``: from a config)
+    hold: int = 1  #: env steps per decision (``action_hold`` of an agents.train config)
 
 
 def _network(path: Path, source: PolicySource, env_id: str) -> _Network:
@@ -155,7 +157,9 @@ def _network(path: Path, source: PolicySource, env_id: str) -> _Network:
         net_kwargs = dict(hyper.get("policy_kwargs") or {})
         if "use_sde" in hyper:
             net_kwargs["use_sde"] = hyper["use_sde"]
-        return _Network(cfg.env_id, cfg.algo, cfg.policy, net_kwargs, cfg.env_kwargs, None)
+        return _Network(
+            cfg.env_id, cfg.algo, cfg.policy, net_kwargs, cfg.env_kwargs, None, cfg.action_hold
+        )
     algo, policy_name, net_kwargs, obs_shape = zip_network(path)
     if "activation_fn" in net_kwargs:
         act = net_kwargs["activation_fn"]
@@ -206,6 +210,8 @@ def _sb3_policy(
     run = (source.config.parent if source.kind == "agents.train" else path.parent).name
     final = path.parent.name == run and path.stem in ("model", env_id.replace("/", "-"))
     label = run if final else f"{run}/{path.stem}"
+    if network.hold > 1:  # trained to decide every `hold` steps: one held phase per factory call
+        return (lambda env: HeldPolicy(net, network.hold)), env_kwargs, label
     return (lambda env: net), env_kwargs, label
 
 

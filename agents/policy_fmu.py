@@ -366,7 +366,12 @@ def export_policy(
             f"policy must be a stable-baselines3 .zip with the config.yaml of its training "
             f"beside it, got {str(policy)!r}"
         )
-    env_id = load_config(cfg_path).env_id
+    cfg = load_config(cfg_path)
+    if cfg.action_hold > 1:
+        raise ValueError(
+            f"{cfg_path}: action_hold is {cfg.action_hold}, but the FMU decides at every step"
+        )
+    env_id = cfg.env_id
     factory, env_kwargs, label = load_policy(str(policy), env_id, trust)
     env = gym.make(env_id, **env_kwargs)
     try:

@@ -1,6 +1,6 @@
 """Pretrained policies shipped in the package, loaded by name: ``ppo-vertical``
-(trained on ``railgym/VerticalSuspension-v0``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v0``)
-and ``ppo-crash`` (``railgym/TrainCrash-v0``); each runs on any version of its env::
+(trained on ``railgym/VerticalSuspension-v1``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v0``)
+and ``ppo-crash`` (``railgym/TrainCrash-v1``); each runs on any version of its env::
 
     railgym evaluate ppo-vertical --track-class 4 5 6
     railgym evaluate ppo-vehicle --env vehicle --track-class 5
@@ -37,16 +37,16 @@ __all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
 
 #: name → env id of each pretrained policy
 PRETRAINED = {
-    "ppo-vertical": "railgym/VerticalSuspension-v0",
+    "ppo-vertical": "railgym/VerticalSuspension-v1",
     "ppo-vehicle": "railgym/VerticalVehicle-v0",
-    "ppo-crash": "railgym/TrainCrash-v0",
+    "ppo-crash": "railgym/TrainCrash-v1",
 }
 #: held-out metrics (``results.csv`` of :mod:`agents.benchmark`) whose mean over the cases
 #: ranks the seeds, per env id (lower is better)
 RANKING = {
-    "railgym/VerticalSuspension-v0": ("a_w",),
+    "railgym/VerticalSuspension-v1": ("a_w",),
     "railgym/VerticalVehicle-v0": ("a_w_front", "a_w_centre", "a_w_rear"),
-    "railgym/TrainCrash-v0": ("peak_g",),
+    "railgym/TrainCrash-v1": ("peak_g",),
 }
 
 

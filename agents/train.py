@@ -69,6 +69,7 @@ except ImportError as _err:
         sys.exit(report_missing(_err, "python -m agents.train", "training"))
     raise extra_error(_err, "training (agents.train)") from _err
 
+from agents.action_hold import ActionHold
 from agents.envelope import EnvelopeVectorEnv, check_envelope
 from agents.policy_io import write_manifest
 from agents.run_files import read_run, run_folder, speed_text, versions, write_config
@@ -383,12 +384,16 @@ def train(
     venv = make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)
     if cfg.envelope is not None:
         venv = EnvelopeVectorEnv(venv, check_envelope(cfg.envelope), cfg.seed)
+    if cfg.action_hold > 1:
+        venv = ActionHold(venv, cfg.action_hold)
     env = VecMonitor(GymVecToSB3(venv))
     opened: list[Any] = [env]
     try:  # evaluation env, model and output folder before anything is written
         eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}
         eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes, eval_kwargs, mode, "eval_env_kwargs")
         opened.append(eval_venv)
+        if cfg.action_hold > 1:
+            eval_venv = ActionHold(eval_venv, cfg.action_hold)
         hyper = {"device": "cpu", **hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)}
         try:
             model = ALGOS[cfg.algo](cfg.policy, env, seed=cfg.seed, **hyper)

@@ -25,6 +25,10 @@ Config file: one top-level key, the Gymnasium env id, holding
 ``envelope``            per-episode track class and speed of the training env (vertical and
                         vehicle envs; :mod:`agents.envelope`): ``track_class`` (list),
                         ``speed_kmh`` ([min, max]; absent: each class's maximum speed)
+``action_hold``         env steps per decision of the policy (default 1): the action is held
+                        in between, in training and wherever the policy is loaded
+                        (:mod:`agents.action_hold`), at most 1000; ``n_timesteps``, the
+                        evaluation and checkpoint intervals then count decisions
 ``vectorization_mode``  ``vector_entry_point`` (the env's native vector env, default where it
                         has one) or ``sync`` (a ``SAME_STEP`` ``SyncVectorEnv`` of single
                         envs)
@@ -53,6 +57,7 @@ from stable_baselines3 import A2C, PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 
+from agents.action_hold import check_hold
 from railgym import _checks as val
 from surrogates.checks import MAX_SEED
 
@@ -109,6 +114,7 @@ class TrainConfig:
     vectorization_mode: str | None = None
     eval_echo: list[str] = field(default_factory=list)
     envelope: dict[str, Any] | None = None
+    action_hold: int = 1
     hyperparameters: dict[str, Any] = field(default_factory=dict)
 
     def to_yaml_dict(self) -> dict[str, Any]:
@@ -352,5 +358,6 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
         vectorization_mode=mode,
         eval_echo=_names(f.get("eval_echo", None), "eval_echo"),
         envelope=envelope,
+        action_hold=check_hold(f.get("action_hold", 1)),
         hyperparameters=hyper,
     )
