@@ -9,8 +9,7 @@ counters behind the ``info`` values, whose keys are declared once (:data:`INFO_K
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -18,8 +17,9 @@ from scipy import signal
 
 from railgym import _validation as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
-from railgym.envs.compiled import compiled_entry
-from railgym.envs.vertical_batch import LIMITS, OBS_LIMIT
+from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward
+from railgym.envs.params import consts
+from railgym.envs.vertical_batch import TRACK_BYTES
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_with_slope
 from railgym.vehicles.vehicle import (
@@ -35,6 +35,9 @@ from railgym.vehicles.vehicle import (
 )
 from railgym.vehicles.vertical import RAISE_MODE, deflection_envelope, outside_envelope
 
+if TYPE_CHECKING:
+    from railgym.envs.vehicle import VehicleParams
+
 __all__ = [
     "ACC_REF",
     "DIVERGENCE_PENALTY",
@@ -42,7 +45,6 @@ __all__ = [
     "MIN_COMFORT_SAMPLES",
     "REWARD_TERMS",
     "VehicleBatch",
-    "VehicleConfig",
     "book_step",
     "control_step",
     "episode_comfort",
@@ -51,7 +53,6 @@ __all__ = [
 #: reference floor acceleration of the reward, m/s²: passive mean-square over the three
 #: floor points on the training case (class 5, 144 km/h, reference backend) is ≈ ACC_REF²
 ACC_REF = 0.6
-DIVERGENCE_PENALTY = 100.0
 #: fewest recorded control steps for which the end-of-episode comfort figures are computed
 MIN_COMFORT_SAMPLES = 8
 #: the ``info`` keys of the single and the vector env (values in :meth:`VehicleBatch.info`)
@@ -84,27 +85,6 @@ def check_band_speed(band: tuple[float, float], speed: float, dt: float) -> None
             f"speed {speed:.4g} m/s (dt = {dt:g} s): the track cannot be sampled; raise "
             f"band[0] above {2 * dx:.4g} m, lower the speed or dt",
         )
-
-
-@dataclass(frozen=True)
-class VehicleConfig:
-    """Validated settings shared by the single and the vector env (SI units)."""
-
-    variant: str
-    dt: float
-    n_sub: int
-    n_steps: int
-    control_dt: float
-    duration: float
-    f_max: float
-    free_travel: float
-    obs_names: tuple[str, ...]
-    obs_scale: np.ndarray
-    weights: tuple[float, float, float]
-    acc_weighting: str
-    sensor_noise: float
-    band: tuple[float, float]
-    flexible: bool
 
 
 class Book(NamedTuple):
@@ -143,28 +123,30 @@ class StepCfg(NamedTuple):
 
 
 @njit(cache=True, error_model="numpy")
-def _observe(bt, out, p, sc, bk, i):
-    """Normalised observation of vehicle ``i`` into ``bk.obs[i]``."""
-    x = bt.state[i]
-    o = bk.obs[i]
-    inv = sc.inv_scale
-    if sc.full:
+def _observe(vehicles, out, params, consts, book, i):
+    """Normalised observation of vehicle ``i`` into ``book.obs[i]`` (``vehicles``: the
+    kernel's :class:`~railgym.vehicles.vehicle.Batch`, ``params`` its
+    :class:`~railgym.vehicles.vehicle.Params`)."""
+    x = vehicles.state[i]
+    o = book.obs[i]
+    inv = consts.inv_scale
+    if consts.full:
         for j in range(14):
             o[j] = x[j] * inv[j]
         for j in range(5):
             o[14 + j] = out.acc[i, j] * inv[14 + j]
-        kk = min(float(bt.k[i]), bt.z.shape[1] - 1 - bt.off[i, 0])
+        kk = min(float(vehicles.k[i]), vehicles.z.shape[1] - 1 - vehicles.off[i, 0])
         for j in range(4):
-            zw, zdw = hermite(bt.z[i], bt.zdot[i], kk + bt.off[i, j], sc.dt)
+            zw, zdw = hermite(vehicles.z[i], vehicles.zdot[i], kk + vehicles.off[i, j], consts.dt)
             o[19 + j] = zw * inv[19 + j]
             o[23 + j] = zdw * inv[23 + j]
         return
     for j in range(5):
         o[j] = out.acc[i, j] * inv[j]
     for b in range(2):
-        xb = p.a if b == 0 else -p.a
-        o[5 + b] = (x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]) * inv[5 + b]
-        vel = x[7] + xb * x[8] + p.phi_a * x[9]
+        xb = params.a if b == 0 else -params.a
+        o[5 + b] = (x[3 + 2 * b] - x[0] - xb * x[1] - params.phi_a * x[2]) * inv[5 + b]
+        vel = x[7] + xb * x[8] + params.phi_a * x[9]
         o[7 + b] = (x[10 + 2 * b] - vel) * inv[7 + b]
         o[9 + b] = vel * inv[9 + b]
 
@@ -200,24 +182,26 @@ def _weigh(sos, zi, v):
 # arrays are still allocated and freed by the runtime (tests/envs/test_vehicle_shell.py checks the
 # balance).
 @njit(cache=True, error_model="numpy", _nrt=False)
-def control_step(kind, bt, p, e, lpr, out, bk, sc):
-    """One control step of every vehicle: actuator forces ``bk.action · f_max`` (N), kernel,
-    counters, observation, reward and terms, info row and the truncated and extrapolated flags.
-
-    A step whose reward is not finite or whose observation exceeds ``OBS_LIMIT`` counts as
-    diverged (``out.div``), like a non-finite state in the kernel.
-    """
-    for i in range(bt.state.shape[0]):
+def control_step(kind, vehicles, params, element, lpr, out, book, consts):
+    """One control step of every vehicle: actuator forces ``book.action · f_max`` (N), the
+    kernel (:func:`~railgym.vehicles.vehicle.advance` of ``kind`` on ``vehicles``, with the
+    vehicle's ``params``, the suspension ``element`` record and the surrogate ``lpr``), then
+    :func:`book_step`."""
+    for i in range(vehicles.state.shape[0]):
         for b in range(2):
-            bt.force[i, b] = bk.action[i, b] * sc.f_max
-    advance(kind, bt, sc.n_sub, sc.dt, p, e, lpr, out)
-    book_step(bt, p, out, bk, sc)
+            vehicles.force[i, b] = book.action[i, b] * consts.f_max
+    advance(kind, vehicles, consts.n_sub, consts.dt, params, element, lpr, out)
+    book_step(vehicles, params, out, book, consts)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def book_step(bt, p, out, bk, sc):
+def book_step(vehicles, params, out, book, consts):
     """The bookkeeping of :func:`control_step` after the kernel call (also run after an
-    FMU's step, :mod:`railgym.fmu.vehicle_batch`)."""
+    FMU's step, :mod:`railgym.fmu.vehicle_batch`): counters, floor-acceleration record,
+    observation, reward and its terms (:func:`~railgym.envs.compiled.settle_reward`: a
+    divergence also when the reward is not finite or the observation too large), info row and
+    the truncated and extrapolated flags."""
+    bt, p, bk, sc = vehicles, params, book, consts
     w_a, w_d, w_f = sc.weights[0], sc.weights[1], sc.weights[2]
     for i in range(bt.state.shape[0]):
         bt.k[i] += sc.n_sub
@@ -248,22 +232,7 @@ def book_step(bt, p, out, bk, sc):
         t_a = -(w_a * r_acc / 3.0)
         t_d = -(0.5 * w_d * r_defl)
         t_f = -(0.5 * w_f * r_force)
-        r = t_a + t_d + t_f
-        big = False
-        for j in range(bk.obs.shape[1]):
-            if not abs(bk.obs[i, j]) <= OBS_LIMIT:
-                big = True
-        if out.div[i] or big or not math.isfinite(r):
-            out.div[i] = True
-            for j in range(bk.obs.shape[1]):
-                bk.obs[i, j] = min(max(bk.obs[i, j], -OBS_LIMIT), OBS_LIMIT)
-            t_a = t_d = t_f = 0.0
-            r = -DIVERGENCE_PENALTY
-        bk.terms[i, 0] = t_a
-        bk.terms[i, 1] = t_d
-        bk.terms[i, 2] = t_f
-        bk.terms[i, 3] = -DIVERGENCE_PENALTY if out.div[i] else 0.0
-        bk.rew[i] = r
+        settle_reward(bk.obs, bk.terms, bk.rew, out.div, i, t_a, t_d, t_f)
         for j in range(5):
             bk.info[i, _C_ACC + j] = out.acc[i, j]
         for j in range(3):
@@ -307,7 +276,7 @@ class VehicleBatch:
     """
 
     def __init__(
-        self, n: int, cfg: VehicleConfig, vehicle: WholeVehicle, lpr: Lpr, v_min: float
+        self, n: int, cfg: VehicleParams, vehicle: WholeVehicle, lpr: Lpr, v_min: float
     ) -> None:
         self.n, self.cfg, self.vehicle = n, cfg, vehicle
         self.kind = check_variant(cfg.variant)
@@ -318,12 +287,12 @@ class VehicleBatch:
         self.v_min = v_min
         self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(self.span / (v_min * cfg.dt)) + 2
         size = n * (16 * self.n_samples + 24 * cfg.n_steps)
-        if size > LIMITS["track_bytes"]:
+        if size > TRACK_BYTES:
             raise val.FieldError(
                 "num_envs",
                 f"× duration/dt needs {size / 2**30:.1f} GiB of track and record arrays "
                 f"(num_envs={n}, {self.n_samples} samples each); the limit is "
-                f"{LIMITS['track_bytes'] / 2**30:g} GiB",
+                f"{TRACK_BYTES / 2**30:g} GiB",
             )
         self.bt, self.out = make_batch(n, cfg.variant, self.n_samples, self.lpr)
         fs = 1.0 / cfg.control_dt
@@ -346,17 +315,14 @@ class VehicleBatch:
             truncated=np.zeros(n, np.bool_),
             extrapolated=np.zeros(n, np.bool_),
         )
-        self.sc = StepCfg(
-            n_sub=cfg.n_sub,
-            dt=cfg.dt,
-            full=cfg.obs_names[0] == "z_c",
+        self.sc = consts(
+            StepCfg,
+            cfg,
+            full=cfg.observation == "full",
             inv_scale=1.0 / cfg.obs_scale,
             weights=np.array(cfg.weights),
-            free_travel=cfg.free_travel,
-            f_max=cfg.f_max,
             sos=sos,
             weighted=cfg.acc_weighting == "Wk",
-            n_steps=cfg.n_steps,
             flag_ood=self.lpr.mode == RAISE_MODE,
         )
         self.speed = np.zeros(n)

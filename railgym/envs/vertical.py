@@ -370,7 +370,6 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, BatchVectorEnv):
         self._init_vector(single, _batch(num_envs, self.cfg, single.sim.lpr), num_envs)
 
 
-_KW = inspect.Parameter.KEYWORD_ONLY
 _POS = inspect.Parameter.POSITIONAL_OR_KEYWORD
 VerticalSuspensionEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
     VerticalParams, inspect.Parameter("render_mode", _POS, default=None)

@@ -246,9 +246,8 @@ class VerticalBatch:
         self.action = np.zeros((n, 1))
         self.force = np.zeros(n)
         self.out = step_outputs(n)
-        self.cnt = Counters(
-            **{k: np.zeros(n, np.int64) for k in Counters._fields[:-1]}, acc_sq=np.zeros(n)
-        )
+        ints = {k: np.zeros(n, np.int64) for k in ("k", "steps", "contacts", "ood")}
+        self.cnt = Counters(**ints, acc_sq=np.zeros(n))
         self.track_class = np.zeros(n, np.int64)
         self.speed = np.zeros(n)
         self.inv_scale = 1.0 / cfg.obs_scale
