@@ -150,7 +150,8 @@ class VehicleParams(TrackEnvParams):
         None,
         "m/s",
         "a number, a range `(v_min, v_max)` drawn uniformly per episode, or `None` = the "
-        "class's maximum passenger speed (class 5: 144 km/h); at most `speed_limit`",
+        "class's maximum passenger speed (class 5: 144 km/h); at least 1 m/s, at most "
+        "`speed_limit`",
         kind="object",
         optional=True,
         check=_speeds,
@@ -158,7 +159,8 @@ class VehicleParams(TrackEnvParams):
     control_dt: float = param(
         0.01,
         "s",
-        "agent step (the Sperling index needs a sample rate above 60 Hz)",
+        "agent step, a whole multiple of `dt`, below 1/60 s (the Sperling index needs a "
+        "sample rate above 60 Hz)",
         lo=0.0,
         lo_open=True,
         hi=1.0 / 60.0,
