@@ -41,7 +41,9 @@ if TYPE_CHECKING:
 __all__ = [
     "ACC_REF",
     "DIVERGENCE_PENALTY",
+    "INFO_COLUMNS",
     "INFO_KEYS",
+    "INFO_LAYOUT",
     "MIN_COMFORT_SAMPLES",
     "REWARD_TERMS",
     "VehicleBatch",
@@ -55,23 +57,34 @@ __all__ = [
 ACC_REF = 0.6
 #: fewest recorded control steps for which the end-of-episode comfort figures are computed
 MIN_COMFORT_SAMPLES = 8
-#: the ``info`` keys of the single and the vector env (values in :meth:`VehicleBatch.info`)
-INFO_KEYS = (
-    "time",  # s
-    "speed",  # m/s
-    "carbody_acc",  # (3,) floor points front, centre, rear, m/s²
-    "bogie_acc",  # (2,) front, rear bogie, m/s²
-    "rms_carbody_acc",  # (3,) running r.m.s. of carbody_acc, m/s²
-    "bump_stop_contacts",  # substeps in bump-stop contact, both bogies
-    "out_of_domain",  # out-of-domain surrogate evaluations
-    "outside_element",  # a secondary deflection left the element's training range this episode
-    "actuator_force",  # (2,) N
+#: the ``info`` layout of the single and the vector env, declared once: key, shape per
+#: vehicle (array-valued keys: columns of ``Book.info``, written by :func:`book_step`) and the
+#: type of the single env's scalar (:meth:`VehicleBatch.info`)
+INFO_LAYOUT = (
+    ("time", (), float),  # s
+    ("speed", (), float),  # m/s
+    ("carbody_acc", (3,), float),  # floor points front, centre, rear, m/s²
+    ("bogie_acc", (2,), float),  # front, rear bogie, m/s²
+    ("rms_carbody_acc", (3,), float),  # running r.m.s. of carbody_acc, m/s²
+    ("bump_stop_contacts", (), int),  # substeps in bump-stop contact, both bogies
+    ("out_of_domain", (), int),  # out-of-domain surrogate evaluations
+    ("outside_element", (), bool),  # a secondary deflection left the element's training range
+    ("actuator_force", (2,), float),  # N
+)
+INFO_KEYS = tuple(key for key, _, _ in INFO_LAYOUT)
+#: columns of each array-valued info key in ``Book.info`` (one row is copied per single-env
+#: step), in declared order
+INFO_COLUMNS: dict[str, slice] = {}
+for _key, _shape, _ in INFO_LAYOUT:
+    if _shape:
+        _start = sum(c.stop - c.start for c in INFO_COLUMNS.values())
+        INFO_COLUMNS[_key] = slice(_start, _start + _shape[0])
+INFO_ROW = sum(c.stop - c.start for c in INFO_COLUMNS.values())
+_C_ACC, _C_BOGIE, _C_RMS, _C_FORCE = (
+    INFO_COLUMNS[k].start for k in ("carbody_acc", "bogie_acc", "rms_carbody_acc", "actuator_force")
 )
 #: columns of ``Book.terms``, the keys of ``info["reward_terms"]``
 REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
-#: first columns of ``Book.info``, the array-valued info entries of a step (one row is copied
-#: per single-env step): ``out.acc`` (floor points, then bogies), ``Book.rms``, actuator forces
-_C_ACC, _C_RMS, _C_FORCE, INFO_ROW = 0, 5, 8, 10
 
 
 def check_band_speed(band: tuple[float, float], speed: float, dt: float) -> None:
@@ -101,7 +114,7 @@ class Book(NamedTuple):
     terms: np.ndarray  # (n, len(REWARD_TERMS)) weighted reward terms, summing to rew
     zi: np.ndarray  # (n, 3, n_sec, 2) Wk filter state of the reward
     action: np.ndarray  # (n, 2) clipped actions of the step
-    info: np.ndarray  # (n, INFO_ROW) the array-valued info entries of the step (_C_ACC…)
+    info: np.ndarray  # (n, INFO_ROW) the array-valued info entries of the step (INFO_COLUMNS)
     truncated: np.ndarray  # (n,) bool episode reached duration
     extrapolated: np.ndarray  # (n,) bool out-of-domain evaluations under the "raise" policy
 
@@ -233,10 +246,11 @@ def book_step(vehicles, params, out, book, consts):
         t_d = -(0.5 * w_d * r_defl)
         t_f = -(0.5 * w_f * r_force)
         settle_reward(bk.obs, bk.terms, bk.rew, out.div, i, t_a, t_d, t_f)
-        for j in range(5):
-            bk.info[i, _C_ACC + j] = out.acc[i, j]
         for j in range(3):
+            bk.info[i, _C_ACC + j] = out.acc[i, j]
             bk.info[i, _C_RMS + j] = bk.rms[i, j]
+        for b in range(2):
+            bk.info[i, _C_BOGIE + b] = out.acc[i, 3 + b]
         for b in range(2):
             bk.info[i, _C_FORCE + b] = bt.force[i, b]
         bk.truncated[i] = bk.steps[i] >= sc.n_steps
@@ -335,6 +349,13 @@ class VehicleBatch:
         """Views and the compiled entry point (re-made after a copy: not picklable)."""
         self.reward = self.bk.rew
         self.extrapolated = self.bk.extrapolated
+        #: the per-vehicle arrays of the scalar info keys (``time`` is computed)
+        self._info_scalars = {
+            "speed": self.speed,
+            "bump_stop_contacts": self.bk.contacts,
+            "out_of_domain": self.bk.ood,
+            "outside_element": self.outside,
+        }
         self._flags = {"diverged": self.out.div, "extrapolated": self.extrapolated}
         self._args = (
             self.kind,
@@ -350,7 +371,7 @@ class VehicleBatch:
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("reward", "extrapolated", "_flags", "_args", "_step"):
+        for key in ("reward", "extrapolated", "_flags", "_info_scalars", "_args", "_step"):
             del state[key]
         return state
 
@@ -416,35 +437,22 @@ class VehicleBatch:
         return self.bk.truncated
 
     def info(self, i: int | None = None) -> dict[str, Any]:
-        """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers and (k,) arrays) or of all
-        (arrays with a leading axis n); copies."""
-        bk = self.bk
+        """The :data:`INFO_LAYOUT` of vehicle ``i`` (Python numbers and views of one fresh copy
+        of its info row) or of all (arrays with a leading axis n); copies."""
+        bk, scalars, dt = self.bk, self._info_scalars, self.cfg.control_dt
         if i is None:
-            acc, force = self.out.acc, self.bt.force
-            values = (
-                bk.steps * self.cfg.control_dt,
-                self.speed.copy(),
-                acc[:, :3].copy(),
-                acc[:, 3:].copy(),
-                bk.rms.copy(),
-                bk.contacts.copy(),
-                bk.ood.copy(),
-                self.outside.copy(),
-                force.copy(),
-            )
-            return dict(zip(INFO_KEYS, values, strict=True))
-        # the single env's step: Python scalars, and views of one fresh copy of the info row
+            return {
+                key: bk.steps * dt
+                if key == "time"
+                else (bk.info[:, INFO_COLUMNS[key]] if shape else scalars[key]).copy()
+                for key, shape, _ in INFO_LAYOUT
+            }
         row = bk.info[i].copy()
         return {
-            "time": int(bk.steps[i]) * self.cfg.control_dt,
-            "speed": float(self.speed[i]),
-            "carbody_acc": row[_C_ACC : _C_ACC + 3],
-            "bogie_acc": row[_C_ACC + 3 : _C_RMS],
-            "rms_carbody_acc": row[_C_RMS:_C_FORCE],
-            "bump_stop_contacts": int(bk.contacts[i]),
-            "out_of_domain": int(bk.ood[i]),
-            "outside_element": bool(self.outside[i]),
-            "actuator_force": row[_C_FORCE:],
+            key: int(bk.steps[i]) * dt
+            if key == "time"
+            else (row[INFO_COLUMNS[key]] if shape else kind(scalars[key][i]))
+            for key, shape, kind in INFO_LAYOUT
         }
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:
