@@ -15,20 +15,16 @@ compiled call (the single env is a batch of one).
 
 from __future__ import annotations
 
-import inspect
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 
 from railgym import _validation as val
-from railgym.envs.base import BatchEnv, BatchVectorEnv
 from railgym.envs.params import (
     SPEED_FACTOR,
     TrackEnvParams,
     check_speed,
     declared,
-    keyword_signature,
     limits,
     param,
 )
@@ -43,11 +39,14 @@ from railgym.envs.vehicle_batch import (
     episode_comfort,
 )
 from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
-from railgym.envs.vertical import _surrogate_arrays
-from railgym.envs.vertical_batch import MAX_NUM_ENVS
+from railgym.envs.vertical import (
+    TrackEnvShell,
+    TrackVectorShell,
+    _surrogate_arrays,
+    declare_signatures,
+)
 from railgym.profile import load_profile
 from railgym.track import class_speed
-from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -266,52 +265,37 @@ class _VehicleAccessors:
         return self.sim.params
 
 
-class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
+class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
     """Active secondary suspension of a whole railway vehicle (vertical plane).
 
     The keyword arguments are the fields of :class:`VehicleParams` (default, unit, limits and
     meaning of each: docs/envs/vehicle_vertical.md, *Arguments*) and ``render_mode``; the
-    checked arguments are :attr:`cfg`.
+    checked arguments are :attr:`cfg`. :attr:`default_element` is ``("static", "")`` for
+    ``VerticalVehicle-v0``.
 
     Single-env accessors (the vector env's, of sub-env 0): :attr:`state` (s,),
     :attr:`carbody_acceleration` (3,), :attr:`actuator_force` (2,), :attr:`out_of_domain`,
     :attr:`vehicle_params`.
     """
 
-    #: packaged element used without ``surrogate=``, ``(form, release)`` of
-    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
-    #: element; ``("static", "")`` for ``VerticalVehicle-v1`` (docs: *Version history*)
-    default_element: tuple[str, str] | None = None
+    params_class = VehicleParams
+    n_actuators = 2
+    cfg: VehicleParams
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        cfg = self.cfg = VehicleParams.from_kwargs(kwargs)
-        self.backend, self.speed_limit = cfg.backend, cfg.speed_limit
+        surrogate = self._declare(kwargs)
+        cfg = self.cfg
         self.speeds = _speed_range(cfg.track_class, cfg.speed, cfg.speed_limit)
-        self.track_class, self._speed_arg, self.profile = cfg.track_class, cfg.speed, cfg.profile
-        surrogate = cfg.surrogate
-        if surrogate is None and cfg.backend == "surrogate" and self.default_element is not None:
-            surrogate = default_vertical_surrogate(*self.default_element)
         lpr = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt)
-        sim = _batch(1, cfg, lpr, min(self.speeds[0], SIZING_SPEED))
         self.vehicle = cfg.model
-        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
-        self._init_shell(
-            sim,
-            render_mode,
-            spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32),
-            spaces.Box(-1.0, 1.0, (2,), np.float32),
-        )
+        self._start(_batch(1, cfg, lpr, min(self.speeds[0], SIZING_SPEED)), render_mode)
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
         without a speed uses that class's speed; ``profile=None`` returns to FRA track)."""
         if not options:
             return
-        unknown = set(options) - {"track_class", "speed", "profile"}
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}")
-        tc = options.get("track_class", self.track_class)
-        sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
+        tc, sp = self._track_options(options)
         speeds = _speed_range(tc, sp, self.speed_limit)
         if speeds[0] < self.sim.v_min:
             raise val.FieldError(
@@ -340,7 +324,7 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
         return obs, reward, terminated, truncated, info
 
 
-class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
+class VerticalVehicleVectorEnv(_VehicleAccessors, TrackVectorShell):
     """Native vector version: all sub-envs stepped in one compiled call.
 
     Sub-env ``i`` of ``reset(seed=s)`` reproduces ``VerticalVehicleEnv.reset(seed=s + i)``
@@ -349,14 +333,11 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
     Accessors as the single env's, as arrays over the sub-envs.
     """
 
-    #: the single env whose configuration and element the sub-envs share
     single_class: type[VerticalVehicleEnv] = VerticalVehicleEnv
+    cfg: VehicleParams
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
-        num_envs = val.integer(num_envs, "num_envs", min=1, max=MAX_NUM_ENVS)
-        single = self.single_class(render_mode=render_mode, **kwargs)
-        self.cfg = single.cfg
-        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
+        num_envs, single = self._single(num_envs, render_mode, kwargs)
         one = single.sim
         self.vehicle = one.vehicle
         self._init_vector(single, _batch(num_envs, self.cfg, one.lpr, one.v_min), num_envs)
@@ -390,12 +371,4 @@ class VerticalVehicleVectorEnvV0(VerticalVehicleVectorEnv):
     single_class = VerticalVehicleEnvV0
 
 
-_POS = inspect.Parameter.POSITIONAL_OR_KEYWORD
-VerticalVehicleEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
-    VehicleParams, inspect.Parameter("render_mode", _POS, default=None)
-)
-VerticalVehicleVectorEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
-    VehicleParams,
-    inspect.Parameter("num_envs", _POS, default=1),
-    inspect.Parameter("render_mode", _POS, default=None),
-)
+declare_signatures(VerticalVehicleEnv, VerticalVehicleVectorEnv, VehicleParams)

@@ -9,7 +9,7 @@ counters behind the ``info`` values, whose keys are declared once (:data:`INFO_K
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -18,7 +18,7 @@ from scipy import signal
 from railgym import _validation as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward
-from railgym.envs.params import consts
+from railgym.envs.params import TrackEnvParams, consts
 from railgym.envs.vertical_batch import TRACK_BYTES
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_with_slope
@@ -34,9 +34,6 @@ from railgym.vehicles.vehicle import (
     wheelset_offsets,
 )
 from railgym.vehicles.vertical import RAISE_MODE, deflection_envelope, outside_envelope
-
-if TYPE_CHECKING:
-    from railgym.envs.vehicle import VehicleParams
 
 __all__ = [
     "ACC_REF",
@@ -290,7 +287,7 @@ class VehicleBatch:
     """
 
     def __init__(
-        self, n: int, cfg: VehicleParams, vehicle: WholeVehicle, lpr: Lpr, v_min: float
+        self, n: int, cfg: TrackEnvParams, vehicle: WholeVehicle, lpr: Lpr, v_min: float
     ) -> None:
         self.n, self.cfg, self.vehicle = n, cfg, vehicle
         self.kind = check_variant(cfg.variant)

@@ -10,14 +10,14 @@ episode flags.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from railgym import _validation as val
 from railgym.envs.compiled import DIVERGENCE_PENALTY, OBS_LIMIT, compiled_entry, settle_reward
-from railgym.envs.params import consts
+from railgym.envs.params import TrackEnvParams, consts
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
 from railgym.vehicles.vertical import (
@@ -35,9 +35,6 @@ from railgym.vehicles.vertical import (
     step_outputs,
 )
 from railgym.vehicles.vertical.kernels import check_variant
-
-if TYPE_CHECKING:
-    from railgym.envs.vertical import VerticalParams
 
 __all__ = [
     "ACC_REF",
@@ -225,7 +222,7 @@ class VerticalBatch:
     """
 
     def __init__(
-        self, n: int, cfg: VerticalParams, vehicle: VerticalVehicle, lpr: LprArrays
+        self, n: int, cfg: TrackEnvParams, vehicle: VerticalVehicle, lpr: LprArrays
     ) -> None:
         self.n, self.cfg = n, cfg
         self.vehicle = vehicle
