@@ -211,48 +211,47 @@ def book_step(vehicles, params, out, book, consts):
     observation, reward and its terms (:func:`~railgym.envs.compiled.settle_reward`: a
     divergence also when the reward is not finite or the observation too large), info row and
     the truncated and extrapolated flags."""
-    bt, p, bk, sc = vehicles, params, book, consts
-    w_a, w_d, w_f = sc.weights[0], sc.weights[1], sc.weights[2]
-    for i in range(bt.state.shape[0]):
-        bt.k[i] += sc.n_sub
-        m = bk.steps[i]
-        bk.steps[i] += 1
-        bk.contacts[i] += out.count[i, 0]
-        bk.ood[i] += out.count[i, 1]
+    w_a, w_d, w_f = consts.weights[0], consts.weights[1], consts.weights[2]
+    for i in range(vehicles.state.shape[0]):
+        vehicles.k[i] += consts.n_sub
+        m = book.steps[i]
+        book.steps[i] += 1
+        book.contacts[i] += out.count[i, 0]
+        book.ood[i] += out.count[i, 1]
         r_acc = 0.0
         for j in range(3):
             a = out.acc[i, j]
-            bk.acc_sq[i, j] += a * a
-            bk.rms[i, j] = math.sqrt(bk.acc_sq[i, j] / bk.steps[i])
-            if m < bk.rec.shape[1]:
-                bk.rec[i, m, j] = a
-            if sc.weighted:
-                a = _weigh(sc.sos, bk.zi[i, j], a)
+            book.acc_sq[i, j] += a * a
+            book.rms[i, j] = math.sqrt(book.acc_sq[i, j] / book.steps[i])
+            if m < book.rec.shape[1]:
+                book.rec[i, m, j] = a
+            if consts.weighted:
+                a = _weigh(consts.sos, book.zi[i, j], a)
             r_acc += (a / ACC_REF) ** 2
-        _observe(bt, out, p, sc, bk, i)
+        _observe(vehicles, out, params, consts, book, i)
         r_defl = 0.0
         r_force = 0.0
-        x = bt.state[i]
+        x = vehicles.state[i]
         for b in range(2):
-            xb = p.a if b == 0 else -p.a
-            d = (x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]) / sc.free_travel
-            f = bt.force[i, b] / sc.f_max
+            xb = params.a if b == 0 else -params.a
+            d = (x[3 + 2 * b] - x[0] - xb * x[1] - params.phi_a * x[2]) / consts.free_travel
+            f = vehicles.force[i, b] / consts.f_max
             r_defl += d * d
             r_force += f * f
         t_a = -(w_a * r_acc / 3.0)
         t_d = -(0.5 * w_d * r_defl)
         t_f = -(0.5 * w_f * r_force)
-        settle_reward(bk.obs, bk.terms, bk.rew, out.div, i, t_a, t_d, t_f)
+        settle_reward(book.obs, book.terms, book.rew, out.div, i, t_a, t_d, t_f)
         for j in range(3):
-            bk.info[i, _C_ACC + j] = out.acc[i, j]
-            bk.info[i, _C_RMS + j] = bk.rms[i, j]
+            book.info[i, _C_ACC + j] = out.acc[i, j]
+            book.info[i, _C_RMS + j] = book.rms[i, j]
         for b in range(2):
-            bk.info[i, _C_BOGIE + b] = out.acc[i, 3 + b]
+            book.info[i, _C_BOGIE + b] = out.acc[i, 3 + b]
         for b in range(2):
-            bk.info[i, _C_FORCE + b] = bt.force[i, b]
-        bk.truncated[i] = bk.steps[i] >= sc.n_steps
-        if sc.flag_ood:
-            bk.extrapolated[i] = out.count[i, 1] > 0
+            book.info[i, _C_FORCE + b] = vehicles.force[i, b]
+        book.truncated[i] = book.steps[i] >= consts.n_steps
+        if consts.flag_ood:
+            book.extrapolated[i] = out.count[i, 1] > 0
 
 
 def episode_comfort(
