@@ -28,20 +28,19 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.base import BatchEnv, BatchVectorEnv
 from railgym.envs.crash_batch import CrashBatch, CrashConfig
 from railgym.envs.crash_step import INFO_FIELDS, REWARD_TERMS, Criteria
 from railgym.vehicles.crash import (
     LIMITS,
     VARIANTS,
-    CrashBatchModel,
+    CrashModel,
     CrashScenario,
     CrashSurrogate,
     CrushZone,
     build_crash_surrogate,
-    check_real,
-    crash_batch_model,
+    crash_model,
     load_scenario,
     simulate_reference,
 )
@@ -111,23 +110,23 @@ def make_config(
     if sc.envelope is not None:  # an explicit speed fixes the envelope's speed
         speed_range = (sc.speed, sc.speed) if speed is not None else sc.envelope.speed
         payload_range = sc.envelope.payload_ranges(sc.n_cars)
-    control_dt = check_real("control_dt", control_dt, 0.0, MAX_CONTROL_DT, low_open=True)
-    max_duration = check_real("max_duration", max_duration, 0.0, MAX_DURATION, low_open=True)
+    control_dt = val.in_range(control_dt, "control_dt", 0.0, MAX_CONTROL_DT, lo_open=True)
+    max_duration = val.in_range(max_duration, "max_duration", 0.0, MAX_DURATION, lo_open=True)
     n_steps = round(max_duration / control_dt)
     if n_steps < 1:
         raise ValueError(f"max_duration ({max_duration} s) must be at least control_dt")
-    absorber_range = check_real(
-        "absorber_range", absorber_range, 0.0, 1.0, low_open=True, high_open=True
+    absorber_range = val.in_range(
+        absorber_range, "absorber_range", 0.0, 1.0, lo_open=True, hi_open=True
     )
-    absorber_rate = check_real("absorber_rate", absorber_rate, 0.0, MAX_WEIGHT, low_open=True)
-    speed_jitter = check_real("speed_jitter", speed_jitter, 0.0, 1.0, high_open=True)
+    absorber_rate = val.in_range(absorber_rate, "absorber_rate", 0.0, MAX_WEIGHT, lo_open=True)
+    speed_jitter = val.in_range(speed_jitter, "speed_jitter", 0.0, 1.0, hi_open=True)
     weights = dict(DEFAULT_WEIGHTS)
     if reward_weights is not None and not isinstance(reward_weights, dict):
         raise ValueError(f"reward_weights must be a dict, got {type(reward_weights).__name__}")
     for key, value in (reward_weights or {}).items():
         if key not in DEFAULT_WEIGHTS:
             raise ValueError(f"reward_weights has unknown key {key!r}; keys: {list(weights)}")
-        weights[key] = check_real(f"reward_weights[{key!r}]", value, 0.0, MAX_WEIGHT)
+        weights[key] = val.in_range(value, f"reward_weights[{key!r}]", 0.0, MAX_WEIGHT)
     zones = [sc.wall] + [sc.interface] * (sc.n_cars - 1)
     stroke = np.array([z.absorber_stroke for z in zones])
     force = np.array([nominal_force(z) for z in zones])
@@ -194,15 +193,13 @@ def env_surrogate(
     return packaged if packaged is not None else default_surrogate(scenario, variant)
 
 
-def make_model(
-    cfg: CrashConfig, surrogate: Any, variant: str, release: str = ""
-) -> CrashBatchModel:
+def make_model(cfg: CrashConfig, surrogate: Any, variant: str, release: str = "") -> CrashModel:
     """Batch model of the configured backend; ``surrogate`` = elements or ``None``
     (:func:`env_surrogate` of ``release``)."""
     if cfg.backend == "reference":
         if surrogate is not None:
             raise ValueError("surrogate is only used by backend='surrogate', not 'reference'")
-        return crash_batch_model(cfg.scenario, "reference", cfg.control_dt)
+        return crash_model(cfg.scenario, "reference", cfg.control_dt)
     if surrogate is None:
         if variant not in VARIANTS:
             raise ValueError(f"surrogate_variant must be one of {VARIANTS}, got {variant!r}")
@@ -217,7 +214,7 @@ def make_model(
             f"surrogate was built for scenario {surrogate.source!r}, not {cfg.scenario.name!r}"
         )
     try:
-        return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
+        return crash_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
     except (ValueError, AttributeError, TypeError, IndexError) as err:
         raise ValueError(f"surrogate does not fit this env: {err}") from err
 

@@ -27,7 +27,7 @@ from railgym.envs.crash_step import (
     info_layout,
     plain,
 )
-from railgym.vehicles.crash import PARALLEL_MIN, BatchOutputs, CrashBatchModel, CrashScenario
+from railgym.vehicles.crash import PARALLEL_MIN, CrashModel, CrashOutputs, CrashScenario
 
 __all__ = ["CrashBatch", "CrashConfig"]
 
@@ -61,7 +61,7 @@ _KINDS = {"1": 0, "bool": 1, "cars": 2, "zones": 2, "cars?": 3, "zones?": 3}
 
 
 class CrashBatch:
-    """``n`` trains, stepped by one compiled kernel call of a :class:`CrashBatchModel`.
+    """``n`` trains, stepped by one compiled kernel call of a :class:`CrashModel`.
 
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there). It
     holds the arrays and computes the observation, reward, its terms and the ``info``
@@ -69,7 +69,7 @@ class CrashBatch:
     initial speed and payload (:meth:`draw`); ``reset_state`` restarts the same episode.
     """
 
-    def __init__(self, n: int, cfg: CrashConfig, model: CrashBatchModel) -> None:
+    def __init__(self, n: int, cfg: CrashConfig, model: CrashModel) -> None:
         self.n, self.cfg, self.model = n, cfg, model
         sc = cfg.scenario
         self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
@@ -162,7 +162,7 @@ class CrashBatch:
         """Named views of the buffer and the kernel arguments (again after a copy: a pickled
         view is a detached array)."""
         views = [self._view(f) for f in range(self._fields.shape[0])]
-        self.out = BatchOutputs(*views[:_ENV])
+        self.out = CrashOutputs(*views[:_ENV])
         self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
         self.state = self._state_type(*views[_STATE:])
         model = self.model

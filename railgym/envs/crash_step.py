@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from railgym.vehicles.crash import (
-    BatchOutputs,
+    CrashOutputs,
     ElementTypes,
     LprModels,
     ReferenceParams,
@@ -196,8 +196,8 @@ class Episode(NamedTuple):
 ENV_FIELDS = Episode._fields[:-3]
 #: the 1-D ones among them (the others are 2-D)
 COLUMNS = ("speed", "energy0", "reward")
-#: buffer layout: the 9 :class:`BatchOutputs` arrays, :data:`ENV_FIELDS`, the model state
-_ENV = len(BatchOutputs._fields)
+#: buffer layout: the 9 :class:`CrashOutputs` arrays, :data:`ENV_FIELDS`, the model state
+_ENV = len(CrashOutputs._fields)
 _STATE = _ENV + len(ENV_FIELDS)
 
 
@@ -321,7 +321,7 @@ def _post_step(out, ep, c, active, init):
     reward and its terms, and the flat ``info`` row (:data:`INFO_FIELDS`) of every active
     train.
 
-    ``out`` :class:`BatchOutputs`, ``ep`` :class:`Episode`, ``c`` :class:`EnvConsts`. With
+    ``out`` :class:`CrashOutputs`, ``ep`` :class:`Episode`, ``c`` :class:`EnvConsts`. With
     ``init`` the statistics of the active rows are cleared (train at first contact).
     """
     n_cars, nz = ep.peak.shape[1], c.zones.shape[0]
@@ -462,9 +462,9 @@ def _column(buf, fields, f):
 
 @njit(cache=True, inline="always")
 def _views(buf, fields, flags):
-    """The :class:`BatchOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
+    """The :class:`CrashOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
     :class:`CrashBatch` buffer, as views; 1-D fields are ``stored`` and :data:`COLUMNS`."""
-    out = BatchOutputs(
+    out = CrashOutputs(
         _field(buf, fields, 0),
         _field(buf, fields, 1),
         _field(buf, fields, 2),
