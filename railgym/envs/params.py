@@ -389,10 +389,6 @@ def _track_class(value: Any, name: str) -> int:
     return int(value)
 
 
-def _speed(value: Any, name: str) -> float:
-    return check_speed(value, name)
-
-
 def _profile(value: Any, name: str) -> tuple[np.ndarray, np.ndarray] | None:
     return load_profile(value)
 
@@ -429,7 +425,7 @@ class TrackEnvParams(Params):
         f"{SPEED_MIN:g} m/s, at most `speed_limit`",
         kind="object",
         optional=True,
-        check=_speed,
+        check=check_speed,
     )
     speed_limit: float | None = param(
         None,
