@@ -24,7 +24,8 @@ DIVERGENCE_PENALTY = 100.0
 OBS_LIMIT = 1e30
 
 
-@njit(cache=True)
+# inlined into the callers' IR: no call and no reference counting of the arrays per system
+@njit(cache=True, inline="always")
 def settle_reward(obs, terms, reward, div, i, t_acc, t_defl, t_force):
     """Reward ``reward[i]`` and its terms ``terms[i]`` (acceleration, deflection, force,
     divergence) of system ``i`` from the three weighted terms.
