@@ -10,7 +10,7 @@ from collections.abc import Callable
 from typing import Any
 
 from railgym import _checks as val
-from railgym.envs.vertical_batch import LIMITS
+from railgym.envs.vertical import LIMITS
 from surrogates.checks import bounded_int, seed_number
 
 __all__ = [

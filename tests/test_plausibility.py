@@ -115,7 +115,7 @@ def _stress(backend, track_class, factor, seed, duration=5.0, static=False):
     while not done:
         _, _, terminated, truncated, info = env.step(rng.choice([-1.0, 1.0], 2).astype(np.float32))
         done = terminated or truncated
-        x, p = sim.bt.state[0], sim.params
+        x, p = sim.arrays.state[0], sim.params
         for xb in (p.a, -p.a):
             peak = max(peak, abs(x[3 if xb > 0 else 5] - x[0] - xb * x[1] - p.phi_a * x[2]))
     return peak, info

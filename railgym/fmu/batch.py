@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from railgym.envs.vertical_batch import VerticalBatch, VerticalConfig, _post_step
+from railgym.envs.params import TrackEnvParams
+from railgym.envs.vertical_batch import VerticalBatch, _post_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMUInstances, FMURunner
 from railgym.vehicles.vertical import LprArrays, VerticalVehicle
@@ -28,7 +29,7 @@ class FMUBatch(FMUInstances, VerticalBatch):
     def __init__(
         self,
         n: int,
-        cfg: VerticalConfig,
+        cfg: TrackEnvParams,
         vehicle: VerticalVehicle,
         lpr: LprArrays,
         mapping: Mapping,

@@ -19,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from railgym import _checks as val
-from railgym.envs.vehicle_batch import VehicleBatch, VehicleConfig, book_step
+from railgym.envs.params import TrackEnvParams
+from railgym.envs.vehicle_batch import VehicleBatch, book_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMUInstances, FMURunner
 from railgym.vehicles.vehicle import Lpr, WholeVehicle, hermite
@@ -36,7 +37,7 @@ class FMUVehicleBatch(FMUInstances, VehicleBatch):
     def __init__(
         self,
         n: int,
-        cfg: VehicleConfig,
+        cfg: TrackEnvParams,
         vehicle: WholeVehicle,
         lpr: Lpr,
         v_min: float,
@@ -58,7 +59,7 @@ class FMUVehicleBatch(FMUInstances, VehicleBatch):
     def _wheel_inputs(self, i: int) -> tuple[np.ndarray, ...]:
         """Track height and rate at the four wheelsets over the step (4, n_sub + 1) and at
         the substeps' midpoints (4, n_sub), as the kernel interpolates them."""
-        bt, dt, n_sub = self.bt, self.cfg.dt, self.cfg.n_sub
+        bt, dt, n_sub = self.arrays, self.cfg.dt, self.cfg.n_sub
         z, zd, off, k = bt.z[i], bt.zdot[i], bt.off[i], int(bt.k[i])
         w, wd = np.empty((4, n_sub + 1)), np.empty((4, n_sub + 1))
         wm, wdm = np.empty((4, n_sub)), np.empty((4, n_sub))
@@ -71,7 +72,7 @@ class FMUVehicleBatch(FMUInstances, VehicleBatch):
 
     def advance(self) -> None:
         """One control step of every FMU with the stored actions, then the bookkeeping."""
-        bt, out, bk, c, p, e = self.bt, self.out, self.bk, self._cols, self.params, self._susp
+        bt, out, bk, c, p, e = self.arrays, self.out, self.book, self._cols, self.params, self._susp
         for i, run in enumerate(self.runners):
             bt.force[i] = bk.action[i] * self.cfg.f_max
             w, wd, wm, wdm = self._wheel_inputs(i)

@@ -45,7 +45,7 @@ def test_single_env_copy_continues_bit_identically(
     a, b = _run(env, acts), _run(twin, acts)
     assert a[-1][3] and len(a[-1]) == 10  # truncated: the last step carries the comfort figures
     assert_same_rollouts(a, b)
-    assert twin.sim.bt.z is not env.sim.bt.z and twin.sim.reward is twin.sim.bk.rew
+    assert twin.sim.arrays.z is not env.sim.arrays.z and twin.sim.reward is twin.sim.book.rew
     assert_same_rollouts(_run(env, []), _run(twin, []))
     np.testing.assert_array_equal(env.reset(seed=5)[0], twin.reset(seed=5)[0])
 

@@ -25,7 +25,7 @@ def test_observation_map_reproduces_the_env_observation(observation):
     rng = np.random.default_rng(0)
     for _ in range(30):
         obs, *_ = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
-    bt, out = env.sim.bt, env.sim.out
+    bt, out = env.sim.arrays, env.sim.out
     raw = np.zeros(len(RAW_VEHICLE_OBSERVATION))
     raw[:N_MECH] = bt.state[0, :N_MECH]
     raw[N_MECH : N_MECH + 5] = out.acc[0]
