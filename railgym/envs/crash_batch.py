@@ -9,22 +9,26 @@ from typing import Any
 
 import numpy as np
 
+from railgym.envs.crash_layout import (
+    CLEARED,
+    ENV_FIELDS,
+    EPISODE,
+    INFO_FIELDS,
+    REWARD_TERMS,
+    Episode,
+    InfoColumns,
+    info_layout,
+    new_episode_arrays,
+)
 from railgym.envs.crash_step import (
     _ENV,
     _STATE,
-    COLUMNS,
-    ENV_FIELDS,
-    INFO_FIELDS,
-    REWARD_TERMS,
     Criteria,
     EnvConsts,
-    Episode,
-    InfoColumns,
     _advance_reference,
     _advance_surrogate,
     _advance_surrogate_parallel,
     crush_limits,
-    info_layout,
     plain,
 )
 from railgym.vehicles.crash import PARALLEL_MIN, BatchOutputs, CrashBatchModel, CrashScenario
@@ -56,10 +60,6 @@ class CrashConfig:
     criteria: Criteria
 
 
-#: info kinds: 0 float, 1 bool, 2 float array, 3 bool array
-_KINDS = {"1": 0, "bool": 1, "cars": 2, "zones": 2, "cars?": 3, "zones?": 3}
-
-
 class CrashBatch:
     """``n`` trains, stepped by one compiled kernel call of a :class:`CrashBatchModel`.
 
@@ -79,36 +79,21 @@ class CrashBatch:
         n_info = max(sl.stop for sl, _ in self.layout.values())
         state, out = model.new_state(n), model.new_outputs(n)
         nc, nz, nm = self.n_cars, self.n_zones, len(model.zone_names)
-        shapes = {
-            "scale": nm,
-            "payload": nc,
-            "peak": nc,
-            "decel_sum": nc,
-            "max_crush": nz,
-            "intrusion": nz,
-            "w_peak": nm,
-            "f_peak": nm,
-            "ring": (cfg.criteria.window_steps + 1) * nc,
-            "terms": len(REWARD_TERMS),
-            "obs": len(cfg.obs_names),
-            "info": n_info,
-        }
-        episode = [
-            np.zeros(n) if f in COLUMNS else np.zeros((n, shapes.get(f, nc))) for f in ENV_FIELDS
-        ]
-        episode[0][:] = 1.0  # absorber scales at nominal
+        counts = {"cars": nc, "zones": nz, "model_zones": nm, "terms": len(REWARD_TERMS)}
+        counts["ring"] = (cfg.criteria.window_steps + 1) * nc
+        counts.update(obs=len(cfg.obs_names), info=n_info)
+        arrays = new_episode_arrays(n, counts)
         # every per-train float array in one buffer, in the field order of _advance_*
         self._state_type = type(state)
-        self._buf, self._fields = self._pack([*out, *episode, *state])
-        self.div = np.zeros(n, np.bool_)
-        self.over = np.zeros(n, np.bool_)
-        self.steps = np.zeros(n, np.int64)
+        self._buf, self._fields = self._pack([*out, *(arrays[f] for f in ENV_FIELDS), *state])
+        self._flag_arrays = [arrays[a.name] for a in EPISODE if a.name not in ENV_FIELDS]
         # (key, kind, index) of each info entry; kinds 0–3 pick from (values, bools, row,
         # bit row) of :meth:`info`, the index is a column (0, 1) or a slice of columns (2, 3)
         self._info_fields = []
-        for key, size in INFO_FIELDS:
-            cols, kind = self.layout[key][0], _KINDS[size]
-            self._info_fields.append((key, kind, cols.start if kind < 2 else cols))
+        for key in INFO_FIELDS:
+            cols, scalar = self.layout[key.name]
+            kind = (0 if scalar else 2) + (key.dtype == "bool")
+            self._info_fields.append((key.name, kind, cols.start if scalar else cols))
         columns = InfoColumns(*(sl.start for sl, _ in self.layout.values()))
         surrogate = model.backend == "surrogate"
         types = model.params.types if surrogate else None
@@ -163,7 +148,8 @@ class CrashBatch:
         view is a detached array)."""
         views = [self._view(f) for f in range(self._fields.shape[0])]
         self.out = BatchOutputs(*views[:_ENV])
-        self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
+        self.episode = Episode(*views[_ENV:_STATE], *self._flag_arrays)
+        self._cleared = [(getattr(self.episode, name), value) for name, value in CLEARED]
         self.state = self._state_type(*views[_STATE:])
         model = self.model
         if model.backend == "reference":
@@ -172,7 +158,7 @@ class CrashBatch:
             self._init_kernel = _advance_surrogate
             parallel = self.n >= PARALLEL_MIN
             self._kernel = _advance_surrogate_parallel if parallel else _advance_surrogate
-        flags = (self.div, self.over, self.steps)
+        flags = tuple(self._flag_arrays)
         stepping = (model.dt, model.n_sub)
         self._args = (
             self._buf,
@@ -184,7 +170,7 @@ class CrashBatch:
         )
         self._flags = {"crash_over": self.over, "diverged": self.div}
 
-    _VIEWS = ("out", "episode", "state", "_kernel", "_init_kernel", "_args", "_flags")
+    _VIEWS = ("out", "episode", "state", "_kernel", "_init_kernel", "_args", "_flags", "_cleared")
 
     # per-train arrays under their short names (views of the buffer)
     scale = property(lambda self: self.episode.scale)
@@ -192,6 +178,9 @@ class CrashBatch:
     payload = property(lambda self: self.episode.payload)
     obs = property(lambda self: self.episode.obs)
     reward = property(lambda self: self.episode.reward)
+    div = property(lambda self: self.episode.div)
+    over = property(lambda self: self.episode.over)
+    steps = property(lambda self: self.episode.steps)
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
@@ -234,8 +223,8 @@ class CrashBatch:
         """Train ``i`` back at first contact at its episode's speed and payload."""
         payload = self.payload[i] if self.payload[i].any() else None
         self.model.reset(self.state, self.out, i, float(self.speed[i]), payload)
-        self.scale[i] = 1.0
-        self.div[i] = False
+        for array, value in self._cleared:
+            array[i] = value
         self._one[i] = True
         self._init_kernel(*self._args, self._actions, self._one, True)
         self._one[i] = False
