@@ -239,6 +239,12 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
     def _info(self) -> dict[str, Any]:
         return self.sim.info(0)
 
+    def _rows(self, a: np.ndarray) -> Any:
+        """The accessors' value of a per-system array ``a`` (n, …): sub-env 0's entry, a copy
+        (a Python number for a scalar entry)."""
+        row = a[0]
+        return row.copy() if isinstance(row, np.ndarray) else row.item()
+
     def render(self) -> np.ndarray | None:
         """RGB frame (H, W, 3) when ``render_mode="rgb_array"``."""
         if self.render_mode is None:
@@ -323,6 +329,10 @@ class BatchVectorEnv(VectorEnv):
         for k, v in flags.items():
             infos[k], infos[f"_{k}"] = v, mask
         return sim.observe(self._rngs), reward, terminated, truncated, infos
+
+    def _rows(self, a: np.ndarray) -> np.ndarray:
+        """The accessors' value of a per-system array ``a`` (n, …): a copy."""
+        return a.copy()
 
     def _infos(self) -> dict[str, Any]:
         infos = self.sim.info()

@@ -17,6 +17,7 @@ each on its own track, in one compiled call.
 
 from __future__ import annotations
 
+import inspect
 import warnings
 from pathlib import Path
 from typing import Any
@@ -25,16 +26,28 @@ import numpy as np
 from gymnasium import spaces
 
 from railgym import _validation as val
-from railgym.envs.base import BatchEnv, BatchVectorEnv, step_grid
+from railgym.envs.base import BatchEnv, BatchVectorEnv
+from railgym.envs.params import (
+    BACKENDS,
+    ENV_BACKENDS,
+    SPEED_FACTOR,
+    SPEED_MIN,
+    TrackEnvParams,
+    check_speed,
+    declared,
+    keyword_signature,
+    limits,
+    param,
+)
 from railgym.envs.vertical_batch import (
     ACC_REF,
     INFO_KEYS,
-    LIMITS,
+    MAX_NUM_ENVS,
+    TRACK_BYTES,
     VerticalBatch,
-    VerticalConfig,
 )
 from railgym.profile import load_profile
-from railgym.track import class_parameters, class_speed
+from railgym.track import class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
@@ -54,19 +67,14 @@ __all__ = [
     "LIMITS",
     "OBSERVATIONS",
     "VerticalBatch",
-    "VerticalConfig",
+    "VerticalParams",
     "VerticalSuspensionEnv",
     "VerticalSuspensionEnvV0",
     "VerticalSuspensionVectorEnv",
     "VerticalSuspensionVectorEnvV0",
-    "make_config",
+    "check_speed",
 ]
 
-#: backend → kernel variant of the secondary suspension (shared with VerticalVehicle-v1)
-BACKENDS = {"surrogate": "surrogate", "reference": "dynamic", "linear": "linear"}
-#: backends of this env: also "fmu", an FMU as the whole vehicle (railgym.fmu; its state
-#: layout is the dynamic variant's)
-ENV_BACKENDS = {**BACKENDS, "fmu": "dynamic"}
 OBSERVATIONS = {
     # name: (channels, scale of each channel in SI units)
     "sensors": (
@@ -81,61 +89,74 @@ OBSERVATIONS = {
 DEFAULT_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
 
 
-def make_config(
-    backend: str,
-    duration: float,
-    control_dt: float,
-    dt: float | None,
-    f_max: float,
-    observation: str,
-    sensor_noise: float,
-    reward_weights: dict[str, float] | None,
-    wheelbase: float | None,
-    band: tuple[float, float],
-    free_travel: float,
-) -> VerticalConfig:
-    """Check the env arguments against their types and :data:`LIMITS`; errors name them."""
-    variant = ENV_BACKENDS[val.choice(backend, "backend", ENV_BACKENDS)]
-    duration = val.positive(duration, "duration", LIMITS["duration"])
-    control_dt = val.positive(control_dt, "control_dt")
-    f_max = val.positive(f_max, "f_max", LIMITS["f_max"])
-    dt = DEFAULT_DT[variant] if dt is None else val.positive(dt, "dt")
-    n_sub, n_steps = step_grid(dt, control_dt, duration)
-    observation = val.choice(observation, "observation", OBSERVATIONS)
-    sensor_noise = val.non_negative(sensor_noise, "sensor_noise", LIMITS["sensor_noise"])
-    weights = dict(DEFAULT_WEIGHTS)
-    if reward_weights is not None:
-        for key, value in val.mapping(reward_weights, "reward_weights").items():
-            if key not in DEFAULT_WEIGHTS:
-                raise val.FieldError(
-                    "reward_weights", f"has unknown key {key!r}; keys: {list(weights)}"
-                )
-            weights[key] = val.non_negative(
-                value, f"reward_weights[{key!r}]", LIMITS["reward_weight"]
-            )
-    if wheelbase is not None:
-        wheelbase = val.positive(wheelbase, "wheelbase", LIMITS["wheelbase"])
-    lo, hi = (val.in_range(b, "band", *LIMITS["band"]) for b in val.sequence(band, "band", 2))
-    if not lo < hi:
-        raise val.FieldError("band", f"must be (min, max) with min < max wavelength, got {band!r}")
-    names, scales = OBSERVATIONS[observation]
-    scale = np.array([free_travel if s is None else s for s in scales])
-    return VerticalConfig(
-        variant=variant,
-        dt=dt,
-        n_sub=n_sub,
-        n_steps=n_steps,
-        control_dt=control_dt,
-        duration=duration,
-        f_max=f_max,
-        free_travel=free_travel,
-        obs_names=names,
-        obs_scale=scale,
-        weights=(weights["acceleration"], weights["deflection"], weights["force"]),
-        sensor_noise=sensor_noise,
-        wheelbase=wheelbase,
-        band=(lo, hi),
+def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[int, float]:
+    """Validated ``(track_class, speed)``; speed at most ``speed_limit`` (m/s, default
+    :data:`~railgym.envs.params.SPEED_FACTOR` × the class's maximum speed)."""
+    track_class = TrackEnvParams.check("track_class", track_class)
+    v_max = class_speed(track_class)
+    v = v_max if speed is None else check_speed(speed)
+    limit = SPEED_FACTOR * v_max if speed_limit is None else speed_limit
+    if v > limit:
+        raise val.FieldError(
+            "speed",
+            f"must be at most {limit:.4g} m/s (2 × the class-{int(track_class)} maximum unless "
+            f"speed_limit= is given), got {speed!r}",
+        )
+    return int(track_class), v
+
+
+def _check_profile(profile: Any, wheelbase: float | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """``profile`` checked by :func:`railgym.profile.load_profile`; not with ``wheelbase``."""
+    checked = load_profile(profile)
+    if checked is not None and wheelbase is not None:
+        raise val.FieldError(
+            "profile",
+            "cannot be combined with wheelbase= (the two-wheel average is for FRA track); "
+            "give wheelbase=None",
+            full=False,
+        )
+    return checked
+
+
+@declared
+class VerticalParams(TrackEnvParams):
+    """The arguments of ``VerticalSuspension-v1`` (:class:`VerticalSuspensionEnv`), declared
+    once: defaults, units, limits (docs/envs/vertical.md, *Arguments*)."""
+
+    OBSERVATIONS = OBSERVATIONS
+
+    wheelbase: float | None = param(
+        None,
+        "m",
+        "average the inputs of two wheelsets this far apart (FRA track only)",
+        lo=0.0,
+        lo_open=True,
+        hi=50.0,
+        optional=True,
     )
+
+    def _default_dt(self) -> float:
+        return DEFAULT_DT[self.variant]
+
+    def _load_vehicle(self) -> tuple[Any, float]:
+        veh = load_vehicle(self.vehicle)
+        return veh, veh.bump_stop.free_travel_compression
+
+    def _derive(self) -> None:
+        super()._derive()
+        _check_track(self.track_class, self.speed, self.speed_limit)
+        _check_profile(self.profile, self.wheelbase)
+
+
+#: documented limits (docs/envs/vertical.md): the declared bounds of :class:`VerticalParams`
+#: and those of the speed, the vector env and its memory
+LIMITS = {
+    **limits(VerticalParams),
+    "speed_factor": SPEED_FACTOR,
+    "speed_min": SPEED_MIN,
+    "num_envs": MAX_NUM_ENVS,
+    "track_bytes": TRACK_BYTES,
+}
 
 
 def _surrogate_arrays(backend: str, surrogate: Any, dt: float, kriging: bool = False) -> LprArrays:
@@ -206,76 +227,44 @@ def _check_element_units(surrogate: Any, d: int) -> None:
             )
 
 
-def check_speed(speed: Any, field: str = "speed") -> float:
-    """A speed in m/s, at least ``LIMITS["speed_min"]``."""
-    v = val.positive(speed, field)
-    if v < LIMITS["speed_min"]:
-        raise val.FieldError(
-            field,
-            f"must be at least {LIMITS['speed_min']:g} m/s (the env's lowest speed), got {speed!r}",
-        )
-    return v
-
-
-def _batch(
-    n: int, cfg: VerticalConfig, veh: Any, lpr: LprArrays, backend: str, fmu: Any, fmu_map: Any
-) -> VerticalBatch:
+def _batch(n: int, cfg: VerticalParams, lpr: LprArrays) -> VerticalBatch:
     """The batch of ``n`` vehicles: compiled kernels, or FMU instances for ``backend="fmu"``
-    (``fmu``: the FMU file, ``fmu_map``: its mapping file, :mod:`railgym.fmu.mapping`)."""
-    if backend != "fmu":
-        for name, value in (("fmu", fmu), ("fmu_map", fmu_map)):
-            if value is not None:
-                raise val.FieldError(name, f"is only used with backend='fmu', not {backend!r}")
-        return VerticalBatch(n, cfg, veh, lpr)
-    if fmu_map is None:
-        raise val.FieldError("fmu_map", "is required with backend='fmu' (docs/fmi.md)")
+    (``cfg.fmu``: the FMU file, ``cfg.fmu_map``: its mapping file, :mod:`railgym.fmu.mapping`)."""
+    if cfg.backend != "fmu":
+        return VerticalBatch(n, cfg, cfg.model, lpr)
     from railgym.fmu.batch import FMUBatch
     from railgym.fmu.mapping import load_mapping
 
-    return FMUBatch(n, cfg, veh, lpr, load_mapping(fmu_map, fmu, "vertical"))
-
-
-def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[int, float]:
-    """Validated ``(track_class, speed)``; speed at most ``speed_limit`` (m/s, default
-    ``LIMITS["speed_factor"]`` × the class's maximum speed)."""
-    class_parameters(track_class)  # raises ValueError naming track_class
-    v_max = class_speed(track_class)
-    v = v_max if speed is None else check_speed(speed)
-    limit = LIMITS["speed_factor"] * v_max if speed_limit is None else speed_limit
-    if v > limit:
-        raise val.FieldError(
-            "speed",
-            f"must be at most {limit:.4g} m/s (2 × the class-{int(track_class)} maximum unless "
-            f"speed_limit= is given), got {speed!r}",
-        )
-    return int(track_class), v
+    return FMUBatch(n, cfg, cfg.model, lpr, load_mapping(cfg.fmu_map, cfg.fmu, "vertical"))
 
 
 class _VerticalAccessors:
-    """Public read-only accessors of the simulated vehicles (arrays over the sub-envs)."""
+    """Public read-only accessors of the simulated vehicles: arrays over the sub-envs of the
+    vector env, sub-env 0's entry (a copy, or a Python number) for the single env."""
 
     sim: VerticalBatch
+    _rows: Any
 
     @property
     def state(self) -> np.ndarray:
         """Copy of the state(s) ``[x1, v1, x2, v2, …]`` (m, m/s; dynamic: Pa, Pa, m;
         surrogate: the element's Maxwell state ``s``, m)."""
-        return self.sim.state.copy()
+        return self._rows(self.sim.state)
 
     @property
-    def carbody_acceleration(self) -> np.ndarray:
-        """Carbody acceleration ẍ2 at the end of the last step, m/s² (n,)."""
-        return self.sim.acc[:, 1].copy()
+    def carbody_acceleration(self) -> Any:
+        """Carbody acceleration ẍ2 at the end of the last step, m/s² (float; vector: (n,))."""
+        return self._rows(self.sim.acc[:, 1])
 
     @property
-    def actuator_force(self) -> np.ndarray:
-        """Actuator force applied over the last step, N (n,)."""
-        return self.sim.force.copy()
+    def actuator_force(self) -> Any:
+        """Actuator force applied over the last step, N (float; vector: (n,))."""
+        return self._rows(self.sim.force)
 
     @property
-    def out_of_domain(self) -> np.ndarray:
-        """Out-of-domain surrogate evaluations this episode (n,)."""
-        return self.sim.ood.copy()
+    def out_of_domain(self) -> Any:
+        """Out-of-domain surrogate evaluations this episode (int; vector: (n,))."""
+        return self._rows(self.sim.ood)
 
     @property
     def vehicle_params(self) -> SuspensionParams:
@@ -286,28 +275,9 @@ class _VerticalAccessors:
 class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
     """Active secondary suspension of a railway vehicle on random FRA track.
 
-    Parameters
-    ----------
-    backend : ``"surrogate"`` (default, paper eq. 2), ``"reference"``, ``"linear"`` or
-        ``"fmu"`` (an FMU as the vehicle: ``fmu`` and ``fmu_map``, see ``docs/fmi.md``).
-    surrogate : LPR or Kriging model, path of a model JSON, or ``None`` for the packaged
-        element; only for ``backend="surrogate"``.
-    track_class : FRA class 1–6 (default 5, the paper's training case).
-    fmu, fmu_map : the FMU file and its mapping file (:mod:`railgym.fmu.mapping`; ``fmu``
-        defaults to the mapping's ``fmu:``), only for ``backend="fmu"``.
-    speed : m/s; ``None`` = the class's maximum passenger speed (class 5: 144 km/h); at most
-        ``speed_limit``.
-    speed_limit : m/s; ``None`` = 2 × the class's maximum speed.
-    profile : ``None`` (seeded FRA track), a CSV path (columns x, z in m) or ``(x, z)``;
-        it must cover speed × duration; not combined with ``wheelbase``.
-    duration : episode length, s (truncation), at most 600 s. control_dt : agent step, s.
-    dt : integration step, s (default the kernel's ``DEFAULT_DT``).
-    f_max : actuator force at action ±1, N (at most 1 MN).
-    observation : ``"sensors"`` or ``"full"``. sensor_noise : std of the additive noise on
-        the normalised observation (at most 10). reward_weights : mapping with the
-        ``acceleration``, ``deflection``, ``force`` weights (each in [0, 1e6]).
-    wheelbase : m, average two delayed wheel inputs (default off; at most 50 m).
-    band : wavelength band of the track irregularity, m. vehicle : vehicle YAML name/path.
+    The keyword arguments are the fields of :class:`VerticalParams` (default, unit, limits
+    and meaning of each: docs/envs/vertical.md, *Arguments*) and ``render_mode``; the checked
+    arguments are :attr:`cfg`.
 
     Single-env accessors: :attr:`state` (s,), :attr:`carbody_acceleration`,
     :attr:`actuator_force` (floats), :attr:`out_of_domain`, :attr:`vehicle_params`, :meth:`track`,
@@ -319,77 +289,23 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
     #: element; ``("maxwell", "v0")`` for ``VerticalSuspension-v1`` (docs: *Version history*)
     default_element: tuple[str, str] | None = None
 
-    def __init__(
-        self,
-        backend: str = "surrogate",
-        surrogate: Any = None,
-        track_class: int = 5,
-        speed: float | None = None,
-        profile: Any = None,
-        duration: float = 20.0,
-        control_dt: float = 0.01,
-        dt: float | None = None,
-        f_max: float = 8000.0,
-        observation: str = "sensors",
-        sensor_noise: float = 0.0,
-        reward_weights: dict[str, float] | None = None,
-        wheelbase: float | None = None,
-        band: tuple[float, float] = (1.0, 100.0),
-        vehicle: str = "manchester",
-        render_mode: str | None = None,
-        speed_limit: float | None = None,
-        fmu: str | Path | None = None,
-        fmu_map: str | Path | None = None,
-    ) -> None:
-        veh = load_vehicle(vehicle)
-        self.cfg = make_config(
-            backend,
-            duration,
-            control_dt,
-            dt,
-            f_max,
-            observation,
-            sensor_noise,
-            reward_weights,
-            wheelbase,
-            band,
-            veh.bump_stop.free_travel_compression,
-        )
-        self.backend = backend
-        self.speed_limit = None if speed_limit is None else val.positive(speed_limit, "speed_limit")
-        self.track_class, self.speed = _check_track(track_class, speed, self.speed_limit)
-        self._speed_arg = speed
-        self.profile = self._check_profile(profile)
-        self._fmu_args = (backend, fmu, fmu_map)
-        if surrogate is None and backend == "surrogate" and self.default_element is not None:
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        cfg = self.cfg = VerticalParams.from_kwargs(kwargs)
+        self.backend, self.speed_limit = cfg.backend, cfg.speed_limit
+        self.track_class, self.speed = _check_track(cfg.track_class, cfg.speed, cfg.speed_limit)
+        self._speed_arg = cfg.speed
+        self.profile = cfg.profile
+        surrogate = cfg.surrogate
+        if surrogate is None and cfg.backend == "surrogate" and self.default_element is not None:
             surrogate = default_vertical_surrogate(*self.default_element)
-        sim = _batch(
-            1,
-            self.cfg,
-            veh,
-            _surrogate_arrays(backend, surrogate, self.cfg.dt, True),
-            *self._fmu_args,
-        )
-        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
-        n_obs = len(self.obs_names)
+        sim = _batch(1, cfg, _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True))
+        self.obs_names, self.obs_scale = cfg.obs_names, cfg.obs_scale
         self._init_shell(
             sim,
             render_mode,
-            spaces.Box(-np.inf, np.inf, (n_obs,), np.float32),
+            spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32),
             spaces.Box(-1.0, 1.0, (1,), np.float32),
         )
-
-    def _check_profile(self, profile: Any) -> tuple[np.ndarray, np.ndarray] | None:
-        """``profile`` checked by :func:`railgym.profile.load_profile`; not with ``wheelbase``."""
-        checked = load_profile(profile)
-        if checked is not None and self.cfg.wheelbase is not None:
-            raise val.FieldError(
-                "profile",
-                "cannot be combined with wheelbase= (the two-wheel average is for FRA track); "
-                "give wheelbase=None",
-                full=False,
-            )
-        return checked
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
@@ -403,7 +319,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
         track_class, speed = _check_track(tc, sp, self.speed_limit)
         if "profile" in options:
-            self.profile = self._check_profile(options["profile"])
+            self.profile = _check_profile(options["profile"], self.cfg.wheelbase)
         self.track_class, self.speed = track_class, speed
         self._speed_arg = options.get("speed", self._speed_arg)
 
@@ -414,27 +330,6 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         from railgym.envs.rendering import render_vertical
 
         return render_vertical(state)
-
-    @property
-    def state(self) -> np.ndarray:
-        """Copy of the state ``[x1, v1, x2, v2, …]`` (m, m/s; dynamic also Pa, Pa, m;
-        surrogate the element's Maxwell state ``s``, m)."""
-        return self.sim.state[0].copy()
-
-    @property
-    def carbody_acceleration(self) -> float:
-        """Carbody acceleration ẍ2 at the end of the last step, m/s²."""
-        return float(self.sim.acc[0, 1])
-
-    @property
-    def actuator_force(self) -> float:
-        """Actuator force applied over the last step, N."""
-        return float(self.sim.force[0])
-
-    @property
-    def out_of_domain(self) -> int:
-        """Out-of-domain surrogate evaluations this episode."""
-        return int(self.sim.ood[0])
 
     def track(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of the current track input ``(z, zdot)`` on the grid ``k·dt``, m and m/s."""
@@ -468,12 +363,23 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, BatchVectorEnv):
     single_class: type[VerticalSuspensionEnv] = VerticalSuspensionEnv
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
-        num_envs = val.integer(num_envs, "num_envs", min=1, max=LIMITS["num_envs"])
+        num_envs = val.integer(num_envs, "num_envs", min=1, max=MAX_NUM_ENVS)
         single = self.single_class(render_mode=render_mode, **kwargs)
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
-        sim = _batch(num_envs, self.cfg, single.sim.vehicle, single.sim.lpr, *single._fmu_args)
-        self._init_vector(single, sim, num_envs)
+        self._init_vector(single, _batch(num_envs, self.cfg, single.sim.lpr), num_envs)
+
+
+_KW = inspect.Parameter.KEYWORD_ONLY
+_POS = inspect.Parameter.POSITIONAL_OR_KEYWORD
+VerticalSuspensionEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
+    VerticalParams, inspect.Parameter("render_mode", _POS, default=None)
+)
+VerticalSuspensionVectorEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
+    VerticalParams,
+    inspect.Parameter("num_envs", _POS, default=1),
+    inspect.Parameter("render_mode", _POS, default=None),
+)
 
 
 class VerticalSuspensionEnvV0(VerticalSuspensionEnv):

@@ -10,14 +10,14 @@ episode flags.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from railgym import _validation as val
-from railgym.envs.compiled import compiled_entry
+from railgym.envs.compiled import DIVERGENCE_PENALTY, OBS_LIMIT, compiled_entry, settle_reward
+from railgym.envs.params import consts
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
 from railgym.vehicles.vertical import (
@@ -36,55 +36,28 @@ from railgym.vehicles.vertical import (
 )
 from railgym.vehicles.vertical.kernels import check_variant
 
+if TYPE_CHECKING:
+    from railgym.envs.vertical import VerticalParams
+
 __all__ = [
     "ACC_REF",
+    "DIVERGENCE_PENALTY",
     "INFO_KEYS",
-    "LIMITS",
+    "MAX_NUM_ENVS",
+    "OBS_LIMIT",
     "REWARD_TERMS",
+    "TRACK_BYTES",
     "VerticalBatch",
-    "VerticalConfig",
     "control_step",
 ]
 
 #: reference carbody acceleration of the reward, m/s²: passive RMS on the training case
 #: (class 5, 144 km/h, dynamic reference), so that a passive step's reward is about −1
 ACC_REF = 0.75
-DIVERGENCE_PENALTY = 100.0
-#: |normalised observation| above this counts as divergence (keeps float32 observations finite)
-OBS_LIMIT = 1e30
-#: documented argument limits (docs/envs/vertical.md)
-LIMITS = {
-    "speed_factor": 2.0,  # speed <= this × the class's maximum speed unless speed_limit= is given
-    "speed_min": 1.0,  # m/s; slower, the FRA track of long wavelengths needs too many samples
-    "duration": 600.0,  # s
-    "f_max": 1e6,  # N
-    "sensor_noise": 10.0,  # std on the normalised observation
-    "reward_weight": 1e6,
-    "wheelbase": 50.0,  # m
-    "band": (0.1, 1000.0),  # shortest and longest wavelength, m
-    "num_envs": 65536,
-    "track_bytes": 2**30,  # track arrays of all sub-envs, bytes
-}
-
-
-@dataclass(frozen=True)
-class VerticalConfig:
-    """Validated settings shared by the single and the vector env (SI units)."""
-
-    variant: str
-    dt: float
-    n_sub: int
-    n_steps: int
-    control_dt: float
-    duration: float
-    f_max: float
-    free_travel: float
-    obs_names: tuple[str, ...]
-    obs_scale: np.ndarray
-    weights: tuple[float, float, float]
-    sensor_noise: float
-    wheelbase: float | None
-    band: tuple[float, float]
+#: most sub-envs of the vector env
+MAX_NUM_ENVS = 65536
+#: largest track arrays of all sub-envs together, bytes
+TRACK_BYTES = 2**30
 
 
 class Counters(NamedTuple):
@@ -140,20 +113,17 @@ INFO_KEYS = (
     ("actuator_force", float),  # N
 )
 _INFO = [key for key, _ in INFO_KEYS]
-I_TIME, I_ACC, I_OOD, I_CONTACTS, I_OUTSIDE, I_RMS, I_FORCE = (
-    _INFO.index(k)
-    for k in (
-        "time",
-        "carbody_acc",
-        "out_of_domain",
-        "bump_stop_contacts",
-        "outside_element",
-        "rms_carbody_acc",
-        "actuator_force",
-    )
+#: column of each info key in :attr:`StepResult.info`; the compiled step writes them by name
+INFO_COLUMN = {key: j for j, key in enumerate(_INFO)}
+I_TIME, I_ACC, I_RMS, I_FORCE = (
+    INFO_COLUMN[k] for k in ("time", "carbody_acc", "rms_carbody_acc", "actuator_force")
 )
+I_OOD, I_CONTACTS, I_OUTSIDE = (
+    INFO_COLUMN[k] for k in ("out_of_domain", "bump_stop_contacts", "outside_element")
+)
+#: (column, type) of the single env's int and bool values; the vector env's array dtypes
+_CAST_INFO = tuple((j, kind) for j, (_, kind) in enumerate(INFO_KEYS) if kind is not float)
 _DTYPES = {int: np.int64, bool: np.bool_}
-_CAST_INFO = tuple((j, _DTYPES[kind]) for j, (_, kind) in enumerate(INFO_KEYS) if kind in _DTYPES)
 
 _LINEAR, _STATIC, _DYNAMIC = (check_variant(v) for v in ("linear", "static", "dynamic"))
 
@@ -188,13 +158,12 @@ def _observe(state, acc, z, zdot, k, s, i, obs):
 
 
 @njit(cache=True)
-def _post_step(state, z, zdot, out, force, cnt, res, sc):
-    """Bookkeeping after a kernel call: counters, observation, reward and its terms, info
-    values and the truncated and extrapolated flags.
-
-    A step whose reward is not finite or whose observation exceeds ``OBS_LIMIT`` counts as
-    diverged (``out.div``), like a non-finite state in the kernel.
-    """
+def _post_step(state, z, zdot, out, force, counters, result, consts):
+    """Bookkeeping after a kernel call: counters, observation, reward and its terms
+    (:func:`~railgym.envs.compiled.settle_reward`: a divergence also when the reward is not
+    finite or the observation too large), info values and the truncated and extrapolated
+    flags."""
+    cnt, res, sc = counters, result, consts
     for i in range(state.shape[0]):
         cnt.k[i] += sc.n_sub
         cnt.steps[i] += 1
@@ -208,22 +177,7 @@ def _post_step(state, z, zdot, out, force, cnt, res, sc):
         t_a = -(sc.w_acc * a2 * a2)
         t_d = -(sc.w_defl * defl * defl)
         t_f = -(sc.w_force * fa * fa)
-        r = t_a + t_d + t_f
-        big = False
-        for j in range(res.obs.shape[1]):
-            if not abs(res.obs[i, j]) <= OBS_LIMIT:
-                big = True
-        if out.div[i] or big or not math.isfinite(r):
-            out.div[i] = True
-            for j in range(res.obs.shape[1]):
-                res.obs[i, j] = min(max(res.obs[i, j], -OBS_LIMIT), OBS_LIMIT)
-            t_a = t_d = t_f = 0.0
-            r = -DIVERGENCE_PENALTY
-        res.terms[i, 0] = t_a
-        res.terms[i, 1] = t_d
-        res.terms[i, 2] = t_f
-        res.terms[i, 3] = -DIVERGENCE_PENALTY if out.div[i] else 0.0
-        res.reward[i] = r
+        settle_reward(res.obs, res.terms, res.reward, out.div, i, t_a, t_d, t_f)
         res.info[i, I_TIME] = cnt.steps[i] * sc.control_dt
         res.info[i, I_ACC] = out.acc[i, 1]
         res.info[i, I_OOD] = cnt.ood[i]
@@ -243,22 +197,23 @@ def _post_step(state, z, zdot, out, force, cnt, res, sc):
 # arrays are still allocated and freed by the runtime (tests/envs/test_vehicle_shell.py checks the
 # balance).
 @njit(cache=True, _nrt=False)
-def control_step(state, z, zdot, action, force, p, lpr, out, cnt, res, sc):
+def control_step(state, z, zdot, action, force, params, lpr, out, counters, result, consts):
     """One control step of every vehicle: actuator forces ``action[:, 0] · f_max`` (N), the
-    kernel of variant ``sc.kind`` (arguments as :func:`~railgym.vehicles.vertical.advance_linear`
-    with ``k0 = cnt.k``), then :func:`_post_step`."""
+    kernel of variant ``consts.kind`` (arguments as
+    :func:`~railgym.vehicles.vertical.advance_linear` with ``k0 = counters.k``), then
+    :func:`_post_step`."""
     for i in range(state.shape[0]):
-        force[i] = action[i, 0] * sc.f_max
-    k, n_sub, dt = cnt.k, sc.n_sub, sc.dt
-    if sc.kind == _LINEAR:
-        advance_linear(state, z, zdot, k, n_sub, dt, force, p, lpr, out)
-    elif sc.kind == _STATIC:
-        advance_static(state, z, zdot, k, n_sub, dt, force, p, lpr, out)
-    elif sc.kind == _DYNAMIC:
-        advance_dynamic(state, z, zdot, k, n_sub, dt, force, p, lpr, out)
+        force[i] = action[i, 0] * consts.f_max
+    k, n_sub, dt, kind = counters.k, consts.n_sub, consts.dt, consts.kind
+    if kind == _LINEAR:
+        advance_linear(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
+    elif kind == _STATIC:
+        advance_static(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
+    elif kind == _DYNAMIC:
+        advance_dynamic(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
     else:
-        advance_surrogate(state, z, zdot, k, n_sub, dt, force, p, lpr, out)
-    _post_step(state, z, zdot, out, force, cnt, res, sc)
+        advance_surrogate(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
+    _post_step(state, z, zdot, out, force, counters, result, consts)
 
 
 class VerticalBatch:
@@ -270,7 +225,7 @@ class VerticalBatch:
     """
 
     def __init__(
-        self, n: int, cfg: VerticalConfig, vehicle: VerticalVehicle, lpr: LprArrays
+        self, n: int, cfg: VerticalParams, vehicle: VerticalVehicle, lpr: LprArrays
     ) -> None:
         self.n, self.cfg = n, cfg
         self.vehicle = vehicle
@@ -278,12 +233,12 @@ class VerticalBatch:
         self.params_record = self.params.record()
         self.lpr = lpr
         n_samples = cfg.n_steps * cfg.n_sub + 1
-        if n * n_samples * 16 > LIMITS["track_bytes"]:
+        if n * n_samples * 16 > TRACK_BYTES:
             raise val.FieldError(
                 "num_envs",
                 f"× duration/dt needs {n * n_samples * 16 / 2**30:.1f} GiB of track arrays "
                 f"(num_envs={n}, {n_samples} samples each); the limit is "
-                f"{LIMITS['track_bytes'] / 2**30:g} GiB",
+                f"{TRACK_BYTES / 2**30:g} GiB",
             )
         self.z = np.zeros((n, n_samples))
         self.zdot = np.zeros((n, n_samples))
@@ -292,47 +247,41 @@ class VerticalBatch:
         self.force = np.zeros(n)
         self.out = step_outputs(n)
         self.cnt = Counters(
-            np.zeros(n, np.int64),
-            np.zeros(n, np.int64),
-            np.zeros(n, np.int64),
-            np.zeros(n, np.int64),
-            np.zeros(n),
+            **{k: np.zeros(n, np.int64) for k in Counters._fields[:-1]}, acc_sq=np.zeros(n)
         )
         self.track_class = np.zeros(n, np.int64)
         self.speed = np.zeros(n)
         self.inv_scale = 1.0 / cfg.obs_scale
-        w = cfg.weights
-        self.sc = StepCfg(
+        w = cfg.reward_weights
+        self.sc = consts(
+            StepCfg,
+            cfg,
             kind=check_variant(cfg.variant),
-            n_sub=cfg.n_sub,
-            dt=cfg.dt,
-            n_steps=cfg.n_steps,
-            control_dt=cfg.control_dt,
-            f_max=cfg.f_max,
-            free_travel=cfg.free_travel,
-            w_acc=w[0],
-            w_defl=w[1],
-            w_force=w[2],
+            w_acc=w["acceleration"],
+            w_defl=w["deflection"],
+            w_force=w["force"],
             inv_scale=self.inv_scale,
             flag_ood=lpr.mode == RAISE_MODE,
             envelope=deflection_envelope(cfg.variant == "surrogate", lpr),
         )
         self.res = StepResult(
-            np.zeros((n, len(cfg.obs_names))),
-            np.zeros(n),
-            np.zeros((n, len(REWARD_TERMS))),
-            np.zeros((n, len(INFO_KEYS))),
-            np.zeros(n, np.bool_),
-            np.zeros(n, np.bool_),
+            obs=np.zeros((n, len(cfg.obs_names))),
+            reward=np.zeros(n),
+            terms=np.zeros((n, len(REWARD_TERMS))),
+            info=np.zeros((n, len(INFO_KEYS))),
+            truncated=np.zeros(n, np.bool_),
+            extrapolated=np.zeros(n, np.bool_),
         )
         self._link()
 
     def _link(self) -> None:
         """Short names of the arrays, the flags and the compiled entry point of
         :func:`control_step` (made again after a copy: it is not picklable)."""
-        self.acc, self.fs, self.count, self.div = self.out
-        self.k, self.steps, self.contacts, self.ood, self.acc_sq = self.cnt
-        self.obs, self.rew, self.terms, self.info_rows, self.trunc, self.extrapolated = self.res
+        out, cnt, res = self.out, self.cnt, self.res
+        self.acc, self.fs, self.count, self.div = out.acc, out.force, out.count, out.div
+        self.k, self.steps, self.contacts, self.ood = cnt.k, cnt.steps, cnt.contacts, cnt.ood
+        self.acc_sq, self.obs, self.rew, self.terms = cnt.acc_sq, res.obs, res.reward, res.terms
+        self.info_rows, self.trunc, self.extrapolated = res.info, res.truncated, res.extrapolated
         self.reward = self.rew
         self._flags = {"diverged": self.div, "extrapolated": self.extrapolated}
         self._args = (
@@ -410,20 +359,14 @@ class VerticalBatch:
 
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers), or of all ((n,) arrays)."""
-        if i is not None:  # a dict display: the single env builds this every step
+        if i is not None:  # the single env builds this every step
             row = self.info_rows[i].tolist()
-            return {
-                "time": row[I_TIME],
-                "carbody_acc": row[I_ACC],
-                "out_of_domain": int(row[I_OOD]),
-                "bump_stop_contacts": int(row[I_CONTACTS]),
-                "outside_element": bool(row[I_OUTSIDE]),
-                "rms_carbody_acc": row[I_RMS],
-                "actuator_force": row[I_FORCE],
-            }
+            for j, kind in _CAST_INFO:
+                row[j] = kind(row[j])
+            return dict(zip(_INFO, row, strict=True))
         out = {key: self.info_rows[:, j].copy() for j, key in enumerate(_INFO)}
-        for j, dtype in _CAST_INFO:
-            out[_INFO[j]] = out[_INFO[j]].astype(dtype)
+        for j, kind in _CAST_INFO:
+            out[_INFO[j]] = out[_INFO[j]].astype(_DTYPES[kind])
         return out
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:

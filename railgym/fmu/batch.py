@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym.envs.vertical_batch import VerticalBatch, VerticalConfig, _post_step
+from railgym.envs.vertical_batch import VerticalBatch, _post_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMURunner
 from railgym.vehicles.vertical import LprArrays, VerticalVehicle
@@ -30,7 +30,7 @@ class FMUBatch(VerticalBatch):
     def __init__(
         self,
         n: int,
-        cfg: VerticalConfig,
+        cfg: Any,
         vehicle: VerticalVehicle,
         lpr: LprArrays,
         mapping: Mapping,
