@@ -4,7 +4,6 @@ of :mod:`railgym.envs.base`."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -20,10 +19,10 @@ from railgym.envs.crash_layout import (
     info_layout,
     new_episode_arrays,
 )
+from railgym.envs.crash_params import CrashParams
 from railgym.envs.crash_step import (
     _ENV,
     _STATE,
-    Criteria,
     EnvConsts,
     _advance_reference,
     _advance_surrogate,
@@ -31,33 +30,10 @@ from railgym.envs.crash_step import (
     crush_limits,
     plain,
 )
-from railgym.vehicles.crash import PARALLEL_MIN, BatchOutputs, CrashBatchModel, CrashScenario
+from railgym.envs.params import consts
+from railgym.vehicles.crash import PARALLEL_MIN, BatchOutputs, CrashBatchModel
 
-__all__ = ["CrashBatch", "CrashConfig"]
-
-
-@dataclass(frozen=True)
-class CrashConfig:
-    """Validated settings shared by the single and the vector env (SI units).
-
-    ``speed_range`` (m/s) and ``payload_range`` ((cars, 2) kg) are the impact envelope drawn
-    at each reset, or ``None`` without one (every episode at ``scenario.speed``, no payload).
-    """
-
-    scenario: CrashScenario
-    backend: str
-    control_dt: float
-    n_steps: int
-    absorber_range: float
-    max_scale_change: float
-    speed_jitter: float
-    weights: tuple[float, float, float]
-    absorber_stroke: np.ndarray
-    obs_names: tuple[str, ...]
-    obs_scale: np.ndarray
-    speed_range: tuple[float, float] | None
-    payload_range: np.ndarray | None
-    criteria: Criteria
+__all__ = ["CrashBatch"]
 
 
 class CrashBatch:
@@ -69,7 +45,7 @@ class CrashBatch:
     initial speed and payload (:meth:`draw`); ``reset_state`` restarts the same episode.
     """
 
-    def __init__(self, n: int, cfg: CrashConfig, model: CrashBatchModel) -> None:
+    def __init__(self, n: int, cfg: CrashParams, model: CrashBatchModel) -> None:
         self.n, self.cfg, self.model = n, cfg, model
         sc = cfg.scenario
         self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
@@ -99,21 +75,18 @@ class CrashBatch:
         types = model.params.types if surrogate else None
         kind = model.params.kind if surrogate else np.zeros(0, np.int64)
         lengths = np.array([sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1))
-        self.consts = EnvConsts(
+        self.consts = consts(
+            EnvConsts,
+            cfg,
             zones=self.zones,
-            stroke=cfg.absorber_stroke,
             crush_limit=crush_limits(lengths),
             inv_scale=1.0 / cfg.obs_scale,
-            w_decel=cfg.weights[0],
-            w_intrusion=cfg.weights[1],
-            w_peak=cfg.weights[2],
+            w_decel=cfg.reward_weights["decel"],
+            w_intrusion=cfg.reward_weights["intrusion"],
+            w_peak=cfg.reward_weights["peak"],
             gravity=sc.gravity,
-            control_dt=cfg.control_dt,
-            absorber_range=cfg.absorber_range,
-            max_change=cfg.max_scale_change,
             unloading_k=types.unloading_stiffness[kind] if surrogate else np.zeros(0),
             tension_k=types.tension_stiffness[kind] if surrogate else np.zeros(0),
-            criteria=cfg.criteria,
             info=columns,
         )
         self._bind()

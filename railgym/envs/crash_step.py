@@ -107,19 +107,19 @@ class EnvConsts(NamedTuple):
     Attributes
     ----------
     zones : (zones,) model zone of each controlled zone, front to back.
-    stroke : (zones,) absorber stroke, m. crush_limit : (zones,) largest crush the model
+    absorber_stroke : (zones,) absorber stroke, m. crush_limit : (zones,) largest crush the model
         holds, m (:func:`crush_limits`); beyond it the train counts as diverged.
     inv_scale : (obs,) 1 / observation scale.
     w_decel, w_intrusion, w_peak : reward weights. gravity : m/s². control_dt : s.
-    absorber_range : action ±1 sets the scale 1 ± range. max_change : largest scale change
-        per step. unloading_k, tension_k : (model zones,) unloading and coupler tension
+    absorber_range : action ±1 sets the scale 1 ± range. max_scale_change : largest scale
+        change per step. unloading_k, tension_k : (model zones,) unloading and coupler tension
         stiffness of each surrogate element, N/m, for its energy check (empty for the
         reference: ``energy_error`` is then the energy-balance residual).
     criteria : :class:`Criteria`. info : :class:`InfoColumns`.
     """
 
     zones: np.ndarray
-    stroke: np.ndarray
+    absorber_stroke: np.ndarray
     crush_limit: np.ndarray
     inv_scale: np.ndarray
     w_decel: float
@@ -128,7 +128,7 @@ class EnvConsts(NamedTuple):
     gravity: float
     control_dt: float
     absorber_range: float
-    max_change: float
+    max_scale_change: float
     unloading_k: np.ndarray
     tension_k: np.ndarray
     criteria: Criteria
@@ -160,7 +160,7 @@ _surrogate_views = buffer_views((2,) * len(SurrogateState._fields))
 @njit(cache=True)
 def _set_scale(actions, scale, active, c):
     """Move each active absorber's force scale towards ``1 + range · action`` by at most
-    ``c.max_change``, the action clipped to [−1, 1]. Returns ``False``, changing nothing, if
+    ``c.max_scale_change``, the action clipped to [−1, 1]. Returns ``False``, changing nothing, if
     any action (of any train) is not finite."""
     for i in range(actions.shape[0]):
         for z in range(actions.shape[1]):
@@ -173,7 +173,7 @@ def _set_scale(actions, scale, active, c):
             k = c.zones[z]
             a = min(max(actions[i, z], -1.0), 1.0)
             step = 1.0 + c.absorber_range * a - scale[i, k]
-            scale[i, k] += min(max(step, -c.max_change), c.max_change)
+            scale[i, k] += min(max(step, -c.max_scale_change), c.max_scale_change)
     return True
 
 
@@ -263,7 +263,7 @@ def _score_intrusions(outputs, episode, consts, i, reward):
         if crush > consts.crush_limit[z]:  # crushed through a car
             episode.div[i] = True
         episode.max_crush[i, z] = max(episode.max_crush[i, z], crush)
-        new = max(episode.max_crush[i, z] - consts.stroke[z], 0.0)
+        new = max(episode.max_crush[i, z] - consts.absorber_stroke[z], 0.0)
         cost = consts.w_intrusion * (new - episode.intrusion[i, z]) / INTRUSION_REF
         reward -= cost
         term -= cost
@@ -369,7 +369,7 @@ def _car_info(outputs, episode, consts, i, t):
 def _zone_info(outputs, episode, consts, i, passed):
     """The per-zone ``info`` columns of train ``i``, ``stroke_exceeded`` and
     ``criteria_passed`` (``passed``: the cars' verdict)."""
-    row, col, stroke = episode.info[i], consts.info, consts.stroke
+    row, col, stroke = episode.info[i], consts.info, consts.absorber_stroke
     exceeded = False
     for z in range(consts.zones.shape[0]):
         k = consts.zones[z]
