@@ -31,6 +31,7 @@ __all__ = [
     "MAX_CONTROL_DT",
     "MAX_DURATION",
     "MAX_WEIGHT",
+    "MIN_CONTROL_DT",
     "CrashParams",
     "nominal_force",
 ]
@@ -40,6 +41,8 @@ DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0, "peak": 0.0}
 #: largest control step, s: the statistics and the reward sample the state once per step, so
 #: a coarser step misses the deceleration peaks of a crash lasting a few hundred ms
 MAX_CONTROL_DT = 0.01
+#: smallest control step, s: the scenario check keeps the reference's stable step above it
+MIN_CONTROL_DT = 1e-6
 #: longest episode, s
 MAX_DURATION = 60.0
 #: largest reward weight and absorber rate (1/s): keeps every reward finite
@@ -105,8 +108,7 @@ class CrashParams(Params):
         0.001,
         "s",
         "agent step (the statistics and the reward sample the state once per step)",
-        lo=0.0,
-        lo_open=True,
+        lo=MIN_CONTROL_DT,
         hi=MAX_CONTROL_DT,
     )
     max_duration: float = param(

@@ -97,7 +97,8 @@ def test_numpy_scalars_in_a_raw_scenario_are_numbers(crash_raw, set_field):
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"control_dt": 0.5}, r"control_dt must be at most 0\.01"),  # would miss the peaks
+        ({"control_dt": 0.5}, r"control_dt must be in \[1e-06, 0\.01\]"),  # would miss the peaks
+        ({"control_dt": 5e-324}, r"control_dt must be in"),  # was an OverflowError
         ({"control_dt": True}, r"control_dt must be a number"),
         ({"control_dt": "0.001"}, r"control_dt must be a number"),
         ({"max_duration": 1e9}, r"max_duration must be at most 60"),
