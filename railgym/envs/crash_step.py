@@ -13,12 +13,9 @@ from numba import njit
 from railgym.envs.crash_layout import (
     COLUMNS,
     ENV_FIELDS,
-    INFO_FIELDS,
-    REWARD_TERMS,
     Episode,
     InfoColumns,
     buffer_views,
-    info_layout,
     named_rebuild,
 )
 from railgym.vehicles.crash import (
@@ -34,24 +31,17 @@ from railgym.vehicles.crash import (
 from railgym.vehicles.crash.criteria import zero_crossing
 
 __all__ = [
-    "COLUMNS",
     "DECEL_REF_G",
     "DIVERGENCE_PENALTY",
-    "ENV_FIELDS",
     "F_STOP",
-    "INFO_FIELDS",
     "INTRUSION_REF",
     "PEAK_REF_G",
     "STATE_LIMIT",
     "TIME_REF",
     "V_STOP",
-    "REWARD_TERMS",
     "Criteria",
     "EnvConsts",
-    "Episode",
-    "InfoColumns",
     "crush_limits",
-    "info_layout",
     "plain",
 ]
 
@@ -158,10 +148,10 @@ _surrogate_views = buffer_views((2,) * len(SurrogateState._fields))
 
 
 @njit(cache=True)
-def _set_scale(actions, scale, active, c):
+def _set_scale(actions, scale, active, consts):
     """Move each active absorber's force scale towards ``1 + range · action`` by at most
-    ``c.max_scale_change``, the action clipped to [−1, 1]. Returns ``False``, changing nothing, if
-    any action (of any train) is not finite."""
+    ``consts.max_scale_change``, the action clipped to [−1, 1]. Returns ``False``, changing
+    nothing, if any action (of any train) is not finite."""
     for i in range(actions.shape[0]):
         for z in range(actions.shape[1]):
             if not math.isfinite(actions[i, z]):
@@ -169,69 +159,71 @@ def _set_scale(actions, scale, active, c):
     for i in range(actions.shape[0]):
         if not active[i]:
             continue
-        for z in range(c.zones.shape[0]):
-            k = c.zones[z]
+        for z in range(consts.zones.shape[0]):
+            k = consts.zones[z]
             a = min(max(actions[i, z], -1.0), 1.0)
-            step = 1.0 + c.absorber_range * a - scale[i, k]
-            scale[i, k] += min(max(step, -c.max_scale_change), c.max_scale_change)
+            step = 1.0 + consts.absorber_range * a - scale[i, k]
+            scale[i, k] += min(max(step, -consts.max_scale_change), consts.max_scale_change)
     return True
 
 
 @njit(cache=True, inline="always")
-def _pulse_sample(ep, i, k, t, v, a, c):
+def _pulse_sample(episode, i, k, t, v, a, consts):
     """Car ``k`` of train ``i`` at time ``t`` (s), velocity ``v``, acceleration ``a``: update
     its crash pulse as :func:`railgym.vehicles.crash.criteria.crash_pulse` defines it, one
     sample at a time; returns the pulse mean deceleration so far, g."""
-    g = c.gravity
-    if ep.stopped[i, k] == 0.0:
-        braking = -a >= c.criteria.onset_g * g
-        if ep.pulse_t0[i, k] < 0.0:
+    gravity = consts.gravity
+    if episode.stopped[i, k] == 0.0:
+        braking = -a >= consts.criteria.onset_g * gravity
+        if episode.pulse_t0[i, k] < 0.0:
             if braking:
-                ep.pulse_t0[i, k], ep.pulse_v0[i, k] = t, v
-                ep.pulse_t1[i, k], ep.pulse_v1[i, k] = t, v
+                episode.pulse_t0[i, k], episode.pulse_v0[i, k] = t, v
+                episode.pulse_t1[i, k], episode.pulse_v1[i, k] = t, v
                 if v <= 0.0:
-                    ep.stopped[i, k] = 1.0
+                    episode.stopped[i, k] = 1.0
         elif v <= 0.0:
-            t_prev = t - c.control_dt
-            ep.pulse_t1[i, k] = zero_crossing(t_prev, t, ep.prev_v[i, k], v, ep.prev_a[i, k])
-            ep.pulse_v1[i, k] = 0.0
-            ep.stopped[i, k] = 1.0
+            t_prev = t - consts.control_dt
+            episode.pulse_t1[i, k] = zero_crossing(
+                t_prev, t, episode.prev_v[i, k], v, episode.prev_a[i, k]
+            )
+            episode.pulse_v1[i, k] = 0.0
+            episode.stopped[i, k] = 1.0
         elif braking:
-            ep.pulse_t1[i, k], ep.pulse_v1[i, k] = t, v
-    ep.prev_v[i, k], ep.prev_a[i, k] = v, a
-    span = ep.pulse_t1[i, k] - ep.pulse_t0[i, k]
-    if ep.pulse_t0[i, k] < 0.0 or span <= 0.0:
+            episode.pulse_t1[i, k], episode.pulse_v1[i, k] = t, v
+    episode.prev_v[i, k], episode.prev_a[i, k] = v, a
+    span = episode.pulse_t1[i, k] - episode.pulse_t0[i, k]
+    if episode.pulse_t0[i, k] < 0.0 or span <= 0.0:
         return 0.0
-    return (ep.pulse_v0[i, k] - ep.pulse_v1[i, k]) / (g * span)
+    return (episode.pulse_v0[i, k] - episode.pulse_v1[i, k]) / (gravity * span)
 
 
 @njit(cache=True, inline="always")
-def _moving_average_sample(ep, i, k, n_cars, steps, v, c):
+def _moving_average_sample(episode, i, k, n_cars, steps, v, consts):
     """Store car ``k``'s velocity ``v`` of control step ``steps`` in the ring and update its
     moving-average peak deceleration (g) over ``window_steps`` control steps."""
-    w = c.criteria.window_steps
+    w = consts.criteria.window_steps
     slots = w + 1
-    ep.ring[i, (steps % slots) * n_cars + k] = v
+    episode.ring[i, (steps % slots) * n_cars + k] = v
     if steps >= w:
-        old = ep.ring[i, ((steps - w) % slots) * n_cars + k]
-        mean = (old - v) / (c.gravity * c.criteria.window)
-        ep.ma_peak[i, k] = mean if steps == w else max(ep.ma_peak[i, k], mean)
+        old = episode.ring[i, ((steps - w) % slots) * n_cars + k]
+        mean = (old - v) / (consts.gravity * consts.criteria.window)
+        episode.ma_peak[i, k] = mean if steps == w else max(episode.ma_peak[i, k], mean)
 
 
 @njit(cache=True, inline="always")
-def _returned_excess(out, ep, i, c, init):
+def _returned_excess(outputs, episode, i, consts, init):
     """Largest work (J) any zone of train ``i`` has returned since its work peak beyond the
     elastic energy ``f² / (2 k)`` it could store at that peak (``k`` the unloading stiffness,
     the coupler's in tension); 0 if none (see ``docs/envs/crash.md``, ``energy_error``)."""
     worst = 0.0
-    for z in range(out.work.shape[1]):
-        w, f = out.work[i, z], out.force[i, z]
-        if init or w >= ep.w_peak[i, z]:
-            ep.w_peak[i, z], ep.f_peak[i, z] = w, f
-        fp = ep.f_peak[i, z]
-        k = c.unloading_k[z] if fp >= 0.0 else c.tension_k[z]
+    for z in range(outputs.work.shape[1]):
+        w, f = outputs.work[i, z], outputs.force[i, z]
+        if init or w >= episode.w_peak[i, z]:
+            episode.w_peak[i, z], episode.f_peak[i, z] = w, f
+        fp = episode.f_peak[i, z]
+        k = consts.unloading_k[z] if fp >= 0.0 else consts.tension_k[z]
         bound = 0.5 * fp * fp / k if k > 0.0 else 0.0
-        worst = max(worst, ep.w_peak[i, z] - w - bound)
+        worst = max(worst, episode.w_peak[i, z] - w - bound)
     return worst
 
 
@@ -410,7 +402,7 @@ def _energy_error(outputs, episode, consts, i, init):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _post_step(outputs, episode, consts, active, init):
     """Bookkeeping after a kernel call: episode statistics, crash criteria, observation,
-    reward and its terms, and the flat ``info`` row (:data:`INFO_FIELDS`) of every active
+    reward and its terms, and the flat ``info`` row (``crash_layout.INFO_FIELDS``) of every active
     train.
 
     ``outputs`` :class:`BatchOutputs`, ``episode`` :class:`Episode`, ``consts``
@@ -452,10 +444,10 @@ def _views(buf, fields, flags):
 def _begin(buf, fields, flags, consts, actions, active, init):
     """Named constants, the buffer's views and, unless ``init``, the absorber scales
     (:func:`_set_scale`); ``ok`` is False for a non-finite action."""
-    c = _named_consts(consts)
-    out, ep = _views(buf, fields, flags)
-    ok = init or _set_scale(actions, ep.scale, active, c)
-    return c, out, ep, ok
+    named = _named_consts(consts)
+    outputs, episode = _views(buf, fields, flags)
+    ok = init or _set_scale(actions, episode.scale, active, named)
+    return named, outputs, episode, ok
 
 
 @njit(cache=True, inline="always")
@@ -476,26 +468,48 @@ def _advance_reference(buf, fields, flags, params, stepping, consts, actions, ac
     :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
     non-finite action. ``params``, ``consts``: :func:`plain` tuples of
     :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
-    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    named, outputs, episode, ok = _begin(buf, fields, flags, consts, actions, active, init)
     if not ok:
         return False
-    state, p = _reference_state(buf, fields), _named_reference(params)
+    state, model_params = _reference_state(buf, fields), _named_reference(params)
     dt, n_sub = stepping
-    reference_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
-    _post_step(out, ep, c, active, init)
+    reference_batch_step(
+        state,
+        outputs,
+        model_params,
+        episode.scale,
+        active,
+        init,
+        dt,
+        n_sub,
+        STATE_LIMIT,
+        episode.div,
+    )
+    _post_step(outputs, episode, named, active, init)
     return True
 
 
 @njit(cache=True)
 def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
     """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    named, outputs, episode, ok = _begin(buf, fields, flags, consts, actions, active, init)
     if not ok:
         return False
-    state, p = _surrogate_state(buf, fields), _named_surrogate(params)
+    state, model_params = _surrogate_state(buf, fields), _named_surrogate(params)
     dt, n_sub = stepping
-    surrogate_batch_step(state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div)
-    _post_step(out, ep, c, active, init)
+    surrogate_batch_step(
+        state,
+        outputs,
+        model_params,
+        episode.scale,
+        active,
+        init,
+        dt,
+        n_sub,
+        STATE_LIMIT,
+        episode.div,
+    )
+    _post_step(outputs, episode, named, active, init)
     return True
 
 
@@ -505,13 +519,22 @@ def _advance_surrogate_parallel(
     buf, fields, flags, params, stepping, consts, actions, active, init
 ):
     """:func:`_advance_surrogate` with :func:`surrogate_batch_step_parallel` (all threads)."""
-    c, out, ep, ok = _begin(buf, fields, flags, consts, actions, active, init)
+    named, outputs, episode, ok = _begin(buf, fields, flags, consts, actions, active, init)
     if not ok:
         return False
-    state, p = _surrogate_state(buf, fields), _named_surrogate(params)
+    state, model_params = _surrogate_state(buf, fields), _named_surrogate(params)
     dt, n_sub = stepping
     surrogate_batch_step_parallel(
-        state, out, p, ep.scale, active, init, dt, n_sub, STATE_LIMIT, ep.div
+        state,
+        outputs,
+        model_params,
+        episode.scale,
+        active,
+        init,
+        dt,
+        n_sub,
+        STATE_LIMIT,
+        episode.div,
     )
-    _post_step(out, ep, c, active, init)
+    _post_step(outputs, episode, named, active, init)
     return True
