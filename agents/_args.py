@@ -8,7 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from railgym import _validation as val
-from railgym.envs.vertical_batch import LIMITS
+from railgym.envs.vertical import LIMITS
 
 __all__ = [
     "add_parallel_arguments",

@@ -306,6 +306,10 @@ def _bounds(s: Spec) -> str:
 
 def limit_text(s: Spec) -> str:
     """The limits of a declaration in words (the docs table's)."""
+    if s.kind in ("real", "int") and s.lo is not None and s.lo == s.hi:
+        return f"exactly {_num(s.lo)}"
+    if s.kind in ("real", "int") and s.hi is None and s.lo is not None:
+        return f"{'>' if s.lo_open else '≥'} {_num(s.lo)}"
     if s.kind in ("real", "int") and (s.lo is not None or s.hi is not None):
         return f"in {_bounds(s)}"
     if s.kind == "choice":
@@ -444,13 +448,21 @@ class TrackEnvParams(Params):
         check=_profile,
     )
     duration: float = param(
-        20.0, "s", "episode length (truncation)", lo=0.0, lo_open=True, hi=600.0
+        20.0,
+        "s",
+        "episode length (truncation), a whole multiple of `control_dt`",
+        lo=0.0,
+        lo_open=True,
+        hi=600.0,
     )
-    control_dt: float = param(0.01, "s", "agent step", lo=0.0, lo_open=True)
+    control_dt: float = param(
+        0.01, "s", "agent step, a whole multiple of `dt`", lo=0.0, lo_open=True
+    )
     dt: float | None = param(
         None,
         "s",
-        "integration step; `None` = the kernel's `DEFAULT_DT`",
+        "integration step, at most `control_dt`; `None` = the kernel's `DEFAULT_DT` (1 ms; "
+        "whole vehicle 2 ms)",
         lo=0.0,
         lo_open=True,
         optional=True,

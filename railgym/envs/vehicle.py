@@ -18,10 +18,16 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 
 from railgym import _validation as val
-from railgym.envs.base import BatchEnv, BatchVectorEnv, step_grid
+from railgym.envs.params import (
+    SPEED_FACTOR,
+    TrackEnvParams,
+    check_speed,
+    declared,
+    limits,
+    param,
+)
 from railgym.envs.vehicle_batch import (
     ACC_REF,
     DIVERGENCE_PENALTY,
@@ -29,15 +35,18 @@ from railgym.envs.vehicle_batch import (
     MIN_COMFORT_SAMPLES,
     REWARD_TERMS,
     VehicleBatch,
-    VehicleConfig,
     check_band_speed,
     episode_comfort,
 )
-from railgym.envs.vertical import BACKENDS, _surrogate_arrays, check_speed
-from railgym.envs.vertical_batch import LIMITS as _VERTICAL_LIMITS
+from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
+from railgym.envs.vertical import (
+    TrackEnvShell,
+    TrackVectorShell,
+    _surrogate_arrays,
+    declare_signatures,
+)
 from railgym.profile import load_profile
-from railgym.track import class_parameters, class_speed
-from railgym.vehicles.collect import default_vertical_surrogate
+from railgym.track import class_speed
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -51,13 +60,12 @@ __all__ = [
     "OBSERVATIONS",
     "REWARD_TERMS",
     "SIZING_SPEED",
-    "VehicleConfig",
+    "VehicleParams",
     "VerticalVehicleEnv",
     "VerticalVehicleEnvV0",
     "VerticalVehicleVectorEnv",
     "VerticalVehicleVectorEnvV0",
     "episode_comfort",
-    "make_config",
 ]
 
 _POS = ("z_c", "theta_c", "q", "z_b0", "theta_b0", "z_b1", "theta_b1")
@@ -90,99 +98,30 @@ OBSERVATIONS = {
 }
 DEFAULT_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
 ACC_WEIGHTINGS = ("none", "Wk")
-#: documented argument limits (docs/envs/vehicle_vertical.md): those of VerticalSuspension-v1,
-#: with actuator forces up to 1 GN (stress tests: the outputs stay finite)
-LIMITS = {**_VERTICAL_LIMITS, "f_max": 1e9}
 #: lowest speed the track arrays are sized for unless the env is made with a lower one, m/s
 SIZING_SPEED = 10.0
 
 
-def make_config(
-    backend: str,
-    duration: float,
-    control_dt: float,
-    dt: float | None,
-    f_max: float,
-    n_actuators: int,
-    observation: str,
-    sensor_noise: float,
-    reward_weights: dict[str, float] | None,
-    acc_weighting: str,
-    band: tuple[float, float],
-    free_travel: float,
-    flexible: bool,
-) -> VehicleConfig:
-    """Check the env arguments against their types and :data:`LIMITS`; errors name them."""
-    backends = {**BACKENDS, "fmu": "dynamic"}  # fmu: an FMU as the vehicle (railgym.fmu)
-    variant = backends[val.choice(backend, "backend", backends)]
-    duration = val.positive(duration, "duration", LIMITS["duration"])
-    control_dt = val.positive(control_dt, "control_dt")
-    if control_dt >= 1.0 / 60.0:
-        raise val.FieldError(
-            "control_dt",
-            "must be below 1/60 s (the Sperling index needs a sample rate above 60 Hz), "
-            f"got {control_dt!r}",
-        )
-    f_max = val.positive(f_max, "f_max", LIMITS["f_max"])
-    n_actuators = val.integer(n_actuators, "n_actuators")
-    if n_actuators != 2:
-        raise val.FieldError(
-            "n_actuators",
-            f"must be 2 (one per bogie; per-side actuators need the roll plane), got "
-            f"{n_actuators!r}",
-        )
-    dt = DEFAULT_DT if dt is None else val.positive(dt, "dt")
-    n_sub, n_steps = step_grid(dt, control_dt, duration)
-    observation = val.choice(observation, "observation", OBSERVATIONS)
-    sensor_noise = val.non_negative(sensor_noise, "sensor_noise", LIMITS["sensor_noise"])
-    acc_weighting = val.choice(acc_weighting, "acc_weighting", ACC_WEIGHTINGS)
-    weights = dict(DEFAULT_WEIGHTS)
-    if reward_weights is not None:
-        for key, value in val.mapping(reward_weights, "reward_weights").items():
-            if key not in DEFAULT_WEIGHTS:
-                raise val.FieldError(
-                    "reward_weights", f"has unknown key {key!r}; keys: {list(weights)}"
-                )
-            weights[key] = val.non_negative(
-                value, f"reward_weights[{key!r}]", LIMITS["reward_weight"]
-            )
-    lo, hi = (val.in_range(b, "band", *LIMITS["band"]) for b in val.sequence(band, "band", 2))
-    if not lo < hi:
-        raise val.FieldError("band", f"must be (min, max) with min < max wavelength, got {band!r}")
-    names, scales = OBSERVATIONS[observation]
-    return VehicleConfig(
-        variant=variant,
-        dt=dt,
-        n_sub=n_sub,
-        n_steps=n_steps,
-        control_dt=control_dt,
-        duration=duration,
-        f_max=f_max,
-        free_travel=free_travel,
-        obs_names=names,
-        obs_scale=np.array([free_travel if s is None else s for s in scales]),
-        weights=(weights["acceleration"], weights["deflection"], weights["force"]),
-        acc_weighting=acc_weighting,
-        sensor_noise=sensor_noise,
-        band=(lo, hi),
-        flexible=val.boolean(flexible, "flexible"),
-    )
+def _speeds(speed: Any, name: str) -> float | tuple[float, float]:
+    """A speed (m/s) or a range ``(v_min, v_max)``, each at least the env's lowest speed."""
+    if isinstance(speed, tuple | list) or (isinstance(speed, np.ndarray) and speed.ndim == 1):
+        lo, hi = (check_speed(v, name) for v in val.sequence(speed, name, 2))
+        if lo > hi:
+            raise val.FieldError(name, f"range must have v_min <= v_max, got {speed!r}")
+        return lo, hi
+    return check_speed(speed, name)
 
 
 def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[float, float]:
     """``speed`` (m/s): None (class speed), a number or a ``(v_min, v_max)`` range, each at
-    most ``speed_limit`` (default ``LIMITS["speed_factor"]`` × the class's maximum speed)."""
-    class_parameters(track_class)  # raises ValueError naming track_class
-    v_class = class_speed(track_class)
+    most ``speed_limit`` (default :data:`~railgym.envs.params.SPEED_FACTOR` × the class's
+    maximum speed)."""
+    v_class = class_speed(VehicleParams.check("track_class", track_class))
     if speed is None:
         return v_class, v_class
-    if isinstance(speed, tuple | list) or (isinstance(speed, np.ndarray) and speed.ndim == 1):
-        lo, hi = (check_speed(v) for v in val.sequence(speed, "speed", 2))
-        if lo > hi:
-            raise val.FieldError("speed", f"range must have v_min <= v_max, got {speed!r}")
-    else:
-        lo = hi = check_speed(speed)
-    limit = LIMITS["speed_factor"] * v_class if speed_limit is None else speed_limit
+    checked = _speeds(speed, "speed")
+    lo, hi = checked if isinstance(checked, tuple) else (checked, checked)
+    limit = SPEED_FACTOR * v_class if speed_limit is None else speed_limit
     if hi > limit:
         raise val.FieldError(
             "speed",
@@ -192,29 +131,95 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     return lo, hi
 
 
-def _batch(
-    n: int,
-    cfg: VehicleConfig,
-    veh: Any,
-    lpr: Any,
-    v_min: float,
-    backend: str,
-    fmu: Any,
-    fmu_map: Any,
-) -> VehicleBatch:
+@declared
+class VehicleParams(TrackEnvParams):
+    """The arguments of ``VerticalVehicle-v1`` (:class:`VerticalVehicleEnv`), declared once:
+    defaults, units, limits (docs/envs/vehicle_vertical.md, *Arguments*)."""
+
+    OBSERVATIONS = OBSERVATIONS
+
+    surrogate: Any = param(
+        None,
+        "",
+        "LPR element (static or memory form, the same at both bogies), JSON path, or `None` "
+        '(packaged memory element); backend `"surrogate"` only',
+        kind="object",
+    )
+    speed: Any = param(
+        None,
+        "m/s",
+        "a number, a range `(v_min, v_max)` drawn uniformly per episode, or `None` = the "
+        "class's maximum passenger speed (class 5: 144 km/h); at least 1 m/s, at most "
+        "`speed_limit`",
+        kind="object",
+        optional=True,
+        check=_speeds,
+    )
+    control_dt: float = param(
+        0.01,
+        "s",
+        "agent step, a whole multiple of `dt`, below 1/60 s (the Sperling index needs a "
+        "sample rate above 60 Hz)",
+        lo=0.0,
+        lo_open=True,
+        hi=1.0 / 60.0,
+        hi_open=True,
+    )
+    f_max: float = param(
+        8000.0, "N", "force of each actuator at action ±1", lo=0.0, lo_open=True, hi=1e9
+    )
+    vehicle: Any = param(
+        "manchester_whole",
+        "",
+        "whole-vehicle YAML: name in `configs/vehicles/` or path",
+        kind="object",
+    )
+    n_actuators: int = param(
+        2,
+        "",
+        "actuators: one per bogie (per-side ones need the roll plane)",
+        kind="int",
+        lo=2,
+        hi=2,
+    )
+    acc_weighting: str = param(
+        "none",
+        "",
+        '`"Wk"`: ISO 2631-1 weighted floor accelerations in the reward',
+        kind="choice",
+        values=ACC_WEIGHTINGS,
+    )
+    flexible: bool = param(True, "", "False freezes the carbody's first bending mode", kind="bool")
+
+    def _default_dt(self) -> float:
+        return DEFAULT_DT
+
+    def _load_vehicle(self) -> tuple[Any, float]:
+        veh = load_whole_vehicle(self.vehicle)
+        return veh, veh.suspension.bump_stop.free_travel_compression
+
+    def _derive(self) -> None:
+        super()._derive()
+        speeds = _speed_range(self.track_class, self.speed, self.speed_limit)
+        if self.profile is None:
+            check_band_speed(self.band, speeds[1], self.dt)
+
+
+#: documented argument limits (docs/envs/vehicle_vertical.md): the declared bounds of
+#: :class:`VehicleParams` and the others of ``VerticalSuspension-v1``
+LIMITS = {**_VERTICAL_LIMITS, **limits(VehicleParams)}
+
+
+def _batch(n: int, cfg: VehicleParams, lpr: Any, v_min: float) -> VehicleBatch:
     """The batch of ``n`` vehicles: the compiled kernel, or FMU instances for
-    ``backend="fmu"`` (``fmu``, ``fmu_map``: :mod:`railgym.fmu.mapping`)."""
-    if backend != "fmu":
-        for name, value in (("fmu", fmu), ("fmu_map", fmu_map)):
-            if value is not None:
-                raise val.FieldError(name, f"is only used with backend='fmu', not {backend!r}")
-        return VehicleBatch(n, cfg, veh, lpr, v_min)
-    if fmu_map is None:
-        raise val.FieldError("fmu_map", "is required with backend='fmu' (docs/fmi.md)")
+    ``backend="fmu"`` (``cfg.fmu``, ``cfg.fmu_map``: :mod:`railgym.fmu.mapping`)."""
+    if cfg.backend != "fmu":
+        return VehicleBatch(n, cfg, cfg.model, lpr, v_min)
     from railgym.fmu.mapping import load_mapping
     from railgym.fmu.vehicle_batch import FMUVehicleBatch
 
-    return FMUVehicleBatch(n, cfg, veh, lpr, v_min, load_mapping(fmu_map, fmu, "vehicle"))
+    mapping = load_mapping(cfg.fmu_map, cfg.fmu, "vehicle")
+    return FMUVehicleBatch(n, cfg, cfg.model, lpr, v_min, mapping)
 
 
 def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
@@ -225,31 +230,34 @@ def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
 
 
 class _VehicleAccessors:
-    """Public read-only accessors of the simulated vehicles (arrays over the sub-envs)."""
+    """Public read-only accessors of the simulated vehicles: arrays over the sub-envs of the
+    vector env (leading axis n), sub-env 0's entry (a copy, or a Python number) for the single
+    env."""
 
     sim: VehicleBatch
+    _rows: Any
 
     @property
     def state(self) -> np.ndarray:
-        """Copy of the states (n, s): ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]`` (m, rad, m),
+        """Copy of the state (s,): ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]`` (m, rad, m),
         their rates, and for the reference backend the air-spring and damper states, for a
         memory surrogate element its Maxwell states ``[s_0, s_1]`` (m)."""
-        return self.sim.bt.state.copy()
+        return self._rows(self.sim.bt.state)
 
     @property
     def carbody_acceleration(self) -> np.ndarray:
-        """Floor accelerations front, centre, rear at the end of the last step, m/s² (n, 3)."""
-        return self.sim.out.acc[:, :3].copy()
+        """Floor accelerations front, centre, rear at the end of the last step, m/s² (3,)."""
+        return self._rows(self.sim.out.acc[:, :3])
 
     @property
     def actuator_force(self) -> np.ndarray:
-        """Actuator forces front, rear applied over the last step, N (n, 2)."""
-        return self.sim.bt.force.copy()
+        """Actuator forces front, rear applied over the last step, N (2,)."""
+        return self._rows(self.sim.bt.force)
 
     @property
-    def out_of_domain(self) -> np.ndarray:
-        """Out-of-domain surrogate evaluations this episode (n,)."""
-        return self.sim.bk.ood.copy()
+    def out_of_domain(self) -> Any:
+        """Out-of-domain surrogate evaluations this episode (int; vector: (n,))."""
+        return self._rows(self.sim.bk.ood)
 
     @property
     def vehicle_params(self) -> Params:
@@ -257,114 +265,37 @@ class _VehicleAccessors:
         return self.sim.params
 
 
-class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
+class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
     """Active secondary suspension of a whole railway vehicle (vertical plane).
 
-    Parameters
-    ----------
-    backend : ``"surrogate"`` (default), ``"reference"`` or ``"linear"`` secondary elements.
-    surrogate : LPR element (static or memory form, the same at both bogies), path of a
-        model JSON, or ``None`` for the packaged memory element.
-    track_class : FRA class 1–6 (default 5).
-    speed : m/s: a number, a range ``(v_min, v_max)`` drawn uniformly per episode, or
-        ``None`` = the class's maximum passenger speed (class 5: 144 km/h); at most
-        ``speed_limit``.
-    speed_limit : m/s; ``None`` = 2 × the class's maximum speed.
-    profile : ``None`` (seeded FRA track), a CSV path (columns x, z in m) or ``(x, z)``.
-    duration : episode length, s (truncation; at most 600 s). control_dt : agent step, s
-        (< 1/60). dt : RK4 step, s (default ``DEFAULT_DT``, 2 ms). f_max : force of each
-        actuator at action ±1, N (at most 1 GN). n_actuators : 2 (front and rear secondary
-        suspension).
-    observation : ``"sensors"`` or ``"full"``; sensor_noise : std of the additive noise on
-        the normalised observation (at most 10). reward_weights : ``acceleration``,
-        ``deflection``, ``force`` (each in [0, 1e6]). acc_weighting : ``"none"`` or ``"Wk"``
-        (ISO 2631-1 weighted floor accelerations in the reward). band : irregularity
-        wavelength band, m.
-    vehicle : whole-vehicle YAML name/path. flexible : False freezes the bending mode.
+    The keyword arguments are the fields of :class:`VehicleParams` (default, unit, limits and
+    meaning of each: docs/envs/vehicle_vertical.md, *Arguments*) and ``render_mode``; the
+    checked arguments are :attr:`cfg`. :attr:`default_element` is ``("static", "")`` for
+    ``VerticalVehicle-v0``.
 
     Single-env accessors (the vector env's, of sub-env 0): :attr:`state` (s,),
     :attr:`carbody_acceleration` (3,), :attr:`actuator_force` (2,), :attr:`out_of_domain`,
     :attr:`vehicle_params`.
     """
 
-    #: packaged element used without ``surrogate=``, ``(form, release)`` of
-    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
-    #: element; ``("static", "")`` for ``VerticalVehicle-v1`` (docs: *Version history*)
-    default_element: tuple[str, str] | None = None
+    params_class = VehicleParams
+    n_actuators = 2
+    cfg: VehicleParams
 
-    def __init__(
-        self,
-        backend: str = "surrogate",
-        surrogate: Any = None,
-        track_class: int = 5,
-        speed: float | tuple[float, float] | None = None,
-        profile: Any = None,
-        duration: float = 20.0,
-        control_dt: float = 0.01,
-        dt: float | None = None,
-        f_max: float = 8000.0,
-        n_actuators: int = 2,
-        observation: str = "sensors",
-        sensor_noise: float = 0.0,
-        reward_weights: dict[str, float] | None = None,
-        acc_weighting: str = "none",
-        band: tuple[float, float] = (1.0, 100.0),
-        vehicle: str = "manchester_whole",
-        flexible: bool = True,
-        render_mode: str | None = None,
-        speed_limit: float | None = None,
-        fmu: Any = None,
-        fmu_map: Any = None,
-    ) -> None:
-        veh = load_whole_vehicle(vehicle)
-        free = veh.suspension.bump_stop.free_travel_compression
-        self.cfg = make_config(
-            backend,
-            duration,
-            control_dt,
-            dt,
-            f_max,
-            n_actuators,
-            observation,
-            sensor_noise,
-            reward_weights,
-            acc_weighting,
-            band,
-            free,
-            flexible,
-        )
-        self.backend = backend
-        self.speed_limit = None if speed_limit is None else val.positive(speed_limit, "speed_limit")
-        self.speeds = _speed_range(track_class, speed, self.speed_limit)
-        self.track_class = int(track_class)
-        self._speed_arg = speed
-        self.profile = load_profile(profile)
-        if self.profile is None:
-            check_band_speed(self.cfg.band, self.speeds[1], self.cfg.dt)
-        if surrogate is None and backend == "surrogate" and self.default_element is not None:
-            surrogate = default_vertical_surrogate(*self.default_element)
-        lpr = _vehicle_surrogate(backend, surrogate, self.cfg.dt)
-        self._fmu_args = (backend, fmu, fmu_map)
-        sim = _batch(1, self.cfg, veh, lpr, min(self.speeds[0], SIZING_SPEED), *self._fmu_args)
-        self.vehicle = veh
-        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
-        self._init_shell(
-            sim,
-            render_mode,
-            spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32),
-            spaces.Box(-1.0, 1.0, (2,), np.float32),
-        )
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        surrogate = self._declare(kwargs)
+        cfg = self.cfg
+        self.speeds = _speed_range(cfg.track_class, cfg.speed, cfg.speed_limit)
+        lpr = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt)
+        self.vehicle = cfg.model
+        self._start(_batch(1, cfg, lpr, min(self.speeds[0], SIZING_SPEED)), render_mode)
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
         without a speed uses that class's speed; ``profile=None`` returns to FRA track)."""
         if not options:
             return
-        unknown = set(options) - {"track_class", "speed", "profile"}
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}")
-        tc = options.get("track_class", self.track_class)
-        sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
+        tc, sp = self._track_options(options)
         speeds = _speed_range(tc, sp, self.speed_limit)
         if speeds[0] < self.sim.v_min:
             raise val.FieldError(
@@ -392,28 +323,8 @@ class VerticalVehicleEnv(_VehicleAccessors, BatchEnv):
             info["comfort"] = self.sim.comfort(0)
         return obs, reward, terminated, truncated, info
 
-    @property
-    def state(self) -> np.ndarray:
-        """Copy of the state (s,) (see :class:`VerticalVehicleVectorEnv`)."""
-        return self.sim.bt.state[0].copy()
 
-    @property
-    def carbody_acceleration(self) -> np.ndarray:
-        """Floor accelerations front, centre, rear at the end of the last step, m/s² (3,)."""
-        return self.sim.out.acc[0, :3].copy()
-
-    @property
-    def actuator_force(self) -> np.ndarray:
-        """Actuator forces front, rear applied over the last step, N (2,)."""
-        return self.sim.bt.force[0].copy()
-
-    @property
-    def out_of_domain(self) -> int:
-        """Out-of-domain surrogate evaluations this episode."""
-        return int(self.sim.bk.ood[0])
-
-
-class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
+class VerticalVehicleVectorEnv(_VehicleAccessors, TrackVectorShell):
     """Native vector version: all sub-envs stepped in one compiled call.
 
     Sub-env ``i`` of ``reset(seed=s)`` reproduces ``VerticalVehicleEnv.reset(seed=s + i)``
@@ -422,18 +333,14 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, BatchVectorEnv):
     Accessors as the single env's, as arrays over the sub-envs.
     """
 
-    #: the single env whose configuration and element the sub-envs share
     single_class: type[VerticalVehicleEnv] = VerticalVehicleEnv
+    cfg: VehicleParams
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
-        num_envs = val.integer(num_envs, "num_envs", min=1, max=LIMITS["num_envs"])
-        single = self.single_class(render_mode=render_mode, **kwargs)
-        self.cfg = single.cfg
-        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
+        num_envs, single = self._single(num_envs, render_mode, kwargs)
         one = single.sim
         self.vehicle = one.vehicle
-        sim = _batch(num_envs, self.cfg, one.vehicle, one.lpr, one.v_min, *single._fmu_args)
-        self._init_vector(single, sim, num_envs)
+        self._init_vector(single, _batch(num_envs, self.cfg, one.lpr, one.v_min), num_envs)
 
     def step(
         self, actions: Any
@@ -462,3 +369,6 @@ class VerticalVehicleVectorEnvV0(VerticalVehicleVectorEnv):
     """Native vector version of :class:`VerticalVehicleEnvV0`."""
 
     single_class = VerticalVehicleEnvV0
+
+
+declare_signatures(VerticalVehicleEnv, VerticalVehicleVectorEnv, VehicleParams)

@@ -9,7 +9,6 @@ counters behind the ``info`` values, whose keys are declared once (:data:`INFO_K
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -18,8 +17,9 @@ from scipy import signal
 
 from railgym import _validation as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
-from railgym.envs.compiled import compiled_entry
-from railgym.envs.vertical_batch import LIMITS, OBS_LIMIT
+from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward
+from railgym.envs.params import TrackEnvParams, consts
+from railgym.envs.vertical_batch import TRACK_BYTES
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_with_slope
 from railgym.vehicles.vehicle import (
@@ -38,11 +38,12 @@ from railgym.vehicles.vertical import RAISE_MODE, deflection_envelope, outside_e
 __all__ = [
     "ACC_REF",
     "DIVERGENCE_PENALTY",
+    "INFO_COLUMNS",
     "INFO_KEYS",
+    "INFO_LAYOUT",
     "MIN_COMFORT_SAMPLES",
     "REWARD_TERMS",
     "VehicleBatch",
-    "VehicleConfig",
     "book_step",
     "control_step",
     "episode_comfort",
@@ -51,26 +52,36 @@ __all__ = [
 #: reference floor acceleration of the reward, m/s²: passive mean-square over the three
 #: floor points on the training case (class 5, 144 km/h, reference backend) is ≈ ACC_REF²
 ACC_REF = 0.6
-DIVERGENCE_PENALTY = 100.0
 #: fewest recorded control steps for which the end-of-episode comfort figures are computed
 MIN_COMFORT_SAMPLES = 8
-#: the ``info`` keys of the single and the vector env (values in :meth:`VehicleBatch.info`)
-INFO_KEYS = (
-    "time",  # s
-    "speed",  # m/s
-    "carbody_acc",  # (3,) floor points front, centre, rear, m/s²
-    "bogie_acc",  # (2,) front, rear bogie, m/s²
-    "rms_carbody_acc",  # (3,) running r.m.s. of carbody_acc, m/s²
-    "bump_stop_contacts",  # substeps in bump-stop contact, both bogies
-    "out_of_domain",  # out-of-domain surrogate evaluations
-    "outside_element",  # a secondary deflection left the element's training range this episode
-    "actuator_force",  # (2,) N
+#: the ``info`` layout of the single and the vector env, declared once: key, shape per
+#: vehicle (array-valued keys: columns of ``Book.info``, written by :func:`book_step`) and the
+#: type of the single env's scalar (:meth:`VehicleBatch.info`)
+INFO_LAYOUT = (
+    ("time", (), float),  # s
+    ("speed", (), float),  # m/s
+    ("carbody_acc", (3,), float),  # floor points front, centre, rear, m/s²
+    ("bogie_acc", (2,), float),  # front, rear bogie, m/s²
+    ("rms_carbody_acc", (3,), float),  # running r.m.s. of carbody_acc, m/s²
+    ("bump_stop_contacts", (), int),  # substeps in bump-stop contact, both bogies
+    ("out_of_domain", (), int),  # out-of-domain surrogate evaluations
+    ("outside_element", (), bool),  # a secondary deflection left the element's training range
+    ("actuator_force", (2,), float),  # N
+)
+INFO_KEYS = tuple(key for key, _, _ in INFO_LAYOUT)
+#: columns of each array-valued info key in ``Book.info`` (one row is copied per single-env
+#: step), in declared order
+INFO_COLUMNS: dict[str, slice] = {}
+for _key, _shape, _ in INFO_LAYOUT:
+    if _shape:
+        _start = sum(c.stop - c.start for c in INFO_COLUMNS.values())
+        INFO_COLUMNS[_key] = slice(_start, _start + _shape[0])
+INFO_ROW = sum(c.stop - c.start for c in INFO_COLUMNS.values())
+_C_ACC, _C_BOGIE, _C_RMS, _C_FORCE = (
+    INFO_COLUMNS[k].start for k in ("carbody_acc", "bogie_acc", "rms_carbody_acc", "actuator_force")
 )
 #: columns of ``Book.terms``, the keys of ``info["reward_terms"]``
 REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
-#: first columns of ``Book.info``, the array-valued info entries of a step (one row is copied
-#: per single-env step): ``out.acc`` (floor points, then bogies), ``Book.rms``, actuator forces
-_C_ACC, _C_RMS, _C_FORCE, INFO_ROW = 0, 5, 8, 10
 
 
 def check_band_speed(band: tuple[float, float], speed: float, dt: float) -> None:
@@ -84,27 +95,6 @@ def check_band_speed(band: tuple[float, float], speed: float, dt: float) -> None
             f"speed {speed:.4g} m/s (dt = {dt:g} s): the track cannot be sampled; raise "
             f"band[0] above {2 * dx:.4g} m, lower the speed or dt",
         )
-
-
-@dataclass(frozen=True)
-class VehicleConfig:
-    """Validated settings shared by the single and the vector env (SI units)."""
-
-    variant: str
-    dt: float
-    n_sub: int
-    n_steps: int
-    control_dt: float
-    duration: float
-    f_max: float
-    free_travel: float
-    obs_names: tuple[str, ...]
-    obs_scale: np.ndarray
-    weights: tuple[float, float, float]
-    acc_weighting: str
-    sensor_noise: float
-    band: tuple[float, float]
-    flexible: bool
 
 
 class Book(NamedTuple):
@@ -121,7 +111,7 @@ class Book(NamedTuple):
     terms: np.ndarray  # (n, len(REWARD_TERMS)) weighted reward terms, summing to rew
     zi: np.ndarray  # (n, 3, n_sec, 2) Wk filter state of the reward
     action: np.ndarray  # (n, 2) clipped actions of the step
-    info: np.ndarray  # (n, INFO_ROW) the array-valued info entries of the step (_C_ACC…)
+    info: np.ndarray  # (n, INFO_ROW) the array-valued info entries of the step (INFO_COLUMNS)
     truncated: np.ndarray  # (n,) bool episode reached duration
     extrapolated: np.ndarray  # (n,) bool out-of-domain evaluations under the "raise" policy
 
@@ -143,28 +133,30 @@ class StepCfg(NamedTuple):
 
 
 @njit(cache=True, error_model="numpy")
-def _observe(bt, out, p, sc, bk, i):
-    """Normalised observation of vehicle ``i`` into ``bk.obs[i]``."""
-    x = bt.state[i]
-    o = bk.obs[i]
-    inv = sc.inv_scale
-    if sc.full:
+def _observe(vehicles, out, params, consts, book, i):
+    """Normalised observation of vehicle ``i`` into ``book.obs[i]`` (``vehicles``: the
+    kernel's :class:`~railgym.vehicles.vehicle.Batch`, ``params`` its
+    :class:`~railgym.vehicles.vehicle.Params`)."""
+    x = vehicles.state[i]
+    o = book.obs[i]
+    inv = consts.inv_scale
+    if consts.full:
         for j in range(14):
             o[j] = x[j] * inv[j]
         for j in range(5):
             o[14 + j] = out.acc[i, j] * inv[14 + j]
-        kk = min(float(bt.k[i]), bt.z.shape[1] - 1 - bt.off[i, 0])
+        kk = min(float(vehicles.k[i]), vehicles.z.shape[1] - 1 - vehicles.off[i, 0])
         for j in range(4):
-            zw, zdw = hermite(bt.z[i], bt.zdot[i], kk + bt.off[i, j], sc.dt)
+            zw, zdw = hermite(vehicles.z[i], vehicles.zdot[i], kk + vehicles.off[i, j], consts.dt)
             o[19 + j] = zw * inv[19 + j]
             o[23 + j] = zdw * inv[23 + j]
         return
     for j in range(5):
         o[j] = out.acc[i, j] * inv[j]
     for b in range(2):
-        xb = p.a if b == 0 else -p.a
-        o[5 + b] = (x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]) * inv[5 + b]
-        vel = x[7] + xb * x[8] + p.phi_a * x[9]
+        xb = params.a if b == 0 else -params.a
+        o[5 + b] = (x[3 + 2 * b] - x[0] - xb * x[1] - params.phi_a * x[2]) * inv[5 + b]
+        vel = x[7] + xb * x[8] + params.phi_a * x[9]
         o[7 + b] = (x[10 + 2 * b] - vel) * inv[7 + b]
         o[9 + b] = vel * inv[9 + b]
 
@@ -200,79 +192,66 @@ def _weigh(sos, zi, v):
 # arrays are still allocated and freed by the runtime (tests/envs/test_vehicle_shell.py checks the
 # balance).
 @njit(cache=True, error_model="numpy", _nrt=False)
-def control_step(kind, bt, p, e, lpr, out, bk, sc):
-    """One control step of every vehicle: actuator forces ``bk.action · f_max`` (N), kernel,
-    counters, observation, reward and terms, info row and the truncated and extrapolated flags.
-
-    A step whose reward is not finite or whose observation exceeds ``OBS_LIMIT`` counts as
-    diverged (``out.div``), like a non-finite state in the kernel.
-    """
-    for i in range(bt.state.shape[0]):
+def control_step(kind, vehicles, params, element, lpr, out, book, consts):
+    """One control step of every vehicle: actuator forces ``book.action · f_max`` (N), the
+    kernel (:func:`~railgym.vehicles.vehicle.advance` of ``kind`` on ``vehicles``, with the
+    vehicle's ``params``, the suspension ``element`` record and the surrogate ``lpr``), then
+    :func:`book_step`."""
+    for i in range(vehicles.state.shape[0]):
         for b in range(2):
-            bt.force[i, b] = bk.action[i, b] * sc.f_max
-    advance(kind, bt, sc.n_sub, sc.dt, p, e, lpr, out)
-    book_step(bt, p, out, bk, sc)
+            vehicles.force[i, b] = book.action[i, b] * consts.f_max
+    advance(kind, vehicles, consts.n_sub, consts.dt, params, element, lpr, out)
+    book_step(vehicles, params, out, book, consts)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def book_step(bt, p, out, bk, sc):
+def book_step(vehicles, params, out, book, consts):
     """The bookkeeping of :func:`control_step` after the kernel call (also run after an
-    FMU's step, :mod:`railgym.fmu.vehicle_batch`)."""
-    w_a, w_d, w_f = sc.weights[0], sc.weights[1], sc.weights[2]
-    for i in range(bt.state.shape[0]):
-        bt.k[i] += sc.n_sub
-        m = bk.steps[i]
-        bk.steps[i] += 1
-        bk.contacts[i] += out.count[i, 0]
-        bk.ood[i] += out.count[i, 1]
+    FMU's step, :mod:`railgym.fmu.vehicle_batch`): counters, floor-acceleration record,
+    observation, reward and its terms (:func:`~railgym.envs.compiled.settle_reward`: a
+    divergence also when the reward is not finite or the observation too large), info row and
+    the truncated and extrapolated flags."""
+    w_a, w_d, w_f = consts.weights[0], consts.weights[1], consts.weights[2]
+    for i in range(vehicles.state.shape[0]):
+        vehicles.k[i] += consts.n_sub
+        m = book.steps[i]
+        book.steps[i] += 1
+        book.contacts[i] += out.count[i, 0]
+        book.ood[i] += out.count[i, 1]
         r_acc = 0.0
         for j in range(3):
             a = out.acc[i, j]
-            bk.acc_sq[i, j] += a * a
-            bk.rms[i, j] = math.sqrt(bk.acc_sq[i, j] / bk.steps[i])
-            if m < bk.rec.shape[1]:
-                bk.rec[i, m, j] = a
-            if sc.weighted:
-                a = _weigh(sc.sos, bk.zi[i, j], a)
+            book.acc_sq[i, j] += a * a
+            book.rms[i, j] = math.sqrt(book.acc_sq[i, j] / book.steps[i])
+            if m < book.rec.shape[1]:
+                book.rec[i, m, j] = a
+            if consts.weighted:
+                a = _weigh(consts.sos, book.zi[i, j], a)
             r_acc += (a / ACC_REF) ** 2
-        _observe(bt, out, p, sc, bk, i)
+        _observe(vehicles, out, params, consts, book, i)
         r_defl = 0.0
         r_force = 0.0
-        x = bt.state[i]
+        x = vehicles.state[i]
         for b in range(2):
-            xb = p.a if b == 0 else -p.a
-            d = (x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]) / sc.free_travel
-            f = bt.force[i, b] / sc.f_max
+            xb = params.a if b == 0 else -params.a
+            d = (x[3 + 2 * b] - x[0] - xb * x[1] - params.phi_a * x[2]) / consts.free_travel
+            f = vehicles.force[i, b] / consts.f_max
             r_defl += d * d
             r_force += f * f
         t_a = -(w_a * r_acc / 3.0)
         t_d = -(0.5 * w_d * r_defl)
         t_f = -(0.5 * w_f * r_force)
-        r = t_a + t_d + t_f
-        big = False
-        for j in range(bk.obs.shape[1]):
-            if not abs(bk.obs[i, j]) <= OBS_LIMIT:
-                big = True
-        if out.div[i] or big or not math.isfinite(r):
-            out.div[i] = True
-            for j in range(bk.obs.shape[1]):
-                bk.obs[i, j] = min(max(bk.obs[i, j], -OBS_LIMIT), OBS_LIMIT)
-            t_a = t_d = t_f = 0.0
-            r = -DIVERGENCE_PENALTY
-        bk.terms[i, 0] = t_a
-        bk.terms[i, 1] = t_d
-        bk.terms[i, 2] = t_f
-        bk.terms[i, 3] = -DIVERGENCE_PENALTY if out.div[i] else 0.0
-        bk.rew[i] = r
-        for j in range(5):
-            bk.info[i, _C_ACC + j] = out.acc[i, j]
+        settle_reward(book.obs, book.terms, book.rew, out.div, i, t_a, t_d, t_f)
         for j in range(3):
-            bk.info[i, _C_RMS + j] = bk.rms[i, j]
+            book.info[i, _C_ACC + j] = out.acc[i, j]
+            book.info[i, _C_RMS + j] = book.rms[i, j]
         for b in range(2):
-            bk.info[i, _C_FORCE + b] = bt.force[i, b]
-        bk.truncated[i] = bk.steps[i] >= sc.n_steps
-        if sc.flag_ood:
-            bk.extrapolated[i] = out.count[i, 1] > 0
+            book.info[i, _C_BOGIE + b] = out.acc[i, 3 + b]
+        for b in range(2):
+            book.info[i, _C_FORCE + b] = vehicles.force[i, b]
+        book.truncated[i] = book.steps[i] >= consts.n_steps
+        if consts.flag_ood:
+            book.extrapolated[i] = out.count[i, 1] > 0
 
 
 def episode_comfort(
@@ -307,7 +286,7 @@ class VehicleBatch:
     """
 
     def __init__(
-        self, n: int, cfg: VehicleConfig, vehicle: WholeVehicle, lpr: Lpr, v_min: float
+        self, n: int, cfg: TrackEnvParams, vehicle: WholeVehicle, lpr: Lpr, v_min: float
     ) -> None:
         self.n, self.cfg, self.vehicle = n, cfg, vehicle
         self.kind = check_variant(cfg.variant)
@@ -318,12 +297,12 @@ class VehicleBatch:
         self.v_min = v_min
         self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(self.span / (v_min * cfg.dt)) + 2
         size = n * (16 * self.n_samples + 24 * cfg.n_steps)
-        if size > LIMITS["track_bytes"]:
+        if size > TRACK_BYTES:
             raise val.FieldError(
                 "num_envs",
                 f"× duration/dt needs {size / 2**30:.1f} GiB of track and record arrays "
                 f"(num_envs={n}, {self.n_samples} samples each); the limit is "
-                f"{LIMITS['track_bytes'] / 2**30:g} GiB",
+                f"{TRACK_BYTES / 2**30:g} GiB",
             )
         self.bt, self.out = make_batch(n, cfg.variant, self.n_samples, self.lpr)
         fs = 1.0 / cfg.control_dt
@@ -346,17 +325,14 @@ class VehicleBatch:
             truncated=np.zeros(n, np.bool_),
             extrapolated=np.zeros(n, np.bool_),
         )
-        self.sc = StepCfg(
-            n_sub=cfg.n_sub,
-            dt=cfg.dt,
-            full=cfg.obs_names[0] == "z_c",
+        self.sc = consts(
+            StepCfg,
+            cfg,
+            full=cfg.observation == "full",
             inv_scale=1.0 / cfg.obs_scale,
             weights=np.array(cfg.weights),
-            free_travel=cfg.free_travel,
-            f_max=cfg.f_max,
             sos=sos,
             weighted=cfg.acc_weighting == "Wk",
-            n_steps=cfg.n_steps,
             flag_ood=self.lpr.mode == RAISE_MODE,
         )
         self.speed = np.zeros(n)
@@ -369,6 +345,13 @@ class VehicleBatch:
         """Views and the compiled entry point (re-made after a copy: not picklable)."""
         self.reward = self.bk.rew
         self.extrapolated = self.bk.extrapolated
+        #: the per-vehicle arrays of the scalar info keys (``time`` is computed)
+        self._info_scalars = {
+            "speed": self.speed,
+            "bump_stop_contacts": self.bk.contacts,
+            "out_of_domain": self.bk.ood,
+            "outside_element": self.outside,
+        }
         self._flags = {"diverged": self.out.div, "extrapolated": self.extrapolated}
         self._args = (
             self.kind,
@@ -384,7 +367,7 @@ class VehicleBatch:
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("reward", "extrapolated", "_flags", "_args", "_step"):
+        for key in ("reward", "extrapolated", "_flags", "_info_scalars", "_args", "_step"):
             del state[key]
         return state
 
@@ -450,35 +433,22 @@ class VehicleBatch:
         return self.bk.truncated
 
     def info(self, i: int | None = None) -> dict[str, Any]:
-        """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers and (k,) arrays) or of all
-        (arrays with a leading axis n); copies."""
-        bk = self.bk
+        """The :data:`INFO_LAYOUT` of vehicle ``i`` (Python numbers and views of one fresh copy
+        of its info row) or of all (arrays with a leading axis n); copies."""
+        bk, scalars, dt = self.bk, self._info_scalars, self.cfg.control_dt
         if i is None:
-            acc, force = self.out.acc, self.bt.force
-            values = (
-                bk.steps * self.cfg.control_dt,
-                self.speed.copy(),
-                acc[:, :3].copy(),
-                acc[:, 3:].copy(),
-                bk.rms.copy(),
-                bk.contacts.copy(),
-                bk.ood.copy(),
-                self.outside.copy(),
-                force.copy(),
-            )
-            return dict(zip(INFO_KEYS, values, strict=True))
-        # the single env's step: Python scalars, and views of one fresh copy of the info row
+            return {
+                key: bk.steps * dt
+                if key == "time"
+                else (bk.info[:, INFO_COLUMNS[key]] if shape else scalars[key]).copy()
+                for key, shape, _ in INFO_LAYOUT
+            }
         row = bk.info[i].copy()
         return {
-            "time": int(bk.steps[i]) * self.cfg.control_dt,
-            "speed": float(self.speed[i]),
-            "carbody_acc": row[_C_ACC : _C_ACC + 3],
-            "bogie_acc": row[_C_ACC + 3 : _C_RMS],
-            "rms_carbody_acc": row[_C_RMS:_C_FORCE],
-            "bump_stop_contacts": int(bk.contacts[i]),
-            "out_of_domain": int(bk.ood[i]),
-            "outside_element": bool(self.outside[i]),
-            "actuator_force": row[_C_FORCE:],
+            key: int(bk.steps[i]) * dt
+            if key == "time"
+            else (row[INFO_COLUMNS[key]] if shape else kind(scalars[key][i]))
+            for key, shape, kind in INFO_LAYOUT
         }
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:

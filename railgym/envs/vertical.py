@@ -238,6 +238,80 @@ def _batch(n: int, cfg: VerticalParams, lpr: LprArrays) -> VerticalBatch:
     return FMUBatch(n, cfg, cfg.model, lpr, load_mapping(cfg.fmu_map, cfg.fmu, "vertical"))
 
 
+class TrackEnvShell(BatchEnv):
+    """What the single envs of a vehicle on a track share (``VerticalSuspension``,
+    ``VerticalVehicle``): the declared arguments (:attr:`params_class`, checked into
+    :attr:`cfg`), the packaged element by default, the spaces, the track reset options."""
+
+    #: the declared arguments of the env
+    params_class: type[TrackEnvParams]
+    #: actuators, the length of the action
+    n_actuators: int
+    #: packaged element used without ``surrogate=``, ``(form, release)`` of
+    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`; ``None``: the current
+    #: memory element (the versions: docs, *Version history*)
+    default_element: tuple[str, str] | None = None
+    cfg: TrackEnvParams
+
+    def _declare(self, kwargs: dict[str, Any]) -> Any:
+        """Check ``kwargs`` into :attr:`cfg`; the element the env uses (``None``: the
+        packaged one of the kernel)."""
+        cfg = self.cfg = self.params_class.from_kwargs(kwargs)
+        self.backend, self.speed_limit = cfg.backend, cfg.speed_limit
+        self.track_class, self._speed_arg, self.profile = cfg.track_class, cfg.speed, cfg.profile
+        self.obs_names, self.obs_scale = cfg.obs_names, cfg.obs_scale
+        if cfg.surrogate is None and cfg.backend == "surrogate" and self.default_element:
+            return default_vertical_surrogate(*self.default_element)
+        return cfg.surrogate
+
+    def _start(self, sim: Any, render_mode: str | None) -> None:
+        """The shell around ``sim``: observation (n_obs,) and action (n_actuators,) boxes."""
+        self._init_shell(
+            sim,
+            render_mode,
+            spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32),
+            spaces.Box(-1.0, 1.0, (self.n_actuators,), np.float32),
+        )
+
+    def _track_options(self, options: dict[str, Any]) -> tuple[Any, Any]:
+        """The ``(track_class, speed)`` of reset ``options`` (unchecked): a new class without
+        a speed means that class's speed; other options than ``track_class``, ``speed``,
+        ``profile`` raise."""
+        unknown = set(options) - {"track_class", "speed", "profile"}
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {sorted(unknown)}")
+        tc = options.get("track_class", self.track_class)
+        sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
+        return tc, sp
+
+
+class TrackVectorShell(BatchVectorEnv):
+    """What the native vector envs of a vehicle on a track share: the single env whose
+    arguments and element the sub-envs share (:attr:`single_class`)."""
+
+    single_class: type[TrackEnvShell]
+
+    def _single(self, num_envs: Any, render_mode: str | None, kwargs: dict[str, Any]) -> Any:
+        """``(num_envs, single env)`` checked and made; :attr:`cfg` is the single env's."""
+        num_envs = val.integer(num_envs, "num_envs", min=1, max=MAX_NUM_ENVS)
+        single = self.single_class(render_mode=render_mode, **kwargs)
+        self.cfg = single.cfg
+        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
+        return num_envs, single
+
+
+def declare_signatures(single: type, vector: type, params: type) -> None:
+    """The constructors' signatures (``inspect``, ``help``): ``render_mode`` (vector:
+    ``num_envs``, ``render_mode``), then the declared fields of ``params`` as keywords."""
+    pos = inspect.Parameter.POSITIONAL_OR_KEYWORD
+    num_envs = inspect.Parameter("num_envs", pos, default=1)
+    render_mode = inspect.Parameter("render_mode", pos, default=None)
+    single.__signature__ = keyword_signature(params, render_mode)  # type: ignore[attr-defined]
+    vector.__signature__ = keyword_signature(  # type: ignore[attr-defined]
+        params, num_envs, render_mode
+    )
+
+
 class _VerticalAccessors:
     """Public read-only accessors of the simulated vehicles: arrays over the sub-envs of the
     vector env, sub-env 0's entry (a copy, or a Python number) for the single env."""
@@ -272,51 +346,36 @@ class _VerticalAccessors:
         return self.sim.params
 
 
-class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
+class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
     """Active secondary suspension of a railway vehicle on random FRA track.
 
     The keyword arguments are the fields of :class:`VerticalParams` (default, unit, limits
     and meaning of each: docs/envs/vertical.md, *Arguments*) and ``render_mode``; the checked
-    arguments are :attr:`cfg`.
+    arguments are :attr:`cfg`. :attr:`default_element` is ``("maxwell", "v0")`` for
+    ``VerticalSuspension-v0``.
 
     Single-env accessors: :attr:`state` (s,), :attr:`carbody_acceleration`,
     :attr:`actuator_force` (floats), :attr:`out_of_domain`, :attr:`vehicle_params`, :meth:`track`,
     :meth:`reset_on_track`.
     """
 
-    #: packaged element used without ``surrogate=``, ``(form, release)`` of
-    #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`: ``None`` the current memory
-    #: element; ``("maxwell", "v0")`` for ``VerticalSuspension-v1`` (docs: *Version history*)
-    default_element: tuple[str, str] | None = None
+    params_class = VerticalParams
+    n_actuators = 1
+    cfg: VerticalParams
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        cfg = self.cfg = VerticalParams.from_kwargs(kwargs)
-        self.backend, self.speed_limit = cfg.backend, cfg.speed_limit
+        surrogate = self._declare(kwargs)
+        cfg = self.cfg
         self.track_class, self.speed = _check_track(cfg.track_class, cfg.speed, cfg.speed_limit)
-        self._speed_arg = cfg.speed
-        self.profile = cfg.profile
-        surrogate = cfg.surrogate
-        if surrogate is None and cfg.backend == "surrogate" and self.default_element is not None:
-            surrogate = default_vertical_surrogate(*self.default_element)
         sim = _batch(1, cfg, _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True))
-        self.obs_names, self.obs_scale = cfg.obs_names, cfg.obs_scale
-        self._init_shell(
-            sim,
-            render_mode,
-            spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32),
-            spaces.Box(-1.0, 1.0, (1,), np.float32),
-        )
+        self._start(sim, render_mode)
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
         without a speed uses that class's speed; ``profile=None`` returns to FRA track)."""
         if not options:
             return
-        unknown = set(options) - {"track_class", "speed", "profile"}
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}")
-        tc = options.get("track_class", self.track_class)
-        sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
+        tc, sp = self._track_options(options)
         track_class, speed = _check_track(tc, sp, self.speed_limit)
         if "profile" in options:
             self.profile = _check_profile(options["profile"], self.cfg.wheelbase)
@@ -351,7 +410,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, BatchEnv):
         self._started = True
 
 
-class VerticalSuspensionVectorEnv(_VerticalAccessors, BatchVectorEnv):
+class VerticalSuspensionVectorEnv(_VerticalAccessors, TrackVectorShell):
     """Native vector version: all sub-envs stepped in one compiled kernel call.
 
     Sub-env ``i`` of ``reset(seed=s)`` reproduces ``VerticalSuspensionEnv.reset(seed=s + i)``
@@ -359,27 +418,15 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, BatchVectorEnv):
     env's, as arrays over the sub-envs.
     """
 
-    #: the single env whose configuration and element the sub-envs share
     single_class: type[VerticalSuspensionEnv] = VerticalSuspensionEnv
+    cfg: VerticalParams
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
-        num_envs = val.integer(num_envs, "num_envs", min=1, max=MAX_NUM_ENVS)
-        single = self.single_class(render_mode=render_mode, **kwargs)
-        self.cfg = single.cfg
-        self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
+        num_envs, single = self._single(num_envs, render_mode, kwargs)
         self._init_vector(single, _batch(num_envs, self.cfg, single.sim.lpr), num_envs)
 
 
-_KW = inspect.Parameter.KEYWORD_ONLY
-_POS = inspect.Parameter.POSITIONAL_OR_KEYWORD
-VerticalSuspensionEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
-    VerticalParams, inspect.Parameter("render_mode", _POS, default=None)
-)
-VerticalSuspensionVectorEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
-    VerticalParams,
-    inspect.Parameter("num_envs", _POS, default=1),
-    inspect.Parameter("render_mode", _POS, default=None),
-)
+declare_signatures(VerticalSuspensionEnv, VerticalSuspensionVectorEnv, VerticalParams)
 
 
 class VerticalSuspensionEnvV0(VerticalSuspensionEnv):

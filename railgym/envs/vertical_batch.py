@@ -10,14 +10,14 @@ episode flags.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from railgym import _validation as val
 from railgym.envs.compiled import DIVERGENCE_PENALTY, OBS_LIMIT, compiled_entry, settle_reward
-from railgym.envs.params import consts
+from railgym.envs.params import TrackEnvParams, consts
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
 from railgym.vehicles.vertical import (
@@ -35,9 +35,6 @@ from railgym.vehicles.vertical import (
     step_outputs,
 )
 from railgym.vehicles.vertical.kernels import check_variant
-
-if TYPE_CHECKING:
-    from railgym.envs.vertical import VerticalParams
 
 __all__ = [
     "ACC_REF",
@@ -163,32 +160,31 @@ def _post_step(state, z, zdot, out, force, counters, result, consts):
     (:func:`~railgym.envs.compiled.settle_reward`: a divergence also when the reward is not
     finite or the observation too large), info values and the truncated and extrapolated
     flags."""
-    cnt, res, sc = counters, result, consts
     for i in range(state.shape[0]):
-        cnt.k[i] += sc.n_sub
-        cnt.steps[i] += 1
-        cnt.contacts[i] += out.count[i, 0]
-        cnt.ood[i] += out.count[i, 1]
-        cnt.acc_sq[i] += out.acc[i, 1] * out.acc[i, 1]
-        _observe(state, out.acc, z, zdot, cnt.k, sc.inv_scale, i, res.obs)
-        defl = (state[i, 0] - state[i, 2]) / sc.free_travel
-        fa = force[i] / sc.f_max
+        counters.k[i] += consts.n_sub
+        counters.steps[i] += 1
+        counters.contacts[i] += out.count[i, 0]
+        counters.ood[i] += out.count[i, 1]
+        counters.acc_sq[i] += out.acc[i, 1] * out.acc[i, 1]
+        _observe(state, out.acc, z, zdot, counters.k, consts.inv_scale, i, result.obs)
+        defl = (state[i, 0] - state[i, 2]) / consts.free_travel
+        fa = force[i] / consts.f_max
         a2 = out.acc[i, 1] / ACC_REF
-        t_a = -(sc.w_acc * a2 * a2)
-        t_d = -(sc.w_defl * defl * defl)
-        t_f = -(sc.w_force * fa * fa)
-        settle_reward(res.obs, res.terms, res.reward, out.div, i, t_a, t_d, t_f)
-        res.info[i, I_TIME] = cnt.steps[i] * sc.control_dt
-        res.info[i, I_ACC] = out.acc[i, 1]
-        res.info[i, I_OOD] = cnt.ood[i]
-        res.info[i, I_CONTACTS] = cnt.contacts[i]
-        res.info[i, I_RMS] = math.sqrt(cnt.acc_sq[i] / max(cnt.steps[i], 1))
-        res.info[i, I_FORCE] = force[i]
-        if outside_envelope(state[i, 0] - state[i, 2], sc.envelope):
-            res.info[i, I_OUTSIDE] = 1.0  # stays set until the reset of vehicle i
-        res.truncated[i] = cnt.steps[i] >= sc.n_steps
-        if sc.flag_ood:
-            res.extrapolated[i] = out.count[i, 1] > 0
+        t_a = -(consts.w_acc * a2 * a2)
+        t_d = -(consts.w_defl * defl * defl)
+        t_f = -(consts.w_force * fa * fa)
+        settle_reward(result.obs, result.terms, result.reward, out.div, i, t_a, t_d, t_f)
+        result.info[i, I_TIME] = counters.steps[i] * consts.control_dt
+        result.info[i, I_ACC] = out.acc[i, 1]
+        result.info[i, I_OOD] = counters.ood[i]
+        result.info[i, I_CONTACTS] = counters.contacts[i]
+        result.info[i, I_RMS] = math.sqrt(counters.acc_sq[i] / max(counters.steps[i], 1))
+        result.info[i, I_FORCE] = force[i]
+        if outside_envelope(state[i, 0] - state[i, 2], consts.envelope):
+            result.info[i, I_OUTSIDE] = 1.0  # stays set until the reset of vehicle i
+        result.truncated[i] = counters.steps[i] >= consts.n_steps
+        if consts.flag_ood:
+            result.extrapolated[i] = out.count[i, 1] > 0
 
 
 # Without the runtime's reference counting: the arrays come from the batch, which owns them
@@ -225,7 +221,7 @@ class VerticalBatch:
     """
 
     def __init__(
-        self, n: int, cfg: VerticalParams, vehicle: VerticalVehicle, lpr: LprArrays
+        self, n: int, cfg: TrackEnvParams, vehicle: VerticalVehicle, lpr: LprArrays
     ) -> None:
         self.n, self.cfg = n, cfg
         self.vehicle = vehicle
@@ -246,9 +242,8 @@ class VerticalBatch:
         self.action = np.zeros((n, 1))
         self.force = np.zeros(n)
         self.out = step_outputs(n)
-        self.cnt = Counters(
-            **{k: np.zeros(n, np.int64) for k in Counters._fields[:-1]}, acc_sq=np.zeros(n)
-        )
+        ints = {k: np.zeros(n, np.int64) for k in ("k", "steps", "contacts", "ood")}
+        self.cnt = Counters(**ints, acc_sq=np.zeros(n))
         self.track_class = np.zeros(n, np.int64)
         self.speed = np.zeros(n)
         self.inv_scale = 1.0 / cfg.obs_scale

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from railgym.envs.params import TrackEnvParams
 from railgym.envs.vertical_batch import VerticalBatch, _post_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMURunner
@@ -30,7 +31,7 @@ class FMUBatch(VerticalBatch):
     def __init__(
         self,
         n: int,
-        cfg: Any,
+        cfg: TrackEnvParams,
         vehicle: VerticalVehicle,
         lpr: LprArrays,
         mapping: Mapping,

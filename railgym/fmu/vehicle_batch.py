@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 
 from railgym import _validation as val
-from railgym.envs.vehicle_batch import VehicleBatch, VehicleConfig, book_step
+from railgym.envs.params import TrackEnvParams
+from railgym.envs.vehicle_batch import VehicleBatch, book_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMURunner
 from railgym.vehicles.vehicle import Lpr, WholeVehicle, hermite
@@ -38,7 +39,7 @@ class FMUVehicleBatch(VehicleBatch):
     def __init__(
         self,
         n: int,
-        cfg: VehicleConfig,
+        cfg: TrackEnvParams,
         vehicle: WholeVehicle,
         lpr: Lpr,
         v_min: float,

@@ -18,12 +18,7 @@ import gymnasium as gym
 import numpy as np
 
 from railgym import _validation as val
-from railgym.envs.vertical import (
-    DEFAULT_WEIGHTS,
-    ENV_BACKENDS,
-    OBSERVATIONS,
-    VerticalSuspensionEnv,
-)
+from railgym.envs.vertical import ENV_BACKENDS, VerticalSuspensionEnv
 from surrogates.metrics import average_absolute_error, paper_error
 
 #: carbody channels compared: (info suffix, unit)
@@ -45,7 +40,6 @@ def _shadow_of(
         spec = base.spec
         vehicle = spec.kwargs.get("vehicle", "manchester") if spec is not None else "manchester"
     cfg = base.cfg
-    observation = next(k for k, (names, _) in OBSERVATIONS.items() if names == cfg.obs_names)
     shadow = VerticalSuspensionEnv(
         backend=backend,
         track_class=base.track_class,
@@ -54,9 +48,9 @@ def _shadow_of(
         control_dt=cfg.control_dt,
         dt=cfg.dt,
         f_max=cfg.f_max,
-        observation=observation,
+        observation=cfg.observation,
         sensor_noise=cfg.sensor_noise,
-        reward_weights=dict(zip(DEFAULT_WEIGHTS, cfg.weights, strict=True)),
+        reward_weights=cfg.reward_weights,
         wheelbase=cfg.wheelbase,
         band=cfg.band,
         vehicle=vehicle,

@@ -125,7 +125,7 @@ def test_raise_policy_terminates_with_a_flag_and_linear_does_not(box_lpr):
 
 
 def test_extreme_documented_settings_keep_step_finite(random_actions):
-    w = {k: LIMITS["reward_weight"] for k in ("acceleration", "deflection", "force")}
+    w = {k: LIMITS["reward_weights"] for k in ("acceleration", "deflection", "force")}
     env = VerticalSuspensionEnv(
         backend="linear",
         observation="full",
