@@ -7,7 +7,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.vertical import LIMITS
 
 __all__ = [

@@ -38,7 +38,7 @@ from agents._args import add_parallel_arguments, bounded_int, check_parallel
 from agents.policies import CRASH_ID, ENV_ID, VEHICLE_ID, evaluate_vehicle, load_policy
 from agents.sweeps import evaluate_sweep
 from agents.train_config import MAX_SEED, load_config
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.parallel import run_tasks
 from railgym.report.output import prepare_output_dir, write_text_atomic
 

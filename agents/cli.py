@@ -36,7 +36,7 @@ import numpy as np
 from agents._args import add_parallel_arguments, bounded_int, check_parallel
 from agents._extras import MissingExtraError, report_missing
 from agents.controllers import Passive, Skyhook
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.envs.vertical import VerticalSuspensionEnv
 from railgym.progress import quiet, stages

@@ -1,6 +1,6 @@
 """Shared parts of the classical controllers (:mod:`agents.controllers`, :mod:`agents.lqg`):
-the base classes that turn a demanded actuator force into the env's normalised action, the
-linear one-bogie model and the LQR gains of both vertical envs (SI units throughout)."""
+the base classes that turn a demanded actuator force into the env's normalised action and the
+LQR gains of both vertical envs (SI units throughout)."""
 
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ from agents.feedback import ObservationController
 from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical import ACC_REF
 from railgym.vehicles.vehicle import linear_state_space
-from railgym.vehicles.vertical import P_C1, P_C2, P_K1, P_K2, P_M1, P_M2
+from railgym.vehicles.vertical import SuspensionParams, linear_model
 
-__all__ = ["linear_model", "vehicle_lqr_gain", "vertical_lqr_gain"]
+__all__ = ["vehicle_lqr_gain", "vertical_lqr_gain"]
 
 
 class _Controller(ObservationController):
@@ -58,32 +58,6 @@ class _Controller(ObservationController):
         return (self.force(x) / self.f_max).reshape(x.shape[0], self.n_act)
 
 
-def linear_model(params: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """Linear vertical model ``ẋ = A·x + B·F_a + E·f`` and its carbody acceleration.
-
-    States ``x = [x1, v1, x2, v2]`` (m, m/s) from the static equilibrium, input ``F_a`` (N),
-    linear secondary suspension ``k2, c2``; the track force ``f = k1·z + c1·ż`` is the
-    disturbance (not returned). ``params`` is :meth:`VerticalVehicle.kernel_params`.
-
-    Returns
-    -------
-    A (4, 4), B (4, 1), C (4,), D
-        with ``ẍ2 = C·x + D·F_a`` (m/s²).
-    """
-    m1, m2, k1, c1 = params[P_M1], params[P_M2], params[P_K1], params[P_C1]
-    k2, c2 = params[P_K2], params[P_C2]
-    a = np.array(
-        [
-            [0.0, 1.0, 0.0, 0.0],
-            [-(k1 + k2) / m1, -(c1 + c2) / m1, k2 / m1, c2 / m1],
-            [0.0, 0.0, 0.0, 1.0],
-            [k2 / m2, c2 / m2, -k2 / m2, -c2 / m2],
-        ]
-    )
-    b = np.array([[0.0], [-1.0 / m1], [0.0], [1.0 / m2]])
-    return a, b, a[3].copy(), 1.0 / m2
-
-
 def _lqr_weights(
     cfg: Any, acc_ref: float, q_acc: float | None, q_defl: float | None, r_force: float | None
 ) -> tuple[float, float, float]:
@@ -103,7 +77,7 @@ def _lqr_weights(
 
 
 def vertical_lqr_gain(
-    params: np.ndarray,
+    params: SuspensionParams,
     cfg: Any,
     q_acc: float | None = None,
     q_defl: float | None = None,

@@ -27,13 +27,13 @@ from agents.control_base import (
     _Controller,
     _lqr_weights,
     _VehicleController,
-    linear_model,
     vehicle_lqr_gain,
     vertical_lqr_gain,
 )
 from agents.lqg import LQG, VehicleLQG
 from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical import ACC_REF
+from railgym.vehicles.vertical import linear_model
 
 __all__ = [
     "DEFAULT_C_GND",

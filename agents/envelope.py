@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv, VectorWrapper
 
 from agents._args import MAX_SPEED_KMH
-from railgym import _validation as val
+from railgym import _checks as val
 
 __all__ = ["ENVELOPE_ENVS", "Envelope", "EnvelopeVectorEnv", "check_envelope"]
 

@@ -63,7 +63,7 @@ from agents.policies import (
 )
 from agents.pretrained import PRETRAINED
 from agents.sweeps import evaluate_sweep
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.progress import bar
 
 __all__ = [

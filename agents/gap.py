@@ -34,7 +34,7 @@ from agents import crash_report
 from agents.crash_baselines import rollout
 from agents.policies import CRASH_ID, evaluate_vehicle, load_policy
 from agents.sweeps import evaluate_sweep
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.crash import TrainCrashVectorEnv
 
 __all__ = ["format_gap", "gap_crash", "gap_vehicle", "gap_vertical", "relative_gap", "run_gap"]

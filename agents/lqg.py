@@ -171,8 +171,8 @@ class LQG(_LQGMixin, _Controller):
     """LQG for ``railgym/VerticalSuspension-v1`` with the sensor observation (carbody and bogie
     accelerations, deflection and its rate, carbody velocity: ``observation="sensors"``).
 
-    Filter states ``[x1, v1, x2, v2, z, y]``: :func:`agents.controllers.linear_model` with the
-    track force ``k1·z + c1·ż`` and the class's shaping filter at the env's speed
+    Filter states ``[x1, v1, x2, v2, z, y]``: :func:`railgym.vehicles.vertical.linear_model`
+    with the track force ``k1·z + c1·ż`` and the class's shaping filter at the env's speed
     (:func:`fra_shaping`); gain: :class:`agents.controllers.LQR`'s ``K`` (the env's reward
     weights, or ``q_acc``, ``q_defl``, ``r_force``). The wheelbase filter of the env
     (``wheelbase=``) is not modelled.

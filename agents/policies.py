@@ -39,7 +39,7 @@ from agents.lqg import LQG, VehicleLQG
 from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, load_policy_weights
 from agents.policy_zip import find_source, zip_network
 from agents.pretrained import PRETRAINED, pretrained_zip
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
 from railgym.registration import env_family

@@ -28,6 +28,7 @@ from railgym.vehicles.collect import (
     save_vertical_surrogate,
 )
 from railgym.vehicles.refine_vehicle import RAW_VEHICLE_OBSERVATION, refine_vehicle
+from railgym.vehicles.refinement import RefineOptions
 from surrogates import io
 
 #: env observation channel → entry of the raw observation of ``refine``
@@ -145,19 +146,17 @@ def run(args: argparse.Namespace) -> int:
         extra = {"fmu_map": args.fmu_map, "fmu": args.fmu}
     where = "the whole vehicle" if vehicle else "one bogie"
     print(f"refining the element for policy {label} on FRA class {args.track_class} ({where})")
-    refined, _ = loop(
-        model,
-        factory(env),
-        rounds=args.rounds,
+    options = RefineOptions(
         track_class=args.track_class,
         duration=args.duration,
         n_tracks=args.tracks,
         n_add=args.add,
         control_dt=env.cfg.control_dt,
         f_max=env.cfg.f_max,
-        observe=observe,
         seed=args.seed,
-        **extra,
+    )
+    refined, _ = loop(
+        model, factory(env), rounds=args.rounds, options=options, observe=observe, **extra
     )
     if args.out is not None:
         source = f"railgym refine {args.policy}: {args.rounds} rounds on class {args.track_class}"

@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 from agents.policies import MAX_EPISODES, load_policy, run_policy
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.parallel import run_tasks
 
 

@@ -6,7 +6,7 @@ Usage::
                            [--algo ALGO] [--no-progress] [--debug]
 
 ``CONFIG`` is a ``.yaml`` / ``.yml`` file or the name of a packaged config
-(``ppo_vertical``, ``sac_vertical``, ``ppo_crash``; :func:`railgym._validation.resolve_yaml`).
+(``ppo_vertical``, ``sac_vertical``, ``ppo_crash``; :func:`railgym._checks.resolve_yaml`).
 An rl-zoo3 hyperparameter file is read as well, with its algorithm given by ``--algo`` as to
 rl-zoo3 (``python -m agents.train railgym/configs/agents/rlzoo_vertical.yml --algo ppo``):
 one file serves both.
@@ -82,7 +82,7 @@ from agents.train_config import (
     hyperparameters,
     load_config,
 )
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.report.output import atomic_path, prepare_output_dir
 
 

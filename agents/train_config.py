@@ -1,4 +1,4 @@
-"""Training configs of :mod:`agents.train`: reading, validation and the resolved form.
+"""Training configs of :mod:`agents.train`: reading, checks and the resolved form.
 
 Config file: one top-level key, the Gymnasium env id, holding
 
@@ -53,7 +53,7 @@ from stable_baselines3 import A2C, PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 __all__ = ["ALGOS", "TrainConfig", "hyperparameters", "load_config"]
 

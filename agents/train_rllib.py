@@ -64,7 +64,7 @@ import yaml
 from agents._args import bounded_int
 from agents._extras import extra_error, report_missing
 from agents.policy_io import RLLIB_MODULE_PATH, sha256
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.report.output import prepare_output_dir, write_text_atomic
 
 #: most training iterations of one run (each thousands of env steps: weeks of training)

@@ -27,7 +27,7 @@ from typing import TypeVar
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.progress import bar
 
 T = TypeVar("T")

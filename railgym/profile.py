@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 #: fewest points accepted in a profile
 MIN_POINTS = 4

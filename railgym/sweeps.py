@@ -21,7 +21,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.comfort import weighted_rms
 from railgym.parallel import run_tasks, spawn_seeds
 from railgym.track import class_speed, track_time_input

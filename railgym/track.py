@@ -23,8 +23,7 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
-from railgym import _validation as val
-from surrogates.models.validation import check_seed
+from railgym import _checks as val
 
 __all__ = [
     "TrackClassParameters",
@@ -327,7 +326,9 @@ def fra_profile_with_slope(
     if not dx <= length:
         raise ValueError(f"length must be at least dx, got {length}")
     n = math.floor(length / dx + 1e-9) + 1
-    z, dzdx = _synthesise(p, kind, (lo, hi), dx, n, np.random.default_rng(check_seed(seed)))
+    z, dzdx = _synthesise(
+        p, kind, (lo, hi), dx, n, np.random.default_rng(val.random_seed(seed, "seed"))
+    )
     return np.arange(n) * dx, z[:n].copy(), dzdx[:n].copy()
 
 
@@ -395,7 +396,7 @@ def track_time_input(
     dx = step / sub
     n_needed = n_steps * sub + 1 + math.ceil(shift / dx)
     z, dzdx = _synthesise(
-        p, kind, (lo, hi), dx, n_needed, np.random.default_rng(check_seed(seed)), shift
+        p, kind, (lo, hi), dx, n_needed, np.random.default_rng(val.random_seed(seed, "seed")), shift
     )
     last = n_steps * sub + 1
     t = np.arange(n_steps + 1) * dt

@@ -21,12 +21,13 @@ _LAZY = {
     "build": "surrogates.builder",
     "BuildReport": "surrogates.builder",
     "TimeHistory": "surrogates.features",
-    "ModelFieldError": "surrogates.models.validation",
+    "ModelFieldError": "surrogates.models.checks",
 }
 
 #: submodules reachable as attributes after a plain ``import surrogates`` (``surrogates.io``)
 _SUBMODULES = (
     "builder",
+    "checks",
     "features",
     "fmi",
     "io",

@@ -16,9 +16,10 @@ import numpy as np
 from surrogates.metrics import paper_error, rms_normalised_error, timer
 from surrogates.models import SurrogateModel
 from surrogates.models.base import as_inputs, as_outputs, check_domain
-from surrogates.models.validation import check_choice, check_int
+from surrogates.models.checks import choice, integer
 from surrogates.sampling import METHODS, select
 from surrogates.selection import (
+    Factory,
     SelectionResult,
     candidate_label,
     default_candidates,
@@ -133,30 +134,9 @@ def build(
     U = as_inputs(U)
     V = as_outputs(V, U.shape[0])
     n = U.shape[0]
-    check_choice(kind, ("lpr", "kriging"), "kind")
-    check_choice(selection, ("oob", "kfold"), "selection")
-    check_choice(sampling, METHODS, "sampling")
-    m = check_int(m, "m", 1)
-    if selection == "oob" and m >= n:
-        raise ValueError(f"m = {m} leaves no out-of-bag samples out of n = {n}: use m < n")
-    if m > n:
-        raise ValueError(f"m = {m} exceeds the number of samples n = {n}")
-    if selection == "kfold":
-        check_int(k, "k", 2, m)
-    check_domain(U.min(axis=0), U.max(axis=0), "U column")
-    if not np.isfinite(np.std(V)):
-        raise ValueError("V overflows float64 (its spread is not finite): rescale the output")
+    m = _check_plan(U, V, kind, m, sampling, selection, k)
     cands = list(candidates) if candidates is not None else default_candidates(kind, U.shape[1])
-    if not cands:
-        raise ValueError("candidates is empty: give at least one degree (LPR) or kernel (Kriging)")
-    make = factory_for(kind, extrapolation=extrapolation, **model_params)
-    for cand in cands:
-        try:
-            make(cand)._check_params()
-        except TypeError as exc:  # an unknown keyword in model_params
-            raise ValueError(f"invalid model parameter for kind {kind!r}: {exc}") from None
-        except ValueError as exc:
-            raise type(exc)(f"candidate {candidate_label(cand)}: {exc}") from None
+    make = _checked_factory(kind, cands, extrapolation, model_params)
 
     def stage(name: str) -> Callable[[int, int], None] | None:
         return (lambda i, total: progress(name, i, total)) if progress else None
@@ -170,12 +150,7 @@ def build(
             result = select_kfold(make, cands, Ut, Vt, k=k, seed=seed, progress=stage("selection"))
         with timer() as t_fit:
             model = make(result.best).fit(Ut, Vt)
-    if oob_idx.size:
-        pred = model.predict(U[oob_idx])
-        err, err_kind = paper_error(pred, V[oob_idx])
-        nrms = rms_normalised_error(pred, V[oob_idx])
-    else:
-        err, err_kind, nrms = float("nan"), "absolute", float("nan")
+    err, err_kind, nrms = _oob_errors(model, U[oob_idx], V[oob_idx])
     report = BuildReport(
         kind=kind,
         sampling=sampling,
@@ -194,3 +169,52 @@ def build(
         oob_idx=oob_idx,
     )
     return model, report
+
+
+def _check_plan(
+    U: np.ndarray, V: np.ndarray, kind: str, m: Any, sampling: str, selection: str, k: Any
+) -> int:
+    """Check the build's options against the data; return ``m`` as an int."""
+    n = U.shape[0]
+    choice(kind, "kind", ("lpr", "kriging"))
+    choice(selection, "selection", ("oob", "kfold"))
+    choice(sampling, "sampling", METHODS)
+    m = integer(m, "m", 1)
+    if selection == "oob" and m >= n:
+        raise ValueError(f"m = {m} leaves no out-of-bag samples out of n = {n}: use m < n")
+    if m > n:
+        raise ValueError(f"m = {m} exceeds the number of samples n = {n}")
+    if selection == "kfold":
+        integer(k, "k", 2, m)
+    check_domain(U.min(axis=0), U.max(axis=0), "U column")
+    if not np.isfinite(np.std(V)):
+        raise ValueError("V overflows float64 (its spread is not finite): rescale the output")
+    return m
+
+
+def _checked_factory(
+    kind: str, cands: list[Any], extrapolation: str, model_params: dict[str, Any]
+) -> Factory:
+    """The model factory of ``kind``, with every candidate's hyperparameters checked before
+    any sampling or fitting (an error names the candidate)."""
+    if not cands:
+        raise ValueError("candidates is empty: give at least one degree (LPR) or kernel (Kriging)")
+    make = factory_for(kind, extrapolation=extrapolation, **model_params)
+    for cand in cands:
+        try:
+            make(cand)._check_params()
+        except TypeError as exc:  # an unknown keyword in model_params
+            raise ValueError(f"invalid model parameter for kind {kind!r}: {exc}") from None
+        except ValueError as exc:
+            raise type(exc)(f"candidate {candidate_label(cand)}: {exc}") from None
+    return make
+
+
+def _oob_errors(model: SurrogateModel, U: np.ndarray, V: np.ndarray) -> tuple[float, str, float]:
+    """Paper error (and its kind) and normalised RMS error on the out-of-bag samples; NaN
+    when there are none."""
+    if not U.shape[0]:
+        return float("nan"), "absolute", float("nan")
+    pred = model.predict(U)
+    err, err_kind = paper_error(pred, V)
+    return err, err_kind, rms_normalised_error(pred, V)

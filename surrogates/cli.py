@@ -15,7 +15,7 @@ import numpy as np
 
 from surrogates import io
 from surrogates.builder import build
-from surrogates.models.validation import MAX_DEGREE
+from surrogates.models.checks import MAX_DEGREE
 
 
 def _progress_bar() -> Callable[[str, int, int], None]:

@@ -27,7 +27,7 @@ import numpy as np
 
 from surrogates.memory import element_form
 from surrogates.models import SurrogateModel, model_class
-from surrogates.models.validation import ModelFieldError
+from surrogates.models.checks import ModelFieldError
 
 SCHEMA_VERSION = 2
 #: schema versions this module reads
@@ -87,7 +87,7 @@ def model_to_document(
 def model_from_document(doc: Any, source: str = "document") -> SurrogateModel:
     """Rebuild a model from a document; ``metadata_`` and ``features_`` are attached to it.
 
-    Raises :class:`~surrogates.models.validation.ModelFieldError` (a ``ValueError``) naming
+    Raises :class:`~surrogates.models.checks.ModelFieldError` (a ``ValueError``) naming
     ``source`` and the first invalid field.
     """
     if not isinstance(doc, dict):
@@ -211,7 +211,7 @@ def load(path: str | Path) -> SurrogateModel:
 
     A bad or foreign file (not UTF-8 JSON, too deeply nested, larger than
     ``MAX_FILE_BYTES``, or any invalid field) raises one
-    :class:`~surrogates.models.validation.ModelFieldError` (a ``ValueError``) naming the file.
+    :class:`~surrogates.models.checks.ModelFieldError` (a ``ValueError``) naming the file.
     """
     path = Path(path)
     if path.stat().st_size > MAX_FILE_BYTES:

@@ -28,7 +28,7 @@ import numpy as np
 
 from surrogates.features import _time, _vector
 from surrogates.models import SurrogateModel
-from surrogates.models.validation import ModelFieldError
+from surrogates.models.checks import ModelFieldError
 from surrogates.selection import SelectionResult, select_kfold
 
 #: documented feature forms: name → input names
@@ -52,7 +52,7 @@ def element_form(
     """Validated :class:`ElementForm` of a ``features`` mapping (``None`` or no ``form``
     key: the static form, as in schema version 1 files).
 
-    Raises :class:`~surrogates.models.validation.ModelFieldError` naming ``features.form``,
+    Raises :class:`~surrogates.models.checks.ModelFieldError` naming ``features.form``,
     ``features.tau`` or ``features.known_physics`` (prefixed by ``source``); ``n_inputs``,
     when given, must be 3 for ``"maxwell"`` (``"static"`` is any memoryless map; the vertical
     kernels take it with the 2 inputs δ, δ̇).

@@ -32,13 +32,13 @@ from scipy.linalg import qr, solve_triangular
 from scipy.optimize import nnls
 
 from surrogates.models.base import SurrogateModel
+from surrogates.models.checks import ModelFieldError, legendre_degree
 from surrogates.models.lpr import (
     LegendreRegression,
     design_matrix,
     legendre_derivative,
     legendre_table,
 )
-from surrogates.models.validation import ModelFieldError, check_degree
 
 #: rounds of adding the violated minima of the slopes as constraints
 MAX_REFINE_ROUNDS = 10
@@ -94,7 +94,7 @@ class PassiveLegendreRegression(LegendreRegression):
     # ------------------------------------------------------------------ fitting
     def _validate(self, d: int) -> tuple[np.ndarray, tuple[bool, ...]]:
         """Check the hyperparameters for ``d`` inputs; returns (exponents, monotone flags)."""
-        E = LegendreRegression(degree=check_degree(self.degree)).make_exponents(d)
+        E = LegendreRegression(degree=legendre_degree(self.degree)).make_exponents(d)
         gs = self.grid_size
         if isinstance(gs, bool) or not isinstance(gs, Integral) or gs < 2:
             raise ValueError(f"grid_size must be an integer >= 2, got {gs!r}")

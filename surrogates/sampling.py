@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from surrogates.models.validation import check_seed
+from surrogates.models.checks import random_seed
 
 METHODS = ("ga", "greedy", "random")
 GA_DEFAULTS: dict[str, Any] = {
@@ -431,7 +431,7 @@ def select(
         raise ValueError("progress must be callable(i, total) or None")
     if method != "ga" and ga_options:
         raise ValueError(f"options {sorted(ga_options)} only apply to method='ga'")
-    rng = np.random.default_rng(check_seed(seed))
+    rng = np.random.default_rng(random_seed(seed, "seed"))
     if method == "ga":
         chosen = _ga(Xn, m, rng, progress, **ga_options)
     else:

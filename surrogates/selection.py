@@ -17,7 +17,7 @@ import numpy as np
 from surrogates.metrics import average_absolute_error, rms_normalised_error
 from surrogates.models import SurrogateModel, model_class
 from surrogates.models.base import as_inputs, as_outputs
-from surrogates.models.validation import check_seed
+from surrogates.models.checks import random_seed
 
 Factory = Callable[[Any], SurrogateModel]
 Progress = Callable[[int, int], None] | None
@@ -169,7 +169,7 @@ def kfold_indices(n: int, k: int = 10, seed: int | None = 0) -> list[np.ndarray]
     """Split ``range(n)`` into ``k`` shuffled folds of near-equal size (seeded)."""
     if not 2 <= k <= n:
         raise ValueError(f"k must be between 2 and the number of samples ({n}), got {k}")
-    perm = np.random.default_rng(check_seed(seed)).permutation(n)
+    perm = np.random.default_rng(random_seed(seed, "seed")).permutation(n)
     return [np.sort(f) for f in np.array_split(perm, k)]
 
 

@@ -98,6 +98,114 @@ def _si(unit: str, column: str, where: str) -> tuple[float, str]:
     return UNITS[u]
 
 
+def _header(
+    line: str, delimiter: str | None, where: str
+) -> tuple[list[str], str | None, dict[str, str]]:
+    """Column names, separator and the units given inside the names (``x1 [mm]``) of the
+    header line."""
+    sep = DELIMITERS[delimiter] if delimiter is not None else _detect(line)
+    names: list[str] = []
+    file_units: dict[str, str] = {}
+    for field in _split(line, sep):
+        m = _NAME_UNIT.match(field)
+        name = m.group(1) if m else field
+        if m:
+            file_units[name] = m.group(2)
+        names.append(name)
+    if not any(names):
+        raise ValueError(f"{where}: empty header row")
+    dups = sorted({n for n in names if names.count(n) > 1})
+    if dups:
+        raise ValueError(f"{where}: duplicate column name(s) {dups}")
+    return names, sep, file_units
+
+
+def _unit_row(line: str, sep: str | None, names: list[str], where: str) -> dict[str, str]:
+    """Column → unit of the unit row (brackets around a unit are dropped)."""
+    cells = _split(line, sep)
+    if len(cells) != len(names):
+        raise ValueError(f"{where}: the unit row has {len(cells)} fields, the header {len(names)}")
+    return {n: u.strip("[]()") for n, u in zip(names, cells, strict=True)}
+
+
+class _Columns:
+    """The kept columns of a table (time first): header positions, SI factors and the values
+    read so far, with the checks of each data row."""
+
+    def __init__(
+        self, path: Path, names: list[str], chosen: list[str], units: Mapping[str, str], where: str
+    ) -> None:
+        self.path = path
+        self.width = len(names)
+        self.chosen = chosen
+        self.pos = [names.index(c) for c in chosen]
+        si = [_si(units.get(c, ""), c, where) for c in chosen]
+        self.scale = [f for f, _ in si]
+        self.si_units = {c: u for c, (_, u) in zip(chosen, si, strict=True) if u}
+        self.values = [array("d") for _ in chosen]
+        self.short: int | None = None  # line of a row cut short (only the last may be)
+        self.last_t: float | None = None
+
+    def add(self, line: str, sep: str | None, lineno: int) -> None:
+        """Append the data row ``line``: every kept cell a finite number, finite in SI, the
+        time increasing; a short row is kept aside (an error unless it is the last)."""
+        path = self.path
+        if self.short is not None:
+            raise ValueError(f"{path}: line {self.short} has fewer fields than the header")
+        cells = _split(line, sep)
+        if len(cells) < self.width:
+            self.short = lineno
+            return
+        if len(cells) > self.width:
+            raise ValueError(
+                f"{path}: line {lineno} has {len(cells)} fields, the header has {self.width}"
+            )
+        for col, p, name, f in zip(self.values, self.pos, self.chosen, self.scale, strict=True):
+            col.append(_cell(cells[p], f, name, f"{path}: line {lineno}"))
+        t = self.values[0][-1]
+        if self.last_t is not None and t <= self.last_t:
+            raise ValueError(
+                f"{path}: line {lineno}: time {t} does not increase (previous {self.last_t})"
+            )
+        self.last_t = t
+
+    def history(self) -> TimeHistory:
+        """The columns in SI as a :class:`TimeHistory` (the first one the time)."""
+        data = [
+            np.frombuffer(c, dtype=float) * s for c, s in zip(self.values, self.scale, strict=True)
+        ]
+        self.si_units.pop(self.chosen[0], None)
+        return TimeHistory(
+            data[0], dict(zip(self.chosen[1:], data[1:], strict=True)), self.si_units
+        )
+
+
+def _cell(text: str, factor: float, name: str, where: str) -> float:
+    """The number in a data cell, finite and finite after the SI factor ``factor``."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise ValueError(f"{where}: column {name!r}: {text!r} is not a number") from None
+    if not np.isfinite(v):
+        raise ValueError(f"{where}: column {name!r}: value is {v}")
+    if not np.isfinite(v * factor):
+        raise ValueError(
+            f"{where}: column {name!r}: {v} overflows when converted to SI (× {factor:g})"
+        )
+    return v
+
+
+def _chosen(path: Path, names: list[str], time: str, columns: Sequence[str] | None) -> list[str]:
+    """The time column and the kept channels, each present in the header."""
+    if time not in names:
+        raise ValueError(f"{path}: no time column {time!r}; the header has {names}")
+    keep = [n for n in names if n != time] if columns is None else list(columns)
+    missing = [c for c in keep if c not in names]
+    if missing:
+        raise ValueError(f"{path}: missing column(s) {missing}; the header has {names}")
+    return [time, *keep]
+
+
 def read_table(
     path: str | Path,
     *,
@@ -128,102 +236,32 @@ def read_table(
         raise ValueError(f"delimiter must be one of {list(DELIMITERS)} or None, got {delimiter!r}")
     if unit_row is not None and unit_row <= header_row:
         raise ValueError(f"unit_row ({unit_row}) must come after header_row ({header_row})")
+    names: list[str] | None = None
+    sep: str | None = None
+    file_units: dict[str, str] = {}
+    table: _Columns | None = None
     with _io.StringIO(_text(path)) as fh:
-        names: list[str] | None = None
-        sep: str | None = None
-        file_units: dict[str, str] = {}
-        cols: list[array] = []
-        pos: list[int] = []
-        scale: list[float] = []
-        short: int | None = None
-        last_t: float | None = None
-        chosen: list[str] = []
-        si_units: dict[str, str] = {}
         for i, raw in enumerate(fh):
             lineno = i + 1
             line = raw.rstrip("\r\n")
             if i < header_row:
                 continue
-            if i == header_row:
-                sep = DELIMITERS[delimiter] if delimiter is not None else _detect(line)
-                names = []
-                for field in _split(line, sep):
-                    m = _NAME_UNIT.match(field)
-                    name = m.group(1) if m else field
-                    if m:
-                        file_units[name] = m.group(2)
-                    names.append(name)
-                if not any(names):
-                    raise ValueError(f"{path}: line {lineno}: empty header row")
-                dups = sorted({n for n in names if names.count(n) > 1})
-                if dups:
-                    raise ValueError(f"{path}: line {lineno}: duplicate column name(s) {dups}")
-                continue
-            if names is None:
-                continue
-            if i == unit_row:
-                cells = _split(line, sep)
-                if len(cells) != len(names):
-                    raise ValueError(
-                        f"{path}: line {lineno}: the unit row has {len(cells)} fields, the "
-                        f"header {len(names)}"
+            if names is None:  # i == header_row
+                names, sep, file_units = _header(line, delimiter, f"{path}: line {lineno}")
+            elif i == unit_row:
+                file_units.update(_unit_row(line, sep, names, f"{path}: line {lineno}"))
+            elif line.strip() and not line.lstrip().startswith(comment):
+                if table is None:  # first data row: fix the columns and their SI factors
+                    where = f"{path}: line {(header_row if unit_row is None else unit_row) + 1}"
+                    chosen = _chosen(path, names, time, columns)
+                    table = _Columns(
+                        path, names, chosen, {**file_units, **dict(units or {})}, where
                     )
-                file_units.update({n: u.strip("[]()") for n, u in zip(names, cells, strict=True)})
-                continue
-            if not line.strip() or line.lstrip().startswith(comment):
-                continue
-            if not cols:  # first data row: fix the columns and their SI factors
-                if time not in names:
-                    raise ValueError(f"{path}: no time column {time!r}; the header has {names}")
-                keep = [n for n in names if n != time] if columns is None else list(columns)
-                missing = [c for c in keep if c not in names]
-                if missing:
-                    raise ValueError(f"{path}: missing column(s) {missing}; the header has {names}")
-                chosen = [time, *keep]
-                pos = [names.index(c) for c in chosen]
-                where = f"{path}: line {unit_row + 1 if unit_row is not None else header_row + 1}"
-                all_units = {**file_units, **dict(units or {})}
-                si = [_si(all_units.get(c, ""), c, where) for c in chosen]
-                scale = [f for f, _ in si]
-                si_units = {c: u for c, (_, u) in zip(chosen, si, strict=True) if u}
-                cols = [array("d") for _ in chosen]
-            if short is not None:
-                raise ValueError(f"{path}: line {short} has fewer fields than the header")
-            cells = _split(line, sep)
-            if len(cells) < len(names):
-                short = lineno
-                continue
-            if len(cells) > len(names):
-                raise ValueError(
-                    f"{path}: line {lineno} has {len(cells)} fields, the header has {len(names)}"
-                )
-            for col, p, name, f in zip(cols, pos, chosen, scale, strict=True):
-                try:
-                    v = float(cells[p])
-                except ValueError:
-                    raise ValueError(
-                        f"{path}: line {lineno}: column {name!r}: {cells[p]!r} is not a number"
-                    ) from None
-                if not np.isfinite(v):
-                    raise ValueError(f"{path}: line {lineno}: column {name!r}: value is {v}")
-                if not np.isfinite(v * f):
-                    raise ValueError(
-                        f"{path}: line {lineno}: column {name!r}: {v} overflows when converted "
-                        f"to SI (× {f:g})"
-                    )
-                col.append(v)
-            t = cols[0][-1]
-            if last_t is not None and t <= last_t:
-                raise ValueError(
-                    f"{path}: line {lineno}: time {t} does not increase (previous {last_t})"
-                )
-            last_t = t
+                table.add(line, sep, lineno)
     if names is None:
         raise ValueError(f"{path}: empty file, expected a header row at line {header_row + 1}")
-    if not cols or len(cols[0]) < 2:
+    if table is None or len(table.values[0]) < 2:
         raise ValueError(f"{path}: fewer than 2 data rows")
-    if short is not None:
-        warnings.warn(f"{path}: last row (line {short}) is cut short; dropped", stacklevel=2)
-    data = [np.frombuffer(c, dtype=float) * s for c, s in zip(cols, scale, strict=True)]
-    si_units.pop(time, None)
-    return TimeHistory(data[0], dict(zip(chosen[1:], data[1:], strict=True)), si_units)
+    if table.short is not None:
+        warnings.warn(f"{path}: last row (line {table.short}) is cut short; dropped", stacklevel=2)
+    return table.history()

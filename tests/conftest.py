@@ -15,9 +15,15 @@ import cloudpickle
 import numpy as np
 import pytest
 import yaml
+from hypothesis import settings
 
 from railgym.vehicles.vertical import load_vehicle
 from surrogates import LegendreRegression
+
+# Tests assert results, never timings: no per-example deadline, so that a loaded CPU (CI, or
+# numba compiling on the first call) does not fail a property.
+settings.register_profile("railgym", deadline=None)
+settings.load_profile("railgym")
 
 COPIES: dict[str, Callable[[Any], Any]] = {
     "pickle": lambda e: pickle.loads(pickle.dumps(e)),

@@ -11,7 +11,7 @@ import gymnasium as gym
 import pytest
 
 import railgym  # noqa: F401  (registers the envs)
-from railgym._validation import FieldError, FieldTypeError
+from railgym._checks import FieldError, FieldTypeError
 from tests.envs import test_bad_inputs_crash as crash_table
 from tests.envs import test_bad_inputs_vehicle as vehicle_table
 from tests.envs import test_bad_inputs_vertical as vertical_table

@@ -29,7 +29,7 @@ def _imports(path: Path) -> set[str]:
 PHYSICS = [
     ROOT / "railgym" / "track.py",
     ROOT / "railgym" / "comfort.py",
-    ROOT / "railgym" / "_validation.py",
+    ROOT / "railgym" / "_checks.py",
     *(ROOT / "railgym" / "vehicles").rglob("*.py"),
 ]
 

@@ -66,7 +66,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.vector import reset_plan
 
 __all__ = ["Batch", "BatchEnv", "BatchVectorEnv", "check_actions", "step_grid"]

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.base import BatchEnv, BatchVectorEnv
 from railgym.envs.crash_batch import CrashBatch
 from railgym.envs.crash_layout import INFO_FIELDS, REWARD_TERMS
@@ -36,11 +36,11 @@ from railgym.envs.crash_params import BACKENDS, DEFAULT_WEIGHTS, CrashParams, no
 from railgym.envs.params import keyword_signature
 from railgym.vehicles.crash import (
     LIMITS,
-    CrashBatchModel,
+    CrashModel,
     CrashScenario,
     CrashSurrogate,
     build_crash_surrogate,
-    crash_batch_model,
+    crash_model,
     simulate_reference,
 )
 from railgym.vehicles.crash.elements import packaged_surrogate
@@ -87,14 +87,14 @@ def env_surrogate(
     return packaged if packaged is not None else default_surrogate(scenario, variant)
 
 
-def make_model(cfg: CrashParams, release: str = "") -> CrashBatchModel:
+def make_model(cfg: CrashParams, release: str = "") -> CrashModel:
     """Batch model of the configured backend, with ``cfg.surrogate`` or, if ``None``, the
     :func:`env_surrogate` of ``release``."""
     surrogate = cfg.surrogate
     if cfg.backend == "reference":
         if surrogate is not None:
             raise ValueError("surrogate is only used by backend='surrogate', not 'reference'")
-        return crash_batch_model(cfg.scenario, "reference", cfg.control_dt)
+        return crash_model(cfg.scenario, "reference", cfg.control_dt)
     if surrogate is None:
         surrogate = env_surrogate(cfg.scenario, cfg.surrogate_variant, release)
     if not isinstance(surrogate, CrashSurrogate):
@@ -107,7 +107,7 @@ def make_model(cfg: CrashParams, release: str = "") -> CrashBatchModel:
             f"surrogate was built for scenario {surrogate.source!r}, not {cfg.scenario.name!r}"
         )
     try:
-        return crash_batch_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
+        return crash_model(cfg.scenario, "surrogate", cfg.control_dt, surrogate=surrogate)
     except (ValueError, AttributeError, TypeError, IndexError) as err:
         raise ValueError(f"surrogate does not fit this env: {err}") from err
 

@@ -31,13 +31,13 @@ from railgym.envs.crash_step import (
     plain,
 )
 from railgym.envs.params import consts
-from railgym.vehicles.crash import PARALLEL_MIN, BatchOutputs, CrashBatchModel
+from railgym.vehicles.crash import PARALLEL_MIN, CrashModel, CrashOutputs
 
 __all__ = ["CrashBatch"]
 
 
 class CrashBatch:
-    """``n`` trains, stepped by one compiled kernel call of a :class:`CrashBatchModel`.
+    """``n`` trains, stepped by one compiled kernel call of a :class:`CrashModel`.
 
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there). It
     holds the arrays and computes the observation, reward, its terms and the ``info``
@@ -45,7 +45,7 @@ class CrashBatch:
     initial speed and payload (:meth:`draw`); ``reset_state`` restarts the same episode.
     """
 
-    def __init__(self, n: int, cfg: CrashParams, model: CrashBatchModel) -> None:
+    def __init__(self, n: int, cfg: CrashParams, model: CrashModel) -> None:
         self.n, self.cfg, self.model = n, cfg, model
         sc = cfg.scenario
         self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
@@ -120,7 +120,7 @@ class CrashBatch:
         """Named views of the buffer and the kernel arguments (again after a copy: a pickled
         view is a detached array)."""
         views = [self._view(f) for f in range(self._fields.shape[0])]
-        self.out = BatchOutputs(*views[:_ENV])
+        self.out = CrashOutputs(*views[:_ENV])
         self.episode = Episode(*views[_ENV:_STATE], *self._flag_arrays)
         self._cleared = [(getattr(self.episode, name), value) for name, value in CLEARED]
         self.state = self._state_type(*views[_STATE:])

@@ -19,7 +19,7 @@ from railgym.envs.crash_layout import (
     named_rebuild,
 )
 from railgym.vehicles.crash import (
-    BatchOutputs,
+    CrashOutputs,
     ReferenceParams,
     ReferenceState,
     SurrogateParams,
@@ -137,9 +137,9 @@ def plain(value: Any) -> Any:
 _named_consts = named_rebuild(EnvConsts)
 _named_reference = named_rebuild(ReferenceParams)
 _named_surrogate = named_rebuild(SurrogateParams)
-_OUTPUT_DIMS = tuple(1 if name == "stored" else 2 for name in BatchOutputs._fields)
-#: buffer layout: the :class:`BatchOutputs` arrays, :data:`ENV_FIELDS`, the model state
-_ENV = len(BatchOutputs._fields)
+_OUTPUT_DIMS = tuple(1 if name == "stored" else 2 for name in CrashOutputs._fields)
+#: buffer layout: the :class:`CrashOutputs` arrays, :data:`ENV_FIELDS`, the model state
+_ENV = len(CrashOutputs._fields)
 _STATE = _ENV + len(ENV_FIELDS)
 _output_views = buffer_views(_OUTPUT_DIMS)
 _episode_views = buffer_views(tuple(1 if name in COLUMNS else 2 for name in ENV_FIELDS))
@@ -405,7 +405,7 @@ def _post_step(outputs, episode, consts, active, init):
     reward and its terms, and the flat ``info`` row (``crash_layout.INFO_FIELDS``) of every active
     train.
 
-    ``outputs`` :class:`BatchOutputs`, ``episode`` :class:`Episode`, ``consts``
+    ``outputs`` :class:`CrashOutputs`, ``episode`` :class:`Episode`, ``consts``
     :class:`EnvConsts`. With ``init`` the trains are at first contact (the arrays of
     :data:`~railgym.envs.crash_layout.CLEARED` already cleared): the step is not scored.
     """
@@ -431,9 +431,9 @@ def _post_step(outputs, episode, consts, active, init):
 
 @njit(cache=True, inline="always")
 def _views(buf, fields, flags):
-    """The :class:`BatchOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
+    """The :class:`CrashOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
     :class:`CrashBatch` buffer, as views."""
-    outputs = BatchOutputs(*_output_views(buf, fields, 0))
+    outputs = CrashOutputs(*_output_views(buf, fields, 0))
     return outputs, Episode(*_episode_views(buf, fields, _ENV), *flags)
 
 

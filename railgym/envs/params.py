@@ -16,7 +16,7 @@ An env's arguments are the fields of a :class:`Params` subclass, each made by :f
             self._set("n_steps", round(self.duration / 0.01))
 
 ``MyParams(**kwargs)`` checks every field by its declaration (:func:`check_field`; errors name
-the field, :mod:`railgym._validation`), stores the checked value (canonical Python types), then
+the field, :mod:`railgym._checks`), stores the checked value (canonical Python types), then
 runs :meth:`Params._derive`. The env's keyword arguments are the declared fields
 (:meth:`Params.from_kwargs`, :func:`keyword_signature`), kernel constants are filled by field
 name (:func:`consts`), the docs table of arguments is generated (:func:`arguments_table`,
@@ -37,7 +37,7 @@ from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.base import step_grid
 from railgym.profile import load_profile
 from railgym.track import class_parameters
@@ -180,7 +180,7 @@ def _weights(value: Any, name: str, s: Spec, base: Mapping[str, float]) -> dict[
 
 def check_field(f: dataclasses.Field, value: Any) -> Any:
     """``value`` of the declared field ``f`` checked by its :class:`Spec` and returned in its
-    canonical type; :class:`~railgym._validation.FieldError` (or ``FieldTypeError``) naming
+    canonical type; :class:`~railgym._checks.FieldError` (or ``FieldTypeError``) naming
     the field otherwise."""
     s: Spec = f.metadata[_SPEC]
     name = f.name
@@ -389,10 +389,6 @@ def _track_class(value: Any, name: str) -> int:
     return int(value)
 
 
-def _speed(value: Any, name: str) -> float:
-    return check_speed(value, name)
-
-
 def _profile(value: Any, name: str) -> tuple[np.ndarray, np.ndarray] | None:
     return load_profile(value)
 
@@ -429,7 +425,7 @@ class TrackEnvParams(Params):
         f"{SPEED_MIN:g} m/s, at most `speed_limit`",
         kind="object",
         optional=True,
-        check=_speed,
+        check=check_speed,
     )
     speed_limit: float | None = param(
         None,

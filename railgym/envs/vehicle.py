@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.params import (
     SPEED_FACTOR,
     TrackEnvParams,

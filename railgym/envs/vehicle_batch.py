@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 from scipy import signal
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward
 from railgym.envs.params import TrackEnvParams, consts
@@ -29,8 +29,8 @@ from railgym.vehicles.vehicle import (
     check_variant,
     hermite,
     kernel_params,
-    make_batch,
     mode_shape,
+    new_arrays,
     wheelset_offsets,
 )
 from railgym.vehicles.vertical import RAISE_MODE, deflection_envelope, outside_envelope
@@ -304,7 +304,7 @@ class VehicleBatch:
                 f"(num_envs={n}, {self.n_samples} samples each); the limit is "
                 f"{TRACK_BYTES / 2**30:g} GiB",
             )
-        self.bt, self.out = make_batch(n, cfg.variant, self.n_samples, self.lpr)
+        self.bt, self.out = new_arrays(n, cfg.variant, self.n_samples, self.lpr)
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)

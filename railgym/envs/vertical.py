@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.base import BatchEnv, BatchVectorEnv
 from railgym.envs.params import (
     BACKENDS,

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.compiled import DIVERGENCE_PENALTY, OBS_LIMIT, compiled_entry, settle_reward
 from railgym.envs.params import TrackEnvParams, consts
 from railgym.profile import profile_time_input

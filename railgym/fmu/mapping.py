@@ -32,12 +32,14 @@ and the variable.
 from __future__ import annotations
 
 import zipfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 from xml.etree import ElementTree
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 __all__ = ["ENV_SIGNALS", "FMUError", "Mapping", "Signal", "UNITS", "load_mapping"]
 
@@ -204,14 +206,34 @@ def _signal(
     return Signal(field, name, int(var.valueReference), factor)
 
 
-def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "vertical") -> Mapping:
-    """Read and check the mapping file ``path`` against the FMU (``fmu``, else the file's
-    ``fmu:`` relative to the mapping file) for ``env``; :class:`FMUError` on any problem."""
-    path = Path(path)
-    source = str(path)
+@contextmanager
+def _in_file(source: str) -> Iterator[None]:
+    """Re-raise a field error of the mapping file as an :class:`FMUError` naming the file."""
+    try:
+        yield
+    except val.FieldError as exc:
+        raise FMUError(exc.field, f"{source}: {exc}", full=True) from None
+
+
+class _Top(NamedTuple):
+    """The top-level fields of a mapping file (``None``: not given)."""
+
+    fmu: Any
+    env: str
+    fmi_type: Any
+    step: float | None
+    timeout: float
+    solver: Any
+    tolerance: float | None
+    inputs: val.Fields
+    outputs: val.Fields
+
+
+def _top_fields(path: Path, source: str) -> _Top:
+    """Read the mapping file's top level: every key known, numbers checked."""
     data = val.load_yaml(_read_text(path, "fmu_map"), source)
     f = val.Fields(data, "")
-    try:
+    with _in_file(source):
         f.integer("version", 1, 1)
         name = f.get("fmu", None)
         env_name = f.text("env")
@@ -224,21 +246,17 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
         inputs = f.section("inputs")
         outputs = f.section("outputs")
         f.done()
-    except val.FieldError as exc:
-        raise FMUError(exc.field, f"{source}: {exc}", full=True) from None
-    if env_name != env:
-        raise FMUError("env", f"{source}: env is {env_name!r}, this env is {env!r}", full=True)
-    if fmu is None:
-        if name is None:
-            raise FMUError("fmu", f"{source}: no fmu given (fmu= or the file's fmu:)", full=True)
-        fmu = path.parent / str(name)
-    fmu = Path(fmu)
-    md = _model_description(fmu)
+    return _Top(name, env_name, fmi_type, step, timeout, solver, tolerance, inputs, outputs)
+
+
+def _fmi_type(top: _Top, md: Any, fmu: Path, source: str) -> str:
+    """The FMI type to run (the file's, else the FMU's first of :data:`FMI_TYPES`), checked
+    against the FMU and the solver options."""
     kinds = [k for k, d in zip(FMI_TYPES, (md.coSimulation, md.modelExchange), strict=True) if d]
-    if fmi_type is None:
-        fmi_type = kinds[0]
+    fmi_type = kinds[0] if top.fmi_type is None else top.fmi_type
     if fmi_type not in FMI_TYPES:
         raise FMUError("fmi_type", f"{source}: fmi_type must be one of {FMI_TYPES}", full=True)
+    solver = top.solver
     if solver is not None and (solver not in SOLVERS or fmi_type != "ModelExchange"):
         raise FMUError(
             "solver",
@@ -246,31 +264,32 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
             f"{solver!r} with {fmi_type}",
             full=True,
         )
-    if tolerance is not None and solver != "cvode":
+    if top.tolerance is not None and solver != "cvode":
         raise FMUError("tolerance", f"{source}: tolerance is for solver: cvode", full=True)
     if fmi_type not in kinds:
         raise FMUError(
             "fmi_type", f"{source}: FMU {fmu} has no {fmi_type} (it has {kinds})", full=True
         )
-    variables = {v.name: v for v in md.modelVariables}
-    spec = ENV_SIGNALS[env]
+    return str(fmi_type)
+
+
+def _input_signals(
+    inputs: val.Fields, spec: dict[str, Any], variables: dict[str, Any], fmu: Path, source: str
+) -> tuple[tuple[tuple[Signal, Signal], ...], tuple[Signal, ...]]:
+    """The (displacement, rate) signals of each wheelset and the actuator-force signals."""
     ins = ("input",)
-    try:
+    with _in_file(source):
         track = val.sequence(inputs.get("track"), "inputs.track", spec["wheelsets"])
         forces = val.sequence(
             inputs.get("actuator_force"), "inputs.actuator_force", spec["actuators"]
         )
         inputs.done()
-    except val.FieldError as exc:
-        raise FMUError(exc.field, f"{source}: {exc}", full=True) from None
     pairs = []
     for i, entry in enumerate(track):
-        try:
+        with _in_file(source):
             t = val.Fields(entry, f"inputs.track[{i}]")
             d_spec, r_spec = t.get("displacement"), t.get("rate")
             t.done()
-        except val.FieldError as exc:
-            raise FMUError(exc.field, f"{source}: {exc}", full=True) from None
         pairs.append(
             (
                 _signal(d_spec, t.field("displacement"), "m", variables, fmu, source, ins),
@@ -281,7 +300,13 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
         _signal(s, f"inputs.actuator_force[{i}]", "N", variables, fmu, source, ins)
         for i, s in enumerate(forces)
     )
-    outs = {}
+    return tuple(pairs), force_sigs
+
+
+def _output_signals(
+    outputs: val.Fields, spec: dict[str, Any], variables: dict[str, Any], fmu: Path, source: str
+) -> dict[str, Signal]:
+    """The signals of the env's required and optional outputs; an unknown key is an error."""
     known = {**spec["outputs"], **spec["optional"]}
     for key in outputs.data:
         if key not in known:
@@ -290,6 +315,7 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
                 f"{source}: unknown field outputs.{key} (known: {sorted(known)})",
                 full=True,
             )
+    outs = {}
     for key, si in known.items():
         if key not in outputs.data:
             if key in spec["outputs"]:
@@ -298,19 +324,40 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
         outs[key] = _signal(
             outputs.data[key], f"outputs.{key}", si, variables, fmu, source, ("output", "local")
         )
-    cs = md.coSimulation
-    interpolate = fmi_type == "CoSimulation" and bool(cs.canInterpolateInputs)
+    return outs
+
+
+def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "vertical") -> Mapping:
+    """Read and check the mapping file ``path`` against the FMU (``fmu``, else the file's
+    ``fmu:`` relative to the mapping file) for ``env``; :class:`FMUError` on any problem."""
+    path = Path(path)
+    source = str(path)
+    top = _top_fields(path, source)
+    if top.env != env:
+        raise FMUError("env", f"{source}: env is {top.env!r}, this env is {env!r}", full=True)
+    if fmu is None:
+        if top.fmu is None:
+            raise FMUError("fmu", f"{source}: no fmu given (fmu= or the file's fmu:)", full=True)
+        fmu = path.parent / str(top.fmu)
+    fmu = Path(fmu)
+    md = _model_description(fmu)
+    fmi_type = _fmi_type(top, md, fmu, source)
+    variables = {v.name: v for v in md.modelVariables}
+    spec = ENV_SIGNALS[env]
+    track, forces = _input_signals(top.inputs, spec, variables, fmu, source)
+    outs = _output_signals(top.outputs, spec, variables, fmu, source)
+    interpolate = fmi_type == "CoSimulation" and bool(md.coSimulation.canInterpolateInputs)
     return Mapping(
         source,
         fmu,
         env,
         fmi_type,
-        step,
-        timeout,
-        tuple(pairs),
-        force_sigs,
+        top.step,
+        top.timeout,
+        track,
+        forces,
         outs,
         interpolate,
-        solver or "rk4",
-        DEFAULT_TOLERANCE if tolerance is None else tolerance,
+        top.solver or "rk4",
+        DEFAULT_TOLERANCE if top.tolerance is None else top.tolerance,
     )

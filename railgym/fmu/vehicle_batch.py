@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.params import TrackEnvParams
 from railgym.envs.vehicle_batch import VehicleBatch, book_step
 from railgym.fmu.mapping import Mapping

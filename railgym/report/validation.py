@@ -34,6 +34,7 @@ from railgym.vehicles.vertical import (
     KERNELS,
     VerticalVehicle,
     initial_state,
+    linear_model,
     load_vehicle,
     simulate,
     step_outputs,
@@ -108,18 +109,7 @@ def lqr_law(vehicle: VerticalVehicle, f_max: float = 8000.0) -> ForceLaw:
     Minimises ``∫ (ẍ2²/ACC_REF² + δ²/free_travel² + 0.1·F_a²/f_max²) dt``, with
     ``ẍ2 = C·x + F_a/m2`` (cross term in the Riccati equation).
     """
-    p = vehicle.kernel_params()
-    m1, m2, k1, c1, k2, c2 = p.m1, p.m2, p.k1, p.c1, p.k2, p.c2
-    a = np.array(
-        [
-            [0.0, 1.0, 0.0, 0.0],
-            [-(k1 + k2) / m1, -(c1 + c2) / m1, k2 / m1, c2 / m1],
-            [0.0, 0.0, 0.0, 1.0],
-            [k2 / m2, c2 / m2, -k2 / m2, -c2 / m2],
-        ]
-    )
-    b = np.array([[0.0], [-1.0 / m1], [0.0], [1.0 / m2]])
-    c, d = a[3], 1.0 / m2
+    a, b, c, d = linear_model(vehicle.kernel_params())
     q_acc = 1.0 / ACC_REF**2
     c_d = np.array([1.0, 0.0, -1.0, 0.0])
     q = q_acc * np.outer(c, c) + np.outer(c_d, c_d) / vehicle.bump_stop.free_travel_compression**2

@@ -41,9 +41,16 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.track import class_speed, track_time_input
-from railgym.vehicles.collect_design import DESIGNS, CollectionDesign, collect_design, design_named
+from railgym.vehicles.collect_design import (
+    DESIGNS,
+    MEMORY_SAMPLE_RATE,
+    CollectionDesign,
+    collect_design,
+    design_named,
+)
+from railgym.vehicles.refinement import RefineOptions, holdout_error, refit_worst
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
     KERNELS,
@@ -76,8 +83,6 @@ MEMORY_TAUS = (4e-3, 8e-3, 16e-3)
 MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
 #: data-collection design of the packaged memory element
 MEMORY_DESIGN = "envelope"
-#: training samples of the memory element, Hz (ζ is built at the full integration rate)
-MEMORY_SAMPLE_RATE = 200.0
 #: start of each run discarded from the memory element's training samples, s (≥ 5 τ)
 WARMUP = 0.1
 
@@ -462,137 +467,96 @@ def _initial_pairs(model: SurrogateModel, vehicle: str) -> tuple[np.ndarray, np.
     return data["U"], data["V"]
 
 
+def _reference_runner(
+    reference: str, veh: Any, law: Any, dt: float, n_sub: int, fmu_map: Any, fmu: Any
+) -> Callable[[np.ndarray, np.ndarray], dict[str, Any]]:
+    """``(z, ż) → run`` (:func:`_run_policy`) of the ``reference`` variant under ``law``, or of
+    the FMU of ``fmu_map`` (:mod:`railgym.fmu`) stepped at ``dt`` (s)."""
+    if fmu is not None and fmu_map is None:
+        raise ValueError("fmu: an FMU reference needs its mapping file fmu_map")
+    if fmu_map is None:
+        return lambda z, zd: _run_policy(reference, veh, z, zd, law, None, dt, n_sub)
+    from railgym.fmu.collect import run_policy_fmu
+    from railgym.fmu.mapping import load_mapping
+    from railgym.fmu.runner import FMURunner
+
+    runner = FMURunner(load_mapping(fmu_map, fmu, "vertical"), dt, n_sub)
+    return lambda z, zd: run_policy_fmu(runner, veh, z, zd, law, n_sub)
+
+
 def refine(
     model: SurrogateModel,
     policy: Any,
     rounds: int = 3,
     *,
+    options: RefineOptions | None = None,
     data: tuple[Any, Any] | None = None,
-    track_class: int = 5,
-    speed: float | None = None,
-    duration: float = 10.0,
-    n_tracks: int = 2,
-    n_holdout: int = 3,
-    n_add: int = 400,
-    sample_rate: float = MEMORY_SAMPLE_RATE,
-    control_dt: float = 0.01,
-    f_max: float = 8000.0,
     observe: Any = None,
     reference: str = "dynamic",
     vehicle: str = "manchester",
-    seed: int = 0,
     log: Any = print,
     fmu_map: Any = None,
     fmu: Any = None,
 ) -> tuple[SurrogateModel, list[dict[str, Any]]]:
     """Policy-aware refinement: add reference samples where the element is worst, refit.
 
-    Each round runs the reference model under ``policy`` on ``n_tracks`` new tracks, takes
-    the element's force error along those runs (on the samples at ``sample_rate``; a sample
-    outside the training box counts as the worst), adds the ``n_add`` worst samples to the
-    training set and refits a copy of ``model`` (same class and hyperparameters, same feature
-    form). Before the first round and after each, the element is scored on ``n_holdout``
-    fixed tracks: surrogate and reference each driven by ``policy`` in closed loop, relative
-    RMS error of the carbody acceleration.
+    Each round runs the reference under ``policy`` on ``options.n_tracks`` new tracks and
+    refits ``model`` with the ``options.n_add`` worst samples of those runs added
+    (:func:`refit_worst`). Before the first round and after each, the element is scored on
+    ``options.n_holdout`` fixed tracks: surrogate and reference each driven by ``policy`` in
+    closed loop, relative RMS error of the carbody acceleration.
 
     Parameters
     ----------
     model : fitted LPR element (static or memory form).
     policy : callable ``obs → action`` or an object with ``predict(obs, deterministic=True)``
-        (a controller or an SB3 model); the action ``∈ [−1, 1]`` times ``f_max`` (N) is the
-        actuator force, held for ``control_dt`` (s).
-    rounds : refinement rounds K.
-    data : initial training pairs ``(U, V)`` of ``model``; ``None``: the packaged recipe's.
-    track_class, speed, duration : tracks of the runs (speed m/s, default the class's
-        maximum; duration s).
-    n_tracks, n_holdout, n_add : tracks per round, held-out tracks, samples added per round.
+        (a controller or an SB3 model); the action ``∈ [−1, 1]`` times ``options.f_max`` (N)
+        is the actuator force, held for ``options.control_dt`` (s).
+    rounds : refinement rounds K. options : the runs (:class:`RefineOptions`; ``None``: its
+        defaults). data : initial training pairs ``(U, V)``; ``None``: the packaged recipe's.
     observe : maps the raw observation (:data:`RAW_OBSERVATION`, SI) to the policy's
         observation (``None``: the raw vector).
     reference : reference variant (``"dynamic"``, or ``"static"`` for a memoryless one).
-    seed : seed of the tracks. log : called with one line per round (``None``: silent).
-    fmu_map, fmu : an FMU as the reference instead of ``reference`` (its mapping file and
-        the FMU, default the mapping's ``fmu:``; :mod:`railgym.fmu`), stepped at ``dt`` of
-        ``reference``.
+    log : called with one line per round (``None``: silent). fmu_map, fmu : an FMU as the
+        reference (mapping file, FMU default its ``fmu:``), stepped at ``dt`` of ``reference``.
 
-    Returns
-    -------
-    (model, history) : the refined element and one row per round 0..K with ``round``,
-    ``error`` (median held-out relative RMS error of ẍ2), ``ood`` (held-out out-of-domain
-    stage evaluations), ``n_samples`` (training set size).
+    Returns ``(model, history)``: the refined element and one row per round 0..K with
+    ``round``, ``error`` (median held-out relative RMS error of ẍ2), ``ood`` (held-out
+    out-of-domain stage evaluations), ``n_samples`` (training set size).
     """
+    o = RefineOptions() if options is None else options
     rounds = val.integer(rounds, "rounds", min=0)
-    for name, v in (("n_tracks", n_tracks), ("n_holdout", n_holdout), ("n_add", n_add)):
-        val.integer(v, name, min=1)
     reference = val.choice(reference, "reference", ("dynamic", "static"))
     element_form(getattr(model, "features_", None), model.n_features_in_, "model")
     veh = load_vehicle(vehicle)
     dt = DEFAULT_DT[reference]
-    n_sub = round(control_dt / dt)
-    every = round(1.0 / (sample_rate * dt))
-    if n_sub < 1 or every < 1:
-        raise ValueError("control_dt and 1/sample_rate must be whole multiples of dt")
-    law = _policy_force(policy, observe, f_max)
-    v0 = class_speed(track_class) if speed is None else val.positive(speed, "speed")
+    n_sub, every = o.steps(dt)
+    law = _policy_force(policy, observe, o.f_max)
+    v0 = o.speed_or_class()
     U, V = _initial_pairs(model, vehicle) if data is None else (np.asarray(data[0]), data[1])
     V = np.asarray(V, dtype=np.float64)
 
     def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
-        s = int(np.random.default_rng((seed, *tag)).integers(2**63 - 1))
-        _, z, zdot = track_time_input(track_class, v0, duration, dt, s)
+        s = int(np.random.default_rng((o.seed, *tag)).integers(2**63 - 1))
+        _, z, zdot = track_time_input(o.track_class, v0, o.duration, dt, s)
         return z, zdot
 
-    if fmu is not None and fmu_map is None:
-        raise ValueError("fmu: an FMU reference needs its mapping file fmu_map")
-    if fmu_map is None:
-
-        def reference_run(z: np.ndarray, zd: np.ndarray) -> dict[str, Any]:
-            return _run_policy(reference, veh, z, zd, law, None, dt, n_sub)
-
-    else:
-        from railgym.fmu.collect import run_policy_fmu
-        from railgym.fmu.mapping import load_mapping
-        from railgym.fmu.runner import FMURunner
-
-        runner = FMURunner(load_mapping(fmu_map, fmu, "vertical"), dt, n_sub)
-
-        def reference_run(z: np.ndarray, zd: np.ndarray) -> dict[str, Any]:
-            return run_policy_fmu(runner, veh, z, zd, law, n_sub)
-
-    holdout = [track((1, i)) for i in range(n_holdout)]
+    reference_run = _reference_runner(reference, veh, law, dt, n_sub, fmu_map, fmu)
+    holdout = [track((1, i)) for i in range(o.n_holdout)]
     refs = [reference_run(z, zd) for z, zd in holdout]
-
-    def score(element: SurrogateModel) -> tuple[float, int]:
-        errs, ood = [], 0
-        for (z, zd), ref in zip(holdout, refs, strict=True):
-            sur = _run_policy("surrogate", veh, z, zd, law, element, dt, n_sub)
-            ood += sur["ood"]
-            a, b = sur["a2"], ref["a2"]
-            ok = not sur["diverged"] and np.all(np.isfinite(a))
-            errs.append(np.sqrt(np.mean((a - b) ** 2) / np.mean(b**2)) if ok else np.inf)
-        return float(np.median(errs)), ood
-
     history = []
     for r in range(rounds + 1):
         if r > 0:
-            cand_u, cand_v = [], []
-            for i in range(n_tracks):
-                z, zd = track((2, r, i))
-                run = reference_run(z, zd)
+            candidates = []
+            for i in range(o.n_tracks):
+                run = reference_run(*track((2, r, i)))
                 rows = np.arange(0, run["t"].size, every)
                 rows = rows[np.isfinite(run["force"][rows])]
-                u, v = _element_pairs(model, run, rows, vehicle)
-                cand_u.append(u)
-                cand_v.append(v)
-            cu, cv = np.concatenate(cand_u), np.concatenate(cand_v)
-            outside = np.any((cu < model.lower_) | (cu > model.upper_), axis=1)
-            err = np.abs(model.predict(cu) - cv)
-            worst = np.argsort(np.where(outside, np.inf, err))[::-1][:n_add]
-            U, V = np.concatenate([U, cu[worst]]), np.concatenate([V, cv[worst]])
-            features = getattr(model, "features_", None)
-            model = type(model)(**model.get_params()).fit(U, V)
-            if features is not None:
-                model.features_ = features
-        error, ood = score(model)
+                candidates.append(_element_pairs(model, run, rows, vehicle))
+            model, U, V = refit_worst(model, (U, V), candidates, o.n_add)
+        runs = [_run_policy("surrogate", veh, z, zd, law, model, dt, n_sub) for z, zd in holdout]
+        errors, ood = holdout_error(runs, refs, "a2")
+        error = float(errors)
         history.append({"round": r, "error": error, "ood": ood, "n_samples": int(V.size)})
         if log is not None:
             log(
@@ -602,10 +566,9 @@ def refine(
     return model, history
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Regenerate a packaged element (or write one elsewhere)."""
-    from railgym.progress import quiet, stages
-    from surrogates.cli import UsageError, add_degree_arguments, check_degrees
+def _parser() -> argparse.ArgumentParser:
+    """Arguments of ``python -m railgym.vehicles.collect``."""
+    from surrogates.cli import add_degree_arguments
 
     parser = argparse.ArgumentParser(
         prog="python -m railgym.vehicles.collect", description=__doc__.split("\n\n")[0]
@@ -631,6 +594,30 @@ def main(argv: Sequence[str] | None = None) -> int:
         "; static default 16 per input; maxwell: the grid of each input (from 12, 12, 14 in "
         "steps of 2) up to N, default 16 16 20",
     )
+    return parser
+
+
+def _candidates(args: argparse.Namespace) -> list[tuple[int, ...]] | None:
+    """Degree candidates of ``--degree`` / ``--max-degree`` (``None``: the form's default);
+    ``UsageError`` or ``ValueError`` for bad values."""
+    from surrogates.cli import check_degrees
+
+    n_inputs = 2 if args.features == "static" else 3
+    degree = check_degrees(args.degree, "--degree", n_inputs)
+    top = check_degrees(args.max_degree, "--max-degree", n_inputs)
+    if args.features == "static":
+        if top is not None:
+            return list(itertools.product(*(range(1, t + 1) for t in top)))
+        return [degree] if degree else None
+    return [degree] if degree else (memory_degrees(top) if top else None)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Regenerate a packaged element (or write one elsewhere)."""
+    from railgym.progress import quiet, stages
+    from surrogates.cli import UsageError
+
+    parser = _parser()
     args = parser.parse_args(argv)
     if args.design is None:
         args.design = MEMORY_DESIGN if args.features == "maxwell" else "paper"
@@ -640,16 +627,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser.error(f"--output {target}: exists; pass --overwrite to replace it")
         if not target.parent.is_dir():
             parser.error(f"--output {target}: the folder {str(target.parent)!r} does not exist")
-    n_inputs = 2 if args.features == "static" else 3
     try:
-        degree = check_degrees(args.degree, "--degree", n_inputs)
-        top = check_degrees(args.max_degree, "--max-degree", n_inputs)
-        if args.features == "static":
-            cands = [degree] if degree else None
-            if top is not None:
-                cands = list(itertools.product(*(range(1, t + 1) for t in top)))
-        else:
-            cands = [degree] if degree else (memory_degrees(top) if top else None)
+        cands = _candidates(args)
     except (UsageError, ValueError) as err:
         parser.error(str(err))
     progress = stages()

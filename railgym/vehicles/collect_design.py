@@ -20,11 +20,13 @@ from typing import Any
 
 import numpy as np
 
+from railgym import _checks as val
 from railgym.track import class_speed, track_time_input
 from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle, simulate
-from surrogates.models.validation import check_seed
 
 DESIGNS = ("paper", "envelope")
+#: sample rate of the memory element's training data and of the refinement samples, Hz
+MEMORY_SAMPLE_RATE = 200.0
 
 
 def _number(v: Any) -> float | None:
@@ -114,7 +116,7 @@ def band_limited_force(n: int, dt: float, band: float, f_max: float, seed: Any) 
     filter, FFT), scaled so that its peak ``max|F|`` is exactly ``f_max``."""
     if n < 2:
         raise ValueError(f"n must be at least 2 samples, got {n}")
-    rng = np.random.default_rng(check_seed(seed))
+    rng = np.random.default_rng(val.random_seed(seed, "seed"))
     spectrum = np.fft.rfft(rng.standard_normal(n))
     spectrum[np.fft.rfftfreq(n, dt) > band] = 0.0
     spectrum[0] = 0.0
@@ -203,6 +205,7 @@ def collect_design(
 __all__ = [
     "DESIGNS",
     "ENVELOPE",
+    "MEMORY_SAMPLE_RATE",
     "PAPER",
     "CollectionDesign",
     "band_limited_force",

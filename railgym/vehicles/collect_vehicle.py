@@ -37,7 +37,7 @@ from railgym.vehicles.vehicle import (
     kernel_params,
     load_whole_vehicle,
     lpr_arrays,
-    make_batch,
+    new_arrays,
     wheelset_offsets,
 )
 from surrogates.memory import TauSelection
@@ -133,13 +133,13 @@ def collect_vehicle(
     span = 2.0 * (veh.bogie_semi_spacing + veh.semi_wheelbase)
     m = n_steps + math.ceil(span / (min(design.speeds) * dt)) + 2
     kind = check_variant("dynamic")
-    bt, out = make_batch(len(cases), "dynamic", m)
+    arrays, out = new_arrays(len(cases), "dynamic", m)
     forces = np.zeros((len(cases), 2, n_steps))
     for i, (track_class, v, seed, excited) in enumerate(cases):
         dx = v * dt
         _, z, slope = fra_profile_with_slope(track_class, (m - 1) * dx, dx, seed)
-        bt.z[i, : z.size], bt.zdot[i, : z.size] = z[:m], v * slope[:m]
-        bt.off[i] = wheelset_offsets(veh, v, dt)
+        arrays.z[i, : z.size], arrays.zdot[i, : z.size] = z[:m], v * slope[:m]
+        arrays.off[i] = wheelset_offsets(veh, v, dt)
         if excited:
             for b in range(2):
                 forces[i, b] = band_limited_force(
@@ -148,13 +148,13 @@ def collect_vehicle(
     p = kernel_params(veh)
     e = veh.suspension.kernel_params().record()
     lpr = lpr_arrays(None)
-    x = np.zeros((n_steps + 1, *bt.state.shape))
+    x = np.zeros((n_steps + 1, *arrays.state.shape))
     fs = np.zeros((n_steps + 1, len(cases), 2))
     for k in range(n_steps):
-        bt.force[:] = forces[:, :, k]
-        advance(kind, bt, 1, dt, p, e, lpr, out)
-        bt.k[:] += 1
-        x[k + 1], fs[k + 1] = bt.state, out.fs
+        arrays.force[:] = forces[:, :, k]
+        advance(kind, arrays, 1, dt, p, e, lpr, out)
+        arrays.k[:] += 1
+        x[k + 1], fs[k + 1] = arrays.state, out.fs
     if out.div.any():
         raise RuntimeError(f"the reference diverged in runs {np.flatnonzero(out.div)}")
     t = np.arange(n_steps + 1) * dt

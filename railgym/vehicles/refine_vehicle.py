@@ -14,9 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
-from railgym.track import class_speed, fra_profile_with_slope
-from railgym.vehicles.collect import MEMORY_SAMPLE_RATE, _element_pairs, _initial_pairs
+from railgym import _checks as val
+from railgym.track import fra_profile_with_slope
+from railgym.vehicles.collect import _element_pairs, _initial_pairs
+from railgym.vehicles.refinement import RefineOptions, holdout_error, refit_worst
 from railgym.vehicles.vehicle import (
     DEFAULT_DT,
     N_MECH,
@@ -26,7 +27,7 @@ from railgym.vehicles.vehicle import (
     kernel_params,
     load_whole_vehicle,
     lpr_arrays,
-    make_batch,
+    new_arrays,
     wheelset_offsets,
 )
 from surrogates.memory import element_form
@@ -74,7 +75,7 @@ def run_vehicle_policy(
 ) -> dict[str, Any]:
     """One closed-loop run recorded at every integration step of ``DEFAULT_DT`` (s).
 
-    ``track`` is ``(z, zdot, offsets)`` of :class:`~railgym.vehicles.vehicle.Batch`; the law
+    ``track`` is ``(z, zdot, offsets)`` of :class:`~railgym.vehicles.vehicle.VehicleArrays`; the law
     gets the raw observation (:data:`RAW_VEHICLE_OBSERVATION`) every ``n_sub`` steps. Returns
     ``t`` (s), per bogie ``delta`` (m), ``delta_dot`` (m/s), ``force`` (F_s, N) as (2, n + 1)
     arrays, ``acc`` (floor points at the control steps, (n // n_sub, 3), m/s²), ``ood`` and
@@ -84,8 +85,8 @@ def run_vehicle_policy(
     kind = check_variant(variant)
     lpr = lpr_arrays(element if variant == "surrogate" else None, dt)
     z, zdot, off = track
-    bt, out = make_batch(1, variant, z.size, lpr)
-    bt.z[0], bt.zdot[0], bt.off[0] = z, zdot, off
+    arrays, out = new_arrays(1, variant, z.size, lpr)
+    arrays.z[0], arrays.zdot[0], arrays.off[0] = z, zdot, off
     p, e = kernel_params(vehicle), vehicle.suspension.kernel_params().record()
     rec = np.full((3, 2, n_steps + 1), np.nan)
     rec[:, :, 0] = 0.0
@@ -94,17 +95,17 @@ def run_vehicle_policy(
     ood = 0
     for k in range(n_steps):
         if k % n_sub == 0:
-            raw[:N_MECH] = bt.state[0, :N_MECH]
+            raw[:N_MECH] = arrays.state[0, :N_MECH]
             raw[N_MECH : N_MECH + 5] = out.acc[0]
             for j in range(4):
                 raw[N_MECH + 5 + j], raw[N_MECH + 9 + j] = hermite(z, zdot, k + off[j], dt)
-            bt.force[0] = law(raw)
-        advance(kind, bt, 1, dt, p, e, lpr, out)
-        bt.k[0] += 1
+            arrays.force[0] = law(raw)
+        advance(kind, arrays, 1, dt, p, e, lpr, out)
+        arrays.k[0] += 1
         ood += int(out.count[0, 1])
         if out.div[0]:
             break
-        x = bt.state[0]
+        x = arrays.state[0]
         for b, xb in enumerate((p.a, -p.a)):
             rec[0, b, k + 1] = x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2]
             rec[1, b, k + 1] = x[10 + 2 * b] - x[7] - xb * x[8] - p.phi_a * x[9]
@@ -127,99 +128,60 @@ def refine_vehicle(
     policy: Any,
     rounds: int = 3,
     *,
+    options: RefineOptions | None = None,
     data: tuple[Any, Any] | None = None,
-    track_class: int = 5,
-    speed: float | None = None,
-    duration: float = 10.0,
-    n_tracks: int = 2,
-    n_holdout: int = 3,
-    n_add: int = 400,
-    sample_rate: float = MEMORY_SAMPLE_RATE,
-    control_dt: float = 0.01,
-    f_max: float = 8000.0,
     observe: Any = None,
     vehicle: str = "manchester_whole",
-    seed: int = 0,
     log: Any = print,
 ) -> tuple[SurrogateModel, list[dict[str, Any]]]:
-    """:func:`railgym.vehicles.collect.refine` on the whole vehicle (same arguments; the
-    policy returns two actions and ``observe`` maps :data:`RAW_VEHICLE_OBSERVATION`).
+    """:func:`railgym.vehicles.collect.refine` on the whole vehicle (same arguments and
+    :class:`~railgym.vehicles.refinement.RefineOptions`; the policy returns two actions and
+    ``observe`` maps :data:`RAW_VEHICLE_OBSERVATION`).
 
     Returns ``(model, history)``; each history row has ``round``, ``error`` (median held-out
     relative RMS error of the worst floor point), ``errors`` (its median per floor point,
     front/centre/rear), ``ood`` and ``n_samples``.
     """
+    o = RefineOptions() if options is None else options
     rounds = val.integer(rounds, "rounds", min=0)
-    for name, v in (("n_tracks", n_tracks), ("n_holdout", n_holdout), ("n_add", n_add)):
-        val.integer(v, name, min=1)
     element_form(getattr(model, "features_", None), model.n_features_in_, "model")
     veh = load_whole_vehicle(vehicle)
     base = veh.suspension.name
     dt = DEFAULT_DT
-    n_sub = round(control_dt / dt)
-    every = round(1.0 / (sample_rate * dt))
-    if n_sub < 1 or every < 1:
-        raise ValueError("control_dt and 1/sample_rate must be whole multiples of dt")
-    n_steps = round(duration / control_dt) * n_sub
-    law = _policy_forces(policy, observe, f_max)
-    v0 = class_speed(track_class) if speed is None else val.positive(speed, "speed")
+    n_sub, every = o.steps(dt)
+    n_steps = round(o.duration / o.control_dt) * n_sub
+    law = _policy_forces(policy, observe, o.f_max)
+    v0 = o.speed_or_class()
     off = wheelset_offsets(veh, v0, dt)
     m = n_steps + int(np.ceil(off.max())) + 2
     U, V = _initial_pairs(model, base) if data is None else (np.asarray(data[0]), data[1])
     V = np.asarray(V, dtype=np.float64)
 
     def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        s = int(np.random.default_rng((seed, *tag)).integers(2**63 - 1))
-        _, z, slope = fra_profile_with_slope(track_class, (m - 1) * v0 * dt, v0 * dt, s)
+        s = int(np.random.default_rng((o.seed, *tag)).integers(2**63 - 1))
+        _, z, slope = fra_profile_with_slope(o.track_class, (m - 1) * v0 * dt, v0 * dt, s)
         return z[:m], v0 * slope[:m], off
 
-    holdout = [track((1, i)) for i in range(n_holdout)]
-    refs = [run_vehicle_policy("dynamic", veh, tr, law, None, n_steps, n_sub) for tr in holdout]
+    def run(variant: str, tr: tuple[np.ndarray, ...], element: Any) -> dict[str, Any]:
+        return run_vehicle_policy(variant, veh, tr, law, element, n_steps, n_sub)
 
-    def score(element: SurrogateModel) -> tuple[np.ndarray, int]:
-        errs, ood = [], 0
-        for tr, ref in zip(holdout, refs, strict=True):
-            sur = run_vehicle_policy("surrogate", veh, tr, law, element, n_steps, n_sub)
-            ood += sur["ood"]
-            a, b = sur["acc"], ref["acc"]
-            ok = not sur["diverged"] and np.all(np.isfinite(a))
-            e = np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
-            errs.append(e if ok else np.full(3, np.inf))
-        return np.median(errs, axis=0), ood
-
+    holdout = [track((1, i)) for i in range(o.n_holdout)]
+    refs = [run("dynamic", tr, None) for tr in holdout]
     history = []
     for r in range(rounds + 1):
         if r > 0:
-            cand_u, cand_v = [], []
-            for i in range(n_tracks):
-                run = run_vehicle_policy(
-                    "dynamic", veh, track((2, r, i)), law, None, n_steps, n_sub
-                )
-                rows = np.arange(0, run["t"].size, every)
+            candidates = []
+            for i in range(o.n_tracks):
+                ref = run("dynamic", track((2, r, i)), None)
+                rows = np.arange(0, ref["t"].size, every)
                 for b in range(2):
-                    bogie = {k: run[k][b] for k in ("delta", "delta_dot", "force")}
+                    bogie = {k: ref[k][b] for k in ("delta", "delta_dot", "force")}
                     keep = rows[np.isfinite(bogie["force"][rows])]
-                    u, v = _element_pairs(model, {"t": run["t"], **bogie}, keep, base)
-                    cand_u.append(u)
-                    cand_v.append(v)
-            cu, cv = np.concatenate(cand_u), np.concatenate(cand_v)
-            outside = np.any((cu < model.lower_) | (cu > model.upper_), axis=1)
-            err = np.abs(model.predict(cu) - cv)
-            worst = np.argsort(np.where(outside, np.inf, err))[::-1][:n_add]
-            U, V = np.concatenate([U, cu[worst]]), np.concatenate([V, cv[worst]])
-            features = getattr(model, "features_", None)
-            model = type(model)(**model.get_params()).fit(U, V)
-            if features is not None:
-                model.features_ = features
-        errors, ood = score(model)
-        row = {
-            "round": r,
-            "error": float(errors.max()),
-            "errors": errors,
-            "ood": ood,
-            "n_samples": int(V.size),
-        }
-        history.append(row)
+                    candidates.append(_element_pairs(model, {"t": ref["t"], **bogie}, keep, base))
+            model, U, V = refit_worst(model, (U, V), candidates, o.n_add)
+        errors, ood = holdout_error([run("surrogate", tr, model) for tr in holdout], refs, "acc")
+        row = {"round": r, "error": float(errors.max()), "errors": errors, "ood": ood}
+        history.append({**row, "n_samples": int(V.size)})
         if log is not None:
             log(
                 f"round {r}: held-out rel. RMS error of the floor acceleration front / centre / "

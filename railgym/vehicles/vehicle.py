@@ -51,7 +51,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.vehicles.vehicle_lanes import LANES, LANES_MIN, hermite, lanes_block
 from railgym.vehicles.vertical import (
     DIVERGENCE_DISPLACEMENT,
@@ -161,7 +161,7 @@ def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVe
     """Load a whole vehicle: a packaged name or the path of a ``.yaml`` file with the
     sections ``base`` (name or path of the one-bogie vehicle) and ``whole_vehicle``.
 
-    The "name or path" rule is :func:`railgym._validation.resolve_yaml`'s; errors in a file
+    The "name or path" rule is :func:`railgym._checks.resolve_yaml`'s; errors in a file
     name the file and the field.
     """
     text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))
@@ -219,7 +219,7 @@ class Lpr(NamedTuple):
     additive: bool
 
 
-class Batch(NamedTuple):
+class VehicleArrays(NamedTuple):
     """Per-vehicle arrays the kernel works on (``n`` vehicles)."""
 
     state: np.ndarray  # (n, s), updated in place
@@ -294,97 +294,136 @@ def wheelset_offsets(vehicle: WholeVehicle, speed: float, dt: float) -> np.ndarr
 
 # =========================================================================== kernels
 @njit(cache=True, error_model="numpy")
-def _static_force(d: float, dd: float, e: Any) -> float:
+def _static_force(deflection: float, deflection_rate: float, suspension: Any) -> float:
     """Static reference secondary force (N): progressive spring, bump stops, damper curve."""
-    return e.k2 * d * (1.0 + e.progression * d * d) + bump_stop_force(d, e) + damper_force(dd, e)
+    return (
+        suspension.k2 * deflection * (1.0 + suspension.progression * deflection * deflection)
+        + bump_stop_force(deflection, suspension)
+        + damper_force(deflection_rate, suspension)
+    )
 
 
 @njit(cache=True, error_model="numpy")
-def _dynamic_force(j, d, dd, x, e, rt, dx):
-    """Dynamic reference secondary force (N) of the bogie whose element states start at
-    ``x[j]``; their rates go to ``dx[j : j + 3]`` (through the work array ``rt``)."""
-    f_air, f_d = dynamic_element(d, dd, x[j], x[j + 1], x[j + 2], e, rt)
-    dx[j], dx[j + 1], dx[j + 2] = rt[0], rt[1], rt[2]
-    return f_air + f_d + bump_stop_force(d, e)
+def _dynamic_force(first, deflection, deflection_rate, state, suspension, element_rates, rates):
+    """Dynamic reference secondary force (N) at ``deflection`` (m) and ``deflection_rate``
+    (m/s) of the bogie whose element states start at ``state[first]``; their rates go to
+    ``rates[first : first + 3]`` (through the work array ``element_rates``)."""
+    f_air, f_d = dynamic_element(
+        deflection,
+        deflection_rate,
+        state[first],
+        state[first + 1],
+        state[first + 2],
+        suspension,
+        element_rates,
+    )
+    rates[first], rates[first + 1], rates[first + 2] = (
+        element_rates[0],
+        element_rates[1],
+        element_rates[2],
+    )
+    return f_air + f_d + bump_stop_force(deflection, suspension)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, dx, fs):
-    """State derivative into ``dx`` for wheel inputs ``w`` (4, 2) (height, rate) and actuator
-    forces ``fa`` (2,); writes the secondary forces into ``fs`` (2,); returns the number of
-    out-of-domain surrogate evaluations. ``u`` (d,), ``rt`` (3,) and ``lw`` are work arrays.
-    A memory element's states are ``x[N_MECH + i]``; it is evaluated by the additive fast
-    path inside its box, like the one-bogie kernel."""
+def _rhs(
+    kind,
+    state,
+    wheels,
+    actuator_force,
+    params,
+    suspension,
+    lpr,
+    element_input,
+    element_rates,
+    lpr_work,
+    rates,
+    secondary_force,
+):
+    """Derivative of ``state`` into ``rates`` for the wheel inputs ``wheels`` (4, 2) (height
+    m, rate m/s) and the ``actuator_force`` (2,) N; writes the secondary forces into
+    ``secondary_force`` (2,) N; returns the number of out-of-domain surrogate evaluations.
+    ``kind``: the variant's code (:func:`check_variant`); ``params``: :class:`Params`;
+    ``suspension``: one suspension record; ``element_input`` (d,), ``element_rates`` (3,) and
+    ``lpr_work`` are work arrays. A memory element's states are ``state[N_MECH + i]``; it is
+    evaluated by the additive fast path inside its box, like the one-bogie kernel."""
     outside = 0
     f0 = 0.0
     f1 = 0.0
     for i in range(2):
-        xi = p.a if i == 0 else -p.a
-        zb, vb = x[3 + 2 * i], x[10 + 2 * i]
-        d = zb - (x[0] + xi * x[1] + p.phi_a * x[2])
-        dd = vb - (x[7] + xi * x[8] + p.phi_a * x[9])
+        xi = params.a if i == 0 else -params.a
+        zb, vb = state[3 + 2 * i], state[10 + 2 * i]
+        d = zb - (state[0] + xi * state[1] + params.phi_a * state[2])
+        dd = vb - (state[7] + xi * state[8] + params.phi_a * state[9])
         if kind == 0:
-            f = p.k2 * d + p.c2 * dd
+            f = params.k2 * d + params.c2 * dd
         elif kind == 1:
-            f = _static_force(d, dd, e)
+            f = _static_force(d, dd, suspension)
         elif kind == 2:
-            f = _dynamic_force(N_MECH + 3 * i, d, dd, x, e, rt, dx)
+            f = _dynamic_force(N_MECH + 3 * i, d, dd, state, suspension, element_rates, rates)
         else:
-            u[0] = d
-            u[1] = dd
+            element_input[0] = d
+            element_input[1] = dd
             memory = lpr.tau > 0.0
             if memory:
-                sm = x[N_MECH + i]
-                u[2] = d - sm
-                dx[N_MECH + i] = (d - sm) / lpr.tau
-            out_i = lpr_is_outside(u, lpr.lo, lpr.up)
+                sm = state[N_MECH + i]
+                element_input[2] = d - sm
+                rates[N_MECH + i] = (d - sm) / lpr.tau
+            out_i = lpr_is_outside(element_input, lpr.lo, lpr.up)
             if out_i:
                 outside += 1
             if memory and lpr.additive and not out_i:
-                f = lpr_additive_inside(u, lpr.table, lpr.lo, lw)
+                f = lpr_additive_inside(element_input, lpr.table, lpr.lo, lpr_work)
             else:
-                f = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lw)
+                f = lpr_eval_into(
+                    element_input, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lpr_work
+                )
             if lpr.bump:
-                f += bump_stop_force(d, e)
-        fs[i] = f
-        ftot = f + fa[i]
+                f += bump_stop_force(d, suspension)
+        secondary_force[i] = f
+        ftot = f + actuator_force[i]
         if i == 0:
             f0 = ftot
         else:
             f1 = ftot
-        tb, wb = x[4 + 2 * i], x[11 + 2 * i]
-        lead = p.k1w * (w[2 * i, 0] - zb - p.b * tb) + p.c1w * (w[2 * i, 1] - vb - p.b * wb)
-        trail = p.k1w * (w[2 * i + 1, 0] - zb + p.b * tb) + p.c1w * (
-            w[2 * i + 1, 1] - vb + p.b * wb
+        tb, wb = state[4 + 2 * i], state[11 + 2 * i]
+        lead = params.k1w * (wheels[2 * i, 0] - zb - params.b * tb) + params.c1w * (
+            wheels[2 * i, 1] - vb - params.b * wb
         )
-        dx[3 + 2 * i] = vb
-        dx[4 + 2 * i] = wb
-        dx[10 + 2 * i] = (lead + trail - ftot) * p.inv_m_b
-        dx[11 + 2 * i] = p.b * (lead - trail) * p.inv_j_b
+        trail = params.k1w * (wheels[2 * i + 1, 0] - zb + params.b * tb) + params.c1w * (
+            wheels[2 * i + 1, 1] - vb + params.b * wb
+        )
+        rates[3 + 2 * i] = vb
+        rates[4 + 2 * i] = wb
+        rates[10 + 2 * i] = (lead + trail - ftot) * params.inv_m_b
+        rates[11 + 2 * i] = params.b * (lead - trail) * params.inv_j_b
     for j in range(3):
-        dx[j] = x[7 + j]
-    dx[7] = (f0 + f1) * p.inv_m_c
-    dx[8] = p.a * (f0 - f1) * p.inv_j_c
-    dx[9] = (p.phi_a * (f0 + f1) - p.k_q * x[2] - p.c_q * x[9]) * p.inv_m_q
+        rates[j] = state[7 + j]
+    rates[7] = (f0 + f1) * params.inv_m_c
+    rates[8] = params.a * (f0 - f1) * params.inv_j_c
+    rates[9] = (
+        params.phi_a * (f0 + f1) - params.k_q * state[2] - params.c_q * state[9]
+    ) * params.inv_m_q
     return outside
 
 
 @njit(cache=True, error_model="numpy")
-def _inputs(z, zd, off, pos, dt, w):
-    """Wheel inputs ``w`` (4, 2) of one vehicle (track ``z, zd``, wheelset offsets ``off``)
-    at fractional sample index ``pos``."""
+def _inputs(z, zdot, offsets, pos, dt, wheels):
+    """Wheel inputs ``wheels`` (4, 2) of one vehicle (track ``z, zdot``, wheelset
+    ``offsets``) at fractional sample index ``pos``."""
     for j in range(4):
-        w[j, 0], w[j, 1] = hermite(z, zd, pos + off[j], dt)
+        wheels[j, 0], wheels[j, 1] = hermite(z, zdot, pos + offsets[j], dt)
 
 
 @njit(cache=True, error_model="numpy")
-def _outputs(dx, p, acc, i):
-    """Floor-point (front, centre, rear) and bogie accelerations of vehicle ``i``."""
-    acc[i, 0] = dx[7] + p.a * dx[8] + p.phi_a * dx[9]
-    acc[i, 1] = dx[7] + p.phi_c * dx[9]
-    acc[i, 2] = dx[7] - p.a * dx[8] + p.phi_a * dx[9]
-    acc[i, 3] = dx[10]
-    acc[i, 4] = dx[12]
+def _outputs(rates, params, acc, i):
+    """Floor-point (front, centre, rear) and bogie accelerations of vehicle ``i`` from its
+    state ``rates``."""
+    acc[i, 0] = rates[7] + params.a * rates[8] + params.phi_a * rates[9]
+    acc[i, 1] = rates[7] + params.phi_c * rates[9]
+    acc[i, 2] = rates[7] - params.a * rates[8] + params.phi_a * rates[9]
+    acc[i, 3] = rates[10]
+    acc[i, 4] = rates[12]
 
 
 class Work(NamedTuple):
@@ -405,10 +444,10 @@ class Work(NamedTuple):
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def advance(kind, bt, n_sub, dt, p, e, lpr, out):
-    """Advance every vehicle of the batch ``bt`` (:class:`Batch`) by ``n_sub`` RK4 steps of
-    ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``p``:
-    :class:`Params`, ``e``: the suspension record (``SuspensionParams.record()``), ``lpr``:
+def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out):
+    """Advance every vehicle of ``arrays`` (:class:`VehicleArrays`) by ``n_sub`` RK4 steps of
+    ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``params``:
+    :class:`Params`, ``suspension_record``: ``SuspensionParams.record()``, ``lpr``:
     :class:`Lpr`.
 
     A vehicle whose state turns non-finite or beyond ``DIVERGENCE_DISPLACEMENT`` is frozen at
@@ -418,43 +457,43 @@ def advance(kind, bt, n_sub, dt, p, e, lpr, out):
     lane kernel (:mod:`railgym.vehicles.vehicle_lanes`, on all threads from
     ``PARALLEL_MIN``). All give bit-identical results.
     """
-    n = bt.state.shape[0]
+    n = arrays.state.shape[0]
     d = lpr.lo.shape[0]
     if kind == 3 and (d == 2 or (d == 3 and lpr.additive)) and n >= LANES_MIN:
-        _check_track(kind, bt, n_sub, lpr)
+        _check_track(kind, arrays, n_sub, lpr)
         if n >= PARALLEL_MIN:
-            _lanes_parallel(bt, n_sub, dt, p, e, lpr, out)
+            _lanes_parallel(arrays, n_sub, dt, params, suspension_record, lpr, out)
         else:
             for i0 in range(0, n, LANES):
-                lanes_block(bt, i0, n_sub, dt, p, e, lpr, out)
+                lanes_block(arrays, i0, n_sub, dt, params, suspension_record, lpr, out)
     elif n >= PARALLEL_MIN:
-        advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out)
+        advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out)
     else:
-        advance_serial(kind, bt, n_sub, dt, p, e, lpr, out)
+        advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out)
 
 
 @njit(cache=True, error_model="numpy")
-def _check_track(kind, bt, n_sub, lpr):
+def _check_track(kind, arrays, n_sub, lpr):
     """Raise unless every vehicle's track window of ``n_sub`` samples lies in its profile, and
     for a memory element unless the states hold its two Maxwell states."""
-    if kind == 3 and lpr.tau > 0.0 and bt.state.shape[1] < N_MECH + 2:
+    if kind == 3 and lpr.tau > 0.0 and arrays.state.shape[1] < N_MECH + 2:
         raise ValueError("a memory surrogate element needs N_MECH + 2 states (Maxwell states)")
-    last = bt.z.shape[1] - 1
-    for i in range(bt.state.shape[0]):
-        if bt.k[i] < 0 or bt.k[i] + n_sub + bt.off[i, 0] > last:
+    last = arrays.z.shape[1] - 1
+    for i in range(arrays.state.shape[0]):
+        if arrays.k[i] < 0 or arrays.k[i] + n_sub + arrays.off[i, 0] > last:
             raise ValueError("track index out of range: the profile is too short")
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def _work(s, lpr):
-    """Scratch :class:`Work` of one vehicle with ``s`` states."""
+def _work(n_states, lpr):
+    """Scratch :class:`Work` of one vehicle with ``n_states`` states."""
     return Work(
-        np.empty(s),
-        np.empty(s),
-        np.empty(s),
-        np.empty(s),
-        np.empty(s),
-        np.empty(s),
+        np.empty(n_states),
+        np.empty(n_states),
+        np.empty(n_states),
+        np.empty(n_states),
+        np.empty(n_states),
+        np.empty(n_states),
         np.empty((4, 2)),
         np.empty((4, 2)),
         np.empty(2),
@@ -465,68 +504,69 @@ def _work(s, lpr):
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def advance_serial(kind, bt, n_sub, dt, p, e, lpr, out):
+def advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out):
     """:func:`advance` on one thread: :func:`_advance_one` for each vehicle in turn."""
-    _check_track(kind, bt, n_sub, lpr)
-    wk = _work(bt.state.shape[1], lpr)
-    for i in range(bt.state.shape[0]):
-        _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
+    _check_track(kind, arrays, n_sub, lpr)
+    work = _work(arrays.state.shape[1], lpr)
+    for i in range(arrays.state.shape[0]):
+        _advance_one(kind, arrays, i, n_sub, dt, params, suspension_record[0], lpr, out, work)
 
 
 @njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
-def advance_parallel(kind, bt, n_sub, dt, p, e, lpr, out):
+def advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out):
     """:func:`advance` on all numba threads: ``prange`` over chunks of vehicles, each chunk with
     its own scratch running the same :func:`_advance_one` as :func:`advance_serial`."""
-    _check_track(kind, bt, n_sub, lpr)
-    n = bt.state.shape[0]
+    _check_track(kind, arrays, n_sub, lpr)
+    n = arrays.state.shape[0]
     chunks = min(n, PARALLEL_CHUNKS)
-    for c in prange(chunks):
-        wk = _work(bt.state.shape[1], lpr)
-        for i in range(c * n // chunks, (c + 1) * n // chunks):
-            _advance_one(kind, bt, i, n_sub, dt, p, e[0], lpr, out, wk)
+    for chunk in prange(chunks):
+        work = _work(arrays.state.shape[1], lpr)
+        for i in range(chunk * n // chunks, (chunk + 1) * n // chunks):
+            _advance_one(kind, arrays, i, n_sub, dt, params, suspension_record[0], lpr, out, work)
 
 
 @njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
-def _lanes_parallel(bt, n_sub, dt, p, e, lpr, out):
+def _lanes_parallel(arrays, n_sub, dt, params, suspension_record, lpr, out):
     """The lane kernel's blocks on all numba threads (``prange``)."""
-    blocks = (bt.state.shape[0] + LANES - 1) // LANES
-    for c in prange(blocks):
-        lanes_block(bt, c * LANES, n_sub, dt, p, e, lpr, out)
+    blocks = (arrays.state.shape[0] + LANES - 1) // LANES
+    for chunk in prange(blocks):
+        lanes_block(arrays, chunk * LANES, n_sub, dt, params, suspension_record, lpr, out)
 
 
 # Without the runtime's reference counting (the arrays are owned by the caller, nothing is
 # allocated here): the counting of every array passed on to the element functions would
 # cost more than the arithmetic of a substep.
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):
-    """RK4 steps of vehicle ``i`` (see :func:`advance`); ``wk``: :class:`Work`."""
-    s = bt.state.shape[1]
-    x, xt, r1, r2, r3, r4 = wk.x, wk.xt, wk.r1, wk.r2, wk.r3, wk.r4
-    w, wm, fs, u, rt, lw = wk.w, wk.wm, wk.fs, wk.u, wk.rt, wk.lw
+def _advance_one(kind, arrays, i, n_sub, dt, params, suspension, lpr, out, work):
+    """RK4 steps of vehicle ``i`` (see :func:`advance`); ``suspension``: one suspension
+    record; ``work``: :class:`Work`."""
+    s = arrays.state.shape[1]
+    x, xt, r1, r2, r3, r4 = work.x, work.xt, work.r1, work.r2, work.r3, work.r4
+    w, wm, fs, u, rt, lw = work.w, work.wm, work.fs, work.u, work.rt, work.lw
     h6 = dt / 6.0
-    kk = bt.k[i]
-    fa = bt.force[i]
-    z, zd, off = bt.z[i], bt.zdot[i], bt.off[i]
+    kk = arrays.k[i]
+    actuator_force = arrays.force[i]
+    z, zd, off = arrays.z[i], arrays.zdot[i], arrays.off[i]
     for j in range(s):
-        x[j] = bt.state[i, j]
+        x[j] = arrays.state[i, j]
     contact = 0
     ood = 0
     div = False
     _inputs(z, zd, off, float(kk), dt, w)  # then carried from the end of each substep
     for m in range(n_sub):
         t0 = float(kk + m)
-        ood += _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
+        ood += _rhs(kind, x, w, actuator_force, params, suspension, lpr, u, rt, lw, r1, fs)
         _inputs(z, zd, off, t0 + 0.5, dt, wm)
         for j in range(s):
             xt[j] = x[j] + 0.5 * dt * r1[j]
-        ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r2, fs)
+        ood += _rhs(kind, xt, wm, actuator_force, params, suspension, lpr, u, rt, lw, r2, fs)
         for j in range(s):
             xt[j] = x[j] + 0.5 * dt * r2[j]
-        ood += _rhs(kind, xt, wm, fa, p, e, lpr, u, rt, lw, r3, fs)
+        ood += _rhs(kind, xt, wm, actuator_force, params, suspension, lpr, u, rt, lw, r3, fs)
         _inputs(z, zd, off, t0 + 1.0, dt, w)
         for j in range(s):
             xt[j] = x[j] + dt * r3[j]
-        ood += _rhs(kind, xt, w, fa, p, e, lpr, u, rt, lw, r4, fs)
+        ood += _rhs(kind, xt, w, actuator_force, params, suspension, lpr, u, rt, lw, r4, fs)
         ok = True
         for j in range(s):
             xt[j] = x[j] + h6 * (r1[j] + 2.0 * r2[j] + 2.0 * r3[j] + r4[j])
@@ -541,14 +581,14 @@ def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):
         for j in range(s):
             x[j] = xt[j]
         for b in range(2):
-            xb = p.a if b == 0 else -p.a
-            if in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - p.phi_a * x[2], e):
+            xb = params.a if b == 0 else -params.a
+            if in_contact(x[3 + 2 * b] - x[0] - xb * x[1] - params.phi_a * x[2], suspension):
                 contact += 1
     for j in range(s):
-        bt.state[i, j] = x[j]
+        arrays.state[i, j] = x[j]
     if not div:  # w holds the inputs at the end of the step
-        _rhs(kind, x, w, fa, p, e, lpr, u, rt, lw, r1, fs)
-        _outputs(r1, p, out.acc, i)
+        _rhs(kind, x, w, actuator_force, params, suspension, lpr, u, rt, lw, r1, fs)
+        _outputs(r1, params, out.acc, i)
         for j in range(5):
             if not math.isfinite(out.acc[i, j]):
                 div = True
@@ -565,11 +605,13 @@ def _advance_one(kind, bt, i, n_sub, dt, p, e, lpr, out, wk):
 
 
 # ======================================================================== utilities
-def make_batch(n: int, variant: str, n_samples: int, lpr: Lpr | None = None) -> tuple[Batch, Out]:
-    """Zeroed :class:`Batch` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples
+def new_arrays(
+    n: int, variant: str, n_samples: int, lpr: Lpr | None = None
+) -> tuple[VehicleArrays, Out]:
+    """Zeroed :class:`VehicleArrays` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples
     (states sized by :func:`state_size` for the element ``lpr``)."""
     s = state_size(variant, lpr)
-    bt = Batch(
+    arrays = VehicleArrays(
         np.zeros((n, s)),
         np.zeros((n, n_samples)),
         np.zeros((n, n_samples)),
@@ -578,7 +620,7 @@ def make_batch(n: int, variant: str, n_samples: int, lpr: Lpr | None = None) -> 
         np.zeros((n, 2)),
     )
     out = Out(np.zeros((n, 5)), np.zeros((n, 2)), np.zeros((n, 2), np.int64), np.zeros(n, np.bool_))
-    return bt, out
+    return arrays, out
 
 
 def simulate(
@@ -613,21 +655,21 @@ def simulate(
     zdot = np.atleast_2d(np.asarray(zdot, dtype=float))
     n = z.shape[0]
     lpr = lpr_arrays(surrogate if variant == "surrogate" else None, float(dt))
-    bt, out = make_batch(n, variant, z.shape[1], lpr)
-    bt.z[:] = z
-    bt.zdot[:] = zdot
-    bt.off[:] = np.broadcast_to(np.asarray(offsets, dtype=float), (n, 4))
-    p = kernel_params(vehicle, flexible)
-    e = vehicle.suspension.kernel_params().record()
+    arrays, out = new_arrays(n, variant, z.shape[1], lpr)
+    arrays.z[:] = z
+    arrays.zdot[:] = zdot
+    arrays.off[:] = np.broadcast_to(np.asarray(offsets, dtype=float), (n, 4))
+    params = kernel_params(vehicle, flexible)
+    suspension_record = vehicle.suspension.kernel_params().record()
     acc = np.zeros((n, n_steps, 5))
-    states = np.zeros((n, n_steps, bt.state.shape[1]))
+    states = np.zeros((n, n_steps, arrays.state.shape[1]))
     fs = np.zeros((n, n_steps, 2))
     totals = np.zeros((n, 2), np.int64)
     div = np.zeros(n, np.bool_)
     for m in range(n_steps):
-        advance(kind, bt, sample_every, float(dt), p, e, lpr, out)
-        bt.k[:] += sample_every
-        acc[:, m], states[:, m], fs[:, m] = out.acc, bt.state, out.fs
+        advance(kind, arrays, sample_every, float(dt), params, suspension_record, lpr, out)
+        arrays.k[:] += sample_every
+        acc[:, m], states[:, m], fs[:, m] = out.acc, arrays.state, out.fs
         totals += out.count
         div |= out.div
     return {

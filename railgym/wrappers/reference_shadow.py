@@ -17,7 +17,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.vertical import ENV_BACKENDS, VerticalSuspensionEnv
 from surrogates.metrics import average_absolute_error, paper_error
 

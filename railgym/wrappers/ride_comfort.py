@@ -17,7 +17,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.comfort import RunningComfort, sperling_label, sperling_wz
 
 #: low-pass corner of ISO 2631-1 (f2), Hz; representable only above 2·f2

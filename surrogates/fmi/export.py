@@ -141,12 +141,73 @@ def compile_sources(
     return output
 
 
-def _features(
-    model: SurrogateModel, d: int
-) -> tuple[list[str], str, dict[str, str], dict[str, Any]]:
-    feats = getattr(model, "features_", None) or {}
-    inputs = list(feats.get("inputs") or [f"u{i + 1}" for i in range(d)])
-    return inputs, str(feats.get("output") or "v"), dict(feats.get("units") or {}), feats
+def _names(
+    model: LegendreRegression,
+    inputs: Sequence[str] | None,
+    output: str | None,
+    units: Mapping[str, str] | None,
+    descriptions: Mapping[str, str] | None,
+) -> tuple[list[str], str, dict[str, str], dict[str, str]]:
+    """Feature names, output name, ``name → unit`` and ``name → description`` of the
+    element: the arguments over the model's saved ``features`` (else ``u1 … ud``, ``v``)."""
+    d = int(model.n_features_in_)
+    feats: dict[str, Any] = getattr(model, "features_", None) or {}
+    default_inputs = feats.get("inputs") or [f"u{i + 1}" for i in range(d)]
+    in_names = list(inputs) if inputs is not None else list(default_inputs)
+    out_name = output if output is not None else str(feats.get("output") or "v")
+    all_units = {**dict(feats.get("units") or {}), **dict(units or {})}
+    desc = {**dict(feats.get("descriptions") or {}), **dict(descriptions or {})}
+    if len(in_names) != d:
+        raise ValueError(f"inputs names {len(in_names)} features, the model has {d}")
+    return in_names, out_name, all_units, desc
+
+
+def _exportable(model: SurrogateModel | str | Path, kind: str) -> LegendreRegression:
+    """``model`` (loaded when a path) if it is a fitted memoryless Legendre element and
+    ``kind`` is an FMI kind of :data:`KINDS`; else the error of :func:`export_fmu`."""
+    if isinstance(model, str | Path):
+        model = load(model)  # a bad file: one error naming it
+    if not isinstance(model, SurrogateModel):
+        raise ValueError(f"model must be a fitted surrogate model, got {type(model).__name__}")
+    if not isinstance(model, LegendreRegression):
+        raise FMUExportError(
+            f"FMU export of {type(model).__name__} ({model.kind!r}) is not supported: only "
+            "LegendreRegression ('lpr') elements can be exported"
+        )
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+    model._check_fitted()
+    shape = element_form(getattr(model, "features_", None), model.n_features_in_)
+    if shape.form != "static" or shape.known_physics:
+        raise FMUExportError(
+            f"FMU export of a {shape.form!r} element (tau {shape.tau} s, known physics "
+            f"{list(shape.known_physics)}) is not supported: the FMU evaluates a memoryless "
+            "map F(u) and would drop the internal state and the known physics"
+        )
+    return model
+
+
+def _variables(
+    model: LegendreRegression,
+    fmi: Sequence[str],
+    names: Sequence[str],
+    units: Mapping[str, str],
+    desc: Mapping[str, str],
+) -> list[Variable]:
+    """The FMU variables of the element's inputs and (last) its output: FMI names ``fmi`` of
+    the feature ``names``, units, and descriptions (default: the name and its training range)."""
+    lower, upper = model.domain_
+    variables = []
+    for j, name in enumerate(names[:-1]):
+        unit = units.get(name, "")
+        rng = (
+            f"training range [{float(lower[j])!r}, {float(upper[j])!r}]{' ' + unit if unit else ''}"
+        )
+        variables.append(Variable(fmi[j], unit, desc.get(name, f"feature {name!r}, {rng}")))
+    out = names[-1]
+    default = f"element output {out!r} (extrapolation {model.extrapolation!r})"
+    variables.append(Variable(fmi[-1], units.get(out, ""), desc.get(out, default)))
+    return variables
 
 
 def export_fmu(
@@ -191,58 +252,15 @@ def export_fmu(
         For a bad ``kind``, mismatched names, a ``model_identifier`` that is not a C
         identifier, an unfitted model, or a model file that does not load (naming the file).
     """
-    if isinstance(model, str | Path):
-        model = load(model)  # a bad file: one error naming it
-    if not isinstance(model, SurrogateModel):
-        raise ValueError(f"model must be a fitted surrogate model, got {type(model).__name__}")
-    if not isinstance(model, LegendreRegression):
-        raise FMUExportError(
-            f"FMU export of {type(model).__name__} ({model.kind!r}) is not supported: only "
-            "LegendreRegression ('lpr') elements can be exported"
-        )
-    if kind not in KINDS:
-        raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
-    model._check_fitted()
-    shape = element_form(getattr(model, "features_", None), model.n_features_in_)
-    if shape.form != "static" or shape.known_physics:
-        raise FMUExportError(
-            f"FMU export of a {shape.form!r} element (tau {shape.tau} s, known physics "
-            f"{list(shape.known_physics)}) is not supported: the FMU evaluates a memoryless "
-            "map F(u) and would drop the internal state and the known physics"
-        )
+    model = _exportable(model, kind)
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
-    d = int(model.n_features_in_)
-    in0, out0, units0, feats = _features(model, d)
-    in_names = list(inputs) if inputs is not None else in0
-    out_name = output if output is not None else out0
-    all_units = {**units0, **dict(units or {})}
-    desc = {**dict(feats.get("descriptions") or {}), **dict(descriptions or {})}
-    if len(in_names) != d:
-        raise ValueError(f"inputs names {len(in_names)} features, the model has {d}")
+    in_names, out_name, all_units, desc = _names(model, inputs, output, units, descriptions)
     names = fmi_names([*in_names, out_name])
+    variables = _variables(model, names, [*in_names, out_name], all_units, desc)
     lower, upper = model.domain_
-    variables = []
-    for j, name in enumerate(in_names):
-        unit = all_units.get(name, "")
-        rng = (
-            f"training range [{float(lower[j])!r}, {float(upper[j])!r}]{' ' + unit if unit else ''}"
-        )
-        variables.append(Variable(names[j], unit, desc.get(name, f"feature {name!r}, {rng}")))
-    out_var = Variable(
-        names[-1],
-        all_units.get(out_name, ""),
-        desc.get(out_name, f"element output {out_name!r} (extrapolation {model.extrapolation!r})"),
-    )
-    document = model_to_document(
-        model,
-        inputs=in_names,
-        output=out_name,
-        units=all_units,
-        metadata=dict(getattr(model, "metadata_", {}) or {}),
-    )
-    doc_text = json.dumps(document, indent=1, sort_keys=True)
+    doc_text = _document_text(model, in_names, out_name, all_units)
     guid = guid_of(doc_text)
     ident = identifier(path, model_identifier)
     starts = [float(0.5 * (lo + up)) for lo, up in zip(lower, upper, strict=True)]
@@ -252,8 +270,8 @@ def export_fmu(
         guid=guid,
         description=f"surrogate element {out_name} = F({', '.join(in_names)}), "
         f"Legendre regression, {model.n_terms_} terms",
-        inputs=variables,
-        outputs=[out_var],
+        inputs=variables[:-1],
+        outputs=variables[-1:],
         starts=starts,
         kinds=kinds,
         source_files=SOURCE_FILES,
@@ -262,16 +280,24 @@ def export_fmu(
         "element_data.h": element_data_header(model, guid, names[:-1], starts),
         **{name: template(name) for name in (*SOURCE_FILES, "lpr.h", "lpr_element.h")},
     }
+    resource = {"element.json": doc_text + "\n"}
     return write_fmu(
-        path,
-        ident,
-        xml,
-        sources,
-        {"element.json": doc_text + "\n"},
-        SOURCE_FILES,
-        binary=binary,
-        compiler=compiler,
+        path, ident, xml, sources, resource, SOURCE_FILES, binary=binary, compiler=compiler
     )
+
+
+def _document_text(
+    model: LegendreRegression, inputs: list[str], output: str, units: dict[str, str]
+) -> str:
+    """The saved model document of the element (``resources/element.json``), as JSON text."""
+    document = model_to_document(
+        model,
+        inputs=inputs,
+        output=output,
+        units=units,
+        metadata=dict(getattr(model, "metadata_", {}) or {}),
+    )
+    return json.dumps(document, indent=1, sort_keys=True)
 
 
 def template(name: str) -> str:

@@ -25,10 +25,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from surrogates.models.validation import (
+from surrogates.models.checks import (
     DataConversionWarning,
     ModelFieldError,
-    check_choice,
+    choice,
     field,
     field_array,
     not_fitted_error,
@@ -145,7 +145,7 @@ class SurrogateModel:
     def predict(self, U: Any) -> np.ndarray:
         """Predict outputs for ``U`` (n, d) → (n,), applying the extrapolation policy."""
         self._check_fitted()
-        check_choice(self.extrapolation, EXTRAPOLATION_POLICIES, "extrapolation")  # set_params
+        choice(self.extrapolation, "extrapolation", EXTRAPOLATION_POLICIES)  # set_params
         one_d = np.asarray(U).ndim == 1
         U = as_inputs(U)
         if U.shape[1] != self.n_features_in_:
@@ -305,7 +305,7 @@ class SurrogateModel:
 
     def _check_params(self) -> None:
         """Validate the hyperparameters (:class:`ModelFieldError` naming the first bad one)."""
-        check_choice(self.extrapolation, EXTRAPOLATION_POLICIES, "extrapolation")
+        choice(self.extrapolation, "extrapolation", EXTRAPOLATION_POLICIES)
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "lower_"):

@@ -31,16 +31,19 @@ from scipy.optimize import OptimizeResult, minimize
 from threadpoolctl import threadpool_limits
 
 from surrogates.models.base import SurrogateModel, as_inputs
-from surrogates.models.lpr import EXTRAPOLATION_MODES
-from surrogates.models.validation import (
+from surrogates.models.checks import (
     ModelFieldError,
-    check_choice,
-    check_float,
-    check_int,
-    check_seed,
+    choice,
     field,
     field_array,
+    integer,
+    non_negative,
+    positive,
+    random_seed,
+    real,
+    real_or_nan,
 )
+from surrogates.models.lpr import EXTRAPOLATION_MODES
 
 KERNELS = ("gaussian", "matern52")
 TRENDS = ("constant", "linear")
@@ -314,9 +317,6 @@ class Kriging(SurrogateModel):
         def get(key: str) -> Any:
             return field(d, key, "model.state")
 
-        def num(key: str, **kw: Any) -> float:
-            return check_float(get(key), f"model.state.{key}", **kw)
-
         X = field_array(get("X"), "model.state.X", (None, d_in))
         n = X.shape[0]
         p = 1 + d_in if self.trend == "linear" else 1
@@ -327,16 +327,18 @@ class Kriging(SurrogateModel):
                 f"model.state.X has {n} rows, more than model.params.max_samples={self.max_samples}"
             )
         self.theta_ = field_array(get("theta"), "model.state.theta", (d_in,), low=0, strict=True)
-        self.nugget_ = num("nugget", low=0.0)
+        self.nugget_ = non_negative(get("nugget"), "model.state.nugget")
         self.beta_ = field_array(get("beta"), "model.state.beta", (p,))
-        self.sigma2_ = num("sigma2", low=0.0)
+        self.sigma2_ = non_negative(get("sigma2"), "model.state.sigma2")
         self.weights_ = field_array(get("weights"), "model.state.weights", (n,))
         self.X_ = X
         self.y_ = field_array(get("y"), "model.state.y", (n,))
-        self.y_mean_ = num("y_mean")
-        self.y_std_ = num("y_std", low=0.0, strict=True)
+        self.y_mean_ = real(get("y_mean"), "model.state.y_mean")
+        self.y_std_ = positive(get("y_std"), "model.state.y_std")
         self.log_likelihood_ = (
-            num("log_likelihood", nan_ok=True) if "log_likelihood" in d else float("nan")
+            real_or_nan(get("log_likelihood"), "model.state.log_likelihood")
+            if "log_likelihood" in d
+            else float("nan")
         )
         self._ell = self.theta_ / (self.upper_ - self.lower_)
         self._Xs = self._scale(self.X_)
@@ -357,14 +359,14 @@ class Kriging(SurrogateModel):
     # ------------------------------------------------------------------ helpers
     def _check_params(self) -> None:
         super()._check_params()
-        check_choice(self.trend, TRENDS, "trend")
-        check_choice(self.kernel, KERNELS, "kernel")
+        choice(self.trend, "trend", TRENDS)
+        choice(self.kernel, "kernel", KERNELS)
         if self.nugget != "auto":
             self._fixed_nugget()
-        check_int(self.n_starts, "n_starts", 1, 1000)
-        check_int(self.seed, "seed", 0)
+        integer(self.n_starts, "n_starts", 1, 1000)
+        integer(self.seed, "seed", 0)
         if self.max_samples is not None:
-            check_int(self.max_samples, "max_samples", 2)
+            integer(self.max_samples, "max_samples", 2)
 
     def _fixed_nugget(self) -> float:
         """The fixed nugget, or the starting jitter when the nugget is off."""
@@ -373,7 +375,7 @@ class Kriging(SurrogateModel):
             return JITTER
         if isinstance(nug, str):
             raise ModelFieldError(f"nugget must be 'auto', a number >= 0 or None, got {nug!r}")
-        value = check_float(nug, "nugget", low=0.0)
+        value = non_negative(nug, "nugget")
         return value if value > 0 else JITTER
 
     def _scale(self, U: np.ndarray) -> np.ndarray:
@@ -384,7 +386,7 @@ class Kriging(SurrogateModel):
         m = d + int(auto)
         lo = np.array([np.log(0.05)] * d + ([np.log(1e-8)] if auto else []))
         hi = np.array([np.log(2.0)] * d + ([np.log(1e-2)] if auto else []))
-        rng = np.random.default_rng(check_seed(self.seed))
+        rng = np.random.default_rng(random_seed(self.seed, "seed"))
         k = self.n_starts - 1
         lhs = (np.argsort(rng.random((k, m)), axis=0) + rng.random((k, m))) / max(k, 1)
         return [0.5 * (lo + hi)] + [lo + (hi - lo) * row for row in lhs]

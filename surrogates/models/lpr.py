@@ -35,15 +35,15 @@ import numpy as np
 from numba import njit
 
 from surrogates.models.base import EXTRAPOLATION_POLICIES, SurrogateModel
-from surrogates.models.validation import (
+from surrogates.models.checks import (
     MAX_DEGREE,
     ModelFieldError,
-    check_bool,
-    check_choice,
-    check_degree,
-    check_float,
+    boolean,
+    choice,
     field,
     field_array,
+    legendre_degree,
+    real_or_nan,
 )
 
 #: extrapolation policy → integer mode understood by the numba kernels
@@ -90,8 +90,8 @@ class LegendreRegression(SurrogateModel):
 
     def _check_params(self) -> None:
         super()._check_params()
-        degree = check_degree(self.degree)
-        if check_bool(self.interactions, "interactions") and isinstance(degree, tuple):
+        degree = legendre_degree(self.degree)
+        if boolean(self.interactions, "interactions") and isinstance(degree, tuple):
             raise ModelFieldError(
                 f"degree must be a single int when interactions=True (total degree), "
                 f"got {self.degree!r}"
@@ -100,7 +100,7 @@ class LegendreRegression(SurrogateModel):
     # ------------------------------------------------------------------ fitting
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
         n, d = U.shape
-        degree = check_degree(self.degree)
+        degree = legendre_degree(self.degree)
         if self.interactions and isinstance(degree, int):  # _check_params rejects a tuple here
             T = math.comb(degree + d, d)
         else:
@@ -129,7 +129,7 @@ class LegendreRegression(SurrogateModel):
 
     def make_exponents(self, d: int) -> np.ndarray:
         """Exponent table (T, d) for ``d`` inputs; row 0 is the constant term."""
-        degree = check_degree(self.degree)
+        degree = legendre_degree(self.degree)
         if self.interactions and isinstance(degree, int):
             rows = [
                 e
@@ -196,7 +196,7 @@ class LegendreRegression(SurrogateModel):
             np.ascontiguousarray(self.lower_, dtype=np.float64).copy(),
             np.ascontiguousarray(self.upper_, dtype=np.float64).copy(),
             EXTRAPOLATION_MODES[
-                check_choice(self.extrapolation, EXTRAPOLATION_POLICIES, "extrapolation")
+                choice(self.extrapolation, "extrapolation", EXTRAPOLATION_POLICIES)
             ],
         )
 
@@ -241,7 +241,7 @@ class LegendreRegression(SurrogateModel):
         self.coef_ = coef
         self.exponents_ = E
         self.n_terms_ = coef.size
-        self.cond_ = check_float(field(d, "cond", "model.state"), "model.state.cond", nan_ok=True)
+        self.cond_ = real_or_nan(field(d, "cond", "model.state"), "model.state.cond")
 
 
 # ---------------------------------------------------------------------- helpers

@@ -10,7 +10,7 @@ import yaml
 from agents.envelope import Envelope, EnvelopeVectorEnv, check_envelope
 from agents.train import GymVecToSB3, train
 from agents.train_config import load_config
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.track import class_speed
 
 

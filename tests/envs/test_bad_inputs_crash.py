@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
-from railgym.vehicles.crash import crash_batch_model, load_scenario, parse_scenario
+from railgym.vehicles.crash import crash_model, load_scenario, parse_scenario
 
 OBSTACLE = {
     "type": "obstacle",
@@ -84,7 +84,7 @@ def test_a_chain_too_light_and_stiff_for_a_stable_step_is_rejected(crash_raw):
     raw["cars"]["lead"].update(mass_t=1.0, length_m=1.0, n_nodes=100, EA_MN=1e6)
     sc = parse_scenario(raw)  # every field is within its limits ...
     with pytest.raises(ValueError, match=r"stable time step .*crash\.cars\.\*\.mass_t"):
-        crash_batch_model(sc, "reference")  # ... but the combination is not
+        crash_model(sc, "reference")  # ... but the combination is not
 
 
 def test_numpy_scalars_in_a_raw_scenario_are_numbers(crash_raw, set_field):

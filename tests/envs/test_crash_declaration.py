@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import railgym  # noqa: F401
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv
 from railgym.envs.crash_layout import EPISODE, INFO_FIELDS, REWARD_TERMS, info_layout
 from railgym.envs.crash_params import CrashParams

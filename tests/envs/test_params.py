@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import railgym  # noqa: F401  (registers the envs)
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.params import (
     Params,
     Spec,

@@ -182,7 +182,8 @@ def test_bad_fmu_or_mapping_gives_one_clear_error(good, tmp_path, case, edits, f
         env.reset(seed=0)
         for _ in range(20):
             env.step(np.zeros(1, np.float32))
-    assert time.perf_counter() - t0 < 20.0
+    # no hang: generous, so that a loaded machine does not fail it (the timeout case is 0.3 s)
+    assert time.perf_counter() - t0 < 120.0
     msg = str(info.value)
     assert str(path) in msg or str(fmu) in msg
     for word in words:

@@ -163,14 +163,15 @@ def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, t
 def test_refine_on_the_fmu_equals_refine_on_the_reference(reference_fmu):
     """Policy-aware refinement with the FMU as the reference: the same held-out errors and
     the same refined element as with the built-in dynamic reference."""
-    from railgym.vehicles.collect import collect_vertical, refine
+    from railgym.vehicles.collect import RefineOptions, collect_vertical, refine
     from surrogates.models.lpr import LegendreRegression
 
     fmu, mapping = reference_fmu
     d = collect_vertical("dynamic", track_class=6, duration=3.0, sample_rate=200.0, seed=3)
     model = LegendreRegression(degree=(4, 4)).fit(d["U"], d["V"])
     law = lambda o: np.clip(4.0 * o[3], -1.0, 1.0)  # noqa: E731  (carbody velocity feedback)
-    kw = dict(data=(d["U"], d["V"]), duration=3.0, n_tracks=1, n_holdout=1, n_add=100, log=None)
+    options = RefineOptions(duration=3.0, n_tracks=1, n_holdout=1, n_add=100)
+    kw = dict(data=(d["U"], d["V"]), options=options, log=None)
     ref_model, ref_hist = refine(model, law, rounds=1, **kw)
     fmu_model, fmu_hist = refine(model, law, rounds=1, fmu_map=mapping, fmu=fmu, **kw)
     assert [h["n_samples"] for h in fmu_hist] == [h["n_samples"] for h in ref_hist]

@@ -14,7 +14,7 @@ import pytest
 
 from surrogates import Kriging, LegendreRegression, build, io
 from surrogates.cli import main
-from surrogates.models.validation import ModelFieldError
+from surrogates.models.checks import ModelFieldError
 
 RNG = np.random.default_rng(3)
 U2 = RNG.uniform(-1.0, 1.0, (40, 2)) * [0.03, 0.3]

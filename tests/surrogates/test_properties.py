@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from surrogates import LegendreRegression, io, select
-from surrogates.models.validation import ModelFieldError
+from surrogates.models.checks import ModelFieldError
 
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

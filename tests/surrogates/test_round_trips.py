@@ -12,7 +12,7 @@ import pytest
 from surrogates import io
 from surrogates.cli import main as surrogates_main
 from surrogates.fmi import FMUExportError, export_fmu
-from surrogates.models.validation import ModelFieldError
+from surrogates.models.checks import ModelFieldError
 
 MEMORY = resources.files("railgym").joinpath("data", "vertical_lpr.json")
 STATIC = resources.files("railgym").joinpath("data", "vertical_lpr_static.json")

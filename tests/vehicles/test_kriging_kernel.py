@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import railgym  # noqa: F401  (registers the envs)
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.envs.vertical import VerticalSuspensionEnv
 from railgym.track import track_time_input
 from railgym.vehicles.vertical import bump_stop_force, load_vehicle, simulate

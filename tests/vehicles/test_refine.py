@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from railgym.vehicles.collect import collect_vertical, refine
+from railgym.vehicles.collect import RefineOptions, collect_vertical, refine
 from surrogates.models.lpr import LegendreRegression
 
 
@@ -29,7 +29,8 @@ class Pumping:
 def test_held_out_error_falls_after_refinement(toy):
     model, data = toy
     lines = []
-    kw = dict(data=data, reference="static", duration=5.0, n_tracks=1, n_holdout=2, n_add=200)
+    options = RefineOptions(duration=5.0, n_tracks=1, n_holdout=2, n_add=200)
+    kw = dict(data=data, reference="static", options=options)
     refined, hist = refine(model, Pumping(), rounds=2, log=lines.append, **kw)
     assert [h["round"] for h in hist] == [0, 1, 2] and len(lines) == 3
     assert hist[-1]["error"] < 0.5 * hist[0]["error"]  # measured 247 % → 36 %
@@ -50,7 +51,13 @@ def test_refine_bad_arguments(toy):
     with pytest.raises(ValueError, match="reference"):
         refine(model, Pumping(), rounds=0, data=data, reference="linear")
     with pytest.raises(ValueError, match="non-finite action"):
-        refine(model, lambda o: np.nan, rounds=0, data=data, reference="static", duration=1.0)
+        short = RefineOptions(duration=1.0)
+        refine(model, lambda o: np.nan, rounds=0, data=data, reference="static", options=short)
+    for field, bad in (("n_tracks", 0), ("n_holdout", 1.5), ("n_add", -3), ("speed", -1.0)):
+        with pytest.raises(ValueError, match=field):
+            RefineOptions(**{field: bad})
+    with pytest.raises(ValueError, match="control_dt"):
+        refine(model, Pumping(), rounds=0, data=data, options=RefineOptions(control_dt=1e-6))
 
 
 def test_refine_command_writes_a_loadable_element_and_refuses_to_overwrite(tmp_path, capsys):

@@ -11,6 +11,7 @@ from agents.refine import vehicle_observation_map
 from railgym.envs.vehicle import VerticalVehicleEnv
 from railgym.vehicles.collect_vehicle import VehicleDesign, collect_vehicle
 from railgym.vehicles.refine_vehicle import RAW_VEHICLE_OBSERVATION, refine_vehicle
+from railgym.vehicles.refinement import RefineOptions
 from railgym.vehicles.vehicle import N_MECH, hermite
 from surrogates import io
 from surrogates.models.lpr import LegendreRegression
@@ -49,7 +50,8 @@ def test_held_out_error_falls_after_refinement_on_the_whole_vehicle():
     V = np.concatenate([r["force"][r["rows"]] for r in runs])
     model = LegendreRegression(degree=(5, 5)).fit(U, V)
     lines = []
-    kw = dict(data=(U, V), duration=4.0, n_tracks=1, n_holdout=2, n_add=300, log=lines.append)
+    options = RefineOptions(duration=4.0, n_tracks=1, n_holdout=2, n_add=300)
+    kw = dict(data=(U, V), options=options, log=lines.append)
     refined, hist = refine_vehicle(model, pumping, rounds=1, **kw)
     assert [h["round"] for h in hist] == [0, 1] and len(lines) == 2
     assert hist[0]["ood"] > 0 and hist[1]["ood"] < hist[0]["ood"]

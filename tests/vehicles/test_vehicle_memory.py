@@ -17,8 +17,8 @@ from railgym.vehicles.vehicle import (
     kernel_params,
     load_whole_vehicle,
     lpr_arrays,
-    make_batch,
     mode_shape,
+    new_arrays,
     simulate,
     state_size,
     wheelset_offsets,
@@ -118,7 +118,7 @@ def test_memory_kernel_matches_an_independent_numpy_rk4(vehicle, memory):
     m = n_steps + int(off.max()) + 3
     z, dz = track(SPEED * DT * np.arange(m))
     lpr = lpr_arrays(memory, DT)
-    bt, out = make_batch(1, "surrogate", m, lpr)
+    bt, out = new_arrays(1, "surrogate", m, lpr)
     assert bt.state.shape == (1, N_MECH + 2) == (1, state_size("surrogate", lpr))
     bt.z[0], bt.zdot[0], bt.off[0], bt.force[0] = z, SPEED * dz, off, force
     p, e = kernel_params(vehicle), vehicle.suspension.kernel_params().record()
@@ -208,7 +208,7 @@ def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle
     lpr = lpr_arrays(memory, DT)
     runs = []
     for step in (advance_serial, advance):
-        bt, out = make_batch(n, "surrogate", samples, lpr)
+        bt, out = new_arrays(n, "surrogate", samples, lpr)
         bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
         bt.off[:] = off
         bt.force[:] = force
@@ -228,7 +228,7 @@ def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle
 
 def test_state_without_maxwell_states_is_refused(vehicle, memory):
     lpr = lpr_arrays(memory, DT)
-    bt, out = make_batch(2, "surrogate", 50)  # sized for a static element
+    bt, out = new_arrays(2, "surrogate", 50)  # sized for a static element
     p, e = kernel_params(vehicle), vehicle.suspension.kernel_params().record()
     with pytest.raises(ValueError, match="Maxwell"):
         advance(check_variant("surrogate"), bt, 1, DT, p, e, lpr, out)

@@ -20,7 +20,7 @@ from railgym.vehicles.vehicle import (
     linear_state_space,
     load_whole_vehicle,
     lpr_arrays,
-    make_batch,
+    new_arrays,
     simulate,
     wheelset_offsets,
 )
@@ -229,7 +229,7 @@ def test_parallel_kernel_is_bit_identical_to_serial(vehicle, variant):
     lpr = lpr_arrays(default_vertical_surrogate("static") if variant == "surrogate" else None)
     runs = []
     for step in (advance_serial, advance_parallel):
-        bt, out = make_batch(n, variant, samples)
+        bt, out = new_arrays(n, variant, samples)
         bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
         bt.off[:] = off
         bt.force[:] = force
@@ -259,7 +259,7 @@ def test_lane_kernel_is_bit_identical_to_the_per_vehicle_kernel(vehicle, n):
     lpr = lpr_arrays(default_vertical_surrogate("static"))
     runs = []
     for step in (advance_serial, advance):
-        bt, out = make_batch(n, "surrogate", samples)
+        bt, out = new_arrays(n, "surrogate", samples)
         bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
         bt.off[:] = off
         bt.force[:] = force

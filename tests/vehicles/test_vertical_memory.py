@@ -20,8 +20,8 @@ from railgym.vehicles.vertical import (
 from surrogates import io
 from surrogates.memory import element_form
 from surrogates.models import model_class
+from surrogates.models.checks import ModelFieldError
 from surrogates.models.lpr import LegendreRegression
-from surrogates.models.validation import ModelFieldError
 from surrogates.passive import PassiveLegendreRegression
 
 VEH = load_vehicle("manchester")

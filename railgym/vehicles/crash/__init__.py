@@ -9,7 +9,7 @@ Pure physics (no gymnasium), one module per concept:
 * :mod:`~railgym.vehicles.crash.reference` — the lumped-mass reference model;
 * :mod:`~railgym.vehicles.crash.surrogate` — the surrogate elements of paper eq. (4), fitted;
 * :mod:`~railgym.vehicles.crash.surrogate_model` — the compiled surrogate model;
-* :mod:`~railgym.vehicles.crash.batch` — batch stepping of many trains for the envs;
+* :mod:`~railgym.vehicles.crash.model` — a scenario's model, stepping many trains (the envs);
 * :mod:`~railgym.vehicles.crash.criteria` — crash criteria (decelerations, pulses, intrusion);
 * :mod:`~railgym.vehicles.crash.energy` — energy consistency of the elements;
 * :mod:`~railgym.vehicles.crash.fe` — elements from a user's LS-DYNA run, their JSON files
@@ -22,7 +22,6 @@ Every public name is re-exported here, except those of the two command-line modu
 from their modules.
 """
 
-from railgym.vehicles.crash.batch import BATCH_BACKENDS, CrashBatchModel, crash_batch_model
 from railgym.vehicles.crash.criteria import (
     ONSET_G,
     WINDOW,
@@ -45,10 +44,11 @@ from railgym.vehicles.crash.energy import (
     rebound_energy_ratio,
     repaired_paper_history,
 )
+from railgym.vehicles.crash.model import MODEL_BACKENDS, CrashModel, crash_model
 from railgym.vehicles.crash.outputs import (
     PARALLEL_MIN,
     V_EPS,
-    BatchOutputs,
+    CrashOutputs,
     CrashResult,
     Record,
     StopRule,
@@ -72,8 +72,6 @@ from railgym.vehicles.crash.scenario import (
     CrashScenario,
     CrushZone,
     Obstacle,
-    check_int,
-    check_real,
     load_scenario,
     parse_scenario,
     scenario_names,
@@ -100,7 +98,7 @@ from railgym.vehicles.crash.surrogate_model import (
 from railgym.vehicles.crash.zone import absorber_zone_force, zone_force
 
 __all__ = [
-    "BATCH_BACKENDS",
+    "MODEL_BACKENDS",
     "LIMITS",
     "MAX_SPEED",
     "PARALLEL_MIN",
@@ -109,10 +107,10 @@ __all__ = [
     "VARIANTS",
     "V_EPS",
     "WINDOW",
-    "BatchOutputs",
+    "CrashOutputs",
     "CarSpec",
     "Coupler",
-    "CrashBatchModel",
+    "CrashModel",
     "CrashCriteria",
     "CrashElement",
     "CrashResult",
@@ -136,9 +134,7 @@ __all__ = [
     "ZoneTypes",
     "absorber_zone_force",
     "build_crash_surrogate",
-    "check_int",
-    "check_real",
-    "crash_batch_model",
+    "crash_model",
     "crash_criteria",
     "crash_errors",
     "crash_pulse",

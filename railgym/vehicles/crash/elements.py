@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from railgym.vehicles.crash.batch import CrashBatchModel, crash_batch_model
 from railgym.vehicles.crash.fe import load_crash_surrogate, save_crash_surrogate
+from railgym.vehicles.crash.model import CrashModel, crash_model
 from railgym.vehicles.crash.outputs import CrashResult
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import CrashSurrogate, build_crash_surrogate
@@ -86,7 +86,7 @@ def train_key(scenario: CrashScenario) -> str:
 
 
 def batch_runs(
-    model: CrashBatchModel,
+    model: CrashModel,
     speeds: Sequence[float],
     scales: Sequence[float],
     duration: float = 2.0,
@@ -171,7 +171,7 @@ def envelope_runs(
     """Reference runs of every (speed km/h, absorber scale, payload (lead, passenger car) t)
     of the grid."""
     sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
-    model = crash_batch_model(sc, "reference")
+    model = crash_model(sc, "reference")
     runs = []
     for p in payloads_t:
         speeds, sc_grid = _grid(speeds_kmh, scales)
@@ -274,7 +274,7 @@ def validation_matrix(
     sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
     speeds, sc_grid = _grid(speeds_kmh, scales)
     runs = {
-        b: batch_runs(crash_batch_model(sc, b, sample_dt, surrogate=s), speeds, sc_grid)
+        b: batch_runs(crash_model(sc, b, sample_dt, surrogate=s), speeds, sc_grid)
         for b, s in (("reference", None), ("surrogate", surrogate))
     }
     g, cars = sc.gravity, sc.n_cars

@@ -1,4 +1,4 @@
-"""What both crash models share: the outputs of the batch kernels (:class:`BatchOutputs`), the
+"""What both crash models share: the outputs of the batch kernels (:class:`CrashOutputs`), the
 recorders' :class:`Record` and :class:`StopRule`, the recorded :class:`CrashResult`, the
 divergence guard and the time-step rounding."""
 
@@ -16,7 +16,7 @@ from railgym.vehicles.crash.scenario import CrashScenario
 
 __all__ = [
     "V_EPS",
-    "BatchOutputs",
+    "CrashOutputs",
     "CrashResult",
     "Record",
     "StopRule",
@@ -35,7 +35,7 @@ PARALLEL_CHUNKS = 64
 V_EPS = 0.01
 
 
-class BatchOutputs(NamedTuple):
+class CrashOutputs(NamedTuple):
     """What the batch kernels report after each call, one row per simulation.
 
     Attributes
@@ -61,11 +61,11 @@ class BatchOutputs(NamedTuple):
     stored: np.ndarray
 
 
-def new_outputs(n: int, n_bodies: int, n_zones: int) -> BatchOutputs:
-    """Zeroed :class:`BatchOutputs` of ``n`` simulations."""
+def new_outputs(n: int, n_bodies: int, n_zones: int) -> CrashOutputs:
+    """Zeroed :class:`CrashOutputs` of ``n`` simulations."""
     body = [np.zeros((n, n_bodies)) for _ in range(3)]
     zone = [np.zeros((n, n_zones)) for _ in range(4)]
-    return BatchOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
+    return CrashOutputs(*body, *zone, np.zeros((n, 2)), np.zeros(n))
 
 
 class StopRule(NamedTuple):
@@ -183,11 +183,14 @@ class CrashResult:
 
     def intrusion(self) -> dict[str, float]:
         """Largest crush beyond each zone's absorber stroke (structure crush), m."""
-        sc = self.scenario
-        zones = {"wall": sc.wall, "obstacle": sc.obstacle.zone if sc.obstacle else None}
+        scenario = self.scenario
+        zones = {
+            "wall": scenario.wall,
+            "obstacle": scenario.obstacle.zone if scenario.obstacle else None,
+        }
         out = {}
         for j, name in enumerate(self.zone_names):
-            zone = zones.get(name, sc.interface)
+            zone = zones.get(name, scenario.interface)
             out[name] = max(0.0, float(self.permanent_set[:, j].max()) - zone.absorber_stroke)
         return out
 
@@ -228,9 +231,14 @@ def _check_run(duration: float, sample_dt: float) -> None:
 
 def zone_absorber_strokes(result: CrashResult) -> np.ndarray:
     """Absorber stroke (m) of each zone of ``result`` (``wall``, ``interface_k``, ``obstacle``)."""
-    sc = result.scenario
-    zones = {"wall": sc.wall, "obstacle": sc.obstacle.zone if sc.obstacle else None}
-    return np.array([(zones.get(n) or sc.interface).absorber_stroke for n in result.zone_names])
+    scenario = result.scenario
+    zones = {
+        "wall": scenario.wall,
+        "obstacle": scenario.obstacle.zone if scenario.obstacle else None,
+    }
+    return np.array(
+        [(zones.get(n) or scenario.interface).absorber_stroke for n in result.zone_names]
+    )
 
 
 def result_criteria(

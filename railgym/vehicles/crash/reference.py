@@ -159,8 +159,10 @@ class _Chain:
     omega_max: float  # Gershgorin bound of the highest angular frequency, rad/s
 
 
-def _build_chain(sc: CrashScenario) -> _Chain:
-    types = [sc.wall, sc.interface] + ([sc.obstacle.zone] if sc.obstacle else [])
+def _build_chain(scenario: CrashScenario) -> _Chain:
+    types = [scenario.wall, scenario.interface] + (
+        [scenario.obstacle.zone] if scenario.obstacle else []
+    )
     P = max(len(z.stroke) for z in types)
     t_s = np.ones((len(types), P))
     t_f = np.zeros((len(types), P))
@@ -193,10 +195,10 @@ def _build_chain(sc: CrashScenario) -> _Chain:
         return len(zone_type) - 1
 
     wall_zone = -1
-    if sc.obstacle is None:
+    if scenario.obstacle is None:
         wall_zone = add_zone(0, "wall", -1, 0, 0.0)
     else:
-        ob = sc.obstacle
+        ob = scenario.obstacle
         m += [ob.mass - ob.face_mass, ob.face_mass]
         v0 += [0.0, 0.0]
         mu += [ob.friction] * 2
@@ -204,9 +206,9 @@ def _build_chain(sc: CrashScenario) -> _Chain:
         link_k.append(0.0)
         link_c.append(0.0)
         elem_zone.append(add_zone(2, "obstacle", 0, 1, 0.0))
-    masses = sc.car_masses
-    for k in range(sc.n_cars):
-        car = sc.lead if k == 0 else sc.passenger
+    masses = scenario.car_masses
+    for k in range(scenario.n_cars):
+        car = scenario.lead if k == 0 else scenario.passenger
         first = len(m)
         if first > 0:  # element joining the previous body to this car
             link_k.append(0.0)
@@ -215,17 +217,17 @@ def _build_chain(sc: CrashScenario) -> _Chain:
                 elem_zone.append(add_zone(0, "wall", first - 1, first, 0.0))
             else:
                 cc = 0.0
-                if sc.interface.coupler is not None:
+                if scenario.interface.coupler is not None:
                     mred = masses[k - 1] * masses[k] / (masses[k - 1] + masses[k])
-                    cp = sc.interface.coupler
+                    cp = scenario.interface.coupler
                     cc = 2 * cp.damping_ratio * math.sqrt(cp.stiffness * mred)
                 elem_zone.append(add_zone(1, f"interface_{k}", first - 1, first, cc))
         n = car.n_nodes
         mi = np.full(n, car.mass / (n - 1))
         mi[[0, -1]] *= 0.5
         m += mi.tolist()
-        v0 += [sc.speed] * n
-        mu += [sc.friction] * n
+        v0 += [scenario.speed] * n
+        mu += [scenario.friction] * n
         k_link = car.axial_rigidity / (car.length / (n - 1))
         for j in range(n - 1):
             mred = mi[j] * mi[j + 1] / (mi[j] + mi[j + 1])
@@ -253,7 +255,7 @@ def _build_chain(sc: CrashScenario) -> _Chain:
         params=ReferenceParams(
             m=m_arr,
             mu=np.array(mu),
-            gravity=float(sc.gravity),
+            gravity=float(scenario.gravity),
             v_eps=V_EPS,
             link_k=np.array(link_k),
             link_c=np.array(link_c),
@@ -300,10 +302,10 @@ def _chain_forces(x, v, m, dp, p, scale, F, fz, fzel, fd, ff, dz):
         F[i] = -ff[i]
     for z in range(p.zone_type.shape[0]):
         t = p.zone_type[z]
-        fr = p.zone_front[z]
-        bk = p.zone_back[z]
-        d = x[bk] - (x[fr] if fr >= 0 else 0.0)
-        rate = v[bk] - (v[fr] if fr >= 0 else 0.0)
+        front = p.zone_front[z]
+        back = p.zone_back[z]
+        d = x[back] - (x[front] if front >= 0 else 0.0)
+        rate = v[back] - (v[front] if front >= 0 else 0.0)
         dz[z] = d
         ku, kt, slack = ty.unloading_stiffness[t], ty.tension_stiffness[t], ty.slack[t]
         f, dp[z] = absorber_zone_force(
@@ -327,11 +329,11 @@ def _chain_forces(x, v, m, dp, p, scale, F, fz, fzel, fd, ff, dz):
             damp = p.zone_cc[z] * rate
         fz[z] = f
         fzel[z] = el
-        if fr >= 0:
-            F[fr] += f + damp
-        F[bk] -= f + damp
-        if bk > 0:
-            fd[bk - 1] = damp
+        if front >= 0:
+            F[front] += f + damp
+        F[back] -= f + damp
+        if back > 0:
+            fd[back - 1] = damp
     for e in range(N - 1):
         if p.elem_zone[e] >= 0:
             continue
@@ -349,7 +351,7 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
     Parameters
     ----------
     state : :class:`ReferenceState`, updated in place.
-    out : :class:`BatchOutputs`; ``crush``, ``work`` and ``dissipated`` are also read back.
+    out : :class:`CrashOutputs`; ``crush``, ``work`` and ``dissipated`` are also read back.
     params : :class:`ReferenceParams` of the chain.
     scale : (n, zones) absorber force scale of each zone (:func:`absorber_zone_force`).
     active : (n,) which simulations to advance.
@@ -377,9 +379,9 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
         fzel[:], fdl[:], ffl[:] = state.elastic[i], state.fd[i], state.ff[i]
         dzl[:], wzl[:] = out.crush[i], out.work[i]
         w_fric, w_damp = out.dissipated[i, 0], out.dissipated[i, 1]
-        sc, m = scale[i], state.m[i]
+        zone_scale, m = scale[i], state.m[i]
         if init:
-            _chain_forces(xl, vl, m, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
+            _chain_forces(xl, vl, m, dpl, p, zone_scale, F, fzl, fzel, fdl, ffl, dzl)
             for j in range(N):
                 al[j] = F[j] / m[j]
         for _ in range(0 if init else n_sub):
@@ -388,7 +390,7 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
                 dx[j] = vl[j] * dt + 0.5 * al[j] * dt * dt
                 xl[j] += dx[j]
                 vp[j] = vl[j] + al[j] * dt
-            _chain_forces(xl, vp, m, dpl, p, sc, F, fzl, fzel, fdl, ffl, dzl)
+            _chain_forces(xl, vp, m, dpl, p, zone_scale, F, fzl, fzel, fdl, ffl, dzl)
             for j in range(N):
                 a_new = F[j] / m[j]
                 vl[j] += 0.5 * (al[j] + a_new) * dt
@@ -413,9 +415,9 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
                 energy += 0.5 * link_k[j] * (xl[j + 1] - xl[j]) ** 2
         out.stored[i] = energy
         for z in range(nz):
-            fr, bk = p.zone_front[z], p.zone_back[z]
-            out.force[i, z] = fzl[z] + (fdl[bk - 1] if fr >= 0 else 0.0)
-            out.rate[i, z] = vl[bk] - (vl[fr] if fr >= 0 else 0.0)
+            front, back = p.zone_front[z], p.zone_back[z]
+            out.force[i, z] = fzl[z] + (fdl[back - 1] if front >= 0 else 0.0)
+            out.rate[i, z] = vl[back] - (vl[front] if front >= 0 else 0.0)
         for b in range(p.body_start.shape[0]):
             mb = sx = sv = sf = 0.0
             for j in range(p.body_start[b], p.body_end[b]):
@@ -515,10 +517,10 @@ def simulate_reference(
         compression and no zone closes faster than ``v_stop`` (m/s): all cars at rest or
         rebounding away.
     """
-    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
-    sc = sc.with_overrides(n_cars=n_cars, speed=speed)
+    scenario = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    scenario = scenario.with_overrides(n_cars=n_cars, speed=speed)
     _check_run(duration, sample_dt)
-    ch = _build_chain(sc)
+    ch = _build_chain(scenario)
     dt, n_sub = _reference_steps(ch, sample_dt, safety)
     n_samples = int(round(duration / sample_dt)) + 1
     nb, nz = len(ch.body_names), len(ch.zone_names)
@@ -548,7 +550,7 @@ def simulate_reference(
         },
         dt=dt,
         wall_time=wall,
-        scenario=sc,
+        scenario=scenario,
         model="reference",
         extra={"omega_max": ch.omega_max, "n_sub": n_sub, "safety": safety},
     )

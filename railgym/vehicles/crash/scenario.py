@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.vehicles.crash.criteria import CriteriaLimits
 from railgym.vehicles.crash.zone import _envelope
 
@@ -37,8 +37,6 @@ __all__ = [
     "CrushZone",
     "Envelope",
     "Obstacle",
-    "check_int",
-    "check_real",
     "load_scenario",
     "parse_scenario",
     "scenario_names",
@@ -76,27 +74,6 @@ LIMITS: dict[str, tuple[float, float]] = {
 }
 #: largest initial speed override, m/s (``speed_kmh``'s limit)
 MAX_SPEED = LIMITS["speed_kmh"][1] / 3.6
-
-
-def check_real(
-    name: str,
-    value: Any,
-    low: float | None = None,
-    high: float | None = None,
-    *,
-    low_open: bool = False,
-    high_open: bool = False,
-) -> float:
-    """``value`` as a float if it is a finite real number (Python or numpy, not a bool) within
-    ``[low, high]`` (bounds ``None`` = unbounded; ``*_open`` excludes the bound); else
-    ``ValueError`` naming ``name`` (:func:`railgym._validation.in_range`)."""
-    return val.in_range(value, name, low, high, lo_open=low_open, hi_open=high_open)
-
-
-def check_int(name: str, value: Any, low: int, high: int) -> int:
-    """``value`` as an int if it is an integer (Python or numpy, not a bool) in [low, high];
-    else ``ValueError`` naming ``name`` (:func:`railgym._validation.integer`)."""
-    return val.integer(value, name, low, high)
 
 
 @dataclass(frozen=True)
@@ -277,15 +254,15 @@ class CrashScenario:
         """Copy with another number of cars and/or initial speed (m/s)."""
         out = self
         if n_cars is not None:
-            out = replace(out, n_cars=check_int("n_cars", n_cars, *LIMITS["n_cars"]))
+            out = replace(out, n_cars=val.integer(n_cars, "n_cars", *LIMITS["n_cars"]))
         if speed is not None:
-            speed = check_real("speed (m/s)", speed, 0.0, MAX_SPEED, low_open=True)
+            speed = val.in_range(speed, "speed (m/s)", 0.0, MAX_SPEED, lo_open=True)
             out = replace(out, speed=speed)
         return out
 
 
 class _Fields(val.Fields):
-    """:class:`railgym._validation.Fields` of one scenario mapping: unknown keys rejected up
+    """:class:`railgym._checks.Fields` of one scenario mapping: unknown keys rejected up
     front, numbers checked against the documented :data:`LIMITS` in the file's units, i.e.
     before any unit conversion."""
 
@@ -471,7 +448,7 @@ def _deep_merge(base: dict, over: dict) -> dict:
 
 def _read_yaml(name_or_path: str | Path) -> tuple[dict, Path | None]:
     """Raw ``crash`` mapping of a packaged scenario name or a YAML path
-    (:func:`railgym._validation.resolve_yaml`) and the file's folder (``None`` if packaged)."""
+    (:func:`railgym._checks.resolve_yaml`) and the file's folder (``None`` if packaged)."""
     text, source = val.resolve_yaml(name_or_path, "crash scenario", "railgym", _CONFIG_DIR)
     doc = val.load_yaml(text, source)
     if not isinstance(doc, dict) or not isinstance(doc.get("crash"), dict):

@@ -278,10 +278,13 @@ def build_crash_surrogate(
     for ref in refs:
         if ref.model != "reference":
             raise ValueError(f"reference must be a reference-model result, got {ref.model!r}")
-    sc = refs[0].scenario
+    scenario = refs[0].scenario
     t0 = time.perf_counter()
     elements = {}
-    absorber = {"wall": sc.wall.absorber_stroke, "interface": sc.interface.absorber_stroke}
+    absorber = {
+        "wall": scenario.wall.absorber_stroke,
+        "interface": scenario.interface.absorber_stroke,
+    }
     feature = "com" if nodes_per_car == 1 else "zone"
     for name, (data, run_scale) in _pooled_training_data(refs, feature).items():
         u, f, rate, loading, series = data
@@ -343,7 +346,7 @@ def build_crash_surrogate(
     return CrashSurrogate(
         variant=variant,
         elements=elements,
-        source=sc.name,
+        source=scenario.name,
         build_time=time.perf_counter() - t0,
         nodes_per_car=int(nodes_per_car),
     )

@@ -369,13 +369,13 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
                 ffl[j, b] = mu[j] * m[j, b] * g * _tanh(vp[j, b] / veps)
                 F[j, b] = -ffl[j, b]
         for e in range(ne):
-            fr, bk, ty = el_front[e], el_back[e], el_type[e]
-            x_fr, v_fr = (xl[fr], vp[fr]) if fr >= 0 else (zero, zero)
+            front, back, ty = el_front[e], el_back[e], el_type[e]
+            x_fr, v_fr = (xl[front], vp[front]) if front >= 0 else (zero, zero)
             u_e = ul[e]
             for b in range(nb):
                 f_o[e, b], u_o[e, b] = fl[e, b], u_e[b]
-                u_e[b] = xl[bk, b] - x_fr[b]
-                rate[e, b] = vp[bk, b] - v_fr[b]
+                u_e[b] = xl[back, b] - x_fr[b]
+                rate[e, b] = vp[back, b] - v_fr[b]
             variant, unilateral, ku = (
                 ty_.variant[ty],
                 ty_.unilateral[ty],
@@ -411,9 +411,9 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
                     u, upl[e, b], f_lpr, f_min, f_max, s, variant, unilateral, ku, kt, slack
                 )
                 fl[e, b] = f
-                if fr >= 0:
-                    F[fr, b] += f
-                F[bk, b] -= f
+                if front >= 0:
+                    F[front, b] += f
+                F[back, b] -= f
         for k in range(nl):  # carbody links: f = k d + c ḋ, tension positive
             j, kk, cc = lk_front[k], lk_k[k], lk_c[k]
             for b in range(nb):
@@ -470,8 +470,8 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
         for e in range(ne):
             up[i, e], fel[i, e] = upl[e, b], fl[e, b]
             crush[i, e], force[i, e], work_done[i, e] = ul[e, b], fl[e, b], wl[e, b]
-            fr = el_front[e]
-            rate_out[i, e] = vl[el_back[e], b] - (vl[fr, b] if fr >= 0 else 0.0)
+            front = el_front[e]
+            rate_out[i, e] = vl[el_back[e], b] - (vl[front, b] if front >= 0 else 0.0)
 
 
 @njit(cache=True, error_model="numpy")
@@ -576,16 +576,16 @@ class _System:
     zone_names: list[str]
 
 
-def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
+def _surrogate_system(scenario: CrashScenario, surrogate: CrashSurrogate) -> _System:
     """Bodies, elements and packed LPR models of ``surrogate`` on scenario ``sc``."""
     for key in ("wall", "interface"):
-        if key not in surrogate.elements and (key == "wall" or sc.n_cars > 1):
+        if key not in surrogate.elements and (key == "wall" or scenario.n_cars > 1):
             raise ValueError(f"surrogate has no {key!r} element")
     n = surrogate.nodes_per_car
     masses: list[float] = []
     links: list[tuple[int, float, float]] = []  # (first node, k N/m, c N s/m)
-    for k, mass in enumerate(sc.car_masses):
-        car = sc.lead if k == 0 else sc.passenger
+    for k, mass in enumerate(scenario.car_masses):
+        car = scenario.lead if k == 0 else scenario.passenger
         first = len(masses)
         mi = np.full(n, mass / max(n - 1, 1))  # row-sum lumping, as the reference chain
         if n > 1:
@@ -595,24 +595,24 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
         for j in range(n - 1):
             mred = mi[j] * mi[j + 1] / (mi[j] + mi[j + 1])
             links.append((first + j, k_link, 2 * car.damping_ratio * math.sqrt(k_link * mred)))
-    start = np.arange(sc.n_cars, dtype=np.int64) * n
-    mu = [sc.friction] * len(masses)
-    v0 = [sc.speed] * len(masses)
-    names = ["lead"] + [f"car{k + 1}" for k in range(1, sc.n_cars)]
+    start = np.arange(scenario.n_cars, dtype=np.int64) * n
+    mu = [scenario.friction] * len(masses)
+    v0 = [scenario.speed] * len(masses)
+    names = ["lead"] + [f"car{k + 1}" for k in range(1, scenario.n_cars)]
     wall_front = -1
-    if sc.obstacle is not None:
+    if scenario.obstacle is not None:
         wall_front = len(masses)
-        masses.append(sc.obstacle.mass)
-        mu.append(sc.obstacle.friction)
+        masses.append(scenario.obstacle.mass)
+        mu.append(scenario.obstacle.friction)
         v0.append(0.0)
         names.append("obstacle")
-    body_start = np.append(start, [wall_front] if sc.obstacle is not None else [])
+    body_start = np.append(start, [wall_front] if scenario.obstacle is not None else [])
     body_start = body_start.astype(np.int64)
-    body_end = np.append(start + n, [wall_front + 1] if sc.obstacle is not None else [])
+    body_end = np.append(start + n, [wall_front + 1] if scenario.obstacle is not None else [])
     el_front = np.array([wall_front] + list(start[1:] - 1), dtype=np.int64)
     el_back = start.copy()
-    el_type = np.array([0] + [1] * (sc.n_cars - 1), dtype=np.int64)
-    el_names = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
+    el_type = np.array([0] + [1] * (scenario.n_cars - 1), dtype=np.int64)
+    el_names = ["wall"] + [f"interface_{k}" for k in range(1, scenario.n_cars)]
     types = [surrogate.elements["wall"], surrogate.elements.get("interface")]
     types = [ty for ty in types if ty is not None]
     models, ranges, load_idx, unload_idx, n_pieces = [], [], [], [], []
@@ -626,7 +626,7 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
         if ty.unloading is not None:
             models.append(ty.unloading)
             ranges.append(ty.force_range["unloading"])
-    zone_stroke = [sc.wall.absorber_stroke, sc.interface.absorber_stroke][: len(types)]
+    zone_stroke = [scenario.wall.absorber_stroke, scenario.interface.absorber_stroke][: len(types)]
     element_types = ElementTypes(
         variant=np.array([VARIANTS.index(ty.variant) for ty in types], np.int64),
         load_model=np.array(load_idx, np.int64),
@@ -641,7 +641,7 @@ def _surrogate_system(sc: CrashScenario, surrogate: CrashSurrogate) -> _System:
     params = SurrogateParams(
         m=np.array(masses),
         mu=np.array(mu),
-        gravity=float(sc.gravity),
+        gravity=float(scenario.gravity),
         v_eps=V_EPS,
         front=el_front,
         back=el_back,
@@ -688,13 +688,13 @@ def simulate_surrogate(
     :class:`CrashResult` with ``crush``/``force`` holding each element's feature ``u`` and force
     and ``permanent_set`` its permanent set in ``u``; ``energy`` is empty.
     """
-    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
-    sc = sc.with_overrides(n_cars=n_cars, speed=speed)
+    scenario = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    scenario = scenario.with_overrides(n_cars=n_cars, speed=speed)
     _check_run(duration, sample_dt)
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
     dt, n_sub = _steps(sample_dt, dt)
-    sy = _surrogate_system(sc, surrogate)
+    sy = _surrogate_system(scenario, surrogate)
     n_samples = int(round(duration / sample_dt)) + 1
     nb, ne = len(sy.body_names), len(sy.zone_names)
     state = _new_surrogate_state(1, sy.params.m, ne)
@@ -713,6 +713,6 @@ def simulate_surrogate(
         energy={},
         dt=dt,
         wall_time=wall,
-        scenario=sc,
+        scenario=scenario,
         model=f"surrogate:{surrogate.variant}",
     )

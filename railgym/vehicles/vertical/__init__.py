@@ -100,6 +100,7 @@ from railgym.vehicles.vertical.params import (
     StaticSpring,
     SuspensionParams,
     VerticalVehicle,
+    linear_model,
     load_vehicle,
     vehicle_from_dict,
 )
@@ -141,6 +142,7 @@ __all__ = [
     "deflection_envelope",
     "element_response",
     "initial_state",
+    "linear_model",
     "load_vehicle",
     "outside_envelope",
     "simulate",

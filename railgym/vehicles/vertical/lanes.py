@@ -54,7 +54,7 @@ _ROWS = 58
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _element(w, lpr, lw, u, nb):
+def _element(block, lpr, lpr_work, element_input, n_lanes):
     """Element force ``F̂(u)`` into row ``_FS`` from the inputs in rows ``_U``: the additive
     Legendre sums of :func:`~surrogates.models.lpr.lpr_additive_inside` lane-parallel, then
     the lanes outside the box by :func:`~surrogates.models.lpr.lpr_eval_into`."""
@@ -62,172 +62,178 @@ def _element(w, lpr, lw, u, nb):
     table = lpr.table
     n = table.shape[1]
     lo, up = lpr.lo, lpr.up
-    for l in range(nb):
-        w[_OUT, l] = 0.0
+    for l in range(n_lanes):
+        block[_OUT, l] = 0.0
     for j in range(d):
-        lj, uj, sc = lo[j], up[j], lw[d + 3, j]
-        for l in range(nb):
-            v = w[_U + j, l]
-            w[_OUT, l] = max(w[_OUT, l], 1.0 if (v < lj) | (v > uj) else 0.0)
-            t = (v - lj) * sc - 1.0
-            w[_T + j, l] = t
-            w[_A + j, l] = 1.0
-            w[_B + j, l] = t
+        lj, uj, scale = lo[j], up[j], lpr_work[d + 3, j]
+        for l in range(n_lanes):
+            v = block[_U + j, l]
+            block[_OUT, l] = max(block[_OUT, l], 1.0 if (v < lj) | (v > uj) else 0.0)
+            t = (v - lj) * scale - 1.0
+            block[_T + j, l] = t
+            block[_A + j, l] = 1.0
+            block[_B + j, l] = t
     c0 = table[0, 0]
     for j in range(1, d):
         c0 = c0 + table[j, 0]
-    for l in range(nb):
-        w[_S, l] = c0
+    for l in range(n_lanes):
+        block[_S, l] = c0
     for j in range(1, d):
-        for l in range(nb):
-            w[_S + j, l] = 0.0
+        for l in range(n_lanes):
+            block[_S + j, l] = 0.0
     if n > 1:
         for j in range(d):
             c1 = table[j, 1]
-            for l in range(nb):
-                w[_S + j, l] += c1 * w[_T + j, l]
+            for l in range(n_lanes):
+                block[_S + j, l] += c1 * block[_T + j, l]
     for j in range(d):
         older, newer = _A + j, _B + j  # rows of P_{k-1}, P_k; P_{k+1} overwrites P_{k-1}
         for k in range(1, additive_terms(table, j) - 1):  # up to its last nonzero term
-            ck, ek, ct = lw[d + 1, k], lw[d + 2, k], table[j, k + 1]
-            for l in range(nb):
-                nx = ck * w[_T + j, l] * w[newer, l] - ek * w[older, l]
-                w[_S + j, l] += ct * nx
-                w[older, l] = nx
+            ck, ek, ct = lpr_work[d + 1, k], lpr_work[d + 2, k], table[j, k + 1]
+            for l in range(n_lanes):
+                nx = ck * block[_T + j, l] * block[newer, l] - ek * block[older, l]
+                block[_S + j, l] += ct * nx
+                block[older, l] = nx
             older, newer = newer, older
-    for l in range(nb):
-        w[_FS, l] = w[_S, l]
+    for l in range(n_lanes):
+        block[_FS, l] = block[_S, l]
     for j in range(1, d):
-        for l in range(nb):
-            w[_FS, l] += w[_S + j, l]
+        for l in range(n_lanes):
+            block[_FS, l] += block[_S + j, l]
     outside = 0.0
-    for l in range(nb):
-        outside += w[_OUT, l]
+    for l in range(n_lanes):
+        outside += block[_OUT, l]
     if outside > 0.0:
-        for l in range(nb):
-            if w[_OUT, l] > 0.0:
+        for l in range(n_lanes):
+            if block[_OUT, l] > 0.0:
                 for j in range(d):
-                    u[j] = w[_U + j, l]
-                w[_FS, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lo, up, lpr.mode, lw)
+                    element_input[j] = block[_U + j, l]
+                block[_FS, l] = lpr_eval_into(
+                    element_input, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work
+                )
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _rhs(w, xr, dr, zr, q, lpr, lw, u, nb):
-    """Derivatives of the states in rows ``xr`` into rows ``dr`` with the track input in rows
-    ``zr, zr + 1``; the force in row ``_FS``, the outside flags in row ``_OUT``."""
+def _rhs(block, state_row, rate_row, track_row, suspension, lpr, lpr_work, element_input, n_lanes):
+    """Derivatives of the states in rows ``state_row`` of ``block`` into rows ``rate_row`` with
+    the track input in rows ``track_row, track_row + 1``; the force in row ``_FS``, the outside
+    flags in row ``_OUT``. ``suspension``: the suspension record; ``lpr_work`` and
+    ``element_input`` are work arrays, ``n_lanes`` the block's vehicles."""
     tau = lpr.tau
-    for l in range(nb):
-        w[_U, l] = w[xr, l] - w[xr + 2, l]
-        w[_U + 1, l] = w[xr + 1, l] - w[xr + 3, l]
+    for l in range(n_lanes):
+        block[_U, l] = block[state_row, l] - block[state_row + 2, l]
+        block[_U + 1, l] = block[state_row + 1, l] - block[state_row + 3, l]
     if tau > 0.0:
-        for l in range(nb):
-            w[_U + 2, l] = w[_U, l] - w[xr + 4, l]
-            w[dr + 4, l] = (w[_U, l] - w[xr + 4, l]) / tau
+        for l in range(n_lanes):
+            block[_U + 2, l] = block[_U, l] - block[state_row + 4, l]
+            block[rate_row + 4, l] = (block[_U, l] - block[state_row + 4, l]) / tau
     else:
-        for l in range(nb):
-            w[dr + 4, l] = 0.0
-    _element(w, lpr, lw, u, nb)
-    k1, c1, m1, m2 = q.k1, q.c1, q.m1, q.m2
+        for l in range(n_lanes):
+            block[rate_row + 4, l] = 0.0
+    _element(block, lpr, lpr_work, element_input, n_lanes)
+    k1, c1, m1, m2 = suspension.k1, suspension.c1, suspension.m1, suspension.m2
     bump = lpr.bump
-    for l in range(nb):
-        fs = w[_FS, l]
+    for l in range(n_lanes):
+        fs = block[_FS, l]
         if bump:
-            fs += bump_stop_force(w[_U, l], q)
-        w[_FS, l] = fs
-        fa = w[_FA, l]
-        x0, x1 = w[xr, l], w[xr + 1, l]
-        w[dr, l] = x1
-        w[dr + 1, l] = (k1 * (w[zr, l] - x0) + c1 * (w[zr + 1, l] - x1) - fs - fa) / m1
-        w[dr + 2, l] = w[xr + 3, l]
-        w[dr + 3, l] = (fs + fa) / m2
+            fs += bump_stop_force(block[_U, l], suspension)
+        block[_FS, l] = fs
+        fa = block[_FA, l]
+        x0, x1 = block[state_row, l], block[state_row + 1, l]
+        block[rate_row, l] = x1
+        block[rate_row + 1, l] = (
+            k1 * (block[track_row, l] - x0) + c1 * (block[track_row + 1, l] - x1) - fs - fa
+        ) / m1
+        block[rate_row + 2, l] = block[state_row + 3, l]
+        block[rate_row + 3, l] = (fs + fa) / m2
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _stage(w, src, scale, nb):
+def _stage(block, src, scale, n_lanes):
     """Stage state rows ``_XT = _X + scale · (rows src)``."""
     for j in range(5):
-        for l in range(nb):
-            w[_XT + j, l] = w[_X + j, l] + scale * w[src + j, l]
+        for l in range(n_lanes):
+            block[_XT + j, l] = block[_X + j, l] + scale * block[src + j, l]
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def _block(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, i0):
+def _block(state, z, zdot, k0, n_sub, dt, force_a, suspension_record, lpr, out, i0):
     """One block of vehicles ``i0 .. i0 + LANES − 1`` (clipped to ``n``), see
     :func:`advance_lanes`."""
     n, s = state.shape
-    q = p[0]
-    nb = min(LANES, n - i0)
-    w = np.zeros((_ROWS, nb))
-    lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
-    u = np.empty(lpr.lo.shape[0])
-    for l in range(nb):
+    suspension = suspension_record[0]
+    n_lanes = min(LANES, n - i0)
+    block = np.zeros((_ROWS, n_lanes))
+    lpr_work = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
+    element_input = np.empty(lpr.lo.shape[0])
+    for l in range(n_lanes):
         i = i0 + l
         for j in range(s):
-            w[_X + j, l] = state[i, j]
-        w[_FA, l] = force_a[i]
-        w[_ALIVE, l] = 1.0
+            block[_X + j, l] = state[i, j]
+        block[_FA, l] = force_a[i]
+        block[_ALIVE, l] = 1.0
     h6 = dt / 6.0
     dt8 = 0.125 * dt
     c3 = 1.5 / dt
     half = 0.5 * dt
     for m in range(n_sub):
-        for l in range(nb):
+        for l in range(n_lanes):
             i = i0 + l
             ka = k0[i] + m
             za, zda = z[i, ka], zdot[i, ka]
             zb, zdb = z[i, ka + 1], zdot[i, ka + 1]
-            w[_ZA, l], w[_ZDA, l], w[_ZB, l], w[_ZDB, l] = za, zda, zb, zdb
-            w[_ZM, l] = 0.5 * (za + zb) + dt8 * (zda - zdb)
-            w[_ZDM, l] = c3 * (zb - za) - 0.25 * (zda + zdb)
-        _rhs(w, _X, _K, _ZA, q, lpr, lw, u, nb)
-        for l in range(nb):
-            w[_OSUM, l] = w[_OUT, l]
-        _stage(w, _K, half, nb)
-        _rhs(w, _XT, _K + 5, _ZM, q, lpr, lw, u, nb)
-        for l in range(nb):
-            w[_OSUM, l] += w[_OUT, l]
-        _stage(w, _K + 5, half, nb)
-        _rhs(w, _XT, _K + 10, _ZM, q, lpr, lw, u, nb)
-        for l in range(nb):
-            w[_OSUM, l] += w[_OUT, l]
-        _stage(w, _K + 10, dt, nb)
-        _rhs(w, _XT, _K + 15, _ZB, q, lpr, lw, u, nb)
+            block[_ZA, l], block[_ZDA, l], block[_ZB, l], block[_ZDB, l] = za, zda, zb, zdb
+            block[_ZM, l] = 0.5 * (za + zb) + dt8 * (zda - zdb)
+            block[_ZDM, l] = c3 * (zb - za) - 0.25 * (zda + zdb)
+        _rhs(block, _X, _K, _ZA, suspension, lpr, lpr_work, element_input, n_lanes)
+        for l in range(n_lanes):
+            block[_OSUM, l] = block[_OUT, l]
+        _stage(block, _K, half, n_lanes)
+        _rhs(block, _XT, _K + 5, _ZM, suspension, lpr, lpr_work, element_input, n_lanes)
+        for l in range(n_lanes):
+            block[_OSUM, l] += block[_OUT, l]
+        _stage(block, _K + 5, half, n_lanes)
+        _rhs(block, _XT, _K + 10, _ZM, suspension, lpr, lpr_work, element_input, n_lanes)
+        for l in range(n_lanes):
+            block[_OSUM, l] += block[_OUT, l]
+        _stage(block, _K + 10, dt, n_lanes)
+        _rhs(block, _XT, _K + 15, _ZB, suspension, lpr, lpr_work, element_input, n_lanes)
         alive = 0.0
-        for l in range(nb):
-            w[_OSUM, l] += w[_OUT, l]
-            w[_OOD, l] += w[_ALIVE, l] * w[_OSUM, l]
+        for l in range(n_lanes):
+            block[_OSUM, l] += block[_OUT, l]
+            block[_OOD, l] += block[_ALIVE, l] * block[_OSUM, l]
             ok = True
             for j in range(5):
-                v = w[_X + j, l] + h6 * (
-                    w[_K + j, l]
-                    + 2.0 * w[_K + 5 + j, l]
-                    + 2.0 * w[_K + 10 + j, l]
-                    + w[_K + 15 + j, l]
+                v = block[_X + j, l] + h6 * (
+                    block[_K + j, l]
+                    + 2.0 * block[_K + 5 + j, l]
+                    + 2.0 * block[_K + 10 + j, l]
+                    + block[_K + 15 + j, l]
                 )
-                w[_XT + j, l] = v
+                block[_XT + j, l] = v
                 ok = ok and abs(v) <= _BIG
-            ok = ok and abs(w[_XT, l]) <= _DIV and abs(w[_XT + 2, l]) <= _DIV
-            a = w[_ALIVE, l] if ok else 0.0
-            w[_ALIVE, l] = a
+            ok = ok and abs(block[_XT, l]) <= _DIV and abs(block[_XT + 2, l]) <= _DIV
+            a = block[_ALIVE, l] if ok else 0.0
+            block[_ALIVE, l] = a
             for j in range(5):
-                w[_X + j, l] = w[_XT + j, l] if a > 0.0 else w[_X + j, l]
-            dc = w[_X, l] - w[_X + 2, l]
-            touch = 1.0 if (dc > q.free_c) | (dc < -q.free_r) else 0.0
-            w[_CONTACT, l] += a * touch
+                block[_X + j, l] = block[_XT + j, l] if a > 0.0 else block[_X + j, l]
+            dc = block[_X, l] - block[_X + 2, l]
+            touch = 1.0 if (dc > suspension.free_c) | (dc < -suspension.free_r) else 0.0
+            block[_CONTACT, l] += a * touch
             alive += a
         if alive == 0.0:
             break
-    for l in range(nb):
+    for l in range(n_lanes):
         i = i0 + l
         ke = k0[i] + n_sub
-        w[_ZA, l], w[_ZDA, l] = z[i, ke], zdot[i, ke]
-    _rhs(w, _X, _K, _ZA, q, lpr, lw, u, nb)
-    for l in range(nb):
+        block[_ZA, l], block[_ZDA, l] = z[i, ke], zdot[i, ke]
+    _rhs(block, _X, _K, _ZA, suspension, lpr, lpr_work, element_input, n_lanes)
+    for l in range(n_lanes):
         i = i0 + l
         for j in range(s):
-            state[i, j] = w[_X + j, l]
-        fs, a1, a2 = w[_FS, l], w[_K + 1, l], w[_K + 3, l]
-        div = w[_ALIVE, l] == 0.0
+            state[i, j] = block[_X + j, l]
+        fs, a1, a2 = block[_FS, l], block[_K + 1, l], block[_K + 3, l]
+        div = block[_ALIVE, l] == 0.0
         if not div and abs(fs) <= _BIG and abs(a1) <= _BIG and abs(a2) <= _BIG:
             out.acc[i, 0] = a1
             out.acc[i, 1] = a2
@@ -237,19 +243,19 @@ def _block(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, i0):
             out.acc[i, 0] = 0.0
             out.acc[i, 1] = 0.0
             out.force[i] = 0.0
-        out.count[i, 0] = int(w[_CONTACT, l])
-        out.count[i, 1] = int(w[_OOD, l])
+        out.count[i, 0] = int(block[_CONTACT, l])
+        out.count[i, 1] = int(block[_OOD, l])
         out.div[i] = div
 
 
 @njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
-def advance_lanes_parallel(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+def advance_lanes_parallel(state, z, zdot, k0, n_sub, dt, force_a, suspension_record, lpr, out):
     """:func:`advance_lanes` on all numba threads (``prange`` over the blocks), with the same
     results."""
     _check(state, z, k0, n_sub, lpr)
     blocks = (state.shape[0] + LANES - 1) // LANES
     for b in prange(blocks):
-        _block(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, b * LANES)
+        _block(state, z, zdot, k0, n_sub, dt, force_a, suspension_record, lpr, out, b * LANES)
 
 
 @njit(cache=True, error_model="numpy")
@@ -265,10 +271,10 @@ def _check(state, z, k0, n_sub, lpr):
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def advance_lanes(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+def advance_lanes(state, z, zdot, k0, n_sub, dt, force_a, suspension_record, lpr, out):
     """Advance ``n`` vehicles by ``n_sub`` RK4 substeps of ``dt`` (s) with an additive
     surrogate element, in place, one block after another; arguments as for
     :func:`~railgym.vehicles.vertical.kernels.advance_surrogate` (``lpr.additive`` set)."""
     _check(state, z, k0, n_sub, lpr)
     for i0 in range(0, state.shape[0], LANES):
-        _block(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, i0)
+        _block(state, z, zdot, k0, n_sub, dt, force_a, suspension_record, lpr, out, i0)

@@ -3,7 +3,7 @@
 :class:`VerticalVehicle` holds one bogie and its carbody share with the element sections of
 ``configs/vehicles/*.yaml``; :meth:`VerticalVehicle.kernel_params` turns it into the
 :class:`SuspensionParams` NamedTuple that the compiled kernels read by field name. Every value
-is checked by :mod:`railgym._validation`, and errors name the field path (``damper.c_rebound``)
+is checked by :mod:`railgym._checks`, and errors name the field path (``damper.c_rebound``)
 and, when loaded from a file, the file.
 """
 
@@ -17,7 +17,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 __all__ = [
     "AirSpring",
@@ -27,6 +27,7 @@ __all__ = [
     "StaticSpring",
     "SuspensionParams",
     "VerticalVehicle",
+    "linear_model",
     "load_vehicle",
     "vehicle_from_dict",
 ]
@@ -79,6 +80,32 @@ class SuspensionParams(NamedTuple):
 
 #: structured dtype of :meth:`SuspensionParams.record`, one float64 field per parameter
 SUSPENSION_DTYPE = np.dtype([(name, np.float64) for name in SuspensionParams._fields])
+
+
+def linear_model(params: SuspensionParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Linear vertical model ``ẋ = A·x + B·F_a + E·f`` and its carbody acceleration.
+
+    States ``x = [x1, v1, x2, v2]`` (m, m/s) from the static equilibrium, input ``F_a`` (N),
+    linear secondary suspension ``k2, c2``; the track force ``f = k1·z + c1·ż`` is the
+    disturbance (not returned). ``params`` is :meth:`VerticalVehicle.kernel_params` (the
+    whole vehicle's model is :func:`railgym.vehicles.vehicle.linear_state_space`).
+
+    Returns
+    -------
+    A (4, 4), B (4, 1), C (4,), D
+        with ``ẍ2 = C·x + D·F_a`` (m/s²).
+    """
+    m1, m2, k1, c1, k2, c2 = params.m1, params.m2, params.k1, params.c1, params.k2, params.c2
+    a = np.array(
+        [
+            [0.0, 1.0, 0.0, 0.0],
+            [-(k1 + k2) / m1, -(c1 + c2) / m1, k2 / m1, c2 / m1],
+            [0.0, 0.0, 0.0, 1.0],
+            [k2 / m2, c2 / m2, -k2 / m2, -c2 / m2],
+        ]
+    )
+    b = np.array([[0.0], [-1.0 / m1], [0.0], [1.0 / m2]])
+    return a, b, a[3].copy(), 1.0 / m2
 
 
 Rule = Callable[[Any, str], float]
@@ -351,7 +378,7 @@ def vehicle_from_dict(d: Any) -> VerticalVehicle:
 def load_vehicle(name_or_path: str | Path = "manchester") -> VerticalVehicle:
     """Load a vehicle: a packaged name (``"manchester"``) or the path of a ``.yaml`` file.
 
-    The "name or path" rule is :func:`railgym._validation.resolve_yaml`'s; errors in a file
+    The "name or path" rule is :func:`railgym._checks.resolve_yaml`'s; errors in a file
     name the file and the field.
     """
     text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))

@@ -11,7 +11,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from railgym import _validation as val
+from railgym import _checks as val
 from railgym.vehicles.vertical.elements import (
     bump_stop_force,
     damper_force,

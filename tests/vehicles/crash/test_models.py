@@ -16,8 +16,8 @@ from railgym.vehicles.crash import (
     PARALLEL_MIN,
     VARIANTS,
     build_crash_surrogate,
-    crash_batch_model,
     crash_errors,
+    crash_model,
     load_scenario,
     parse_scenario,
     reference_time_step,
@@ -391,7 +391,7 @@ def test_parallel_surrogate_step_is_bit_identical_to_serial(paper_ref, surrogate
         sur = build_crash_surrogate(paper_ref, nodes_per_car=4)
     else:
         sur = surrogates[variant][0]
-    model = crash_batch_model("paper", "surrogate", surrogate=sur)
+    model = crash_model("paper", "surrogate", surrogate=sur)
     n = PARALLEL_MIN + 45
     rng = np.random.default_rng(1)
     speeds = rng.uniform(5.0, 20.0, n)
@@ -417,7 +417,7 @@ def test_elastic_surrogate_conserves_energy_and_reports_centres_of_mass(paper_re
     zone work + friction + link damping = initial), the cars' masses are the scenario's, and
     ``out.x`` is each car's mass-weighted centre of its nodes."""
     sur = build_crash_surrogate(paper_ref, nodes_per_car=4)
-    model = crash_batch_model("paper", "surrogate", surrogate=sur, sample_dt=1e-4, dt=1e-4)
+    model = crash_model("paper", "surrogate", surrogate=sur, sample_dt=1e-4, dt=1e-4)
     assert model.masses.size == 8 and list(model.car_nodes[1]) == [4, 8]
     sc = model.scenario
     np.testing.assert_allclose(

@@ -1,4 +1,4 @@
-"""railgym._validation: properties of the number, integer and sequence checks, the YAML
+"""railgym._checks: properties of the number, integer and sequence checks, the YAML
 reader and the "name or path" rule."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from railgym import _validation as val
+from railgym import _checks as val
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
 numpy_float = finite.map(np.float64)

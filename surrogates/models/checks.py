@@ -8,12 +8,14 @@ says which field is wrong, never in an exception from deep inside numpy or a hug
 from __future__ import annotations
 
 import functools
+import math
 import sys
-from collections.abc import Sequence
-from numbers import Integral, Real
+from numbers import Integral
 from typing import Any, TypeVar, cast
 
 import numpy as np
+
+from surrogates.checks import Checks, is_number
 
 #: largest Legendre degree accepted in a hyperparameter or a saved exponent (bounds memory)
 MAX_DEGREE = 200
@@ -57,58 +59,41 @@ def not_fitted_error(message: str) -> NotFittedError:
     return sklearn_flavoured(NotFittedError)(message)
 
 
-def check_choice(value: Any, choices: Sequence[str], field: str) -> str:
-    """``value`` if it is one of the strings ``choices``, else :class:`ModelFieldError`."""
-    if not isinstance(value, str) or value not in choices:
-        raise ModelFieldError(f"{field} must be one of {tuple(choices)}, got {value!r}")
-    return value
+def _model_error(field: str, message: str) -> ModelFieldError:
+    return ModelFieldError(f"{field} {message}")
 
 
-def check_bool(value: Any, field: str) -> bool:
-    """``value`` as a bool; only ``True``/``False`` (or numpy bools) are accepted."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise ModelFieldError(f"{field} must be True or False, got {value!r}")
-    return bool(value)
+#: the checks of :mod:`surrogates.checks` (the vocabulary railgym uses too), raising
+#: :class:`ModelFieldError` for bad values and values of the wrong type alike
+_CHECKS = Checks(_model_error, _model_error)
+real = _CHECKS.real
+in_range = _CHECKS.in_range
+positive = _CHECKS.positive
+non_negative = _CHECKS.non_negative
+integer = _CHECKS.integer
+boolean = _CHECKS.boolean
+choice = _CHECKS.choice
+random_seed = _CHECKS.random_seed
 
 
-def check_int(value: Any, field: str, low: int = 0, high: int | None = None) -> int:
-    """An integer (not a bool) in ``[low, high]``."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Integral):
-        raise ModelFieldError(f"{field} must be an integer, got {value!r}")
-    v = int(value)
-    if v < low or (high is not None and v > high):
-        bound = f">= {low}" if high is None else f"between {low} and {high}"
-        raise ModelFieldError(f"{field} must be {bound}, got {v}")
-    return v
+def real_or_nan(value: Any, field: str) -> float:
+    """A real number as :func:`real`, or NaN (a saved statistic that may be undefined)."""
+    if is_number(value) and math.isnan(float(value)):
+        return math.nan
+    return real(value, field)
 
 
-def check_float(
-    value: Any, field: str, low: float | None = None, strict: bool = False, nan_ok: bool = False
-) -> float:
-    """A finite real number (not a bool), optionally ``>= low`` (``> low`` when ``strict``)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real):
-        raise ModelFieldError(f"{field} must be a number, got {value!r}")
-    x = float(value)
-    if nan_ok and np.isnan(x):
-        return x
-    if not np.isfinite(x):
-        raise ModelFieldError(f"{field} must be finite, got {x}")
-    if low is not None and (x <= low if strict else x < low):
-        raise ModelFieldError(f"{field} must be {'>' if strict else '>='} {low}, got {x}")
-    return x
-
-
-def check_degree(degree: Any, field: str = "degree") -> int | tuple[int, ...]:
+def legendre_degree(degree: Any, field: str = "degree") -> int | tuple[int, ...]:
     """A degree in ``0..MAX_DEGREE`` or a non-empty tuple/list of them (one per input)."""
     if isinstance(degree, (tuple, list)):
         if not degree:
             raise ModelFieldError(f"{field} must not be empty")
-        return tuple(check_int(x, f"{field}[{i}]", 0, MAX_DEGREE) for i, x in enumerate(degree))
+        return tuple(integer(x, f"{field}[{i}]", 0, MAX_DEGREE) for i, x in enumerate(degree))
     if isinstance(degree, (bool, np.bool_)) or not isinstance(degree, Integral):
         raise ModelFieldError(
             f"{field} must be a non-negative int or a tuple of them (one per input), got {degree!r}"
         )
-    return check_int(degree, field, 0, MAX_DEGREE)
+    return integer(degree, field, 0, MAX_DEGREE)
 
 
 def field_array(
@@ -174,20 +159,3 @@ def _has_bool(value: Any) -> bool:
 def _shape_text(shape: tuple[int | None, ...]) -> str:
     inner = ", ".join("n" if s is None else str(s) for s in shape)
     return f"({inner},)" if len(shape) == 1 else f"({inner})"
-
-
-def check_seed(seed: Any, field: str = "seed") -> Any:
-    """``seed`` if :func:`numpy.random.default_rng` takes it as documented: ``None``, a
-    non-negative integer (not a bool), a sequence of them, or a numpy ``Generator``,
-    ``BitGenerator`` or ``SeedSequence``; else :class:`ModelFieldError` naming ``field``."""
-    if seed is None or isinstance(
-        seed, np.random.Generator | np.random.BitGenerator | np.random.SeedSequence
-    ):
-        return seed
-    items = list(seed) if isinstance(seed, list | tuple) and seed else [seed]
-    for item in items:
-        if isinstance(item, bool | np.bool_) or not isinstance(item, Integral) or item < 0:
-            raise ModelFieldError(
-                f"{field} must be None, a non-negative integer or a numpy Generator, got {seed!r}"
-            )
-    return seed

@@ -1,4 +1,4 @@
-"""Batch stepping (:func:`crash_batch_model`) for the gymnasium envs.
+"""A scenario's model ready for batch stepping (:func:`crash_model`), for the gymnasium envs.
 
 Either model of a scenario advanced sample by sample for many trains in one compiled call, with
 a controllable absorber in every zone: a force scale per zone multiplies its loading envelope
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from railgym.vehicles.crash.outputs import BatchOutputs, _check_run, _steps, new_outputs
+from railgym.vehicles.crash.outputs import CrashOutputs, _check_run, _steps, new_outputs
 from railgym.vehicles.crash.reference import (
     ReferenceParams,
     ReferenceState,
@@ -34,17 +34,17 @@ from railgym.vehicles.crash.surrogate_model import (
     surrogate_batch_step,
 )
 
-__all__ = ["BATCH_BACKENDS", "CrashBatchModel", "crash_batch_model"]
+__all__ = ["MODEL_BACKENDS", "CrashModel", "crash_model"]
 
-#: models of :func:`crash_batch_model`
-BATCH_BACKENDS = ("reference", "surrogate")
+#: models of :func:`crash_model`
+MODEL_BACKENDS = ("reference", "surrogate")
 
 
 @dataclass(frozen=True)
-class CrashBatchModel:
+class CrashModel:
     """A scenario's reference or surrogate model, ready for batch stepping.
 
-    Made by :func:`crash_batch_model`. Holds no simulation state: :meth:`new_state` and
+    Made by :func:`crash_model`. Holds no simulation state: :meth:`new_state` and
     :meth:`new_outputs` allocate the arrays of ``n`` simulations, :meth:`reset` puts one at
     first contact, :meth:`step` advances the active ones by ``sample_dt`` in one compiled call.
 
@@ -80,7 +80,7 @@ class CrashBatchModel:
             return _new_reference_state(n, self.masses, nz)
         return _new_surrogate_state(n, self.masses, nz)
 
-    def new_outputs(self, n: int) -> BatchOutputs:
+    def new_outputs(self, n: int) -> CrashOutputs:
         """Zeroed outputs of ``n`` simulations."""
         return new_outputs(n, len(self.body_names), len(self.zone_names))
 
@@ -98,7 +98,7 @@ class CrashBatchModel:
     def reset(
         self,
         state: ReferenceState | SurrogateState,
-        out: BatchOutputs,
+        out: CrashOutputs,
         i: int,
         speed: float,
         payload: np.ndarray | None = None,
@@ -114,7 +114,7 @@ class CrashBatchModel:
     def step(
         self,
         state: ReferenceState | SurrogateState,
-        out: BatchOutputs,
+        out: CrashOutputs,
         scale: np.ndarray,
         active: np.ndarray,
         div: np.ndarray,
@@ -126,56 +126,56 @@ class CrashBatchModel:
         kernel(state, out, self.params, scale, active, init, self.dt, self.n_sub, limit, div)
 
 
-def crash_batch_model(
+def crash_model(
     scenario: CrashScenario | str,
     backend: str = "reference",
     sample_dt: float = 1e-3,
     surrogate: CrashSurrogate | None = None,
     safety: float = 0.2,
     dt: float = 5e-4,
-) -> CrashBatchModel:
-    """Batch-steppable model of a scenario.
+) -> CrashModel:
+    """The :class:`CrashModel` of a scenario with the ``backend`` model.
 
     Parameters
     ----------
     scenario : a :class:`CrashScenario` or a name/path for :func:`load_scenario`.
     backend : ``"reference"`` (lumped-mass chain, :func:`simulate_reference`) or
         ``"surrogate"`` (paper eq. 4, :func:`simulate_surrogate`; needs ``surrogate``).
-    sample_dt : time advanced per :meth:`CrashBatchModel.step`, s.
+    sample_dt : time advanced per :meth:`CrashModel.step`, s.
     safety : reference time-step safety factor; dt : largest surrogate step, s (both as in
         the ``simulate_*`` functions, which record with the same kernels).
     """
-    sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
-    if backend not in BATCH_BACKENDS:
-        raise ValueError(f"backend must be one of {BATCH_BACKENDS}, got {backend!r}")
+    scenario = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
+    if backend not in MODEL_BACKENDS:
+        raise ValueError(f"backend must be one of {MODEL_BACKENDS}, got {backend!r}")
     _check_run(sample_dt, sample_dt)
     if backend == "reference":
         if surrogate is not None:
             raise ValueError(
                 "surrogate is only used by backend='surrogate', got one for 'reference'"
             )
-        system = _build_chain(sc)
+        system = _build_chain(scenario)
         step, n_sub = _reference_steps(system, sample_dt, safety)
         p = system.params
-        car_nodes = np.column_stack([p.body_start, p.body_end])[: sc.n_cars]
+        car_nodes = np.column_stack([p.body_start, p.body_end])[: scenario.n_cars]
     else:
         if surrogate is None:
             raise ValueError("surrogate is required for backend='surrogate'")
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
-        system = _surrogate_system(sc, surrogate)
+        system = _surrogate_system(scenario, surrogate)
         step, n_sub = _steps(sample_dt, dt)
         p = system.params
-        car_nodes = np.column_stack([p.body_start, p.body_end])[: sc.n_cars]
-    return CrashBatchModel(
+        car_nodes = np.column_stack([p.body_start, p.body_end])[: scenario.n_cars]
+    return CrashModel(
         backend=backend,
-        scenario=sc,
+        scenario=scenario,
         sample_dt=float(sample_dt),
         dt=step,
         n_sub=n_sub,
         params=system.params,
         masses=system.params.m,
-        v_unit=system.v0 / sc.speed,
+        v_unit=system.v0 / scenario.speed,
         car_nodes=car_nodes,
         body_names=system.body_names,
         zone_names=system.zone_names,

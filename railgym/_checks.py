@@ -1,4 +1,4 @@
-"""Validation of arguments, configs and YAML files: one rule set, errors that name the field.
+"""Checks of arguments, configs and YAML files: one rule set, errors that name the field.
 
 Every helper takes the value and its *field path* (``"speed"``, ``"damper.c_rebound"``,
 ``"reward_weights['force']"``) and returns the value in a canonical Python type, or raises
@@ -7,9 +7,10 @@ Every helper takes the value and its *field path* (``"speed"``, ``"damper.c_rebo
 
 Rules
 -----
-* Numbers: ``int``, ``float`` and numpy integer/floating scalars (and 0-d arrays of them) are
-  accepted; ``bool``, ``numpy.bool_``, strings, complex numbers and ``None`` are rejected.
-  Every number must be finite.
+* The checks of values (numbers, integers, choices, sequences, arrays, seeds) are those of
+  :mod:`surrogates.checks`, the one vocabulary of every layer (``choice(value, field,
+  options)`` here and in ``surrogates``), bound here to :class:`FieldError` and
+  :class:`FieldTypeError`.
 * Ranges are checked on the value the caller uses: read the raw (file) value with
   :func:`real`, convert it to SI, then check the SI value with :func:`in_range` (or use
   :meth:`Fields.quantity`, which does all three, so that ``1e307 t`` is reported as an
@@ -26,7 +27,8 @@ API
 hi_open=False)`` → float; ``integer(v, field, min=None, max=None)`` → int; ``boolean(v,
 field)``; ``choice(v, field, options)``; ``sequence(v, field, length=None)`` → tuple;
 ``mapping(v, field)``; ``numeric_array(v, field, shape=None)`` → float64 array (rejects bool,
-complex, string and object data and non-finite values); ``resolve_yaml(arg, field,
+complex, string and object data and non-finite values); ``random_seed(v, field)``;
+``resolve_yaml(arg, field,
 package, folder)`` → (text, source); ``load_yaml(text, source)`` → data (syntax errors name the
 source and line); :class:`Fields` reads a YAML mapping section by section::
 
@@ -41,13 +43,13 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable, Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
+
+from surrogates.checks import Checks
 
 __all__ = [
     "FieldError",
@@ -62,6 +64,7 @@ __all__ = [
     "non_negative",
     "numeric_array",
     "positive",
+    "random_seed",
     "real",
     "resolve_yaml",
     "sequence",
@@ -91,134 +94,20 @@ class FieldTypeError(FieldError, TypeError):
     """Value of the wrong type (also a ``TypeError``)."""
 
 
-def _is_number(value: Any) -> bool:
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
-    return not isinstance(value, bool | np.bool_) and isinstance(
-        value, int | float | np.integer | np.floating
-    )
-
-
-def real(value: Any, field: str) -> float:
-    """A finite real number (numpy scalars accepted, bools and strings rejected)."""
-    if not _is_number(value):
-        raise FieldTypeError(field, f"must be a number, got {value!r}")
-    try:
-        out = float(value)
-    except OverflowError:  # a Python int beyond the float range
-        raise FieldError(field, f"must be finite, got {value!r}") from None
-    if not math.isfinite(out):
-        raise FieldError(field, f"must be finite, got {value!r}")
-    return out
-
-
-def in_range(
-    value: Any,
-    field: str,
-    lo: float | None = None,
-    hi: float | None = None,
-    *,
-    lo_open: bool = False,
-    hi_open: bool = False,
-) -> float:
-    """A finite number in ``[lo, hi]`` (``(lo, …`` / ``…, hi)`` when open; None: unbounded)."""
-    out = real(value, field)
-    below = lo is not None and (out <= lo if lo_open else out < lo)
-    above = hi is not None and (out >= hi if hi_open else out > hi)
-    if below or above:
-        left = "-inf" if lo is None else f"{lo:g}"
-        right = "inf" if hi is None else f"{hi:g}"
-        opening = "(" if lo_open or lo is None else "["
-        closing = ")" if hi_open or hi is None else "]"
-        interval = f"{opening}{left}, {right}{closing}"
-        raise FieldError(field, f"must be in {interval}, got {value!r}")
-    return out
-
-
-def positive(value: Any, field: str, max: float | None = None) -> float:
-    """A finite number ``> 0`` (and ``<= max`` when given)."""
-    out = real(value, field)
-    if out <= 0.0:
-        raise FieldError(field, f"must be positive, got {value!r}")
-    if max is not None and out > max:
-        raise FieldError(field, f"must be at most {max:g}, got {value!r}")
-    return out
-
-
-def non_negative(value: Any, field: str, max: float | None = None) -> float:
-    """A finite number ``>= 0`` (and ``<= max`` when given)."""
-    out = real(value, field)
-    if out < 0.0:
-        raise FieldError(field, f"must be non-negative, got {value!r}")
-    if max is not None and out > max:
-        raise FieldError(field, f"must be at most {max:g}, got {value!r}")
-    return out
-
-
-def integer(value: Any, field: str, min: int | None = None, max: int | None = None) -> int:
-    """An integer (Python or numpy; not bool, not a float) in ``[min, max]``."""
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
-    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
-        raise FieldTypeError(field, f"must be an integer, got {value!r}")
-    out = int(value)
-    if min is not None and out < min:
-        raise FieldError(field, f"must be at least {min}, got {value!r}")
-    if max is not None and out > max:
-        raise FieldError(field, f"must be at most {max}, got {value!r}")
-    return out
-
-
-def boolean(value: Any, field: str) -> bool:
-    """``True`` or ``False`` (numpy bools accepted; 0/1 and strings rejected)."""
-    if not isinstance(value, bool | np.bool_):
-        raise FieldTypeError(field, f"must be true or false, got {value!r}")
-    return bool(value)
-
-
-def choice(value: Any, field: str, options: Iterable[Any]) -> Any:
-    """One of ``options`` (compared with ``==``; bools never match numbers)."""
-    opts = list(options)
-    for o in opts:
-        if type(value) is type(o) and value == o:
-            return o
-    if isinstance(value, str):
-        for o in opts:
-            if value == o:
-                return o
-    raise FieldError(field, f"must be one of {opts}, got {value!r}")
-
-
-def sequence(value: Any, field: str, length: int | None = None) -> tuple[Any, ...]:
-    """A list, tuple or 1-D array (not a string or mapping), as a tuple of ``length`` items."""
-    if isinstance(value, str | bytes | Mapping) or not isinstance(value, list | tuple | np.ndarray):
-        raise FieldTypeError(field, f"must be a sequence, got {value!r}")
-    items = tuple(value.tolist() if isinstance(value, np.ndarray) else value)
-    if length is not None and len(items) != length:
-        raise FieldError(field, f"must have {length} items, got {len(items)}")
-    return items
-
-
-def mapping(value: Any, field: str) -> Mapping[str, Any]:
-    """A mapping (dict-like); anything else is a type error."""
-    if not isinstance(value, Mapping):
-        raise FieldTypeError(field, f"must be a mapping, got {type(value).__name__}")
-    return value
-
-
-def numeric_array(value: Any, field: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
-    """A finite float64 array of real numbers (ints and floats; not bool, complex or text)."""
-    arr = np.asarray(value) if not isinstance(value, str | bytes) else np.asarray(value, object)
-    if arr.dtype.kind not in "iuf":
-        raise FieldTypeError(
-            field, f"must hold real numbers, got dtype {arr.dtype} ({type(value).__name__})"
-        )
-    if shape is not None and arr.shape != shape:
-        raise FieldError(field, f"must have shape {shape}, got {arr.shape}")
-    out = arr.astype(np.float64)
-    if not np.all(np.isfinite(out)):
-        raise FieldError(field, "must be finite; got NaN or Inf")
-    return out
+#: the checks of :mod:`surrogates.checks` (one vocabulary for every layer), raising
+#: :class:`FieldError` / :class:`FieldTypeError`
+_CHECKS = Checks(FieldError, FieldTypeError)
+real = _CHECKS.real
+in_range = _CHECKS.in_range
+positive = _CHECKS.positive
+non_negative = _CHECKS.non_negative
+integer = _CHECKS.integer
+boolean = _CHECKS.boolean
+choice = _CHECKS.choice
+sequence = _CHECKS.sequence
+mapping = _CHECKS.mapping
+numeric_array = _CHECKS.numeric_array
+random_seed = _CHECKS.random_seed
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

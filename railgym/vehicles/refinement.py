@@ -1,0 +1,104 @@
+"""What the two policy-aware refinement loops share (:func:`railgym.vehicles.collect.refine`
+for one bogie, :func:`railgym.vehicles.refine_vehicle.refine_vehicle` for the whole vehicle):
+their runs (:class:`RefineOptions`), the refit on the worst samples and the held-out score.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from railgym import _checks as val
+from railgym.track import class_speed
+from railgym.vehicles.collect_design import MEMORY_SAMPLE_RATE
+from surrogates.models import SurrogateModel
+
+__all__ = ["RefineOptions", "holdout_error", "refit_worst"]
+
+
+@dataclass(frozen=True)
+class RefineOptions:
+    """Runs of a policy-aware refinement (:func:`railgym.vehicles.collect.refine` and
+    :func:`railgym.vehicles.refine_vehicle.refine_vehicle`); checked when made.
+
+    Attributes
+    ----------
+    track_class, speed, duration : tracks of the runs (speed m/s, default the class's
+        maximum; duration s).
+    n_tracks, n_holdout, n_add : tracks per round, held-out tracks, samples added per round.
+    sample_rate : Hz of the candidate samples along each run.
+    control_dt : s the policy's action is held; f_max : actuator force per unit action, N.
+    seed : seed of the tracks.
+    """
+
+    track_class: int = 5
+    speed: float | None = None
+    duration: float = 10.0
+    n_tracks: int = 2
+    n_holdout: int = 3
+    n_add: int = 400
+    sample_rate: float = MEMORY_SAMPLE_RATE
+    control_dt: float = 0.01
+    f_max: float = 8000.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("n_tracks", "n_holdout", "n_add"):
+            val.integer(getattr(self, name), name, min=1)
+        if self.speed is not None:
+            val.positive(self.speed, "speed")
+
+    def steps(self, dt: float) -> tuple[int, int]:
+        """``(n_sub, every)``: integration steps of ``dt`` (s) per control step and per
+        candidate sample."""
+        n_sub = round(self.control_dt / dt)
+        every = round(1.0 / (self.sample_rate * dt))
+        if n_sub < 1 or every < 1:
+            raise ValueError("control_dt and 1/sample_rate must be whole multiples of dt")
+        return n_sub, every
+
+    def speed_or_class(self) -> float:
+        """Running speed, m/s: ``speed``, or the class's maximum."""
+        if self.speed is None:
+            return class_speed(self.track_class)
+        return val.positive(self.speed, "speed")
+
+
+def refit_worst(
+    model: SurrogateModel,
+    data: tuple[np.ndarray, np.ndarray],
+    candidates: list[tuple[np.ndarray, np.ndarray]],
+    n_add: int,
+) -> tuple[SurrogateModel, np.ndarray, np.ndarray]:
+    """``(model, U, V)``: the ``n_add`` candidate pairs where ``model`` is worst (outside its
+    training box first, then the largest force errors) added to ``data = (U, V)``, and a copy
+    of ``model`` (same class, hyperparameters and feature form) fitted to them."""
+    cu = np.concatenate([c[0] for c in candidates])
+    cv = np.concatenate([c[1] for c in candidates])
+    outside = np.any((cu < model.lower_) | (cu > model.upper_), axis=1)
+    err = np.abs(model.predict(cu) - cv)
+    worst = np.argsort(np.where(outside, np.inf, err))[::-1][:n_add]
+    U, V = np.concatenate([data[0], cu[worst]]), np.concatenate([data[1], cv[worst]])
+    features = getattr(model, "features_", None)
+    model = type(model)(**model.get_params()).fit(U, V)
+    if features is not None:
+        model.features_ = features
+    return model, U, V
+
+
+def holdout_error(
+    runs: list[dict[str, Any]], refs: list[dict[str, Any]], key: str
+) -> tuple[np.ndarray, int]:
+    """Median over the held-out tracks of the relative RMS error of ``run[key]`` against the
+    reference's (per column of a 2-D record; ``inf`` for a diverged run), and the surrogate
+    runs' total out-of-domain evaluations."""
+    errs, ood = [], 0
+    for sur, ref in zip(runs, refs, strict=True):
+        ood += sur["ood"]
+        a, b = sur[key], ref[key]
+        ok = not sur["diverged"] and np.all(np.isfinite(a))
+        e = np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
+        errs.append(e if ok else np.full(np.shape(e), np.inf))
+    return np.median(errs, axis=0), ood
