@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 
 from railgym.envs.crash_layout import (
-    CLEARED,
     ENV_FIELDS,
     EPISODE,
     INFO_FIELDS,
@@ -122,7 +121,6 @@ class CrashBatch:
         views = [self._view(f) for f in range(self._fields.shape[0])]
         self.out = CrashOutputs(*views[:_ENV])
         self.episode = Episode(*views[_ENV:_STATE], *self._flag_arrays)
-        self._cleared = [(getattr(self.episode, name), value) for name, value in CLEARED]
         self.state = self._state_type(*views[_STATE:])
         model = self.model
         if model.backend == "reference":
@@ -143,7 +141,7 @@ class CrashBatch:
         )
         self._flags = {"crash_over": self.over, "diverged": self.div}
 
-    _VIEWS = ("out", "episode", "state", "_kernel", "_init_kernel", "_args", "_flags", "_cleared")
+    _VIEWS = ("out", "episode", "state", "_kernel", "_init_kernel", "_args", "_flags")
 
     # per-train arrays under their short names (views of the buffer)
     scale = property(lambda self: self.episode.scale)
@@ -196,8 +194,6 @@ class CrashBatch:
         """Train ``i`` back at first contact at its episode's speed and payload."""
         payload = self.payload[i] if self.payload[i].any() else None
         self.model.reset(self.state, self.out, i, float(self.speed[i]), payload)
-        for array, value in self._cleared:
-            array[i] = value
         self._one[i] = True
         self._init_kernel(*self._args, self._actions, self._one, True)
         self._one[i] = False

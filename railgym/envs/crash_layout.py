@@ -34,6 +34,7 @@ __all__ = [
     "info_layout",
     "named_rebuild",
     "new_episode_arrays",
+    "row_clearer",
 ]
 
 #: the reward terms (``info["reward_terms"]``), summing to the reward
@@ -268,3 +269,28 @@ def named_rebuild(cls: type) -> Callable[..., Any]:
         return cls(*values(t))
 
     return named
+
+
+def row_clearer(cleared: tuple[tuple[str, Any], ...]) -> Callable[..., Any]:
+    """Compiled ``clear(episode, i)``: row ``i`` of each named :class:`Episode` array set to its
+    value (``cleared``: (name, value) pairs, e.g. :data:`CLEARED`), one generated assignment
+    per array."""
+    if not cleared:
+
+        @njit(inline="always")
+        def none(episode, i):
+            return None
+
+        return none
+    rest = row_clearer(cleared[1:])
+    ((name, value),) = cleared[:1]
+    field = Episode._fields.index(name)
+    dtype = next(a.dtype for a in EPISODE if a.name == name)
+    value = np.dtype(dtype).type(value)
+
+    @njit(inline="always")
+    def clear(episode, i):
+        episode[field][i] = value
+        rest(episode, i)
+
+    return clear

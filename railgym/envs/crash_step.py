@@ -11,12 +11,14 @@ import numpy as np
 from numba import njit
 
 from railgym.envs.crash_layout import (
+    CLEARED,
     COLUMNS,
     ENV_FIELDS,
     Episode,
     InfoColumns,
     buffer_views,
     named_rebuild,
+    row_clearer,
 )
 from railgym.vehicles.crash import (
     CrashOutputs,
@@ -145,6 +147,7 @@ _output_views = buffer_views(_OUTPUT_DIMS)
 _episode_views = buffer_views(tuple(1 if name in COLUMNS else 2 for name in ENV_FIELDS))
 _reference_views = buffer_views((2,) * len(ReferenceState._fields))
 _surrogate_views = buffer_views((2,) * len(SurrogateState._fields))
+_clear_episode = row_clearer(CLEARED)
 
 
 @njit(cache=True)
@@ -407,7 +410,8 @@ def _post_step(outputs, episode, consts, active, init):
 
     ``outputs`` :class:`CrashOutputs`, ``episode`` :class:`Episode`, ``consts``
     :class:`EnvConsts`. With ``init`` the trains are at first contact (the arrays of
-    :data:`~railgym.envs.crash_layout.CLEARED` already cleared): the step is not scored.
+    :data:`~railgym.envs.crash_layout.CLEARED` already cleared, :func:`_begin`): the step is
+    not scored.
     """
     col = consts.info
     for i in range(outputs.x.shape[0]):
@@ -442,10 +446,15 @@ def _views(buf, fields, flags):
 # Python into a compiled function has a fixed cost, a sizeable part of a single-env step.
 @njit(cache=True, inline="always")
 def _begin(buf, fields, flags, consts, actions, active, init):
-    """Named constants, the buffer's views and, unless ``init``, the absorber scales
+    """Named constants, the buffer's views, then with ``init`` the active trains' arrays of
+    :data:`~railgym.envs.crash_layout.CLEARED` cleared, else the absorber scales
     (:func:`_set_scale`); ``ok`` is False for a non-finite action."""
     named = _named_consts(consts)
     outputs, episode = _views(buf, fields, flags)
+    if init:
+        for i in range(active.shape[0]):
+            if active[i]:
+                _clear_episode(episode, i)
     ok = init or _set_scale(actions, episode.scale, active, named)
     return named, outputs, episode, ok
 
