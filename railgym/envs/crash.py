@@ -21,8 +21,8 @@ compiled call. ``info`` carries the crash criteria of
 from __future__ import annotations
 
 import functools
+import inspect
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -30,21 +30,19 @@ from gymnasium import spaces
 
 from railgym import _checks as val
 from railgym.envs.base import BatchEnv, BatchVectorEnv
-from railgym.envs.crash_batch import CrashBatch, CrashConfig
-from railgym.envs.crash_step import INFO_FIELDS, REWARD_TERMS, Criteria
+from railgym.envs.crash_batch import CrashBatch
+from railgym.envs.crash_layout import INFO_FIELDS, REWARD_TERMS
+from railgym.envs.crash_params import BACKENDS, DEFAULT_WEIGHTS, CrashParams, nominal_force
+from railgym.envs.params import keyword_signature
 from railgym.vehicles.crash import (
     LIMITS,
-    VARIANTS,
     CrashModel,
     CrashScenario,
     CrashSurrogate,
-    CrushZone,
     build_crash_surrogate,
     crash_model,
-    load_scenario,
     simulate_reference,
 )
-from railgym.vehicles.crash.criteria import ONSET_G, WINDOW
 from railgym.vehicles.crash.elements import packaged_surrogate
 
 __all__ = [
@@ -53,125 +51,21 @@ __all__ = [
     "INFO_FIELDS",
     "REWARD_TERMS",
     "CrashBatch",
-    "CrashConfig",
+    "CrashParams",
     "TrainCrashEnv",
     "TrainCrashEnvV0",
     "TrainCrashVectorEnv",
     "TrainCrashVectorEnvV0",
     "default_surrogate",
     "env_surrogate",
-    "make_config",
     "make_model",
     "nominal_force",
 ]
 
-BACKENDS = ("surrogate", "reference")
-DEFAULT_WEIGHTS = {"decel": 1.0, "intrusion": 1.0, "peak": 0.0}
-#: largest control step, s: the statistics and the reward sample the state once per step, so
-#: a coarser step misses the deceleration peaks of a crash lasting a few hundred ms
-MAX_CONTROL_DT = 0.01
-#: longest episode, s
-MAX_DURATION = 60.0
-#: largest reward weight and absorber rate (1/s): keeps every reward finite
-MAX_WEIGHT = 1e6
 #: most sub-envs of the vector env
 MAX_NUM_ENVS = 4096
-#: observation scales: displacement (m) and acceleration (in g)
-X_SCALE = 1.0
-A_SCALE_G = 10.0
 #: the reset options (impact conditions, in the scenario file's units)
 OPTIONS = ("speed_kmh", "payload_t")
-
-
-def nominal_force(zone: CrushZone) -> float:
-    """Largest point force (N) of the zone's envelope within its absorber stroke."""
-    inside = [f for s, f in zip(zone.stroke, zone.force, strict=True) if s <= zone.absorber_stroke]
-    return max(inside, default=zone.force[0])
-
-
-def make_config(
-    scenario: str | Path | CrashScenario,
-    backend: str,
-    n_cars: int | None,
-    speed: float | None,
-    control_dt: float,
-    max_duration: float,
-    absorber_range: float,
-    absorber_rate: float,
-    speed_jitter: float,
-    reward_weights: dict[str, float] | None,
-) -> CrashConfig:
-    """Check the env arguments; every error names the argument (scenario errors its field)."""
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    sc = scenario if isinstance(scenario, CrashScenario) else load_scenario(scenario)
-    sc = sc.with_overrides(n_cars=n_cars, speed=speed)
-    speed_range = payload_range = None
-    if sc.envelope is not None:  # an explicit speed fixes the envelope's speed
-        speed_range = (sc.speed, sc.speed) if speed is not None else sc.envelope.speed
-        payload_range = sc.envelope.payload_ranges(sc.n_cars)
-    control_dt = val.in_range(control_dt, "control_dt", 0.0, MAX_CONTROL_DT, lo_open=True)
-    max_duration = val.in_range(max_duration, "max_duration", 0.0, MAX_DURATION, lo_open=True)
-    n_steps = round(max_duration / control_dt)
-    if n_steps < 1:
-        raise ValueError(f"max_duration ({max_duration} s) must be at least control_dt")
-    absorber_range = val.in_range(
-        absorber_range, "absorber_range", 0.0, 1.0, lo_open=True, hi_open=True
-    )
-    absorber_rate = val.in_range(absorber_rate, "absorber_rate", 0.0, MAX_WEIGHT, lo_open=True)
-    speed_jitter = val.in_range(speed_jitter, "speed_jitter", 0.0, 1.0, hi_open=True)
-    weights = dict(DEFAULT_WEIGHTS)
-    if reward_weights is not None and not isinstance(reward_weights, dict):
-        raise ValueError(f"reward_weights must be a dict, got {type(reward_weights).__name__}")
-    for key, value in (reward_weights or {}).items():
-        if key not in DEFAULT_WEIGHTS:
-            raise ValueError(f"reward_weights has unknown key {key!r}; keys: {list(weights)}")
-        weights[key] = val.in_range(value, f"reward_weights[{key!r}]", 0.0, MAX_WEIGHT)
-    zones = [sc.wall] + [sc.interface] * (sc.n_cars - 1)
-    stroke = np.array([z.absorber_stroke for z in zones])
-    force = np.array([nominal_force(z) for z in zones])
-    cars = ["lead"] + [f"car{k + 1}" for k in range(1, sc.n_cars)]
-    zn = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
-    names = (
-        [f"x_{c}" for c in cars]
-        + [f"v_{c}" for c in cars]
-        + [f"a_{c}" for c in cars]
-        + [f"crush_{z}" for z in zn]
-        + [f"force_{z}" for z in zn]
-        + [f"scale_{z}" for z in zn]
-    )
-    n = sc.n_cars
-    scale = np.concatenate(
-        [
-            np.full(n, X_SCALE),
-            np.full(n, sc.speed if speed_range is None else speed_range[1]),
-            np.full(n, A_SCALE_G * sc.gravity),
-            stroke,
-            force,
-            np.full(n, absorber_range),
-        ]
-    )
-    return CrashConfig(
-        scenario=sc,
-        backend=backend,
-        control_dt=control_dt,
-        n_steps=n_steps,
-        absorber_range=float(absorber_range),
-        max_scale_change=absorber_rate * control_dt,
-        speed_jitter=float(speed_jitter),
-        weights=(weights["decel"], weights["intrusion"], weights["peak"]),
-        absorber_stroke=stroke,
-        obs_names=tuple(names),
-        obs_scale=scale,
-        speed_range=speed_range,
-        payload_range=payload_range,
-        criteria=Criteria(
-            onset_g=ONSET_G,
-            window_steps=max(1, round(WINDOW / control_dt)),
-            window=max(1, round(WINDOW / control_dt)) * control_dt,
-            **sc.criteria._asdict(),
-        ),
-    )
 
 
 @functools.lru_cache(maxsize=16)
@@ -193,17 +87,16 @@ def env_surrogate(
     return packaged if packaged is not None else default_surrogate(scenario, variant)
 
 
-def make_model(cfg: CrashConfig, surrogate: Any, variant: str, release: str = "") -> CrashModel:
-    """Batch model of the configured backend; ``surrogate`` = elements or ``None``
-    (:func:`env_surrogate` of ``release``)."""
+def make_model(cfg: CrashParams, release: str = "") -> CrashModel:
+    """Batch model of the configured backend, with ``cfg.surrogate`` or, if ``None``, the
+    :func:`env_surrogate` of ``release``."""
+    surrogate = cfg.surrogate
     if cfg.backend == "reference":
         if surrogate is not None:
             raise ValueError("surrogate is only used by backend='surrogate', not 'reference'")
         return crash_model(cfg.scenario, "reference", cfg.control_dt)
     if surrogate is None:
-        if variant not in VARIANTS:
-            raise ValueError(f"surrogate_variant must be one of {VARIANTS}, got {variant!r}")
-        surrogate = env_surrogate(cfg.scenario, variant, release)
+        surrogate = env_surrogate(cfg.scenario, cfg.surrogate_variant, release)
     if not isinstance(surrogate, CrashSurrogate):
         raise ValueError(
             f"surrogate must be a CrashSurrogate (build_crash_surrogate), got "
@@ -247,7 +140,7 @@ class _CrashShell:
     """
 
     sim: CrashBatch
-    cfg: CrashConfig
+    cfg: CrashParams
     _single: bool
 
     def _rows(self, a: np.ndarray) -> np.ndarray:
@@ -335,22 +228,9 @@ class TrainCrashEnv(_CrashShell, BatchEnv):
     """Adaptive crash energy management: a train runs into a wall, the agent sets the force
     level of a controllable absorber in every crush zone.
 
-    Parameters
-    ----------
-    backend : ``"surrogate"`` (default, paper eq. 4) or ``"reference"`` (lumped-mass chain).
-    scenario : packaged scenario name (``"paper"``, ``"envelope"``, ``"speed50"``, ...) or YAML
-        path; a scenario with an ``envelope`` draws the initial speed and the payloads at each
-        reset.
-    n_cars : number of cars (``None`` = the scenario's). speed : initial speed, m/s (``None``
-        = the scenario's; fixes an envelope's speed). speed_jitter : initial speed
-        × U(1 − j, 1 + j) at each reset.
-    control_dt : agent step, s. max_duration : truncation, s.
-    absorber_range : action ±1 sets the absorber force to (1 ± range) × nominal.
-    absorber_rate : largest change of the force scale, 1/s.
-    reward_weights : ``decel``, ``intrusion`` and ``peak`` weights (``peak`` 0 by default).
-    surrogate : :class:`CrashSurrogate` elements, or ``None`` for the packaged ones of the
-        scenario (else fitted on a reference run, cached per process). surrogate_variant :
-        ``"hysteretic"`` or ``"paper"`` (creates energy at rebound, see docs/envs/crash.md).
+    The keyword arguments are the fields of :class:`CrashParams` (default, unit, limits and
+    meaning of each: docs/envs/crash.md, *Arguments*) and ``render_mode``; the checked
+    arguments are :attr:`cfg`.
 
     ``reset(options=...)``: ``speed_kmh``, ``payload_t`` (:meth:`_apply_options`). Accessors:
     :attr:`positions`, :attr:`velocities`, :attr:`accelerations`, :attr:`crush`,
@@ -362,36 +242,10 @@ class TrainCrashEnv(_CrashShell, BatchEnv):
     #: packaged elements of this version (``""``: current; ``"v0"``: ``TrainCrash-v1``'s)
     elements_release = ""
 
-    def __init__(
-        self,
-        backend: str = "surrogate",
-        scenario: str | Path | CrashScenario = "paper",
-        n_cars: int | None = 2,
-        speed: float | None = None,
-        control_dt: float = 0.001,
-        max_duration: float = 2.0,
-        absorber_range: float = 0.3,
-        absorber_rate: float = 20.0,
-        speed_jitter: float = 0.0,
-        reward_weights: dict[str, float] | None = None,
-        surrogate: CrashSurrogate | None = None,
-        surrogate_variant: str = "hysteretic",
-        render_mode: str | None = None,
-    ) -> None:
-        self.cfg = make_config(
-            scenario,
-            backend,
-            n_cars,
-            speed,
-            control_dt,
-            max_duration,
-            absorber_range,
-            absorber_rate,
-            speed_jitter,
-            reward_weights,
-        )
-        self.backend = backend
-        self.model = make_model(self.cfg, surrogate, surrogate_variant, self.elements_release)
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        self.cfg = CrashParams.from_kwargs(kwargs)
+        self.backend = self.cfg.backend
+        self.model = make_model(self.cfg, self.elements_release)
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         self._fixed: dict[str, Any] = {}
         sim = CrashBatch(1, self.cfg, self.model)
@@ -421,6 +275,17 @@ class TrainCrashVectorEnv(_CrashShell, BatchVectorEnv):
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         self._init_vector(single, CrashBatch(num_envs, self.cfg, single.model), num_envs)
+
+
+_POSITIONAL = inspect.Parameter.POSITIONAL_OR_KEYWORD
+TrainCrashEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
+    CrashParams, inspect.Parameter("render_mode", _POSITIONAL, default=None)
+)
+TrainCrashVectorEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
+    CrashParams,
+    inspect.Parameter("num_envs", _POSITIONAL, default=1),
+    inspect.Parameter("render_mode", _POSITIONAL, default=None),
+)
 
 
 class TrainCrashEnvV0(TrainCrashEnv):

@@ -4,60 +4,35 @@ of :mod:`railgym.envs.base`."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from railgym.envs.crash_layout import (
+    ENV_FIELDS,
+    EPISODE,
+    INFO_FIELDS,
+    REWARD_TERMS,
+    Episode,
+    InfoColumns,
+    info_layout,
+    new_episode_arrays,
+)
+from railgym.envs.crash_params import CrashParams
 from railgym.envs.crash_step import (
     _ENV,
     _STATE,
-    COLUMNS,
-    ENV_FIELDS,
-    INFO_FIELDS,
-    REWARD_TERMS,
-    Criteria,
     EnvConsts,
-    Episode,
-    InfoColumns,
     _advance_reference,
     _advance_surrogate,
     _advance_surrogate_parallel,
     crush_limits,
-    info_layout,
     plain,
 )
-from railgym.vehicles.crash import PARALLEL_MIN, CrashModel, CrashOutputs, CrashScenario
+from railgym.envs.params import consts
+from railgym.vehicles.crash import PARALLEL_MIN, CrashModel, CrashOutputs
 
-__all__ = ["CrashBatch", "CrashConfig"]
-
-
-@dataclass(frozen=True)
-class CrashConfig:
-    """Validated settings shared by the single and the vector env (SI units).
-
-    ``speed_range`` (m/s) and ``payload_range`` ((cars, 2) kg) are the impact envelope drawn
-    at each reset, or ``None`` without one (every episode at ``scenario.speed``, no payload).
-    """
-
-    scenario: CrashScenario
-    backend: str
-    control_dt: float
-    n_steps: int
-    absorber_range: float
-    max_scale_change: float
-    speed_jitter: float
-    weights: tuple[float, float, float]
-    absorber_stroke: np.ndarray
-    obs_names: tuple[str, ...]
-    obs_scale: np.ndarray
-    speed_range: tuple[float, float] | None
-    payload_range: np.ndarray | None
-    criteria: Criteria
-
-
-#: info kinds: 0 float, 1 bool, 2 float array, 3 bool array
-_KINDS = {"1": 0, "bool": 1, "cars": 2, "zones": 2, "cars?": 3, "zones?": 3}
+__all__ = ["CrashBatch"]
 
 
 class CrashBatch:
@@ -69,7 +44,7 @@ class CrashBatch:
     initial speed and payload (:meth:`draw`); ``reset_state`` restarts the same episode.
     """
 
-    def __init__(self, n: int, cfg: CrashConfig, model: CrashModel) -> None:
+    def __init__(self, n: int, cfg: CrashParams, model: CrashModel) -> None:
         self.n, self.cfg, self.model = n, cfg, model
         sc = cfg.scenario
         self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
@@ -79,56 +54,38 @@ class CrashBatch:
         n_info = max(sl.stop for sl, _ in self.layout.values())
         state, out = model.new_state(n), model.new_outputs(n)
         nc, nz, nm = self.n_cars, self.n_zones, len(model.zone_names)
-        shapes = {
-            "scale": nm,
-            "payload": nc,
-            "peak": nc,
-            "decel_sum": nc,
-            "max_crush": nz,
-            "intrusion": nz,
-            "w_peak": nm,
-            "f_peak": nm,
-            "ring": (cfg.criteria.window_steps + 1) * nc,
-            "terms": len(REWARD_TERMS),
-            "obs": len(cfg.obs_names),
-            "info": n_info,
-        }
-        episode = [
-            np.zeros(n) if f in COLUMNS else np.zeros((n, shapes.get(f, nc))) for f in ENV_FIELDS
-        ]
-        episode[0][:] = 1.0  # absorber scales at nominal
+        counts = {"cars": nc, "zones": nz, "model_zones": nm, "terms": len(REWARD_TERMS)}
+        counts["ring"] = (cfg.criteria.window_steps + 1) * nc
+        counts.update(obs=len(cfg.obs_names), info=n_info)
+        arrays = new_episode_arrays(n, counts)
         # every per-train float array in one buffer, in the field order of _advance_*
         self._state_type = type(state)
-        self._buf, self._fields = self._pack([*out, *episode, *state])
-        self.div = np.zeros(n, np.bool_)
-        self.over = np.zeros(n, np.bool_)
-        self.steps = np.zeros(n, np.int64)
+        self._buf, self._fields = self._pack([*out, *(arrays[f] for f in ENV_FIELDS), *state])
+        self._flag_arrays = [arrays[a.name] for a in EPISODE if a.name not in ENV_FIELDS]
         # (key, kind, index) of each info entry; kinds 0–3 pick from (values, bools, row,
         # bit row) of :meth:`info`, the index is a column (0, 1) or a slice of columns (2, 3)
         self._info_fields = []
-        for key, size in INFO_FIELDS:
-            cols, kind = self.layout[key][0], _KINDS[size]
-            self._info_fields.append((key, kind, cols.start if kind < 2 else cols))
+        for key in INFO_FIELDS:
+            cols, scalar = self.layout[key.name]
+            kind = (0 if scalar else 2) + (key.dtype == "bool")
+            self._info_fields.append((key.name, kind, cols.start if scalar else cols))
         columns = InfoColumns(*(sl.start for sl, _ in self.layout.values()))
         surrogate = model.backend == "surrogate"
         types = model.params.types if surrogate else None
         kind = model.params.kind if surrogate else np.zeros(0, np.int64)
         lengths = np.array([sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1))
-        self.consts = EnvConsts(
+        self.consts = consts(
+            EnvConsts,
+            cfg,
             zones=self.zones,
-            stroke=cfg.absorber_stroke,
             crush_limit=crush_limits(lengths),
             inv_scale=1.0 / cfg.obs_scale,
-            w_decel=cfg.weights[0],
-            w_intrusion=cfg.weights[1],
-            w_peak=cfg.weights[2],
+            w_decel=cfg.reward_weights["decel"],
+            w_intrusion=cfg.reward_weights["intrusion"],
+            w_peak=cfg.reward_weights["peak"],
             gravity=sc.gravity,
-            control_dt=cfg.control_dt,
-            absorber_range=cfg.absorber_range,
-            max_change=cfg.max_scale_change,
             unloading_k=types.unloading_stiffness[kind] if surrogate else np.zeros(0),
             tension_k=types.tension_stiffness[kind] if surrogate else np.zeros(0),
-            criteria=cfg.criteria,
             info=columns,
         )
         self._bind()
@@ -163,7 +120,7 @@ class CrashBatch:
         view is a detached array)."""
         views = [self._view(f) for f in range(self._fields.shape[0])]
         self.out = CrashOutputs(*views[:_ENV])
-        self.episode = Episode(*views[_ENV:_STATE], self.div, self.over, self.steps)
+        self.episode = Episode(*views[_ENV:_STATE], *self._flag_arrays)
         self.state = self._state_type(*views[_STATE:])
         model = self.model
         if model.backend == "reference":
@@ -172,7 +129,7 @@ class CrashBatch:
             self._init_kernel = _advance_surrogate
             parallel = self.n >= PARALLEL_MIN
             self._kernel = _advance_surrogate_parallel if parallel else _advance_surrogate
-        flags = (self.div, self.over, self.steps)
+        flags = tuple(self._flag_arrays)
         stepping = (model.dt, model.n_sub)
         self._args = (
             self._buf,
@@ -192,6 +149,9 @@ class CrashBatch:
     payload = property(lambda self: self.episode.payload)
     obs = property(lambda self: self.episode.obs)
     reward = property(lambda self: self.episode.reward)
+    div = property(lambda self: self.episode.div)
+    over = property(lambda self: self.episode.over)
+    steps = property(lambda self: self.episode.steps)
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
@@ -234,8 +194,6 @@ class CrashBatch:
         """Train ``i`` back at first contact at its episode's speed and payload."""
         payload = self.payload[i] if self.payload[i].any() else None
         self.model.reset(self.state, self.out, i, float(self.speed[i]), payload)
-        self.scale[i] = 1.0
-        self.div[i] = False
         self._one[i] = True
         self._init_kernel(*self._args, self._actions, self._one, True)
         self._one[i] = False
