@@ -294,3 +294,24 @@ def test_peak_term_pays_the_worst_car_peak_once():
         if term or trunc:
             break
     assert total == pytest.approx(-2.0 * info["peak_decel_g"].max(), rel=1e-12)
+
+
+def test_shipped_config_return_is_the_targets_objective():
+    """``configs/agents/ppo_crash.yaml``'s reward sums over a crash to −0.2 per g of the worst
+    car's peak and −0.002 per mm of intrusion (summed over the zones), nothing else: checked at
+    50 km/h, where the passive train intrudes."""
+    from agents.train_config import load_config
+
+    kwargs = {**load_config("ppo_crash").env_kwargs, "backend": "reference"}
+    env = TrainCrashEnv(**kwargs)
+    env.reset(seed=0, options={"speed_kmh": 50.0, "payload_t": 0.0})
+    total = 0.0
+    while True:
+        _, r, term, trunc, info = env.step(np.zeros(2, np.float32))
+        total += r
+        if term or trunc:
+            break
+    intrusion_mm = 1e3 * np.sum(info["intrusion_m"])
+    assert intrusion_mm > 100.0
+    expected = -0.2 * info["peak_decel_g"].max() - 0.002 * intrusion_mm
+    assert total == pytest.approx(expected, rel=1e-9)
