@@ -46,9 +46,9 @@ class CrashBatch:
 
     def __init__(self, n: int, cfg: CrashParams, model: CrashModel) -> None:
         self.n, self.cfg, self.model = n, cfg, model
-        sc = cfg.scenario
-        self.n_cars, self.n_zones = sc.n_cars, sc.n_cars
-        names = ["wall"] + [f"interface_{k}" for k in range(1, sc.n_cars)]
+        scenario = cfg.scenario
+        self.n_cars, self.n_zones = scenario.n_cars, scenario.n_cars
+        names = ["wall"] + [f"interface_{k}" for k in range(1, scenario.n_cars)]
         self.zones = np.array([model.zone_names.index(z) for z in names], dtype=np.int64)
         self.layout = info_layout(self.n_cars, self.n_zones)
         n_info = max(sl.stop for sl, _ in self.layout.values())
@@ -73,7 +73,9 @@ class CrashBatch:
         surrogate = model.backend == "surrogate"
         types = model.params.types if surrogate else None
         kind = model.params.kind if surrogate else np.zeros(0, np.int64)
-        lengths = np.array([sc.lead.length] + [sc.passenger.length] * (sc.n_cars - 1))
+        lengths = np.array(
+            [scenario.lead.length] + [scenario.passenger.length] * (scenario.n_cars - 1)
+        )
         self.consts = consts(
             EnvConsts,
             cfg,
@@ -83,7 +85,7 @@ class CrashBatch:
             w_decel=cfg.reward_weights["decel"],
             w_intrusion=cfg.reward_weights["intrusion"],
             w_peak=cfg.reward_weights["peak"],
-            gravity=sc.gravity,
+            gravity=scenario.gravity,
             unloading_k=types.unloading_stiffness[kind] if surrogate else np.zeros(0),
             tension_k=types.tension_stiffness[kind] if surrogate else np.zeros(0),
             info=columns,

@@ -177,8 +177,8 @@ class CrashParams(Params):
     criteria: Criteria = derived("", "crash criteria of the bookkeeping")
 
     def _derive(self) -> None:
-        sc = self.scenario.with_overrides(n_cars=self.n_cars, speed=self.speed)
-        self._set("scenario", sc)
+        scenario = self.scenario.with_overrides(n_cars=self.n_cars, speed=self.speed)
+        self._set("scenario", scenario)
         n_steps = round(self.max_duration / self.control_dt)
         if n_steps < 1:
             raise val.FieldError(
@@ -188,12 +188,16 @@ class CrashParams(Params):
         self._set("max_scale_change", self.absorber_rate * self.control_dt)
         self._set("weights", tuple(self.reward_weights[k] for k in DEFAULT_WEIGHTS))
         speed_range = payload_range = None
-        if sc.envelope is not None:  # an explicit speed fixes the envelope's speed
-            speed_range = (sc.speed, sc.speed) if self.speed is not None else sc.envelope.speed
-            payload_range = sc.envelope.payload_ranges(sc.n_cars)
+        if scenario.envelope is not None:  # an explicit speed fixes the envelope's speed
+            speed_range = (
+                (scenario.speed, scenario.speed)
+                if self.speed is not None
+                else scenario.envelope.speed
+            )
+            payload_range = scenario.envelope.payload_ranges(scenario.n_cars)
         self._set("speed_range", speed_range)
         self._set("payload_range", payload_range)
-        zones = [sc.wall] + [sc.interface] * (sc.n_cars - 1)
+        zones = [scenario.wall] + [scenario.interface] * (scenario.n_cars - 1)
         self._set("absorber_stroke", np.array([z.absorber_stroke for z in zones]))
         self._observation(zones)
         window_steps = max(1, round(WINDOW / self.control_dt))
@@ -201,24 +205,24 @@ class CrashParams(Params):
             onset_g=ONSET_G,
             window_steps=window_steps,
             window=window_steps * self.control_dt,
-            **sc.criteria._asdict(),
+            **scenario.criteria._asdict(),
         )
         self._set("criteria", criteria)
 
     def _observation(self, zones: list[CrushZone]) -> None:
         """Names and scales of the observation: car x, v, a, then zone crush, force, scale."""
-        sc, n = self.scenario, self.scenario.n_cars
+        scenario, n = self.scenario, self.scenario.n_cars
         cars = ["lead"] + [f"car{k + 1}" for k in range(1, n)]
         zone_names = ["wall"] + [f"interface_{k}" for k in range(1, n)]
         channels = (("x", cars), ("v", cars), ("a", cars))
         channels += (("crush", zone_names), ("force", zone_names), ("scale", zone_names))
         self._set("obs_names", tuple(f"{q}_{p}" for q, parts in channels for p in parts))
-        top_speed = sc.speed if self.speed_range is None else self.speed_range[1]
+        top_speed = scenario.speed if self.speed_range is None else self.speed_range[1]
         scale = np.concatenate(
             [
                 np.full(n, X_SCALE),
                 np.full(n, top_speed),
-                np.full(n, A_SCALE_G * sc.gravity),
+                np.full(n, A_SCALE_G * scenario.gravity),
                 self.absorber_stroke,
                 np.array([nominal_force(z) for z in zones]),
                 np.full(n, self.absorber_range),

@@ -325,7 +325,7 @@ class VehicleBatch:
             truncated=np.zeros(n, np.bool_),
             extrapolated=np.zeros(n, np.bool_),
         )
-        self.sc = consts(
+        self.step_consts = consts(
             StepCfg,
             cfg,
             full=cfg.observation == "full",
@@ -361,7 +361,7 @@ class VehicleBatch:
             self.lpr,
             self.out,
             self.book,
-            self.sc,
+            self.step_consts,
         )
         self._step = compiled_entry(control_step, self._args)
 
@@ -406,13 +406,13 @@ class VehicleBatch:
 
     def reset_state(self, i: int) -> None:
         """Vehicle ``i`` at rest at the start of its track, counters cleared."""
-        bt, bk, out = self.arrays, self.book, self.out
-        bt.state[i] = 0.0
-        bt.k[i] = bk.steps[i] = bk.contacts[i] = bk.ood[i] = 0
-        bk.acc_sq[i] = bk.rms[i] = bk.rec[i] = bk.zi[i] = bk.rew[i] = bk.terms[i] = 0.0
-        bk.info[i] = bt.force[i] = out.acc[i] = out.fs[i] = 0.0
-        out.div[i] = bk.extrapolated[i] = bk.truncated[i] = self.outside[i] = False
-        _observe(bt, out, self.params, self.sc, bk, i)
+        arrays, book, out = self.arrays, self.book, self.out
+        arrays.state[i] = 0.0
+        arrays.k[i] = book.steps[i] = book.contacts[i] = book.ood[i] = 0
+        book.acc_sq[i] = book.rms[i] = book.rec[i] = book.zi[i] = book.rew[i] = book.terms[i] = 0.0
+        book.info[i] = arrays.force[i] = out.acc[i] = out.fs[i] = 0.0
+        out.div[i] = book.extrapolated[i] = book.truncated[i] = self.outside[i] = False
+        _observe(arrays, out, self.params, self.step_consts, book, i)
 
     def set_action(self, actions: np.ndarray) -> None:
         """Store the clipped actions (n, 2); :meth:`advance` applies ``action · f_max`` (N)."""
@@ -437,17 +437,17 @@ class VehicleBatch:
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_LAYOUT` of vehicle ``i`` (Python numbers and views of one fresh copy
         of its info row) or of all (arrays with a leading axis n); copies."""
-        bk, scalars, dt = self.book, self._info_scalars, self.cfg.control_dt
+        book, scalars, dt = self.book, self._info_scalars, self.cfg.control_dt
         if i is None:
             return {
-                key: bk.steps * dt
+                key: book.steps * dt
                 if key == "time"
-                else (bk.info[:, INFO_COLUMNS[key]] if shape else scalars[key]).copy()
+                else (book.info[:, INFO_COLUMNS[key]] if shape else scalars[key]).copy()
                 for key, shape, _ in INFO_LAYOUT
             }
-        row = bk.info[i].copy()
+        row = book.info[i].copy()
         return {
-            key: int(bk.steps[i]) * dt
+            key: int(book.steps[i]) * dt
             if key == "time"
             else (row[INFO_COLUMNS[key]] if shape else kind(scalars[key][i]))
             for key, shape, kind in INFO_LAYOUT
@@ -477,27 +477,27 @@ class VehicleBatch:
     def render_state(self, i: int) -> dict[str, Any]:
         """What :func:`railgym.envs.vehicle_render.render_vehicle` draws for vehicle ``i``:
         positions from the carbody centre (m), heights (m), forces (N)."""
-        bt, v = self.arrays, self.vehicle
+        arrays, v = self.arrays, self.vehicle
         dx = self.speed[i] * self.cfg.dt
-        kk = int(bt.k[i])
+        kk = int(arrays.k[i])
         centre = kk * dx - v.wheelset_positions[-1]  # track position of the carbody centre
         half = 0.75 * v.carbody_length
         xs = np.linspace(-half, half, 301)
         grid = np.arange(self.n_samples)
-        x = bt.state[i]
+        x = arrays.state[i]
         xb = np.linspace(-0.5 * v.carbody_length, 0.5 * v.carbody_length, 41)
         bend = mode_shape(xb, v.carbody_length) * x[2] if self.cfg.flexible else 0.0
         return {
             "track_x": xs,
-            "track_z": np.interp((centre + xs) / dx, grid, bt.z[i]),
+            "track_z": np.interp((centre + xs) / dx, grid, arrays.z[i]),
             "body_x": xb,
             "body_z": x[0] + xb * x[1] + bend,
             "bogie_x": v.floor_positions[[0, 2]],
             "bogie_z": x[[3, 5]].copy(),
             "bogie_pitch": x[[4, 6]].copy(),
             "wheel_x": v.wheelset_positions,
-            "wheel_z": np.interp(kk + bt.off[i], grid, bt.z[i]),
-            "force": bt.force[i].copy(),
+            "wheel_z": np.interp(kk + arrays.off[i], grid, arrays.z[i]),
+            "force": arrays.force[i].copy(),
             "f_max": self.cfg.f_max,
             "time": float(self.book.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.duration,

@@ -248,7 +248,7 @@ class VerticalBatch:
         self.speed = np.zeros(n)
         self.inv_scale = 1.0 / cfg.obs_scale
         w = cfg.reward_weights
-        self.sc = consts(
+        self.step_consts = consts(
             StepCfg,
             cfg,
             kind=check_variant(cfg.variant),
@@ -290,7 +290,7 @@ class VerticalBatch:
             self.out,
             self.cnt,
             self.res,
-            self.sc,
+            self.step_consts,
         )
         self._step = compiled_entry(control_step, self._args)
 

@@ -71,7 +71,16 @@ class FMUBatch(FMUInstances, VerticalBatch):
             self.fs[i] = 0.0
             self.count[i, 1] = 0
             self.div[i] = not ok
-        _post_step(self.state, self.z, self.zdot, self.out, self.force, self.cnt, self.res, self.sc)
+        _post_step(
+            self.state,
+            self.z,
+            self.zdot,
+            self.out,
+            self.force,
+            self.cnt,
+            self.res,
+            self.step_consts,
+        )
 
     def close(self) -> None:
         """Free the FMU instances."""

@@ -59,8 +59,8 @@ class FMUVehicleBatch(FMUInstances, VehicleBatch):
     def _wheel_inputs(self, i: int) -> tuple[np.ndarray, ...]:
         """Track height and rate at the four wheelsets over the step (4, n_sub + 1) and at
         the substeps' midpoints (4, n_sub), as the kernel interpolates them."""
-        bt, dt, n_sub = self.arrays, self.cfg.dt, self.cfg.n_sub
-        z, zd, off, k = bt.z[i], bt.zdot[i], bt.off[i], int(bt.k[i])
+        arrays, dt, n_sub = self.arrays, self.cfg.dt, self.cfg.n_sub
+        z, zd, off, k = arrays.z[i], arrays.zdot[i], arrays.off[i], int(arrays.k[i])
         w, wd = np.empty((4, n_sub + 1)), np.empty((4, n_sub + 1))
         wm, wdm = np.empty((4, n_sub)), np.empty((4, n_sub))
         for j in range(4):
@@ -72,11 +72,18 @@ class FMUVehicleBatch(FMUInstances, VehicleBatch):
 
     def advance(self) -> None:
         """One control step of every FMU with the stored actions, then the bookkeeping."""
-        bt, out, bk, c, p, e = self.arrays, self.out, self.book, self._cols, self.params, self._susp
+        arrays, out, book, c, p, e = (
+            self.arrays,
+            self.out,
+            self.book,
+            self._cols,
+            self.params,
+            self._susp,
+        )
         for i, run in enumerate(self.runners):
-            bt.force[i] = bk.action[i] * self.cfg.f_max
+            arrays.force[i] = book.action[i] * self.cfg.f_max
             w, wd, wm, wdm = self._wheel_inputs(i)
-            y = run.advance(w, wd, bt.force[i], mid=(wm, wdm))
+            y = run.advance(w, wd, arrays.force[i], mid=(wm, wdm))
             ok = bool(np.isfinite(y).all())
             out.count[i] = 0
             out.fs[i] = 0.0
@@ -91,7 +98,7 @@ class FMUVehicleBatch(FMUInstances, VehicleBatch):
                     out.fs[i, b] = last[c[f"secondary_force_{name}"]]
                 d = y[:, c[f"deflection_{name}"]]
                 out.count[i, 0] += int(np.count_nonzero((d > e.free_c) | (d < -e.free_r)))
-            x = bt.state[i]
+            x = arrays.state[i]
             x[:] = 0.0
             v_f, v_r = last[c["carbody_vel_front"]], last[c["carbody_vel_rear"]]
             x[7] = 0.5 * (v_f + v_r)
@@ -101,7 +108,7 @@ class FMUVehicleBatch(FMUInstances, VehicleBatch):
                 x[3 + 2 * b] = last[c[f"deflection_{name}"]]
                 vel = x[7] + xb * x[8] + p.phi_a * x[9]
                 x[10 + 2 * b] = last[c[f"deflection_rate_{name}"]] + vel
-        book_step(bt, p, out, bk, self.sc)
+        book_step(arrays, p, out, book, self.step_consts)
 
     def close(self) -> None:
         """Free the FMU instances."""
