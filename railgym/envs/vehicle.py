@@ -288,12 +288,16 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         surrogate = self._declare(kwargs)
         cfg = self.cfg
-        if surrogate is None and cfg.backend == "surrogate":
-            surrogate = default_vehicle_surrogate()
         self.speeds = _speed_range(cfg.track_class, cfg.speed, cfg.speed_limit)
         lpr = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt)
         self.vehicle = cfg.model
         self._start(_batch(1, cfg, lpr, min(self.speeds[0], SIZING_SPEED)), render_mode)
+
+    def _default_surrogate(self) -> Any:
+        """The whole vehicle's packaged element (v0: :attr:`default_element`)."""
+        if self.default_element:
+            return super()._default_surrogate()
+        return default_vehicle_surrogate()
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class

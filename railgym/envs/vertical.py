@@ -263,9 +263,13 @@ class TrackEnvShell(BatchEnv):
         self.backend, self.speed_limit = cfg.backend, cfg.speed_limit
         self.track_class, self._speed_arg, self.profile = cfg.track_class, cfg.speed, cfg.profile
         self.obs_names, self.obs_scale = cfg.obs_names, cfg.obs_scale
-        if cfg.surrogate is None and cfg.backend == "surrogate" and self.default_element:
-            return default_vertical_surrogate(*self.default_element)
+        if cfg.surrogate is None and cfg.backend == "surrogate":
+            return self._default_surrogate()
         return cfg.surrogate
+
+    def _default_surrogate(self) -> Any:
+        """The element used without ``surrogate=`` (``None``: the kernel's packaged one)."""
+        return default_vertical_surrogate(*self.default_element) if self.default_element else None
 
     def _start(self, sim: Any, render_mode: str | None) -> None:
         """The shell around ``sim``: observation (n_obs,) and action (n_actuators,) boxes."""
