@@ -40,6 +40,7 @@ from agents.lqg import LQG, VehicleLQG
 from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, load_policy_weights
 from agents.policy_zip import PolicySource, find_source, zip_network
 from agents.pretrained import PRETRAINED, pretrained_zip
+from agents.residual import ResidualPolicy
 from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
@@ -69,6 +70,17 @@ VEHICLE_CONTROLLERS = {
 ENVELOPE_BASELINES = ("passive", "best-constant", "speed-adaptive")
 #: controller names of each env id (the crash env: trained policies only)
 CONTROLLERS_OF = {ENV_ID: CONTROLLERS, VEHICLE_ID: VEHICLE_CONTROLLERS}
+
+
+def build_controller(env_id: str, name: str, env: Any) -> Any:
+    """The classical controller ``name`` of ``env_id`` built on ``env`` (a single or native
+    vector env); the error of an env it cannot run on (e.g. ``lqg`` on the full observation)
+    names ``residual``."""
+    cls, kwargs, _ = CONTROLLERS_OF[env_id][name]
+    try:
+        return cls(env, **kwargs)
+    except ValueError as err:
+        raise val.FieldError("residual", f"{name}: {err}") from None
 
 
 def _rllib_policy(path: Path, env_id: str, trust: bool) -> tuple[Any, dict[str, Any], str]:
@@ -144,6 +156,8 @@ class _Network(NamedTuple):
     env_kwargs: dict[str, Any]
     obs_shape: tuple[int, ...] | None  #: from the zip's data entry (``None``: from a config)
     hold: int = 1  #: env steps per decision (``action_hold`` of an agents.train config)
+    residual: str | None = None  #: controller the action is added to (``residual``)
+    residual_scale: float = 1.0
 
 
 def _network(path: Path, source: PolicySource, env_id: str) -> _Network:
@@ -158,7 +172,15 @@ def _network(path: Path, source: PolicySource, env_id: str) -> _Network:
         if "use_sde" in hyper:
             net_kwargs["use_sde"] = hyper["use_sde"]
         return _Network(
-            cfg.env_id, cfg.algo, cfg.policy, net_kwargs, cfg.env_kwargs, None, cfg.action_hold
+            cfg.env_id,
+            cfg.algo,
+            cfg.policy,
+            net_kwargs,
+            cfg.env_kwargs,
+            None,
+            cfg.action_hold,
+            cfg.residual,
+            cfg.residual_scale,
         )
     algo, policy_name, net_kwargs, obs_shape = zip_network(path)
     if "activation_fn" in net_kwargs:
@@ -212,6 +234,13 @@ def _sb3_policy(
     label = run if final else f"{run}/{path.stem}"
     if network.hold > 1:  # trained to decide every `hold` steps: one held phase per factory call
         return (lambda env: HeldPolicy(net, network.hold)), env_kwargs, label
+    name, scale = network.residual, network.residual_scale
+    if name is not None:  # the controller is designed for the env it runs on, per factory call
+        return (
+            (lambda env: ResidualPolicy(net, build_controller(env_id, name, env), scale)),
+            env_kwargs,
+            label,
+        )
     return (lambda env: net), env_kwargs, label
 
 

@@ -371,6 +371,11 @@ def export_policy(
         raise ValueError(
             f"{cfg_path}: action_hold is {cfg.action_hold}, but the FMU decides at every step"
         )
+    if cfg.residual is not None:
+        raise ValueError(
+            f"{cfg_path}: residual is {cfg.residual!r}, but the FMU holds the network only "
+            "(not the controller its action is added to)"
+        )
     env_id = cfg.env_id
     factory, env_kwargs, label = load_policy(str(policy), env_id, trust)
     env = gym.make(env_id, **env_kwargs)

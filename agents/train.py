@@ -71,7 +71,9 @@ except ImportError as _err:
 
 from agents.action_hold import ActionHold
 from agents.envelope import EnvelopeVectorEnv, check_envelope
+from agents.policies import build_controller
 from agents.policy_io import write_manifest
+from agents.residual import ResidualVectorEnv
 from agents.run_files import read_run, run_folder, speed_text, versions, write_config
 from agents.train_config import (
     ALGOS,
@@ -384,6 +386,10 @@ def train(
     venv = make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)
     if cfg.envelope is not None:
         venv = EnvelopeVectorEnv(venv, check_envelope(cfg.envelope), cfg.seed)
+    if cfg.residual is not None:
+        venv = ResidualVectorEnv(
+            venv, build_controller(cfg.env_id, cfg.residual, venv), cfg.residual_scale
+        )
     if cfg.action_hold > 1:
         venv = ActionHold(venv, cfg.action_hold)
     env = VecMonitor(GymVecToSB3(venv))
@@ -392,6 +398,9 @@ def train(
         eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}
         eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes, eval_kwargs, mode, "eval_env_kwargs")
         opened.append(eval_venv)
+        if cfg.residual is not None:
+            base = build_controller(cfg.env_id, cfg.residual, eval_venv)
+            eval_venv = ResidualVectorEnv(eval_venv, base, cfg.residual_scale)
         if cfg.action_hold > 1:
             eval_venv = ActionHold(eval_venv, cfg.action_hold)
         hyper = {"device": "cpu", **hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)}

@@ -29,6 +29,11 @@ Config file: one top-level key, the Gymnasium env id, holding
                         in between, in training and wherever the policy is loaded
                         (:mod:`agents.action_hold`), at most 1000; ``n_timesteps``, the
                         evaluation and checkpoint intervals then count decisions
+``residual``            a classical controller (its ``railgym evaluate`` name, e.g. ``lqg``) whose
+                        action the policy's is added to (:mod:`agents.residual`), in training
+                        and wherever the policy is loaded; ``residual_scale`` (default 1, at
+                        most 2): the weight of the policy's action. Native vector envs and
+                        ``action_hold`` 1 only
 ``vectorization_mode``  ``vector_entry_point`` (the env's native vector env, default where it
                         has one) or ``sync`` (a ``SAME_STEP`` ``SyncVectorEnv`` of single
                         envs)
@@ -58,6 +63,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 
 from agents.action_hold import check_hold
+from agents.residual import check_scale
 from railgym import _checks as val
 from surrogates.checks import MAX_SEED
 
@@ -115,6 +121,8 @@ class TrainConfig:
     eval_echo: list[str] = field(default_factory=list)
     envelope: dict[str, Any] | None = None
     action_hold: int = 1
+    residual: str | None = None
+    residual_scale: float = 1.0
     hyperparameters: dict[str, Any] = field(default_factory=dict)
 
     def to_yaml_dict(self) -> dict[str, Any]:
@@ -307,6 +315,25 @@ def _envelope(envelope: Any, env_id: str, mode: str | None) -> dict[str, Any] | 
     return check_envelope(envelope).to_dict()
 
 
+def _residual(name: Any, env_id: str, mode: str | None, hold: int) -> str | None:
+    """The checked ``residual`` controller name (``None``: none)."""
+    if name is None:
+        return None
+    from agents.policies import CONTROLLERS_OF
+
+    controllers = CONTROLLERS_OF.get(env_id)
+    if not controllers:
+        raise val.FieldError("residual", f"{env_id} has no classical controllers")
+    name = val.choice(name, "residual", sorted(controllers))
+    if mode == "sync":
+        raise val.FieldError("residual", "needs the native vector env, not sync")
+    if hold > 1:
+        raise val.FieldError(
+            "residual", f"needs action_hold 1 (its controller acts every step), got {hold}"
+        )
+    return name
+
+
 def load_config(config: str | Path | dict[str, Any], algo: str | None = None) -> TrainConfig:
     """Read and validate a config: path of a ``.yaml`` / ``.yml`` file, the name of a packaged
     config (``ppo_vertical``, see ``railgym/configs/agents/``) or the content as a dict.
@@ -341,6 +368,8 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
     hyper = {k: v for k, v in block.items() if k not in run_keys}
     hyperparameters(ALGOS[algo], hyper)  # validates; applied by train()
     envelope = _envelope(f.get("envelope", None), env_id, mode)
+    hold = check_hold(f.get("action_hold", 1))
+    residual = _residual(f.get("residual", None), env_id, mode, hold)
     return TrainConfig(
         env_id=env_id,
         algo=algo,
@@ -358,6 +387,8 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
         vectorization_mode=mode,
         eval_echo=_names(f.get("eval_echo", None), "eval_echo"),
         envelope=envelope,
-        action_hold=check_hold(f.get("action_hold", 1)),
+        action_hold=hold,
+        residual=residual,
+        residual_scale=check_scale(f.get("residual_scale", 1.0)),
         hyperparameters=hyper,
     )
