@@ -1,5 +1,6 @@
 """Compiled pieces shared by the env batches: the divergence rule of the reward
-(:func:`settle_reward`), and calling a compiled batch step without numba's per-call type
+(:func:`settle_reward`), one sample through a streaming weighting filter (:func:`weigh`), and
+calling a compiled batch step without numba's per-call type
 dispatch (:func:`compiled_entry`).
 
 numba types every argument of every call to find the compiled overload; for the named tuples
@@ -16,7 +17,7 @@ from typing import Any
 import numba
 from numba import njit
 
-__all__ = ["DIVERGENCE_PENALTY", "OBS_LIMIT", "compiled_entry", "settle_reward"]
+__all__ = ["DIVERGENCE_PENALTY", "OBS_LIMIT", "compiled_entry", "settle_reward", "weigh"]
 
 #: reward of a diverged step
 DIVERGENCE_PENALTY = 100.0
@@ -50,6 +51,21 @@ def settle_reward(obs, terms, reward, div, i, t_acc, t_defl, t_force):
     terms[i, 2] = t_force
     terms[i, 3] = -DIVERGENCE_PENALTY if div[i] else 0.0
     reward[i] = r
+
+
+@njit(cache=True, error_model="numpy")
+def weigh(sos, zi, v):
+    """One sample ``v`` through the cascade ``sos`` (n_sec, 6) of second-order sections in
+    transposed direct form II, as ``scipy.signal.sosfilt``; the state ``zi`` (n_sec, 2) is
+    updated in place."""
+    y = v
+    for s in range(sos.shape[0]):
+        b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
+        out = b0 * y + zi[s, 0]
+        zi[s, 0] = b1 * y - a1 * out + zi[s, 1]
+        zi[s, 1] = b2 * y - a2 * out
+        y = out
+    return y
 
 
 def compiled_entry(fn: Any, args: tuple) -> Any:

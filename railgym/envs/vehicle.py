@@ -38,13 +38,14 @@ from railgym.envs.vehicle_batch import (
     check_band_speed,
     episode_comfort,
 )
-from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
 from railgym.envs.vertical import (
+    ACC_WEIGHTINGS,
     TrackEnvShell,
     TrackVectorShell,
     _surrogate_arrays,
     declare_signatures,
 )
+from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
@@ -98,7 +99,6 @@ OBSERVATIONS = {
     for name, chans in (("sensors", _SENSORS), ("full", _FULL))
 }
 DEFAULT_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
-ACC_WEIGHTINGS = ("none", "Wk")
 #: lowest speed the track arrays are sized for unless the env is made with a lower one, m/s
 SIZING_SPEED = 10.0
 

@@ -17,7 +17,7 @@ from scipy import signal
 
 from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
-from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward
+from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward, weigh
 from railgym.envs.params import TrackEnvParams, consts
 from railgym.envs.vertical_batch import TRACK_BYTES
 from railgym.profile import profile_time_input
@@ -173,19 +173,6 @@ def _mark_outside(state, a, phi_a, envelope, outside):
                 outside[i] = True
 
 
-@njit(cache=True, error_model="numpy")
-def _weigh(sos, zi, v):
-    """One sample ``v`` through the cascade ``sos`` (transposed direct form II, state zi)."""
-    y = v
-    for s in range(sos.shape[0]):
-        b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
-        out = b0 * y + zi[s, 0]
-        zi[s, 0] = b1 * y - a1 * out + zi[s, 1]
-        zi[s, 1] = b2 * y - a2 * out
-        y = out
-    return y
-
-
 # Without the runtime's reference counting: the arrays come from the batch, which owns them
 # for the call, so the entry point unboxes them without runtime records and the kernel's
 # counting of every array it passes on (per RK4 stage) is skipped. The kernel's own scratch
@@ -226,7 +213,7 @@ def book_step(vehicles, params, out, book, consts):
             if m < book.rec.shape[1]:
                 book.rec[i, m, j] = a
             if consts.weighted:
-                a = _weigh(consts.sos, book.zi[i, j], a)
+                a = weigh(consts.sos, book.zi[i, j], a)
             r_acc += (a / ACC_REF) ** 2
         _observe(vehicles, out, params, consts, book, i)
         r_defl = 0.0

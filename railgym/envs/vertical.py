@@ -26,6 +26,7 @@ import numpy as np
 from gymnasium import spaces
 
 from railgym import _checks as val
+from railgym.comfort import MIN_FS
 from railgym.envs.base import BatchEnv, BatchVectorEnv
 from railgym.envs.params import (
     BACKENDS,
@@ -60,6 +61,7 @@ from surrogates import io
 
 __all__ = [
     "ACC_REF",
+    "ACC_WEIGHTINGS",
     "BACKENDS",
     "ENV_BACKENDS",
     "DEFAULT_WEIGHTS",
@@ -87,6 +89,8 @@ OBSERVATIONS = {
     ),
 }
 DEFAULT_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
+#: frequency weightings of the reward's acceleration term (ISO 2631-1), ``"none"``: raw
+ACC_WEIGHTINGS = ("none", "Wk")
 
 
 def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[int, float]:
@@ -134,6 +138,14 @@ class VerticalParams(TrackEnvParams):
         hi=50.0,
         optional=True,
     )
+    acc_weighting: str = param(
+        "none",
+        "",
+        '`"Wk"`: ISO 2631-1 weighted carbody acceleration in the reward (needs `control_dt` '
+        f"at most {1.0 / MIN_FS:g} s)",
+        kind="choice",
+        values=ACC_WEIGHTINGS,
+    )
 
     def _default_dt(self) -> float:
         return DEFAULT_DT[self.variant]
@@ -146,6 +158,12 @@ class VerticalParams(TrackEnvParams):
         super()._derive()
         _check_track(self.track_class, self.speed, self.speed_limit)
         _check_profile(self.profile, self.wheelbase)
+        if self.acc_weighting != "none" and 1.0 / self.control_dt < MIN_FS:
+            raise val.FieldError(
+                "acc_weighting",
+                f"{self.acc_weighting!r} needs a control rate of at least {MIN_FS:g} Hz "
+                f"(control_dt at most {1.0 / MIN_FS:g} s), got control_dt={self.control_dt:g} s",
+            )
 
 
 #: documented limits (docs/envs/vertical.md): the declared bounds of :class:`VerticalParams`

@@ -16,7 +16,14 @@ import numpy as np
 from numba import njit
 
 from railgym import _checks as val
-from railgym.envs.compiled import DIVERGENCE_PENALTY, OBS_LIMIT, compiled_entry, settle_reward
+from railgym.comfort import WeightingFilter
+from railgym.envs.compiled import (
+    DIVERGENCE_PENALTY,
+    OBS_LIMIT,
+    compiled_entry,
+    settle_reward,
+    weigh,
+)
 from railgym.envs.params import TrackEnvParams, consts
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
@@ -65,6 +72,7 @@ class Counters(NamedTuple):
     contacts: np.ndarray  #: int64 (n,) substeps in bump-stop contact
     ood: np.ndarray  #: int64 (n,) out-of-domain surrogate evaluations
     acc_sq: np.ndarray  #: float64 (n,) sum of ẍ2², m²/s⁴
+    zi: np.ndarray  #: float64 (n, n_sec, 2) state of the reward's weighting filter, m/s²
 
 
 class StepCfg(NamedTuple):
@@ -80,6 +88,8 @@ class StepCfg(NamedTuple):
     w_acc: float
     w_defl: float
     w_force: float
+    sos: np.ndarray  #: float64 (n_sec, 6) Wk sections at the control rate ((0, 6) unweighted)
+    weighted: bool  #: the reward weighs ẍ2 by ``sos`` (``acc_weighting="Wk"``)
     inv_scale: np.ndarray  #: float64 (n_obs,) 1/scale of each observation channel
     flag_ood: bool  #: "raise" policy: flag steps with out-of-domain surrogate evaluations
     envelope: np.ndarray  #: float64 (2,) δ range of the element's training data, m
@@ -158,8 +168,9 @@ def _observe(state, acc, z, zdot, k, s, i, obs):
 def _post_step(state, z, zdot, out, force, counters, result, consts):
     """Bookkeeping after a kernel call: counters, observation, reward and its terms
     (:func:`~railgym.envs.compiled.settle_reward`: a divergence also when the reward is not
-    finite or the observation too large), info values and the truncated and extrapolated
-    flags."""
+    finite or the observation too large; ẍ2 Wk-weighted in the reward when
+    ``consts.weighted``, :func:`~railgym.envs.compiled.weigh`), info values and the truncated
+    and extrapolated flags."""
     for i in range(state.shape[0]):
         counters.k[i] += consts.n_sub
         counters.steps[i] += 1
@@ -169,7 +180,10 @@ def _post_step(state, z, zdot, out, force, counters, result, consts):
         _observe(state, out.acc, z, zdot, counters.k, consts.inv_scale, i, result.obs)
         defl = (state[i, 0] - state[i, 2]) / consts.free_travel
         fa = force[i] / consts.f_max
-        a2 = out.acc[i, 1] / ACC_REF
+        a = out.acc[i, 1]
+        if consts.weighted:
+            a = weigh(consts.sos, counters.zi[i], a)
+        a2 = a / ACC_REF
         t_a = -(consts.w_acc * a2 * a2)
         t_d = -(consts.w_defl * defl * defl)
         t_f = -(consts.w_force * fa * fa)
@@ -243,7 +257,13 @@ class VerticalBatch:
         self.force = np.zeros(n)
         self.out = step_outputs(n)
         ints = {k: np.zeros(n, np.int64) for k in ("k", "steps", "contacts", "ood")}
-        self.cnt = Counters(**ints, acc_sq=np.zeros(n))
+        weighted = cfg.acc_weighting == "Wk"
+        sos = (
+            WeightingFilter(1.0 / cfg.control_dt, "Wk", lowpass=False).sos
+            if weighted
+            else np.zeros((0, 6))
+        )
+        self.cnt = Counters(**ints, acc_sq=np.zeros(n), zi=np.zeros((n, sos.shape[0], 2)))
         self.track_class = np.zeros(n, np.int64)
         self.speed = np.zeros(n)
         self.inv_scale = 1.0 / cfg.obs_scale
@@ -255,6 +275,8 @@ class VerticalBatch:
             w_acc=w["acceleration"],
             w_defl=w["deflection"],
             w_force=w["force"],
+            sos=sos,
+            weighted=weighted,
             inv_scale=self.inv_scale,
             flag_ood=lpr.mode == RAISE_MODE,
             envelope=deflection_envelope(cfg.variant == "surrogate", lpr),
@@ -331,7 +353,7 @@ class VerticalBatch:
         self.state[i] = 0.0
         self.k[i] = self.steps[i] = self.contacts[i] = self.ood[i] = 0
         self.acc[i] = self.force[i] = self.fs[i] = self.acc_sq[i] = self.rew[i] = 0.0
-        self.terms[i] = self.info_rows[i] = 0.0
+        self.terms[i] = self.info_rows[i] = self.cnt.zi[i] = 0.0
         self.div[i] = self.extrapolated[i] = self.trunc[i] = False
         _observe(self.state, self.acc, self.z, self.zdot, self.k, self.inv_scale, i, self.obs)
 

@@ -51,6 +51,7 @@ def _shadow_of(
         observation=cfg.observation,
         sensor_noise=cfg.sensor_noise,
         reward_weights=cfg.reward_weights,
+        acc_weighting=cfg.acc_weighting,
         wheelbase=cfg.wheelbase,
         band=cfg.band,
         vehicle=vehicle,

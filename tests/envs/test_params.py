@@ -225,6 +225,7 @@ def _episode(env: Any, n: int = 60) -> list[tuple[np.ndarray, float]]:
     ("env_id", "kwargs"),
     [
         ("railgym/VerticalSuspension-v1", {"backend": "reference", "sensor_noise": 0.1}),
+        ("railgym/VerticalSuspension-v1", {"backend": "linear", "acc_weighting": "Wk"}),
         ("railgym/VerticalVehicle-v1", {"backend": "linear", "acc_weighting": "Wk"}),
     ],
 )

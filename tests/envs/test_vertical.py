@@ -86,6 +86,7 @@ def test_bad_actions_raise_and_large_actions_are_clipped():
         ({"observation": "pixels"}, "observation"),
         ({"reward_weights": {"comfort": 1.0}}, "reward_weights"),
         ({"f_max": float("nan")}, "f_max"),
+        ({"acc_weighting": "Wx"}, "acc_weighting"),
     ],
 )
 def test_bad_arguments_name_the_field(kwargs, message):

@@ -1,16 +1,19 @@
-"""The env shell of the vertical envs: copies, reward terms, accessors, the "raise"
-extrapolation policy, bounded outputs under extreme settings, "name or path" loading, the
+"""The env shell of the vertical envs: copies, reward terms (also Wk-weighted), accessors, the
+"raise" extrapolation policy, bounded outputs under extreme settings, "name or path" loading, the
 single env's action check and ``info`` layout."""
 
 from __future__ import annotations
 
 import re
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import signal
 
+from railgym.comfort import WeightingFilter
 from railgym.envs.base import _check_small, check_actions
 from railgym.envs.vertical import (
     ACC_REF,
@@ -74,6 +77,39 @@ def test_reward_terms_sum_to_the_reward_and_follow_the_definition(random_actions
         assert t["force"] == pytest.approx(-w["force"] * f**2, rel=1e-6)
         assert info["actuator_force"] == env.actuator_force == pytest.approx(8000.0 * f)
         assert t["divergence"] == 0.0
+
+
+def test_wk_weighted_acceleration_term_is_the_offline_filtered_carbody_acc(random_actions):
+    """``acc_weighting="Wk"``: each episode's acceleration terms are −(Wk(ẍ2)/ACC_REF)² of
+    the filter run from rest over that episode's ``carbody_acc`` (its state is zeroed at the
+    autoreset); everything else is the unweighted env's, bit for bit."""
+    kw = {"num_envs": 2, "vectorization_mode": "vector_entry_point", "backend": "linear"}
+    venv = gym.make_vec("railgym/VerticalSuspension-v1", duration=0.3, acc_weighting="Wk", **kw)
+    raw = gym.make_vec("railgym/VerticalSuspension-v1", duration=0.3, **kw)
+    sos = WeightingFilter(1.0 / venv.unwrapped.cfg.control_dt, "Wk", lowpass=False).sos
+    venv.reset(seed=6)
+    raw.reset(seed=6)
+    episodes: list[list[tuple[np.ndarray, np.ndarray]]] = [[]]
+    ended = np.zeros(2, bool)
+    for a in random_actions(50, (2, 1), seed=8):  # 30 steps per episode: crosses an autoreset
+        obs, _, term, trunc, info = venv.step(a)
+        obs_raw, *_, info_raw = raw.step(a)
+        np.testing.assert_array_equal(obs, obs_raw)
+        for key in ("carbody_acc", "rms_carbody_acc", "actuator_force"):
+            np.testing.assert_array_equal(info[key], info_raw[key])
+        for key in ("deflection", "force"):
+            np.testing.assert_array_equal(info["reward_terms"][key], info_raw["reward_terms"][key])
+        if ended.any():  # the autoreset step: a new episode follows
+            assert ended.all()
+            episodes.append([])
+        else:
+            episodes[-1].append((info["carbody_acc"], info["reward_terms"]["acceleration"]))
+        ended = term | trunc
+    assert len(episodes) == 2 and len(episodes[1]) > 10
+    for episode in episodes:
+        acc, terms = (np.array(x) for x in zip(*episode, strict=True))
+        want = -((signal.sosfilt(sos, acc, axis=0) / ACC_REF) ** 2)
+        np.testing.assert_allclose(terms, want, rtol=1e-9, atol=1e-15)
 
 
 def test_vector_reward_terms_are_arrays_that_sum_to_the_reward(random_actions):
