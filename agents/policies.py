@@ -146,6 +146,10 @@ POLICY_ENV_KWARGS = frozenset(
 )
 
 
+#: the training env arguments a residual policy's controller is designed with (its case)
+RESIDUAL_DESIGN_KWARGS = POLICY_ENV_KWARGS | {"track_class", "speed"}
+
+
 class _Network(NamedTuple):
     """What a stable-baselines3 zip was trained with."""
 
@@ -235,9 +239,11 @@ def _sb3_policy(
     if network.hold > 1:  # trained to decide every `hold` steps: one held phase per factory call
         return (lambda env: HeldPolicy(net, network.hold)), env_kwargs, label
     name, scale = network.residual, network.residual_scale
-    if name is not None:  # the controller is designed for the env it runs on, per factory call
+    if name is not None:  # one controller per factory call, designed for the training case
+        design = {k: v for k, v in network.env_kwargs.items() if k in RESIDUAL_DESIGN_KWARGS}
+        design_env = gym.make(env_id, **design)
         return (
-            (lambda env: ResidualPolicy(net, build_controller(env_id, name, env), scale)),
+            (lambda env: ResidualPolicy(net, build_controller(env_id, name, design_env), scale)),
             env_kwargs,
             label,
         )

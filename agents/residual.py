@@ -19,9 +19,11 @@ sees what the agent sees; an ``lqg`` base keeps its Kalman estimate from step to
   ``residual``).
 
 ``agents.train`` configs set it with ``residual`` (the controller's ``railgym evaluate`` name)
-and ``residual_scale`` (:mod:`agents.train_config`). The controller is designed for the env it
-is built on: in training the env of ``env_kwargs`` (its track class and speed), in evaluation
-the evaluated case, as the baseline of the same name.
+and ``residual_scale`` (:mod:`agents.train_config`). The controller is designed once, for the
+case of the training config's ``env_kwargs`` (an ``lqg``: its track class and speed), and keeps
+that design in training, in the training's evaluations and wherever the policy is loaded, so
+that the policy always corrects the controller it learnt with (the ``lqg`` baseline of
+``railgym evaluate`` is designed for each evaluated case instead).
 """
 
 from __future__ import annotations

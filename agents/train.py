@@ -399,7 +399,7 @@ def train(
         eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes, eval_kwargs, mode, "eval_env_kwargs")
         opened.append(eval_venv)
         if cfg.residual is not None:
-            base = build_controller(cfg.env_id, cfg.residual, eval_venv)
+            base = build_controller(cfg.env_id, cfg.residual, venv)  # the training case
             eval_venv = ResidualVectorEnv(eval_venv, base, cfg.residual_scale)
         if cfg.action_hold > 1:
             eval_venv = ActionHold(eval_venv, cfg.action_hold)

@@ -189,5 +189,10 @@ def test_trained_residual_zip_loads_as_controller_plus_network(tmp_path):
     base = LQG(env).predict(obs)[0]
     net = ctrl.policy.predict(obs, deterministic=True)[0]
     np.testing.assert_allclose(ctrl.predict(obs)[0], np.clip(base + 0.5 * net, -1, 1), atol=1e-6)
+    # on another case the controller keeps the training case's design (class 5 by default)
+    class4 = _native(ENV_ID, 1, **kwargs, backend="linear", duration=1.0, track_class=4)
+    kept = factory(class4).controller.kf.M
+    np.testing.assert_array_equal(kept, ctrl.controller.kf.M)
+    assert not np.allclose(kept, LQG(class4).kf.M)
     with pytest.raises(ValueError, match="residual is 'lqg'"):
         export_policy(out / "model.zip", tmp_path / "res.fmu")
