@@ -61,18 +61,24 @@ class _Controller(ObservationController):
 def _lqr_weights(
     cfg: Any, acc_ref: float, q_acc: float | None, q_defl: float | None, r_force: float | None
 ) -> tuple[float, float, float]:
-    """LQR weights in SI; ``None`` = the reward's: ``1/acc_ref²``, ``1/free_travel²``,
-    ``0.1/f_max²``. ValueError names a negative or non-finite weight, or ``r_force <= 0``."""
+    """LQR weights in SI; ``None`` = the env's reward weights (``cfg.reward_weights``, default
+    1, 1, 0.1): ``w_a/acc_ref²``, ``w_d/free_travel²``, ``w_f/f_max²``. ValueError names a
+    negative or non-finite weight, or ``r_force <= 0`` (a reward without a force term needs
+    an explicit ``r_force``)."""
+    w = cfg.reward_weights
     weights = {
-        "q_acc": 1.0 / acc_ref**2 if q_acc is None else q_acc,
-        "q_defl": 1.0 / cfg.free_travel**2 if q_defl is None else q_defl,
-        "r_force": 0.1 / cfg.f_max**2 if r_force is None else r_force,
+        "q_acc": w["acceleration"] / acc_ref**2 if q_acc is None else q_acc,
+        "q_defl": w["deflection"] / cfg.free_travel**2 if q_defl is None else q_defl,
+        "r_force": w["force"] / cfg.f_max**2 if r_force is None else r_force,
     }
     for name, value in weights.items():
         if not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a non-negative number, got {value!r}")
     if weights["r_force"] <= 0:
-        raise ValueError(f"r_force must be positive, got {weights['r_force']!r}")
+        raise ValueError(
+            f"r_force must be positive, got {weights['r_force']!r} (a reward without a force "
+            "term: pass r_force)"
+        )
     return float(weights["q_acc"]), float(weights["q_defl"]), float(weights["r_force"])
 
 

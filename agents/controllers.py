@@ -141,9 +141,10 @@ class LQR(_Controller):
     ``R = r_force + q_acc·D²``; ``P`` solves the CARE with the cross term and
     ``F_a = −K·x``, ``K = R⁻¹·(BᵀP + Nᵀ)`` (N per SI state, shape (1, 4)).
 
-    Defaults are the env's own reward weights in SI: ``q_acc = 1/ACC_REF²`` (s⁴/m²),
-    ``q_defl = 1/free_travel²`` (1/m²), ``r_force = 0.1/f_max²`` (1/N²), so the LQR
-    minimises the continuous-time version of the reward the RL agents see. The design
+    Defaults are the env's own reward weights ``w`` (``reward_weights``) in SI:
+    ``q_acc = w_a/ACC_REF²`` (s⁴/m²), ``q_defl = w_d/free_travel²`` (1/m²),
+    ``r_force = w_f/f_max²`` (1/N²; the default weights 1, 1, 0.1), so the LQR minimises the
+    continuous-time version of the reward the RL agents see. The design
     ignores the ±f_max limit (how often the command saturates: ``docs/results.md``).
 
     Parameters
@@ -256,8 +257,8 @@ class VehicleLQR(_VehicleController):
     reward, ``J = ∫ (q_acc·mean_p a_p² + q_defl·mean_i δ_i² + r_force·mean_i F_i²) dt``
     with the floor accelerations ``a = C·x + D·F``: ``Q = q_acc·CᵀC/3 + q_defl·Σ c_iᵀc_i/2``,
     ``N = q_acc·CᵀD/3``, ``R = r_force·I/2 + q_acc·DᵀD/3``; ``F = −K·x``. Defaults: the
-    reward weights in SI, ``q_acc = 1/ACC_REF²``, ``q_defl = 1/free_travel²``,
-    ``r_force = 0.1/f_max²``. The ±f_max limit is ignored by the design (the command is
+    env's reward weights ``w`` in SI, ``q_acc = w_a/ACC_REF²``, ``q_defl = w_d/free_travel²``,
+    ``r_force = w_f/f_max²``. The ±f_max limit is ignored by the design (the command is
     clipped).
     """
 

@@ -147,7 +147,7 @@ POLICY_ENV_KWARGS = frozenset(
 
 
 #: the training env arguments a residual policy's controller is designed with (its case)
-RESIDUAL_DESIGN_KWARGS = POLICY_ENV_KWARGS | {"track_class", "speed"}
+RESIDUAL_DESIGN_KWARGS = POLICY_ENV_KWARGS | {"track_class", "speed", "reward_weights"}
 
 
 class _Network(NamedTuple):

@@ -20,7 +20,8 @@ sees what the agent sees; an ``lqg`` base keeps its Kalman estimate from step to
 
 ``agents.train`` configs set it with ``residual`` (the controller's ``railgym evaluate`` name)
 and ``residual_scale`` (:mod:`agents.train_config`). The controller is designed once, for the
-case of the training config's ``env_kwargs`` (an ``lqg``: its track class and speed), and keeps
+case of the training config's ``env_kwargs`` (an ``lqg``: its track class and speed, and the
+reward weights its gain minimises), and keeps
 that design in training, in the training's evaluations and wherever the policy is loaded, so
 that the policy always corrects the controller it learnt with (the ``lqg`` baseline of
 ``railgym evaluate`` is designed for each evaluated case instead).

@@ -175,6 +175,22 @@ def test_lqr_limits():
     assert np.linalg.norm(cheap.K) > np.linalg.norm(dear.K)
 
 
+def test_lqr_weights_are_the_env_reward_weights():
+    """Without explicit weights the design minimises the env's own reward: its
+    ``reward_weights`` scale q_acc, q_defl and r_force; a reward without a force term needs
+    ``r_force``."""
+    env = lqr_env(reward_weights={"deflection": 2.0})
+    default = LQR(lqr_env())
+    weighted = LQR(env)
+    assert weighted.q_defl == pytest.approx(2.0 * default.q_defl, rel=1e-15)
+    assert (weighted.q_acc, weighted.r_force) == (default.q_acc, default.r_force)
+    np.testing.assert_array_equal(weighted.K, LQR(lqr_env(), q_defl=weighted.q_defl).K)
+    free = lqr_env(reward_weights={"force": 0.0})
+    with pytest.raises(ValueError, match="r_force must be positive.*pass r_force"):
+        LQR(free)
+    assert LQR(free, r_force=default.r_force).r_force == default.r_force
+
+
 def test_lqr_lowers_carbody_acceleration(passive):
     lqr = rollout(LQR, observation="full")
     assert np.all(lqr["acc"] < 0.8 * passive["acc"]), (lqr["acc"], passive["acc"])
