@@ -12,6 +12,9 @@ convention of the env (see :mod:`railgym.vehicles.vertical`): velocities are upw
 ``F_a > 0`` pushes the carbody up and the bogie down (``m2·ẍ2 = F_s + F_a``,
 ``m1·ẍ1 = … − F_s − F_a``), and the deflection rate is ``δ̇ = ẋ1 − ẋ2``.
 
+The controllers by their ``railgym evaluate`` name, per env id: :data:`CONTROLLERS_OF`
+(:func:`build_controller`).
+
 Default gains are chosen for the Manchester vehicle (``m2`` = 16 t, ``k2`` = 860 kN/m,
 ``c2`` = 40 kN·s/m: body bounce 1.17 Hz, passive damping ratio 0.17) and the env's default
 ``f_max`` = 8 kN; each class docstring says why. Only numpy and scipy are used.
@@ -31,11 +34,15 @@ from agents.control_base import (
     vertical_lqr_gain,
 )
 from agents.lqg import LQG, VehicleLQG
+from railgym import _checks as val
 from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical import ACC_REF
 from railgym.vehicles.vertical import linear_model
 
 __all__ = [
+    "CONTROLLERS",
+    "CONTROLLERS_OF",
+    "CRASH_ID",
     "DEFAULT_C_GND",
     "DEFAULT_C_SKY",
     "LQG",
@@ -45,8 +52,12 @@ __all__ = [
     "ModalSkyhook",
     "Passive",
     "Skyhook",
+    "ENV_ID",
     "VehicleLQG",
+    "VEHICLE_CONTROLLERS",
+    "VEHICLE_ID",
     "VehicleLQR",
+    "build_controller",
     "linear_model",
     "vehicle_lqr_gain",
     "vertical_lqr_gain",
@@ -290,6 +301,43 @@ class VehicleLQR(_VehicleController):
     def force(self, x: np.ndarray) -> np.ndarray:
         """State feedback ``−K·x`` (n, 2), N."""
         return -(x[:, :14] @ self.K.T)
+
+
+# ============================================= the controllers by name (railgym evaluate)
+ENV_ID = "railgym/VerticalSuspension-v1"
+VEHICLE_ID = "railgym/VerticalVehicle-v1"
+CRASH_ID = "railgym/TrainCrash-v1"
+#: controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name: (class, its
+#: arguments, the env arguments it needs)
+CONTROLLERS = {
+    "passive": (Passive, {}, {}),
+    "skyhook": (Skyhook, {"mode": "active"}, {}),
+    "semi-active": (Skyhook, {"mode": "semi-active"}, {}),
+    "groundhook": (Groundhook, {}, {}),
+    "lqr": (LQR, {}, {"observation": "full"}),
+    "lqg": (LQG, {}, {"observation": "sensors"}),
+}
+#: controllers of ``railgym/VerticalVehicle-v1`` (two actuators)
+VEHICLE_CONTROLLERS = {
+    "passive": (Passive, {}, {}),
+    "skyhook": (BogieSkyhook, {}, {}),
+    "modal-skyhook": (ModalSkyhook, {}, {}),
+    "lqr": (VehicleLQR, {}, {"observation": "full"}),
+    "lqg": (VehicleLQG, {}, {"observation": "sensors"}),
+}
+#: controller names of each env id (the crash env: trained policies only)
+CONTROLLERS_OF = {ENV_ID: CONTROLLERS, VEHICLE_ID: VEHICLE_CONTROLLERS}
+
+
+def build_controller(env_id: str, name: str, env: Any) -> Any:
+    """The classical controller ``name`` of ``env_id`` built on ``env`` (a single or native
+    vector env); the error of an env it cannot run on (e.g. ``lqg`` on the full observation)
+    names ``residual``."""
+    cls, kwargs, _ = CONTROLLERS_OF[env_id][name]
+    try:
+        return cls(env, **kwargs)
+    except ValueError as err:
+        raise val.FieldError("residual", f"{name}: {err}") from None
 
 
 # Crash controllers of railgym/TrainCrash-v1 (same predict interface), defined with their

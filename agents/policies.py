@@ -27,16 +27,15 @@ import railgym  # noqa: F401  (registers the environments)
 from agents._args import MAX_EPISODES, VEHICLE_DURATION_S, check_speed_kmh
 from agents._extras import require
 from agents.action_hold import HeldPolicy
-from agents.controllers import (
-    LQR,
-    BogieSkyhook,
-    Groundhook,
-    ModalSkyhook,
-    Passive,
-    Skyhook,
-    VehicleLQR,
+from agents.controllers import (  # noqa: F401  (the tables re-exported)
+    CONTROLLERS,
+    CONTROLLERS_OF,
+    CRASH_ID,
+    ENV_ID,
+    VEHICLE_CONTROLLERS,
+    VEHICLE_ID,
+    build_controller,
 )
-from agents.lqg import LQG, VehicleLQG
 from agents.policy_io import RLLIB_MODULE_PATH, check_manifest, load_policy_weights
 from agents.policy_zip import PolicySource, find_source, zip_network
 from agents.pretrained import PRETRAINED, pretrained_zip
@@ -46,41 +45,8 @@ from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
 from railgym.registration import env_family
 
-ENV_ID = "railgym/VerticalSuspension-v1"
-VEHICLE_ID = "railgym/VerticalVehicle-v1"
-CRASH_ID = "railgym/TrainCrash-v1"
-#: most episodes per class (one vector sub-env each)
-CONTROLLERS = {
-    "passive": (Passive, {}, {}),
-    "skyhook": (Skyhook, {"mode": "active"}, {}),
-    "semi-active": (Skyhook, {"mode": "semi-active"}, {}),
-    "groundhook": (Groundhook, {}, {}),
-    "lqr": (LQR, {}, {"observation": "full"}),
-    "lqg": (LQG, {}, {"observation": "sensors"}),
-}
-#: controllers of ``railgym/VerticalVehicle-v1`` (two actuators)
-VEHICLE_CONTROLLERS = {
-    "passive": (Passive, {}, {}),
-    "skyhook": (BogieSkyhook, {}, {}),
-    "modal-skyhook": (ModalSkyhook, {}, {}),
-    "lqr": (VehicleLQR, {}, {"observation": "full"}),
-    "lqg": (VehicleLQG, {}, {"observation": "sensors"}),
-}
 #: baseline names accepted by :func:`evaluate_envelope` (all three always run)
 ENVELOPE_BASELINES = ("passive", "best-constant", "speed-adaptive")
-#: controller names of each env id (the crash env: trained policies only)
-CONTROLLERS_OF = {ENV_ID: CONTROLLERS, VEHICLE_ID: VEHICLE_CONTROLLERS}
-
-
-def build_controller(env_id: str, name: str, env: Any) -> Any:
-    """The classical controller ``name`` of ``env_id`` built on ``env`` (a single or native
-    vector env); the error of an env it cannot run on (e.g. ``lqg`` on the full observation)
-    names ``residual``."""
-    cls, kwargs, _ = CONTROLLERS_OF[env_id][name]
-    try:
-        return cls(env, **kwargs)
-    except ValueError as err:
-        raise val.FieldError("residual", f"{name}: {err}") from None
 
 
 def _rllib_policy(path: Path, env_id: str, trust: bool) -> tuple[Any, dict[str, Any], str]:

@@ -18,7 +18,9 @@ PPO, 4·10⁶ steps on the surrogate backend, evaluated every 10⁵ steps on the
     python -m agents.train configs/agents/ppo_vertical.yaml
 
 ``configs/agents/sac_vertical.yaml`` is the off-policy alternative (3·10⁵ steps),
-``configs/agents/ppo_crash.yaml`` trains the absorbers of ``railgym/TrainCrash-v1``.
+``configs/agents/ppo_crash.yaml`` trains the absorbers of ``railgym/TrainCrash-v1``,
+``configs/agents/ppo_vertical_lqg.yaml`` and ``ppo_vehicle_vertical_lqg.yaml`` train a
+correction of the LQG (``residual``, :mod:`agents.residual`).
 
 Config file: one top-level key, the Gymnasium env id; the fields and their limits are in
 :mod:`agents.train_config`.
@@ -70,8 +72,8 @@ except ImportError as _err:
     raise extra_error(_err, "training (agents.train)") from _err
 
 from agents.action_hold import ActionHold
+from agents.controllers import build_controller
 from agents.envelope import EnvelopeVectorEnv, check_envelope
-from agents.policies import build_controller
 from agents.policy_io import write_manifest
 from agents.residual import ResidualVectorEnv
 from agents.run_files import read_run, run_folder, speed_text, versions, write_config

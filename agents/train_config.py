@@ -319,7 +319,7 @@ def _residual(name: Any, env_id: str, mode: str | None, hold: int) -> str | None
     """The checked ``residual`` controller name (``None``: none)."""
     if name is None:
         return None
-    from agents.policies import CONTROLLERS_OF
+    from agents.controllers import CONTROLLERS_OF
 
     controllers = CONTROLLERS_OF.get(env_id)
     if not controllers:
