@@ -1,6 +1,7 @@
 """Pretrained policies shipped in the package, loaded by name: ``ppo-vertical``
-(trained on ``railgym/VerticalSuspension-v1``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v0``)
-and ``ppo-crash`` (``railgym/TrainCrash-v1``); each runs on any version of its env::
+(trained on ``railgym/VerticalSuspension-v1``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v1``)
+and ``ppo-crash`` (``railgym/TrainCrash-v1``); each runs on any version of its env. The two
+vertical ones are residuals of the LQG (:mod:`agents.residual`)::
 
     railgym evaluate ppo-vertical --track-class 4 5 6
     railgym evaluate ppo-vehicle --env vehicle --track-class 5
@@ -11,7 +12,7 @@ Each is the folder ``agents/pretrained/<name>/`` as :mod:`agents.train` writes i
 any trained policy, weights only: :func:`agents.evaluate.load_policy`). They are the best seed
 of a :mod:`agents.benchmark` run (lowest held-out :data:`RANKING` metric), copied by::
 
-    python -m agents.benchmark ppo_vertical --seeds 3 --timesteps 1000000 --out runs/bench_vertical
+    python -m agents.benchmark ppo_vertical_lqg --seeds 3 --out runs/bench_vertical
     python -m agents.pretrained ppo-vertical runs/bench_vertical --overwrite
 
 The budgets and held-out figures of the shipped policies are in ``docs/results.md``.
@@ -38,14 +39,14 @@ __all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
 #: name → env id of each pretrained policy
 PRETRAINED = {
     "ppo-vertical": "railgym/VerticalSuspension-v1",
-    "ppo-vehicle": "railgym/VerticalVehicle-v0",
+    "ppo-vehicle": "railgym/VerticalVehicle-v1",
     "ppo-crash": "railgym/TrainCrash-v1",
 }
 #: held-out metrics (``results.csv`` of :mod:`agents.benchmark`) whose mean over the cases
 #: ranks the seeds, per env id (lower is better)
 RANKING = {
     "railgym/VerticalSuspension-v1": ("a_w",),
-    "railgym/VerticalVehicle-v0": ("a_w_front", "a_w_centre", "a_w_rear"),
+    "railgym/VerticalVehicle-v1": ("a_w_front", "a_w_centre", "a_w_rear"),
     "railgym/TrainCrash-v1": ("peak_g",),
 }
 
