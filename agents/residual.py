@@ -81,7 +81,7 @@ class ResidualVectorEnv(VectorWrapper):
         obs, info = self.env.reset(seed=seed, options=options)
         mask = (options or {}).get("reset_mask")
         reset = np.ones(self.num_envs, np.bool_) if mask is None else np.asarray(mask, np.bool_)
-        self._start = self._start | reset if self._obs is not None else reset.copy()
+        self._start |= reset
         self._ended &= ~reset
         self._obs = np.array(obs)
         return obs, info

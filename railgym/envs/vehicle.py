@@ -21,7 +21,6 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.envs.params import (
-    SPEED_FACTOR,
     TrackEnvParams,
     check_speed,
     declared,
@@ -43,6 +42,7 @@ from railgym.envs.vertical import (
     TrackEnvShell,
     TrackVectorShell,
     _surrogate_arrays,
+    check_speed_limit,
     declare_signatures,
 )
 from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
@@ -117,18 +117,13 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     """``speed`` (m/s): None (class speed), a number or a ``(v_min, v_max)`` range, each at
     most ``speed_limit`` (default :data:`~railgym.envs.params.SPEED_FACTOR` × the class's
     maximum speed)."""
-    v_class = class_speed(VehicleParams.check("track_class", track_class))
+    track_class = VehicleParams.check("track_class", track_class)
+    v_class = class_speed(track_class)
     if speed is None:
         return v_class, v_class
     checked = _speeds(speed, "speed")
     lo, hi = checked if isinstance(checked, tuple) else (checked, checked)
-    limit = SPEED_FACTOR * v_class if speed_limit is None else speed_limit
-    if hi > limit:
-        raise val.FieldError(
-            "speed",
-            f"must be at most {limit:.4g} m/s (2 × the class-{int(track_class)} maximum unless "
-            f"speed_limit= is given), got {speed!r}",
-        )
+    check_speed_limit(hi, track_class, speed, speed_limit)
     return lo, hi
 
 

@@ -19,7 +19,7 @@ from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward, weigh
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.vertical_batch import TRACK_BYTES
+from railgym.envs.vertical_batch import TRACK_BYTES, reward_sections
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_with_slope
 from railgym.vehicles.vehicle import (
@@ -126,8 +126,7 @@ class StepCfg(NamedTuple):
     weights: np.ndarray  # (3,) acceleration, deflection, force
     free_travel: float
     f_max: float
-    sos: np.ndarray  # (n_sec, 6) Wk sections at the control rate
-    weighted: bool
+    sos: np.ndarray  # (n_sec, 6) the reward's weighting of the floor accelerations
     n_steps: int  # control steps per episode (truncation)
     flag_ood: bool  # "raise" policy: flag steps with out-of-domain surrogate evaluations
 
@@ -212,9 +211,7 @@ def book_step(vehicles, params, out, book, consts):
             book.rms[i, j] = math.sqrt(book.acc_sq[i, j] / book.steps[i])
             if m < book.rec.shape[1]:
                 book.rec[i, m, j] = a
-            if consts.weighted:
-                a = weigh(consts.sos, book.zi[i, j], a)
-            r_acc += (a / ACC_REF) ** 2
+            r_acc += (weigh(consts.sos, book.zi[i, j], a) / ACC_REF) ** 2
         _observe(vehicles, out, params, consts, book, i)
         r_defl = 0.0
         r_force = 0.0
@@ -295,7 +292,7 @@ class VehicleBatch:
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)
-        sos = self.wk.sos
+        sos = reward_sections(cfg.acc_weighting, cfg.control_dt)
         self.book = Book(
             steps=np.zeros(n, np.int64),
             contacts=np.zeros(n, np.int64),
@@ -319,7 +316,6 @@ class VehicleBatch:
             inv_scale=1.0 / cfg.obs_scale,
             weights=np.array(cfg.weights),
             sos=sos,
-            weighted=cfg.acc_weighting == "Wk",
             flag_ood=self.lpr.mode == RAISE_MODE,
         )
         self.speed = np.zeros(n)

@@ -75,6 +75,7 @@ __all__ = [
     "VerticalSuspensionVectorEnv",
     "VerticalSuspensionVectorEnvV0",
     "check_speed",
+    "check_speed_limit",
 ]
 
 OBSERVATIONS = {
@@ -99,14 +100,21 @@ def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tup
     track_class = TrackEnvParams.check("track_class", track_class)
     v_max = class_speed(track_class)
     v = v_max if speed is None else check_speed(speed)
-    limit = SPEED_FACTOR * v_max if speed_limit is None else speed_limit
+    check_speed_limit(v, track_class, speed, speed_limit)
+    return int(track_class), v
+
+
+def check_speed_limit(v: float, track_class: int, speed: Any, speed_limit: float | None) -> None:
+    """FieldError naming ``speed`` when the speed ``v`` (m/s, of the argument ``speed``) is above
+    ``speed_limit`` (m/s, default :data:`~railgym.envs.params.SPEED_FACTOR` × the class's
+    maximum speed)."""
+    limit = SPEED_FACTOR * class_speed(track_class) if speed_limit is None else speed_limit
     if v > limit:
         raise val.FieldError(
             "speed",
             f"must be at most {limit:.4g} m/s (2 × the class-{int(track_class)} maximum unless "
             f"speed_limit= is given), got {speed!r}",
         )
-    return int(track_class), v
 
 
 def _check_profile(profile: Any, wheelbase: float | None) -> tuple[np.ndarray, np.ndarray] | None:

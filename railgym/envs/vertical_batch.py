@@ -53,6 +53,7 @@ __all__ = [
     "TRACK_BYTES",
     "VerticalBatch",
     "control_step",
+    "reward_sections",
 ]
 
 #: reference carbody acceleration of the reward, m/s²: passive RMS on the training case
@@ -62,6 +63,15 @@ ACC_REF = 0.75
 MAX_NUM_ENVS = 65536
 #: largest track arrays of all sub-envs together, bytes
 TRACK_BYTES = 2**30
+
+
+def reward_sections(acc_weighting: str, control_dt: float) -> np.ndarray:
+    """Second-order sections (n_sec, 6) of the reward's acceleration weighting at the control
+    rate ``1/control_dt`` (Hz): ISO 2631-1 Wk for ``"Wk"``; none, shape (0, 6), for ``"none"``
+    (:func:`~railgym.envs.compiled.weigh` then returns its input unchanged)."""
+    if acc_weighting == "none":
+        return np.zeros((0, 6))
+    return WeightingFilter(1.0 / control_dt, acc_weighting, lowpass=False).sos
 
 
 class Counters(NamedTuple):
@@ -88,8 +98,7 @@ class StepCfg(NamedTuple):
     w_acc: float
     w_defl: float
     w_force: float
-    sos: np.ndarray  #: float64 (n_sec, 6) Wk sections at the control rate ((0, 6) unweighted)
-    weighted: bool  #: the reward weighs ẍ2 by ``sos`` (``acc_weighting="Wk"``)
+    sos: np.ndarray  #: float64 (n_sec, 6) the reward's weighting of ẍ2 (:func:`reward_sections`)
     inv_scale: np.ndarray  #: float64 (n_obs,) 1/scale of each observation channel
     flag_ood: bool  #: "raise" policy: flag steps with out-of-domain surrogate evaluations
     envelope: np.ndarray  #: float64 (2,) δ range of the element's training data, m
@@ -168,9 +177,9 @@ def _observe(state, acc, z, zdot, k, s, i, obs):
 def _post_step(state, z, zdot, out, force, counters, result, consts):
     """Bookkeeping after a kernel call: counters, observation, reward and its terms
     (:func:`~railgym.envs.compiled.settle_reward`: a divergence also when the reward is not
-    finite or the observation too large; ẍ2 Wk-weighted in the reward when
-    ``consts.weighted``, :func:`~railgym.envs.compiled.weigh`), info values and the truncated
-    and extrapolated flags."""
+    finite or the observation too large; ẍ2 weighted in the reward by ``consts.sos``,
+    :func:`~railgym.envs.compiled.weigh`), info values and the truncated and extrapolated
+    flags."""
     for i in range(state.shape[0]):
         counters.k[i] += consts.n_sub
         counters.steps[i] += 1
@@ -180,10 +189,7 @@ def _post_step(state, z, zdot, out, force, counters, result, consts):
         _observe(state, out.acc, z, zdot, counters.k, consts.inv_scale, i, result.obs)
         defl = (state[i, 0] - state[i, 2]) / consts.free_travel
         fa = force[i] / consts.f_max
-        a = out.acc[i, 1]
-        if consts.weighted:
-            a = weigh(consts.sos, counters.zi[i], a)
-        a2 = a / ACC_REF
+        a2 = weigh(consts.sos, counters.zi[i], out.acc[i, 1]) / ACC_REF
         t_a = -(consts.w_acc * a2 * a2)
         t_d = -(consts.w_defl * defl * defl)
         t_f = -(consts.w_force * fa * fa)
@@ -257,12 +263,7 @@ class VerticalBatch:
         self.force = np.zeros(n)
         self.out = step_outputs(n)
         ints = {k: np.zeros(n, np.int64) for k in ("k", "steps", "contacts", "ood")}
-        weighted = cfg.acc_weighting == "Wk"
-        sos = (
-            WeightingFilter(1.0 / cfg.control_dt, "Wk", lowpass=False).sos
-            if weighted
-            else np.zeros((0, 6))
-        )
+        sos = reward_sections(cfg.acc_weighting, cfg.control_dt)
         self.cnt = Counters(**ints, acc_sq=np.zeros(n), zi=np.zeros((n, sos.shape[0], 2)))
         self.track_class = np.zeros(n, np.int64)
         self.speed = np.zeros(n)
@@ -276,7 +277,6 @@ class VerticalBatch:
             w_defl=w["deflection"],
             w_force=w["force"],
             sos=sos,
-            weighted=weighted,
             inv_scale=self.inv_scale,
             flag_ood=lpr.mode == RAISE_MODE,
             envelope=deflection_envelope(cfg.variant == "surrogate", lpr),
