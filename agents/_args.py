@@ -1,12 +1,15 @@
-"""argparse value types of the commands (a bad value is a one-line error naming the flag), and
-the one-line error of a command that fails (:func:`error_status`)."""
+"""argparse value types of the commands (a bad value is a one-line error naming the flag), the
+one-line error of a command that fails (:func:`error_status`) and its one-line warnings
+(:func:`one_line_warnings`)."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import sys
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from railgym import _checks as val
@@ -22,8 +25,12 @@ __all__ = [
     "check_parallel",
     "check_speed_kmh",
     "duration_s",
+    "backend_kwargs",
+    "env_kwargs_of",
+    "with_policy_kwargs",
     "error_status",
     "episodes",
+    "one_line_warnings",
     "seed_number",
     "speed_kmh",
     "track_class",
@@ -89,6 +96,71 @@ def vertical_cases(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
+def env_kwargs_of(args: argparse.Namespace) -> dict[str, Any]:
+    """The env keywords of ``railgym evaluate``'s model flags (``--fmu``, ``--fmu-map``,
+    ``--vehicle``, ``--surrogate``, ``--scenario``), checked against ``--backend``,
+    ``--env`` and ``--gap`` (which runs the surrogate beside ``--backend``)."""
+    if args.backend != "fmu" and (args.fmu is not None or args.fmu_map is not None):
+        raise ValueError("--fmu, --fmu-map: only with --backend fmu")
+    if args.backend == "fmu" and args.env == "crash":
+        raise ValueError("--backend fmu: only for --env vertical and vehicle, not --env crash")
+    if args.vehicle is not None and args.env == "crash":
+        raise ValueError("--vehicle: only for --env vertical and vehicle (crash: --scenario)")
+    if args.scenario is not None and args.env != "crash":
+        raise ValueError("--scenario: only for --env crash (vertical, vehicle: --vehicle)")
+    if args.surrogate is not None and args.backend != "surrogate" and not args.gap:
+        raise ValueError("--surrogate: the element of --backend surrogate (or of --gap)")
+    out: dict[str, Any] = {}
+    if args.backend == "fmu":
+        out.update(fmu=args.fmu, fmu_map=args.fmu_map)
+    if args.vehicle is not None:
+        out["vehicle"] = str(args.vehicle)
+    if args.backend == "fmu":  # both sides of --gap and every controller design get it
+        from railgym.fmu.mapping import fmu_vehicle
+
+        out["vehicle"] = str(fmu_vehicle(args.fmu_map, args.vehicle, "--vehicle "))
+    if args.scenario is not None:
+        out["scenario"] = str(args.scenario)
+    if args.surrogate is not None:
+        out["surrogate"] = _element(args.surrogate, args.env)
+    return out
+
+
+def _element(path: Any, env: str) -> Any:
+    """The element file of ``--surrogate``: a model JSON path (vertical, vehicle; the env
+    loads it) or crash elements (:func:`railgym.vehicles.crash.fe.load_crash_surrogate`)."""
+    if env != "crash":
+        return str(path)
+    from railgym.vehicles.crash.fe import load_crash_surrogate
+
+    return load_crash_surrogate(path)
+
+
+def with_policy_kwargs(
+    policy_kwargs: dict[str, Any], extra: dict[str, Any], policy: str
+) -> dict[str, Any]:
+    """``policy_kwargs`` (what ``policy`` was trained with) and the command's ``extra``; a key
+    in both with another value is an error naming the policy (its training case wins nowhere
+    silently)."""
+    from railgym.fmu.mapping import same_vehicle
+
+    for key, value in extra.items():
+        same = same_vehicle if key == "vehicle" else (lambda a, b: a == b)
+        if key in policy_kwargs and not same(policy_kwargs[key], value):
+            raise ValueError(
+                f"policy {policy}: trained with {key}={policy_kwargs[key]!r}, the command gives "
+                f"{value!r}; drop the flag or evaluate a policy trained for it"
+            )
+    return {**policy_kwargs, **extra}
+
+
+def backend_kwargs(backend: str, env_kwargs: dict[str, Any] | None) -> dict[str, Any]:
+    """``env_kwargs`` of :func:`env_kwargs_of` for ``backend``: the FMU's files only for
+    ``"fmu"``, the element only for ``"surrogate"``."""
+    only = {"fmu": "fmu", "fmu_map": "fmu", "surrogate": "surrogate"}
+    return {k: v for k, v in (env_kwargs or {}).items() if only.get(k, backend) == backend}
+
+
 def vehicle_cases(args: argparse.Namespace) -> dict[str, Any]:
     """:func:`vertical_cases` and the speeds and duration of ``railgym evaluate --env
     vehicle``: the case keywords of ``evaluate_vehicle`` / ``gap_vehicle``."""
@@ -107,6 +179,25 @@ def error_status(prog: str, err: Exception, debug: bool = False) -> int:
         return 2
     print(f"{prog}: {type(err).__name__}: {err} (--debug shows the traceback)", file=sys.stderr)
     return 1
+
+
+@contextmanager
+def one_line_warnings(prog: str) -> Iterator[None]:
+    """Within the block, a warning shown on stderr is the one line ``prog: warning: message``
+    (the category named unless a ``UserWarning``), not Python's ``file:line: Category:
+    message`` with the source line of the library code that warned. Warnings recorded by a
+    caller (``warnings.catch_warnings(record=True)``, ``pytest.warns``) are left as they are."""
+
+    def one_line(message: Any, category: type[Warning], *_: Any, **__: Any) -> str:
+        kind = "" if category is UserWarning else f" ({category.__name__})"
+        return f"{prog}: warning{kind}: {message}\n"
+
+    before = warnings.formatwarning
+    warnings.formatwarning = one_line
+    try:
+        yield
+    finally:
+        warnings.formatwarning = before
 
 
 def add_parallel_arguments(

@@ -5,7 +5,8 @@
   reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
   indices and write the plots of :data:`DEMO_FILES` (a re-run replaces them).
 - ``railgym paper [--quick] [--out DIR]``: the paper's tables and figures on our models
-  (:func:`railgym.report.make_report`).
+  (:func:`railgym.report.make_report`), written as :data:`railgym.report.REPORT_FILES` (a
+  re-run replaces them).
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies on the
   vertical env and the whole vehicle (``--env vehicle``), crash indices (``--env crash``, the
   held-out impact envelope with ``--envelope``); ``--workers N`` / ``--address ADDR`` run the
@@ -16,10 +17,12 @@
   (:mod:`agents.fmu_cli`).
 
 Every subcommand takes ``--debug`` and ``--quiet`` (no progress bars; they are drawn on stderr
-only when it is a terminal). Arguments and output folders are checked before any work;
-a user error (bad value, existing output without ``--overwrite``, unreadable file) is one line
-on stderr and exit status 2, another failure one line and status 1; ``--debug`` shows the
-traceback instead.
+only when it is a terminal). Arguments and output folders are checked before any work; an
+output folder is reused when it holds only the command's own files (``demo``, ``paper``),
+one holding other files needs ``--overwrite``. A user error (bad value, such a folder
+without ``--overwrite``, unreadable file) is one line on stderr and exit status 2, another
+failure one line and status 1; ``--debug`` shows the traceback instead. A warning (e.g. of
+``--trust``) is one line ``railgym CMD: warning: …`` on stderr, without Python source.
 """
 
 from __future__ import annotations
@@ -33,14 +36,20 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import add_parallel_arguments, check_parallel, error_status, seed_number
+from agents._args import (
+    add_parallel_arguments,
+    check_parallel,
+    error_status,
+    one_line_warnings,
+    seed_number,
+)
 from agents._extras import MissingExtraError, report_missing
 from agents.controllers import Passive, Skyhook
 from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.envs.vertical import VerticalSuspensionEnv
 from railgym.progress import quiet, stages
-from railgym.report import make_report
+from railgym.report import REPORT_FILES, make_report
 from railgym.report.output import prepare_output_dir
 from railgym.vehicles.collect import build_vertical_surrogate
 from surrogates.metrics import average_absolute_error
@@ -213,7 +222,8 @@ def _out_arguments(
     parser.add_argument(
         "--overwrite",
         action="store_true",
-        help="write into an existing non-empty --out folder, replacing its files",
+        help="write into an --out folder that holds other files too (they are kept, the "
+        "command's own files replaced)",
     )
     parser.add_argument(
         "--seed",
@@ -246,13 +256,24 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _out_arguments(d, "railgym-demo", "the plots", "one holding only these plots")
-    p = sub.add_parser("paper", parents=[common], help="the paper's tables and figures")
+    report_files = "\n".join(f"  {name}" for name in REPORT_FILES)
+    p = sub.add_parser(
+        "paper",
+        parents=[common],
+        help="the paper's tables and figures",
+        description="The paper's tables and figures on railgym's models: report.md and the "
+        "figures.",
+        epilog=f"writes into --out (default railgym-paper/):\n{report_files}\nA folder that "
+        "holds only these files is reused and they are replaced, so the command\ncan be run "
+        "again; a folder with other files needs --overwrite.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument(
         "--quick",
         action="store_true",
         help="reduced sizes (CI): M = 51, 101; 5 s runs; one crash variant",
     )
-    _out_arguments(p, "railgym-paper", "report.md and the figures")
+    _out_arguments(p, "railgym-paper", "report.md and the figures", "one holding only these files")
     add_parallel_arguments(p, "", "the validation matrix", "the report does")
     from agents import evaluate
 
@@ -291,7 +312,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "refine": refine.run,
     }[args.command]
     try:
-        with quiet(args.quiet):
+        with quiet(args.quiet), one_line_warnings(f"railgym {args.command}"):
             return command(args)
     except MissingExtraError as err:
         if args.debug:

@@ -45,6 +45,8 @@ __all__ = [
     "CRASH_ID",
     "DEFAULT_C_GND",
     "DEFAULT_C_SKY",
+    "default_c_gnd",
+    "default_c_sky",
     "LQG",
     "LQR",
     "BogieSkyhook",
@@ -69,6 +71,32 @@ DEFAULT_C_SKY = 4.7e4
 #: groundhook gain, N·s/m: ``c_gnd·σ(ẋ1)`` ≈ f_max/2 at the passive bogie velocity RMS on the
 #: training case (10 cm/s), like the skyhook gain; 0.16 of the bogie mode's critical damping
 DEFAULT_C_GND = 4.0e4
+#: the vehicle the default gains were chosen for (Manchester, one bogie): ``m1, m2`` kg,
+#: ``k1, k2`` N/m; another vehicle gets them scaled to the same damping ratio of its modes
+_GAIN_VEHICLE = {"m1": 2615.0, "m2": 16000.0, "k1": 4.88e6, "k2": 8.6e5}
+
+
+def default_c_sky(p: Any) -> float:
+    """``DEFAULT_C_SKY`` scaled to the bounce mode of the vehicle ``p`` (``m2``, ``k2``):
+    the same skyhook damping ratio ``c_sky / (2·√(k2·m2))``, N·s/m."""
+    g = _GAIN_VEHICLE
+    return DEFAULT_C_SKY * float(np.sqrt(p.k2 * p.m2 / (g["k2"] * g["m2"])))
+
+
+def default_c_gnd(p: Any) -> float:
+    """``DEFAULT_C_GND`` scaled to the bogie mode of the vehicle ``p`` (``m1``, ``k1 + k2``):
+    the same ratio to its critical damping ``2·√((k1 + k2)·m1)``, N·s/m."""
+    g = _GAIN_VEHICLE
+    ref = (g["k1"] + g["k2"]) * g["m1"]
+    return DEFAULT_C_GND * float(np.sqrt((p.k1 + p.k2) * p.m1 / ref))
+
+
+def _gain(value: float | None, default: float, name: str) -> float:
+    """A checked non-negative gain (N·s/m); ``None``: ``default``."""
+    value = default if value is None else value
+    if not (np.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a non-negative number in N·s/m, got {value!r}")
+    return float(value)
 
 
 class Passive(_Controller):
@@ -89,7 +117,8 @@ class Skyhook(_Controller):
     skyhook force is applied only when ``ẋ2·(ẋ2 − ẋ1) > 0`` and is 0 otherwise; with the
     sensors, ``ẋ1 = ẋ2 + δ̇`` (``carbody_vel`` + ``deflection_rate``).
 
-    Default ``c_sky`` (``DEFAULT_C_SKY`` = 47 kN·s/m): damping ratio
+    Default ``c_sky`` (:func:`default_c_sky`; ``DEFAULT_C_SKY`` = 47 kN·s/m on the
+    Manchester vehicle, scaled to the same damping ratio on another): damping ratio
     ``c_sky / (2·√(k2·m2))`` = 0.2 on the 1.17 Hz body mode on top of the passive 0.17, and
     ``c_sky × 8.6 cm/s`` (passive carbody velocity RMS, class 5) ≈ 4 kN = f_max/2, so the
     command saturates only on the largest peaks. Works with both observation modes.
@@ -97,13 +126,12 @@ class Skyhook(_Controller):
 
     needs_velocities = True
 
-    def __init__(self, env: Any, c_sky: float = DEFAULT_C_SKY, mode: str = "active") -> None:
+    def __init__(self, env: Any, c_sky: float | None = None, mode: str = "active") -> None:
         super().__init__(env)
-        if not (np.isfinite(c_sky) and c_sky >= 0):
-            raise ValueError(f"c_sky must be a non-negative number in N·s/m, got {c_sky!r}")
+        self.c_sky = _gain(c_sky, default_c_sky(self._base.vehicle_params), "c_sky")
         if mode not in ("active", "semi-active"):
             raise ValueError(f"mode must be 'active' or 'semi-active', got {mode!r}")
-        self.c_sky, self.mode = float(c_sky), mode
+        self.mode = mode
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Skyhook force (n,), N; zero where a semi-active damper could not produce it."""
@@ -122,7 +150,8 @@ class Groundhook(_Controller):
     ``F_a = +c_gnd·ẋ1`` on the carbody: the reaction lands on the carbody, so groundhook
     damps the bogie (its acceleration and the dynamic wheel load) at the cost of ride comfort.
 
-    Default ``c_gnd`` (``DEFAULT_C_GND`` = 40 kN·s/m): ``c_gnd × 10 cm/s`` (passive bogie
+    Default ``c_gnd`` (:func:`default_c_gnd`; ``DEFAULT_C_GND`` = 40 kN·s/m on the
+    Manchester vehicle, scaled to the same ratio on another): ``c_gnd × 10 cm/s`` (passive bogie
     velocity RMS, class 5) ≈ f_max/2, as for the skyhook gain; it is 0.16 of the critical
     damping ``2·√((k1 + k2)·m1)`` = 245 kN·s/m of the 7.5 Hz bogie mode. On the linear
     model (class 5) it lowers the RMS bogie acceleration by about 20 % and raises the
@@ -131,11 +160,9 @@ class Groundhook(_Controller):
 
     needs_velocities = True
 
-    def __init__(self, env: Any, c_gnd: float = DEFAULT_C_GND) -> None:
+    def __init__(self, env: Any, c_gnd: float | None = None) -> None:
         super().__init__(env)
-        if not (np.isfinite(c_gnd) and c_gnd >= 0):
-            raise ValueError(f"c_gnd must be a non-negative number in N·s/m, got {c_gnd!r}")
-        self.c_gnd = float(c_gnd)
+        self.c_gnd = _gain(c_gnd, default_c_gnd(self._base.vehicle_params), "c_gnd")
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Groundhook force on the carbody (n,), N."""
@@ -200,16 +227,14 @@ class BogieSkyhook(_VehicleController):
     """Skyhook damper at each bogie: ``F_i = −c_sky·v_i``, ``v_i`` the carbody's absolute
     velocity over bogie ``i`` (m/s).
 
-    Default ``c_sky`` = ``DEFAULT_C_SKY`` (47 kN·s/m): each bogie carries half the carbody
-    (16 t on 860 kN/m), as the one-bogie model for which that gain was chosen (skyhook
+    Default ``c_sky``: :func:`default_c_sky` of the one-bogie model (half the carbody on
+    one bogie's secondary), ``DEFAULT_C_SKY`` (47 kN·s/m) on the Manchester vehicle (skyhook
     damping ratio 0.2 of bounce). Works with both observation modes.
     """
 
-    def __init__(self, env: Any, c_sky: float = DEFAULT_C_SKY) -> None:
+    def __init__(self, env: Any, c_sky: float | None = None) -> None:
         super().__init__(env)
-        if not (np.isfinite(c_sky) and c_sky >= 0):
-            raise ValueError(f"c_sky must be a non-negative number in N·s/m, got {c_sky!r}")
-        self.c_sky = float(c_sky)
+        self.c_sky = _gain(c_sky, default_c_sky(self.vehicle.suspension), "c_sky")
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Skyhook forces (n, 2), N."""

@@ -132,7 +132,9 @@ class SpeedAdaptive(_CrashController):
 
 class Rollout(NamedTuple):
     """Histories of one crash (:func:`rollout`): time (n,) s, car velocity and acceleration
-    (n, cars) m/s, m/s², zone crush (n, zones) m, absorber stroke (zones,) m, gravity m/s²."""
+    (n, cars) m/s, m/s², zone crush (n, zones) m, absorber stroke (zones,) m, gravity m/s²;
+    ``diverged``: the env cut the run where its state diverged (``info["diverged"]``: a zone
+    crushed through a car, or a state too violent to score), so the histories end there."""
 
     t: np.ndarray
     v: np.ndarray
@@ -140,6 +142,7 @@ class Rollout(NamedTuple):
     crush: np.ndarray
     absorber_stroke: np.ndarray
     gravity: float
+    diverged: bool = False
 
     def criteria(self, **kwargs: Any) -> CrashCriteria:
         """:func:`railgym.vehicles.crash.criteria.crash_criteria` of this crash."""
@@ -156,7 +159,8 @@ def rollout(
     """Run one episode of every sub-env of ``env`` under ``controller.predict`` (reset with
     ``seed`` and ``options``; ``deterministic=True``, so a stable-baselines3 policy acts by its
     mean action, not a sample of its exploration noise); histories from the env's accessors
-    (float64), each until its sub-env terminates or truncates."""
+    (float64), each until its sub-env terminates or truncates, and whether the env cut it as
+    diverged."""
     obs, _ = env.reset(seed=seed, options=options)
     n = env.num_envs
     rec: list[list[np.ndarray]] = [[] for _ in range(3)]
@@ -169,18 +173,20 @@ def rollout(
     record()
     length = np.zeros(n, np.int64)
     done = np.zeros(n, bool)
+    diverged = np.zeros(n, bool)
     while not done.all():
         action, _ = controller.predict(obs, deterministic=True)
-        obs, _, term, trunc, _ = env.step(action)
+        obs, _, term, trunc, info = env.step(action)
         record()
         length[~done] += 1
+        diverged |= ~done & np.asarray(info["diverged"], bool)
         done |= term | trunc
     v, a, crush = (np.stack(r, axis=1) for r in rec)
     t = np.arange(length.max() + 1) * env.cfg.control_dt
     stroke, g = env.absorber_stroke, env.cfg.scenario.gravity
     return [
-        Rollout(t[: m + 1], v[i, : m + 1], a[i, : m + 1], crush[i, : m + 1], stroke, g)
-        for i, m in enumerate(length)
+        Rollout(t[: m + 1], v[i, : m + 1], a[i, : m + 1], crush[i, : m + 1], stroke, g, bool(d))
+        for i, (m, d) in enumerate(zip(length, diverged, strict=True))
     ]
 
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from agents._args import one_line_warnings
 from agents.crash_baselines import (
     BEST_CONSTANT_ACTION,
     ConstantAbsorber,
@@ -94,6 +95,22 @@ def surrogate_error_rows(
     return rows
 
 
+#: the line under a crash table that holds a diverged run
+#: (:attr:`agents.crash_baselines.Rollout.diverged`)
+DIVERGED_NOTE = (
+    "the env cut the run where its state diverged (info['diverged']: a zone crushed through a "
+    "car, or a state too violent to score), so its numbers are those at the cut, not a "
+    "physical result; run it at a lower speed or on a scenario whose crush zones hold it"
+)
+
+
+def diverged_lines(runs: list[str]) -> list[str]:
+    """The lines under a crash table naming its diverged ``runs`` (none: no line)."""
+    if not runs:
+        return []
+    return ["", f"diverged: {'; '.join(runs)}: {DIVERGED_NOTE}"]
+
+
 #: the held-out evaluation of issue 11: speeds (km/h) and payloads (t: lead, passenger car)
 EVAL_SPEEDS_KMH = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
 EVAL_PAYLOADS_T = ((0.0, 0.0), (2.0, 8.0))
@@ -114,7 +131,7 @@ def envelope_rows(
     """Criteria on the **reference** of each policy (name → factory of an env → object with
     ``predict``) at each speed (km/h) × payload ((lead, passenger) t), fixed by
     ``reset(options=...)``; ``env_kwargs`` as the policy was trained with (default: the
-    ``envelope`` scenario)."""
+    ``envelope`` scenario); ``diverged``: the env cut the run as diverged."""
     kwargs = {"scenario": "envelope", **(env_kwargs or {}), "backend": "reference"}
     rows = []
     cases = [(kmh, payload) for kmh in speeds_kmh for payload in payloads_t]
@@ -122,17 +139,23 @@ def envelope_rows(
         options = {"speed_kmh": kmh, "payload_t": list(payload)}
         for name, factory in policies.items():
             env = TrainCrashVectorEnv(num_envs=1, **kwargs)
-            crit = rollout(env, factory(env), options=options)[0].criteria()
+            run = rollout(env, factory(env), options=options)[0]
             rows.append(
-                {"controller": name, "speed_kmh": kmh, "payload_t": payload, "criteria": crit}
+                {
+                    "controller": name,
+                    "speed_kmh": kmh,
+                    "payload_t": payload,
+                    "criteria": run.criteria(),
+                    "diverged": run.diverged,
+                }
             )
     return rows
 
 
 def envelope_summary(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
     """Per controller: mean worst-car peak deceleration (g) over the cases, the largest
-    intrusion (m) up to 45 km/h and over all, its largest intrusion excess over passive in any
-    case (m), the share of cases passing every criterion."""
+    intrusion (m) up to 45 km/h (NaN without such a case) and over all, its largest intrusion
+    excess over passive in any case (m), the share of cases passing every criterion."""
     cases: dict[tuple[float, tuple[float, float]], float] = {
         (r["speed_kmh"], r["payload_t"]): r["criteria"].intrusion_m.max()
         for r in rows
@@ -148,7 +171,7 @@ def envelope_summary(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
         ]
         out[name] = {
             "peak_g": float(np.mean([r["criteria"].peak_decel_g.max() for r in mine])),
-            "intrusion_le45_m": max(x for v, x in intr if v <= 45.0),
+            "intrusion_le45_m": max((x for v, x in intr if v <= 45.0), default=math.nan),
             "intrusion_m": max(x for _, x in intr),
             "excess_over_passive_m": float(np.nanmax(excess)),
             "passed": float(np.mean([r["criteria"].all_passed for r in mine])),
@@ -157,20 +180,29 @@ def envelope_summary(rows: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
 
 
 def envelope_table(rows: list[dict[str, Any]]) -> str:
-    """Markdown tables of :func:`envelope_rows`: every case, then :func:`envelope_summary`
-    with the peak reduction against passive and against the speed-adaptive rule."""
+    """Markdown tables of :func:`envelope_rows`: every case (a run the env cut as diverged
+    marked in the column ``diverged`` and named in a line under the table), then
+    :func:`envelope_summary` with the peak reduction against passive and against the
+    speed-adaptive rule."""
     lines = [
         "| speed km/h | payload t | controller | peak g (per car) | pulse mean g "
-        "| intrusion m (per zone) | all criteria |",
-        "|---|---|---|---|---|---|---|",
+        "| intrusion m (per zone) | all criteria | diverged |",
+        "|---|---|---|---|---|---|---|---|",
     ]
+    cut = []
     for r in rows:
         c = r["criteria"]
+        payload = _pair(r["payload_t"], "{:g}")
+        diverged = bool(r.get("diverged", False))
+        if diverged:
+            cut.append(f"{r['controller']} at {r['speed_kmh']:g} km/h, payload {payload} t")
         lines.append(
-            f"| {r['speed_kmh']:g} | {_pair(r['payload_t'], '{:g}')} | {r['controller']} "
+            f"| {r['speed_kmh']:g} | {payload} | {r['controller']} "
             f"| {_pair(c.peak_decel_g)} | {_pair(c.pulse.mean_g)} "
-            f"| {_pair(c.intrusion_m, '{:.3f}')} | {'✓' if c.all_passed else '✗'} |"
+            f"| {_pair(c.intrusion_m, '{:.3f}')} | {'✓' if c.all_passed else '✗'} "
+            f"| {'yes' if diverged else 'no'} |"
         )
+    lines += diverged_lines(cut)
     summary = envelope_summary(rows)
     ref = {k: summary[k]["peak_g"] for k in ("passive", "speed-adaptive") if k in summary}
     lines += [
@@ -272,7 +304,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--trust", action="store_true", help="as for railgym evaluate")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
-    with quiet(args.quiet):
+    with quiet(args.quiet), one_line_warnings(parser.prog):
         return _report(args)
 
 

@@ -22,6 +22,13 @@ the vehicle) runs ``episodes`` episodes in one native vector env, sub-env ``i`` 
 of seed ``seed + i`` — the same tracks for every policy. ``--workers N`` / ``--address ADDR``
 run the cases of the vertical and vehicle evaluations as parallel tasks
 (:func:`railgym.parallel.run_tasks`); the rows do not depend on the number of workers.
+
+The command always adds rows to compare against, whether or not they are named: ``passive``
+and ``skyhook`` on the vertical env and the vehicle (first, in that order; the Δa_w column is
+the reduction against passive), ``passive`` on the crash env (Δpeak against it), and the three
+crash baselines ``passive``, ``best-constant``, ``speed-adaptive`` with ``--envelope``. Naming
+one of them as well adds no second row. A crash run that the env cut as diverged
+(``info["diverged"]``) is marked in the table and named in a line under it.
 """
 
 from __future__ import annotations
@@ -38,15 +45,18 @@ from agents import crash_report
 from agents._args import (
     VEHICLE_DURATION_S,
     add_parallel_arguments,
+    backend_kwargs,
     check_parallel,
     check_speed_kmh,
     duration_s,
+    env_kwargs_of,
     episodes,
     seed_number,
     speed_kmh,
     track_class,
     vehicle_cases,
     vertical_cases,
+    with_policy_kwargs,
 )
 from agents.gap import run_gap
 from agents.policies import (
@@ -97,42 +107,108 @@ __all__ = [
 ]
 
 
+def _aligned(columns: Sequence[tuple[str, str, int]], cells: list[list[str]]) -> str:
+    """A text table: columns ``(title, align, least width)`` (align ``"<"`` or ``">"``), each
+    as wide as its title and its widest cell (a long policy name widens its column)."""
+    widths = [
+        max([least, len(title), *(len(row[k]) for row in cells)])
+        for k, (title, _, least) in enumerate(columns)
+    ]
+
+    def line(values: Sequence[str]) -> str:
+        parts = zip(values, columns, widths, strict=True)
+        return " ".join(f"{v:{align}{w}}" for v, (_, align, _), w in parts).rstrip()
+
+    return "\n".join([line([c[0] for c in columns]), *(line(row) for row in cells)])
+
+
+#: columns of the surrogate's validity flags (docs/validation.md, *Validity flags*): the share
+#: of steps with an element input outside its training box, and the case against the
+#: element's operating envelope
+VALIDITY_COLUMNS = [("out-box %", ">", 9), ("envelope", ">", 8)]
+
+
+def _with_validity(
+    rows: list[dict[str, Any]], columns: list[tuple[str, str, int]], cells: list[list[str]]
+) -> tuple[list[tuple[str, str, int]], list[list[str]]]:
+    """``columns`` and ``cells`` with :data:`VALIDITY_COLUMNS` added where a row ran the
+    surrogate backend (``-`` in the others' rows: they never flag)."""
+    if not any(r.get("backend") == "surrogate" for r in rows):
+        return columns, cells
+
+    def flags(r: dict[str, Any]) -> list[str]:
+        if r.get("backend") != "surrogate":
+            return ["-", "-"]
+        return [f"{r['outside_element_%']:.3g}", "outside" if r["outside_envelope"] else "inside"]
+
+    return columns + VALIDITY_COLUMNS, [c + flags(r) for c, r in zip(cells, rows, strict=True)]
+
+
 def format_rows(rows: list[dict[str, Any]]) -> str:
-    """Aligned text table of :func:`agents.sweeps.evaluate_sweep` rows."""
-    head = (
-        f"{'class':>5} {'policy':<16} {'RMS ẍ2 m/s²':>12} {'a_w Wk m/s²':>12} {'Δa_w %':>7} "
-        f"{'Wz':>6} {'max |δ| mm':>10} {'contacts':>8}"
-    )
-    lines = [head]
-    for r in rows:
-        lines.append(
-            f"{r['track_class']:>5} {r['policy']:<16} {r['rms_acc']:12.3f} {r['a_w']:12.3f} "
-            f"{r['a_w_reduction_%']:7.1f} {r['wz']:6.2f} {r['max_defl_mm']:10.1f} "
-            f"{r['contacts']:8.0f}"
-        )
-    return "\n".join(lines)
+    """Aligned text table of :func:`agents.sweeps.evaluate_sweep` rows (each column as wide
+    as its widest entry; on the surrogate backend with :data:`VALIDITY_COLUMNS`)."""
+    columns = [
+        ("class", ">", 5),
+        ("policy", "<", 16),
+        ("RMS ẍ2 m/s²", ">", 12),
+        ("a_w Wk m/s²", ">", 12),
+        ("Δa_w %", ">", 7),
+        ("Wz", ">", 6),
+        ("max |δ| mm", ">", 10),
+        ("contacts", ">", 8),
+    ]
+    cells = [
+        [
+            str(r["track_class"]),
+            str(r["policy"]),
+            f"{r['rms_acc']:.3f}",
+            f"{r['a_w']:.3f}",
+            f"{r['a_w_reduction_%']:.1f}",
+            f"{r['wz']:.2f}",
+            f"{r['max_defl_mm']:.1f}",
+            f"{r['contacts']:.0f}",
+        ]
+        for r in rows
+    ]
+    return _aligned(*_with_validity(rows, columns, cells))
 
 
 def format_vehicle_rows(rows: list[dict[str, Any]]) -> str:
-    """Aligned text table of :func:`evaluate_vehicle` rows, front / centre / rear per index."""
+    """Aligned text table of :func:`evaluate_vehicle` rows, front / centre / rear per index
+    (each column as wide as its widest entry; on the surrogate backend with
+    :data:`VALIDITY_COLUMNS`)."""
 
     def three(x: np.ndarray, fmt: str) -> str:
         return "/".join(fmt.format(v) for v in x)
 
-    head = (
-        f"{'class':>5} {'km/h':>5} {'policy':<14} {'RMS acc m/s²':>16} {'a_w Wk m/s²':>16} "
-        f"{'Δa_w %':>17} {'a_ZP95 Wb m/s²':>16} {'Wz':>14} {'contacts':>8} {'out-dom':>8}"
-    )
-    lines = [head]
-    for r in rows:
-        lines.append(
-            f"{r['track_class']:>5} {r['speed_kmh']:5.0f} {r['policy']:<14} "
-            f"{three(r['rms_acc'], '{:.3f}'):>16} {three(r['a_w'], '{:.3f}'):>16} "
-            f"{three(r['a_w_reduction_%'], '{:.1f}'):>17} "
-            f"{three(r['a_ZP95_Wb'], '{:.3f}'):>16} {three(r['Wz'], '{:.2f}'):>14} "
-            f"{r['contacts']:8.0f} {r['ood']:8.0f}"
-        )
-    return "\n".join(lines)
+    columns = [
+        ("class", ">", 5),
+        ("km/h", ">", 5),
+        ("policy", "<", 14),
+        ("RMS acc m/s²", ">", 16),
+        ("a_w Wk m/s²", ">", 16),
+        ("Δa_w %", ">", 17),
+        ("a_ZP95 Wb m/s²", ">", 16),
+        ("Wz", ">", 14),
+        ("contacts", ">", 8),
+        ("out-dom", ">", 8),
+    ]
+    cells = [
+        [
+            str(r["track_class"]),
+            f"{r['speed_kmh']:.0f}",
+            str(r["policy"]),
+            three(r["rms_acc"], "{:.3f}"),
+            three(r["a_w"], "{:.3f}"),
+            three(r["a_w_reduction_%"], "{:.1f}"),
+            three(r["a_ZP95_Wb"], "{:.3f}"),
+            three(r["Wz"], "{:.2f}"),
+            f"{r['contacts']:.0f}",
+            f"{r['ood']:.0f}",
+        ]
+        for r in rows
+    ]
+    return _aligned(*_with_validity(rows, columns, cells))
 
 
 # ================================================================ railgym/TrainCrash-v1
@@ -141,11 +217,15 @@ def evaluate_crash(
     backend: str = "reference",
     speeds_kmh: Sequence[float] = (40.0,),
     trust: bool = False,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v1``
-    (``trust``: see :func:`load_policy`)."""
+    (``trust``: see :func:`load_policy`); ``env_kwargs`` (e.g. the user's ``scenario``,
+    ``surrogate``) are added to each policy's training settings. ``diverged``: the env cut
+    the run where its state diverged (``info["diverged"]``), the indices are those at the cut."""
     speeds_kmh = [check_speed_kmh(v, "speeds_kmh") for v in val.sequence(speeds_kmh, "speeds_kmh")]
     rows = []
+    extra = dict(env_kwargs or {})
     loaded = [
         load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")
         for p in val.sequence(policies, "policies")
@@ -155,7 +235,8 @@ def evaluate_crash(
         for factory, env_kwargs, label in loaded:
             # the speed as a reset option: the observation keeps the scales the policy was
             # trained with (an explicit `speed` would rescale an envelope's velocities)
-            env = gym.make(CRASH_ID, backend=backend, **env_kwargs)
+            kwargs = with_policy_kwargs(env_kwargs, backend_kwargs(backend, extra), label)
+            env = gym.make(CRASH_ID, backend=backend, **kwargs)
             ctrl = factory(env) if factory else None
             obs, _ = env.reset(seed=0, options={"speed_kmh": v})
             while True:
@@ -175,6 +256,7 @@ def evaluate_crash(
                     "peak_decel_g": info["peak_decel_g"],
                     "max_crush_m": info["max_crush_m"],
                     "stroke_exceeded": bool(info["stroke_exceeded"]),
+                    "diverged": bool(info["diverged"]),
                     "peak_reduction_%": 100 * (1 - peak / passive) if passive else float("nan"),
                 }
             )
@@ -210,20 +292,32 @@ def evaluate_envelope(
 
 
 def format_crash_rows(rows: list[dict[str, Any]]) -> str:
-    """Aligned text table of :func:`evaluate_crash` rows."""
-    lines = [
-        f"{'km/h':>5} {'policy':<16} {'peak decel per car (g)':<24} {'Δpeak %':>7} "
-        f"{'max crush per zone (m)':<24} stroke exceeded"
+    """Aligned text table of :func:`evaluate_crash` rows (each column as wide as its widest
+    entry); a run the env cut as diverged is marked in the column ``diverged`` and named in a
+    line under the table."""
+    columns = [
+        ("km/h", ">", 5),
+        ("policy", "<", 16),
+        ("peak decel per car (g)", "<", 24),
+        ("Δpeak %", ">", 7),
+        ("max crush per zone (m)", "<", 24),
+        ("stroke exceeded", "<", 15),
+        ("diverged", "<", 8),
     ]
-    for r in rows:
-        peaks = " ".join(f"{x:.2f}" for x in np.atleast_1d(r["peak_decel_g"]))
-        crush = " ".join(f"{x:.3f}" for x in np.atleast_1d(r["max_crush_m"]))
-        lines.append(
-            f"{r['speed_kmh']:5.0f} {r['policy']:<16} {peaks:<24} "
-            f"{r['peak_reduction_%']:7.1f} {crush:<24} "
-            f"{r['stroke_exceeded']}"
-        )
-    return "\n".join(lines)
+    cells = [
+        [
+            f"{r['speed_kmh']:.0f}",
+            str(r["policy"]),
+            " ".join(f"{x:.2f}" for x in np.atleast_1d(r["peak_decel_g"])),
+            f"{r['peak_reduction_%']:.1f}",
+            " ".join(f"{x:.3f}" for x in np.atleast_1d(r["max_crush_m"])),
+            str(r["stroke_exceeded"]),
+            "yes" if r.get("diverged", False) else "no",
+        ]
+        for r in rows
+    ]
+    cut = [f"{r['policy']} at {r['speed_kmh']:g} km/h" for r in rows if r.get("diverged", False)]
+    return "\n".join([_aligned(columns, cells), *crash_report.diverged_lines(cut)])
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -232,7 +326,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "policy",
         nargs="+",
         help=f"vertical: {', '.join(CONTROLLERS)}; vehicle: {', '.join(VEHICLE_CONTROLLERS)}; "
-        f"a pretrained policy ({', '.join(PRETRAINED)}) or a policy .zip",
+        f"a pretrained policy ({', '.join(PRETRAINED)}) or a policy .zip. The comparison rows "
+        "are always added: passive and skyhook (vertical, vehicle), passive (crash), passive, "
+        "best-constant and speed-adaptive (crash --envelope)",
     )
     parser.add_argument(
         "--backend",
@@ -243,6 +339,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--fmu", type=Path, help="backend fmu: the FMU (default: the map's fmu:)")
     parser.add_argument("--fmu-map", type=Path, help="backend fmu: its mapping file (YAML)")
+    parser.add_argument(
+        "--surrogate",
+        type=Path,
+        help="the element of --backend surrogate (and of the surrogate side of --gap): a model "
+        "JSON (vertical, vehicle) or crash elements (railgym.vehicles.crash.fe)",
+    )
+    parser.add_argument(
+        "--scenario",
+        help="crash: scenario YAML (name or path) of the train (default: the policies' own, "
+        "passive: paper)",
+    )
+    parser.add_argument(
+        "--vehicle",
+        help="vertical, vehicle: vehicle YAML (name or path) the envs run and the controllers "
+        "are designed for (default: the packaged one; with --backend fmu the mapping's "
+        "vehicle:)",
+    )
     parser.add_argument(
         "--track-class",
         type=track_class,
@@ -305,13 +418,13 @@ def run(args: argparse.Namespace) -> int:
     if args.gap:
         return run_gap(args)
     parallel = {"--workers": args.workers != 1, "--address": args.address is not None}
-    fmu = {"fmu": args.fmu, "fmu_map": args.fmu_map} if args.backend == "fmu" else {}
-    if args.backend != "fmu" and (args.fmu is not None or args.fmu_map is not None):
-        raise ValueError("--fmu, --fmu-map: only with --backend fmu")
-    if fmu and args.env == "crash":
-        raise ValueError("--backend fmu: only for --env vertical and vehicle, not --env crash")
+    fmu = env_kwargs_of(args)
     if args.env == "crash":
-        _only_for(args, {**parallel, "--duration": args.duration is not None}, "vertical, vehicle")
+        _only_for(
+            args,
+            {**parallel, "--duration": args.duration is not None, "--vehicle": bool(args.vehicle)},
+            "vertical, vehicle",
+        )
         if args.backend == "linear":
             raise ValueError("--backend: the crash env has backends reference and surrogate")
         if args.envelope:
@@ -322,7 +435,7 @@ def run(args: argparse.Namespace) -> int:
             print(crash_report.envelope_table(rows))
             return 0
         policies = ["passive"] + [p for p in args.policy if p != "passive"]
-        rows = evaluate_crash(policies, args.backend, args.speed or [40.0], args.trust)
+        rows = evaluate_crash(policies, args.backend, args.speed or [40.0], args.trust, fmu)
         print(
             f"TrainCrash-v1, backend: {args.backend}; Δpeak: reduction of the largest car "
             "deceleration vs the passive absorbers"

@@ -3,8 +3,9 @@
 - ``railgym export-reference-fmu --env vertical -o OUT.fmu [--kind both|cs|me]``: the
   built-in reference model as an FMI 2.0 FMU and its mapping file ``OUT.yaml``
   (:func:`railgym.fmu.reference.export_reference_fmu`), so that ``backend="fmu"`` runs it.
-- ``railgym export-policy POLICY -o OUT.fmu [--onnx OUT.onnx]``: a trained SB3 policy as a
-  standalone co-simulation FMU (:mod:`agents.policy_fmu`).
+- ``railgym export-policy POLICY -o OUT.fmu [--onnx OUT.onnx]``: a trained SB3 policy (a zip
+  or a pretrained name such as ``ppo-vertical``; plain or residual) as a standalone
+  co-simulation FMU (:mod:`agents.policy_fmu`).
 """
 
 from __future__ import annotations
@@ -44,7 +45,11 @@ def run_reference(args: argparse.Namespace) -> int:
 
 def add_policy_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``railgym export-policy``."""
-    parser.add_argument("policy", type=Path, help="the policy .zip (config.yaml beside it)")
+    parser.add_argument(
+        "policy",
+        help="a pretrained policy name (ppo-vertical, ppo-vehicle) or a policy .zip "
+        "(config.yaml beside it); a residual policy brings its classical controller",
+    )
     parser.add_argument("-o", "--output", type=Path, required=True, help="the .fmu to write")
     parser.add_argument("--onnx", type=Path, help="also write the policy as this .onnx")
     parser.add_argument("--overwrite", action="store_true", help="replace existing files")

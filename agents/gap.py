@@ -14,7 +14,9 @@ cases, and every task metric is reported on both with its relative gap
 * ``crash`` (``TrainCrash-v1``): per impact speed × payload of the held-out envelope
   (:data:`agents.crash_report.EVAL_SPEEDS_KMH`, :data:`~agents.crash_report.EVAL_PAYLOADS_T`),
   each car's peak and 10 ms moving-average peak deceleration (g), each zone's maximum crush and
-  survival-space intrusion (m) (:mod:`railgym.vehicles.crash.criteria`).
+  survival-space intrusion (m) (:mod:`railgym.vehicles.crash.criteria`); a run the env cut as
+  diverged (``info["diverged"]``) is marked in the column ``diverged`` (the backends cut) and
+  named in a line under the table.
 
 A policy trusted on the surrogate is one whose gaps are small: the surrogate does not flatter
 it. Both sides run the same policy object on the same seeds, so the gap of a backend against
@@ -31,7 +33,14 @@ from typing import Any
 import numpy as np
 
 from agents import crash_report
-from agents._args import VEHICLE_DURATION_S, vehicle_cases, vertical_cases
+from agents._args import (
+    VEHICLE_DURATION_S,
+    backend_kwargs,
+    env_kwargs_of,
+    vehicle_cases,
+    vertical_cases,
+    with_policy_kwargs,
+)
 from agents.crash_baselines import rollout
 from agents.policies import CRASH_ID, evaluate_vehicle, load_policy
 from agents.sweeps import evaluate_sweep
@@ -75,14 +84,26 @@ def gap_vertical(
     workers: int = 1,
     address: str | None = None,
     backends: tuple[str, str] = (SURROGATE, "reference"),
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Gap rows of ``VerticalSuspension-v1``: one per (track class, policy), metric ``a_w``.
 
-    ``backends``: the (surrogate, reference) pair compared; the other arguments as
+    ``backends``: the (surrogate, reference) pair compared; ``env_kwargs`` go to both
+    (``fmu``, ``fmu_map`` to the ``"fmu"`` backend only); the other arguments as
     :func:`agents.sweeps.evaluate_sweep`.
     """
     runs = [
-        evaluate_sweep(policies, b, track_classes, episodes, seed, trust, workers, address)
+        evaluate_sweep(
+            policies,
+            b,
+            track_classes,
+            episodes,
+            seed,
+            trust,
+            workers,
+            address,
+            backend_kwargs(b, env_kwargs),
+        )
         for b in backends
     ]
     return [
@@ -102,9 +123,11 @@ def gap_vehicle(
     workers: int = 1,
     address: str | None = None,
     backends: tuple[str, str] = (SURROGATE, "reference"),
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Gap rows of ``VerticalVehicle-v1``: per (track class, speed, policy) the metric
-    ``a_w`` at each floor point; arguments as :func:`agents.policies.evaluate_vehicle`."""
+    ``a_w`` at each floor point; ``env_kwargs`` as :func:`gap_vertical`'s, the other
+    arguments as :func:`agents.policies.evaluate_vehicle`."""
     runs = [
         evaluate_vehicle(
             policies,
@@ -117,6 +140,7 @@ def gap_vehicle(
             trust,
             workers,
             address,
+            env_kwargs=backend_kwargs(b, env_kwargs),
         )
         for b in backends
     ]
@@ -149,12 +173,16 @@ def gap_crash(
     payloads_t: Sequence[tuple[float, float]] | None = None,
     trust: bool = False,
     backends: tuple[str, str] = (SURROGATE, "reference"),
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
-    """Gap rows of ``TrainCrash-v1`` per (speed km/h × payload t, policy) and metric.
+    """Gap rows of ``TrainCrash-v1`` per (speed km/h × payload t, policy) and metric;
+    ``diverged``: the backends the env cut as diverged (``"surrogate"``, ``"reference"``,
+    ``"surrogate and reference"``), else ``""``.
 
     ``policies``: the crash baselines (``passive``, ``best-constant``, ``speed-adaptive``) or
     trained policy ``.zip`` files, each on the ``envelope`` scenario with the env settings it
     was trained with; cases fixed by ``reset(options=...)`` (default the held-out envelope).
+    ``env_kwargs``: e.g. the user's ``scenario`` and ``surrogate`` (to the surrogate side).
     """
     speeds = crash_report.EVAL_SPEEDS_KMH if speeds_kmh is None else tuple(speeds_kmh)
     payloads = crash_report.EVAL_PAYLOADS_T if payloads_t is None else tuple(payloads_t)
@@ -170,33 +198,49 @@ def gap_crash(
         for payload in payloads:
             case = f"{kmh:g} km/h, payload {payload[0]:g}/{payload[1]:g} t"
             options = {"speed_kmh": kmh, "payload_t": list(payload)}
-            for factory, env_kwargs, label in loaded:
-                metrics = []
+            for factory, trained, label in loaded:
+                metrics, cut = [], []
                 for b in backends:
-                    kwargs = {"scenario": "envelope", **env_kwargs, "backend": b}
+                    extra = backend_kwargs(b, env_kwargs)
+                    kwargs = {
+                        "scenario": "envelope",
+                        **with_policy_kwargs(trained, extra, label),
+                        "backend": b,
+                    }
                     env = TrainCrashVectorEnv(num_envs=1, **kwargs)
-                    metrics.append(_crash_metrics(rollout(env, factory(env), options=options)[0]))
+                    run = rollout(env, factory(env), options=options)[0]
+                    metrics.append(_crash_metrics(run))
+                    cut.append(run.diverged)
                     env.close()
                 s, r = metrics
-                rows += [_row(case, label, k, s[k], r[k]) for k in s]
+                sides = " and ".join(b for b, c in zip(backends, cut, strict=True) if c)
+                rows += [{**_row(case, label, k, s[k], r[k]), "diverged": sides} for k in s]
     return rows
 
 
 def format_gap(rows: list[dict[str, Any]], against: str = "reference") -> str:
     """Aligned text table of gap rows (``against``: the label of the reference column), then
-    the largest |gap| of each policy."""
+    the largest |gap| of each policy. Rows with a ``diverged`` key (the crash's) get a
+    column ``diverged`` and the diverged runs are named in a line under the table."""
     wc = max([4, *(len(r["case"]) for r in rows)])
     wp = max([6, *(len(r["policy"]) for r in rows)])
     wm = max([6, *(len(r["metric"]) for r in rows)])
+    marked = any("diverged" in r for r in rows)
     lines = [
         f"{'case':<{wc}}  {'policy':<{wp}}  {'metric':<{wm}}  {'surrogate':>10}  "
-        f"{against:>10}  {'gap %':>8}"
+        f"{against:>10}  {'gap %':>8}" + ("  diverged" if marked else "")
     ]
+    cut: dict[str, None] = {}
     for r in rows:
+        sides = r.get("diverged") or ""
+        if sides:
+            cut[f"{r['policy']}, {r['case']} ({sides})"] = None
         lines.append(
             f"{r['case']:<{wc}}  {r['policy']:<{wp}}  {r['metric']:<{wm}}  "
             f"{r['surrogate']:10.4g}  {r['reference']:10.4g}  {100 * r['gap']:8.2f}"
+            + (f"  {sides or 'no'}" if marked else "")
         )
+    lines += crash_report.diverged_lines(list(cut))
     worst: dict[str, float] = {}
     for r in rows:
         worst[r["policy"]] = max(worst.get(r["policy"], 0.0), abs(r["gap"]))
@@ -211,6 +255,7 @@ def run_gap(args: argparse.Namespace) -> int:
     if args.envelope:
         raise ValueError("--gap: runs the held-out envelope itself (--env crash), not --envelope")
     backends = (SURROGATE, args.backend)
+    models = env_kwargs_of(args)  # --fmu, --fmu-map, --vehicle: checked, passed to both
     what = f"surrogate vs {args.backend}; gap = (surrogate − {args.backend}) / |{args.backend}|"
     if args.env == "crash":
         if args.backend == "linear":
@@ -222,10 +267,15 @@ def run_gap(args: argparse.Namespace) -> int:
         }.items():
             if given:
                 raise ValueError(f"{flag}: only for vertical, vehicle, not --env crash")
-        rows = gap_crash(args.policy, args.speed, trust=args.trust, backends=backends)
-        print(f"TrainCrash-v1 envelope scenario, held-out cases; {what}")
+        rows = gap_crash(
+            args.policy, args.speed, trust=args.trust, backends=backends, env_kwargs=models
+        )
+        print(
+            f"TrainCrash-v1 {models.get('scenario', 'envelope')} scenario, held-out cases; {what}"
+        )
     elif args.env == "vehicle":
-        rows = gap_vehicle(args.policy, backends=backends, **vehicle_cases(args))
+        cases = vehicle_cases(args)
+        rows = gap_vehicle(args.policy, backends=backends, env_kwargs=models, **cases)
         print(
             f"VerticalVehicle-v1, {args.episodes} episodes per case (seeds {args.seed}+i); {what}"
         )
@@ -233,7 +283,9 @@ def run_gap(args: argparse.Namespace) -> int:
         for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
             if given is not None:
                 raise ValueError(f"{flag}: only for --env vehicle and crash, not --env vertical")
-        rows = gap_vertical(args.policy, backends=backends, **vertical_cases(args))
+        rows = gap_vertical(
+            args.policy, backends=backends, env_kwargs=models, **vertical_cases(args)
+        )
         print(
             f"VerticalSuspension-v1, {args.episodes} episodes per track class "
             f"(seeds {args.seed}+i); {what}"

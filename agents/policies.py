@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import MAX_EPISODES, VEHICLE_DURATION_S, check_speed_kmh
+from agents._args import MAX_EPISODES, VEHICLE_DURATION_S, check_speed_kmh, with_policy_kwargs
 from agents._extras import require
 from agents.action_hold import HeldPolicy
 from agents.controllers import (  # noqa: F401  (the tables re-exported)
@@ -116,6 +116,15 @@ POLICY_ENV_KWARGS = frozenset(
 RESIDUAL_DESIGN_KWARGS = POLICY_ENV_KWARGS | {"track_class", "speed", "reward_weights"}
 
 
+def design_env_kwargs(env_id: str, kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``kwargs`` of an env made only for its spaces and its controller design: the linear
+    backend of a track env (it needs nothing of the vehicle but its linear description, so a
+    user's vehicle file works; no element is loaded), the crash env as it is."""
+    if env_family(env_id) == env_family(CRASH_ID):
+        return kwargs
+    return {**kwargs, "backend": "linear"}
+
+
 class _Network(NamedTuple):
     """What a stable-baselines3 zip was trained with."""
 
@@ -182,7 +191,7 @@ def _sb3_policy(
             stacklevel=3,
         )
     env_kwargs = {k: v for k, v in network.env_kwargs.items() if k in POLICY_ENV_KWARGS}
-    probe = gym.make(env_id, **env_kwargs)  # the single env's spaces
+    probe = gym.make(env_id, **design_env_kwargs(env_id, env_kwargs))  # the single env's spaces
     obs_shape = network.obs_shape
     if obs_shape is not None and obs_shape != probe.observation_space.shape:
         raise ValueError(
@@ -207,7 +216,7 @@ def _sb3_policy(
     name, scale = network.residual, network.residual_scale
     if name is not None:  # one controller per factory call, designed for the training case
         design = {k: v for k, v in network.env_kwargs.items() if k in RESIDUAL_DESIGN_KWARGS}
-        design_env = gym.make(env_id, **design)
+        design_env = gym.make(env_id, **design_env_kwargs(env_id, design))
         return (
             (lambda env: ResidualPolicy(net, build_controller(env_id, name, design_env), scale)),
             env_kwargs,
@@ -216,20 +225,36 @@ def _sb3_policy(
     return (lambda env: net), env_kwargs, label
 
 
+def _validity(outside_steps: np.ndarray, steps: int, info: dict[str, Any]) -> dict[str, Any]:
+    """The validity flags of a run (docs/validation.md, *Validity flags*): ``outside_element_%``
+    (share of the steps of all episodes with an element evaluation outside the training box,
+    %; ``outside_steps`` (episodes,) counts them over ``steps`` steps each) and
+    ``outside_envelope`` (any episode outside the element's envelope, from the last ``info``)."""
+    return {
+        "outside_element_%": float(
+            100.0 * np.sum(outside_steps) / max(steps * len(outside_steps), 1)
+        ),
+        "outside_envelope": bool(np.any(info["outside_envelope"])),
+    }
+
+
 def run_policy(
     factory: Any, env_kwargs: dict[str, Any], episodes: int, seed: int
-) -> dict[str, float]:
-    """Run ``episodes`` episodes (one per sub-env) and return the mean comfort indices."""
+) -> dict[str, Any]:
+    """Run ``episodes`` episodes (one per sub-env) and return the mean comfort indices, with
+    the env's ``backend`` and the validity flags of :func:`_validity`."""
     venv = gym.make_vec(
         ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point", **env_kwargs
     )
     ctrl = factory(venv)
     obs, _ = venv.reset(seed=seed)
     acc, defl, contacts = [], [], np.zeros(episodes)
+    outside = np.zeros(episodes, np.int64)
     base: Any = venv.unwrapped  # VerticalSuspensionVectorEnv: state, cfg
     while True:
         action, _ = ctrl.predict(obs, deterministic=True)
         obs, _, term, trunc, info = venv.step(np.asarray(action, np.float32).reshape(episodes, 1))
+        outside += info["outside_element"]
         acc.append(info["carbody_acc"].copy())
         state = base.state
         defl.append(state[:, 0] - state[:, 2])
@@ -250,6 +275,8 @@ def run_policy(
         "wz": float(np.mean([sperling_wz(a[:, i], fs) for i in range(episodes)])),
         "max_defl_mm": float(np.max(np.abs(defl)) * 1e3),
         "contacts": float(np.sum(contacts)),
+        "backend": str(base.cfg.backend),
+        **_validity(outside, len(acc), info),
     }
 
 
@@ -276,17 +303,21 @@ def run_vehicle_policy(
     ``rms_acc`` (RMS floor acceleration, m/s²) and the env's end-of-episode comfort ``a_w``
     (ISO 2631-1 Wk RMS, m/s²), ``a_ZP95_Wb`` (EN 12299, m/s²), ``Wz`` (Sperling); with
     ``speed_kmh`` and the totals ``contacts`` (bump-stop substeps) and ``ood`` (surrogate
-    evaluations outside its box)."""
+    evaluations outside its box), the env's ``backend`` and the validity flags of
+    :func:`_validity`."""
     venv = gym.make_vec(
         VEHICLE_ID, num_envs=episodes, vectorization_mode="vector_entry_point", **env_kwargs
     )
     ctrl = factory(venv)
     obs, _ = venv.reset(seed=seed)
     n_act = venv.single_action_space.shape[0]
+    outside, steps = np.zeros(episodes, np.int64), 0
     while True:
         action, _ = ctrl.predict(obs, deterministic=True)
         action = np.asarray(action, np.float32).reshape(episodes, n_act)
         obs, _, term, trunc, info = venv.step(action)
+        outside += info["outside_element"]
+        steps += 1
         if np.any(term):
             raise RuntimeError(f"an episode diverged (sub-envs {np.flatnonzero(term).tolist()})")
         if np.all(trunc):
@@ -299,12 +330,19 @@ def run_vehicle_policy(
         **{k: np.mean(comfort[k], axis=0) for k in VEHICLE_COMFORT},
         "contacts": float(np.sum(info["bump_stop_contacts"])),
         "ood": float(np.sum(info["out_of_domain"])),
+        "backend": str(venv.unwrapped.cfg.backend),
+        **_validity(outside, steps, info),
     }
 
 
 def _run_vehicle_task(task: VehicleTask) -> dict[str, Any]:
     factory, env_kwargs, _ = load_policy(task.policy, VEHICLE_ID, task.trust)
-    return run_vehicle_policy(factory, {**task.env_kwargs, **env_kwargs}, task.episodes, task.seed)
+    return run_vehicle_policy(
+        factory,
+        with_policy_kwargs(env_kwargs, task.env_kwargs, task.policy),
+        task.episodes,
+        task.seed,
+    )
 
 
 def evaluate_vehicle(

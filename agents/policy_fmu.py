@@ -1,10 +1,12 @@
 """A trained policy as a standalone FMI 2.0 co-simulation FMU in C, and as ONNX.
 
 ``railgym export-policy POLICY -o controller.fmu [--onnx controller.onnx]``: the SB3 MLP
-policy (PPO or SAC, as :mod:`agents.train` writes them) is loaded as weights only, after the
-manifest check (:func:`agents.policies.load_policy`); its deterministic action is written out
-as plain C (``agents/c/policy_element.h`` on the generic FMI element of
-``surrogates/fmi/c/element.c``) with no Python in the host:
+policy (PPO or SAC, as :mod:`agents.train` writes them; ``POLICY`` a zip with its
+``config.yaml`` beside it or a pretrained name of :mod:`agents.pretrained`, resolved as
+``railgym evaluate`` does) is loaded as weights only, after the manifest check
+(:func:`agents.policies.load_policy`); its deterministic action is written out as plain C
+(``agents/c/policy_element.h`` on the generic FMI element of ``surrogates/fmi/c/element.c``)
+with no Python in the host:
 
 * inputs: the env's observation channels in SI, named after ``obs_names``, in its order;
 * inside: the env's observation scaling (``obs / obs_scale``, rounded to float32 as the env
@@ -13,8 +15,18 @@ as plain C (``agents/c/policy_element.h`` on the generic FMI element of
 * outputs: the actuator forces in N (``actuator_force``; ``actuator_force_front``,
   ``actuator_force_rear`` for ``VerticalVehicle-v1``).
 
+A residual policy (config ``residual``, :mod:`agents.residual`) also holds its classical
+base, designed for the training case as where the policy is loaded, as a linear discrete
+state-space (:mod:`agents.residual_export`, ``agents/c/linear_base.h``): the force is
+``clip(a_base + scale·a_policy, −1, 1)·f_max``, and the base's state (an LQG's Kalman
+estimate) is updated at each ``fmi2DoStep`` and back at rest at ``fmi2Reset`` and
+instantiation. Policies that decide every ``action_hold > 1`` steps, crash-env policies (their
+action is an absorber force scale, not a force) and non-linear bases are refused, saying why.
+
 The ONNX graph computes the same from a ``(batch, n_obs)`` double input ``observation`` to
-a ``(batch, n_act)`` float output ``actuator_force`` (needs the ``onnx`` extra).
+a ``(batch, n_act)`` float output ``actuator_force`` (needs the ``onnx`` extra); with a base
+that has states, also from the input ``controller_state`` (batch, n_x + n_act; zeros at an
+episode start) to the output ``controller_state_out``, to be fed back at the next step.
 """
 
 from __future__ import annotations
@@ -28,6 +40,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.residual_export import LinearBase, base_lines, base_onnx_nodes, linear_base
 from surrogates.fmi.export import guid_of, identifier, template, write_fmu
 from surrogates.fmi.model_description import Variable, model_description
 
@@ -131,6 +144,11 @@ def policy_net(net: Any, env: Any) -> PolicyNet:
     space = net.action_space
     if getattr(net, "normalize_images", False) and len(env.observation_space.shape) != 1:
         raise ValueError(f"policy {kind}: the observation must be a vector")
+    if not hasattr(env.cfg, "f_max"):
+        raise ValueError(
+            f"policy {kind}: the env {type(env).__name__} has no actuator force f_max (its "
+            "action is not a force), and the FMU outputs actuator forces"
+        )
     return PolicyNet(
         ws,
         bs,
@@ -164,7 +182,7 @@ def _c_floats(a: np.ndarray) -> str:
     return ", ".join(f"{float(x)!r}f" if np.isfinite(x) else "0.0f" for x in a)
 
 
-def _data_header(p: PolicyNet, guid: str, names: list[str]) -> str:
+def _data_header(p: PolicyNet, guid: str, names: list[str], base: LinearBase | None) -> str:
     sizes = [p.weights[0].shape[1]] + [w.shape[0] for w in p.weights]
     offsets, params, at = [], [], 0
     for w, b in zip(p.weights, p.biases, strict=True):
@@ -196,6 +214,7 @@ def _data_header(p: PolicyNet, guid: str, names: list[str]) -> str:
             "static const char *const el_input_names[PL_NIN] = {"
             + ", ".join(f'"{n}"' for n in names)
             + "};",
+            *(base_lines(base) if base is not None else []),
             '#include "policy_element.h"',
             "",
         ]
@@ -212,8 +231,15 @@ def force_names(n: int) -> list[str]:
     return [f"actuator_force_{k + 1}" for k in range(n)]
 
 
-def write_policy_fmu(p: PolicyNet, path: Path, label: str, compiler: str | None = None) -> Path:
-    """Write the FMU of :class:`PolicyNet` ``p`` to ``path`` (co-simulation)."""
+def write_policy_fmu(
+    p: PolicyNet,
+    path: Path,
+    label: str,
+    compiler: str | None = None,
+    base: LinearBase | None = None,
+) -> Path:
+    """Write the FMU of :class:`PolicyNet` ``p`` to ``path`` (co-simulation); with ``base``,
+    of the residual policy whose network ``p`` is."""
     n_act = p.weights[-1].shape[0]
     doc = {
         "policy": label,
@@ -228,34 +254,42 @@ def write_policy_fmu(p: PolicyNet, path: Path, label: str, compiler: str | None 
         "low": p.low.tolist(),
         "high": p.high.tolist(),
     }
+    if base is not None:
+        doc["residual"] = base.document()
     text = json.dumps(doc, sort_keys=True)
     guid = guid_of(text)
     ident = identifier(path, None)
     names = list(p.obs_names)
     inputs = [
-        Variable(n, unit_of(n), f"observation channel {n} (SI; the env's obs × {s!r})")
+        Variable(n, unit_of(n), f"observation channel {n} (SI; the env's obs × {float(s)!r})")
         for n, s in zip(names, p.obs_scale, strict=True)
     ]
+    # numbers as float repr: a numpy scalar's repr is `np.float64(…)`
+    scale = None if base is None else float(base.scale)
+    action = "action" if base is None else f"clip({base.name} + {scale!r}·policy, −1, 1)"
     outputs = [
-        Variable(n, "N", f"actuator force {k + 1} = action × f_max ({p.f_max!r} N)")
+        Variable(n, "N", f"actuator force {k + 1} = {action} × f_max ({float(p.f_max)!r} N)")
         for k, n in enumerate(force_names(n_act))
     ]
+    what = "" if base is None else f" (residual of {base.name}, scale {scale!r})"
     xml = model_description(
         model_identifier=ident,
         guid=guid,
-        description=f"railgym controller: policy {label}, deterministic action as force",
+        description=f"railgym controller: policy {label}{what}, deterministic action as force",
         inputs=inputs,
         outputs=outputs,
         starts=[0.0] * len(names),
         kinds=("cs",),
         source_files=("element.c",),
     )
-    header = (resources.files("agents") / "c" / "policy_element.h").read_text()
+    c_files = resources.files("agents") / "c"
     sources = {
-        "element_data.h": _data_header(p, guid, names),
-        "policy_element.h": header,
+        "element_data.h": _data_header(p, guid, names, base),
+        "policy_element.h": (c_files / "policy_element.h").read_text(),
         "element.c": template("element.c"),
     }
+    if base is not None:
+        sources["linear_base.h"] = (c_files / "linear_base.h").read_text()
     return write_fmu(
         path,
         ident,
@@ -268,8 +302,9 @@ def write_policy_fmu(p: PolicyNet, path: Path, label: str, compiler: str | None 
     )
 
 
-def write_policy_onnx(p: PolicyNet, path: Path) -> Path:
-    """Write the ONNX graph of :class:`PolicyNet` ``p`` (needs the ``onnx`` extra)."""
+def write_policy_onnx(p: PolicyNet, path: Path, base: LinearBase | None = None) -> Path:
+    """Write the ONNX graph of :class:`PolicyNet` ``p`` (needs the ``onnx`` extra); with
+    ``base``, of the residual policy whose network ``p`` is (module docstring)."""
     try:
         import onnx
         from onnx import TensorProto, helper, numpy_helper
@@ -313,19 +348,37 @@ def write_policy_onnx(p: PolicyNet, path: Path) -> Path:
     nodes += [
         helper.make_node("Max", [x, const("low", low)], ["lo"]),
         helper.make_node("Min", ["lo", const("high", high)], ["action"]),
-        helper.make_node(
-            "Mul", ["action", const("f_max", np.full(1, p.f_max, f32))], ["actuator_force"]
-        ),
     ]
-    graph = helper.make_graph(
-        nodes,
-        "railgym_policy",
-        [helper.make_tensor_value_info("observation", TensorProto.DOUBLE, ["batch", n_obs])],
-        [helper.make_tensor_value_info("actuator_force", TensorProto.FLOAT, ["batch", n_act])],
-        inits,
-        doc_string="observation: the env's channels in SI (" + ", ".join(p.obs_names) + "); "
-        "actuator_force: N",
+    action, state_out = "action", None
+    if base is not None:  # clip(a_base + scale·a_policy, −1, 1), rounded to float32
+        base_nodes, base_action, state_out = base_onnx_nodes(base, const, "x0")
+        nodes += base_nodes
+        nodes += [
+            helper.make_node("Cast", ["action"], ["agent"], to=TensorProto.DOUBLE),
+            helper.make_node("Mul", ["agent", const("rscale", np.full(1, base.scale))], ["sa"]),
+            helper.make_node("Add", [base_action, "sa"], ["sum"]),
+            helper.make_node("Max", ["sum", const("sum_lo", -np.ones(1))], ["sum_l"]),
+            helper.make_node("Min", ["sum_l", const("sum_hi", np.ones(1))], ["total"]),
+            helper.make_node("Cast", ["total"], ["total32"], to=TensorProto.FLOAT),
+        ]
+        action = "total32"
+    nodes.append(
+        helper.make_node(
+            "Mul", [action, const("f_max", np.full(1, p.f_max, f32))], ["actuator_force"]
+        )
     )
+    ins = [helper.make_tensor_value_info("observation", TensorProto.DOUBLE, ["batch", n_obs])]
+    outs = [helper.make_tensor_value_info("actuator_force", TensorProto.FLOAT, ["batch", n_act])]
+    doc = f"observation: the env's channels in SI ({', '.join(p.obs_names)}); actuator_force: N"
+    if base is not None and state_out is not None:
+        shape = ["batch", base.n_x + n_act]
+        ins.append(helper.make_tensor_value_info("controller_state", TensorProto.DOUBLE, shape))
+        outs.append(helper.make_tensor_value_info(state_out, TensorProto.DOUBLE, shape))
+        doc += (
+            f"; controller_state: the {base.name} base's state [estimate, last force N] "
+            "(zeros at an episode start), its next value in controller_state_out"
+        )
+    graph = helper.make_graph(nodes, "railgym_policy", ins, outs, inits, doc_string=doc)
     model = helper.make_model(
         graph, producer_name="railgym", opset_imports=[helper.make_opsetid("", 17)]
     )
@@ -333,6 +386,64 @@ def write_policy_onnx(p: PolicyNet, path: Path) -> Path:
     onnx.checker.check_model(model)
     path.write_bytes(model.SerializeToString())
     return path
+
+
+#: env families whose policies the FMU exports (their action is an actuator force)
+FORCE_ENVS = ("railgym/VerticalSuspension", "railgym/VerticalVehicle")
+
+
+def _policy_zip(policy: str | Path) -> tuple[Path, Path, str | None]:
+    """``(zip, config.yaml, pretrained name or None)`` of ``policy``: a pretrained name of
+    :mod:`agents.pretrained` (before a path, as in :func:`agents.policies.load_policy`) or a
+    zip with the ``config.yaml`` of its training beside it."""
+    from agents.pretrained import PRETRAINED, pretrained_zip
+
+    name = str(policy)
+    if name in PRETRAINED:
+        path = pretrained_zip(name, PRETRAINED[name])
+        return path, path.parent / "config.yaml", name
+    path = Path(policy)
+    cfg_path = path.parent / "config.yaml"
+    if path.suffix != ".zip" or not path.is_file() or not cfg_path.is_file():
+        raise ValueError(
+            f"policy must be a pretrained name (one of {sorted(PRETRAINED)}) or a "
+            "stable-baselines3 .zip with the config.yaml of its training beside it, got "
+            f"{name!r}"
+        )
+    return path, cfg_path, None
+
+
+def _check_exportable(cfg: Any, where: str) -> None:
+    """ValueError naming ``where`` (the policy) and every reason the FMU cannot reproduce
+    the policy of the config ``cfg``, in one line."""
+    from railgym.registration import env_family
+
+    reasons = []
+    if env_family(cfg.env_id) not in FORCE_ENVS:
+        what = (
+            "sets the crash absorbers' force scale"
+            if env_family(cfg.env_id) == "railgym/TrainCrash"
+            else "is not one"
+        )
+        reasons.append(
+            f"a {cfg.env_id} policy's action {what}, not an actuator force (the FMU outputs "
+            "the actuator forces of VerticalSuspension and VerticalVehicle policies)"
+        )
+    if cfg.action_hold > 1:
+        reasons.append(f"action_hold is {cfg.action_hold}, but the FMU decides at every step")
+    if reasons:
+        raise ValueError(f"{where} cannot be exported: " + "; ".join(reasons))
+
+
+def _check_base(base: LinearBase, p: PolicyNet, where: str) -> None:
+    """The base and the network share the env's observation and ``f_max``."""
+    n_act, n_obs = p.weights[-1].shape[0], len(p.obs_names)
+    same = base.f_max == p.f_max and np.array_equal(base.obs_scale, p.obs_scale)
+    if not same or base.g.shape != (n_act, n_obs):
+        raise ValueError(
+            f"{where}: the {base.name} base (f_max {base.f_max!r} N, {base.g.shape[1]} "
+            f"observations) does not match the policy's env (f_max {p.f_max!r} N, {n_obs})"
+        )
 
 
 def export_policy(
@@ -344,45 +455,47 @@ def export_policy(
     overwrite: bool = False,
     compiler: str | None = None,
 ) -> tuple[Path, Path | None]:
-    """Write the policy zip ``policy`` (with ``config.yaml`` and ``manifest.json`` beside
-    it, as :mod:`agents.train` writes them) as an FMU at ``path`` and optionally as ONNX.
+    """Write the policy ``policy`` as an FMU at ``path`` and optionally as ONNX: a pretrained
+    name (``ppo-vertical``, ``ppo-vehicle``) or a zip with ``config.yaml`` and
+    ``manifest.json`` beside it, as :mod:`agents.train` writes them.
 
-    The env and its settings (observation, ``f_max``) are the config's; ``trust`` loads a
+    The env and its settings (observation, ``f_max``) are the config's; a residual policy
+    brings its base, designed for the training case (module docstring). ``trust`` loads a
     zip the manifest does not list (see :func:`agents.policies.load_policy`).
     """
-    from agents.policies import load_policy
+    from agents.policies import design_env_kwargs, load_policy
+    from agents.residual import ResidualPolicy
     from agents.train_config import load_config
 
-    policy, path = Path(policy), Path(path)
+    path = Path(path)
     outs = [path] + ([Path(onnx)] if onnx is not None else [])
     for out, suffix in zip(outs, (".fmu", ".onnx"), strict=False):
         if out.suffix != suffix:
             raise ValueError(f"output {str(out)!r} must end in {suffix}")
         if out.exists() and not overwrite:
             raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
-    cfg_path = policy.parent / "config.yaml"
-    if policy.suffix != ".zip" or not policy.is_file() or not cfg_path.is_file():
-        raise ValueError(
-            f"policy must be a stable-baselines3 .zip with the config.yaml of its training "
-            f"beside it, got {str(policy)!r}"
-        )
+    zip_path, cfg_path, name = _policy_zip(policy)
+    where = str(cfg_path) if name is None else f"pretrained policy {name} ({cfg_path})"
     cfg = load_config(cfg_path)
-    if cfg.action_hold > 1:
-        raise ValueError(
-            f"{cfg_path}: action_hold is {cfg.action_hold}, but the FMU decides at every step"
-        )
-    if cfg.residual is not None:
-        raise ValueError(
-            f"{cfg_path}: residual is {cfg.residual!r}, but the FMU holds the network only "
-            "(not the controller its action is added to)"
-        )
+    _check_exportable(cfg, where)
     env_id = cfg.env_id
-    factory, env_kwargs, label = load_policy(str(policy), env_id, trust)
-    env = gym.make(env_id, **env_kwargs)
+    factory, env_kwargs, label = load_policy(name or str(zip_path), env_id, trust)
+    env = gym.make(env_id, **design_env_kwargs(env_id, env_kwargs))  # spaces, f_max, scales
     try:
-        p = policy_net(factory(env), env.unwrapped)
+        agent, base = factory(env), None
+        if cfg.residual is not None:
+            if not isinstance(agent, ResidualPolicy):
+                raise RuntimeError(f"{where}: residual {cfg.residual!r} did not load as one")
+            try:
+                base = linear_base(agent.controller, cfg.residual, agent.scale)
+            except ValueError as err:
+                raise ValueError(f"{where}: {err}") from None
+            agent = agent.policy
+        p = policy_net(agent, env.unwrapped)
     finally:
         env.close()
-    write_policy_fmu(p, path, label, compiler)
-    onnx_path = write_policy_onnx(p, Path(onnx)) if onnx is not None else None
+    if base is not None:
+        _check_base(base, p, where)
+    write_policy_fmu(p, path, label, compiler, base)
+    onnx_path = write_policy_onnx(p, Path(onnx), base) if onnx is not None else None
     return path, onnx_path

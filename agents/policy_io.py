@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import re
 import warnings
 import zipfile
 from pathlib import Path
@@ -119,13 +120,31 @@ def _weights(path: Path) -> dict[str, Any]:
         with warnings.catch_warnings():  # torch warns about the pickle protocol of foreign files
             warnings.simplefilter("ignore", UserWarning)
             state = torch.load(io.BytesIO(raw), map_location="cpu", weights_only=True)
-    except Exception as err:  # torch raises UnpicklingError, RuntimeError, ...
+    except Exception as err:  # torch raises UnpicklingError, RuntimeError, EOFError, ...
+        # torch's own text advises weights_only=False, the unsafe load this module exists to
+        # avoid: it never reaches the user
         raise ValueError(
-            f"policy {path}: policy.pth is not a weights-only state dict ({err})"
+            f"policy {path}: policy.pth is not a weights-only state dict: it holds objects "
+            f"other than tensors and plain containers, or is damaged ({_why(err)}), and "
+            "railgym never unpickles such objects (they can run code); use a zip written by "
+            "stable-baselines3's save() (agents.train writes one), or export the policy's "
+            "state_dict() from a trusted copy"
         ) from None
     if not isinstance(state, dict):
         raise ValueError(f"policy {path}: policy.pth holds {type(state).__name__}, not weights")
     return state
+
+
+def _why(err: Exception) -> str:
+    """A short reason of a failed weights-only ``torch.load``, without torch's advice."""
+    text = str(err)
+    if "weights_only" in text or "Weights only" in text:
+        found = re.search(r"WeightsUnpickler error:\s*(\S[^\n]*)", text)
+        # its first clause only: torch goes on to advise allow-listing the object
+        detail = re.split(r"\. | was not an allowed", found[1])[0] if found else ""
+        return "the weights-only reader refused it" + (f": {detail}" if detail else "")
+    first = text.strip().split(". ")[0].splitlines()[0] if text.strip() else ""
+    return f"{type(err).__name__}: {first}" if first else type(err).__name__
 
 
 def load_policy_weights(

@@ -83,9 +83,18 @@ _ZooLoader.add_constructor(
 
 
 def read_zoo_yaml(path: Path) -> dict[str, Any]:
-    """An rl-zoo3 ``args.yml`` / ``config.yml`` as a dict (any other Python tag is an error)."""
+    """An rl-zoo3 ``args.yml`` / ``config.yml`` as a dict (any other Python tag is an error;
+    so is a file that is not UTF-8 text, naming the file and the byte)."""
     try:
-        data = yaml.load(path.read_text(encoding="utf-8"), Loader=_ZooLoader)  # noqa: S506
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise ValueError(
+            f"{path}: not an rl-zoo3 settings file: not UTF-8 text (byte "
+            f"{err.object[err.start]:#04x} at offset {err.start}); rl-zoo3 writes args.yml and "
+            "config.yml as YAML text, so the file is damaged or another file took its name"
+        ) from None
+    try:
+        data = yaml.load(text, Loader=_ZooLoader)  # noqa: S506
     except yaml.YAMLError as err:
         raise ValueError(f"{path}: not an rl-zoo3 settings file ({err})") from None
     if not isinstance(data, dict):

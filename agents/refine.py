@@ -21,6 +21,7 @@ from agents._args import bounded_int, duration_s, seed_number, track_class
 from agents.policies import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICLE_ID, load_policy
 from railgym.envs.vehicle import VerticalVehicleEnv
 from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.fmu.mapping import fmu_vehicle
 from railgym.vehicles.collect import (
     RAW_OBSERVATION,
     default_vertical_surrogate,
@@ -124,6 +125,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--fmu-map", type=Path, help="an FMU as the reference: its mapping file")
     parser.add_argument("--fmu", type=Path, help="the FMU of --fmu-map (default: the map's fmu:)")
+    parser.add_argument(
+        "--vehicle",
+        help="vertical: vehicle YAML (name or path) of the model (default: the packaged one; "
+        "with --fmu-map the mapping's vehicle:)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -138,16 +144,26 @@ def run(args: argparse.Namespace) -> int:
     else:
         model = default_vehicle_surrogate() if vehicle else default_vertical_surrogate()
     if vehicle:
-        if args.fmu_map is not None or args.fmu is not None:
-            raise ValueError("--fmu-map/--fmu: an FMU reference is one bogie; use --env vertical")
+        if args.fmu_map is not None or args.fmu is not None or args.vehicle is not None:
+            raise ValueError(
+                "--fmu-map/--fmu/--vehicle: an FMU reference is one bogie; use --env vertical"
+            )
         factory, env_kwargs, label = load_policy(args.policy, VEHICLE_ID, trust=args.trust)
         env: Any = VerticalVehicleEnv(backend="reference", **env_kwargs)
         loop, observe, extra = refine_vehicle, vehicle_observation_map(env), {}
     else:
         factory, env_kwargs, label = load_policy(args.policy, trust=args.trust)
-        env = VerticalSuspensionEnv(backend="reference", **env_kwargs)
+        veh = args.vehicle
+        if args.fmu_map is not None:
+            veh = fmu_vehicle(args.fmu_map, args.vehicle, "--vehicle ")
+        if veh is not None:
+            env_kwargs = {**env_kwargs, "vehicle": str(veh)}
+        # the env only designs the policy's controller and scales its observation: an FMU's
+        # vehicle needs no nonlinear elements of railgym's, so its linear backend serves
+        backend = "reference" if args.fmu_map is None else "linear"
+        env = VerticalSuspensionEnv(backend=backend, **env_kwargs)
         loop, observe = refine, observation_map(env)
-        extra = {"fmu_map": args.fmu_map, "fmu": args.fmu}
+        extra = {"fmu_map": args.fmu_map, "fmu": args.fmu, "vehicle": env.cfg.vehicle}
     where = "the whole vehicle" if vehicle else "one bogie"
     print(f"refining the element for policy {label} on FRA class {args.track_class} ({where})")
     options = RefineOptions(

@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
+from agents._args import with_policy_kwargs
 from agents.policies import MAX_EPISODES, load_policy, run_policy
 from railgym import _checks as val
 from railgym.parallel import run_tasks
@@ -46,7 +47,12 @@ def _run_controller(task: ControllerTask) -> dict[str, float]:
 
 def _run_policy(task: PolicyTask) -> dict[str, float]:
     factory, env_kwargs, _ = load_policy(task.policy, trust=task.trust)
-    return run_policy(factory, {**task.env_kwargs, **env_kwargs}, task.episodes, task.seed)
+    return run_policy(
+        factory,
+        with_policy_kwargs(env_kwargs, task.env_kwargs, task.policy),
+        task.episodes,
+        task.seed,
+    )
 
 
 def controller_sweep(

@@ -10,7 +10,9 @@ Config file: one top-level key, the Gymnasium env id, holding
                         (``MAX_ENVS``)
 ``seed``                seeds python/numpy/torch and the envs (sub-env ``i``: ``seed + i``),
                         0 … 2³² − 1; drawn at random and recorded when absent
-``env_kwargs``          passed to ``gym.make_vec`` (e.g. ``backend``, ``duration``)
+``env_kwargs``          passed to ``gym.make_vec`` (e.g. ``backend``, ``duration``, ``vehicle:
+                        my_car.yaml``); a relative file path (``vehicle``, ``surrogate``,
+                        ``fmu``, ``fmu_map``, ``profile``) is read beside the config file
 ``eval_env_kwargs``     overrides of ``env_kwargs`` for the evaluation env (e.g. ``backend:
                         reference``)
 ``eval_freq``           steps between evaluations; ``n_eval_episodes``: episodes per evaluation
@@ -142,9 +144,22 @@ def _names(value: Any, field: str) -> list[str]:
     return names
 
 
-def _kwargs(value: Any, field: str) -> dict[str, Any]:
-    """A mapping of env arguments; ``None`` is the empty mapping."""
-    return dict(val.mapping({} if value is None else value, field))
+#: env arguments that name a file (a relative one is read beside the config file)
+PATH_ARGUMENTS = ("vehicle", "surrogate", "fmu", "fmu_map", "profile")
+
+
+def _kwargs(value: Any, field: str, folder: Path | None = None) -> dict[str, Any]:
+    """A mapping of env arguments; ``None`` is the empty mapping. A relative path of
+    :data:`PATH_ARGUMENTS` that names a file in ``folder`` (the config file's) becomes that
+    file, so a config works from any working directory."""
+    out = dict(val.mapping({} if value is None else value, field))
+    for key in PATH_ARGUMENTS:
+        arg = out.get(key)
+        if folder is not None and isinstance(arg, str) and not Path(arg).is_absolute():
+            local = folder / arg
+            if local.is_file():  # absolute: the run's config.yaml loads from anywhere
+                out[key] = str(local.resolve())
+    return out
 
 
 #: integer hyperparameters of SB3 and their smallest value
@@ -344,6 +359,9 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
     recorded.
     """
     env_id, block = _env_block(config)
+    folder = None
+    if isinstance(config, str | Path) and Path(config).suffix in (".yaml", ".yml"):
+        folder = Path(config).parent
     f = val.Fields(block, "")
     if algo is not None:
         algo = val.choice(algo, "--algo", sorted(ALGOS))
@@ -370,6 +388,10 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
     envelope = _envelope(f.get("envelope", None), env_id, mode)
     hold = check_hold(f.get("action_hold", 1))
     residual = _residual(f.get("residual", None), env_id, mode, hold)
+    if residual is None and block.get("residual_scale", 1.0) != 1.0:  # 1.0: the default
+        raise val.FieldError(
+            "residual_scale", "is given without residual: (it scales a residual policy's action)"
+        )
     return TrainConfig(
         env_id=env_id,
         algo=algo,
@@ -377,8 +399,8 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
         seed=val.integer(seed, "seed", min=0, max=MAX_SEED),
         n_timesteps=count("n_timesteps", None, hi=MAX_TIMESTEPS),
         n_envs=count("n_envs", 1, hi=MAX_ENVS),
-        env_kwargs=_kwargs(f.get("env_kwargs", None), "env_kwargs"),
-        eval_env_kwargs=_kwargs(f.get("eval_env_kwargs", None), "eval_env_kwargs"),
+        env_kwargs=_kwargs(f.get("env_kwargs", None), "env_kwargs", folder),
+        eval_env_kwargs=_kwargs(f.get("eval_env_kwargs", None), "eval_env_kwargs", folder),
         eval_freq=count("eval_freq", 10_000, hi=MAX_TIMESTEPS),
         n_eval_episodes=count("n_eval_episodes", 4, hi=MAX_ENVS),
         eval_seed=count("eval_seed", EVAL_SEED, lo=0, hi=MAX_SEED),

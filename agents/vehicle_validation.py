@@ -1,14 +1,18 @@
-"""Surrogate against reference on ``railgym/VerticalVehicle-v1``: relative RMS error of the
-carbody acceleration at each floor point (front, centre, rear) over unseen tracks.
+"""Surrogate against the high-fidelity model: relative RMS error of the carbody acceleration
+over unseen tracks, on ``railgym/VerticalVehicle-v1`` (per floor point: front, centre, rear)
+or on ``railgym/VerticalSuspension-v1`` (``--env vertical``, one bogie), against the reference
+backend or the user's FMU (``--backend fmu --fmu-map MAP [--vehicle FILE]``).
 
     python -m agents.vehicle_validation --seeds 20 --track-class 3 4 5 6
     python -m agents.vehicle_validation --element vehicle maxwell --controller modal-skyhook lqr
+    python -m agents.vehicle_validation --env vertical --element my_element.json \
+        --backend fmu --fmu-map my_car.yaml --vehicle my_car_vehicle.yaml --seeds 10
 
 For each class, controller and element, a native vector env with the surrogate and one with
-the reference backend run the same ``n_seeds`` tracks (sub-env ``i`` on seed ``seed + i``) in
-closed loop, each driven by the controller on its own observation; the score of a track is
-``‖a − a_ref‖ / ‖a_ref‖`` of the floor accelerations recorded at the control rate over the
-whole episode. Rows: median, 90th percentile and max over the tracks, per floor point.
+the high-fidelity backend run the same ``n_seeds`` tracks (sub-env ``i`` on seed ``seed + i``)
+in closed loop, each driven by the controller on its own observation; the score of a track is
+``‖a − a_ref‖ / ‖a_ref‖`` of the accelerations recorded at the control rate over the whole
+episode. Rows: median, 90th percentile and max over the tracks, per floor point.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
 from agents._args import duration_s, episodes, track_class
-from agents.policies import VEHICLE_CONTROLLERS, VEHICLE_ID
+from agents.policies import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 
@@ -30,23 +34,31 @@ __all__ = ["FLOOR", "floor_errors", "main", "validation_rows"]
 
 #: floor points of the env's ``carbody_acc`` (front, centre, rear)
 FLOOR = ("front", "centre", "rear")
+#: per ``--env``: env id, controllers, points of ``carbody_acc``
+ENVS: dict[str, tuple[str, dict[str, Any], tuple[str, ...]]] = {
+    "vehicle": (VEHICLE_ID, VEHICLE_CONTROLLERS, FLOOR),
+    "vertical": (ENV_ID, CONTROLLERS, ("carbody",)),
+}
 #: first track seed: never used to build an element
 SEED = 2000
 
 
-def _record(env: Any, controller: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Floor accelerations (n_steps, n, 3) of one episode of every sub-env, and the diverged
-    flags (n,)."""
-    cls, kwargs, _ = VEHICLE_CONTROLLERS[controller]
+def _record(
+    env: Any, controller: str, seed: int, env_name: str = "vehicle"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Carbody accelerations (n_steps, n, points) of one episode of every sub-env, and the
+    diverged flags (n,)."""
+    _, table, points = ENVS[env_name]
+    cls, kwargs, _ = table[controller]
     policy = cls(env, **kwargs)
     obs, _ = env.reset(seed=seed)
     n_steps = env.unwrapped.cfg.n_steps if hasattr(env, "unwrapped") else env.cfg.n_steps
-    rec = np.zeros((n_steps, env.num_envs, 3))
+    rec = np.zeros((n_steps, env.num_envs, len(points)))
     div = np.zeros(env.num_envs, bool)
     for k in range(n_steps):
         action, _ = policy.predict(obs, deterministic=True)
         obs, _, terminated, _, info = env.step(action)
-        rec[k] = info["carbody_acc"]
+        rec[k] = np.reshape(info["carbody_acc"], (env.num_envs, len(points)))
         div |= terminated
     return rec, div
 
@@ -58,23 +70,29 @@ def floor_errors(
     controller: str = "passive",
     duration: float = 20.0,
     seed: int = SEED,
+    env_name: str = "vehicle",
+    reference: Mapping[str, Any] | None = None,
 ) -> np.ndarray:
-    """Relative RMS error (n_seeds, 3) of the floor accelerations, surrogate ``element`` vs
-    reference, per track and floor point (inf where either run diverged)."""
-    obs_kw = VEHICLE_CONTROLLERS[controller][2]
+    """Relative RMS error (n_seeds, points) of the carbody accelerations, surrogate
+    ``element`` vs the high-fidelity env, per track and point (inf where either run
+    diverged). ``reference``: that env's keywords (default ``{"backend": "reference"}``; an
+    FMU: ``backend="fmu", fmu_map=…``, with ``vehicle=`` for both envs)."""
+    env_id, table, _ = ENVS[env_name]
+    obs_kw = table[controller][2]
+    ref = dict(reference or {"backend": "reference"})
+    common = {"vehicle": ref["vehicle"]} if "vehicle" in ref else {}
     runs = []
-    for backend, sur in (("surrogate", element), ("reference", None)):
+    for kw in ({"backend": "surrogate", "surrogate": element, **common}, ref):
         env = gym.make_vec(
-            VEHICLE_ID,
+            env_id,
             num_envs=n_seeds,
             vectorization_mode="vector_entry_point",
-            backend=backend,
-            surrogate=sur,
             track_class=track_class,
             duration=duration,
+            **kw,
             **obs_kw,
         )
-        runs.append(_record(env, controller, seed))
+        runs.append(_record(env, controller, seed, env_name))
         env.close()
     (a, div_a), (b, div_b) = runs
     err = np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
@@ -88,14 +106,19 @@ def validation_rows(
     controllers: Sequence[str] = ("passive",),
     n_seeds: int = 20,
     duration: float = 20.0,
+    env_name: str = "vehicle",
+    reference: Mapping[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
-    """One row per element × class × controller: ``median``, ``p90``, ``max`` (3,) per floor
-    point, in %, and ``errors`` (n_seeds, 3)."""
+    """One row per element × class × controller: ``median``, ``p90``, ``max`` (points,) in
+    %, and ``errors`` (n_seeds, points); ``env_name`` and ``reference`` as
+    :func:`floor_errors`'s."""
     rows = []
     for name, element in elements.items():
         for c in classes:
             for ctl in controllers:
-                e = 100.0 * floor_errors(element, c, n_seeds, ctl, duration)
+                e = 100.0 * floor_errors(
+                    element, c, n_seeds, ctl, duration, env_name=env_name, reference=reference
+                )
                 rows.append(
                     {
                         "element": name,
@@ -111,17 +134,20 @@ def validation_rows(
 
 
 def format_rows(rows: Sequence[Mapping[str, Any]]) -> str:
-    """Markdown table of :func:`validation_rows`."""
+    """Markdown table of :func:`validation_rows` (points: those of the rows' env)."""
+    n = len(rows[0]["median"]) if rows else len(FLOOR)
+    points = FLOOR if n == len(FLOOR) else ENVS["vertical"][2]
     lines = [
-        "| element | class | controller | " + " | ".join(FLOOR) + " |",
-        "|---|---|---|" + "---|" * len(FLOOR),
+        "| element | class | controller | " + " | ".join(points) + " |",
+        "|---|---|---|" + "---|" * len(points),
     ]
     for r in rows:
         cells = [
             f"{r['median'][j]:.1f} / {r['p90'][j]:.1f} / {r['max'][j]:.1f}"
-            for j in range(len(FLOOR))
+            for j in range(len(points))
         ]
-        lines.append(f"| {r['element']} | {r['class']} | {r['controller']} | " + " | ".join(cells))
+        row = [str(r["element"]), str(r["class"]), str(r["controller"]), *cells]
+        lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines)
 
 
@@ -134,26 +160,72 @@ def _packaged(name: str) -> Any:
     return name
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Print the table (relative RMS error, %, median / 90th percentile / max per floor point)."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.vehicle_validation",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    parser.add_argument("--env", choices=sorted(ENVS), default="vehicle", help="the env")
     parser.add_argument(
         "--element",
         nargs="+",
-        default=["vehicle"],
-        help="packaged element (vehicle: the env's default; maxwell, static: the one-bogie "
-        "elements) or JSON",
+        default=None,
+        help="packaged element (vehicle: the whole vehicle's default; maxwell, static: the "
+        "one-bogie elements) or JSON (default: the env's packaged one)",
     )
     parser.add_argument("--track-class", type=track_class, nargs="+", default=[3, 4, 5, 6])
     parser.add_argument("--controller", nargs="+", default=["passive"])
     parser.add_argument("--seeds", type=episodes, default=20, help="tracks per class")
     parser.add_argument("--duration", type=duration_s, default=20.0, help="s per track")
+    parser.add_argument(
+        "--backend", choices=("reference", "fmu"), default="reference", help="the model compared"
+    )
+    parser.add_argument("--fmu-map", help="--backend fmu: the FMU's mapping file")
+    parser.add_argument("--fmu", help="--backend fmu: the FMU (default: the mapping's fmu:)")
+    parser.add_argument(
+        "--vehicle",
+        help="vehicle YAML (name or path) of both envs (default: the packaged one; with "
+        "--backend fmu the mapping's vehicle:)",
+    )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Print the table (relative RMS error, %, median / 90th percentile / max per point)."""
+    parser = _parser()
     args = parser.parse_args(argv)
+    _, table, _ = ENVS[args.env]
     for c in args.controller:
-        if c not in VEHICLE_CONTROLLERS:
-            parser.error(f"--controller must be among {sorted(VEHICLE_CONTROLLERS)}, got {c!r}")
-    elements = {e: _packaged(e) for e in args.element}
-    rows = validation_rows(elements, args.track_class, args.controller, args.seeds, args.duration)
+        if c not in table:
+            parser.error(f"--controller must be among {sorted(table)}, got {c!r}")
+    if args.backend != "fmu" and (args.fmu_map or args.fmu):
+        parser.error("--fmu-map, --fmu: only with --backend fmu")
+    if args.backend == "fmu" and not args.fmu_map:
+        parser.error("--backend fmu needs --fmu-map")
+    reference: dict[str, Any] = {"backend": args.backend}
+    if args.backend == "fmu":
+        reference.update(fmu_map=args.fmu_map, fmu=args.fmu)
+    try:
+        if args.backend == "fmu":
+            from railgym.fmu.mapping import fmu_vehicle
+
+            reference["vehicle"] = str(fmu_vehicle(args.fmu_map, args.vehicle, "--vehicle "))
+        elif args.vehicle is not None:
+            reference["vehicle"] = args.vehicle
+        names = args.element or ["vehicle" if args.env == "vehicle" else "maxwell"]
+        elements = {e: _packaged(e) for e in names}
+        rows = validation_rows(
+            elements,
+            args.track_class,
+            args.controller,
+            args.seeds,
+            args.duration,
+            env_name=args.env,
+            reference=reference,
+        )
+    except (ValueError, OSError) as err:
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
     print(format_rows(rows))
     return 0
 

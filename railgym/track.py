@@ -171,11 +171,13 @@ def load_fra_table(path: str | Path | None = None) -> dict[int, TrackClassParame
 def class_parameters(track_class: int) -> TrackClassParameters:
     """SI parameters of FRA ``track_class`` (an integer 1-6)."""
     table = _packaged_table()
-    if (
-        isinstance(track_class, bool)
-        or not isinstance(track_class, int | np.integer)
-        or int(track_class) not in table
-    ):
+    if isinstance(track_class, bool) or not isinstance(track_class, int | np.integer):
+        raise val.FieldTypeError(
+            "track_class",
+            f"must be an integer, one of {sorted(table)}, got {type(track_class).__name__} "
+            f"{track_class!r}",
+        )
+    if int(track_class) not in table:
         raise ValueError(f"track_class must be one of {sorted(table)}, got {track_class!r}")
     return table[int(track_class)]
 

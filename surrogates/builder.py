@@ -7,7 +7,7 @@ model's degree (LPR) or kernel (Kriging) by out-of-bag error or k-fold cross-val
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +27,7 @@ from surrogates.selection import (
     select_kfold,
     select_oob,
 )
+from surrogates.units import check_units, element_names
 
 
 @dataclass
@@ -80,9 +81,10 @@ class BuildReport:
             "domain": {"lower": self.domain[0], "upper": self.domain[1]},
         }
 
-    def format(self, unit: str | None = None) -> str:
+    def format(self, unit: str | None = None, table: bool = True) -> str:
         """Human-readable summary followed by the score table; ``unit`` is the output's unit
-        (e.g. ``"N"``) of the absolute OOB error (``None``: "output units")."""
+        (e.g. ``"N"``) of the absolute OOB error (``None``: "output units"). ``table=False``:
+        the summary alone, with the table's warning of a winner at the search cap."""
         if self.oob_error_kind == "relative":
             err, what = "eq. 8 relative", "(dimensionless)"
         else:
@@ -94,7 +96,10 @@ class BuildReport:
             f"OOB error ({err}) = {self.oob_error:.4g} {what}   "
             f"OOB relative RMS = {self.oob_nrms:.3g} (dimensionless)",
         ]
-        return "\n".join(head) + "\n" + self.scores.format()
+        if table:
+            return "\n".join(head) + "\n" + self.scores.format()
+        warning = [x for x in self.scores.format().splitlines() if x.startswith("warning:")]
+        return "\n".join(head + warning)
 
 
 def build(
@@ -109,6 +114,10 @@ def build(
     k: int = 10,
     extrapolation: str = "linear",
     progress: Callable[[str, int, int], None] | None = None,
+    *,
+    inputs: Sequence[str] | None = None,
+    output: str | None = None,
+    units: Mapping[str, str] | None = None,
     **model_params: Any,
 ) -> tuple[SurrogateModel, BuildReport]:
     """Build a surrogate element from data.
@@ -125,6 +134,12 @@ def build(
     candidates : degrees (LPR) or kernels (Kriging) to choose from; default
         :func:`~surrogates.selection.default_candidates`.
     progress : optional ``callback(stage, i, total)`` (stage ``"sampling"`` or ``"selection"``).
+    inputs, output : names of the d inputs and of the output (default ``u1 … ud``, ``"v"``).
+    units : ``{name: unit}`` for every input and the output, or none (``None``); a unit of
+        :data:`surrogates.units.KNOWN_UNITS`, e.g. ``{"du": "m", "dv": "m/s", "F": "N"}``.
+        Given any of ``inputs``, ``output``, ``units``, the model's ``features_`` holds them,
+        :func:`surrogates.io.save` writes them and :func:`surrogates.io.load` restores them
+        (an env that checks units needs them; the data are not converted).
     model_params : further hyperparameters of the model class.
 
     Returns
@@ -135,6 +150,9 @@ def build(
     V = as_outputs(V, U.shape[0])
     n = U.shape[0]
     m = _check_plan(U, V, kind, m, sampling, selection, k)
+    named = inputs is not None or output is not None or units is not None
+    in_names, out_name = element_names(U.shape[1], inputs, output)
+    unit_map = check_units(units, in_names, out_name)
     cands = list(candidates) if candidates is not None else default_candidates(kind, U.shape[1])
     make = _checked_factory(kind, cands, extrapolation, model_params)
 
@@ -150,6 +168,15 @@ def build(
             result = select_kfold(make, cands, Ut, Vt, k=k, seed=seed, progress=stage("selection"))
         with timer() as t_fit:
             model = make(result.best).fit(Ut, Vt)
+    if named:  # the static form, as io.load reads a file without a form
+        model.features_ = {
+            "inputs": in_names,
+            "output": out_name,
+            "units": unit_map,
+            "form": "static",
+            "tau": None,
+            "known_physics": [],
+        }
     err, err_kind, nrms = _oob_errors(model, U[oob_idx], V[oob_idx])
     report = BuildReport(
         kind=kind,

@@ -17,6 +17,7 @@ from surrogates import io
 from surrogates.builder import build
 from surrogates.checks import MAX_SEED
 from surrogates.models.checks import MAX_DEGREE
+from surrogates.units import KNOWN_UNITS, check_units
 
 
 def _progress_bar() -> Callable[[str, int, int], None]:
@@ -56,24 +57,73 @@ def _check_output(path: str, flag: str, overwrite: bool) -> None:
         raise UsageError(f"{flag} {path}: exists; pass --overwrite to replace it")
 
 
+BUILD_DESCRIPTION = (
+    "Build a surrogate element from the columns of a CSV file. stdout: the summary, the "
+    "candidate table of the degree (or kernel) selection and where the model went; stderr: "
+    "progress bars (on a terminal), the number of training rows and notes. --quiet prints "
+    "the summary alone (with a warning of a winner at the search cap). Units: give one for "
+    "every input and the output (--units, or 'name [unit]' in the header), or none; "
+    "railgym's vertical envs take an element with inputs in m and m/s and output in N, e.g. "
+    "--units du=m dv=m/s F=N."
+)
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="surrogates", description=__doc__)
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     sub = parser.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("build", help="build a surrogate element from a CSV file")
-    b.add_argument("data", help="CSV file with a header row")
+    b = sub.add_parser(
+        "build", help="build a surrogate element from a CSV file", description=BUILD_DESCRIPTION
+    )
+    b.add_argument("data", help="CSV file with a header row ('du' or 'du [m]' per column)")
     b.add_argument("--inputs", nargs="+", required=True, help="input column names")
     b.add_argument("--output", required=True, help="output column name")
     b.add_argument("-o", "--model", required=True, help="where to write the model JSON")
     b.add_argument("--overwrite", action="store_true", help="replace existing output files")
-    b.add_argument("--kind", choices=["lpr", "kriging"], default="lpr")
-    b.add_argument("--m", type=int, default=101, help="number of training samples")
-    b.add_argument("--sampling", choices=["ga", "greedy", "random"], default="ga")
-    b.add_argument("--selection", choices=["oob", "kfold"], default="oob")
-    b.add_argument("--seed", type=int, default=0, help=f"seed of the sampling, 0..{MAX_SEED}")
-    b.add_argument("--units", nargs="*", default=[], help="NAME=UNIT pairs, e.g. F=N")
+    b.add_argument(
+        "--kind",
+        choices=["lpr", "kriging"],
+        default="lpr",
+        help="Legendre regression or Kriging (default: %(default)s)",
+    )
+    b.add_argument(
+        "--m",
+        type=int,
+        default=101,
+        help="number of training rows; the other rows are out-of-bag (default: %(default)s)",
+    )
+    b.add_argument(
+        "--sampling",
+        choices=["ga", "greedy", "random"],
+        default="ga",
+        help="how the training rows are picked (default: %(default)s)",
+    )
+    b.add_argument(
+        "--selection",
+        choices=["oob", "kfold"],
+        default="oob",
+        help="how the degree or kernel is chosen (default: %(default)s)",
+    )
+    b.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help=f"seed of the sampling, 0..{MAX_SEED} (default: %(default)s)",
+    )
+    b.add_argument(
+        "--units",
+        nargs="*",
+        default=[],
+        metavar="NAME=UNIT",
+        help="the unit of every input and the output, e.g. du=m dv=m/s F=N, or none (also "
+        "read from a header 'du [m]'); known units: " + ", ".join(sorted(KNOWN_UNITS)),
+    )
     b.add_argument("--report", help="also write the build report as JSON here")
-    b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument(
+        "--quiet",
+        action="store_true",
+        help="print the summary alone: no candidate table, progress bars or notes",
+    )
     add_degree_arguments(b)
     b.add_argument(
         "--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks"
@@ -140,6 +190,8 @@ def _build(args: argparse.Namespace) -> int:
         name, sep, unit = pair.partition("=")
         if not sep or not name or not unit:
             raise UsageError(f"--units {pair!r}: expected NAME=UNIT, e.g. F=N")
+        if name in units:
+            raise UsageError(f"--units gives a unit for {name!r} twice")
         units[name] = unit
     names = [*args.inputs, args.output]
     dups = sorted({c for c in names if names.count(c) > 1})
@@ -155,8 +207,23 @@ def _build(args: argparse.Namespace) -> int:
         if Path(args.report).resolve() == Path(args.model).resolve():
             raise UsageError("--report and -o name the same file")
         _check_output(args.report, "--report", args.overwrite)
-    cols = io.read_csv(args.data, columns=names)
+    cols, header_units = io.read_csv_units(args.data, columns=names)
+    units = _units(args, units, header_units)
     U = np.column_stack([cols[c] for c in args.inputs])
+    n = U.shape[0]
+    if not args.quiet:
+        if args.m < n:
+            print(
+                f"training on {args.m} of {n} rows ({100 * args.m / n:.3g} %); the rest are "
+                "out-of-bag (--m sets the number)",
+                file=sys.stderr,
+            )
+        if not units:
+            print(
+                "note: no units given (--units); railgym's envs refuse an element without "
+                "them, e.g. --units " + " ".join(f"{c}=UNIT" for c in names),
+                file=sys.stderr,
+            )
     model, report = build(
         U,
         cols[args.output],
@@ -167,20 +234,40 @@ def _build(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress=None if args.quiet else _progress_bar(),
         candidates=candidates,
-    )
-    if args.report:
-        io.write_atomic(args.report, json.dumps(report.to_dict(), indent=1) + "\n")
-    io.save(
-        model,
-        args.model,
         inputs=args.inputs,
         output=args.output,
         units=units,
-        metadata={"source": str(args.data), "report": report.to_dict()},
     )
-    print(report.format(units.get(args.output)))
+    if args.report:
+        io.write_atomic(args.report, json.dumps(report.to_dict(), indent=1) + "\n")
+    io.save(model, args.model, metadata={"source": str(args.data), "report": report.to_dict()})
+    print(report.format(units.get(args.output), table=not args.quiet))
     print(f"model written to {args.model}")
     return 0
+
+
+def _units(
+    args: argparse.Namespace, given: dict[str, str], header: dict[str, str]
+) -> dict[str, str]:
+    """The element's units from ``--units`` and the CSV header (``du [m]``): known units,
+    for every input and the output or none; a header unit that ``--units`` contradicts is
+    an error."""
+    for name, unit in header.items():
+        if unit not in KNOWN_UNITS:
+            raise UsageError(
+                f"{args.data}: line 1: unit {unit!r} of column {name!r} is not a known unit; "
+                f"known units: {sorted(KNOWN_UNITS)}"
+            )
+        if given.get(name, unit) != unit:
+            raise UsageError(
+                f"--units {name}={given[name]} contradicts the header of {args.data} "
+                f"({name} [{unit}])"
+            )
+    flag = "--units" if not header else "--units and the CSV header"
+    try:
+        return check_units({**header, **given}, args.inputs, args.output, flag, cli=True)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _export_fmu(args: argparse.Namespace) -> int:

@@ -20,9 +20,11 @@ from __future__ import annotations
 import csv
 import io as _io
 import json
+import math
 import os
+import re
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -57,7 +59,9 @@ def model_to_document(
 
     An argument left ``None`` keeps what the model read from its file (``features_`` and
     ``metadata_`` of :func:`load`), so ``save(load(f))`` writes the element of ``f``; a model
-    without them gets ``u1 … ud``, ``"v"``, no units and the static form.
+    without them gets ``u1 … ud``, ``"v"``, no units and the static form. ``metadata`` is
+    converted to plain JSON (:func:`json_metadata`: numpy arrays to lists, numpy scalars to
+    numbers); a value JSON cannot hold is a ``ValueError`` naming its key.
     """
     d = model.to_dict()
     n_in = len(d["domain"]["lower"])
@@ -92,8 +96,39 @@ def model_to_document(
             **shape,
             **extra,
         },
-        "metadata": dict(metadata or {}),
+        "metadata": json_metadata(dict(metadata or {})),
     }
+
+
+def json_metadata(value: Any, field: str = "metadata") -> Any:
+    """``value`` as plain JSON data: mappings with string keys, lists (from lists, tuples and
+    numpy arrays), finite numbers (numpy scalars as Python numbers), strings, booleans and
+    ``None``. Anything else is a ``ValueError`` naming its key path (``metadata['x'][2]``)."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    elif isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, Mapping):
+        out = {}
+        for key, item in value.items():
+            if not isinstance(key, str):
+                raise ValueError(
+                    f"{field}: key {key!r} must be a string (JSON object keys are strings)"
+                )
+            out[key] = json_metadata(item, f"{field}[{key!r}]")
+        return out
+    if isinstance(value, list | tuple):
+        return [json_metadata(item, f"{field}[{i}]") for i, item in enumerate(value)]
+    if value is None or isinstance(value, str | bool | int):
+        return value
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"{field} must be a finite number (JSON has no {value}), got {value}")
+        return value
+    raise ValueError(
+        f"{field}: a value of type {type(value).__name__} cannot be saved in the JSON "
+        "metadata; give numbers, strings, booleans, None, or lists and mappings of them"
+    )
 
 
 def model_from_document(doc: Any, source: str = "document") -> SurrogateModel:
@@ -249,10 +284,23 @@ def load(path: str | Path) -> SurrogateModel:
 def read_csv(path: str | Path, columns: Sequence[str] | None = None) -> dict[str, np.ndarray]:
     """Read named numeric columns of a CSV file with a header row.
 
-    Returns ``{name: float array}`` for ``columns`` (all columns if ``None``). Raises
+    Returns ``{name: float array}`` for ``columns`` (all columns if ``None``). A header
+    field ``du [m]`` names the column ``du`` (its unit: :func:`read_csv_units`). Raises
     ``ValueError`` naming the column for a missing column, a non-numeric or non-finite
     value (with its line number), or a row with a different number of fields.
     """
+    return read_csv_units(path, columns)[0]
+
+
+#: a header field ``name [unit]``
+_NAME_UNIT = re.compile(r"^(.*?\S)\s*\[([^\[\]]*)\]$")
+
+
+def read_csv_units(
+    path: str | Path, columns: Sequence[str] | None = None
+) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """:func:`read_csv` and the units written in the header (``du [m]``: column ``du``, unit
+    ``"m"``), ``{name: unit}`` of the columns read that have one."""
     path = Path(path)
     raw = path.read_bytes()
     try:
@@ -267,11 +315,20 @@ def read_csv(path: str | Path, columns: Sequence[str] | None = None) -> dict[str
         raise ValueError(f"{path}: line {reader.line_num}: {exc}") from None
 
 
-def _read_rows(reader: Any, path: Path, columns: Sequence[str] | None) -> dict[str, np.ndarray]:
+def _read_rows(
+    reader: Any, path: Path, columns: Sequence[str] | None
+) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     try:
-        header = [h.strip() for h in next(reader)]
+        fields = [h.strip() for h in next(reader)]
     except StopIteration:
         raise ValueError(f"{path}: empty file, expected a header row") from None
+    header: list[str] = []
+    units: dict[str, str] = {}
+    for field in fields:
+        match = _NAME_UNIT.match(field)
+        header.append(match.group(1) if match else field)
+        if match:
+            units[match.group(1)] = match.group(2).strip()
     dups = sorted({h for h in header if header.count(h) > 1})
     if dups:
         raise ValueError(f"{path}: line 1: duplicate column name(s) {dups}")
@@ -303,7 +360,8 @@ def _read_rows(reader: Any, path: Path, columns: Sequence[str] | None) -> dict[s
             data[j].append(val)
     if not data or not data[0]:
         raise ValueError(f"{path}: no data rows")
-    return {name: np.asarray(col) for name, col in zip(wanted, data, strict=True)}
+    out = {name: np.asarray(col) for name, col in zip(wanted, data, strict=True)}
+    return out, {name: units[name] for name in wanted if name in units}
 
 
 # readers of LS-DYNA output and multibody tables, re-exported as part of this module's API

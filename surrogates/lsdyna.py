@@ -389,12 +389,13 @@ def read_rcforc(path: str | Path, units: str = "m-s-kg-N") -> dict[tuple[str, in
 
     Returns ``(side, contact id) → TimeHistory`` with side ``"master"`` or ``"slave"`` and
     channels ``x_force``, ``y_force``, ``z_force`` and ``resultant`` (N) on the times (s)
-    of that contact side. A last line cut short is dropped with a warning.
+    of that contact side. A last line cut short is dropped with a warning; a force whose
+    resultant overflows float64 is an error naming the file and line.
     """
     us = unit_system(units)
     path = Path(path)
     series: dict[tuple[str, int], list[array]] = {}
-    first_line: dict[tuple[str, int], int] = {}
+    line_of: dict[tuple[str, int], array] = {}
     short: int | None = None
     with _open(path) as fh:
         for lineno, line in _lines(fh):
@@ -416,7 +417,7 @@ def read_rcforc(path: str | Path, units: str = "m-s-kg-N") -> dict[tuple[str, in
                 for label, name in zip(_RCFORC_REQUIRED, ("time", *RCFORC_FIELDS), strict=True)
             ]
             cols = series.setdefault(key, [array("d") for _ in range(4)])
-            first_line.setdefault(key, lineno)
+            line_of.setdefault(key, array("q")).append(lineno)
             _check_time(path, lineno, vals[0], cols[0][-1] if cols[0] else None, f"{key}")
             for col, v in zip(cols, vals, strict=True):
                 col.append(v)
@@ -428,11 +429,28 @@ def read_rcforc(path: str | Path, units: str = "m-s-kg-N") -> dict[tuple[str, in
     for key, cols in series.items():
         t, fx, fy, fz = (np.frombuffer(c, dtype=float) for c in cols)
         if t.size < 2:
-            raise ValueError(f"{path}: line {first_line[key]}: contact {key} has one sample only")
+            raise ValueError(f"{path}: line {line_of[key][0]}: contact {key} has one sample only")
         f = {n: v * us.force for n, v in zip(RCFORC_FIELDS, (fx, fy, fz), strict=True)}
-        f["resultant"] = np.sqrt(f["x_force"] ** 2 + f["y_force"] ** 2 + f["z_force"] ** 2)
+        with np.errstate(over="ignore"):
+            f["resultant"] = np.sqrt(f["x_force"] ** 2 + f["y_force"] ** 2 + f["z_force"] ** 2)
+        _check_resultant(path, key, f, line_of[key])
         out[key] = TimeHistory(t * us.time, f, dict.fromkeys(f, "N"))
     return out
+
+
+def _check_resultant(
+    path: Path, key: tuple[str, int], f: dict[str, np.ndarray], lines: array
+) -> None:
+    """Refuse a resultant force that overflowed (``inf`` from finite components)."""
+    bad = np.flatnonzero(~np.isfinite(f["resultant"]))
+    if bad.size:
+        k = int(bad[0])
+        xyz = ", ".join(f"{f[n][k]:.6g}" for n in RCFORC_FIELDS)
+        raise ValueError(
+            f"{path}: line {lines[k]}: contact {key}: the resultant force of (x, y, z) = "
+            f"({xyz}) N overflows float64 (√(x² + y² + z²) needs each below ~1e154 N): no "
+            "contact force is this large; check the line (a misplaced exponent?) and the unit set"
+        )
 
 
 # ------------------------------------------------------------------------------- glstat

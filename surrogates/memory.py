@@ -120,8 +120,20 @@ def relaxation_law(law: Any) -> tuple[np.ndarray, np.ndarray]:
         if set(law) != {"zeta", "rate"}:
             raise ValueError(f"must hold exactly the keys 'zeta' and 'rate', got {sorted(law)}")
         z, r = law["zeta"], law["rate"]
-    else:
+    elif (
+        isinstance(law, list | tuple)
+        and len(law) == 2
+        and all(isinstance(x, list | tuple | np.ndarray) for x in law)
+    ):
         z, r = law
+    else:
+        raise ValueError(
+            f"must be a mapping {{'zeta': [m, ...], 'rate': [m/s, ...]}} (the knots and their "
+            f"rates, at least 3 each) or a pair (zeta, rate) of such lists, got {law!r}"
+        )
+    for name, v in (("zeta", z), ("rate", r)):
+        if not isinstance(v, list | tuple | np.ndarray):
+            raise ValueError(f"{name} must be a list of numbers (at least 3), got {v!r}")
     try:
         z = np.array(z, dtype=np.float64)
         r = np.array(r, dtype=np.float64)

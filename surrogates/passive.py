@@ -115,36 +115,26 @@ class PassiveLegendreRegression(LegendreRegression):
         T = E.shape[0]
         if n < T:
             raise ValueError(
-                f"U has {n} samples but degree={self.degree!r} needs at least {T} (one per term)"
+                f"X has {n} samples but degree={self.degree!r} needs at least {T} (one per term)"
             )
         A = design_matrix(self._map(U), E)
         norms = np.linalg.norm(A, axis=0)
         Q, R = qr(A / norms, mode="economic")
         s = np.linalg.svd(R, compute_uv=False)
-        if s[-1] <= s[0] * T * np.finfo(float).eps:
+        if rank_deficient(s):
             raise ValueError(
                 f"degree={self.degree!r} is too high for the data: the design matrix is rank "
-                f"deficient (too few distinct values in some column of U)"
+                f"deficient (too few distinct values in some column of X)"
             )
-        f = Q.T @ V
         margin = SLOPE_MARGIN * float(np.ptp(V))
-        k = np.arange(self.grid_size)
-        grid = -np.cos(np.pi * k / (self.grid_size - 1))  # Chebyshev–Lobatto, ends included
-        points = [grid if m else np.empty(0) for m in mono]
-        for _ in range(MAX_REFINE_ROUNDS):
-            coef_scaled = _lsi(R, f, _slope_rows(points, E) / norms, margin)
-            minima = {j: _slope_minima(coef_scaled / norms, E, j) for j in range(d) if mono[j]}
-            bad = {j for j, (_, slope) in minima.items() if slope.min() < 0.0}
-            if not bad:
-                break
-            for j in bad:
-                t_min, slope = minima[j]
-                points[j] = np.concatenate([points[j], t_min[slope < 0.5 * margin]])
+        coef_scaled, minima, n_constraints = passive_coefficients(
+            R, Q.T @ V, E, norms, mono, self.grid_size, margin
+        )
         self.coef_ = coef_scaled / norms
         self.exponents_ = E
         self.n_terms_ = T
         self.cond_ = float(s[0] / s[-1])
-        self.n_constraints_ = int(sum(p.size for p in points))
+        self.n_constraints_ = n_constraints
         dt_du = 2.0 / (self.upper_ - self.lower_)
         self.min_slope_ = np.array(
             [minima[j][1].min() * dt_du[j] if j in minima else np.nan for j in range(d)]
@@ -177,6 +167,54 @@ class PassiveLegendreRegression(LegendreRegression):
                 )
             min_slope[j] = slope.min() * dt_du[j]
         self.min_slope_ = min_slope
+
+
+def rank_deficient(s: np.ndarray) -> bool:
+    """Whether the singular values ``s`` (descending) of the column-scaled design matrix are
+    too spread for the passive fit: ``s_min <= s_max · T · eps`` for ``T`` terms."""
+    return bool(s[-1] <= s[0] * s.size * np.finfo(float).eps)
+
+
+def passive_coefficients(
+    R: np.ndarray,
+    f: np.ndarray,
+    E: np.ndarray,
+    norms: np.ndarray,
+    mono: tuple[bool, ...],
+    grid_size: int,
+    margin: float,
+) -> tuple[np.ndarray, dict[int, tuple[np.ndarray, np.ndarray]], int]:
+    """The constrained solve of :meth:`PassiveLegendreRegression.fit` from a factorisation.
+
+    Parameters
+    ----------
+    R, f : triangular factor (T, T) of the column-scaled design matrix ``A / norms = Q R``
+        and ``f = Qᵀ V`` (any factor with ``‖A c / norms − V‖² = ‖R c − f‖² + const`` gives
+        the same minimiser).
+    E : exponents (T, d) of the additive terms. norms : column norms (T,) of ``A``.
+    mono : whether each input is constrained. grid_size : constraint points per input.
+    margin : smallest slope kept on the constrained points, output units per mapped unit.
+
+    Returns
+    -------
+    (coef_scaled, minima, n_constraints) : coefficients of the scaled columns (T,), the
+    slope minima ``{j: (t, slope)}`` of each constrained input at the last round (mapped
+    units, :func:`_slope_minima`) and the number of constrained points in the final solve.
+    """
+    d = E.shape[1]
+    k = np.arange(grid_size)
+    grid = -np.cos(np.pi * k / (grid_size - 1))  # Chebyshev–Lobatto, ends included
+    points = [grid if m else np.empty(0) for m in mono]
+    for _ in range(MAX_REFINE_ROUNDS):
+        coef_scaled = _lsi(R, f, _slope_rows(points, E) / norms, margin)
+        minima = {j: _slope_minima(coef_scaled / norms, E, j) for j in range(d) if mono[j]}
+        bad = {j for j, (_, slope) in minima.items() if slope.min() < 0.0}
+        if not bad:
+            break
+        for j in bad:
+            t_min, slope = minima[j]
+            points[j] = np.concatenate([points[j], t_min[slope < 0.5 * margin]])
+    return coef_scaled, minima, int(sum(p.size for p in points))
 
 
 def _slope_minima(coef: np.ndarray, E: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:

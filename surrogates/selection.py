@@ -10,7 +10,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -18,6 +18,9 @@ from surrogates.metrics import average_absolute_error, rms_normalised_error
 from surrogates.models import SurrogateModel, model_class
 from surrogates.models.base import as_inputs, as_outputs
 from surrogates.models.checks import random_seed
+
+if TYPE_CHECKING:
+    from surrogates.legendre_kfold import SharedFolds
 
 Factory = Callable[[Any], SurrogateModel]
 Progress = Callable[[int, int], None] | None
@@ -182,35 +185,74 @@ def select_kfold(
     seed: int | None = 0,
     progress: Progress = None,
 ) -> SelectionResult:
-    """k-fold cross-validation: each candidate's score is pooled over the k held-out folds."""
+    """k-fold cross-validation: each candidate's score is pooled over the k held-out folds.
+
+    Candidates that ``make`` builds as :class:`~surrogates.models.lpr.LegendreRegression` or
+    :class:`~surrogates.passive.PassiveLegendreRegression` (those classes, not subclasses)
+    are scored from one factorisation per fold shared by all of them
+    (:mod:`surrogates.legendre_kfold`; the same scores to its ``SCORE_RTOL``); every other
+    candidate is fitted on each fold.
+    """
     U = as_inputs(U)
     V = as_outputs(V, U.shape[0])
     folds = kfold_indices(U.shape[0], k, seed)
     cands = list(candidates)
+    shared = _shared_folds(make, cands, U, V, folds)
     table = []
     for i, cand in enumerate(cands):
-        pred = np.empty_like(V)
-        error = None
-        for fold in folds:
-            train = np.setdiff1d(np.arange(U.shape[0]), fold, assume_unique=True)
-            model = _fits(make, cand, U[train], V[train])
-            if isinstance(model, str):
-                error = model
-                break
-            pred[fold] = model.predict(U[fold])
+        pred: np.ndarray | str | None = None if shared is None else shared.predictions(i)
+        if pred is None:
+            pred = _fold_predictions(make, cand, U, V, folds)
         row: dict[str, Any]
-        if error is None:
+        if isinstance(pred, str):
+            row = {**_NAN, "error": pred}
+        else:
             row = {
                 "rms": float(np.sqrt(np.mean((pred - V) ** 2))),
                 "mae": average_absolute_error(pred, V),
                 "nrms": rms_normalised_error(pred, V),
             }
-        else:
-            row = {**_NAN, "error": error}
         table.append({"candidate": cand, **row})
         if progress:
             progress(i + 1, len(cands))
     return _finish("kfold", table)
+
+
+def _fold_predictions(
+    make: Factory, cand: Any, U: np.ndarray, V: np.ndarray, folds: list[np.ndarray]
+) -> np.ndarray | str:
+    """Held-out predictions (n,) of ``cand`` fitted on each fold's training rows, or the
+    error message of the first fold where it cannot be fitted."""
+    pred = np.empty_like(V)
+    for fold in folds:
+        train = np.setdiff1d(np.arange(U.shape[0]), fold, assume_unique=True)
+        model = _fits(make, cand, U[train], V[train])
+        if isinstance(model, str):
+            return model
+        pred[fold] = model.predict(U[fold])
+    return pred
+
+
+def _shared_folds(
+    make: Factory, cands: list[Any], U: np.ndarray, V: np.ndarray, folds: list[np.ndarray]
+) -> SharedFolds | None:
+    """:class:`surrogates.legendre_kfold.SharedFolds` of the candidates, or ``None`` when
+    ``make`` builds no Legendre model (imported only then: it needs scipy)."""
+    models: list[Any] = []
+    for cand in cands:
+        try:
+            models.append(make(cand))
+        except (ValueError, np.linalg.LinAlgError):
+            models.append(None)  # the loop reports it
+    if not any(getattr(type(m), "kind", None) in _SHARED_KINDS for m in models):
+        return None
+    from surrogates.legendre_kfold import SharedFolds as Shared
+
+    return Shared.prepare(models, U, V, folds)
+
+
+#: model kinds that :mod:`surrogates.legendre_kfold` may score (it checks the exact classes)
+_SHARED_KINDS = ("lpr", "lpr_passive")
 
 
 def candidate_label(cand: Any) -> str:

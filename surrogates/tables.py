@@ -206,6 +206,16 @@ def _chosen(path: Path, names: list[str], time: str, columns: Sequence[str] | No
     return [time, *keep]
 
 
+def _line_number(value: object, field: str) -> int:
+    """A 0-based line number: an integer >= 0 (``ValueError`` naming ``field``)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+        raise ValueError(
+            f"{field} must be a 0-based line number (an integer >= 0: 0 is the first line), "
+            f"got {value!r}"
+        )
+    return int(value)
+
+
 def read_table(
     path: str | Path,
     *,
@@ -215,7 +225,7 @@ def read_table(
     units: Mapping[str, str] | None = None,
     time: str = "t",
     columns: Sequence[str] | None = None,
-    comment: str = "#",
+    comment: str | None = "#",
 ) -> TimeHistory:
     """Read a time-history table into a :class:`TimeHistory` in SI.
 
@@ -224,16 +234,27 @@ def read_table(
     path : the text file.
     delimiter : ``","``, ``";"``, ``"tab"``, ``"whitespace"`` or ``None`` (detected from the
         header line: ``,`` then ``;`` then tab, else whitespace).
-    header_row : 0-based line number of the column names (earlier lines are skipped).
-    unit_row : 0-based line number of a row of units (``None``: none, or units in the names).
+    header_row : 0-based line number of the column names (earlier lines are skipped), an
+        integer >= 0.
+    unit_row : 0-based line number of a row of units (``None``: none, or units in the names),
+        after ``header_row``.
     units : column → unit, overriding the file's (default: the file's, else SI assumed).
     time : name of the time column (strictly increasing; converted to s).
     columns : channels to keep (default every column but the time).
-    comment : lines starting with it (after leading blanks) are skipped.
+    comment : lines starting with it (after leading blanks) are skipped: a non-empty string,
+        or ``None`` to skip none.
     """
     path = Path(path)
     if delimiter is not None and delimiter not in DELIMITERS:
         raise ValueError(f"delimiter must be one of {list(DELIMITERS)} or None, got {delimiter!r}")
+    header_row = _line_number(header_row, "header_row")
+    if unit_row is not None:
+        unit_row = _line_number(unit_row, "unit_row")
+    if comment is not None and (not isinstance(comment, str) or not comment.strip()):
+        raise ValueError(
+            f"comment must be the non-empty prefix of comment lines (e.g. '#'), or None to skip "
+            f"no line; got {comment!r} (an empty prefix would skip every line, a blank one none)"
+        )
     if unit_row is not None and unit_row <= header_row:
         raise ValueError(f"unit_row ({unit_row}) must come after header_row ({header_row})")
     names: list[str] | None = None
@@ -250,7 +271,7 @@ def read_table(
                 names, sep, file_units = _header(line, delimiter, f"{path}: line {lineno}")
             elif i == unit_row:
                 file_units.update(_unit_row(line, sep, names, f"{path}: line {lineno}"))
-            elif line.strip() and not line.lstrip().startswith(comment):
+            elif line.strip() and not (comment and line.lstrip().startswith(comment)):
                 if table is None:  # first data row: fix the columns and their SI factors
                     where = f"{path}: line {(header_row if unit_row is None else unit_row) + 1}"
                     chosen = _chosen(path, names, time, columns)

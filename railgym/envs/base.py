@@ -28,6 +28,8 @@ The batch contract (:class:`Batch`)
     Observations (n, *obs_shape) float32, any sensor noise drawn from the per-system ``rngs``.
 ``render_state(i)``
     What the env's frame function draws for system ``i``.
+``close()`` (optional)
+    Release what the batch holds (FMU instances); called by the env's ``close()``.
 
 Using the shells
 ----------------
@@ -252,6 +254,17 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
             return None
         return self._frame(self.sim.render_state(0))
 
+    def close(self) -> None:
+        """Release what the batch holds (``close()`` of the batch, if it has one: the FMU
+        instances of ``backend="fmu"``)."""
+        _close_batch(self.sim)
+
+
+def _close_batch(sim: Any) -> None:
+    close = getattr(sim, "close", None)
+    if close is not None:
+        close()
+
 
 class BatchVectorEnv(VectorEnv):
     """Native vector shell: every sub-env stepped by one batch call, next-step autoreset.
@@ -345,3 +358,11 @@ class BatchVectorEnv(VectorEnv):
             gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
             return None
         return tuple(self.single_env._frame(self.sim.render_state(i)) for i in range(self.num_envs))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Release what the batch and the single env hold (the FMU instances of
+        ``backend="fmu"``); gymnasium's ``close()`` calls this once."""
+        _close_batch(getattr(self, "sim", None))
+        single = getattr(self, "single_env", None)
+        if single is not None:
+            single.close()

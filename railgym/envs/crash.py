@@ -43,7 +43,8 @@ from railgym.vehicles.crash import (
     crash_model,
     simulate_reference,
 )
-from railgym.vehicles.crash.elements import packaged_surrogate
+from railgym.vehicles.crash.elements import packaged_surrogate, packaged_trains
+from railgym.vehicles.crash.surrogate import NoUnloadingError
 
 __all__ = [
     "BACKENDS",
@@ -71,8 +72,41 @@ OPTIONS = ("speed_kmh", "payload_t")
 @functools.lru_cache(maxsize=16)
 def default_surrogate(scenario: CrashScenario, variant: str = "hysteretic") -> CrashSurrogate:
     """Surrogate elements fitted on a passive reference run of ``scenario`` (cached per
-    scenario, i.e. per name/file, number of cars and speed, and process)."""
-    return build_crash_surrogate(simulate_reference(scenario), variant=variant, seed=0)
+    scenario, i.e. per name/file, number of cars and speed, and process).
+
+    Raises
+    ------
+    ValueError
+        That run cannot be fitted (e.g. it holds no elastic unloading); the message says that
+        the elements are fitted on this run and what to give instead.
+    """
+    try:
+        return build_crash_surrogate(simulate_reference(scenario), variant=variant, seed=0)
+    except ValueError as err:
+        raise ValueError(_unfittable(scenario, variant, err)) from err
+
+
+def _unfittable(scenario: CrashScenario, variant: str, err: ValueError) -> str:
+    """The message of a :func:`default_surrogate` that cannot be fitted on its run."""
+    case = (
+        f"n_cars={scenario.n_cars}, speed={scenario.speed:g} m/s = {3.6 * scenario.speed:.4g} km/h"
+    )
+    if isinstance(err, NoUnloadingError):
+        why = (
+            f"this case gives no elastic unloading of the {err.element} element (its zone never "
+            "springs back under load), so its unloading stiffness k_u cannot be estimated"
+        )
+    else:
+        why = f"they cannot be fitted on it: {err}"
+    packaged = "; ".join(packaged_trains(variant)) or "none"
+    return (
+        f"scenario {scenario.name!r}: the default surrogate elements (what backend='surrogate' "
+        "uses without surrogate= when no packaged elements fit the train) are fitted on a "
+        f"passive reference run of this scenario ({case}), and {why}. Use a packaged train at "
+        f"a speed within its envelope (packaged: {packaged}), or give surrogate= elements "
+        "fitted on your own runs (railgym.vehicles.crash.build_crash_surrogate, or python -m "
+        "railgym.vehicles.crash.fe from LS-DYNA output)"
+    )
 
 
 @functools.lru_cache(maxsize=16)

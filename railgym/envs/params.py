@@ -486,7 +486,12 @@ class TrackEnvParams(Params):
         hi=1000.0,
     )
     vehicle: Any = param(
-        "manchester", "", "vehicle YAML: name in `configs/vehicles/` or path", kind="object"
+        None,
+        "",
+        "vehicle YAML: name in `configs/vehicles/` or path; `None`: the packaged vehicle, and "
+        'with backend `"fmu"` the mapping\'s `vehicle:` (one of the two is required there)',
+        kind="object",
+        optional=True,
     )
     fmu: Any = param(
         None, "", 'FMU file (default the mapping\'s `fmu:`); backend `"fmu"` only', kind="object"
@@ -499,7 +504,9 @@ class TrackEnvParams(Params):
     n_sub: int = derived("1", "integration steps per control step")
     n_steps: int = derived("1", "control steps per episode")
     model: Any = derived("", "the loaded vehicle of `vehicle`")
-    free_travel: float = derived("m", "secondary free travel in compression (deflection scale)")
+    free_travel: float = derived(
+        "m", "deflection scale: the free travel in compression (vehicle.deflection_scale)"
+    )
     obs_names: tuple[str, ...] = derived("", "observation channels")
     obs_scale: np.ndarray = derived("SI", "scale of each observation channel")
 
@@ -508,8 +515,22 @@ class TrackEnvParams(Params):
         raise NotImplementedError
 
     def _load_vehicle(self) -> tuple[Any, float]:
-        """The vehicle of ``self.vehicle`` and its secondary free travel in compression, m."""
+        """The vehicle of ``self.vehicle`` and its deflection scale, m."""
         raise NotImplementedError
+
+    #: the packaged vehicle of ``vehicle=None`` (built-in backends)
+    DEFAULT_VEHICLE: ClassVar[str] = "manchester"
+    #: the ``env:`` of this env's FMU mapping files (:mod:`railgym.fmu.mapping`)
+    FMU_ENV: ClassVar[str] = "vertical"
+
+    def _vehicle_of_backend(self) -> Any:
+        """``vehicle``, else the packaged one; with backend ``"fmu"`` the user's model must be
+        described (``vehicle=`` or the mapping's ``vehicle:``): no default is taken for it."""
+        if self.backend != "fmu":
+            return self.DEFAULT_VEHICLE if self.vehicle is None else self.vehicle
+        from railgym.fmu.mapping import fmu_vehicle
+
+        return fmu_vehicle(self.fmu_map, self.vehicle, "vehicle=", self.FMU_ENV)
 
     def _derive(self) -> None:
         if self.backend != "fmu":
@@ -520,6 +541,7 @@ class TrackEnvParams(Params):
                     )
         elif self.fmu_map is None:
             raise val.FieldError("fmu_map", "is required with backend='fmu' (docs/fmi.md)")
+        self._set("vehicle", self._vehicle_of_backend())
         self._set("variant", ENV_BACKENDS[self.backend])
         if self.dt is None:
             self._set("dt", self._default_dt())
@@ -527,6 +549,13 @@ class TrackEnvParams(Params):
         self._set("n_sub", n_sub)
         self._set("n_steps", n_steps)
         model, free_travel = self._load_vehicle()
+        if self.backend != "fmu":
+            try:
+                getattr(model, "suspension", model).require_variant(self.variant)
+            except val.FieldError as exc:
+                raise val.FieldError(
+                    "vehicle", f"{self.vehicle!r}: {exc} (backend={self.backend!r})"
+                ) from None
         self._set("model", model)
         self._set("free_travel", free_travel)
         names, scales = self.OBSERVATIONS[self.observation]

@@ -15,7 +15,7 @@ compiled call (the single env is a batch of one).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -42,6 +42,7 @@ from railgym.envs.vertical import (
     TrackEnvShell,
     TrackVectorShell,
     _surrogate_arrays,
+    check_element_vehicle,
     check_speed_limit,
     declare_signatures,
 )
@@ -49,6 +50,7 @@ from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+from railgym.vehicles.element_envelope import OperatingEnvelope
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 
 __all__ = [
@@ -165,11 +167,16 @@ class VehicleParams(TrackEnvParams):
         8000.0, "N", "force of each actuator at action ±1", lo=0.0, lo_open=True, hi=1e9
     )
     vehicle: Any = param(
-        "manchester_whole",
+        None,
         "",
-        "whole-vehicle YAML: name in `configs/vehicles/` or path",
+        "whole-vehicle YAML: name in `configs/vehicles/` or path; `None`: "
+        '`manchester_whole`, and with backend `"fmu"` the mapping\'s `vehicle:` (one of the two '
+        "is required there)",
         kind="object",
+        optional=True,
     )
+    DEFAULT_VEHICLE: ClassVar[str] = "manchester_whole"
+    FMU_ENV: ClassVar[str] = "vehicle"
     n_actuators: int = param(
         2,
         "",
@@ -192,7 +199,7 @@ class VehicleParams(TrackEnvParams):
 
     def _load_vehicle(self) -> tuple[Any, float]:
         veh = load_whole_vehicle(self.vehicle)
-        return veh, veh.suspension.bump_stop.free_travel_compression
+        return veh, veh.suspension.deflection_scale
 
     def _derive(self) -> None:
         super()._derive()
@@ -206,11 +213,15 @@ class VehicleParams(TrackEnvParams):
 LIMITS = {**_VERTICAL_LIMITS, **limits(VehicleParams)}
 
 
-def _batch(n: int, cfg: VehicleParams, lpr: Any, v_min: float) -> VehicleBatch:
-    """The batch of ``n`` vehicles: the compiled kernel, or FMU instances for
-    ``backend="fmu"`` (``cfg.fmu``, ``cfg.fmu_map``: :mod:`railgym.fmu.mapping`)."""
+def _batch(
+    n: int, cfg: VehicleParams, lpr: Any, v_min: float, envelope: OperatingEnvelope | None = None
+) -> VehicleBatch:
+    """The batch of ``n`` vehicles: the compiled kernel (``envelope``: the element's, behind
+    ``info["outside_envelope"]``), or FMU instances for ``backend="fmu"`` (``cfg.fmu``,
+    ``cfg.fmu_map``: :mod:`railgym.fmu.mapping`)."""
+    check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
-        return VehicleBatch(n, cfg, cfg.model, lpr, v_min)
+        return VehicleBatch(n, cfg, cfg.model, lpr, v_min, envelope)
     from railgym.fmu.mapping import load_mapping
     from railgym.fmu.vehicle_batch import FMUVehicleBatch
 
@@ -218,10 +229,13 @@ def _batch(n: int, cfg: VehicleParams, lpr: Any, v_min: float) -> VehicleBatch:
     return FMUVehicleBatch(n, cfg, cfg.model, lpr, v_min, mapping)
 
 
-def _vehicle_surrogate(backend: str, surrogate: Any, dt: float) -> Any:
+def _vehicle_surrogate(
+    backend: str, surrogate: Any, dt: float
+) -> tuple[Any, OperatingEnvelope | None]:
     """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
     (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
-    default is the packaged whole-vehicle element (``vehicle_lpr.json``, docs/validation.md)."""
+    default is the packaged whole-vehicle element (``vehicle_lpr.json``, docs/validation.md);
+    and the element's operating envelope (``None``: none)."""
     return _surrogate_arrays(backend, surrogate, dt, relaxation=True)
 
 
@@ -284,9 +298,10 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
         surrogate = self._declare(kwargs)
         cfg = self.cfg
         self.speeds = _speed_range(cfg.track_class, cfg.speed, cfg.speed_limit)
-        lpr = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt)
+        lpr, envelope = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt)
         self.vehicle = cfg.model
-        self._start(_batch(1, cfg, lpr, min(self.speeds[0], SIZING_SPEED)), render_mode)
+        v_min = min(self.speeds[0], SIZING_SPEED)
+        self._start(_batch(1, cfg, lpr, v_min, envelope), render_mode)
 
     def _default_surrogate(self) -> Any:
         """The whole vehicle's packaged element (v0: :attr:`default_element`)."""
@@ -344,7 +359,8 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, TrackVectorShell):
         num_envs, single = self._single(num_envs, render_mode, kwargs)
         one = single.sim
         self.vehicle = one.vehicle
-        self._init_vector(single, _batch(num_envs, self.cfg, one.lpr, one.v_min), num_envs)
+        sim = _batch(num_envs, self.cfg, one.lpr, one.v_min, one.envelope)
+        self._init_vector(single, sim, num_envs)
 
     def step(
         self, actions: Any

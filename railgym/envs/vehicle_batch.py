@@ -9,6 +9,7 @@ counters behind the ``info`` values, whose keys are declared once (:data:`INFO_K
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -22,6 +23,11 @@ from railgym.envs.params import TrackEnvParams, consts
 from railgym.envs.vertical_batch import TRACK_BYTES, reward_sections
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_with_slope
+from railgym.vehicles.element_envelope import (
+    OperatingEnvelope,
+    envelope_warning,
+    outside_envelope,
+)
 from railgym.vehicles.vehicle import (
     Lpr,
     WholeVehicle,
@@ -33,7 +39,7 @@ from railgym.vehicles.vehicle import (
     new_arrays,
     wheelset_offsets,
 )
-from railgym.vehicles.vertical import RAISE_MODE, deflection_envelope, outside_envelope
+from railgym.vehicles.vertical import RAISE_MODE
 
 __all__ = [
     "ACC_REF",
@@ -65,7 +71,8 @@ INFO_LAYOUT = (
     ("rms_carbody_acc", (3,), float),  # running r.m.s. of carbody_acc, m/s²
     ("bump_stop_contacts", (), int),  # substeps in bump-stop contact, both bogies
     ("out_of_domain", (), int),  # out-of-domain surrogate evaluations
-    ("outside_element", (), bool),  # a secondary deflection left the element's training range
+    ("outside_element", (), bool),  # an element evaluation of this step was outside its box
+    ("outside_envelope", (), bool),  # the episode's class / speed is outside the element's envelope
     ("actuator_force", (2,), float),  # N
 )
 INFO_KEYS = tuple(key for key, _, _ in INFO_LAYOUT)
@@ -158,18 +165,6 @@ def _observe(vehicles, out, params, consts, book, i):
         vel = x[7] + xb * x[8] + params.phi_a * x[9]
         o[7 + b] = (x[10 + 2 * b] - vel) * inv[7 + b]
         o[9 + b] = vel * inv[9 + b]
-
-
-@njit(cache=True, error_model="numpy")
-def _mark_outside(state, a, phi_a, envelope, outside):
-    """Set ``outside[i]`` where a secondary deflection of vehicle ``i`` (m, bogie minus
-    carbody at the bogie centre) is out of ``envelope`` (lo, hi)."""
-    for i in range(state.shape[0]):
-        x = state[i]
-        for b in range(2):
-            xb = a if b == 0 else -a
-            if outside_envelope(x[3 + 2 * b] - x[0] - xb * x[1] - phi_a * x[2], envelope):
-                outside[i] = True
 
 
 # Without the runtime's reference counting: the arrays come from the batch, which owns them
@@ -266,11 +261,19 @@ class VehicleBatch:
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there).
     It holds the arrays of the kernel and computes observation, reward, its terms and the
     ``info`` quantities of :class:`~railgym.envs.vehicle.VerticalVehicleEnv`. The track
-    arrays are sized for speeds down to ``v_min`` (m/s).
+    arrays are sized for speeds down to ``v_min`` (m/s). ``envelope``: the operating envelope
+    of the surrogate element (``None``: none, or not the surrogate backend), behind
+    ``info["outside_envelope"]`` and the warning of the first episode outside it.
     """
 
     def __init__(
-        self, n: int, cfg: TrackEnvParams, vehicle: WholeVehicle, lpr: Lpr, v_min: float
+        self,
+        n: int,
+        cfg: TrackEnvParams,
+        vehicle: WholeVehicle,
+        lpr: Lpr,
+        v_min: float,
+        envelope: OperatingEnvelope | None = None,
     ) -> None:
         self.n, self.cfg, self.vehicle = n, cfg, vehicle
         self.kind = check_variant(cfg.variant)
@@ -320,8 +323,13 @@ class VehicleBatch:
         )
         self.speed = np.zeros(n)
         self.track_class = np.zeros(n, np.int64)
-        self.envelope = deflection_envelope(cfg.variant == "surrogate", self.lpr)
+        self.measured = np.zeros(n, np.bool_)  # the episode runs a measured or user profile
+        self.envelope = envelope
+        self._envelope_warned = False
+        #: per step: an element evaluation was outside the training box (``outside_element``)
         self.outside = np.zeros(n, np.bool_)
+        #: per episode: its class / speed is outside :attr:`envelope` (``outside_envelope``)
+        self.off_envelope = np.zeros(n, np.bool_)
         self._link()
 
     def _link(self) -> None:
@@ -334,6 +342,7 @@ class VehicleBatch:
             "bump_stop_contacts": self.book.contacts,
             "out_of_domain": self.book.ood,
             "outside_element": self.outside,
+            "outside_envelope": self.off_envelope,
         }
         self._flags = {"diverged": self.out.div, "extrapolated": self.extrapolated}
         self._args = (
@@ -384,18 +393,31 @@ class VehicleBatch:
             )
         self.arrays.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
         self.speed[i], self.track_class[i] = v, track_class
+        self.measured[i] = profile is not None
         self.arrays.force[i] = 0.0
         self.reset_state(i)
 
     def reset_state(self, i: int) -> None:
-        """Vehicle ``i`` at rest at the start of its track, counters cleared."""
+        """Vehicle ``i`` at rest at the start of its track, counters cleared; its
+        ``outside_envelope`` set for the episode (a ``UserWarning`` the first time)."""
         arrays, book, out = self.arrays, self.book, self.out
         arrays.state[i] = 0.0
         arrays.k[i] = book.steps[i] = book.contacts[i] = book.ood[i] = 0
         book.acc_sq[i] = book.rms[i] = book.rec[i] = book.zi[i] = book.rew[i] = book.terms[i] = 0.0
         book.info[i] = arrays.force[i] = out.acc[i] = out.fs[i] = 0.0
         out.div[i] = book.extrapolated[i] = book.truncated[i] = self.outside[i] = False
+        self.off_envelope[i] = self._outside_envelope(i)
         _observe(arrays, out, self.params, self.step_consts, book, i)
+
+    def _outside_envelope(self, i: int) -> bool:
+        """Whether vehicle ``i``'s episode is outside :attr:`envelope`; warns the first time."""
+        tc, v, measured = int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
+        outside = outside_envelope(self.envelope, tc, v, measured)
+        if outside and not self._envelope_warned and self.envelope is not None:
+            self._envelope_warned = True
+            text = envelope_warning(self.envelope, tc, v, measured)
+            warnings.warn(f"VerticalVehicle: {text}", UserWarning, stacklevel=2)
+        return outside
 
     def set_action(self, actions: np.ndarray) -> None:
         """Store the clipped actions (n, 2); :meth:`advance` applies ``action · f_max`` (N)."""
@@ -404,9 +426,8 @@ class VehicleBatch:
     def advance(self) -> None:
         """One control step of every vehicle with the stored actions (one compiled call)."""
         self._step(*self._args)
-        _mark_outside(
-            self.arrays.state, self.params.a, self.params.phi_a, self.envelope, self.outside
-        )
+        # the step had an element evaluation (any RK4 stage, either bogie) outside the box
+        np.greater(self.out.count[:, 1], 0, out=self.outside)
 
     def flags(self) -> dict[str, np.ndarray]:
         """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of

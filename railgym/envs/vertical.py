@@ -50,6 +50,7 @@ from railgym.envs.vertical_batch import (
 from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
+from railgym.vehicles.element_envelope import OperatingEnvelope, element_envelope
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
     LprArrays,
@@ -113,7 +114,8 @@ def check_speed_limit(v: float, track_class: int, speed: Any, speed_limit: float
         raise val.FieldError(
             "speed",
             f"must be at most {limit:.4g} m/s (2 × the class-{int(track_class)} maximum unless "
-            f"speed_limit= is given), got {speed!r}",
+            f"speed_limit= is given), got {speed!r} m/s (speed= is in m/s: "
+            f"{v * 3.6:.4g} km/h)",
         )
 
 
@@ -160,7 +162,7 @@ class VerticalParams(TrackEnvParams):
 
     def _load_vehicle(self) -> tuple[Any, float]:
         veh = load_vehicle(self.vehicle)
-        return veh, veh.bump_stop.free_travel_compression
+        return veh, veh.deflection_scale
 
     def _derive(self) -> None:
         super()._derive()
@@ -187,14 +189,17 @@ LIMITS = {
 
 def _surrogate_arrays(
     backend: str, surrogate: Any, dt: float, kriging: bool = False, relaxation: bool = False
-) -> LprArrays:
-    """Kernel arrays of the surrogate element: packaged default, a JSON path or a model.
+) -> tuple[LprArrays, OperatingEnvelope | None]:
+    """Kernel arrays of the surrogate element (packaged default, a JSON path or a model) and
+    its operating envelope (``metadata.envelope``,
+    :mod:`railgym.vehicles.element_envelope`; ``None`` without one or for another backend).
 
     ``surrogate=`` for a backend that does not use it gives a ``UserWarning`` (it is ignored);
     a model whose inputs do not match its feature form (static: δ, δ̇; maxwell: δ, δ̇, δ − s)
     or whose ``τ`` is below ``dt/2`` (s) is rejected, and so is a Kriging unless ``kriging``
     is set (the one-bogie kernels evaluate it), and so is a relaxation law unless
-    ``relaxation`` is set (the whole vehicle's kernels integrate it).
+    ``relaxation`` is set (the whole vehicle's kernels integrate it), and so is a malformed
+    envelope.
     """
     if backend != "surrogate":
         if surrogate is not None:
@@ -203,7 +208,7 @@ def _surrogate_arrays(
                 UserWarning,
                 stacklevel=4,
             )
-        return surrogate_arrays(None)
+        return surrogate_arrays(None), None
     if surrogate is None:
         surrogate = default_vertical_surrogate()
     elif isinstance(surrogate, str | Path):
@@ -223,8 +228,12 @@ def _surrogate_arrays(
         lpr = surrogate_arrays(surrogate, dt, kriging, relaxation)
     except ValueError as exc:
         raise val.FieldError("surrogate", str(exc), full=True) from None
+    try:
+        envelope = element_envelope(surrogate)
+    except ValueError as exc:
+        raise val.FieldError("surrogate", str(exc)) from None
     _check_element_units(surrogate, lpr.lo.shape[0])
-    return lpr
+    return lpr, envelope
 
 
 #: units of the suspension element's inputs (deflection, its rate, Maxwell state) and output
@@ -233,34 +242,69 @@ ELEMENT_OUTPUT_UNIT = "N"
 
 
 def _check_element_units(surrogate: Any, d: int) -> None:
-    """A model read from a file (``features_``) must give the units the kernel assumes:
+    """A model with named inputs (``features_``: read from a file, or from
+    ``surrogates.build(..., inputs=, units=)``) must give the units the kernel assumes:
     deflection m, velocity m/s (and the Maxwell state m) in, force N out; an element fitted on
-    another problem, or in mm or kN, is refused. A model fitted in this session carries no
-    units and is taken as SI."""
+    another problem, or in mm or kN, is refused (the error names the fix). A model fitted in
+    this session without names carries no units and is taken as SI."""
     features = getattr(surrogate, "features_", None) or {}
     units, names = features.get("units") or {}, list(features.get("inputs") or [])
-    if len(names) != d:  # no file's features block: a model fitted in this session
+    if len(names) != d:  # no names: a model fitted in this session
         return
     output = features.get("output")
     wanted = [*zip(names[:d], ELEMENT_UNITS[:d], strict=True), (output, ELEMENT_OUTPUT_UNIT)]
     for name, unit in wanted:
         got = units.get(name)
-        if got != unit:
-            found = "no unit" if got is None else f"unit {got!r}"
-            raise val.FieldError(
-                "surrogate",
-                f"{'output' if name == output else 'input'} {name!r} has {found} in "
-                "features.units; the suspension element "
-                f"takes {', '.join(f'{n!r} in {u}' for n, u in wanted[:-1])} "
-                f"and gives {output!r} in {ELEMENT_OUTPUT_UNIT} (save it with those units)",
+        if got == unit:
+            continue
+        found = "no unit" if got is None else f"unit {got!r}"
+        takes = (
+            f"the suspension element takes {', '.join(f'{n!r} in {u}' for n, u in wanted[:-1])}"
+            f" and gives {output!r} in {ELEMENT_OUTPUT_UNIT}"
+        )
+        if got is None:
+            si = dict(wanted)
+            fix = (
+                f"build it with units (`surrogates build DATA.csv --inputs {' '.join(names)} "
+                f"--output {output} --units {' '.join(f'{n}={u}' for n, u in wanted)} ...` or "
+                f"`surrogates.build(U, V, ..., inputs={names!r}, output={output!r}, "
+                f"units={si!r})`), save it with them (`surrogates.io.save(model, path, "
+                f"units={si!r})`) or set model.features_['units'] = {si!r}"
             )
+        else:
+            fix = (
+                "convert the data to those units and build the element again (a unit is a "
+                "label: changing it does not rescale the fit)"
+            )
+        raise val.FieldError(
+            "surrogate",
+            f"{'output' if name == output else 'input'} {name!r} has {found} in "
+            f"features.units; {takes}: {fix}",
+        )
 
 
-def _batch(n: int, cfg: VerticalParams, lpr: LprArrays) -> VerticalBatch:
-    """The batch of ``n`` vehicles: compiled kernels, or FMU instances for ``backend="fmu"``
-    (``cfg.fmu``: the FMU file, ``cfg.fmu_map``: its mapping file, :mod:`railgym.fmu.mapping`)."""
+def check_element_vehicle(backend: str, lpr: LprArrays, vehicle: Any) -> None:
+    """A surrogate element that adds the vehicle's bump-stop law (known physics) needs a
+    vehicle with bump stops: refused otherwise, naming ``surrogate``."""
+    suspension = getattr(vehicle, "suspension", vehicle)
+    if backend == "surrogate" and lpr.bump and suspension.bump_stop is None:
+        raise val.FieldError(
+            "surrogate",
+            f"the element adds the vehicle's bump-stop law (features.known_physics), but "
+            f"vehicle {suspension.name!r} has no bump_stop section: use an element built "
+            "for this vehicle (python -m railgym.vehicles.collect --vehicle ...)",
+        )
+
+
+def _batch(
+    n: int, cfg: VerticalParams, lpr: LprArrays, envelope: OperatingEnvelope | None = None
+) -> VerticalBatch:
+    """The batch of ``n`` vehicles: compiled kernels (``envelope``: the element's, behind
+    ``info["outside_envelope"]``), or FMU instances for ``backend="fmu"`` (``cfg.fmu``: the
+    FMU file, ``cfg.fmu_map``: its mapping file, :mod:`railgym.fmu.mapping`)."""
+    check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
-        return VerticalBatch(n, cfg, cfg.model, lpr)
+        return VerticalBatch(n, cfg, cfg.model, lpr, envelope)
     from railgym.fmu.batch import FMUBatch
     from railgym.fmu.mapping import load_mapping
 
@@ -400,8 +444,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
         surrogate = self._declare(kwargs)
         cfg = self.cfg
         self.track_class, self.speed = _check_track(cfg.track_class, cfg.speed, cfg.speed_limit)
-        sim = _batch(1, cfg, _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True))
-        self._start(sim, render_mode)
+        lpr, envelope = _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True)
+        self._start(_batch(1, cfg, lpr, envelope), render_mode)
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
@@ -439,6 +483,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
         np.copyto(dst.zdot, src.zdot)
         np.copyto(dst.track_class, src.track_class)
         np.copyto(dst.speed, src.speed)
+        np.copyto(dst.measured, src.measured)
         dst.reset_state(0)
         self._started = True
 
@@ -456,7 +501,8 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, TrackVectorShell):
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
         num_envs, single = self._single(num_envs, render_mode, kwargs)
-        self._init_vector(single, _batch(num_envs, self.cfg, single.sim.lpr), num_envs)
+        sim = _batch(num_envs, self.cfg, single.sim.lpr, single.sim.envelope)
+        self._init_vector(single, sim, num_envs)
 
 
 declare_signatures(VerticalSuspensionEnv, VerticalSuspensionVectorEnv, VerticalParams)

@@ -10,6 +10,7 @@ episode flags.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -27,6 +28,11 @@ from railgym.envs.compiled import (
 from railgym.envs.params import TrackEnvParams, consts
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
+from railgym.vehicles.element_envelope import (
+    OperatingEnvelope,
+    envelope_warning,
+    outside_envelope,
+)
 from railgym.vehicles.vertical import (
     RAISE_MODE,
     LprArrays,
@@ -36,9 +42,7 @@ from railgym.vehicles.vertical import (
     advance_linear,
     advance_static,
     advance_surrogate,
-    deflection_envelope,
     initial_state,
-    outside_envelope,
     step_outputs,
 )
 from railgym.vehicles.vertical.kernels import check_variant
@@ -101,7 +105,6 @@ class StepCfg(NamedTuple):
     sos: np.ndarray  #: float64 (n_sec, 6) the reward's weighting of ẍ2 (:func:`reward_sections`)
     inv_scale: np.ndarray  #: float64 (n_obs,) 1/scale of each observation channel
     flag_ood: bool  #: "raise" policy: flag steps with out-of-domain surrogate evaluations
-    envelope: np.ndarray  #: float64 (2,) δ range of the element's training data, m
 
 
 class StepResult(NamedTuple):
@@ -124,7 +127,8 @@ INFO_KEYS = (
     ("carbody_acc", float),  # m/s²
     ("out_of_domain", int),
     ("bump_stop_contacts", int),
-    ("outside_element", bool),  # δ left the element's training range this episode
+    ("outside_element", bool),  # an element evaluation of this step was outside its box
+    ("outside_envelope", bool),  # the episode's class / speed is outside the element's envelope
     ("rms_carbody_acc", float),  # m/s²
     ("actuator_force", float),  # N
 )
@@ -134,8 +138,9 @@ INFO_COLUMN = {key: j for j, key in enumerate(_INFO)}
 I_TIME, I_ACC, I_RMS, I_FORCE = (
     INFO_COLUMN[k] for k in ("time", "carbody_acc", "rms_carbody_acc", "actuator_force")
 )
-I_OOD, I_CONTACTS, I_OUTSIDE = (
-    INFO_COLUMN[k] for k in ("out_of_domain", "bump_stop_contacts", "outside_element")
+I_OOD, I_CONTACTS, I_OUTSIDE, I_ENVELOPE = (
+    INFO_COLUMN[k]
+    for k in ("out_of_domain", "bump_stop_contacts", "outside_element", "outside_envelope")
 )
 #: (column, type) of the single env's int and bool values; the vector env's array dtypes
 _CAST_INFO = tuple((j, kind) for j, (_, kind) in enumerate(INFO_KEYS) if kind is not float)
@@ -179,7 +184,9 @@ def _post_step(state, z, zdot, out, force, counters, result, consts):
     (:func:`~railgym.envs.compiled.settle_reward`: a divergence also when the reward is not
     finite or the observation too large; ẍ2 weighted in the reward by ``consts.sos``,
     :func:`~railgym.envs.compiled.weigh`), info values and the truncated and extrapolated
-    flags."""
+    flags. ``outside_element`` is set for the step exactly when its count of element
+    evaluations outside the training box (any RK4 stage) is positive; ``outside_envelope``
+    is the episode's, written at reset."""
     for i in range(state.shape[0]):
         counters.k[i] += consts.n_sub
         counters.steps[i] += 1
@@ -200,8 +207,7 @@ def _post_step(state, z, zdot, out, force, counters, result, consts):
         result.info[i, I_CONTACTS] = counters.contacts[i]
         result.info[i, I_RMS] = math.sqrt(counters.acc_sq[i] / max(counters.steps[i], 1))
         result.info[i, I_FORCE] = force[i]
-        if outside_envelope(state[i, 0] - state[i, 2], consts.envelope):
-            result.info[i, I_OUTSIDE] = 1.0  # stays set until the reset of vehicle i
+        result.info[i, I_OUTSIDE] = 1.0 if out.count[i, 1] > 0 else 0.0
         result.truncated[i] = counters.steps[i] >= consts.n_steps
         if consts.flag_ood:
             result.extrapolated[i] = out.count[i, 1] > 0
@@ -237,11 +243,18 @@ class VerticalBatch:
 
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there).
     It holds the arrays the kernels work on and computes observation, reward, its terms and
-    the ``info`` quantities of :class:`VerticalSuspensionEnv`.
+    the ``info`` quantities of :class:`VerticalSuspensionEnv`. ``envelope``: the operating
+    envelope of the surrogate element (``None``: none, or not the surrogate backend), behind
+    ``info["outside_envelope"]`` and the warning of the first episode outside it.
     """
 
     def __init__(
-        self, n: int, cfg: TrackEnvParams, vehicle: VerticalVehicle, lpr: LprArrays
+        self,
+        n: int,
+        cfg: TrackEnvParams,
+        vehicle: VerticalVehicle,
+        lpr: LprArrays,
+        envelope: OperatingEnvelope | None = None,
     ) -> None:
         self.n, self.cfg = n, cfg
         self.vehicle = vehicle
@@ -267,6 +280,9 @@ class VerticalBatch:
         self.cnt = Counters(**ints, acc_sq=np.zeros(n), zi=np.zeros((n, sos.shape[0], 2)))
         self.track_class = np.zeros(n, np.int64)
         self.speed = np.zeros(n)
+        self.measured = np.zeros(n, np.bool_)  # the episode runs a measured or user profile
+        self.envelope = envelope
+        self._envelope_warned = False
         self.inv_scale = 1.0 / cfg.obs_scale
         w = cfg.reward_weights
         self.step_consts = consts(
@@ -279,7 +295,6 @@ class VerticalBatch:
             sos=sos,
             inv_scale=self.inv_scale,
             flag_ood=lpr.mode == RAISE_MODE,
-            envelope=deflection_envelope(cfg.variant == "surrogate", lpr),
         )
         self.res = StepResult(
             obs=np.zeros((n, len(cfg.obs_names))),
@@ -346,16 +361,29 @@ class VerticalBatch:
             z, zdot = profile_time_input(profile, speed, cfg.dt, self.z.shape[1])
         self.z[i], self.zdot[i] = z, zdot
         self.track_class[i], self.speed[i] = track_class, speed
+        self.measured[i] = profile is not None
         self.reset_state(i)
 
     def reset_state(self, i: int) -> None:
-        """Vehicle ``i`` at rest at the start of its track, counters cleared."""
+        """Vehicle ``i`` at rest at the start of its track, counters cleared; its
+        ``outside_envelope`` set for the episode (a ``UserWarning`` the first time)."""
         self.state[i] = 0.0
         self.k[i] = self.steps[i] = self.contacts[i] = self.ood[i] = 0
         self.acc[i] = self.force[i] = self.fs[i] = self.acc_sq[i] = self.rew[i] = 0.0
         self.terms[i] = self.info_rows[i] = self.cnt.zi[i] = 0.0
         self.div[i] = self.extrapolated[i] = self.trunc[i] = False
+        self.info_rows[i, I_ENVELOPE] = self._outside_envelope(i)
         _observe(self.state, self.acc, self.z, self.zdot, self.k, self.inv_scale, i, self.obs)
+
+    def _outside_envelope(self, i: int) -> bool:
+        """Whether vehicle ``i``'s episode is outside :attr:`envelope`; warns the first time."""
+        tc, v, measured = int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
+        outside = outside_envelope(self.envelope, tc, v, measured)
+        if outside and not self._envelope_warned and self.envelope is not None:
+            self._envelope_warned = True
+            text = envelope_warning(self.envelope, tc, v, measured)
+            warnings.warn(f"VerticalSuspension: {text}", UserWarning, stacklevel=2)
+        return outside
 
     def set_action(self, actions: np.ndarray) -> None:
         """Store the clipped actions (n, 1); :meth:`advance` applies ``action · f_max`` (N)."""

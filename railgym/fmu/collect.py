@@ -9,17 +9,20 @@ FMU of a mapping file instead of the built-in reference; the result feeds
     model, selection, _ = build_memory_surrogate(data=data)
 
 The secondary-suspension force ``F_s`` is the FMU's ``secondary_force`` output when the
-mapping names one, else ``m2·ẍ2 − F_a`` with the carbody mass ``m2`` of ``vehicle``.
+mapping names one, else ``m2·ẍ2 − F_a`` with the carbody mass ``m2`` of the FMU's vehicle
+description (``vehicle=``, else the mapping's ``vehicle:``; one of them is required: railgym's
+own vehicle is never assumed for a user's model).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from railgym.fmu.mapping import load_mapping
+from railgym.fmu.mapping import fmu_vehicle, load_mapping
 from railgym.fmu.runner import FMURunner
 from railgym.vehicles.collect_design import CollectionDesign, collect_design
 from railgym.vehicles.vertical import load_vehicle
@@ -68,20 +71,25 @@ def collect_fmu(
     fmu_map: str | Path,
     design: str | CollectionDesign = "paper",
     fmu: str | Path | None = None,
-    vehicle: str = "manchester",
+    vehicle: Any = None,
     dt: float = 1e-3,
+    progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, Any]:
     """:func:`~railgym.vehicles.collect_design.collect_design` of ``design`` on the FMU of
     the mapping file ``fmu_map`` (``fmu``: the FMU file, default the mapping's ``fmu:``),
-    stepped at ``dt`` (s); ``vehicle`` gives ``m2`` when the FMU has no ``secondary_force``."""
+    stepped at ``dt`` (s); ``vehicle`` (default the mapping's ``vehicle:``, :func:`fmu_vehicle`)
+    gives ``m2`` when the FMU has no ``secondary_force``, and the free travel of the contact
+    counts. ``progress(i, total)`` after each case of the design."""
+    vehicle = fmu_vehicle(fmu_map, vehicle)
+    veh = load_vehicle(vehicle)
     mapping = load_mapping(fmu_map, fmu, "vertical")
     runner = FMURunner(mapping, dt, 1)
-    veh = load_vehicle(vehicle)
     try:
         return collect_design(
             design,
-            vehicle,
+            veh,
             dt=dt,
+            progress=progress,
             run=lambda z, zdot, step, fa: simulate_fmu(runner, z, zdot, fa, veh),
         )
     finally:

@@ -12,9 +12,21 @@ from __future__ import annotations
 from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
-from surrogates.fmi.model_description import Variable, interface_lines
+from surrogates.fmi.model_description import BASE_UNITS, Variable, interface_lines
 
-__all__ = ["Variable", "describe"]
+__all__ = ["MODEL_BASE_UNITS", "Variable", "describe"]
+
+#: SI base-unit exponents of every unit the model FMUs declare: the element units, angles and
+#: the units of the states' time derivatives (``UnitDefinitions`` gives each its base units)
+MODEL_BASE_UNITS: dict[str, dict[str, int]] = {
+    **BASE_UNITS,
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "Pa/s": {"kg": 1, "m": -1, "s": -3},
+}
+#: unit of the time derivative of a state in each unit
+DERIVATIVE_UNITS = {"m": "m/s", "m/s": "m/s2", "Pa": "Pa/s", "rad": "rad/s", "rad/s": "rad/s2"}
 
 
 def _real(var: Variable, vr: int, causality: str, extra: str, real_extra: str = "") -> str:
@@ -37,17 +49,33 @@ def describe(
     kinds: Sequence[str] = ("cs",),
     source_files: Sequence[str] = ("model.c",),
     interpolate_inputs: bool = False,
+    stop_time: float = 1.0,
+    step_size: float | None = None,
 ) -> str:
     """The ``modelDescription.xml`` text (FMI 2.0); ``kinds`` ⊆ ``("me", "cs")``.
 
     Inputs start at 0; states start at 0 (``initial="exact"``); outputs and derivatives are
-    calculated and depend on every input and state.
+    calculated and depend on every input and state. Every unit is declared with its SI base
+    units (:data:`MODEL_BASE_UNITS`); the default experiment runs from 0 to ``stop_time`` s
+    in steps of ``step_size`` s (when given).
+
+    Raises
+    ------
+    ValueError
+        A variable's unit is not in :data:`MODEL_BASE_UNITS` (or a state's has no
+        derivative unit in :data:`DERIVATIVE_UNITS`).
     """
     derivs = [
         Variable(f"der({s.name})", _der_unit(s.unit), f"time derivative of {s.name}")
         for s in states
     ]
     units = sorted({v.unit for v in (*inputs, *outputs, *states, *derivs) if v.unit})
+    for u in units:
+        if u not in MODEL_BASE_UNITS:
+            names = [v.name for v in (*inputs, *outputs, *states) if v.unit == u]
+            raise ValueError(
+                f"unit {u!r} of {names} has no SI base units: add it to MODEL_BASE_UNITS"
+            )
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(model_identifier)} '
@@ -55,7 +83,16 @@ def describe(
         'generationTool="railgym railgym.fmu" variableNamingConvention="structured" '
         'numberOfEventIndicators="0">',
     ]
-    lines += interface_lines(model_identifier, kinds, source_files, units, interpolate_inputs)
+    lines += interface_lines(
+        model_identifier,
+        kinds,
+        source_files,
+        units,
+        interpolate_inputs,
+        base_units=MODEL_BASE_UNITS,
+        stop_time=stop_time,
+        step_size=step_size,
+    )
     vr = 0
     for var in inputs:
         lines.append(_real(var, vr, "input", "", ' start="0.0"'))
@@ -87,5 +124,10 @@ def describe(
 
 
 def _der_unit(unit: str) -> str:
-    """Unit of the time derivative of a quantity in ``unit`` (``""`` when not known)."""
-    return {"m": "m/s", "m/s": "m/s2", "Pa": "Pa/s"}.get(unit, "")
+    """Unit of the time derivative of a quantity in ``unit`` (:data:`DERIVATIVE_UNITS`; none
+    for none); ``ValueError`` for a unit not there."""
+    if not unit:
+        return ""
+    if unit not in DERIVATIVE_UNITS:
+        raise ValueError(f"state unit {unit!r} has no derivative unit: add it to DERIVATIVE_UNITS")
+    return DERIVATIVE_UNITS[unit]

@@ -4,6 +4,8 @@ Schema (YAML, version 1; ``docs/fmi.md``)::
 
     version: 1
     fmu: vehicle.fmu              # optional: the FMU, relative to this file (else fmu=)
+    vehicle: car.yaml             # optional: the FMU's vehicle, a YAML path relative to this
+                                  # file or a packaged name (manchester)
     env: vertical                 # the env the FMU stands in for (or vehicle)
     fmi_type: CoSimulation        # or ModelExchange (default: CoSimulation if the FMU has it)
     step: 0.001                   # communication / integration step, s (default: env dt)
@@ -14,19 +16,33 @@ Schema (YAML, version 1; ``docs/fmi.md``)::
       track:                      # one entry per wheelset, front to rear
         - {displacement: z, rate: zdot}
       actuator_force: [F_a]       # one entry per actuator (upwards on the carbody, N)
-    outputs:                      # each value a variable name or {name: ..., unit: ...}
+    outputs:                      # a variable, an expression, {name: ...} or {expr: ...}
       carbody_acc: a2
-      bogie_acc: a1
-      deflection: {name: d, unit: mm}
-      deflection_rate: dd
-      carbody_vel: v2
+      bogie_acc: der(v1)          # the runner's time derivative of v1
+      deflection: x1 - x2
+      deflection_rate: {expr: v1 - v2}
+      carbody_vel: {name: v2, unit: m/s}
       carbody_disp: x2            # optional (0 when absent)
       secondary_force: F_s        # optional, for collect (else m2·a2 − actuator force)
 
-Each variable is a name or ``{name: NAME, unit: UNIT}``; the unit (default: the unit the FMU
-declares for the variable; none declared means SI) must convert to the SI unit of the
-quantity (:data:`UNITS`). Every error names the mapping file and the field, or the FMU file
-and the variable.
+An input is a variable name or ``{name: NAME, unit: UNIT}``. An output is one of
+
+* a string that is the name of an FMU variable: that variable (so the ``der(x)`` variables of
+  a model-exchange FMU are read, not differentiated), or ``{name: NAME, unit: UNIT}``;
+* any other string, or ``{expr: EXPR, unit: UNIT}``: an expression of FMU variables
+  (:mod:`railgym.fmu.expression`: numbers, names, ``"quoted names"``, ``+ - * /``, unary
+  minus, parentheses, ``der(...)`` computed by the runner at the env's substep).
+
+Units: ``unit:`` fills in a unit the FMU does not declare and never overrides one. A variable
+is in the unit the FMU declares for it, else the mapping's ``unit:``, else SI; a ``unit:``
+that disagrees with the declared unit is an error; the unit must convert to the SI unit of
+the quantity (:data:`UNITS`). In an expression every variable is converted to SI by the unit
+the FMU declares for it (none declared: taken as SI; a declared unit railgym does not know is
+an error), and the expression's dimension, where those units give it (a number in a product
+makes it unknown), must be the quantity's. ``unit:`` on an expression is the unit of its value
+(converted to SI after evaluation, the variables taken as they are) and is refused when a
+variable of the expression declares a unit. Every error names the mapping file and the field,
+or the FMU file and the variable.
 """
 
 from __future__ import annotations
@@ -40,8 +56,20 @@ from typing import Any, NamedTuple
 from xml.etree import ElementTree
 
 from railgym import _checks as val
+from railgym.fmu.expression import Dim, Expression, ExpressionError, dim_text, dimension, parse
 
-__all__ = ["ENV_SIGNALS", "FMUError", "Mapping", "Signal", "UNITS", "load_mapping"]
+__all__ = [
+    "ENV_SIGNALS",
+    "FMUError",
+    "Mapping",
+    "Output",
+    "Signal",
+    "UNITS",
+    "fmu_vehicle",
+    "load_mapping",
+    "mapping_vehicle",
+    "same_vehicle",
+]
 
 #: SI unit → {accepted unit: factor to SI}
 UNITS: dict[str, dict[str, float]] = {
@@ -49,6 +77,30 @@ UNITS: dict[str, dict[str, float]] = {
     "m/s": {"m/s": 1.0, "mm/s": 1e-3, "cm/s": 1e-2, "km/h": 1.0 / 3.6},
     "m/s2": {"m/s2": 1.0, "m/s^2": 1.0, "m/s²": 1.0, "mm/s2": 1e-3, "mm/s^2": 1e-3},
     "N": {"N": 1.0, "kN": 1e3, "daN": 10.0},
+}
+#: SI units an expression's variables may declare besides those of :data:`UNITS` (factor 1)
+SI_UNITS: dict[str, Dim] = {
+    "1": (0, 0, 0),
+    "rad": (0, 0, 0),
+    "s": (0, 1, 0),
+    "kg": (0, 0, 1),
+    "rad/s": (0, -1, 0),
+    "Pa": (-1, -2, 1),
+    "N/m": (0, -2, 1),
+    "N.s/m": (0, -1, 1),
+}
+#: SI unit → dimension (exponents of m, s, kg)
+DIMS: dict[str, Dim] = {
+    "m": (1, 0, 0),
+    "m/s": (1, -1, 0),
+    "m/s2": (1, -2, 0),
+    "N": (1, -2, 1),
+    **SI_UNITS,
+}
+#: unit → (its SI unit, factor to SI), every unit of :data:`UNITS` and :data:`SI_UNITS`
+TO_SI: dict[str, tuple[str, float]] = {
+    **{u: (si, f) for si, table in UNITS.items() for u, f in table.items()},
+    **{u: (u, 1.0) for u in SI_UNITS},
 }
 #: per env: wheelsets, actuators, required outputs and optional outputs with their SI units
 ENV_SIGNALS: dict[str, dict[str, Any]] = {
@@ -99,6 +151,19 @@ class Signal:
 
 
 @dataclass(frozen=True)
+class Output:
+    """One mapped output: an FMU variable or an expression of them.
+
+    Its SI value is ``expr`` evaluated with each variable of ``signals`` times its
+    ``factor``, then times ``factor`` (the ``unit:`` of an expression, else 1)."""
+
+    field: str  #: field path in the mapping file
+    expr: Expression  #: one variable: :meth:`Expression.of` its name
+    signals: tuple[Signal, ...]  #: the FMU variables it reads, in ``expr.names`` order
+    factor: float = 1.0
+
+
+@dataclass(frozen=True)
 class Mapping:
     """A checked mapping file (:func:`load_mapping`)."""
 
@@ -110,13 +175,22 @@ class Mapping:
     timeout: float
     track: tuple[tuple[Signal, Signal], ...]  #: (displacement, rate) per wheelset
     forces: tuple[Signal, ...]
-    outputs: dict[str, Signal]
+    outputs: dict[str, Output]
     interpolate: bool  #: co-simulation FMU takes input derivatives (canInterpolateInputs)
     solver: str = "rk4"  #: model exchange: ``"rk4"`` or ``"cvode"`` (:data:`SOLVERS`)
     tolerance: float = DEFAULT_TOLERANCE  #: relative tolerance of ``"cvode"``
+    #: ``vehicle:`` of the file: a YAML path (resolved against the mapping file's folder when
+    #: the file is there) or a packaged vehicle name; ``None`` when not given
+    vehicle: str | None = None
 
 
 def _read_text(path: Path, field: str) -> str:
+    if path.is_dir():
+        raise FMUError(
+            field,
+            f"{field} {str(path)!r} is a folder, not a file; give the mapping file (YAML) itself",
+            full=True,
+        )
     if not path.is_file():
         raise FMUError(field, f"{field} file {str(path)!r} does not exist", full=True)
     try:
@@ -130,6 +204,13 @@ def _read_text(path: Path, field: str) -> str:
 def _model_description(fmu: Path) -> Any:
     import fmpy
 
+    if fmu.is_dir():
+        raise FMUError(
+            "fmu",
+            f"fmu {str(fmu)!r} is a folder, not a file; give the .fmu archive itself (zip an "
+            "unpacked FMU's folder contents into one)",
+            full=True,
+        )
     if not fmu.is_file():
         raise FMUError("fmu", f"fmu file {str(fmu)!r} does not exist", full=True)
     try:  # the version first: a valid FMI 1.0 or 3.0 FMU is not an invalid FMI 2.0 one
@@ -155,6 +236,44 @@ def _model_description(fmu: Path) -> Any:
     return md
 
 
+def _variable(
+    name: str,
+    field: str,
+    variables: dict[str, Any],
+    fmu: Path,
+    source: str,
+    causalities: tuple[str, ...],
+    where: str = "",
+) -> Any:
+    """The FMU variable ``name`` (FMPy's), checked: it exists, is Real, has a causality of
+    ``causalities``; ``where`` is appended to the messages."""
+    var = variables.get(name)
+    if var is None:
+        raise FMUError(
+            field, f"{source}: {field}: FMU {fmu} has no variable {name!r}{where}", full=True
+        )
+    if var.type != "Real":
+        raise FMUError(
+            field,
+            f"{source}: {field}: FMU variable {name!r} is {var.type}, not Real{where}",
+            full=True,
+        )
+    if var.causality not in causalities:
+        raise FMUError(
+            field,
+            f"{source}: {field}: FMU variable {name!r} has causality {var.causality!r}, "
+            f"expected {' or '.join(causalities)}{where}",
+            full=True,
+        )
+    return var
+
+
+def _declared(var: Any) -> str | None:
+    """The unit the FMU declares for ``var`` (its own, else its type's), ``None``: none."""
+    unit = var.unit or (var.declaredType.unit if var.declaredType is not None else None)
+    return str(unit) if unit else None
+
+
 def _signal(
     spec: Any,
     field: str,
@@ -165,10 +284,11 @@ def _signal(
     causalities: tuple[str, ...],
 ) -> Signal:
     if isinstance(spec, dict):
-        f = val.Fields(spec, field)
-        name = f.text("name")
-        unit = f.get("unit", None)
-        f.done()
+        with _in_file(source):
+            f = val.Fields(spec, field)
+            name = f.text("name")
+            unit = f.get("unit", None)
+            f.done()
         if unit is not None and not isinstance(unit, str):
             raise FMUError(f"{field}.unit", f"{source}: {field}.unit must be a string", full=True)
     elif isinstance(spec, str) and spec:
@@ -179,23 +299,19 @@ def _signal(
             f"{source}: {field} must be a variable name or {{name, unit}}, got {spec!r}",
             full=True,
         )
-    var = variables.get(name)
-    if var is None:
-        raise FMUError(field, f"{source}: {field}: FMU {fmu} has no variable {name!r}", full=True)
-    if var.type != "Real":
-        raise FMUError(
-            field, f"{source}: {field}: FMU variable {name!r} is {var.type}, not Real", full=True
-        )
-    if var.causality not in causalities:
+    var = _variable(name, field, variables, fmu, source, causalities)
+    declared = _declared(var)
+    table = UNITS[si]
+    same = unit == declared or (unit in table and table[unit] == table.get(declared or ""))
+    if unit is not None and declared is not None and not same:
         raise FMUError(
             field,
-            f"{source}: {field}: FMU variable {name!r} has causality {var.causality!r}, "
-            f"expected {' or '.join(causalities)}",
+            f"{source}: {field}: the FMU declares {declared!r} for variable {name!r}; the "
+            f"mapping's unit {unit!r} disagrees — remove unit: or fix the FMU",
             full=True,
         )
-    declared = var.unit or (var.declaredType.unit if var.declaredType is not None else None)
-    unit = unit or declared or si
-    factor = UNITS[si].get(unit)
+    unit = declared or unit or si
+    factor = table.get(unit)
     if factor is None:
         raise FMUError(
             field,
@@ -227,15 +343,40 @@ class _Top(NamedTuple):
     tolerance: float | None
     inputs: val.Fields
     outputs: val.Fields
+    vehicle: Any
+
+
+def _document(path: Path, source: str) -> dict[str, Any]:
+    """The mapping file's YAML document, a mapping (:class:`FMUError` naming the file)."""
+    data = val.load_yaml(_read_text(path, "fmu_map"), source)
+    if not isinstance(data, dict):
+        got = "nothing" if data is None else f"a {_yaml_kind(data)}"
+        raise FMUError(
+            "fmu_map",
+            f"{source}: the mapping file must be a YAML mapping (version:, env:, inputs:, "
+            f"outputs:), got {got}",
+            full=True,
+        )
+    return data
+
+
+def _yaml_kind(data: Any) -> str:
+    """The YAML name of a non-mapping document's type."""
+    if isinstance(data, list):
+        return "list"
+    if isinstance(data, str):
+        return "string"
+    return "number" if isinstance(data, int | float) else type(data).__name__
 
 
 def _top_fields(path: Path, source: str) -> _Top:
     """Read the mapping file's top level: every key known, numbers checked."""
-    data = val.load_yaml(_read_text(path, "fmu_map"), source)
+    data = _document(path, source)
     f = val.Fields(data, "")
     with _in_file(source):
         f.integer("version", 1, 1)
         name = f.get("fmu", None)
+        vehicle = f.get("vehicle", None)
         env_name = f.text("env")
         fmi_type = f.get("fmi_type", None)
         step = f.get("step", None)
@@ -246,7 +387,9 @@ def _top_fields(path: Path, source: str) -> _Top:
         inputs = f.section("inputs")
         outputs = f.section("outputs")
         f.done()
-    return _Top(name, env_name, fmi_type, step, timeout, solver, tolerance, inputs, outputs)
+    return _Top(
+        name, env_name, fmi_type, step, timeout, solver, tolerance, inputs, outputs, vehicle
+    )
 
 
 def _fmi_type(top: _Top, md: Any, fmu: Path, source: str) -> str:
@@ -303,9 +446,111 @@ def _input_signals(
     return tuple(pairs), force_sigs
 
 
+_OUTPUT_FORMS = "a variable name, an expression, {name: ..., unit: ...} or {expr: ..., unit: ...}"
+
+
+def _output(
+    spec: Any, field: str, si: str, variables: dict[str, Any], fmu: Path, source: str
+) -> Output:
+    """The output at ``field`` (SI unit ``si``): a variable or an expression (module
+    docstring: forms and the unit rule)."""
+    causalities = ("output", "local")
+    if isinstance(spec, dict) and ("name" in spec) == ("expr" in spec):
+        raise FMUError(
+            field,
+            f"{source}: {field} needs name: (one FMU variable) or expr: (an expression), "
+            "not both or neither",
+            full=True,
+        )
+    if (isinstance(spec, str) and spec in variables) or (isinstance(spec, dict) and "name" in spec):
+        sig = _signal(spec, field, si, variables, fmu, source, causalities)
+        return Output(field, Expression.of(sig.name), (sig,))
+    unit = None
+    if isinstance(spec, dict):
+        with _in_file(source):
+            f = val.Fields(spec, field)
+            text = f.text("expr")
+            unit = f.get("unit", None)
+            f.done()
+        if unit is not None and not isinstance(unit, str):
+            raise FMUError(f"{field}.unit", f"{source}: {field}.unit must be a string", full=True)
+    elif isinstance(spec, str):
+        text = spec
+    else:
+        raise FMUError(field, f"{source}: {field} must be {_OUTPUT_FORMS}, got {spec!r}", full=True)
+    in_text = f" in the expression {text!r}"
+    try:
+        expr = parse(text)
+    except ExpressionError as exc:
+        raise FMUError(field, f"{source}: {field}: {exc}{in_text}", full=True) from None
+    signals: list[Signal] = []
+    dims: dict[str, Dim | None] = {}
+    for name, col in zip(expr.names, expr.columns, strict=True):
+        where = f" (column {col} of the expression {text!r})"
+        sig, dims[name] = _expression_variable(name, field, unit, variables, fmu, source, where)
+        signals.append(sig)
+    scale = 1.0
+    if unit is not None:
+        if unit not in UNITS[si]:
+            raise FMUError(
+                f"{field}.unit",
+                f"{source}: {field}.unit {unit!r} does not convert to {si} "
+                f"(known: {sorted(UNITS[si])})",
+                full=True,
+            )
+        scale = UNITS[si][unit]
+    try:
+        got = dimension(expr, dims)
+    except ExpressionError as exc:
+        raise FMUError(field, f"{source}: {field}: {exc}{in_text}", full=True) from None
+    if got is not None and got != DIMS[si]:
+        raise FMUError(
+            field,
+            f"{source}: {field}: the expression {text!r} is in {dim_text(got)} (by the units "
+            f"the FMU declares), {field} is in {si}",
+            full=True,
+        )
+    return Output(field, expr, tuple(signals), scale)
+
+
+def _expression_variable(
+    name: str,
+    field: str,
+    unit: str | None,
+    variables: dict[str, Any],
+    fmu: Path,
+    source: str,
+    where: str,
+) -> tuple[Signal, Dim | None]:
+    """The signal of variable ``name`` of the expression at ``field`` (``unit``: its
+    ``unit:``) with its factor to SI, and its dimension (``None``: no declared unit)."""
+    var = _variable(name, field, variables, fmu, source, ("output", "local"), where)
+    declared = _declared(var)
+    if declared is not None and unit is not None:
+        raise FMUError(
+            field,
+            f"{source}: {field}: unit: {unit!r} is the unit of an expression of variables "
+            f"without a declared unit, but the FMU declares {declared!r} for variable "
+            f"{name!r}{where} — remove unit: (the variables are then converted by their "
+            "declared units)",
+            full=True,
+        )
+    if declared is None:
+        return Signal(field, name, int(var.valueReference), 1.0), None
+    if declared not in TO_SI:
+        raise FMUError(
+            field,
+            f"{source}: {field}: the FMU declares unit {declared!r} for variable "
+            f"{name!r}{where}, which railgym does not convert (known: {sorted(TO_SI)})",
+            full=True,
+        )
+    var_si, factor = TO_SI[declared]
+    return Signal(field, name, int(var.valueReference), factor), DIMS[var_si]
+
+
 def _output_signals(
     outputs: val.Fields, spec: dict[str, Any], variables: dict[str, Any], fmu: Path, source: str
-) -> dict[str, Signal]:
+) -> dict[str, Output]:
     """The signals of the env's required and optional outputs; an unknown key is an error."""
     known = {**spec["outputs"], **spec["optional"]}
     for key in outputs.data:
@@ -321,9 +566,7 @@ def _output_signals(
             if key in spec["outputs"]:
                 raise FMUError(f"outputs.{key}", f"{source}: outputs.{key} is missing", full=True)
             continue
-        outs[key] = _signal(
-            outputs.data[key], f"outputs.{key}", si, variables, fmu, source, ("output", "local")
-        )
+        outs[key] = _output(outputs.data[key], f"outputs.{key}", si, variables, fmu, source)
     return outs
 
 
@@ -360,4 +603,69 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
         interpolate,
         top.solver or "rk4",
         DEFAULT_TOLERANCE if top.tolerance is None else top.tolerance,
+        _vehicle(top.vehicle, path, source),
     )
+
+
+def _vehicle(value: Any, path: Path, source: str) -> str | None:
+    """The ``vehicle:`` of the mapping file ``path``: a ``.yaml``/``.yml`` file beside it as
+    its path, else the text as given (a packaged name, or a path the vehicle loader checks);
+    ``None`` when absent."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value:
+        raise FMUError(
+            "vehicle",
+            f"{source}: vehicle must be a vehicle YAML path (relative to the mapping file) or "
+            f"a packaged vehicle name, got {value!r}",
+            full=True,
+        )
+    local = path.parent / value
+    return str(local) if value.endswith(val.YAML_SUFFIXES) and local.is_file() else value
+
+
+def mapping_vehicle(path: str | Path, env: str | None = None) -> str | None:
+    """The mapping file's top-level ``vehicle:`` (the description of the FMU's vehicle): a
+    path relative to the mapping file, resolved, or a packaged name; ``None`` when absent.
+    Only this key (and ``env``, checked when given) is read; the whole file is checked by
+    :func:`load_mapping`."""
+    path = Path(path)
+    source = str(path)
+    data = _document(path, source)
+    if env is not None and data.get("env", env) != env:
+        raise FMUError("env", f"{source}: env is {data['env']!r}, this env is {env!r}", full=True)
+    return _vehicle(data.get("vehicle"), path, source)
+
+
+def fmu_vehicle(
+    fmu_map: str | Path, vehicle: Any = None, flag: str = "vehicle=", env: str | None = None
+) -> Any:
+    """The vehicle description of the FMU of ``fmu_map``: ``vehicle`` (name, YAML path or
+    ``VerticalVehicle``), else the mapping's ``vehicle:``; neither (or both, naming different
+    files or names) is an :class:`FMUError` naming ``flag``. ``env``: checked against the
+    mapping's ``env:``."""
+    mapped = mapping_vehicle(fmu_map, env)
+    if vehicle is None and mapped is None:
+        raise FMUError(
+            "vehicle",
+            f"the FMU of {fmu_map} needs its vehicle description (masses, suspension, travel): "
+            f"give {flag}your_vehicle.yaml or vehicle: in the mapping file (docs/fmi.md); "
+            "railgym's own vehicle is never assumed for an FMU",
+            full=True,
+        )
+    if vehicle is not None and mapped is not None and not same_vehicle(vehicle, mapped):
+        raise FMUError(
+            "vehicle",
+            f"{flag}{vehicle} disagrees with the mapping's vehicle: {mapped} ({fmu_map}); give "
+            "one of the two",
+            full=True,
+        )
+    return mapped if vehicle is None else vehicle
+
+
+def same_vehicle(a: Any, b: Any) -> bool:
+    """``a`` and ``b`` name the same vehicle: the same file, or the same text."""
+    pa, pb = Path(str(a)), Path(str(b))
+    if pa.is_file() and pb.is_file():
+        return pa.resolve() == pb.resolve()
+    return str(a) == str(b)

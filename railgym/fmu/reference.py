@@ -12,6 +12,7 @@ its stages the same cubic Hermite track input as the kernels.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from importlib import resources
 from pathlib import Path
@@ -19,6 +20,7 @@ from typing import NamedTuple
 
 import yaml
 
+from railgym.envs.params import TrackEnvParams, default
 from railgym.fmu.description import Variable, describe
 from railgym.vehicles.vehicle import DEFAULT_DT as VEHICLE_DT
 from railgym.vehicles.vehicle import kernel_params as vehicle_params
@@ -108,6 +110,11 @@ VEHICLE_STATES = (
     ),
 )
 C_FILES = ("model.c", "suspension.h")
+#: s, the episode length of both envs (their default ``duration``): the stop time of the FMU's
+#: default experiment, whose step is the FMU's RK4 step
+EPISODE_S = float(
+    next(default(f) for f in dataclasses.fields(TrackEnvParams) if f.name == "duration")
+)
 
 
 def c_struct(name: str, values: dict[str, float]) -> str:
@@ -127,8 +134,11 @@ def _template(name: str) -> str:
     return (resources.files("railgym.fmu") / "c" / name).read_text()
 
 
-def reference_mapping(fmu_name: str, env: str = "vertical") -> dict[str, object]:
-    """The mapping document (:mod:`railgym.fmu.mapping`) of an exported reference FMU."""
+def reference_mapping(
+    fmu_name: str, env: str = "vertical", vehicle: str = "manchester"
+) -> dict[str, object]:
+    """The mapping document (:mod:`railgym.fmu.mapping`) of an exported reference FMU of
+    ``vehicle`` (its description travels in the mapping's ``vehicle:``)."""
     if env == "vertical":
         track = [{"displacement": "z", "rate": "zdot"}]
         forces = ["actuator_force"]
@@ -141,6 +151,7 @@ def reference_mapping(fmu_name: str, env: str = "vertical") -> dict[str, object]
         "version": 1,
         "fmu": fmu_name,
         "env": env,
+        "vehicle": _whole_name(vehicle) if env == "vehicle" else str(vehicle),
         "inputs": {"track": track, "actuator_force": forces},
         "outputs": {name: name for name, _, _ in outputs},
     }
@@ -156,6 +167,11 @@ class _ReferenceModel(NamedTuple):
     description: str  #: of the model, for the model description
 
 
+def _whole_name(vehicle: str) -> str:
+    """The whole-vehicle description of ``vehicle=`` (``manchester``: ``manchester_whole``)."""
+    return "manchester_whole" if vehicle == "manchester" else str(vehicle)
+
+
 def _reference_model(env: str, vehicle: str, flexible: bool) -> _ReferenceModel:
     """The reference model of ``env`` (``vehicle``, ``flexible`` as the env's)."""
     if env == "vertical":
@@ -168,7 +184,7 @@ def _reference_model(env: str, vehicle: str, flexible: bool) -> _ReferenceModel:
             "railgym one-bogie vertical reference model (air spring with reservoir, Maxwell "
             "damper, bump stops), VerticalSuspension-v1 backend='reference'",
         )
-    whole = load_whole_vehicle("manchester_whole" if vehicle == "manchester" else vehicle)
+    whole = load_whole_vehicle(_whole_name(vehicle))
     return _ReferenceModel(
         {
             "E": whole.suspension.kernel_params()._asdict(),
@@ -199,6 +215,15 @@ def _data_header(
     )
 
 
+def _mapped(vehicle: str, map_path: Path) -> str:
+    """``vehicle`` as the mapping file beside ``map_path`` names it: a YAML file by its
+    absolute path, a packaged name as it is."""
+    local = Path(vehicle)
+    return (
+        str(local.resolve()) if local.suffix in (".yaml", ".yml") and local.is_file() else vehicle
+    )
+
+
 def export_reference_fmu(
     path: str | Path,
     env: str = "vertical",
@@ -211,7 +236,9 @@ def export_reference_fmu(
     overwrite: bool = False,
 ) -> tuple[Path, Path]:
     """Write the reference model of ``env`` as an FMU at ``path`` and its mapping file beside
-    it (same stem, ``.yaml``); return both paths.
+    it (same stem, ``.yaml``); return both paths. The FMU's default experiment is one episode
+    of the env (:data:`EPISODE_S`) at its RK4 step; every unit it declares has its SI base
+    units.
 
     Parameters
     ----------
@@ -254,6 +281,8 @@ def export_reference_fmu(
         kinds=kinds,
         source_files=("model.c",),
         interpolate_inputs=True,
+        stop_time=EPISODE_S,
+        step_size=step,
     )
     files = (*C_FILES, model_h)
     sources = {"model_data.h": header, **{name: _template(name) for name in files}}
@@ -269,6 +298,8 @@ def export_reference_fmu(
     )
     map_path.write_text(
         "# railgym FMU mapping (docs/fmi.md): which FMU variables the env reads and writes\n"
-        + yaml.safe_dump(reference_mapping(path.name, env), sort_keys=False)
+        + yaml.safe_dump(
+            reference_mapping(path.name, env, _mapped(vehicle, map_path)), sort_keys=False
+        )
     )
     return path, map_path

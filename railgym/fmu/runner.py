@@ -11,14 +11,31 @@ substeps of the mapping's ``step`` (default: the env's integration step ``dt``):
 * model exchange: FMPy's FMU2Model with railgym's fixed-step RK4 at ``step`` (the kernels'
   scheme and track interpolation), states and derivatives through the FMU.
 
+The outputs: the runner reads the distinct FMU variables the mapping's outputs need
+(``vr_read``) at the end of every substep and evaluates each output's expression on them,
+vectorised over the substeps (:mod:`railgym.fmu.expression`; a plain variable is its value
+times its unit factor, as read). ``der(·)`` terms are differentiated at the substep ``dt``
+from those samples: 0 at the reset, first order at the first substep after it, then the
+second-order backward difference ``(3y_k − 4y_{k−1} + y_{k−2})/(2·dt)``; :meth:`FMURunner.reset`
+starts their history again, :meth:`FMURunner.outputs_at` re-reads the current sample.
+
 Each control step runs in a worker thread and must finish within the mapping's ``timeout``
 (wall clock), so a hanging FMU raises :class:`~railgym.fmu.mapping.FMUError` instead of
 blocking the caller; a failing FMI call raises it with FMPy's message and the FMU's log.
+
+The worker thread also loads the FMU's shared library and instantiates it, and it frees the
+instance — ``fmi2Terminate`` → ``fmi2FreeInstance`` → unload the library, once each — at
+:meth:`FMURunner.close` (``env.close()``), when the runner is garbage-collected, or at
+interpreter exit, whichever comes first. An FMU left loaded to the process exit runs its
+library destructors after the interpreter has finalised: pythonfmu 0.7.0 FMUs instantiated
+from a thread then corrupt the heap (exit status 134).
 """
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
+import itertools
 import queue
 import shutil
 import tempfile
@@ -29,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from railgym.fmu.expression import Derivatives, Evaluator, compile_expression
 from railgym.fmu.mapping import FMUError, Mapping
 
 __all__ = ["FMUInstances", "FMURunner", "hermite_derivatives"]
@@ -49,30 +67,143 @@ def hermite_derivatives(
 
 
 class _Worker:
-    """A daemon thread running one job at a time, waited for with a timeout."""
+    """A daemon thread running one job at a time, waited for with a timeout; ``None`` as a
+    job ends the thread. ``abandoned``: a job took longer than its timeout (the thread may
+    still be inside the FMU)."""
 
     def __init__(self) -> None:
-        self.jobs: queue.Queue[Callable[[], Any]] = queue.Queue()
+        self.jobs: queue.Queue[Callable[[], Any] | None] = queue.Queue()
         self.results: queue.Queue[tuple[bool, Any]] = queue.Queue()
-        threading.Thread(target=self._loop, daemon=True).start()
+        self.abandoned = False
+        self.thread = threading.Thread(target=self._loop, daemon=True, name="railgym-fmu")
+        self.thread.start()
 
     def _loop(self) -> None:
         while True:
             job = self.jobs.get()
+            if job is None:
+                return
             try:
                 self.results.put((True, job()))
             except BaseException as exc:  # handed to the caller
                 self.results.put((False, exc))
+            job = None  # the job's closure (its runner) is not kept alive while waiting
 
     def run(self, job: Callable[[], Any], timeout: float) -> Any:
         self.jobs.put(job)
         try:
             ok, value = self.results.get(timeout=timeout)
         except queue.Empty:
+            self.abandoned = True
             raise TimeoutError from None
         if not ok:
             raise value
         return value
+
+
+class _Instance:
+    """What one FMU instance holds, released once and in order (:meth:`release`): FMPy's FMU
+    object, the worker thread that loaded the shared library and instantiated the FMU, and the
+    folder of the unpacked FMU (the callbacks live for the process: :func:`_callbacks`).
+
+    It holds no reference to its :class:`FMURunner`, so that a ``weakref.finalize`` of the
+    runner can release it when the runner is garbage-collected or, at the latest, at
+    interpreter exit (while the interpreter and the worker thread are still alive).
+    """
+
+    def __init__(self) -> None:
+        self.dir = tempfile.mkdtemp(prefix="railgym-fmu-")
+        self.worker = _Worker()
+        self.fmu: Any = None  #: FMPy's FMU2Slave / FMU2Model, once the library is loaded
+        self.loaded = False  #: the shared library is loaded
+        self.instantiated = False  #: fmi2Instantiate succeeded, not yet freed
+        self.initialised = False  #: initialised since then (fmi2Terminate is allowed)
+        self._lock = threading.Lock()
+        self._released = False
+
+    def free(self) -> None:
+        """``fmi2Terminate`` (if initialised) → ``fmi2FreeInstance`` → unload the shared
+        library, each at most once; on the worker thread, which made the calls before."""
+        f = self.fmu
+        try:
+            if self.instantiated:
+                self.instantiated = False
+                if self.initialised:
+                    self.initialised = False
+                    with contextlib.suppress(Exception):  # a failed FMU may refuse to terminate
+                        f.terminate()
+                f.fmi2FreeInstance(f.component)
+        finally:
+            if self.loaded:
+                self.loaded = False
+                f.freeLibrary()
+
+    def release(self, timeout: float = 10.0) -> None:
+        """Free the instance and unload its library on the worker thread (waiting at most
+        ``timeout`` s; not at all when a call was abandoned, then it runs if the call ever
+        returns), end that thread, remove the unpacked files. Runs once; never raises."""
+        with self._lock:
+            if self._released:
+                return
+            self._released = True
+        worker = self.worker
+
+        def job() -> None:
+            with contextlib.suppress(Exception):  # releasing a failed FMU must not raise
+                self.free()
+            done.set()
+
+        done = threading.Event()
+        if threading.current_thread() is worker.thread:  # a finalizer run on the worker
+            job()
+        else:
+            worker.jobs.put(job)
+        worker.jobs.put(None)
+        if not worker.abandoned and threading.current_thread() is not worker.thread:
+            if done.wait(timeout):
+                worker.thread.join(timeout)
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+#: the log of each live runner's instance, by instance name (:func:`_callbacks`)
+_LOGS: dict[str, list[str]] = {}
+_INSTANCE_IDS = itertools.count()
+_CALLBACKS: list[Any] = []
+
+
+def _callbacks() -> Any:
+    """The FMI callbacks of every runner's instance, made once per process and never freed.
+
+    FMPy's logger proxy (``fmpy.logging.addLoggerProxy``, which formats the variadic message)
+    keeps *one* process-wide pointer to the Python logger of the callbacks it was last given,
+    for every FMU of the process: a logger per runner would leave that pointer dangling once
+    the runner is freed (a crash at the next message of any FMU). This one logger appends a
+    message to the log of the instance that sent it (:data:`_LOGS`, by instance name) and
+    hands any other instance's message to FMPy's own printer. FMI 2.0 requires the memory
+    functions too: an FMU may allocate its instance with them.
+    """
+    if not _CALLBACKS:
+        from fmpy.fmi1 import printLogMessage
+        from fmpy.fmi2 import defaultCallbacks, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+        from fmpy.logging import addLoggerProxy
+
+        def logger(component: Any, name: Any, status: int, category: Any, message: Any) -> None:
+            key = name.decode("utf-8", "replace") if isinstance(name, bytes) else str(name)
+            log = _LOGS.get(key)
+            if log is None:
+                printLogMessage(component, name, status, category, message)
+                return
+            text = message.decode("utf-8", "replace") if isinstance(message, bytes) else message
+            log.append(str(text))
+
+        callbacks = fmi2CallbackFunctions()
+        proxy = fmi2CallbackLoggerTYPE(logger)
+        callbacks.logger = proxy
+        callbacks.allocateMemory = defaultCallbacks.allocateMemory
+        callbacks.freeMemory = defaultCallbacks.freeMemory
+        addLoggerProxy(ctypes.byref(callbacks))
+        _CALLBACKS.extend((callbacks, proxy))
+    return _CALLBACKS[0]
 
 
 class _Input:
@@ -87,13 +218,7 @@ class FMURunner:
 
     def __init__(self, mapping: Mapping, dt: float, n_sub: int) -> None:
         from fmpy import extract, read_model_description
-        from fmpy.fmi2 import (
-            FMU2Model,
-            FMU2Slave,
-            fmi2CallbackFunctions,
-            fmi2CallbackLoggerTYPE,
-        )
-        from fmpy.logging import addLoggerProxy
+        from fmpy.fmi2 import FMU2Model, FMU2Slave
 
         self.map = mapping
         self.dt = dt
@@ -109,31 +234,30 @@ class FMURunner:
         self.log: list[str] = []
         self._broken: str | None = None
         md = read_model_description(str(mapping.fmu))
-        self._dir = tempfile.mkdtemp(prefix="railgym-fmu-")
-        weakref.finalize(self, shutil.rmtree, self._dir, True)  # unpacked files, at the latest
-        self._worker = _Worker()
         cs = mapping.fmi_type == "CoSimulation"
         unit = md.coSimulation if cs else md.modelExchange
         cls = FMU2Slave if cs else FMU2Model
+        # the instance's lifetime: released by close(), when the runner is collected, or at
+        # interpreter exit, whichever comes first (weakref.finalize runs it once)
+        inst = self._inst = _Instance()
+        self._release = weakref.finalize(self, inst.release)
+        self._dir = inst.dir
+        self._worker = inst.worker
+        name = f"railgym-{next(_INSTANCE_IDS)}"
+        _LOGS[name] = self.log  # the list, not self: the logger must not keep the runner alive
+        weakref.finalize(self, _LOGS.pop, name, None)
 
-        def logger(component: Any, name: Any, status: int, category: Any, message: Any) -> None:
-            text = message.decode("utf-8", "replace") if isinstance(message, bytes) else message
-            self.log.append(str(text))
-
-        self._callbacks = fmi2CallbackFunctions()
-        self._logger = fmi2CallbackLoggerTYPE(logger)
-        self._callbacks.logger = self._logger
-        addLoggerProxy(ctypes.byref(self._callbacks))
-
-        def load() -> Any:
-            extract(str(mapping.fmu), unzipdir=self._dir)
+        def load() -> Any:  # on the worker thread, which also frees the instance
+            extract(str(mapping.fmu), unzipdir=inst.dir)
             fmu = cls(
                 guid=md.guid,
-                unzipDirectory=self._dir,
+                unzipDirectory=inst.dir,
                 modelIdentifier=unit.modelIdentifier,
-                instanceName="railgym",
+                instanceName=name,
             )
-            fmu.instantiate(callbacks=self._callbacks)
+            inst.fmu, inst.loaded = fmu, True
+            fmu.instantiate(callbacks=_callbacks())
+            inst.instantiated = True
             return fmu
 
         self.fmu = self._call(load, "instantiate")
@@ -144,13 +268,27 @@ class FMURunner:
             [1.0 / s.factor for pair in m.track for s in pair] + [1.0 / s.factor for s in m.forces]
         )
         self.out_keys = list(m.outputs)
-        self.vr_out = [m.outputs[k].vr for k in self.out_keys]
-        self.out_factor = np.array([m.outputs[k].factor for k in self.out_keys])
+        #: value references of the distinct FMU variables the outputs read
+        self.vr_read = list(dict.fromkeys(s.vr for o in m.outputs.values() for s in o.signals))
+        col = {vr: j for j, vr in enumerate(self.vr_read)}
+        self._programs: list[tuple[Evaluator, float]] = []
+        n_der = 0
+        for key in self.out_keys:
+            out = m.outputs[key]
+            columns = {s.name: col[s.vr] for s in out.signals}
+            factors = {s.name: s.factor for s in out.signals}
+            self._programs.append(
+                (compile_expression(out.expr, columns, factors, n_der), out.factor)
+            )
+            n_der += out.expr.n_der
+        self._ders = Derivatives(n_der, dt)
         self.time = 0.0
         self._started = False
 
     # ------------------------------------------------------------------ helpers
     def _call(self, job: Callable[[], Any], what: str) -> Any:
+        if self._broken is None and not self._release.alive:  # released at interpreter exit
+            self._broken = f"{self.map.fmu}: the FMU instance is closed"
         if self._broken is not None:
             raise FMUError("fmu", self._broken, full=True)
         self.log.clear()
@@ -190,10 +328,12 @@ class FMURunner:
                 f.enterContinuousTimeMode()
                 if self.map.solver == "cvode":
                     self._solver = self._cvode()
-            return f.getReal(self.vr_out)
+            return f.getReal(self.vr_read)
 
         self.time = 0.0
-        return self._outputs(self._call(job, "initialisation"))
+        self._ders.reset()
+        y = self._evaluate(self._call(job, "initialisation"), replace=False)[0]
+        return dict(zip(self.out_keys, y.tolist(), strict=True))
 
     def outputs_at(self, z: np.ndarray, zdot: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """Outputs (SI) at the current time with the inputs ``z, zdot`` (wheelsets,) m, m/s
@@ -201,13 +341,22 @@ class FMURunner:
 
         def job() -> Any:
             self.fmu.setReal(self.vr_in, self._inputs(z[:, None], zdot[:, None], forces, 0))
-            return self.fmu.getReal(self.vr_out)
+            return self.fmu.getReal(self.vr_read)
 
-        return np.asarray(self._call(job, "fmi2GetReal"), float) * self.out_factor
+        return self._evaluate(self._call(job, "fmi2GetReal"), replace=True)[0]
 
-    def _outputs(self, values: Any) -> dict[str, float]:
-        y = np.asarray(values, float) * self.out_factor
-        return dict(zip(self.out_keys, y.tolist(), strict=True))
+    def _evaluate(self, values: Any, replace: bool) -> np.ndarray:
+        """The outputs (n, len(out_keys)), SI, of the read variables ``values`` (n samples,
+        or one); ``replace``: the first sample is the current time's again (``der``)."""
+        raw = np.asarray(values, float)
+        if raw.ndim == 1:
+            raw = raw[None, :]
+        self._ders.replace = replace
+        y = np.empty((raw.shape[0], len(self._programs)))
+        for j, (program, scale) in enumerate(self._programs):
+            v = program(raw, self._ders)
+            y[:, j] = v if scale == 1.0 else v * scale
+        return y
 
     def advance(
         self,
@@ -229,7 +378,7 @@ class FMURunner:
             job = self._cvode_job if self.map.solver == "cvode" else self._me_job
             y = self._call(lambda: job(z, zdot, forces, t0, mid), "model exchange step")
         self.time = t0 + self.n_sub * self.dt
-        return y * self.out_factor
+        return self._evaluate(y, replace=False)
 
     def _inputs(self, z: np.ndarray, zd: np.ndarray, forces: np.ndarray, k: int) -> list[float]:
         u = np.empty(len(self.vr_in))
@@ -241,20 +390,20 @@ class FMURunner:
 
     def _cs_job(self, z: np.ndarray, zd: np.ndarray, forces: np.ndarray, t0: float) -> Any:
         f, dt, w = self.fmu, self.dt, z.shape[0]
-        out = np.empty((self.n_sub, len(self.vr_out)))
+        out = np.empty((self.n_sub, len(self.vr_read)))
         dvr = [vr for vr in self.vr_in[: 2 * w] for _ in range(3)]
         orders = [1, 2, 3] * (2 * w)
         fac = np.repeat(self.in_factor[: 2 * w], 3)
         for m in range(self.n_sub):
             f.setReal(self.vr_in, self._inputs(z, zd, forces, m))
             if self.map.interpolate:
-                der = []
+                der: list[float] = []
                 for i in range(w):
                     dz, dzd = hermite_derivatives(z[i, m], zd[i, m], z[i, m + 1], zd[i, m + 1], dt)
                     der.extend((*dz, *dzd))
                 f.setRealInputDerivatives(dvr, orders, (np.asarray(der) * fac).tolist())
             f.doStep(currentCommunicationPoint=t0 + m * dt, communicationStepSize=dt)
-            out[m] = f.getReal(self.vr_out)
+            out[m] = f.getReal(self.vr_read)
         return out
 
     def _me_job(
@@ -266,7 +415,7 @@ class FMURunner:
         mid: tuple[np.ndarray, np.ndarray] | None,
     ) -> Any:
         f, dt, nx = self.fmu, self.dt, self.nx
-        out = np.empty((self.n_sub, len(self.vr_out)))
+        out = np.empty((self.n_sub, len(self.vr_read)))
         x = self._states()
         dt8, c3, h6 = 0.125 * dt, 1.5 / dt, dt / 6.0
 
@@ -298,7 +447,7 @@ class FMURunner:
             f.setContinuousStates(np.ascontiguousarray(x).ctypes.data_as(_P_DOUBLE), nx)
             f.setReal(self.vr_in, ub)
             f.completedIntegratorStep()
-            out[m] = f.getReal(self.vr_out)
+            out[m] = f.getReal(self.vr_read)
         return out
 
     def _cvode(self) -> Any:
@@ -307,7 +456,13 @@ class FMURunner:
 
         f, w = self.fmu, len(self.map.track)
         zero = (np.zeros(3), np.zeros(3))
-        self._poly = (0.0, np.zeros(w), np.zeros(w), [zero] * w, np.zeros(len(self.map.forces)))
+        self._poly: tuple[Any, ...] = (
+            0.0,
+            np.zeros(w),
+            np.zeros(w),
+            [zero] * w,
+            np.zeros(len(self.map.forces)),
+        )
         return CVodeSolver(
             nx=self.nx,
             nz=0,
@@ -342,7 +497,7 @@ class FMURunner:
         self, z: np.ndarray, zd: np.ndarray, forces: np.ndarray, t0: float, mid: Any
     ) -> Any:
         f, dt = self.fmu, self.dt
-        out = np.empty((self.n_sub, len(self.vr_out)))
+        out = np.empty((self.n_sub, len(self.vr_read)))
         self._solver.reset(t0)  # the actuator force jumps here: restart the BDF history
         for m in range(self.n_sub):
             coef = [
@@ -355,7 +510,7 @@ class FMURunner:
             f.setTime(t + dt)
             f.setReal(self.vr_in, self._inputs(z, zd, forces, m + 1))
             f.completedIntegratorStep()
-            out[m] = f.getReal(self.vr_out)
+            out[m] = f.getReal(self.vr_read)
         return out
 
     def _states(self) -> np.ndarray:
@@ -363,18 +518,24 @@ class FMURunner:
         self.fmu.getContinuousStates(x.ctypes.data_as(_P_DOUBLE), self.nx)
         return x
 
-    def close(self) -> None:
-        """Free the FMU instance and its unpacked files (when it is not stuck in a call)."""
-        if self._broken is None and getattr(self, "fmu", None) is not None:
-            try:
-                self._worker.run(self._free, 5.0)
-            except Exception:  # noqa: BLE001 - closing a failed FMU must not raise
-                pass
-        shutil.rmtree(self._dir, ignore_errors=True)
+    @property
+    def _started(self) -> bool:
+        """The instance has been initialised (by :meth:`reset`) since it was instantiated."""
+        return self._inst.initialised
 
-    def _free(self) -> None:
-        self.fmu.terminate()
-        self.fmu.freeInstance()
+    @_started.setter
+    def _started(self, value: bool) -> None:
+        self._inst.initialised = value
+
+    def close(self) -> None:
+        """Free the FMU instance: ``fmi2Terminate``, ``fmi2FreeInstance``, unload its shared
+        library (on the thread that loaded it; skipped when a call is stuck in the FMU), end
+        that thread and remove the unpacked files. Idempotent; later calls raise
+        :class:`~railgym.fmu.mapping.FMUError`. Also done when the runner is garbage-collected
+        and at interpreter exit, for runners not closed."""
+        if self._broken is None:
+            self._broken = f"{self.map.fmu}: the FMU instance is closed"
+        self._release()
 
 
 class FMUInstances:
@@ -388,6 +549,6 @@ class FMUInstances:
 
     def reset_state(self, i: int) -> None:
         """Vehicle ``i`` at rest, its FMU instance reset to t = 0."""
-        super().reset_state(i)  # the env batch after this mixin in the MRO
+        super().reset_state(i)  # type: ignore[misc]  # the env batch after this mixin in the MRO
         if hasattr(self, "runners"):
             self.runners[i].reset()

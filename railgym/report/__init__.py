@@ -15,7 +15,7 @@ from typing import Any
 from railgym.progress import bar as progress_bar
 from railgym.progress import quiet
 from railgym.report.compute import FULL, QUICK, Plan, compute, n_steps
-from railgym.report.figures import write_figures
+from railgym.report.figures import FIGURE_FILES, write_figures
 from railgym.report.output import prepare_output_dir, write_text_atomic
 from railgym.report.published import PAPER, PAPER_LABEL
 from railgym.report.tables import markdown
@@ -27,11 +27,15 @@ __all__ = [
     "PAPER",
     "PAPER_LABEL",
     "QUICK",
+    "REPORT_FILES",
     "Plan",
     "check_targets",
     "make_report",
     "validation_matrix",
 ]
+
+#: the files :func:`make_report` writes into its folder (a re-run replaces them)
+REPORT_FILES = ("report.md", *FIGURE_FILES)
 
 
 def make_report(
@@ -48,12 +52,14 @@ def make_report(
 
     Parameters
     ----------
-    out : folder for ``report.md`` and the PNG figures; created, or an existing empty one.
+    out : folder for ``report.md`` and the PNG figures (:data:`REPORT_FILES`); created, or an
+        existing one that is empty or holds only these files (a re-run replaces them).
     quick : reduced sizes (:data:`QUICK`) instead of :data:`FULL`.
     seed : seed of the training track, the sampling and the CV folds; the vertical test
         simulations run on track seed ``seed + 1``.
     progress : show a progress bar (stderr, only on a terminal; see :mod:`railgym.progress`).
-    overwrite : allow an existing non-empty ``out`` (its report files are replaced).
+    overwrite : allow an ``out`` that holds other files too (its report files are replaced,
+        the others kept).
     workers, address : run the validation matrix's tracks on ``workers`` processes (a local
         Ray instance with the ``ray`` extra) or on the Ray cluster at ``address``
         (:func:`railgym.parallel.run_tasks`); the report does not depend on them.
@@ -68,7 +74,7 @@ def make_report(
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    out = prepare_output_dir(out, overwrite)
+    out = prepare_output_dir(out, overwrite, own=REPORT_FILES)
     plan = QUICK if quick else FULL
     t0 = time.perf_counter()
     with quiet(not progress):

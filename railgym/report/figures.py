@@ -11,7 +11,17 @@ from railgym.report.compute import Artifacts, Plan
 from railgym.report.tables import LABEL, QUANTITIES
 from railgym.vehicles.crash import crash_training_data
 
-__all__ = ["write_figures"]
+__all__ = ["FIGURE_FILES", "write_figures"]
+
+#: the PNG files :func:`write_figures` writes, in that order
+FIGURE_FILES = (
+    "fig07_samples.png",
+    "fig08_oob.png",
+    "fig09_time_histories.png",
+    "fig11_errors.png",
+    "fig13_14_crash_elements.png",
+    "fig15_crash_time_histories.png",
+)
 
 
 def _samples(plt: Any, art: Artifacts, plan: Plan) -> Any:
@@ -185,14 +195,15 @@ def write_figures(out: Path, art: Artifacts, plan: Plan, table5: dict[str, Any])
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figures = {
-        "fig07_samples.png": lambda: _samples(plt, art, plan),
-        "fig08_oob.png": lambda: _oob(plt, art, plan),
-        "fig09_time_histories.png": lambda: _time_histories(plt, art, plan),
-        "fig11_errors.png": lambda: _errors(plt, table5, plan),
-        "fig13_14_crash_elements.png": lambda: _crash_elements(plt, art, plan),
-        "fig15_crash_time_histories.png": lambda: _crash_histories(plt, art, plan),
-    }
+    draws = (
+        lambda: _samples(plt, art, plan),
+        lambda: _oob(plt, art, plan),
+        lambda: _time_histories(plt, art, plan),
+        lambda: _errors(plt, table5, plan),
+        lambda: _crash_elements(plt, art, plan),
+        lambda: _crash_histories(plt, art, plan),
+    )
+    figures = dict(zip(FIGURE_FILES, draws, strict=True))
     for name, draw in figures.items():
         fig = draw()
         fig.tight_layout()

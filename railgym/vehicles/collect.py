@@ -33,7 +33,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -50,12 +50,26 @@ from railgym.vehicles.collect_design import (
     collect_design,
     design_named,
 )
+from railgym.vehicles.element_envelope import (
+    OperatingEnvelope,
+    design_envelope,
+    element_envelope,
+)
+from railgym.vehicles.memory_element import (
+    MEMORY_DEGREES,
+    MEMORY_DESIGN,
+    WARMUP,
+    build_memory_surrogate,
+    design_with,
+    memory_degrees,
+    memory_training_data,
+    stage,
+)
 from railgym.vehicles.refinement import RefineOptions, holdout_error, refit_worst
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
     KERNELS,
     VARIANTS,
-    bump_stop_force,
     initial_state,
     load_vehicle,
     simulate,
@@ -66,32 +80,17 @@ from surrogates import io
 from surrogates.builder import BuildReport, build
 from surrogates.features import vertical_features
 from surrogates.memory import (
-    KNOWN_PHYSICS,
     TauSelection,
     element_form,
-    law_document,
-    maxwell_state,
-    relaxed_state,
 )
 from surrogates.models import SurrogateModel
-from surrogates.models.lpr import LegendreRegression
-from surrogates.passive import PassiveLegendreRegression
-from surrogates.selection import candidate_label, select_kfold
+from surrogates.selection import candidate_label
 
 #: the paper's data-collection run (section 4.1)
 TRAINING_CASE = {"track_class": 5, "speed_kmh": 144.0, "duration": 20.0, "sample_rate": 50.0}
 #: packaged element files per feature form
 PACKAGED = {"maxwell": "vertical_lpr.json", "static": "vertical_lpr_static.json"}
 DEFAULT_SURROGATE = PACKAGED["maxwell"]
-#: Maxwell time constants tried by default, s
-MEMORY_TAUS = (4e-3, 8e-3, 16e-3)
-#: degree tuples (δ, δ̇, ζ) tried by default for the memory element: ζ needs high degrees
-#: (the controlled runs' error falls with it), capped at 20 for the cost of the recurrences
-MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
-#: data-collection design of the packaged memory element
-MEMORY_DESIGN = "envelope"
-#: start of each run discarded from the memory element's training samples, s (≥ 5 τ)
-WARMUP = 0.1
 
 
 def collect_vertical(
@@ -133,15 +132,6 @@ def collect_vertical(
     return {**rec, "U": U, "V": V, "speed": v0, "track_class": track_class, "dt": dt}
 
 
-def _design(
-    design: str | CollectionDesign, duration: float | None, sample_rate: float | None
-) -> CollectionDesign:
-    """``design`` with ``duration`` (s) and ``sample_rate`` (Hz) replaced where given."""
-    des = design_named(design)
-    changes = {"duration": duration, "sample_rate": sample_rate}
-    return dataclasses.replace(des, **{k: v for k, v in changes.items() if v is not None})
-
-
 def build_vertical_surrogate(
     m: int = 101,
     kind: str = "lpr",
@@ -153,6 +143,7 @@ def build_vertical_surrogate(
     duration: float | None = None,
     sample_rate: float | None = None,
     data: dict[str, Any] | None = None,
+    vehicle: Any = "manchester",
     **model_params: Any,
 ) -> tuple[SurrogateModel, BuildReport, dict[str, Any]]:
     """The paper's static vertical element: collect, sample ``m`` points, select, fit.
@@ -160,7 +151,8 @@ def build_vertical_surrogate(
     ``design="paper"`` is the paper's run (class 5, 144 km/h, ``duration`` 20 s at
     ``sample_rate`` 50 Hz: 1001 samples, of which ``m`` = 101 train); ``"envelope"`` (or a
     :class:`~railgym.vehicles.collect_design.CollectionDesign`) pools every run of that
-    design. ``track_seed`` is the track seed of the paper design's run.
+    design. ``track_seed`` is the track seed of the paper design's run; ``vehicle`` the
+    vehicle of the reference runs.
 
     Returns ``(model, report, data)`` with ``data`` holding ``U`` (n, 2) = (δ, δ̇) and
     ``V`` = F_s of the samples at ``sample_rate``, and the design's ``runs``. ``data`` given
@@ -169,10 +161,10 @@ def build_vertical_surrogate(
     """
     progress = model_params.get("progress")
     if data is None:
-        des = _design(design, duration, sample_rate)
+        des = design_with(design, duration, sample_rate)
         if design == "paper":
             des = dataclasses.replace(des, seeds=(track_seed,))
-        data = collect_design(des, progress=_stage(progress, "reference runs"))
+        data = collect_design(des, vehicle, progress=stage(progress, "reference runs"))
     model, report = build(
         data["U"],
         data["V"],
@@ -185,171 +177,6 @@ def build_vertical_surrogate(
     )
     model.features_ = {"form": "static", "tau": None, "known_physics": []}
     return model, report, data
-
-
-def _stage(
-    progress: Callable[[str, int, int], None] | None, stage: str
-) -> Callable[[int, int], None] | None:
-    """``progress`` bound to ``stage`` (``None`` stays ``None``)."""
-    if progress is None:
-        return None
-    return lambda i, total: progress(stage, i, total)
-
-
-def memory_degrees(max_degree: Sequence[int]) -> list[tuple[int, ...]]:
-    """The memory element's degree grid up to ``max_degree`` (one per input δ, δ̇, ζ): each
-    input from the start of :data:`MEMORY_DEGREES` in steps of 2 (the packaged grid is
-    ``memory_degrees((16, 16, 20))``)."""
-    starts = tuple(min(d[j] for d in MEMORY_DEGREES) for j in range(3))
-    if len(max_degree) != len(starts):
-        raise ValueError(f"max_degree needs one degree per input (3), got {len(max_degree)}")
-    for j, (lo, top) in enumerate(zip(starts, max_degree, strict=True)):
-        if top < lo:
-            raise ValueError(f"max_degree[{j}] must be at least {lo} (grid start), got {top}")
-    return list(
-        itertools.product(
-            *(range(lo, top + 1, 2) for lo, top in zip(starts, max_degree, strict=True))
-        )
-    )
-
-
-def memory_training_data(
-    data: dict[str, Any],
-    tau: float,
-    known_physics: Iterable[str] = ("bump_stop",),
-    vehicle: str = "manchester",
-    relaxation: Any = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Training pairs of the memory element from a :func:`collect_design` result.
-
-    ``ζ = δ − s`` is built from each run's full-rate history (:func:`maxwell_state`, or
-    :func:`~surrogates.memory.relaxed_state` with a nonlinear ``relaxation`` law; relaxed
-    start) and taken at the run's ``rows`` after :data:`WARMUP`; with ``"bump_stop"`` in
-    ``known_physics`` the output is ``F_s − F_bump(δ)``.
-
-    Returns ``U`` (n, 3) = (δ, δ̇, ζ) in m, m/s, m and ``V`` (n,) in N.
-    """
-    known = tuple(known_physics)
-    bad = [k for k in known if k not in KNOWN_PHYSICS]
-    if bad:
-        raise ValueError(f"known_physics entries must be in {KNOWN_PHYSICS}, got {bad}")
-    p = load_vehicle(vehicle).kernel_params()
-    Us, Vs = [], []
-    for r in data["runs"]:
-        rows = r["rows"][r["t"][r["rows"]] >= WARMUP]
-        d = r["delta"]
-        if relaxation is None:
-            zeta = maxwell_state(d, r["t"], tau)
-        else:
-            zeta = relaxed_state(d, r["t"], relaxation)
-        force = r["force"][rows]
-        if "bump_stop" in known:
-            force = force - np.array([bump_stop_force(x, p) for x in d[rows]])
-        Us.append(np.column_stack([d, r["delta_dot"], zeta])[rows])
-        Vs.append(force)
-    return np.concatenate(Us), np.concatenate(Vs)
-
-
-def build_memory_surrogate(
-    design: str | CollectionDesign = MEMORY_DESIGN,
-    taus: Sequence[float] = MEMORY_TAUS,
-    degrees: Iterable[Any] = MEMORY_DEGREES,
-    passive: bool = True,
-    known_physics: Sequence[str] = ("bump_stop",),
-    duration: float | None = None,
-    sample_rate: float | None = MEMORY_SAMPLE_RATE,
-    k: int = 5,
-    seed: int = 0,
-    vehicle: str = "manchester",
-    progress: Callable[[str, int, int], None] | None = None,
-    data: dict[str, Any] | None = None,
-) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
-    """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ`` and the degrees chosen by k-fold CV.
-
-    Parameters
-    ----------
-    design : ``"paper"``, ``"envelope"`` (default, :data:`MEMORY_DESIGN`) or a
-        ``CollectionDesign``.
-    taus : candidate Maxwell time constants, s. degrees : candidate degree tuples.
-    passive : fit :class:`~surrogates.passive.PassiveLegendreRegression` (non-negative
-        slopes in every input) instead of the unconstrained LPR.
-    known_physics : ``("bump_stop",)`` adds the vehicle's bump-stop law in the kernel.
-    duration, sample_rate : replace the design's (s, Hz); the default trains on 200 Hz.
-    k, seed : folds and their shuffling seed.
-    progress : optional ``callback(stage, i, total)`` (reference runs, degree search per τ).
-    data : training data already collected (a :func:`collect_design` result, e.g. from an
-        FMU by :func:`railgym.fmu.collect.collect_fmu`) instead of running ``design``.
-
-    Returns
-    -------
-    (model, selection, data) : the fitted element with its ``features_`` (form, τ, known
-    physics), the :class:`~surrogates.memory.TauSelection` (score of the best degree of each
-    ``τ``; ``results`` the full tables) and the :func:`collect_design` data with the
-    training pairs ``U_memory``, ``V_memory``.
-    """
-    if data is None:
-        data = collect_design(
-            _design(design, duration, sample_rate),
-            vehicle=vehicle,
-            progress=_stage(progress, "reference runs"),
-        )
-    cls = PassiveLegendreRegression if passive else LegendreRegression
-    model, selection = select_memory_element(
-        data, taus, degrees, cls, known_physics, vehicle, k, seed, progress
-    )
-    return model, selection, data
-
-
-def select_memory_element(
-    data: dict[str, Any],
-    taus: Sequence[float],
-    degrees: Iterable[Any],
-    cls: Callable[..., SurrogateModel],
-    known_physics: Sequence[str],
-    vehicle: str,
-    k: int,
-    seed: int,
-    progress: Callable[[str, int, int], None] | None = None,
-    laws: dict[float, Any] | None = None,
-) -> tuple[SurrogateModel, TauSelection]:
-    """The memory element of class ``cls`` on collected ``data`` (:func:`memory_training_data`
-    of ``vehicle``) with ``τ`` among ``taus`` (s) and the degrees among ``degrees`` chosen by
-    ``k``-fold CV (folds shuffled by ``seed``); its training pairs go to
-    ``data["U_memory"], data["V_memory"]``. ``laws``: a nonlinear relaxation law per ``τ``
-    (:mod:`surrogates.memory`; stored in the model's features). Arguments as
-    :func:`build_memory_surrogate`."""
-    degrees = list(degrees)
-    out = TauSelection()
-    pairs = {}
-    for tau in taus:
-        law = None if laws is None else laws[tau]
-        U, V = memory_training_data(data, tau, known_physics, vehicle, law)
-        res = select_kfold(
-            lambda deg: cls(degree=deg),
-            degrees,
-            U,
-            V,
-            k=k,
-            seed=seed,
-            progress=_stage(progress, f"degrees at tau {1e3 * tau:g} ms"),
-        )
-        row = next(r for r in res.table if r["candidate"] == res.best)
-        out.table.append({"tau": tau, "degree": res.best, "rms": row["rms"], "nrms": row["nrms"]})
-        out.results.append(res)
-        pairs[tau] = (U, V)
-    best = min(out.table, key=lambda r: r["rms"])
-    out.best = (best["tau"], best["degree"])
-    U, V = pairs[best["tau"]]
-    model = cls(degree=best["degree"]).fit(U, V)
-    model.features_ = {
-        "form": "maxwell",
-        "tau": best["tau"],
-        "known_physics": list(known_physics),
-    }
-    if laws is not None and laws[best["tau"]] is not None:
-        model.features_["relaxation"] = law_document(laws[best["tau"]])
-    data["U_memory"], data["V_memory"] = U, V
-    return model, out
 
 
 _FEATURES = {
@@ -367,11 +194,18 @@ def save_vertical_surrogate(
     path: str | Path,
     source: str,
     command: str | None = None,
+    envelope: Any = None,
 ) -> Path:
     """Write a vertical element with its feature form, names, units, build report
-    (``None``: no report, e.g. a refined element) and the command that builds it (default
-    the packaged recipe of its form)."""
+    (``None``: no report, e.g. a refined element), the command that builds it (default
+    the packaged recipe of its form) and the operating envelope it was built for
+    (``metadata.envelope``: an :class:`~railgym.vehicles.element_envelope.OperatingEnvelope`,
+    a data-collection design, or ``None``: the model's own, if it has one)."""
     feat = getattr(model, "features_", {})
+    if envelope is None:
+        envelope = element_envelope(model)
+    elif not isinstance(envelope, OperatingEnvelope):
+        envelope = design_envelope(design_named(envelope))
     form = feat.get("form", "static")
     inputs, units = _FEATURES[form]
     if report is None:
@@ -399,6 +233,7 @@ def save_vertical_surrogate(
             "source": source,
             "command": command or f"python -m railgym.vehicles.collect --features {form}",
             "report": summary,
+            **({} if envelope is None else {"envelope": envelope.document()}),
         },
     )
 
@@ -496,14 +331,24 @@ def _element_pairs(
     return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
 
 
-def _initial_pairs(model: SurrogateModel, vehicle: str) -> tuple[np.ndarray, np.ndarray]:
+def _initial_pairs(
+    model: SurrogateModel, vehicle: Any, fmu_map: Any = None, fmu: Any = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of the packaged recipe of ``model``'s form (memory: :data:`MEMORY_DESIGN`;
-    static: the paper design)."""
+    static: the paper design), run on ``vehicle``'s reference or on the FMU of ``fmu_map``."""
     form = element_form(getattr(model, "features_", None))
+
+    def collect(design: Any) -> dict[str, Any]:
+        if fmu_map is None:
+            return collect_design(design, vehicle=vehicle)
+        from railgym.fmu.collect import collect_fmu
+
+        return collect_fmu(fmu_map, design, fmu, vehicle)
+
     if form.form == "maxwell":
-        data = collect_design(_design(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE), vehicle=vehicle)
+        data = collect(design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE))
         return memory_training_data(data, form.tau, form.known_physics, vehicle)
-    data = collect_design("paper", vehicle=vehicle)
+    data = collect("paper")
     return data["U"], data["V"]
 
 
@@ -533,7 +378,7 @@ def refine(
     data: tuple[Any, Any] | None = None,
     observe: Any = None,
     reference: str = "dynamic",
-    vehicle: str = "manchester",
+    vehicle: Any = None,
     log: Any = print,
     fmu_map: Any = None,
     fmu: Any = None,
@@ -557,8 +402,11 @@ def refine(
     observe : maps the raw observation (:data:`RAW_OBSERVATION`, SI) to the policy's
         observation (``None``: the raw vector).
     reference : reference variant (``"dynamic"``, or ``"static"`` for a memoryless one).
+    vehicle : the vehicle (name, YAML path or ``VerticalVehicle``; default ``manchester``,
+        with ``fmu_map`` the mapping's ``vehicle:``).
     log : called with one line per round (``None``: silent). fmu_map, fmu : an FMU as the
-        reference (mapping file, FMU default its ``fmu:``), stepped at ``dt`` of ``reference``.
+        reference (mapping file, FMU default its ``fmu:``), stepped at ``dt`` of ``reference``;
+        its initial training pairs (``data=None``) are collected from it too.
 
     Returns ``(model, history)``: the refined element and one row per round 0..K with
     ``round``, ``error`` (median held-out relative RMS error of ẍ2), ``ood`` (held-out
@@ -568,12 +416,20 @@ def refine(
     rounds = val.integer(rounds, "rounds", min=0)
     reference = val.choice(reference, "reference", ("dynamic", "static"))
     element_form(getattr(model, "features_", None), model.n_features_in_, "model")
+    if fmu_map is not None:
+        from railgym.fmu.mapping import fmu_vehicle
+
+        vehicle = fmu_vehicle(fmu_map, vehicle)
+    vehicle = "manchester" if vehicle is None else vehicle
     veh = load_vehicle(vehicle)
     dt = DEFAULT_DT[reference]
     n_sub, every = o.steps(dt)
     law = _policy_force(policy, observe, o.f_max)
     v0 = o.speed_or_class()
-    U, V = _initial_pairs(model, vehicle) if data is None else (np.asarray(data[0]), data[1])
+    if data is None:
+        U, V = _initial_pairs(model, vehicle, fmu_map, fmu)
+    else:
+        U, V = np.asarray(data[0]), data[1]
     V = np.asarray(V, dtype=np.float64)
 
     def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -610,9 +466,7 @@ def _parser() -> argparse.ArgumentParser:
     """Arguments of ``python -m railgym.vehicles.collect``."""
     from surrogates.cli import add_degree_arguments
 
-    parser = argparse.ArgumentParser(
-        prog="python -m railgym.vehicles.collect", description=__doc__.split("\n\n")[0]
-    )
+    parser = argparse.ArgumentParser(prog="python -m railgym.vehicles.collect", description=__doc__)
     parser.add_argument("--features", choices=sorted(PACKAGED), default="maxwell")
     parser.add_argument(
         "--design",
@@ -629,6 +483,12 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.add_argument("--fmu-map", help="collect from this FMU mapping file (docs/fmi.md)")
     parser.add_argument("--fmu", help="the FMU of --fmu-map (default: the map's fmu:)")
+    parser.add_argument(
+        "--vehicle",
+        help="vehicle YAML (name or path) of the model: masses for the force balance, bump "
+        "stops for the element's known physics; with --fmu-map required unless the mapping "
+        "has vehicle: (default without --fmu-map: manchester)",
+    )
     add_degree_arguments(
         parser,
         "; static default 16 per input; maxwell: the grid of each input (from 12, 12, 14 in "
@@ -673,13 +533,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(str(err))
     progress = stages()
     data = None
-    if args.fmu_map is not None and args.output is None:
-        parser.error("--fmu-map needs --output (the packaged element is not replaced)")
-    if args.fmu_map is not None:
-        from railgym.fmu.collect import collect_fmu
+    for flag, given in (("--fmu-map", args.fmu_map), ("--vehicle", args.vehicle)):
+        if args.output is None and given is not None:
+            parser.error(f"{flag} needs --output (the packaged element is not replaced)")
+    vehicle = args.vehicle or "manchester"
+    try:
+        if args.fmu_map is not None:
+            from railgym.fmu.collect import collect_fmu
+            from railgym.fmu.mapping import fmu_vehicle
 
-        rate = 50.0 if args.features == "static" else MEMORY_SAMPLE_RATE
-        data = collect_fmu(args.fmu_map, _design(args.design, None, rate), args.fmu)
+            vehicle = fmu_vehicle(args.fmu_map, args.vehicle, "--vehicle ")
+            rate = 50.0 if args.features == "static" else MEMORY_SAMPLE_RATE
+            with quiet(args.quiet):
+                data = collect_fmu(
+                    args.fmu_map,
+                    design_with(args.design, None, rate),
+                    args.fmu,
+                    vehicle,
+                    progress=stage(progress, "FMU runs"),
+                )
+        veh = load_vehicle(vehicle)
+    except (val.FieldError, OSError) as err:
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
     out = args.output or str(Path(__file__).parents[1] / "data" / PACKAGED[args.features])
     where = (
         "FRA class 5, 144 km/h, 20 s, track seed 0"
@@ -689,25 +564,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     with quiet(args.quiet):
         if args.features == "static":
             model, report, _ = build_vertical_surrogate(
-                m=args.m, design=args.design, candidates=cands, progress=progress, data=data
+                m=args.m,
+                design=args.design,
+                candidates=cands,
+                progress=progress,
+                data=data,
+                vehicle=veh,
             )
             text = report.format("N")
-            source = f"railgym dynamic reference (manchester), {where}, 50 Hz, M = {args.m} (GA)"
+            source = f"railgym dynamic reference ({veh.name}), {where}, 50 Hz, M = {args.m} (GA)"
         else:
             model, report, _ = build_memory_surrogate(
                 design=args.design,
                 degrees=cands or MEMORY_DEGREES,
                 progress=progress,
                 data=data,
+                vehicle=veh,
             )
             text = report.format()
+            target = "F_s - F_bump" if veh.known_physics else "F_s"
             source = (
-                f"railgym dynamic reference (manchester), {where}, 200 Hz; passive LPR on "
-                "F_s - F_bump with the Maxwell state"
+                f"railgym dynamic reference ({veh.name}), {where}, 200 Hz; passive LPR on "
+                f"{target} with the Maxwell state"
             )
     if args.fmu_map is not None:
-        source = f"FMU of {args.fmu_map}" + source[source.index(",") :]
-    save_vertical_surrogate(model, report, out, source)
+        source = f"FMU of {args.fmu_map} (vehicle {veh.name})" + source[source.index(",") :]
+    save_vertical_surrogate(model, report, out, source, envelope=args.design)
     print(text)
     print(f"written to {out}")
     return 0

@@ -152,7 +152,7 @@ def run_record(
 
 def collect_design(
     design: str | CollectionDesign = "envelope",
-    vehicle: str = "manchester",
+    vehicle: Any = "manchester",
     variant: str = "dynamic",
     dt: float | None = None,
     progress: Callable[[int, int], None] | None = None,

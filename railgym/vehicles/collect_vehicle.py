@@ -35,8 +35,10 @@ from typing import Any
 import numpy as np
 
 from railgym.track import fra_profile_with_slope
-from railgym.vehicles.collect import WARMUP, save_vertical_surrogate, select_memory_element
+from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.collect_design import band_limited_force
+from railgym.vehicles.element_envelope import design_envelope
+from railgym.vehicles.memory_element import WARMUP, select_memory_element
 from railgym.vehicles.vehicle import (
     DEFAULT_DT,
     advance,
@@ -280,9 +282,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{d.band:g} Hz), both bogies, {d.sample_rate:g} Hz; additive LPR on F_s - F_bump "
         "with the Maxwell state of a fitted two-slope relaxation law"
     )
-    save_vertical_surrogate(
-        model, sel, out, source, f"python -m railgym.vehicles.collect_vehicle --output {out.name}"
-    )
+    # the design's classes and speeds, at most each class's maximum speed (where it was
+    # validated: docs/validation.md, *Validity flags*)
+    envelope = design_envelope(d)._replace(speed_factor=(0.0, 1.0))
+    command = f"python -m railgym.vehicles.collect_vehicle --output {out.name}"
+    save_vertical_surrogate(model, sel, out, source, command, envelope=envelope)
     print(sel.format())
     print(f"written to {out}")
     return 0

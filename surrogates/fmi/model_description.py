@@ -11,7 +11,7 @@ feature name, its training range and unit go into the description. Units are dec
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
 
@@ -66,10 +66,16 @@ def interface_lines(
     source_files: Sequence[str],
     units: Sequence[str],
     interpolate_inputs: bool = False,
+    *,
+    base_units: Mapping[str, Mapping[str, int]] = BASE_UNITS,
+    stop_time: float = 1.0,
+    step_size: float | None = None,
 ) -> list[str]:
     """Lines of ``modelDescription.xml`` from the ``ModelExchange`` / ``CoSimulation``
-    elements (``kinds`` ⊆ ``("me", "cs")``) through ``UnitDefinitions``, ``LogCategories``
-    and ``DefaultExperiment`` to the opening ``ModelVariables`` tag."""
+    elements (``kinds`` ⊆ ``("me", "cs")``) through ``UnitDefinitions`` (the SI exponents of
+    each unit from ``base_units``; a unit not there is declared without them),
+    ``LogCategories`` and ``DefaultExperiment`` (from 0 to ``stop_time`` s, in steps of
+    ``step_size`` s when given) to the opening ``ModelVariables`` tag."""
     lines: list[str] = []
     files = "".join(f"<File name={quoteattr(f)}/>" for f in source_files)
     common = (
@@ -91,7 +97,7 @@ def interface_lines(
     if units:
         lines.append("  <UnitDefinitions>")
         for u in units:
-            base = BASE_UNITS.get(u)
+            base = base_units.get(u)
             if base is None:
                 lines.append(f"    <Unit name={quoteattr(u)}/>")
             else:
@@ -99,7 +105,8 @@ def interface_lines(
                 lines.append(f"    <Unit name={quoteattr(u)}><BaseUnit{exps}/></Unit>")
         lines.append("  </UnitDefinitions>")
     lines.append('  <LogCategories><Category name="logStatusError"/></LogCategories>')
-    lines.append('  <DefaultExperiment startTime="0.0" stopTime="1.0"/>')
+    step = "" if step_size is None else f' stepSize="{float(step_size)!r}"'
+    lines.append(f'  <DefaultExperiment startTime="0.0" stopTime="{float(stop_time)!r}"{step}/>')
     lines.append("  <ModelVariables>")
     return lines
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import inspect
 import warnings
 from collections.abc import Callable
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Self
 
 import numpy as np
 
@@ -38,11 +38,13 @@ from surrogates.models.checks import (
 EXTRAPOLATION_POLICIES = ("linear", "clip", "raise")
 
 
-def as_inputs(U: Any, name: str = "U") -> np.ndarray:
-    """Return ``U`` as a finite float array of shape (n, d); 1-D input means d = 1.
+def as_inputs(U: Any, name: str = "U", one_d: bool = True) -> np.ndarray:
+    """Return ``U`` as a finite float array of shape (n, d).
 
-    The error messages carry the phrases scikit-learn's estimator checks look for
-    (sparse, complex, NaN/inf, 0 features)."""
+    A 1-D ``U`` is one input column (d = 1) when ``one_d`` is true (the builder and the
+    selection functions); the models' ``fit``/``predict``/``score`` pass ``one_d=False`` and
+    refuse it, as scikit-learn's estimators do. The error messages carry the phrases
+    scikit-learn's estimator checks look for (sparse, complex, NaN/inf, 1-D, 0 features)."""
     if hasattr(U, "toarray") or type(U).__module__.startswith("scipy.sparse"):
         raise TypeError(f"{name}: sparse input is not supported, pass a dense array")
     raw = np.asarray(U)
@@ -56,6 +58,13 @@ def as_inputs(U: Any, name: str = "U") -> np.ndarray:
     if raw.dtype.kind not in "iuf":
         raise ValueError(f"{name} must be an array of real numbers, got dtype {raw.dtype}")
     U = np.asarray(raw, dtype=float)
+    if U.ndim == 1 and not one_d:
+        raise ValueError(
+            f"{name} must be 2-D (n_samples, n_features), got a 1-D array of shape {U.shape}: "
+            f"Expected 2D array, got 1D array instead. Reshape your data either using "
+            f"{name}.reshape(-1, 1) if your data has a single feature or {name}.reshape(1, -1) "
+            "if it contains a single sample"
+        )
     if U.ndim == 1:
         U = U[:, None]
     if U.ndim != 2:
@@ -97,15 +106,19 @@ def as_outputs(V: Any, n: int, name: str = "V") -> np.ndarray:
 class SurrogateModel:
     """Base class: scikit-learn-like ``fit``/``predict`` with an extrapolation guard.
 
-    Subclasses implement ``_fit(U, V)``, ``_predict_inside(U)`` (inputs inside the box),
+    ``fit(X, y)``, ``predict(X)`` and ``score(X, y)`` take scikit-learn's names: ``X`` (n, d)
+    holds the inputs U of the paper, ``y`` (n,) its outputs V. Subclasses implement
+    ``_fit(U, V)`` (validated arrays), ``_predict_inside(U)`` (inputs inside the box),
     optionally ``_gradient_inside(U)``, ``_check_params()`` (validates the hyperparameters)
     and ``_state()`` / ``_set_state(d)`` for persistence.
 
     scikit-learn contract: ``__init__`` stores every hyperparameter exactly as given (it
     validates nothing), ``fit`` validates them, :meth:`get_params` / :meth:`set_params` work as
     in scikit-learn (so ``sklearn.base.clone`` works), learned state ends in an underscore,
-    :meth:`score` is the R² of a regressor and ``__sklearn_tags__`` declares a regressor, so
-    ``Pipeline``, ``GridSearchCV``, ``cross_val_score`` and ``is_regressor`` work. scikit-learn
+    ``fit`` sets ``n_features_in_`` and ``predict``/``score`` refuse another column count, a
+    1-D ``X`` is refused (one input is one column), :meth:`score` is the R² of a regressor and
+    ``__sklearn_tags__`` declares a regressor, so ``Pipeline``, ``GridSearchCV``,
+    ``cross_val_score`` and ``is_regressor`` work and ``check_estimator`` passes. scikit-learn
     itself is not needed (it is imported only when scikit-learn asks for the tags).
     """
 
@@ -119,46 +132,63 @@ class SurrogateModel:
         self.extrapolation = extrapolation
 
     # ------------------------------------------------------------------ public API
-    def fit(self, U: Any, V: Any) -> SurrogateModel:
-        """Fit on inputs ``U`` (n, d) and outputs ``V`` (n,); returns ``self``.
+    def fit(self, X: Any, y: Any) -> Self:
+        """Fit the model on the training box of ``X``; returns ``self``.
 
-        Raises :class:`ModelFieldError` (a ``ValueError``) for an invalid hyperparameter and
-        ``ValueError`` for bad data (constant or overflowing input columns, non-finite values).
+        Parameters
+        ----------
+        X : array-like (n, d)
+            Inputs U of the paper, input units (a 2-D array: one row per sample, one column
+            per input; a single input is one column, ``u[:, None]``).
+        y : array-like (n,)
+            Outputs V of the paper, output units.
+
+        Returns
+        -------
+        self
+            Fitted, with ``lower_``/``upper_`` (training box) and ``n_features_in_`` set.
+
+        Raises
+        ------
+        ModelFieldError
+            An invalid hyperparameter (a ``ValueError``), checked before the data.
+        ValueError
+            Bad data: a 1-D ``X``, constant or overflowing input columns, non-finite values,
+            too few samples for the model.
         """
         self._check_params()
-        U = as_inputs(U)
-        V = as_outputs(V, U.shape[0])
+        U = as_inputs(X, "X", one_d=False)
+        V = as_outputs(y, U.shape[0], "y")
         if U.shape[0] < 2:
             raise ValueError(
-                f"U has 1 sample (n_samples=1): a training domain needs at least 2 {U.shape}"
+                f"X has 1 sample (n_samples=1): a training domain needs at least 2 {U.shape}"
             )
         lower, upper = U.min(axis=0), U.max(axis=0)
-        check_domain(lower, upper, "U column")
+        check_domain(lower, upper, "X column")
         if not np.isfinite(np.std(V)):
-            raise ValueError("V overflows float64 (its spread is not finite): rescale the output")
+            raise ValueError("y overflows float64 (its spread is not finite): rescale the output")
         self.lower_, self.upper_ = lower, upper
         self.n_features_in_ = U.shape[1]
         self.n_out_of_domain_ = 0
         self._fit(U, V)
         return self
 
-    def predict(self, U: Any) -> np.ndarray:
-        """Predict outputs for ``U`` (n, d) → (n,), applying the extrapolation policy."""
+    def predict(self, X: Any) -> np.ndarray:
+        """Predict the outputs at ``X``, applying the extrapolation policy outside the box.
+
+        Parameters
+        ----------
+        X : array-like (n, d)
+            Inputs U of the paper (2-D, ``d = n_features_in_`` columns), input units.
+
+        Returns
+        -------
+        ndarray (n,)
+            Outputs V of the paper, output units.
+        """
         self._check_fitted()
         choice(self.extrapolation, "extrapolation", EXTRAPOLATION_POLICIES)  # set_params
-        one_d = np.asarray(U).ndim == 1
-        U = as_inputs(U)
-        if U.shape[1] != self.n_features_in_:
-            hint = (
-                "; Reshape your data: a 1-D U is one column, use U.reshape(1, -1) for one sample"
-                if one_d
-                else ""
-            )
-            raise ValueError(
-                f"U has {U.shape[1]} columns: X has {U.shape[1]} features, but "
-                f"{type(self).__name__} is expecting {self.n_features_in_} features as input "
-                f"(the columns it was fitted on){hint}"
-            )
+        U = self._check_inputs(X)
         Uc = np.clip(U, self.lower_, self.upper_)
         outside = np.any(Uc != U, axis=1)
         n_out = int(outside.sum())
@@ -182,17 +212,31 @@ class SurrogateModel:
                 cols = np.nonzero(Uc[row] != U[row])[0].tolist()
                 raise ValueError(
                     f"linear extrapolation overflows float64 at row {row} (column(s) {cols}, "
-                    f"U = {U[row].tolist()}): the input is too far outside the training domain"
+                    f"X = {U[row].tolist()}): the input is too far outside the training domain"
                 )
         return V
 
-    def score(self, U: Any, V: Any, sample_weight: Any = None) -> float:
-        """Coefficient of determination R² of :meth:`predict` on ``U`` against ``V``, as
-        scikit-learn's regressors (``1 − Σw(V − V̂)² / Σw(V − V̄_w)²``; a constant ``V`` gives
-        1.0 when predicted exactly, else 0.0)."""
-        pred = self.predict(U)
-        V = as_outputs(V, pred.size)
-        w = np.ones_like(V) if sample_weight is None else as_outputs(sample_weight, V.size, "w")
+    def score(self, X: Any, y: Any, sample_weight: Any = None) -> float:
+        """Coefficient of determination R² of :meth:`predict` at ``X`` against ``y``, as
+        scikit-learn's regressors (``1 − Σw(y − ŷ)² / Σw(y − ȳ_w)²``; a constant ``y`` gives
+        1.0 when predicted exactly, else 0.0).
+
+        Parameters
+        ----------
+        X : array-like (n, d)
+            Inputs U of the paper (2-D, ``d = n_features_in_`` columns).
+        y : array-like (n,)
+            Outputs V of the paper.
+        sample_weight : array-like (n,), optional
+            Weight of each sample (default: equal weights).
+        """
+        pred = self.predict(X)
+        V = as_outputs(y, pred.size, "y")
+        w = (
+            np.ones_like(V)
+            if sample_weight is None
+            else as_outputs(sample_weight, V.size, "sample_weight")
+        )
         residual = float(np.sum(w * (V - pred) ** 2))
         total = float(np.sum(w * (V - np.average(V, weights=w)) ** 2))
         if total == 0.0:
@@ -307,9 +351,21 @@ class SurrogateModel:
         """Validate the hyperparameters (:class:`ModelFieldError` naming the first bad one)."""
         choice(self.extrapolation, "extrapolation", EXTRAPOLATION_POLICIES)
 
+    def _check_inputs(self, X: Any) -> np.ndarray:
+        """``X`` as a float array (n, n_features_in_), scikit-learn's error otherwise (a 1-D
+        ``X``, or a column count other than the fitted one)."""
+        U = as_inputs(X, "X", one_d=False)
+        if U.shape[1] != self.n_features_in_:
+            raise ValueError(
+                f"X has {U.shape[1]} columns: X has {U.shape[1]} features, but "
+                f"{type(self).__name__} is expecting {self.n_features_in_} features as input "
+                "(the columns it was fitted on)"
+            )
+        return U
+
     def _check_fitted(self) -> None:
         if not hasattr(self, "lower_"):
-            raise not_fitted_error(f"{type(self).__name__} is not fitted: call fit(U, V) first")
+            raise not_fitted_error(f"{type(self).__name__} is not fitted: call fit(X, y) first")
 
     def _fit(self, U: np.ndarray, V: np.ndarray) -> None:
         raise NotImplementedError

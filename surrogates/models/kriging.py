@@ -30,7 +30,7 @@ from scipy.linalg.lapack import dpotri
 from scipy.optimize import OptimizeResult, minimize
 from threadpoolctl import threadpool_limits
 
-from surrogates.models.base import SurrogateModel, as_inputs
+from surrogates.models.base import SurrogateModel
 from surrogates.models.checks import (
     ModelFieldError,
     choice,
@@ -161,18 +161,23 @@ class Kriging(SurrogateModel):
         self.max_samples = max_samples
 
     # ------------------------------------------------------------------ public API
-    def predict_variance(self, U: Any) -> np.ndarray:
-        """Kriging predictive variance (mean-squared error) at ``U`` (n, d) → (n,), output units².
+    def predict_variance(self, X: Any) -> np.ndarray:
+        """Kriging predictive variance (mean-squared error) at ``X``, output units².
 
         Evaluated at the given points (no extrapolation policy): it tends to ``sigma2_``
         far from the data and is ≈ 0 at the training points of an interpolating model.
+
+        Parameters
+        ----------
+        X : array-like (n, d)
+            Inputs U of the paper (2-D, ``d = n_features_in_`` columns), input units.
+
+        Returns
+        -------
+        ndarray (n,)
         """
         self._check_fitted()
-        U = as_inputs(U)
-        if U.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"U has {U.shape[1]} columns, the model was fitted on {self.n_features_in_}"
-            )
+        U = self._check_inputs(X)
         out = np.empty(U.shape[0])
         for s in range(0, U.shape[0], _CHUNK):
             xs = self._scale(U[s : s + _CHUNK])
@@ -213,7 +218,7 @@ class Kriging(SurrogateModel):
         p = 1 + d if self.trend == "linear" else 1
         if n <= p:
             raise ValueError(
-                f"U has {n} rows; Kriging with trend={self.trend!r} needs more than {p}"
+                f"X has {n} rows; Kriging with trend={self.trend!r} needs more than {p}"
             )
         if self.max_samples is not None and n > self.max_samples:
             raise ValueError(

@@ -106,11 +106,11 @@ class LegendreRegression(SurrogateModel):
         else:
             degrees = degree if isinstance(degree, tuple) else (degree,) * d
             if len(degrees) != d:
-                raise ValueError(f"degree has {len(degrees)} entries but U has {d} columns")
+                raise ValueError(f"degree has {len(degrees)} entries but X has {d} columns")
             T = 1 + sum(degrees)
         if n < T:
             raise ValueError(
-                f"U has {n} samples but degree={self.degree!r} "
+                f"X has {n} samples but degree={self.degree!r} "
                 f"(interactions={self.interactions}) needs at least {T} (one per term)"
             )
         E = self.make_exponents(d)
@@ -120,7 +120,7 @@ class LegendreRegression(SurrogateModel):
         if rank < T:
             raise ValueError(
                 f"degree={self.degree!r} is too high for the data: the design matrix has rank "
-                f"{rank} < {T} terms (too few distinct values in some column of U)"
+                f"{rank} < {T} terms (too few distinct values in some column of X)"
             )
         self.coef_ = coef_scaled / norms
         self.exponents_ = E
@@ -140,7 +140,7 @@ class LegendreRegression(SurrogateModel):
             return np.array(rows, dtype=np.int64)[:, ::-1].copy()
         degrees = degree if isinstance(degree, tuple) else (degree,) * d
         if len(degrees) != d:
-            raise ValueError(f"degree has {len(degrees)} entries but U has {d} columns")
+            raise ValueError(f"degree has {len(degrees)} entries but X has {d} columns")
         table = [np.zeros(d, dtype=np.int64)]
         for j, n_j in enumerate(degrees):
             for k in range(1, n_j + 1):

@@ -1,9 +1,14 @@
 """Bad command lines of ``railgym`` and ``python -m agents.train``: each is refused before any
-work with exit status 2, no traceback, and an error line that names the flag or file."""
+work with exit status 2, no traceback, and an error line that names the flag or file; in a
+fresh process, every line on stderr (warnings too) is one ``railgym CMD: …`` line."""
 
 from __future__ import annotations
 
+import pickle
 import re
+import subprocess
+import sys
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -30,6 +35,8 @@ ROWS = [
     ("railgym", "demo --out {file}", "--out"),
     ("railgym", "demo --out {nonempty}", "--out"),
     ("railgym", "demo --seed -3", "--seed"),
+    # a folder holding the report's own files and another one: refused, naming the other
+    ("railgym", "paper --quick --out {ownplus}", r"--out .*'keep\.txt'.*--overwrite"),
     ("railgym", "", "command"),
     ("railgym", "frobnicate", "command"),
     # railgym evaluate: numbers with their units and ranges
@@ -57,6 +64,13 @@ ROWS = [
     ("railgym", "evaluate {noconfig}", "no manifest.json beside it"),
     ("railgym", "evaluate {noconfig} --trust", "not a zip file"),
     ("railgym", "evaluate {nomanifest}", "--trust"),
+    ("railgym", "evaluate {zoobinary} --trust", r"config\.yml: not an rl-zoo3 .*: not UTF-8"),
+    (
+        "railgym",
+        "evaluate passive --backend fmu --fmu-map {listmap}",
+        r"list\.yaml: the mapping file must be a YAML mapping \(version:, env:, inputs:, "
+        r"outputs:\), got a list",
+    ),
     # railgym evaluate: the vehicle, crash envelope and parallel flags
     ("railgym", "evaluate skyhook --env vehicle --speed 0", "--speed"),
     ("railgym", "evaluate skyhook --env vehicle --duration 0", "--duration"),
@@ -107,6 +121,16 @@ def places(tmp_path, monkeypatch):
     (tmp_path / "nomanifest" / "model.zip").write_bytes(b"PK")
     (tmp_path / "nomanifest" / "config.yaml").write_text(yaml.safe_dump({ENV_ID: TINY}))
 
+    (tmp_path / "ownplus").mkdir()
+    for name in ("report.md", "fig07_samples.png", "keep.txt"):
+        (tmp_path / "ownplus" / name).write_text("x")
+    (tmp_path / "list.yaml").write_text("- version: 1\n- env: vertical\n")
+    zoo = tmp_path / "zoo" / "run_1"
+    (zoo / "run").mkdir(parents=True)
+    (zoo / "model.zip").write_bytes(b"PK")
+    (zoo / "run" / "args.yml").write_text(f"algo: ppo\nenv: {ENV_ID}\n")
+    (zoo / "run" / "config.yml").write_bytes(b"\xff\xfe\x00\x01binary")
+
     def config(name: str, block: object) -> str:
         path = tmp_path / f"{name}.yaml"
         path.write_text(yaml.safe_dump({ENV_ID: block}) if isinstance(block, dict) else block)
@@ -118,6 +142,9 @@ def places(tmp_path, monkeypatch):
         "missing": str(tmp_path / "missing"),
         "noconfig": str(tmp_path / "noconfig" / "model.zip"),
         "nomanifest": str(tmp_path / "nomanifest" / "model.zip"),
+        "ownplus": str(tmp_path / "ownplus"),
+        "listmap": str(tmp_path / "list.yaml"),
+        "zoobinary": str(zoo / "model.zip"),
         "cfg": config("ok", TINY),
         "cfg_n_envs": config("n_envs", {**TINY, "n_envs": 0}),
         "cfg_unknown": config("unknown", {**TINY, "learning_rat": 0.1}),
@@ -165,3 +192,62 @@ def test_module_commands_share_the_bounds_of_the_railgym_flags(module, argv, fla
         importlib.import_module(module).main(argv.split())
     last = capsys.readouterr().err.strip().splitlines()[-1]
     assert exc.value.code == 2 and f"argument {flag}" in last, last
+
+
+class _Touch:
+    """Pickle payload: unpickling it creates ``path`` (stands for any code)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self):
+        return (Path.touch, (self.path,))
+
+
+def _crafted(tmp_path: Path) -> Path:
+    """A run folder (config, no manifest) whose zip's policy.pth is a pickle that runs code."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.yaml").write_text(yaml.safe_dump({ENV_ID: TINY}))
+    with zipfile.ZipFile(run / "model.zip", "w") as zf:
+        zf.writestr("policy.pth", pickle.dumps(_Touch(tmp_path / "pwned")))
+    return run / "model.zip"
+
+
+#: (argv of ``railgym`` in a fresh process, texts stderr must match, texts it must not hold)
+FRESH_ROWS = [
+    (
+        # --trust: one warning line, then railgym's own refusal of policy.pth; never torch's
+        # advice to load it unsafely, nor a line of Python source
+        "evaluate {crafted} --trust --episodes 1",
+        [
+            r"(?m)^railgym evaluate: warning: policy \S+model\.zip: no manifest\.json beside it, "
+            r".*because of --trust$",
+            r"(?m)^railgym evaluate: error: policy \S+model\.zip: policy\.pth is not a "
+            r"weights-only state dict: .*never unpickles such objects .*save\(\)",
+        ],
+        ["weights_only", "add_safe_globals", "warnings.warn", "check_manifest(", "UserWarning"],
+    ),
+]
+
+
+@pytest.mark.parametrize(("argv", "want", "never"), FRESH_ROWS, ids=[r[0] for r in FRESH_ROWS])
+def test_command_in_a_fresh_process_writes_only_railgym_lines(tmp_path, argv, want, never):
+    args = argv.format(crafted=_crafted(tmp_path)).split()
+    proc = subprocess.run(
+        [sys.executable, "-m", "agents.cli", *args],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=300,
+        check=False,
+    )
+    err = proc.stderr
+    assert proc.returncode == 2, err
+    for pattern in want:
+        assert re.search(pattern, err), err
+    for text in ["Traceback", *never]:
+        assert text not in err, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert lines and all(line.startswith(f"railgym {args[0]}: ") for line in lines), err
+    assert not (tmp_path / "pwned").exists()

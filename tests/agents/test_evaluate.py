@@ -1,6 +1,7 @@
 import base64
 import json
 import pickle
+import subprocess
 import sys
 import zipfile
 from collections.abc import Callable
@@ -20,6 +21,7 @@ from agents.evaluate import (
     evaluate_crash,
     evaluate_envelope,
     evaluate_vehicle,
+    format_crash_rows,
     format_rows,
     format_vehicle_rows,
     load_policy,
@@ -276,3 +278,91 @@ def test_evaluate_re_exports_the_policies_library():
         assert getattr(command, name) is getattr(library, name), name
     factory, env_kwargs, label = command.load_policy("lqr", command.ENV_ID)
     assert label == "lqr" and env_kwargs == {"observation": "full"}
+
+
+# ----------------------------------------------------- what the tables say (issue reports)
+def _railgym(*args: str) -> subprocess.CompletedProcess:
+    """``railgym ARGS`` in a fresh process."""
+    return subprocess.run(
+        [sys.executable, "-m", "agents.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+
+
+def test_crash_table_marks_a_run_the_env_cut_as_diverged():
+    """At 400 km/h the lead zone crushes through the car (27.6 m on a 27.6 m car): the env ends
+    the run as diverged (info["diverged"]); the table marks the row and says so under it."""
+    proc = _railgym("evaluate", "passive", "--env", "crash", "--speed", "400", "40", "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[1].split()[-1] == "diverged"
+    fast, slow = (ln for ln in lines if ln.strip().startswith(("400 ", "40 ")))
+    assert fast.split()[-1] == "yes" and slow.split()[-1] == "no"
+    (note,) = [ln for ln in lines if ln.startswith("diverged:")]
+    assert note.startswith("diverged: passive at 400 km/h: the env cut the run where its state")
+    assert "not a physical result" in note and "passive at 40 km/h" not in note
+
+
+def test_envelope_table_marks_diverged_runs():
+    rows = evaluate_envelope(["passive"], speeds_kmh=(400.0,))
+    assert all(r["diverged"] for r in rows)
+    text = envelope_table(rows)
+    cases = [ln for ln in text.splitlines() if ln.startswith("| 400 |")]
+    assert len(cases) == 6 and all(ln.endswith("| yes |") for ln in cases)
+    assert "diverged: passive at 400 km/h, payload 0 / 0 t; best constant" in text
+    assert "| max intrusion m ≤ 45 km/h |" in text  # the summary too (NaN: no such case)
+
+
+def test_help_and_docstring_say_which_rows_are_always_added():
+    import agents.evaluate
+
+    proc = _railgym("evaluate", "--help")
+    assert proc.returncode == 0
+    text = " ".join(proc.stdout.split())
+    assert "The comparison rows are always added: passive and skyhook (vertical, vehicle)" in text
+    assert "passive (crash), passive, best-constant and speed-adaptive (crash --envelope)" in text
+    doc = " ".join(agents.evaluate.__doc__.split())
+    assert "always adds rows to compare against, whether or not they are named" in doc
+
+
+LONG = "runs/ppo_vertical_long_experiment_name/checkpoints/model_20000_steps"
+
+
+def test_tables_size_the_policy_column_to_the_longest_name():
+    row = {"track_class": 4, "rms_acc": 0.1, "a_w": 0.2, "a_w_reduction_%": 1.0, "wz": 2.0}
+    vertical = [{**row, "policy": p, "max_defl_mm": 10.0, "contacts": 0} for p in ("passive", LONG)]
+    three = np.array([0.1, 0.2, 0.3])
+    vehicle = [
+        {
+            **row,
+            "policy": p,
+            "speed_kmh": 100.0,
+            **dict.fromkeys(("rms_acc", "a_w", "a_w_reduction_%", "a_ZP95_Wb", "Wz"), three),
+            "contacts": 0,
+            "ood": 0,
+        }
+        for p in ("passive", LONG)
+    ]
+    for text in (format_rows(vertical), format_vehicle_rows(vehicle)):
+        head, *lines = text.splitlines()
+        assert len({len(ln) for ln in [head, *lines]}) == 1, text  # every column aligned
+        at = head.index("policy")
+        assert [ln[at:].split()[0] for ln in lines] == ["passive", LONG]
+    crash = [
+        {
+            "speed_kmh": 40.0,
+            "policy": p,
+            "peak_decel_g": np.array([8.0, 3.5]),
+            "max_crush_m": np.array([1.9, 0.6]),
+            "stroke_exceeded": False,
+            "diverged": False,
+            "peak_reduction_%": 0.0,
+        }
+        for p in ("passive", LONG)
+    ]
+    head, *lines = format_crash_rows(crash).splitlines()
+    assert len({len(ln) for ln in lines}) == 1
+    assert all(ln.index("8.00") == head.index("peak decel") for ln in lines)

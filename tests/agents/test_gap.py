@@ -67,6 +67,25 @@ def test_crash_gap_names_every_car_and_zone_and_is_zero_against_itself():
     assert "largest |gap| of passive: 0.00 %" in text
 
 
+def test_crash_gap_rows_say_which_side_the_env_cut_as_diverged():
+    """At 400 km/h both backends end the run as diverged (a zone crushed through a car): each
+    row says so in its ``diverged`` column and a line under the table names the runs; at
+    30 km/h no row is marked."""
+    rows = gap_crash(["passive"], speeds_kmh=[400.0, 30.0], payloads_t=[(0.0, 0.0)])
+    fast = [r for r in rows if r["case"].startswith("400 ")]
+    slow = [r for r in rows if r["case"].startswith("30 ")]
+    assert fast and all(r["diverged"] == "surrogate and reference" for r in fast)
+    assert slow and all(r["diverged"] == "" for r in slow)
+    head, *lines = format_gap(rows).splitlines()
+    assert head.endswith("  diverged")
+    assert all(ln.endswith("surrogate and reference") for ln in lines if ln.startswith("400 "))
+    assert all(ln.endswith("  no") for ln in lines if ln.startswith("30 "))
+    (note,) = [ln for ln in lines if ln.startswith("diverged:")]
+    assert note.startswith(
+        "diverged: passive, 400 km/h, payload 0/0 t (surrogate and reference): the env cut"
+    )
+
+
 def test_cli_gap_prints_both_values_and_a_zero_gap_against_the_same_backend(capsys):
     argv = ["evaluate", "skyhook", "--gap", "--track-class", "4", "--episodes", "1"]
     assert main([*argv, "--backend", "surrogate"]) == 0

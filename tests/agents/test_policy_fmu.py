@@ -231,3 +231,22 @@ def test_whole_vehicle_policy_fmu_has_two_forces_named_like_the_vehicle_fmu(
     assert np.ptp(expected, axis=0).min() > 100.0
     got = _fmu_outputs(fmu, ins, obs.astype(float) * scale, outs)
     assert np.max(np.abs(got - expected)) <= 1e-5 * 8000.0
+
+
+def test_policy_fmu_descriptions_hold_plain_numbers(tmp_path, capsys):
+    """The observation scales, f_max and the residual scale read as numbers (``0.04``), not
+    as numpy reprs (``np.float64(0.04)``), in the FMU's variable descriptions."""
+    import zipfile
+    from xml.etree import ElementTree
+
+    from fmpy.validation import validate_fmu
+
+    out = tmp_path / "controller.fmu"
+    assert main(["export-policy", "ppo-vertical", "-o", str(out), "--quiet"]) == 0
+    assert validate_fmu(str(out)) == []
+    with zipfile.ZipFile(out) as zf:
+        root = ElementTree.fromstring(zf.read("modelDescription.xml"))
+    texts = [e.get("description", "") for e in root.iter()]
+    assert not any("np." in t for t in texts), texts
+    assert any("the env's obs × 0.04)" in t for t in texts), texts
+    assert any("× f_max (8000.0 N)" in t for t in texts), texts

@@ -196,3 +196,44 @@ def test_extreme_weights_and_actions_keep_every_output_finite():
         assert sum(info["reward_terms"].values()) == pytest.approx(r, rel=1e-12, abs=1e-12)
         if term or trunc:
             break
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"n_cars": 3, "speed": 138.88}, {"n_cars": 50, "speed": 100.0}],
+    ids=["3-cars-500-kmh", "50-cars-360-kmh"],
+)
+def test_default_elements_that_cannot_be_fitted_say_what_they_are_fitted_on(kwargs):
+    """No packaged elements fit these trains, so gym.make fits the default ones on a passive
+    reference run of the case, which gives no elastic unloading: the error names the case (the
+    user gave no training data) and the ways out."""
+    import gymnasium as gym
+
+    import railgym  # noqa: F401  (registers the envs)
+
+    with pytest.raises(ValueError) as info:
+        gym.make("railgym/TrainCrash-v1", backend="surrogate", **kwargs)
+    msg = str(info.value)
+    for text in (
+        "default surrogate elements",
+        "fitted on a passive reference run of this scenario",
+        f"n_cars={kwargs['n_cars']}, speed={kwargs['speed']:g} m/s",
+        "gives no elastic unloading of the wall element",
+        "k_u cannot be estimated",
+        "packaged train at a speed within its envelope (packaged: scenario paper (2 cars), "
+        "25–50 km/h)",
+        "give surrogate= elements",
+    ):
+        assert text in msg, msg
+    assert "the training data hold" not in msg
+
+
+def test_exporting_no_element_as_an_fmu_names_the_argument(tmp_path):
+    from railgym.vehicles.crash.fe import export_crash_element_fmu
+
+    with pytest.raises(TypeError) as info:
+        export_crash_element_fmu(None, tmp_path / "e.fmu")
+    assert isinstance(info.value, ValueError)
+    msg = str(info.value)
+    assert msg.startswith("element must be a CrashElement") and "got NoneType" in msg
+    assert "elements['wall']" in msg and not (tmp_path / "e.fmu").exists()

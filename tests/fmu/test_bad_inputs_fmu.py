@@ -190,6 +190,48 @@ def test_bad_fmu_or_mapping_gives_one_clear_error(good, tmp_path, case, edits, f
         assert word in msg, (case, msg)
 
 
+def _list_mapping(tmp: Path, fmu: Path) -> dict:
+    (tmp / "map.yaml").write_text("- version: 1\n- env: vertical\n")
+    return {"fmu_map": tmp / "map.yaml", "fmu": fmu}
+
+
+def _folder_mapping(tmp: Path, fmu: Path) -> dict:
+    (tmp / "maps").mkdir()
+    return {"fmu_map": tmp / "maps", "fmu": fmu}
+
+
+def _folder_fmu(tmp: Path, fmu: Path) -> dict:
+    (tmp / "unpacked").mkdir()
+    shutil.copy(fmu.with_suffix(".yaml"), tmp / "map.yaml")
+    return {"fmu_map": tmp / "map.yaml", "fmu": tmp / "unpacked"}
+
+
+#: (case, env arguments of (tmp_path, the good FMU), texts the message must contain)
+FILE_CASES = [
+    (
+        "mapping is a list",
+        _list_mapping,
+        [
+            "map.yaml: the mapping file must be a YAML mapping (version:, env:, inputs:, "
+            "outputs:), got a list"
+        ],
+    ),
+    ("mapping is a folder", _folder_mapping, ["fmu_map", "maps", "is a folder, not a file"]),
+    ("fmu is a folder", _folder_fmu, ["fmu", "unpacked", "is a folder, not a file", ".fmu"]),
+]
+
+
+@pytest.mark.parametrize("case, kwargs_of, texts", FILE_CASES, ids=[c[0] for c in FILE_CASES])
+def test_mapping_or_fmu_that_is_no_such_file_names_it(good, tmp_path, case, kwargs_of, texts):
+    kwargs = kwargs_of(tmp_path, good[0])
+    with pytest.raises(FMUError) as info:
+        gym.make(ID, backend="fmu", duration=0.2, **kwargs)
+    msg = str(info.value)
+    for text in texts:
+        assert text in msg, (case, msg)
+    assert "does not exist" not in msg and not msg.startswith(" ")
+
+
 def test_evaluate_exits_with_status_2_on_a_bad_fmu(good, tmp_path, capsys):
     fmu, doc = good
     path = tmp_path / "map.yaml"

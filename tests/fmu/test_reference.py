@@ -7,6 +7,7 @@ episode on ``backend="fmu"`` with it (co-simulation and model exchange) reproduc
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 
 import gymnasium as gym
@@ -344,3 +345,44 @@ def test_element_and_reference_fmu_sources_share_the_fmi_functions_and_compile_c
         )
         assert proc.returncode == 0, proc.stderr
     assert shared[0] == shared[1]
+
+
+@pytest.mark.parametrize("which", ["vertical", "vehicle"])
+def test_reference_fmus_declare_base_units_and_one_episode_as_default_experiment(
+    reference_fmu, vehicle_fmu, which
+):
+    """Every unit the FMU uses (the states' time derivatives too: Pa/s, rad/s, rad/s2) is in
+    ``UnitDefinitions`` with its SI base units; the default experiment is one episode of the
+    env (its default ``duration``) at the FMU's RK4 step; the descriptions hold plain numbers."""
+    import zipfile
+    from xml.etree import ElementTree
+
+    from fmpy.validation import validate_fmu
+
+    from railgym.envs.vehicle import VehicleParams
+    from railgym.envs.vertical import VerticalParams
+    from railgym.vehicles.vehicle import DEFAULT_DT as VEHICLE_DT
+    from railgym.vehicles.vertical import DEFAULT_DT
+
+    fmu = (reference_fmu if which == "vertical" else vehicle_fmu)[0]
+    assert validate_fmu(str(fmu)) == []
+    with zipfile.ZipFile(fmu) as zf:
+        root = ElementTree.fromstring(zf.read("modelDescription.xml"))
+    declared = {u.get("name"): u.find("BaseUnit") for u in root.iter("Unit")}
+    used = {r.get("unit") for r in root.iter("Real") if r.get("unit")}
+    assert used == set(declared)
+    assert all(base is not None and base.attrib for base in declared.values()), declared
+    if which == "vertical":
+        assert declared["Pa/s"].attrib == {"kg": "1", "m": "-1", "s": "-3"}
+    else:
+        assert declared["rad/s2"].attrib == {"rad": "1", "s": "-2"}
+    reals = {v.get("name"): v.find("Real") for v in root.iter("ScalarVariable")}
+    assert all(r.get("unit") for n, r in reals.items() if n.startswith("der("))
+    experiment = root.find("DefaultExperiment").attrib
+    params = VerticalParams if which == "vertical" else VehicleParams
+    episode = {f.name: f.default for f in dataclasses.fields(params)}["duration"]
+    step = DEFAULT_DT["dynamic"] if which == "vertical" else VEHICLE_DT
+    assert float(experiment["stopTime"]) == episode == 20.0
+    assert float(experiment["stepSize"]) == step
+    descriptions = [e.get("description", "") for e in root.iter()]
+    assert not any("np." in d for d in descriptions), descriptions

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 import agents.cli
+import railgym.report
 from agents.cli import main
-from railgym.report import PAPER_LABEL, make_report
+from railgym.report import PAPER_LABEL, REPORT_FILES, make_report
 from railgym.report.output import atomic_path, prepare_output_dir, write_text_atomic
 from railgym.report.tables import markdown, table
 from railgym.track import track_time_input
@@ -123,16 +124,35 @@ def test_report_markdown_and_figures_exist(quick):
         assert f"]({name})" in text
 
 
-def test_report_refuses_a_non_empty_folder_then_overwrites(quick, tmp_path, capsys):
-    """The quick run's own folder is not empty now: refused before any work, nothing changed;
-    ``--overwrite`` is checked by the same rule (:func:`prepare_output_dir`)."""
-    out, _ = quick
+def test_report_reuses_its_own_folder_and_refuses_one_with_other_files(quick, monkeypatch, capsys):
+    """One rule for ``paper`` and ``demo`` (:func:`prepare_output_dir` with the command's own
+    files): the quick run's folder holds only report.md and the figures, so a second run
+    writes them again; with another file in it, refused before any work naming that file,
+    nothing changed, unless ``--overwrite`` (which keeps the other file)."""
+    out, r = quick
+    assert sorted(p.name for p in out.iterdir()) == sorted(REPORT_FILES)
+    assert set(r["figures"]) <= set(REPORT_FILES)
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    assert main(["paper", "--quick", "--quiet", "--out", str(out)]) == 0
+    again = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    assert set(again) == set(before) and all(again[n] > before[n] for n in before)
+    assert "report written to" in capsys.readouterr().out
+    (out / "notes.txt").write_text("mine")
     before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
     assert main(["paper", "--quick", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "--out" in err and "--overwrite" in err and "Traceback" not in err
+    assert "--out" in err and "'notes.txt'" in err and "--overwrite" in err
+    assert "Traceback" not in err
     assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
-    assert prepare_output_dir(out, overwrite=True) == out
+
+    def work(*args, **kwargs):
+        raise RuntimeError("the work started")
+
+    monkeypatch.setattr(railgym.report, "compute", work)  # --overwrite: past the check
+    assert main(["paper", "--quick", "--out", str(out), "--overwrite"]) == 1
+    assert "the work started" in capsys.readouterr().err
+    assert (out / "notes.txt").read_text() == "mine"
+    (out / "notes.txt").unlink()
 
 
 # ----------------------------------------------------------------------- the pieces

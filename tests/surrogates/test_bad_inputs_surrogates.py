@@ -21,6 +21,12 @@ U2 = RNG.uniform(-1.0, 1.0, (40, 2)) * [0.03, 0.3]
 V2 = 4e5 * U2[:, 0] + 3e4 * U2[:, 1] + 1e8 * U2[:, 0] ** 3
 LPR_DOC = io.model_to_document(LegendreRegression(degree=(3, 2)).fit(U2, V2))
 KRG_DOC = io.model_to_document(Kriging(n_starts=1).fit(U2[:12], V2[:12]))
+U3 = RNG.uniform(-1.0, 1.0, (60, 3)) * [0.03, 0.3, 0.01]
+MAXWELL_DOC = io.model_to_document(
+    LegendreRegression(degree=1).fit(U3, 4e5 * U3[:, 0] + 3e4 * U3[:, 2]), form="maxwell", tau=0.01
+)
+#: LS-DYNA ASCII samples of the readers
+DATA = Path(__file__).resolve().parents[1] / "data"
 
 Mutation = Callable[[dict[str, Any]], Any]
 
@@ -127,6 +133,18 @@ DOC_ROWS: list[tuple[str, dict[str, Any], Mutation, str]] = [
     ("features-output-num", LPR_DOC, _set("features.output", 7), "features.output"),
     ("features-units-list", LPR_DOC, _set("features.units", ["N"]), "features.units"),
     ("metadata-list", LPR_DOC, _set("metadata", [1]), "'metadata'"),
+    (
+        "relaxation-pair-of-numbers",
+        MAXWELL_DOC,
+        _set("features.relaxation", [1, 2]),
+        "field 'features.relaxation': must be a mapping {'zeta': [m, ...], 'rate': [m/s, ...]}",
+    ),
+    (
+        "relaxation-number-lists",
+        MAXWELL_DOC,
+        _set("features.relaxation", {"zeta": 1, "rate": [0, 1, 2]}),
+        "field 'features.relaxation': zeta must be a list of numbers",
+    ),
     ("krg-theta-negative", KRG_DOC, _set("model.state.theta.0", -1.0), "model.state.theta"),
     ("krg-theta-zero", KRG_DOC, _set("model.state.theta.1", 0.0), "model.state.theta"),
     ("krg-theta-length", KRG_DOC, _set("model.state.theta", [1.0]), "model.state.theta"),
@@ -213,13 +231,13 @@ def test_csv_bom_is_stripped(tmp_path: Path) -> None:
 
 
 def _steep() -> LegendreRegression:
-    x = np.linspace(-1.0, 1.0, 9)
-    return LegendreRegression(degree=1).fit(x, 1e5 * x)
+    x = np.linspace(-1.0, 1.0, 9)[:, None]
+    return LegendreRegression(degree=1).fit(x, 1e5 * x[:, 0])
 
 
 def _raising() -> LegendreRegression:
-    x = np.linspace(-1.0, 1.0, 9)
-    return LegendreRegression(degree=1, extrapolation="raise").fit(x, x)
+    x = np.linspace(-1.0, 1.0, 9)[:, None]
+    return LegendreRegression(degree=1, extrapolation="raise").fit(x, x[:, 0])
 
 
 U_CONST = np.column_stack([np.linspace(0, 1, 30), np.full(30, 2.0)])
@@ -227,41 +245,53 @@ U_WIDE = np.column_stack([np.resize([-1.7e308, 1.7e308, 0.0], 30), np.linspace(0
 U_BIG = RNG.uniform(0, 1, (2500, 2))
 V_LIN = np.linspace(0, 1, 30)
 V_HUGE = np.where(np.arange(30) % 2 == 0, 1.7e308, -1.7e308)
-X1 = np.linspace(0, 1, 30)
+X1 = np.linspace(0, 1, 30)[:, None]  # one input column
 
 # (row id, call, error type, text the message must contain)
 API_ROWS: list[tuple[str, Callable[[], Any], type[Exception], str]] = [
-    ("lpr-degree-neg", lambda: LegendreRegression(degree=-1).fit(X1, X1), ValueError, "degree"),
-    ("lpr-degree-float", lambda: LegendreRegression(degree=2.5).fit(X1, X1), ValueError, "degree"),
-    ("lpr-degree-huge", lambda: LegendreRegression(degree=10**9).fit(X1, X1), ValueError, "degree"),
+    ("lpr-degree-neg", lambda: LegendreRegression(degree=-1).fit(X1, V_LIN), ValueError, "degree"),
+    (
+        "lpr-degree-float",
+        lambda: LegendreRegression(degree=2.5).fit(X1, V_LIN),
+        ValueError,
+        "degree",
+    ),
+    (
+        "lpr-degree-huge",
+        lambda: LegendreRegression(degree=10**9).fit(X1, V_LIN),
+        ValueError,
+        "degree",
+    ),
     (
         "lpr-interactions",
-        lambda: LegendreRegression(interactions="no").fit(X1, X1),
+        lambda: LegendreRegression(interactions="no").fit(X1, V_LIN),
         ValueError,
         "interactions",
     ),
     (
         "lpr-interactions-huge",
-        lambda: LegendreRegression(degree=200, interactions=True).fit(U_BIG[:30], X1),
+        lambda: LegendreRegression(degree=200, interactions=True).fit(U_BIG[:30], V_LIN),
         ValueError,
         "needs at least",
     ),
     (
         "lpr-extrapolation",
-        lambda: LegendreRegression(extrapolation="cubic").fit(X1, X1),
+        lambda: LegendreRegression(extrapolation="cubic").fit(X1, V_LIN),
         ValueError,
         "extrapolation",
     ),
-    ("krg-kernel", lambda: Kriging(kernel="rbf").fit(X1, X1), ValueError, "kernel"),
-    ("krg-n-starts", lambda: Kriging(n_starts=0).fit(X1, X1), ValueError, "n_starts"),
-    ("krg-seed-neg", lambda: Kriging(seed=-1).fit(X1, X1), ValueError, "seed"),
-    ("krg-seed-float", lambda: Kriging(seed=1.5).fit(X1, X1), ValueError, "seed"),
-    ("krg-max-samples", lambda: Kriging(max_samples=1).fit(X1, X1), ValueError, "max_samples"),
-    ("krg-nugget-bool", lambda: Kriging(nugget=True).fit(X1, X1), ValueError, "nugget"),
+    ("krg-kernel", lambda: Kriging(kernel="rbf").fit(X1, V_LIN), ValueError, "kernel"),
+    ("krg-n-starts", lambda: Kriging(n_starts=0).fit(X1, V_LIN), ValueError, "n_starts"),
+    ("krg-seed-neg", lambda: Kriging(seed=-1).fit(X1, V_LIN), ValueError, "seed"),
+    ("krg-seed-float", lambda: Kriging(seed=1.5).fit(X1, V_LIN), ValueError, "seed"),
+    ("krg-max-samples", lambda: Kriging(max_samples=1).fit(X1, V_LIN), ValueError, "max_samples"),
+    ("krg-nugget-bool", lambda: Kriging(nugget=True).fit(X1, V_LIN), ValueError, "nugget"),
     ("krg-too-many", lambda: Kriging().fit(U_BIG, U_BIG[:, 0]), ValueError, "max_samples=1000"),
     ("fit-constant-col", lambda: LegendreRegression().fit(U_CONST, V_LIN), ValueError, "column 1"),
     ("fit-wide-col", lambda: LegendreRegression().fit(U_WIDE, V_LIN), ValueError, "overflows"),
-    ("fit-huge-output", lambda: LegendreRegression(1).fit(X1, V_HUGE), ValueError, "V overflows"),
+    ("fit-huge-output", lambda: LegendreRegression(1).fit(X1, V_HUGE), ValueError, "y overflows"),
+    ("predict-1d", lambda: _steep().predict([0.5]), ValueError, "X must be 2-D"),
+    ("fit-1d", lambda: LegendreRegression(1).fit(V_LIN, V_LIN), ValueError, "X must be 2-D"),
     ("predict-raise", lambda: _raising().predict([[3.0]]), ValueError, "column(s) [0]"),
     ("predict-overflow", lambda: _steep().predict([[1e306]]), ValueError, "overflows float64"),
     ("predict-columns", lambda: _steep().predict(np.zeros((2, 3))), ValueError, "3 columns"),
@@ -269,9 +299,9 @@ API_ROWS: list[tuple[str, Callable[[], Any], type[Exception], str]] = [
         "predict-strings",
         lambda: _steep().predict([["a"]]),
         ValueError,
-        "U must be an array of real",
+        "X must be an array of real",
     ),
-    ("predict-complex", lambda: _steep().predict([[1j]]), ValueError, "U must be an array of real"),
+    ("predict-complex", lambda: _steep().predict([[1j]]), ValueError, "X must be an array of real"),
     ("set-params", lambda: Kriging().set_params(degree=3), ValueError, "degree"),
     ("build-const-col", lambda: build(U_CONST, V_LIN, m=20), ValueError, "U column 1"),
     ("build-wide-col", lambda: build(U_WIDE, V_LIN, m=20), ValueError, "overflows"),
@@ -312,7 +342,7 @@ API_ROWS: list[tuple[str, Callable[[], Any], type[Exception], str]] = [
         "build-too-few",
         lambda: build(U_BIG[:30], V_LIN, m=20, candidates=[(20, 20)]),
         ValueError,
-        "20,20: U has 20 samples but degree=(20, 20)",
+        "20,20: X has 20 samples but degree=(20, 20)",
     ),
     (
         "build-k",
@@ -331,6 +361,112 @@ def test_bad_api_input(call: Callable[[], Any], error: type[Exception], text: st
     with pytest.raises(error) as exc:
         call()
     assert text in str(exc.value)
+
+
+def _rcforc_with(tmp_path: Path, old: str, new: str) -> Path:
+    """The rcforc sample with one field replaced."""
+    text = (DATA / "rcforc_sled").read_text()
+    assert old in text
+    path = tmp_path / "rcforc"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+def _table(tmp_path: Path, **kwargs: Any) -> Any:
+    path = tmp_path / "t.csv"
+    path.write_text("# export\nt,x\n0,1\n1,2\n")
+    return io.read_table(path, **kwargs)
+
+
+# (row id, call of tmp_path, error type, texts the message must contain)
+PATH_ROWS: list[tuple[str, Callable[[Path], Any], type[Exception], list[str]]] = [
+    (
+        "rcforc-resultant-overflow",
+        lambda tmp: io.read_rcforc(
+            _rcforc_with(tmp, "x -1.50000E+03", "x -1.00000E+200"), "mm-ms-kg-kN"
+        ),
+        ValueError,
+        ["rcforc: line 13: contact ('master', 1)", "overflows float64", "check the line"],
+    ),
+    (
+        "table-comment-empty",
+        lambda tmp: _table(tmp, comment=""),
+        ValueError,
+        ["comment must be the non-empty prefix", "or None", "skip every line"],
+    ),
+    (
+        "table-header-row-negative",
+        lambda tmp: _table(tmp, header_row=-1),
+        ValueError,
+        ["header_row must be a 0-based line number", "integer >= 0", "got -1"],
+    ),
+    (
+        "table-header-row-bool",
+        lambda tmp: _table(tmp, header_row=True),
+        ValueError,
+        ["header_row must be a 0-based line number", "got True"],
+    ),
+    (
+        "table-unit-row-negative",
+        lambda tmp: _table(tmp, header_row=1, unit_row=-2),
+        ValueError,
+        ["unit_row must be a 0-based line number", "got -2"],
+    ),
+    (
+        "save-metadata-object",
+        lambda tmp: io.save(_steep(), tmp / "m.json", metadata={"run": {"x": object()}}),
+        ValueError,
+        ["metadata['run']['x']", "type object", "give numbers, strings"],
+    ),
+    (
+        "save-metadata-nan",
+        lambda tmp: io.save(_steep(), tmp / "m.json", metadata={"x": np.array([1.0, np.nan])}),
+        ValueError,
+        ["metadata['x'][1] must be a finite number", "nan"],
+    ),
+    (
+        "save-metadata-int-key",
+        lambda tmp: io.save(_steep(), tmp / "m.json", metadata={1: "a"}),
+        ValueError,
+        ["metadata: key 1 must be a string"],
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "texts"), [r[1:] for r in PATH_ROWS], ids=[r[0] for r in PATH_ROWS]
+)
+def test_bad_file_or_argument_names_the_field(
+    tmp_path: Path, call: Callable[[Path], Any], error: type[Exception], texts: list[str]
+) -> None:
+    with pytest.raises(error) as exc:
+        call(tmp_path)
+    for text in texts:
+        assert text in str(exc.value), str(exc.value)
+    assert not (tmp_path / "m.json").exists()  # nothing written
+
+
+def test_numpy_metadata_is_saved_as_plain_json(tmp_path: Path) -> None:
+    """Documented result: numpy arrays and scalars in ``metadata`` are saved as lists and
+    numbers, and read back as such."""
+    meta = {"x": np.arange(3), "g": np.float32(0.5), "pair": (1, np.int64(2)), "ok": np.bool_(1)}
+    io.save(_steep(), tmp_path / "m.json", metadata=meta)
+    assert io.load(tmp_path / "m.json").metadata_ == {
+        "x": [0, 1, 2],
+        "g": 0.5,
+        "pair": [1, 2],
+        "ok": True,
+    }
+
+
+def test_table_comment_none_skips_no_line(tmp_path: Path) -> None:
+    """``comment=None`` (documented): no line is a comment, so a ``#`` line is data."""
+    path = tmp_path / "t.csv"
+    path.write_text("t,x\n0,1\n1,2\n")
+    assert io.read_table(path, comment=None).t.tolist() == [0.0, 1.0]
+    path.write_text("t,x\n0,1\n#1,2\n")
+    with pytest.raises(ValueError, match="line 3: column 't': '#1' is not a number"):
+        io.read_table(path, comment=None)
 
 
 def test_save_refuses_to_overwrite_when_asked(tmp_path: Path) -> None:

@@ -39,6 +39,8 @@ def test_build_command_writes_a_loadable_model(tmp_path, capsys):
             "--sampling",
             "greedy",
             "--units",
+            "du=m",
+            "dv=m/s",
             "F=N",
             "--report",
             str(rep),
@@ -52,6 +54,7 @@ def test_build_command_writes_a_loadable_model(tmp_path, capsys):
     assert inside.mean() > 0.95
     np.testing.assert_allclose(model.predict(U[inside]), F[inside], rtol=1e-8, atol=1e-6)
     assert model.features_["inputs"] == ["du", "dv"] and model.features_["units"]["F"] == "N"
+    assert model.features_["units"] == {"du": "m", "dv": "m/s", "F": "N"}
     assert json.loads(rep.read_text())["m"] == 61
     out = capsys.readouterr().out
     assert "chosen" in out
@@ -203,7 +206,8 @@ def test_build_degree_options_fix_or_widen_the_search(tmp_path, capsys):
     out = capsys.readouterr().out
     assert io.load(tmp_path / "m.json").degree == (3, 2)
     assert "warning" not in out  # one fixed degree: no search range to widen
-    assert main(_build_args(tmp_path, "--max-degree", "2")) == 0
+    # the candidate table is printed without --quiet
+    assert main([a for a in _build_args(tmp_path, "--max-degree", "2") if a != "--quiet"]) == 0
     out = capsys.readouterr().out
     rows = [line for line in out.splitlines() if line.strip()[:3] in {"1,1", "1,2", "2,1", "2,2"}]
     assert len(rows) == 4  # the candidates (1..2) × (1..2)

@@ -261,7 +261,7 @@ def test_export_fmu_command(tmp_path, capsys):
 def test_cosimulation_output_lags_one_interval_as_documented(tmp_path):
     """docs/fmi.md's worked example: FMPy's co-simulation row k holds F(u[k-1])."""
     u = np.linspace(0.0, 10.0, 50)
-    model = LegendreRegression(degree=1).fit(u, 100.0 * u)
+    model = LegendreRegression(degree=1).fit(u[:, None], 100.0 * u)
     model.features_ = {"inputs": ["u"], "output": "F", "units": {"u": "m", "F": "N"}}
     fmu = export_fmu(model, tmp_path / "element.fmu")
     sig = np.zeros(5, dtype=[("time", float), ("u", float)])
@@ -273,7 +273,7 @@ def test_cosimulation_output_lags_one_interval_as_documented(tmp_path):
         )
         np.testing.assert_array_equal(res["time"], sig["time"])
         out[kind] = res["F"]
-    predicted = model.predict(sig["u"])
+    predicted = model.predict(sig["u"][:, None])
     np.testing.assert_allclose(predicted, [100, 200, 300, 400, 500], rtol=1e-12)
     np.testing.assert_allclose(out["ModelExchange"], predicted, rtol=1e-12)
     np.testing.assert_allclose(out["CoSimulation"], [100, 100, 200, 300, 400], rtol=1e-12)

@@ -241,13 +241,13 @@ def test_jitter_grows_tenfold_until_cholesky_succeeds():
 )
 def test_bad_arguments(kwargs, field):
     with pytest.raises(ValueError, match=field):
-        Kriging(**kwargs).fit(np.linspace(0, 1, 8), np.linspace(0, 1, 8) ** 2)
+        Kriging(**kwargs).fit(np.linspace(0, 1, 8)[:, None], np.linspace(0, 1, 8) ** 2)
 
 
 def test_bad_data():
     with pytest.raises(ValueError, match="more than 3"):
         Kriging(trend="linear").fit([[0.0, 0.0], [1.0, 1.0], [0.0, 1.0]], [1.0, 2.0, 3.0])
-    model = Kriging().fit(np.linspace(0, 1, 8), np.linspace(0, 1, 8) ** 2)
+    model = Kriging().fit(np.linspace(0, 1, 8)[:, None], np.linspace(0, 1, 8) ** 2)
     with pytest.raises(ValueError, match="columns"):
         model.predict_variance(np.zeros((2, 3)))
     with pytest.raises(RuntimeError, match="not fitted"):

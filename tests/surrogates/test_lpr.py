@@ -81,10 +81,10 @@ def test_equals_numpy_legendre_fit_1d() -> None:
     x = np.sort(rng.uniform(0.0, 0.12, 80))  # m
     y = 5e4 * np.tanh(40.0 * x) + 300.0 * rng.standard_normal(80)  # noisy data, N
     for deg in (1, 4, 9):
-        model = LegendreRegression(degree=deg).fit(x, y)
+        model = LegendreRegression(degree=deg).fit(x[:, None], y)
         ref = npleg.Legendre.fit(x, y, deg)
         xt = np.linspace(x.min(), x.max(), 101)
-        np.testing.assert_allclose(model.predict(xt), ref(xt), rtol=0, atol=1e-10 * 5e4)
+        np.testing.assert_allclose(model.predict(xt[:, None]), ref(xt), rtol=0, atol=1e-10 * 5e4)
         # coefficients in the mapped variable t are the Legendre-series coefficients
         np.testing.assert_allclose(model.coef_, ref.coef, rtol=0, atol=1e-10 * 5e4)
 
@@ -92,9 +92,9 @@ def test_equals_numpy_legendre_fit_1d() -> None:
 def test_degree_20_well_conditioned_unlike_monomials() -> None:
     x = np.linspace(0.0, 3.0, 201)
     y = np.exp(x)
-    model = LegendreRegression(degree=20).fit(x, y)
+    model = LegendreRegression(degree=20).fit(x[:, None], y)
     xt = np.random.default_rng(4).uniform(0.0, 3.0, 500)
-    rel_err = np.max(np.abs(model.predict(xt) - np.exp(xt))) / np.exp(3.0)
+    rel_err = np.max(np.abs(model.predict(xt[:, None]) - np.exp(xt))) / np.exp(3.0)
     assert rel_err < 1e-12
     assert model.cond_ < 10.0
     cond_monomial = np.linalg.cond(np.vander(x, 21))
@@ -103,7 +103,8 @@ def test_degree_20_well_conditioned_unlike_monomials() -> None:
     xr = np.linspace(-1.0, 1.0, 401)
     yr = 1.0 / (1.0 + 25.0 * xr**2)
     errs = [
-        np.max(np.abs(LegendreRegression(degree=n).fit(xr, yr).predict(xr) - yr)) for n in (10, 20)
+        np.max(np.abs(LegendreRegression(degree=n).fit(xr[:, None], yr).predict(xr[:, None]) - yr))
+        for n in (10, 20)
     ]
     assert errs[1] < 0.15 * errs[0]
     assert errs[1] < 0.05
@@ -329,7 +330,7 @@ def test_bad_input() -> None:
         LegendreRegression(degree=(1, 2, 3)).fit(U, V)
     x = np.repeat([0.0, 1.0, 2.0], 5)  # 3 distinct values cannot carry degree 4
     with pytest.raises(ValueError, match="rank"):
-        LegendreRegression(degree=4).fit(x, x**2)
+        LegendreRegression(degree=4).fit(x[:, None], x**2)
     with pytest.raises(ValueError, match="exponents"):
         state = LegendreRegression(degree=2).fit(U, V).to_dict()
         state["state"]["exponents"] = state["state"]["exponents"][:-1]

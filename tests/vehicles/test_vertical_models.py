@@ -104,9 +104,11 @@ def test_vehicle_missing_unknown_and_paths(raw, tmp_path):
     with pytest.raises(ValueError, match="unknown field damper.c_rebund"):
         vehicle_from_dict(d)
     d = copy.deepcopy(raw)
-    del d["air_spring"]
-    with pytest.raises(ValueError, match="air_spring is missing"):
-        vehicle_from_dict(d)
+    del d["air_spring"]  # a vehicle without an air spring: valid, but no dynamic reference
+    no_air = vehicle_from_dict(d)
+    assert no_air.air_spring is None and no_air.known_physics == ("bump_stop",)
+    with pytest.raises(ValueError, match="air_spring section is missing.*dynamic reference"):
+        simulate("dynamic", no_air, np.zeros(11), np.zeros(11), 1e-3)
     with pytest.raises(ValueError, match="unknown vehicle 'nosuch'"):
         load_vehicle("nosuch")
     d = copy.deepcopy(raw)

@@ -54,6 +54,7 @@ __all__ = [
     "main",
     "packaged_path",
     "packaged_surrogate",
+    "packaged_trains",
     "train_key",
     "validation_matrix",
 ]
@@ -267,6 +268,24 @@ def packaged_surrogate(
             sur.source = scenario.name
             return sur
     return None
+
+
+def packaged_trains(variant: str = "hysteretic", release: str = "") -> list[str]:
+    """What the packaged elements of ``variant`` (of ``release``, as :func:`packaged_surrogate`)
+    are fitted on, one text per file: ``"scenario paper (2 cars), 25–50 km/h"``."""
+    folder = resources.files("railgym").joinpath(*_DATA, *((release,) if release else ()))
+    out = []
+    for entry in sorted(folder.iterdir(), key=lambda p: p.name):
+        if not (entry.name.startswith("crash_elements_") and entry.name.endswith(".json")):
+            continue
+        meta = json.loads(entry.read_text(encoding="utf-8")).get("metadata", {})
+        if meta.get("variant") != variant or not meta.get("scenario"):
+            continue
+        speeds = meta.get("speeds_kmh") or []
+        cars = load_scenario(meta["scenario"]).n_cars
+        span = f", {min(speeds):g}–{max(speeds):g} km/h" if speeds else ""
+        out.append(f"scenario {meta['scenario']} ({cars} cars){span}")
+    return out
 
 
 @dataclass(frozen=True)

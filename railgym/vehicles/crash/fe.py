@@ -48,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from railgym import _checks as val
 from railgym.vehicles.crash.outputs import CrashResult
 from railgym.vehicles.crash.piecewise import PiecewiseEnvelope
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
@@ -375,6 +376,12 @@ def export_crash_element_fmu(
     (m/s), outputs ``f`` (N) and ``permanent_set`` (m), the law of ``element``'s variant."""
     from surrogates.fmi.hysteretic import HystereticLaw, export_hysteretic_fmu
 
+    if not isinstance(element, CrashElement):
+        raise val.FieldTypeError(
+            "element",
+            "must be a CrashElement, one element of a CrashSurrogate (e.g. "
+            f"crash_surrogate_from_fe(...).elements['wall']), got {type(element).__name__}",
+        )
     if isinstance(element.loading, PiecewiseEnvelope):
         raise ValueError(
             f"element {element.name!r} has a piecewise envelope (one LPR per crush stage); the "

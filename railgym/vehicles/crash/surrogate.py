@@ -41,6 +41,7 @@ __all__ = [
     "CrashElement",
     "CrashFitOptions",
     "CrashSurrogate",
+    "NoUnloadingError",
     "TrainingSet",
     "build_crash_surrogate",
     "crash_errors",
@@ -55,6 +56,15 @@ VARIANTS = ("paper", "hysteretic")
 FEATURES = ("com", "zone")
 #: most masses per car of the surrogate model
 MAX_NODES_PER_CAR = 16
+
+
+class NoUnloadingError(ValueError):
+    """The training runs hold no elastic unloading of an element: its unloading stiffness
+    ``k_u`` cannot be estimated (``element``: its name)."""
+
+    def __init__(self, element: str, message: str) -> None:
+        super().__init__(message)
+        self.element = element
 
 
 @dataclass
@@ -239,14 +249,19 @@ def _fit_lpr(
 
 
 def _unloading_stiffness(
-    u: np.ndarray, f: np.ndarray, rate: np.ndarray, series: np.ndarray
+    u: np.ndarray, f: np.ndarray, rate: np.ndarray, series: np.ndarray, name: str = "element"
 ) -> float:
-    """Least-squares slope (N/m) of Δf against Δu over consecutive unloading samples under load."""
+    """Least-squares slope (N/m) of Δf against Δu over consecutive unloading samples under load
+    (:class:`NoUnloadingError` naming the element ``name`` when there are none)."""
     du, df = np.diff(u), np.diff(f)
     ok = (rate[1:] < 0) & (rate[:-1] < 0) & (f[1:] > 0) & (f[:-1] > 0) & (du < 0) & (df < 0)
     ok &= series[1:] == series[:-1]
     if np.count_nonzero(ok) < 2:
-        raise ValueError("the training data hold no elastic unloading: k_u cannot be estimated")
+        raise NoUnloadingError(
+            name,
+            f"the training data hold no elastic unloading of the {name} element: k_u cannot be "
+            "estimated",
+        )
     return float(np.sum(df[ok] * du[ok]) / np.sum(du[ok] ** 2))
 
 
@@ -382,7 +397,7 @@ def _fit_element(
     sel: dict[str, Any] = {}
     kt = slack = 0.0
     unload = None
-    ku = _unloading_stiffness(u, f, rate, series)
+    ku = _unloading_stiffness(u, f, rate, series, name)
     if fit.variant == "paper":
         lo, un = loading, ~loading
         load, sel["loading"] = _fit_lpr(u[lo], nominal[lo], fit.max_degree, fit.seed, fit.degrees)

@@ -73,8 +73,6 @@ from railgym.vehicles.vertical.elements import (
     bump_stop_force,
     damper_force,
     damper_velocity,
-    deflection_envelope,
-    outside_envelope,
 )
 from railgym.vehicles.vertical.kernels import (
     DEFAULT_DT,
@@ -139,12 +137,10 @@ __all__ = [
     "bump_stop_force",
     "damper_force",
     "damper_velocity",
-    "deflection_envelope",
     "element_response",
     "initial_state",
     "linear_model",
     "load_vehicle",
-    "outside_envelope",
     "simulate",
     "state_size",
     "step_outputs",

@@ -7,7 +7,7 @@ Every function reads the vehicle from a :class:`~railgym.vehicles.vertical.param
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -20,8 +20,6 @@ __all__ = [
     "bump_stop_force",
     "damper_force",
     "damper_velocity",
-    "deflection_envelope",
-    "outside_envelope",
 ]
 
 
@@ -65,22 +63,6 @@ class LprArrays(NamedTuple):
     y_mean: float = 0.0  #: Kriging: output mean, N
     y_std: float = 1.0  #: Kriging: output standard deviation, N
     kernel: int = 0  #: Kriging: 0 Gaussian, 1 Matérn-5/2
-
-
-def deflection_envelope(surrogate: bool, lpr: Any) -> np.ndarray:
-    """Deflection range (lo, hi) of an element's training data, m: the first input's box of
-    ``lpr`` (:class:`LprArrays` or the vehicle's LPR tuple), i.e. of the reference runs the
-    element was fitted on; ``(−∞, ∞)`` when not ``surrogate`` (the reference and linear
-    backends are their own reference)."""
-    if not surrogate:
-        return np.array([-np.inf, np.inf])
-    return np.array([lpr.lo[0], lpr.up[0]], dtype=float)
-
-
-@njit(cache=True, error_model="numpy")
-def outside_envelope(d: float, envelope: np.ndarray) -> bool:
-    """True where the secondary deflection ``d`` (m) is out of ``envelope`` (lo, hi)."""
-    return d < envelope[0] or d > envelope[1]
 
 
 @njit(cache=True, error_model="numpy")

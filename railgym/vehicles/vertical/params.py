@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from railgym import _checks as val
+from surrogates.memory import KNOWN_PHYSICS
 
 __all__ = [
     "AirSpring",
@@ -239,8 +240,15 @@ class VerticalVehicle:
     ----------
     m1, m2 : bogie frame and carbody share, kg.
     k1, c1 : primary suspension of the bogie (all axleboxes), N/m and N·s/m.
-    k2, c2 : nominal linear secondary suspension (both sides), N/m and N·s/m.
+    k2, c2 : nominal linear secondary suspension (both sides), N/m and N·s/m (a user's
+        model: its linearisation, for controller design).
     gravity : m/s², sets the air-spring static pressure.
+    bump_stop, static_spring, damper, air_spring : the element sections, each ``None`` where
+        the vehicle has no such part. Without ``bump_stop`` the vehicle has no bump-stop law
+        (no element adds one); the nonlinear reference models need ``damper`` and
+        ``static_spring`` (static) or ``air_spring`` (dynamic): :meth:`require`.
+    free_travel : secondary free travel, m (both directions), for a vehicle without
+        ``bump_stop`` (with one, its free travels are the travel); ``None``: not known.
     """
 
     name: str
@@ -251,10 +259,11 @@ class VerticalVehicle:
     k2: float
     c2: float
     gravity: float
-    bump_stop: BumpStop
-    static_spring: StaticSpring
-    damper: Damper
-    air_spring: AirSpring
+    bump_stop: BumpStop | None = None
+    static_spring: StaticSpring | None = None
+    damper: Damper | None = None
+    air_spring: AirSpring | None = None
+    free_travel: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -275,10 +284,20 @@ class VerticalVehicle:
             },
         )
         for name, cls in _SECTIONS.items():
-            if not isinstance(getattr(self, name), cls):
-                raise val.FieldTypeError(name, f"must be a {cls.__name__}")
+            if getattr(self, name) is not None and not isinstance(getattr(self, name), cls):
+                raise val.FieldTypeError(name, f"must be a {cls.__name__} or None")
+        if self.free_travel is not None:
+            if self.bump_stop is not None:
+                raise val.FieldError(
+                    "vehicle.free_travel",
+                    "is for a vehicle without bump stops (the bump_stop section gives the "
+                    "free travels)",
+                )
+            object.__setattr__(self, "free_travel", P(self.free_travel, "vehicle.free_travel"))
         air = self.air_spring
-        travel = self.bump_stop.free_travel_compression
+        if air is None:
+            return
+        travel = self.travel[0] if math.isfinite(self.travel[0]) else DEFLECTION_SCALE
         v_min = air.bag_volume - air.effective_area * travel - 0.5 * air.area_gradient * travel**2
         if v_min <= 0.2 * air.bag_volume:
             raise val.FieldError(
@@ -295,9 +314,72 @@ class VerticalVehicle:
             raise val.FieldError("air_spring", "gives a non-finite static pressure or stiffness")
 
     @property
+    def travel(self) -> tuple[float, float]:
+        """Free travel in compression and rebound, m (``inf`` where not known)."""
+        if self.bump_stop is not None:
+            return self.bump_stop.free_travel_compression, self.bump_stop.free_travel_rebound
+        t = math.inf if self.free_travel is None else self.free_travel
+        return t, t
+
+    @property
+    def deflection_scale(self) -> float:
+        """Scale of the deflection in observations and rewards, m: the free travel in
+        compression, else :data:`DEFLECTION_SCALE`."""
+        t = self.travel[0]
+        return t if math.isfinite(t) else DEFLECTION_SCALE
+
+    @property
+    def known_physics(self) -> tuple[str, ...]:
+        """The known-physics terms a default element of this vehicle adds in the kernel
+        (``("bump_stop",)`` when it has bump stops, else none)."""
+        return ("bump_stop",) if self.bump_stop is not None else ()
+
+    def check_known_physics(self, known: Any = None) -> tuple[str, ...]:
+        """The known-physics terms of an element of this vehicle: ``known`` (entries of
+        :data:`surrogates.memory.KNOWN_PHYSICS`) checked against :attr:`known_physics`, or
+        (``None``) :attr:`known_physics` itself; a term the vehicle lacks is an error."""
+        if known is None:
+            return self.known_physics
+        known = tuple(known)
+        bad = [k for k in known if k not in KNOWN_PHYSICS]
+        if bad:
+            raise ValueError(f"known_physics entries must be in {KNOWN_PHYSICS}, got {bad}")
+        missing = [k for k in known if k not in self.known_physics]
+        if missing:
+            raise val.FieldError(
+                "known_physics",
+                f"{missing} is not part of vehicle {self.name!r} (it has "
+                f"{list(self.known_physics) or 'none'}): an element cannot add a law the "
+                "vehicle does not have",
+            )
+        return known
+
+    def require_variant(self, variant: str) -> None:
+        """:meth:`require` the sections the kernel ``variant`` reads (``"static"``: damper and
+        static spring; ``"dynamic"``: damper and air spring; the others: none)."""
+        need = {"static": ("damper", "static_spring"), "dynamic": ("damper", "air_spring")}
+        if variant in need:
+            self.require(need[variant], f"the {variant} reference model")
+
+    def require(self, sections: tuple[str, ...], what: str) -> None:
+        """:class:`~railgym._checks.FieldError` naming the first of ``sections`` this vehicle
+        lacks, with ``what`` (the model that needs it) in the message."""
+        for name in sections:
+            if getattr(self, name) is None:
+                raise val.FieldError(
+                    name,
+                    f"section is missing in vehicle {self.name!r}: {what} needs it (a user's "
+                    "model runs as backend='fmu', or as backend='surrogate' with an element "
+                    "built from it)",
+                )
+
+    @property
     def static_pressure(self) -> float:
-        """Absolute air-spring pressure at static equilibrium ``p0``, Pa."""
+        """Absolute air-spring pressure at static equilibrium ``p0``, Pa (``nan`` without
+        an air spring)."""
         air = self.air_spring
+        if air is None:
+            return math.nan
         return air.atmospheric_pressure + self.m2 * self.gravity / (air.count * air.effective_area)
 
     def air_spring_stiffness(self) -> tuple[float, float]:
@@ -312,8 +394,17 @@ class VerticalVehicle:
         )
 
     def kernel_params(self) -> SuspensionParams:
-        """The kernels' named parameters (:class:`SuspensionParams`)."""
-        b, s, d, a = self.bump_stop, self.static_spring, self.damper, self.air_spring
+        """The kernels' named parameters (:class:`SuspensionParams`).
+
+        A missing section gives: no bump-stop law (zero stiffness, the free travels of
+        :attr:`travel`), a linear static spring, and ``nan`` for the damper and air-spring
+        fields, which only the nonlinear references read (:meth:`require` refuses them).
+        """
+        b = self.bump_stop or _NO_BUMP_STOP
+        s = self.static_spring or StaticSpring(0.0)
+        d = self.damper or _NO_DAMPER
+        a = self.air_spring or _NO_AIR_SPRING
+        free_c, free_r = self.travel
         p0 = self.static_pressure
         return SuspensionParams(
             m1=self.m1,
@@ -322,8 +413,8 @@ class VerticalVehicle:
             c1=self.c1,
             k2=self.k2,
             c2=self.c2,
-            free_c=b.free_travel_compression,
-            free_r=b.free_travel_rebound,
+            free_c=free_c,
+            free_r=free_r,
             k_bs=b.stiffness,
             k_bs3=b.cubic_stiffness,
             bs_smooth=b.smoothing,
@@ -355,6 +446,23 @@ _SECTIONS: dict[str, type] = {
     "damper": Damper,
     "air_spring": AirSpring,
 }
+#: deflection scale of observations and rewards for a vehicle that gives no free travel, m
+DEFLECTION_SCALE = 0.04
+
+
+def _placeholder(cls: type, **values: float) -> Any:
+    """An unchecked section of ``cls`` with every field ``nan`` but ``values``: what the
+    kernels read for a section the vehicle does not have."""
+    obj = object.__new__(cls)
+    for fl in fields(cls):
+        object.__setattr__(obj, fl.name, values.get(fl.name, math.nan))
+    return obj
+
+
+#: the kernels' placeholders of missing sections: no bump-stop force; ``nan`` elsewhere
+_NO_BUMP_STOP = _placeholder(BumpStop, stiffness=0.0, cubic_stiffness=0.0, smoothing=1.0)
+_NO_DAMPER = _placeholder(Damper)
+_NO_AIR_SPRING = _placeholder(AirSpring)
 
 
 def _read_section(root: val.Fields, sec: str, cls: type, skip: tuple[str, ...] = ()) -> dict:
@@ -364,26 +472,39 @@ def _read_section(root: val.Fields, sec: str, cls: type, skip: tuple[str, ...] =
     return out
 
 
-def vehicle_from_dict(d: Any) -> VerticalVehicle:
-    """Build a validated :class:`VerticalVehicle` from a dict shaped like the YAML file."""
+def vehicle_from_dict(d: Any, name: str = "vehicle") -> VerticalVehicle:
+    """Build a validated :class:`VerticalVehicle` from a dict shaped like the YAML file: the
+    ``vehicle`` block (``free_travel`` optional; ``name`` default ``name``) and any of the
+    element sections (a missing one: the vehicle has no such part)."""
     root = val.Fields(d, "vehicle description")
     root.path = ""
-    kwargs = _read_section(root, "vehicle", VerticalVehicle, tuple(_SECTIONS))
+    f = root.section("vehicle")
+    kwargs = {
+        fl.name: f.get(fl.name)
+        for fl in fields(VerticalVehicle)
+        if fl.name not in _SECTIONS and fl.name not in ("name", "free_travel")
+    }
+    kwargs["name"] = f.get("name", name)
+    kwargs["free_travel"] = f.get("free_travel", None)
+    f.done()
     for sec, cls in _SECTIONS.items():
-        kwargs[sec] = cls(**_read_section(root, sec, cls))
+        kwargs[sec] = cls(**_read_section(root, sec, cls)) if sec in root.data else None
     root.done()
     return VerticalVehicle(**kwargs)
 
 
-def load_vehicle(name_or_path: str | Path = "manchester") -> VerticalVehicle:
-    """Load a vehicle: a packaged name (``"manchester"``) or the path of a ``.yaml`` file.
+def load_vehicle(name_or_path: str | Path | VerticalVehicle = "manchester") -> VerticalVehicle:
+    """Load a vehicle: a packaged name (``"manchester"``) or the path of a ``.yaml`` file (a
+    :class:`VerticalVehicle` is returned as it is).
 
     The "name or path" rule is :func:`railgym._checks.resolve_yaml`'s; errors in a file
     name the file and the field.
     """
+    if isinstance(name_or_path, VerticalVehicle):
+        return name_or_path
     text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))
     try:
-        return vehicle_from_dict(val.load_yaml(text, source))
+        return vehicle_from_dict(val.load_yaml(text, source), Path(source).stem)
     except val.FieldError as exc:
         if str(exc).startswith(source):
             raise

@@ -127,6 +127,7 @@ def simulate(
     kind = check_variant(variant)
     if not isinstance(vehicle, VerticalVehicle):
         raise ValueError(f"vehicle must be a VerticalVehicle, got {type(vehicle).__name__}")
+    vehicle.require_variant(variant)
     z, zdot = _track_input(z, zdot)
     dt = val.positive(dt, "dt")
     sample_every = val.integer(sample_every, "sample_every", min=1)
@@ -284,6 +285,7 @@ def element_response(
     kind = check_variant(variant)
     if variant == "surrogate":
         raise ValueError("element_response needs a physical variant: linear, static or dynamic")
+    vehicle.require_variant(variant)
     d = np.ascontiguousarray(val.numeric_array(delta, "delta"))
     dd = np.ascontiguousarray(val.numeric_array(delta_dot, "delta_dot"))
     if d.ndim != 1 or d.shape != dd.shape:

@@ -1,0 +1,221 @@
+"""Do the surrogate's validity flags fire where it is inaccurate? Per episode, the relative RMS
+error of the carbody acceleration against the reference, beside ``info["outside_element"]``
+(share of steps) and ``info["outside_envelope"]`` (docs/validation.md, *Validity flags*).
+
+    python -m agents.validity                     # classes 3-6 at 1.0, 1.5, 2.0 x, 5 seeds
+    python -m agents.validity --env vertical --track-class 4 --factor 2.0 --controller skyhook
+
+For each env, class, speed factor (× the class's maximum speed) and controller, a native vector
+env on the packaged surrogate element and one on the reference backend run the same
+``n_seeds`` unseen tracks (sub-env ``i`` on seed ``seed + i``), each in closed loop with the
+controller on its own observation (as :mod:`agents.vehicle_validation`); the error of an
+episode is ``‖a − a_ref‖ / ‖a_ref‖`` over the episode at the control rate, on the whole vehicle
+the largest of its three floor points. The target: every episode whose error exceeds
+``threshold`` (8 %) has a flag, ``outside_element`` on some step or ``outside_envelope``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import railgym  # noqa: F401  (registers the environments)
+from agents._args import bounded_real, duration_s, episodes, track_class
+from agents.policies import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
+from railgym.track import class_speed
+
+__all__ = ["ENVS", "THRESHOLD", "case_episodes", "format_rows", "target_holds", "validity_rows"]
+
+#: per ``--env``: env id, its controllers, the points of ``info["carbody_acc"]``
+ENVS: dict[str, tuple[str, dict[str, Any], int]] = {
+    "vertical": (ENV_ID, CONTROLLERS, 1),
+    "vehicle": (VEHICLE_ID, VEHICLE_CONTROLLERS, 3),
+}
+#: relative RMS error above which an episode must be flagged, %
+THRESHOLD = 8.0
+#: first track seed (never used to build an element)
+SEED = 2000
+
+
+def _record(env_id: str, controller: str, kwargs: dict[str, Any], n: int, seed: int) -> dict:
+    """One episode of ``n`` sub-envs in closed loop with ``controller``: carbody
+    accelerations (steps, n, points) m/s², steps with ``outside_element`` (n,), the episodes'
+    ``outside_envelope`` (n,) and diverged flags (n,)."""
+    name = "vertical" if env_id == ENV_ID else "vehicle"
+    _, table, points = ENVS[name]
+    cls, ctl_kwargs, obs_kwargs = table[controller]
+    with warnings.catch_warnings():  # the envelope's warning: the flag is recorded instead
+        warnings.filterwarnings("ignore", ".*the surrogate element was built for", UserWarning)
+        env = gym.make_vec(
+            env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs, **obs_kwargs
+        )
+        policy = cls(env, **ctl_kwargs)
+        obs, info = env.reset(seed=seed)
+    base: Any = env.unwrapped  # the native vector env: cfg
+    steps = base.cfg.n_steps
+    acc = np.zeros((steps, n, points))
+    outside = np.zeros(n, np.int64)
+    div = np.zeros(n, bool)
+    for k in range(steps):
+        action, _ = policy.predict(obs, deterministic=True)
+        obs, _, terminated, _, info = env.step(action)
+        acc[k] = np.reshape(info["carbody_acc"], (n, points))
+        outside += info["outside_element"]
+        div |= terminated
+    env.close()
+    return {
+        "acc": acc,
+        "outside": outside,
+        "envelope": np.asarray(info["outside_envelope"], bool),
+        "div": div,
+    }
+
+
+def case_episodes(
+    env_name: str,
+    track_class: int,
+    factor: float,
+    controller: str = "passive",
+    n_seeds: int = 5,
+    duration: float = 20.0,
+    seed: int = SEED,
+) -> dict[str, Any]:
+    """The episodes of one case (``factor`` × the class's maximum speed): ``error`` (n_seeds,)
+    %, the largest over the floor points (inf where either run diverged), ``error_points``
+    (n_seeds, points) %, ``outside_element_%`` (n_seeds,) share of the steps flagged,
+    ``outside_envelope`` (n_seeds,), ``flagged`` (n_seeds,): either flag."""
+    env_id = ENVS[env_name][0]
+    common = {"track_class": track_class, "speed": factor * class_speed(track_class)}
+    common["duration"] = duration
+    sur = _record(env_id, controller, {"backend": "surrogate", **common}, n_seeds, seed)
+    ref = _record(env_id, controller, {"backend": "reference", **common}, n_seeds, seed)
+    a, b = sur["acc"], ref["acc"]
+    err = 100.0 * np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
+    err[sur["div"] | ref["div"]] = np.inf
+    share = 100.0 * sur["outside"] / a.shape[0]
+    return {
+        "env": env_name,
+        "class": track_class,
+        "factor": factor,
+        "speed_kmh": factor * class_speed(track_class) * 3.6,
+        "controller": controller,
+        "error": err.max(axis=1),
+        "error_points": err,
+        "outside_element_%": share,
+        "outside_envelope": sur["envelope"],
+        "flagged": (sur["outside"] > 0) | sur["envelope"],
+    }
+
+
+def validity_rows(
+    envs: Sequence[str] = ("vertical", "vehicle"),
+    classes: Sequence[int] = (3, 4, 5, 6),
+    factors: Sequence[float] = (1.0, 1.5, 2.0),
+    controllers: Sequence[str] = ("passive", "skyhook"),
+    n_seeds: int = 5,
+    duration: float = 20.0,
+    seed: int = SEED,
+) -> list[dict[str, Any]]:
+    """:func:`case_episodes` of every env × controller × class × factor."""
+    return [
+        case_episodes(e, c, f, ctl, n_seeds, duration, seed)
+        for e in envs
+        for ctl in controllers
+        for c in classes
+        for f in factors
+    ]
+
+
+def target_holds(rows: Sequence[dict[str, Any]], threshold: float = THRESHOLD) -> bool:
+    """Every episode of ``rows`` whose error exceeds ``threshold`` (%) is flagged."""
+    return all(bool(np.all(r["flagged"][r["error"] > threshold])) for r in rows)
+
+
+def _flags(r: dict[str, Any], k: int) -> str:
+    """Episode ``k``'s flags: ``E`` outside the envelope, ``B`` element inputs outside the
+    box on some step (with the share of steps, %), ``-`` none."""
+    out = "E" if r["outside_envelope"][k] else ""
+    if r["outside_element_%"][k] > 0:
+        out += f"B{r['outside_element_%'][k]:.2g}"
+    return out or "-"
+
+
+def format_rows(rows: Sequence[dict[str, Any]], threshold: float = THRESHOLD) -> str:
+    """Markdown table of :func:`validity_rows`: per case the episodes' errors (%) and flags
+    (:func:`_flags`), ``miss`` marking an episode above ``threshold`` without a flag; and a
+    closing line whether the target holds."""
+    lines = [
+        "| env | controller | class | speed | error per seed, % | flags per seed | max error "
+        "unflagged, % |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    n_over = n_missed = 0
+    for r in rows:
+        over = r["error"] > threshold
+        missed = over & ~r["flagged"]
+        n_over, n_missed = n_over + int(over.sum()), n_missed + int(missed.sum())
+        errors = " / ".join(f"{e:.1f}" for e in r["error"])
+        flags = " ".join(
+            _flags(r, k) + (" (miss)" if missed[k] else "") for k in range(len(r["error"]))
+        )
+        quiet = r["error"][~r["flagged"]]
+        worst = f"{quiet.max():.1f}" if quiet.size else "–"
+        lines.append(
+            f"| {r['env']} | {r['controller']} | {r['class']} | {r['factor']:g} × "
+            f"({r['speed_kmh']:.0f} km/h) | {errors} | {flags} | {worst} |"
+        )
+    verdict = "holds" if n_missed == 0 else "does not hold"
+    lines.append("")
+    lines.append(
+        f"{n_over} episodes above {threshold:g} %, {n_over - n_missed} of them flagged: the "
+        f"target {verdict}."
+    )
+    return "\n".join(lines)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.validity",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    parser.add_argument("--env", nargs="+", choices=sorted(ENVS), default=["vertical", "vehicle"])
+    parser.add_argument("--track-class", type=track_class, nargs="+", default=[3, 4, 5, 6])
+    parser.add_argument(
+        "--factor",
+        type=bounded_real("speed factor", "× the class's maximum speed", 2.0),
+        nargs="+",
+        default=[1.0, 1.5, 2.0],
+        help="speeds as multiples of each class's maximum speed (the envs accept up to 2)",
+    )
+    parser.add_argument("--controller", nargs="+", default=["passive", "skyhook"])
+    parser.add_argument("--seeds", type=episodes, default=5, help="tracks per case")
+    parser.add_argument("--duration", type=duration_s, default=20.0, help="s per track")
+    parser.add_argument(
+        "--threshold", type=bounded_real("error", "%", 100.0), default=THRESHOLD, help="%"
+    )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Print the table; exit status 1 when the target does not hold."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    for env in args.env:
+        for c in args.controller:
+            if c not in ENVS[env][1]:
+                parser.error(f"--controller {c!r} is not a controller of --env {env}")
+    rows = validity_rows(
+        args.env, args.track_class, args.factor, args.controller, args.seeds, args.duration
+    )
+    print(format_rows(rows, args.threshold))
+    return 0 if target_holds(rows, args.threshold) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
