@@ -219,9 +219,11 @@ def _baseline_curve_values(cfg: Any) -> dict[str, float]:
     return out
 
 
-def plot_curves(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str, float]) -> Path:
-    """``learning_curve.png``: mean and min–max band over the seeds, baselines as lines; the
-    x axis counts env steps (decisions × ``action_hold``)."""
+def curve_figure(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str, float]) -> Any:
+    """The matplotlib figure of ``learning_curve.png``: mean and min–max band over the seeds,
+    baselines as lines; the x axis counts env steps (decisions × ``action_hold``). The mean
+    carries markers, so that a run with a single evaluation (``eval_freq`` at least
+    ``n_timesteps``) shows its point; its band is then an error bar."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -232,17 +234,37 @@ def plot_curves(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str, 
     n = min(len(c[0]) for c in curves)
     steps = curves[0][0][:n] * cfg.action_hold  # eval.csv counts decisions
     vals = np.array([c[1][:n] for c in curves])
-    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=120)
-    ax.plot(steps, vals.mean(axis=0), color="C0", label=f"{cfg.algo} (mean of {len(seeds)} seeds)")
-    ax.fill_between(steps, vals.min(axis=0), vals.max(axis=0), color="C0", alpha=0.25)
+    mean, low, high = vals.mean(axis=0), vals.min(axis=0), vals.max(axis=0)
+    fig, ax = plt.subplots(figsize=(7.6, 4.0), dpi=120)
+    ax.plot(
+        steps,
+        mean,
+        color="C0",
+        marker="o",
+        markersize=4 if n > 1 else 6,
+        label=f"{cfg.algo} (mean of {len(seeds)} seeds)",
+    )
+    if n > 1:
+        ax.fill_between(steps, low, high, color="C0", alpha=0.25)
+    else:  # one point: the band of the seeds as an error bar
+        ax.errorbar(steps, mean, yerr=[mean - low, high - mean], fmt="none", ecolor="C0", capsize=4)
+        ax.set_xlim(0.0, 2.0 * float(steps[0]) if steps[0] > 0 else 1.0)
     for i, (name, value) in enumerate(baselines.items()):
         ax.axhline(value, color=f"C{i + 1}", linestyle="--", label=name)
     ax.set_xlabel("environment steps (–)")
     ax.set_ylabel(label)
     ax.set_title(f"{cfg.env_id}: evaluation on the reference backend", fontsize=9)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the curves
     ax.grid(alpha=0.3)
     fig.tight_layout()
+    return fig
+
+
+def plot_curves(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str, float]) -> Path:
+    """``learning_curve.png`` of :func:`curve_figure` in ``out``; returns its path."""
+    import matplotlib.pyplot as plt
+
+    fig = curve_figure(out, cfg, seeds, baselines)
     path = out / "learning_curve.png"
     fig.savefig(path)
     plt.close(fig)

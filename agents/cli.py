@@ -3,7 +3,9 @@
 - ``railgym demo [--out DIR]``: the main job of the quickstart — build the surrogate element
   from the reference model (paper stages 1–3), run one episode each on the surrogate and the
   reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
-  indices and write the plots of :data:`DEMO_FILES` (a re-run replaces them).
+  indices, the env-steps/s of the surrogate, the reference and the reference FMU measured in
+  the same run (:mod:`agents.speed`), and write the plots of :data:`DEMO_FILES` (a re-run
+  replaces them).
 - ``railgym paper [--quick] [--out DIR]``: the paper's tables and figures on our models
   (:func:`railgym.report.make_report`), written as :data:`railgym.report.REPORT_FILES` (a
   re-run replaces them).
@@ -45,6 +47,7 @@ from agents._args import (
 )
 from agents._extras import MissingExtraError, report_missing
 from agents.controllers import Passive, Skyhook
+from agents.speed import backend_speeds, format_speeds
 from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.envs.vertical import VerticalSuspensionEnv
@@ -85,6 +88,9 @@ def _indices(run: dict[str, Any], fs: float) -> dict[str, float]:
     }
 
 
+#: interleaved rounds of the speed table of ``railgym demo`` (:mod:`agents.speed`)
+SPEED_ROUNDS = 3
+
 #: the files ``railgym demo`` writes into its folder, with what each shows
 DEMO_FILES = {
     "samples_and_oob.png": "training samples and out-of-bag prediction (paper figs. 7, 8)",
@@ -122,6 +128,7 @@ def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
             f"{backend:<10} {name:<10} {ix['rms_acc']:12.3f} {ix['a_w']:12.3f} {ix['wz']:11.2f} "
             f"{ix['contacts']:8d} {ix['ood']:8d} {ix['wall_s']:7.3f}"
         )
+    print("wall s: one single-env episode, Python shell included; the models' cost is in 5.")
     print("\nsurrogate vs reference, eq. 9 average absolute error of the carbody (paper table 5)")
     print(f"{'controller':<9} {'disp. (m)':>10} {'vel. (m/s)':>11} {'acc. (m/s²)':>12}")
     for name in ("passive", "skyhook"):
@@ -132,6 +139,9 @@ def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
         "paper (LPR, M = 101, Simpack source; not directly comparable): "
         "2.44e-06 m, 2.38e-05 m/s, 5.67e-04 m/s²"
     )
+    print("\n5. speed: the surrogate element against the reference model it replaces")
+    rows, skipped = backend_speeds(model, rounds=SPEED_ROUNDS)
+    print(format_speeds(rows, skipped, SPEED_ROUNDS))
     _plots(out, model, report, data, runs)
     print(f"\nplots written to {out}/")
     return 0
@@ -233,6 +243,16 @@ def _out_arguments(
     )
 
 
+def _version() -> str:
+    """The installed distribution's version (``unknown`` when run from a bare source tree)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("railgym")
+    except PackageNotFoundError:
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``railgym`` argument parser."""
     common = argparse.ArgumentParser(add_help=False)
@@ -241,6 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--quiet", action="store_true", help="no progress bars (shown only on a terminal)"
     )
     parser = argparse.ArgumentParser(prog="railgym", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--version", action="version", version=f"railgym {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     written = "\n".join(f"  {name}: {what}" for name, what in DEMO_FILES.items())
     d = sub.add_parser(
@@ -249,7 +270,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="build a surrogate, run surrogate vs reference, plot",
         description="Build the surrogate element from the reference model, run one episode\n"
         "each on the surrogate and the reference, passive and with skyhook, print the\n"
-        "paper's indices and write the plots.",
+        "paper's indices and the env-steps/s of the surrogate, the reference and the\n"
+        "reference FMU measured in the same run, and write the plots.",
         epilog=f"writes into --out (default railgym-demo/):\n{written}\nA folder that holds "
         "only these files is reused and they are replaced, so the command\ncan be run "
         "again; a folder with other files needs --overwrite.",
@@ -295,11 +317,30 @@ def build_parser() -> argparse.ArgumentParser:
     fmu_cli.add_policy_arguments(
         sub.add_parser("export-policy", parents=[common], help="a trained policy as an FMU")
     )
+    for name, (module, what) in MODULE_COMMANDS.items():
+        sub.add_parser(name, help=f"{what} (python -m {module}; railgym {name} --help)")
     return parser
+
+
+#: subcommands that are the ``python -m`` entry points of their modules (the same arguments)
+MODULE_COMMANDS = {
+    "train": ("agents.train", "train an SB3 agent from a config"),
+    "benchmark": ("agents.benchmark", "seeds, held-out evaluation, curve and table of a config"),
+    "collect": ("railgym.vehicles.collect", "collect and build a vertical element"),
+    "validate": ("agents.vehicle_validation", "surrogate against reference or FMU, per class"),
+    "validity": ("agents.validity", "the validity flags against the surrogate's error"),
+    "crash-report": ("agents.crash_report", "crash baseline and surrogate-error tables"),
+}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``railgym`` command; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] in MODULE_COMMANDS:  # the module's own parser reads the rest
+        import importlib
+
+        module = importlib.import_module(MODULE_COMMANDS[argv[0]][0])
+        return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
     from agents import evaluate, fmu_cli, refine
 

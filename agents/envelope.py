@@ -113,7 +113,8 @@ class EnvelopeVectorEnv(VectorWrapper):
         if seed is not None:
             first = seed if isinstance(seed, int | np.integer) else seed[0]
             self._rng = np.random.default_rng([int(first), _STREAM])
-        obs, info = self.env.reset(seed=seed, options=options)
+        # the held case of the previous draws is replaced below: no warning for it
+        obs, info = self.env.reset(seed=seed, options=options or {"hold": True})
         obs = np.array(obs)
         for i in range(self.num_envs):
             obs[i] = self._reset_one(i)

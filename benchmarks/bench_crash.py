@@ -2,9 +2,10 @@
 
 Targets (issue 4): surrogate ≥ 100 × faster than our reference for the default scenario (the
 paper: LS-DYNA 51 548 s vs 8 s); one full crash episode on the surrogate env ≤ 5 ms; vector
-env env-steps/s at 1024 sub-envs and the single-env step, both against CartPole. Every time is
-the minimum over repeats (the machine is shared), after a warm-up call. Issue 13: the
-compiled surrogate episode ≤ 0.08 ms; the vector env ≥ 50 % of CartPoleVectorEnv.
+env env-steps/s at 1024 sub-envs and the single-env step, both against CartPole. Every figure
+is the median of repeated windows after a warm-up call, compared figures timed in interleaved
+rounds (:mod:`benchmarks._timing`). Issue 13: the compiled surrogate episode ≤ 0.08 ms; the
+vector env ≥ 50 % of CartPoleVectorEnv.
 
 Our reference is a lumped-mass chain of 16 masses, not a finite-element model: it is only a few
 times slower than the 2-mass surrogate, so the paper's ratio is out of reach by construction.
@@ -12,14 +13,13 @@ times slower than the 2-mass surrogate, so the paper's ratio is out of reach by 
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
-
 import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from benchmarks import row
+from benchmarks import measured
+from benchmarks._stepping import per_step_us, rate, steps, vector_steps
+from benchmarks._timing import interleaved, windows
 from railgym.vehicles.crash import (
     build_crash_surrogate,
     load_scenario,
@@ -28,17 +28,6 @@ from railgym.vehicles.crash import (
 )
 
 N_VEC = 1024
-
-
-def _best(fn: Callable[[], object], repeats: int) -> float:
-    """Minimum wall time of ``repeats`` calls of ``fn``, s (after one warm-up call)."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def _episode(env: gym.Env) -> int:
@@ -53,95 +42,85 @@ def _episode(env: gym.Env) -> int:
             return n
 
 
-def _step_us(env: gym.Env, action_fn: Callable[[int], object], n: int = 5000) -> float:
-    """Mean step time over ``n`` steps (resetting when an episode ends), minimum of 3, µs."""
-
-    def steps() -> None:
-        env.reset(seed=0)
-        for k in range(n):
-            _, _, term, trunc, _ = env.step(action_fn(k))
-            if term or trunc:
-                env.reset()
-
-    return _best(steps, repeats=3) / n * 1e6
-
-
-def _vector_rate(venv: gym.vector.VectorEnv, action: np.ndarray, n: int) -> float:
-    """Env-steps per second over ``n`` steps of all sub-envs, best of 3."""
-    venv.reset(seed=0)
-    t = _best(lambda: [venv.step(action) for _ in range(n)], repeats=3)
-    return venv.num_envs * n / t
-
-
 def run() -> list[dict]:
     """Rows of measurements (see ``benchmarks/__main__.py``)."""
     sc = load_scenario("paper")
     ref = simulate_reference(sc)
-    t_ref = _best(lambda: simulate_reference(sc), repeats=30)
     masses = sc.lead.n_nodes + (sc.n_cars - 1) * sc.passenger.n_nodes
+    surrogates = {v: build_crash_surrogate(ref, variant=v, seed=0) for v in ("hysteretic", "paper")}
+    fns = {"reference": lambda: simulate_reference(sc)}
+    fns |= {v: lambda s=sur: simulate_surrogate(sc, s) for v, sur in surrogates.items()}
+    t = {name: w.seconds for name, w in interleaved(fns).items()}
     rows = [
-        row(
+        measured(
             f"crash reference run (paper, {sc.n_cars} cars, {sc.speed * 3.6:.0f} km/h)",
-            t_ref * 1e3,
+            t["reference"] * 1e3,
             "ms",
             context=f"{ref.t[-1]:.3f} s simulated, {masses} masses, dt {ref.dt:.1e} s",
         )
     ]
-    for variant in ("hysteretic", "paper"):
-        sur = build_crash_surrogate(ref, variant=variant, seed=0)
+    for variant, sur in surrogates.items():
         res = simulate_surrogate(sc, sur)
-        t_sur = _best(lambda s=sur: simulate_surrogate(sc, s), repeats=30)
         rows += [
-            row(
+            measured(
                 f"crash surrogate run ({variant})",
-                t_sur * 1e3,
+                t[variant] * 1e3,
                 "ms",
                 "≤ 0.08" if variant == "hysteretic" else "",
                 context=f"{res.t[-1]:.3f} s simulated, dt {res.dt:.1e} s",
             ),
-            row(
+            measured(
                 f"  reference / surrogate ({variant})",
-                t_ref / t_sur,
+                t["reference"] / t[variant],
                 "×",
                 "≥ 100",
                 "paper: FE 51 548 s vs 8 s",
             ),
         ]
     env = gym.make("railgym/TrainCrash-v1")
-    steps = _episode(env)
-    t_ep = _best(lambda: _episode(env), repeats=20)
+    n_steps = _episode(env)
+    t_ep = windows(lambda: _episode(env)).seconds
     rows.append(
-        row(
+        measured(
             "TrainCrash-v1 passive episode (surrogate)",
             t_ep * 1e3,
             "ms",
             "≤ 5",
-            f"{steps} steps of 1 ms, gym.make",
+            f"{n_steps} steps of 1 ms, gym.make",
         )
     )
-    cart = gym.make("CartPole-v1")
-    t_cart = _step_us(cart, lambda k: k % 2)
     zero = np.zeros(env.action_space.shape, np.float32)
-    t_crash = _step_us(env, lambda k: zero)
+    fns = {
+        "cart": steps(gym.make("CartPole-v1"), lambda k: k % 2),
+        "crash": steps(env, lambda k: zero),
+    }
+    w = interleaved(fns)
+    t_cart, t_crash = (per_step_us(fns[k], w[k].seconds) for k in ("cart", "crash"))
     rows += [
-        row("CartPole-v1 step (anchor)", t_cart, "µs", context="gym.make, same run"),
-        row("TrainCrash-v1 step (surrogate)", t_crash, "µs", context="2 substeps of 0.5 ms"),
-        row("  ratio to CartPole", t_crash / t_cart, "×"),
+        measured("CartPole-v1 step (anchor)", t_cart, "µs", context="gym.make, same run"),
+        measured("TrainCrash-v1 step (surrogate)", t_crash, "µs", context="2 substeps of 0.5 ms"),
+        measured("  ratio to CartPole", t_crash / t_cart, "×"),
     ]
     mode = "vector_entry_point"
     cart_vec = gym.make_vec("CartPole-v1", num_envs=N_VEC, vectorization_mode=mode)
-    r_cart = _vector_rate(cart_vec, np.ones(N_VEC, np.int64), 300)
     venv = gym.make_vec("railgym/TrainCrash-v1", num_envs=N_VEC, vectorization_mode=mode)
-    r_crash = _vector_rate(venv, np.zeros((N_VEC,) + zero.shape, np.float32), 100)
+    fns = {
+        "cart": vector_steps(cart_vec, np.ones(N_VEC, np.int64), 100),
+        "crash": vector_steps(venv, np.zeros((N_VEC,) + zero.shape, np.float32), 20),
+    }
+    w = interleaved(fns)
+    r_cart, r_crash = (rate(fns[k], w[k].seconds) for k in ("cart", "crash"))
     rows += [
-        row(f"CartPoleVectorEnv ({N_VEC}) (anchor)", r_cart / 1e6, "M steps/s", context="same run"),
-        row(
+        measured(
+            f"CartPoleVectorEnv ({N_VEC}) (anchor)", r_cart / 1e6, "M steps/s", context="same run"
+        ),
+        measured(
             f"TrainCrash vector ({N_VEC}, surrogate)",
             r_crash / 1e6,
             "M steps/s",
             context="autoreset included",
         ),
-        row("  share of CartPoleVectorEnv", 100 * r_crash / r_cart, "%", "≥ 50"),
+        measured("  share of CartPoleVectorEnv", 100 * r_crash / r_cart, "%", "≥ 50"),
     ]
     return rows
 

@@ -11,45 +11,18 @@ from __future__ import annotations
 
 import shutil
 import tempfile
-import time
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from benchmarks import row
+from benchmarks import measured, row
+from benchmarks._stepping import rate, steps, vector_steps
+from benchmarks._timing import interleaved
 
 ID = "railgym/VerticalSuspension-v1"
 N_VEC = 1024
-
-
-def _rate(env: gym.Env, n: int) -> float:
-    """Env-steps/s of a single env over ``n`` steps with zero action (after a warm-up)."""
-    zero = np.zeros(1, np.float32)
-    env.reset(seed=0)
-    for _ in range(20):
-        env.step(zero)
-    t0 = time.perf_counter()
-    for _ in range(n):
-        _, _, term, trunc, _ = env.step(zero)
-        if term or trunc:
-            env.reset()
-    return n / (time.perf_counter() - t0)
-
-
-def _vector_rate(n: int) -> float:
-    venv = gym.make_vec(ID, num_envs=N_VEC, vectorization_mode="vector_entry_point")
-    action = np.zeros((N_VEC, 1), np.float32)
-    venv.reset(seed=0)
-    for _ in range(5):
-        venv.step(action)
-    t0 = time.perf_counter()
-    for _ in range(n):
-        venv.step(action)
-    rate = N_VEC * n / (time.perf_counter() - t0)
-    venv.close()
-    return rate
 
 
 def run() -> list[dict]:
@@ -64,40 +37,49 @@ def run() -> list[dict]:
     except Exception as err:  # noqa: BLE001 - no fmpy or no compiler: no FMU rows
         return [row("FMU env (skipped)", float("nan"), "", context=str(err)[:60])]
     tmp = Path(tempfile.mkdtemp(prefix="bench-fmu-"))
+    envs: list = []
     try:
         fmu, mapping = export_reference_fmu(tmp / "vehicle.fmu")
-        rates = {}
+        zero = np.zeros(1, np.float32)
+        fns = {}
         for fmi_type in ("CoSimulation", "ModelExchange"):
             path = tmp / f"{fmi_type}.yaml"
             path.write_text(mapping.read_text() + f"fmi_type: {fmi_type}\n")
-            env = gym.make(ID, backend="fmu", fmu=fmu, fmu_map=path)
-            rates[fmi_type] = _rate(env, 400 if fmi_type == "CoSimulation" else 150)
-            env.close()
-        reference = _rate(gym.make(ID, backend="reference"), 4000)
-        surrogate = _vector_rate(200)
+            envs.append(gym.make(ID, backend="fmu", fmu=fmu, fmu_map=path))
+            fns[fmi_type] = steps(envs[-1], lambda k: zero, 20)
+        fns["reference"] = steps(gym.make(ID, backend="reference"), lambda k: zero)
+        venv = gym.make_vec(ID, num_envs=N_VEC, vectorization_mode="vector_entry_point")
+        envs.append(venv)
+        fns["surrogate"] = vector_steps(venv, np.zeros((N_VEC, 1), np.float32), 10)
+        w = interleaved(fns)
     finally:
+        for env in envs:
+            env.close()
         shutil.rmtree(tmp, ignore_errors=True)
-    cs = rates["CoSimulation"]
+    r = {k: rate(fns[k], w[k].seconds) for k in fns}
+    cs = r["CoSimulation"]
     return [
-        row("VerticalSuspension fmu CS (single)", cs, "steps/s", context="FMPy, 10 doStep"),
-        row(
+        measured("VerticalSuspension fmu CS (single)", cs, "steps/s", context="FMPy, 10 doStep"),
+        measured(
             "VerticalSuspension fmu ME (single)",
-            rates["ModelExchange"],
+            r["ModelExchange"],
             "steps/s",
             context="FMPy, railgym RK4",
         ),
-        row("VerticalSuspension reference (single)", reference, "steps/s", context="numba"),
-        row(
+        measured(
+            "VerticalSuspension reference (single)", r["reference"], "steps/s", context="numba"
+        ),
+        measured(
             f"VerticalSuspension surrogate vec ({N_VEC})",
-            surrogate,
+            r["surrogate"],
             "steps/s",
             context="numba lanes, default threads",
         ),
-        row(
+        measured(
             "surrogate vec / fmu CS",
-            surrogate / cs,
+            r["surrogate"] / cs,
             "×",
             "≥ 50",
-            "env-steps/s, same run",
+            "env-steps/s, same run, interleaved rounds",
         ),
     ]

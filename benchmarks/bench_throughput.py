@@ -29,7 +29,6 @@ import re
 import subprocess
 import sys
 import tempfile
-import time
 from typing import Any
 
 import gymnasium as gym
@@ -38,7 +37,9 @@ import numpy as np
 from numba import njit
 
 import railgym  # noqa: F401  (registers the environments)
-from benchmarks import row
+from benchmarks import _timing, measured, row
+from benchmarks._stepping import Steps, rate
+from benchmarks._timing import interleaved, windows
 
 N_VEC = 1024
 #: estimated flop per env-step (module docstring)
@@ -75,30 +76,26 @@ def _fma(a: np.ndarray, b: np.ndarray, c: np.ndarray, reps: int) -> float:
     return c.sum()
 
 
-def peak_gflops(n: int = 2048, reps: int = 20000) -> float:
-    """Best-of-5 GFLOP/s of :func:`_fma` on one thread (2 flop per element and pass)."""
+def peak_gflops(n: int = 2048, reps: int = 2000) -> np.ndarray:
+    """GFLOP/s of :func:`_fma` on one thread (2 flop per element and pass), one sample per
+    timed window (:func:`benchmarks._timing.windows`)."""
     a, b, c = np.full(n, 0.999), np.full(n, 1e-3), np.zeros(n)
-    _fma(a, b, c, 1)
-    best = np.inf
-    for _ in range(5):
-        t0 = time.perf_counter()
-        _fma(a, b, c, reps)
-        best = min(best, time.perf_counter() - t0)
-    return 2.0 * n * reps / best / 1e9
+    seconds = windows(lambda: _fma(a, b, c, reps)).seconds
+    return 2.0 * n * reps / seconds / 1e9
 
 
-def _rate(venv: gym.vector.VectorEnv, n: int) -> float:
-    """Best-of-3 env-steps/s over ``n`` steps with zero actions."""
-    action = np.zeros(venv.action_space.shape, venv.action_space.dtype)
-    venv.reset(seed=0)
-    venv.step(action)
-    best = np.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        for _ in range(n):
-            venv.step(action)
-        best = min(best, time.perf_counter() - t0)
-    return venv.num_envs * n / best
+class _Threaded(Steps):
+    """:class:`~benchmarks._stepping.Steps` of a vector env with zero actions on ``threads``
+    numba threads."""
+
+    def __init__(self, venv: gym.vector.VectorEnv, n: int, threads: int) -> None:
+        action = np.zeros(venv.action_space.shape, venv.action_space.dtype)
+        super().__init__(venv, n, lambda k: action)
+        self.threads = threads
+
+    def __call__(self) -> None:
+        numba.set_num_threads(self.threads)
+        super().__call__()
 
 
 def packed_share(fn: Any, args: tuple) -> tuple[int, int]:
@@ -138,49 +135,68 @@ def _lane_element_args() -> tuple[Any, tuple]:
     return lanes._element, (w, lpr, lw, np.zeros(lpr.lo.shape[0]), lanes.LANES)
 
 
-def vectorisation_gain() -> tuple[float, float]:
+def vectorisation_gain() -> tuple[tuple[float, float], tuple[float, float]]:
     """Kernel-only env-steps/s of the vertical lane kernel (1024 envs, one thread) compiled
-    with and without LLVM's loop vectoriser, each in a fresh process and numba cache."""
+    with and without LLVM's loop vectoriser, each in a fresh process and numba cache:
+    ``((median, spread) on, (median, spread) off)``."""
     rates = []
     for flag in ("1", "0"):
         with tempfile.TemporaryDirectory() as cache:
             env = {**os.environ, "NUMBA_LOOP_VECTORIZE": flag, "NUMBA_CACHE_DIR": cache}
             res = subprocess.run(
-                [sys.executable, "-m", "benchmarks._lanes_rate"],
+                [
+                    sys.executable,
+                    "-m",
+                    "benchmarks._lanes_rate",
+                    str(_timing.REPEATS),
+                    str(_timing.WINDOW_S),
+                ],
                 env=env,
                 capture_output=True,
                 text=True,
                 check=True,
             )
-            rates.append(float(res.stdout.split()[-1]))
+            median, spread = (float(x) for x in res.stdout.split()[-2:])
+            rates.append((median, spread))
     return rates[0], rates[1]
 
 
 def run() -> list[dict]:
     """Rows of measurements (see ``benchmarks/__main__.py``)."""
-    peak = peak_gflops()
+    peak_samples = peak_gflops()
+    peak = float(np.median(peak_samples))
     threads = numba.get_num_threads()
-    rows = [row("FMA peak, 1 thread (anchor)", peak, "GFLOP/s", context="numba a*b+c, float64")]
+    rows = [
+        measured(
+            "FMA peak, 1 thread (anchor)", peak_samples, "GFLOP/s", context="numba a*b+c, float64"
+        )
+    ]
     cart = gym.make_vec("CartPole-v1", num_envs=N_VEC, vectorization_mode="vector_entry_point")
-    r_cart = _rate(cart, 300)
-    rows.append(row(f"CartPoleVectorEnv ({N_VEC}) (anchor)", r_cart / 1e6, "M steps/s"))
+    cart_steps = _Threaded(cart, 100, threads)
     for env_id, flop in FLOP_PER_STEP.items():
         venv = gym.make_vec(env_id, num_envs=N_VEC, vectorization_mode="vector_entry_point")
         name = env_id.split("/")[1]
-        numba.set_num_threads(1)
-        r1 = _rate(venv, 20)
+        fns = {
+            "cart": cart_steps,
+            "one": _Threaded(venv, 10, 1),
+            "all": _Threaded(venv, 10, threads),
+        }
+        w = interleaved(fns)
         numba.set_num_threads(threads)
-        r_all = _rate(venv, 20)
+        r_cart, r1, r_all = (rate(fns[k], w[k].seconds) for k in ("cart", "one", "all"))
+        gflops = r1 * flop / 1e9
         rows += [
-            row(f"{name} vector ({N_VEC}), 1 thread", r1 / 1e6, "M steps/s"),
-            row(f"{name} vector ({N_VEC}), {threads} threads", r_all / 1e6, "M steps/s"),
-            row(
+            measured(f"CartPoleVectorEnv ({N_VEC}) (anchor, {name})", r_cart / 1e6, "M steps/s"),
+            measured(f"{name} vector ({N_VEC}), 1 thread", r1 / 1e6, "M steps/s"),
+            measured(f"{name} vector ({N_VEC}), {threads} threads", r_all / 1e6, "M steps/s"),
+            measured(
                 f"  GFLOP/s, 1 thread ({name})",
-                r1 * flop / 1e9,
+                gflops,
                 "GFLOP/s",
-                context=f"{flop:.0f} flop/step est., {100 * r1 * flop / 1e9 / peak:.1f} % of peak",
+                context=f"{flop:.0f} flop/step est., "
+                f"{100 * float(np.median(gflops)) / peak:.1f} % of peak",
             ),
-            row(
+            measured(
                 f"  share of CartPoleVectorEnv ({name})",
                 100 * r_all / r_cart,
                 "%",
@@ -188,16 +204,21 @@ def run() -> list[dict]:
                 f"{threads} threads",
             ),
         ]
-    on, off = vectorisation_gain()
+    (on, s_on), (off, s_off) = vectorisation_gain()
     rows += [
         row(
-            "VerticalSuspension lane kernel, vectorised", on / 1e6, "M steps/s", context="1 thread"
+            "VerticalSuspension lane kernel, vectorised",
+            on / 1e6,
+            "M steps/s",
+            context="1 thread",
+            spread=s_on,
         ),
         row(
             "  same with loop vectorisation off",
             off / 1e6,
             "M steps/s",
             context=f"NUMBA_LOOP_VECTORIZE=0: the vectoriser gives {on / off:.2f} ×",
+            spread=s_off,
         ),
     ]
     for what, (fn, args), note in (

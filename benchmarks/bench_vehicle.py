@@ -3,7 +3,8 @@
 Targets (issue 14): single-env step of ``VerticalVehicle-v1`` ≤ 2 × CartPole-v1's; vector
 env (1024) env-steps/s ≥ 1/3 of ``VerticalSuspension-v1``'s vector env. Issue 22: the vector
 env with the default memory element (the whole vehicle's, with its relaxation law) at least
-0.85 × its rate with the paper's static element.
+0.85 × its rate with the paper's static element. Every figure is the median of repeated
+windows, compared figures timed in interleaved rounds (:mod:`benchmarks._timing`).
 """
 
 from __future__ import annotations
@@ -12,13 +13,11 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from benchmarks import row
-from benchmarks.bench_vertical import _single_step_us, _split_us, _vector_rate
+from benchmarks import _timing, measured
+from benchmarks._stepping import per_step_us, rate, split_us, steps, vector_steps
+from benchmarks._timing import interleaved
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
-
-#: interleaved rounds of the single-env timing (the machine's load changes between them)
-ROUNDS = 7
 
 
 def run() -> list[dict]:
@@ -28,99 +27,78 @@ def run() -> list[dict]:
 
 
 def _single_rows() -> list[dict]:
-    """Single-env step of each backend against CartPole: the ratio is the median over
-    ``ROUNDS`` rounds, each timing CartPole and then the vehicle env for 4000 steps (two
-    episodes, ends and resets included)."""
-    cart = gym.make("CartPole-v1")
+    """Single-env step of each backend against CartPole, in interleaved rounds (episode ends
+    and resets included)."""
     zero = np.zeros(2, np.float32)
     envs = {
         b: gym.make("railgym/VerticalVehicle-v1", backend=b)
         for b in ("surrogate", "reference", "linear")
     }
-    t_cart, t_env = [], {b: [] for b in envs}
-    for _ in range(ROUNDS):
-        for b, env in envs.items():
-            t_cart.append(_single_step_us(cart, lambda k: k % 2, 4000))
-            t_env[b].append(_single_step_us(env, lambda k: zero, 4000) / t_cart[-1])
-    rows = [
-        row(
-            "CartPole-v1 step (anchor)",
-            float(np.median(t_cart)),
-            "µs",
-            context="gym.make, same run, median",
-        )
-    ]
-    for b, ratios in t_env.items():
-        t = float(np.median(ratios)) * float(np.median(t_cart))
+    fns = {"cart": steps(gym.make("CartPole-v1"), lambda k: k % 2)}
+    fns |= {b: steps(env, lambda k: zero) for b, env in envs.items()}
+    t = {name: per_step_us(fns[name], w.seconds) for name, w in interleaved(fns).items()}
+    rounds = f"interleaved rounds, median of {_timing.REPEATS}"
+    rows = [measured("CartPole-v1 step (anchor)", t["cart"], "µs", context="gym.make, same run")]
+    for b in envs:
         rows += [
-            row(f"VerticalVehicle step ({b})", t, "µs", context="5 RK4 substeps of 2 ms"),
-            row(
+            measured(f"VerticalVehicle step ({b})", t[b], "µs", context="5 RK4 substeps of 2 ms"),
+            measured(
                 f"  ratio to CartPole ({b})",
-                float(np.median(ratios)),
+                t[b] / t["cart"],
                 "×",
                 "≤ 2" if b == "surrogate" else "",
-                f"median of {ROUNDS} interleaved rounds",
+                rounds,
             ),
         ]
-    compiled, shell = _split_us(envs["surrogate"], zero)
+    compiled, shell = split_us(envs["surrogate"], zero)
     rows += [
-        row("  of which the compiled call", compiled, "µs", context="surrogate, kernel + book"),
-        row("  of which the Python shell", shell, "µs", context="check, info, obs, wrappers"),
+        measured(
+            "  of which the compiled call",
+            compiled,
+            "µs",
+            context="surrogate, kernel + book, own windows",
+        ),
+        measured("  of which the Python shell", shell, "µs", context="check, info, obs, wrappers"),
     ]
     return rows
 
 
 def _vector_rows() -> list[dict]:
     """Vector env (1024) env-steps/s against VerticalSuspension-v1's, and with the memory
-    element against the static one (median of ``ROUNDS`` interleaved rounds)."""
+    element against the static one (interleaved rounds)."""
     n = 1024
-    v0 = gym.make_vec(
-        "railgym/VerticalSuspension-v1", num_envs=n, vectorization_mode="vector_entry_point"
-    )
-    r_v0 = _vector_rate(v0, np.zeros((n, 1), np.float32), 30)
-    del v0
+    mode = "vector_entry_point"
+    v0 = gym.make_vec("railgym/VerticalSuspension-v1", num_envs=n, vectorization_mode=mode)
     zero2 = np.zeros((n, 2), np.float32)
     elements = {
         "maxwell": default_vehicle_surrogate(),
         "static": default_vertical_surrogate("static"),
     }
-    venvs = {
-        form: gym.make_vec(
-            "railgym/VerticalVehicle-v1",
-            num_envs=n,
-            vectorization_mode="vector_entry_point",
-            surrogate=element,
+    fns = {"v0": vector_steps(v0, np.zeros((n, 1), np.float32), 10)}
+    for form, element in elements.items():
+        venv = gym.make_vec(
+            "railgym/VerticalVehicle-v1", num_envs=n, vectorization_mode=mode, surrogate=element
         )
-        for form, element in elements.items()
-    }
-    rates: dict[str, list[float]] = {form: [] for form in venvs}
-    for _ in range(ROUNDS):  # interleaved: the machine's load changes between rounds
-        for form, venv in venvs.items():
-            rates[form].append(_vector_rate(venv, zero2, 10))
-    r, r_static = (float(np.median(rates[f])) for f in ("maxwell", "static"))
-    ratio = float(np.median(np.array(rates["maxwell"]) / np.array(rates["static"])))
-    del venvs
+        fns[form] = vector_steps(venv, zero2, 10)
+    r = {name: rate(fns[name], w.seconds) for name, w in interleaved(fns).items()}
+    rounds = f"interleaved rounds, median of {_timing.REPEATS}"
     return [
-        row(
+        measured(
             f"VerticalSuspension vector ({n}) (anchor)",
-            r_v0 / 1e6,
+            r["v0"] / 1e6,
             "M steps/s",
             context="surrogate, same run",
         ),
-        row(
+        measured(
             f"VerticalVehicle vector ({n}, surrogate)",
-            r / 1e6,
+            r["maxwell"] / 1e6,
             "M steps/s",
             context="memory, default",
         ),
-        row("  share of VerticalSuspension's", r / r_v0, "×", "≥ 1/3"),
-        row(f"VerticalVehicle vector ({n}, static element)", r_static / 1e6, "M steps/s"),
-        row(
-            "  memory element / static element",
-            ratio,
-            "×",
-            "≥ 0.85",
-            f"median of {ROUNDS} interleaved rounds",
+        measured("  share of VerticalSuspension's", r["maxwell"] / r["v0"], "×", "≥ 1/3", rounds),
+        measured(f"VerticalVehicle vector ({n}, static element)", r["static"] / 1e6, "M steps/s"),
+        measured(
+            "  memory element / static element", r["maxwell"] / r["static"], "×", "≥ 0.85", rounds
         ),
     ]
 

@@ -22,6 +22,7 @@ _LAZY = {
     "BuildReport": "surrogates.builder",
     "TimeHistory": "surrogates.features",
     "ModelFieldError": "surrogates.models.checks",
+    "UnderdeterminedFitWarning": "surrogates.models.checks",
 }
 
 #: submodules reachable as attributes after a plain ``import surrogates`` (``surrogates.io``)

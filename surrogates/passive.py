@@ -13,6 +13,10 @@ squares subject to ``f_j'(u_j) ≥ 0`` on a dense grid of each monotone input:
   of each slope polynomial ``f_j'`` on the box (the ends and the real roots of ``f_j''``) are
   computed and those below zero are added as constraints, a few rounds at most, so the slope
   is non-negative everywhere in the box, not only on the grid;
+* with fewer samples than terms the coefficients are not determined by the data: ``fit``
+  warns (:class:`~surrogates.models.checks.UnderdeterminedFitWarning`, as
+  :class:`~surrogates.models.lpr.LegendreRegression`) and solves the constrained problem with
+  a small ridge (:data:`RIDGE`), the smallest-norm coefficients in its limit;
 * outside the box: with the additive form, ``"linear"`` extrapolation continues each
   ``f_j`` with its slope at the boundary, which is a constrained grid point, so it is
   non-negative; ``"clip"`` continues with slope zero. Neither extends a negative slope.
@@ -32,7 +36,7 @@ from scipy.linalg import qr, solve_triangular
 from scipy.optimize import nnls
 
 from surrogates.models.base import SurrogateModel
-from surrogates.models.checks import ModelFieldError, legendre_degree
+from surrogates.models.checks import ModelFieldError, legendre_degree, underdetermined_fit
 from surrogates.models.lpr import (
     LegendreRegression,
     design_matrix,
@@ -45,6 +49,9 @@ MAX_REFINE_ROUNDS = 10
 #: constrained slopes are kept above this fraction of the output range per unit of the mapped
 #: input (so that the round-off of the solver cannot leave a slope slightly negative)
 SLOPE_MARGIN = 1e-6
+#: ridge of a fit with fewer samples than terms, as a fraction of the largest singular value of
+#: the column-scaled design matrix (:func:`_ridge_factor`)
+RIDGE = 1e-4
 #: a loaded element's slope may fall below 0 by this fraction of its largest possible slope
 #: (round-off of a file written by another machine), no more
 PASSIVITY_TOLERANCE = 1e-9
@@ -114,26 +121,30 @@ class PassiveLegendreRegression(LegendreRegression):
         E, mono = self._validate(d)
         T = E.shape[0]
         if n < T:
-            raise ValueError(
-                f"X has {n} samples but degree={self.degree!r} needs at least {T} (one per term)"
-            )
+            underdetermined_fit(n, T, f"degree={self.degree!r}")
         A = design_matrix(self._map(U), E)
         norms = np.linalg.norm(A, axis=0)
-        Q, R = qr(A / norms, mode="economic")
-        s = np.linalg.svd(R, compute_uv=False)
-        if rank_deficient(s):
-            raise ValueError(
-                f"degree={self.degree!r} is too high for the data: the design matrix is rank "
-                f"deficient (too few distinct values in some column of X)"
-            )
+        if n >= T:
+            Q, R = qr(A / norms, mode="economic")
+            s = np.linalg.svd(R, compute_uv=False)
+            if rank_deficient(s):
+                raise ValueError(
+                    f"degree={self.degree!r} is too high for the data: the design matrix is "
+                    f"rank deficient (too few distinct values in some column of X)"
+                )
+            f = Q.T @ V
+            cond = float(s[0] / s[-1])
+        else:  # a column that vanishes on every sample gets the coefficient 0
+            norms = np.where(norms > 0.0, norms, 1.0)
+            R, f, cond = _ridge_factor(A / norms, V)
         margin = SLOPE_MARGIN * float(np.ptp(V))
         coef_scaled, minima, n_constraints = passive_coefficients(
-            R, Q.T @ V, E, norms, mono, self.grid_size, margin
+            R, f, E, norms, mono, self.grid_size, margin
         )
         self.coef_ = coef_scaled / norms
         self.exponents_ = E
         self.n_terms_ = T
-        self.cond_ = float(s[0] / s[-1])
+        self.cond_ = cond
         self.n_constraints_ = n_constraints
         dt_du = 2.0 / (self.upper_ - self.lower_)
         self.min_slope_ = np.array(
@@ -167,6 +178,21 @@ class PassiveLegendreRegression(LegendreRegression):
                 )
             min_slope[j] = slope.min() * dt_du[j]
         self.min_slope_ = min_slope
+
+
+def _ridge_factor(As: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Triangular factor ``R`` (T, T), right-hand side ``f`` and condition number of an
+    under-determined fit (``As`` (n, T), n < T, the column-scaled design matrix): the QR of
+    ``[As; λ I]`` with ``λ = RIDGE · s_max(As)``, so that :func:`passive_coefficients`
+    minimises ``‖As c − V‖² + λ² ‖c‖²`` under the slope constraints (the least-squares
+    coefficients of smallest norm in the limit of a small ``λ``). The condition number is
+    that of the rank-``r`` part of ``As``, ``s_1 / s_r``."""
+    n, T = As.shape
+    s = np.linalg.svd(As, compute_uv=False)
+    rank = max(int(np.sum(s > s[0] * max(n, T) * np.finfo(float).eps)), 1)
+    Q, R = qr(np.vstack([As, RIDGE * s[0] * np.eye(T)]), mode="economic")
+    f = Q.T @ np.concatenate([V, np.zeros(T)])
+    return R, f, float(s[0] / s[rank - 1])
 
 
 def rank_deficient(s: np.ndarray) -> bool:

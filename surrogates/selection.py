@@ -8,6 +8,7 @@ the table also carries eq. 8/9 errors.
 from __future__ import annotations
 
 import itertools
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -17,7 +18,7 @@ import numpy as np
 from surrogates.metrics import average_absolute_error, rms_normalised_error
 from surrogates.models import SurrogateModel, model_class
 from surrogates.models.base import as_inputs, as_outputs
-from surrogates.models.checks import random_seed
+from surrogates.models.checks import UnderdeterminedFitWarning, random_seed
 
 if TYPE_CHECKING:
     from surrogates.legendre_kfold import SharedFolds
@@ -112,12 +113,17 @@ def _score(model: SurrogateModel, U: np.ndarray, V: np.ndarray) -> dict[str, flo
 
 
 def _fits(make: Factory, cand: Any, U: np.ndarray, V: np.ndarray) -> SurrogateModel | str:
-    """Fit a candidate; the error message when it cannot be fitted (e.g. more terms than
-    samples)."""
-    try:
-        return make(cand).fit(U, V)
-    except (ValueError, np.linalg.LinAlgError) as exc:
-        return str(exc) or type(exc).__name__
+    """Fit a candidate; the error message when it cannot be fitted or when its fit is not
+    determined by the data (more terms than samples: the model's
+    :class:`~surrogates.models.checks.UnderdeterminedFitWarning`, a refusal here)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnderdeterminedFitWarning)
+        try:
+            return make(cand).fit(U, V)
+        except UnderdeterminedFitWarning as exc:
+            return str(exc)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            return str(exc) or type(exc).__name__
 
 
 _NAN = {"rms": np.nan, "mae": np.nan, "nrms": np.nan}

@@ -90,8 +90,99 @@ def test_an_element_in_other_units_is_refused(tmp_path, env_id, document, messag
 def test_an_element_in_si_units_is_taken(tmp_path):
     units = {"d": "m", "v": "m/s", "F": "N"}
     path = _element_file(tmp_path, inputs=["d", "v"], output="F", units=units)
-    env = gym.make("railgym/VerticalSuspension-v1", surrogate=path, duration=0.1)
+    with pytest.warns(UserWarning, match="does not look like"):  # taken, but F = u1 + u2
+        env = gym.make("railgym/VerticalSuspension-v1", surrogate=path, duration=0.1)
     env.reset(seed=0)
+
+
+SI = {"d": "m", "v": "m/s", "F": "N"}
+
+
+def _unrelated_element(tmp_path) -> str:
+    """The issue's element: fitted on another problem (domain [−1, 1]², F = sin u1 + u2²)
+    and saved with the right units."""
+    from surrogates import LegendreRegression, io
+
+    u = np.random.default_rng(0).uniform(-1.0, 1.0, (400, 2))
+    model = LegendreRegression(degree=5).fit(u, np.sin(u[:, 0]) + u[:, 1] ** 2)
+    return str(io.save(model, tmp_path / "unrelated.json", inputs=["d", "v"], output="F", units=SI))
+
+
+def _plausibility_warnings(record) -> list[str]:
+    return [str(w.message) for w in record if "does not look like" in str(w.message)]
+
+
+@pytest.mark.parametrize("env_id", ["railgym/VerticalSuspension-v1", "railgym/VerticalVehicle-v1"])
+def test_an_element_of_another_problem_is_warned_once_at_construction(tmp_path, env_id):
+    """Nothing else flags it (it stays in its box: ``outside_element`` False for 500 steps),
+    so construction warns once, naming the element, the vehicle and the measured ratios."""
+    path = _unrelated_element(tmp_path)
+    with pytest.warns(UserWarning, match="does not look like") as record:
+        env = gym.make(env_id, surrogate=path)
+    (text,) = _plausibility_warnings(record)
+    assert text.startswith(
+        f"surrogate {path!r} does not look like the secondary suspension of vehicle "
+        "'manchester': dF/dδ = 1 N/m against k2 = 8.6e+05 N/m; dF/dδ̇ = "
+    )
+    assert "dF/dδ / k2 = 1.16e-06, dF/dδ̇ / c2 = " in text and "both ratios in 0.2–5" in text
+    assert "its training box δ ∈ [-0.988, 0.999] m reaches beyond ±0.6 m" in text
+    assert record[0].filename == __file__  # points at the gym.make line
+    import warnings
+
+    with warnings.catch_warnings(record=True) as later:
+        warnings.simplefilter("always")
+        env.reset(seed=0)
+        flagged = False
+        for _ in range(500):
+            _, _, _, _, info = env.step(np.zeros(env.action_space.shape, np.float32))
+            flagged |= bool(np.any(info["outside_element"]))
+    assert not flagged and info["out_of_domain"] == 0
+    assert _plausibility_warnings(later) == []  # once, at construction
+
+
+def test_the_vector_env_warns_once(tmp_path):
+    path = _unrelated_element(tmp_path)
+    with pytest.warns(UserWarning, match="does not look like") as record:
+        gym.make_vec(
+            "railgym/VerticalSuspension-v1",
+            num_envs=3,
+            vectorization_mode="vector_entry_point",
+            surrogate=path,
+        )
+    assert len(_plausibility_warnings(record)) == 1
+
+
+def _packaged(name):
+    from railgym.vehicles.collect import build_vertical_surrogate, default_vertical_surrogate
+    from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+
+    if name == "built":  # from the project's data on the packaged vehicle
+        return build_vertical_surrogate()[0]
+    if name == "vehicle":
+        return default_vehicle_surrogate()
+    return default_vertical_surrogate(*name.split("-"))
+
+
+@pytest.mark.parametrize(
+    ("env_id", "element"),
+    [
+        ("railgym/VerticalSuspension-v1", "maxwell"),
+        ("railgym/VerticalSuspension-v1", "static"),
+        ("railgym/VerticalSuspension-v1", "maxwell-v0"),
+        ("railgym/VerticalSuspension-v1", "built"),
+        ("railgym/VerticalVehicle-v1", "vehicle"),
+        ("railgym/VerticalVehicle-v1", "maxwell"),
+        ("railgym/VerticalVehicle-v1", "static"),
+    ],
+)
+def test_the_packaged_and_project_built_elements_are_not_warned(env_id, element):
+    import warnings
+
+    model = _packaged(element)
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        gym.make(env_id, surrogate=model)
+    assert _plausibility_warnings(record) == []
 
 
 def _stress(backend, track_class, factor, seed, duration=5.0, static=False):

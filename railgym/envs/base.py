@@ -40,8 +40,11 @@ A new env (the crash env, a whole-vehicle env) writes its batch, then::
             self._init_shell(MyBatch(1, ...), render_mode, obs_space, action_space)
         def _episode(self):                       # per-episode settings passed to reset
             return (self.scenario,)
+        _case_attrs = ("scenario",)               # what the reset options set
         def _apply_options(self, options):        # validate / store reset options
             ...
+        def _case(self, sim, idx):                # info["case"] of systems idx
+            return {"scenario": np.full(len(idx), self.scenario)}
         def _frame(self, state):                  # RGB frame from render_state(i)
             return render_my_env(state)
 
@@ -54,11 +57,26 @@ Single-env ``info``: the batch's ``info()`` entries as Python scalars, ``reward_
 dict of floats, and each flag of ``flags()`` as ``True`` only on the step where it is set.
 Vector ``info``: the same keys as arrays with gymnasium's ``_key`` masks (flags always
 present); ``reward_terms`` a dict of arrays with its own masks.
+
+Reset options and the held case
+-------------------------------
+Options set the env's *case* (track class and speed, impact conditions: the attributes named
+by :attr:`BatchEnv._case_attrs`) for this and later episodes, the vector env's autoresets
+included. ``options={"hold": False}`` first returns them to the constructor's values (other
+options of the same call then apply); ``{"hold": True}`` keeps the held case (as no option
+does) and says so. Every reset's ``info["case"]`` is the env's :meth:`BatchEnv._case` of the
+episode plus ``from_options`` (the episode's case differs from the constructor's); the vector
+env reports it per sub-env at reset and, masked to the reset sub-envs, on autoreset steps.
+The first ``reset(seed=...)`` without options that runs a held case gives a ``UserWarning``
+(once per env, a vector env's included); an unseeded reset without options (the next episode
+of a run: gymnasium's and SB3's autoresets) and a partial reset (``reset_mask`` alone) do not.
 """
 
 from __future__ import annotations
 
 import math
+import sys
+import warnings
 from typing import Any, Protocol
 
 import gymnasium as gym
@@ -161,6 +179,39 @@ def _check_small(
     return True
 
 
+#: the system of a single env's batch, as an index array
+_ONE = np.zeros(1, np.intp)
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether two case values (numbers, strings, ``None``, arrays and tuples, lists or dicts
+    of them) are equal."""
+    if a is b:
+        return True
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return (
+            isinstance(a, np.ndarray)
+            and isinstance(b, np.ndarray)
+            and a.shape == b.shape
+            and bool(np.array_equal(a, b))
+        )
+    if isinstance(a, tuple | list) and isinstance(b, tuple | list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    return bool(a == b)
+
+
+def _caller_level() -> int:
+    """``stacklevel`` of a warning given by the caller of this function that names the first
+    frame outside the env shells, railgym's wrappers and gymnasium (the user's ``reset``)."""
+    level, frame = 1, sys._getframe(1)
+    inside = ("railgym.envs", "railgym.wrappers", "gymnasium")
+    while frame.f_back is not None and frame.f_globals.get("__name__", "").startswith(inside):
+        level, frame = level + 1, frame.f_back
+    return level
+
+
 def _render_mode(render_mode: Any, modes: list[str]) -> str | None:
     if render_mode is not None and render_mode not in modes:
         raise ValueError(f"render_mode must be None or one of {modes}, got {render_mode!r}")
@@ -172,6 +223,9 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 50}
     sim: Batch
+    #: the attributes that reset options set (the env's case); their values when the shell is
+    #: made are the constructor's case, to which ``options={"hold": False}`` returns
+    _case_attrs: tuple[str, ...] = ()
 
     def _init_shell(
         self,
@@ -191,6 +245,10 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         self._action = np.zeros((1, *action_space.shape))
         self._rng1: list[np.random.Generator] = []
         self._started = False
+        self._own_case = tuple(getattr(self, a) for a in self._case_attrs)
+        self._own_episode = self._episode()
+        self._case_held = False  # the case differs from the constructor's
+        self._held_warned = False
 
     # hooks --------------------------------------------------------------------------
     def _episode(self) -> tuple:
@@ -202,21 +260,77 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         if options:
             raise ValueError(f"unknown reset option(s) {sorted(options)}")
 
+    def _case(self, sim: Batch, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """``info["case"]`` of the systems ``idx`` of ``sim`` (this env's batch or its vector
+        env's) after their reset, arrays with a first axis ``len(idx)``; ``from_options`` is
+        added by the shell."""
+        return {}
+
+    def _case_text(self, episode: tuple) -> str:
+        """The case of ``episode`` (what :meth:`_episode` returns) in words, for the warning."""
+        return repr(episode)
+
     def _frame(self, state: dict[str, Any]) -> np.ndarray:
         """RGB frame of ``sim.render_state(i)``."""
         raise NotImplementedError
+
+    # reset options ------------------------------------------------------------------
+    def _take_options(
+        self, options: dict[str, Any], seeded: bool, partial: bool = False, owner: Any = None
+    ) -> None:
+        """Apply the reset ``options`` (``hold`` here, the others by :meth:`_apply_options`;
+        nothing changes when they raise) and note whether the case is held; warn (once per
+        env) when a seeded reset without options runs a case held from earlier options, unless
+        ``partial`` (a vector env's ``reset_mask`` reset). ``owner``: the vector env whose
+        single env this is (named in the warning)."""
+        given = bool(options)
+        hold = val.boolean(options.pop("hold", True), "options['hold']")
+        before = tuple(getattr(self, a) for a in self._case_attrs)
+        try:
+            if not hold:
+                for name, value in zip(self._case_attrs, self._own_case, strict=True):
+                    setattr(self, name, value)
+            self._apply_options(options)
+        except BaseException:
+            for name, value in zip(self._case_attrs, before, strict=True):
+                setattr(self, name, value)
+            raise
+        episode = self._episode()
+        self._case_held = not _same(episode, self._own_episode)
+        if self._case_held and seeded and not given and not partial and not self._held_warned:
+            self._held_warned = True
+            warnings.warn(
+                f"{type(owner or self).__name__}: reset(seed=...) without options runs "
+                f"{self._case_text(episode)}, held from an earlier reset(options=...) (reset "
+                f"options are kept for later episodes); the env was made for "
+                f"{self._case_text(self._own_episode)}. Give options={{'hold': False}} to "
+                "return to it, options={'hold': True} to keep the held case without this "
+                "warning; info['case'] reports the case of each reset (warned once per env)",
+                UserWarning,
+                stacklevel=_caller_level(),
+            )
+
+    def _case_arrays(self, sim: Batch, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """:meth:`_case` of the systems ``idx`` of ``sim`` with ``from_options``."""
+        return {**self._case(sim, idx), "from_options": np.full(len(idx), self._case_held)}
 
     # gymnasium API ------------------------------------------------------------------
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """New episode; ``options`` as accepted by the env's ``_apply_options``."""
+        """New episode; ``options``: ``hold`` and those of the env's ``_apply_options``;
+        ``info["case"]``: the episode's case (see the module docstring)."""
         super().reset(seed=seed)
-        self._apply_options(dict(options or {}))
+        self._take_options(dict(options or {}), seed is not None)
         self.sim.reset(0, self.np_random, self._episode())
         self._rng1 = [self.np_random]
         self._started = True
-        return self.sim.observe(self._rng1)[0], self._info()
+        info = self._info()
+        info["case"] = {
+            k: v[0].item() if v.ndim == 1 else v[0].copy()
+            for k, v in self._case_arrays(self.sim, _ONE).items()
+        }
+        return self.sim.observe(self._rng1)[0], info
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Advance one control step; the action is clipped to the action space."""
@@ -271,7 +385,9 @@ class BatchVectorEnv(VectorEnv):
 
     Sub-env ``i`` of ``reset(seed=s)`` is seeded with ``s + i`` (or ``seed[i]``);
     ``options["reset_mask"]`` resets only those sub-envs (a sub-env reset without a seed keeps
-    its generator); other options go to the single env's ``_apply_options``.
+    its generator); other options go to the single env's (shared by every sub-env, held across
+    autoresets). ``info["case"]``: each sub-env's case at reset, and on an autoreset step that
+    of the sub-envs reset there (mask ``info["_case"]``).
     """
 
     metadata: dict[str, Any] = {
@@ -295,22 +411,29 @@ class BatchVectorEnv(VectorEnv):
         )
         self._rngs: list[np.random.Generator | None] = []
         self._prev_done = np.zeros(num_envs, np.bool_)
+        self._case_rows: dict[str, np.ndarray] = {}  # each sub-env's info["case"]
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset the sub-envs (all, or those of ``options["reset_mask"]``)."""
+        """Reset the sub-envs (all, or those of ``options["reset_mask"]``); ``info["case"]``:
+        every sub-env's case."""
+        partial = options is not None and "reset_mask" in options
         mask, rngs, options = reset_plan(self.num_envs, seed, options, self._rngs)
+        env = self.single_env
+        env._take_options(options, seed is not None, partial, self)
         if seed is not None:
             first = seed if isinstance(seed, int | np.integer) else seed[0]
             self._np_random, self._np_random_seed = seeding.np_random(first)
         self._rngs = rngs
-        env = self.single_env
-        env._apply_options(options)
-        for i in np.flatnonzero(mask):
+        reset = np.flatnonzero(mask)
+        for i in reset:
             self.sim.reset(i, self._rngs[i], env._episode())
         self._prev_done[mask] = False
-        return self.sim.observe(self._rngs), self._infos()
+        self._note_case(reset)
+        infos = self._infos()
+        infos["case"], infos["_case"] = self._case_infos(np.ones(self.num_envs, np.bool_))
+        return self.sim.observe(self._rngs), infos
 
     def step(
         self, actions: Any
@@ -323,6 +446,9 @@ class BatchVectorEnv(VectorEnv):
         done = np.flatnonzero(self._prev_done)
         for i in done:
             sim.reset(i, self._rngs[i], env._episode())
+        if done.size:
+            self._note_case(done)
+            was_reset = self._prev_done.copy()
         sim.advance()
         for i in done:  # sub-envs that were reset do not move on this step
             sim.reset_state(i)
@@ -341,7 +467,24 @@ class BatchVectorEnv(VectorEnv):
         infos["_reward_terms"] = mask
         for k, v in flags.items():
             infos[k], infos[f"_{k}"] = v, mask
+        if done.size:
+            infos["case"], infos["_case"] = self._case_infos(was_reset)
         return sim.observe(self._rngs), reward, terminated, truncated, infos
+
+    def _note_case(self, idx: np.ndarray) -> None:
+        """Record the case of the sub-envs ``idx`` just reset (their ``info["case"]``)."""
+        case = self.single_env._case_arrays(self.sim, idx)
+        if not self._case_rows:
+            n = self.num_envs
+            self._case_rows = {k: np.zeros((n, *v.shape[1:]), v.dtype) for k, v in case.items()}
+        for k, v in case.items():
+            self._case_rows[k][idx] = v
+
+    def _case_infos(self, mask: np.ndarray) -> tuple[dict[str, Any], np.ndarray]:
+        """``(info["case"], info["_case"])`` of the sub-envs in ``mask``: copies of every
+        sub-env's case with gymnasium's masks."""
+        rows = self._case_rows
+        return {**{k: v.copy() for k, v in rows.items()}, **{f"_{k}": mask for k in rows}}, mask
 
     def _rows(self, a: np.ndarray) -> np.ndarray:
         """The accessors' value of a per-system array ``a`` (n, …): a copy."""

@@ -229,13 +229,14 @@ class _CrashShell:
         """``speed_kmh`` (km/h) and ``payload_t`` (t, see :func:`_options_payload`) fix the
         impact conditions of this and later episodes (``None`` draws them again); the
         envelope's draws are made all the same, so that the episodes after still follow the
-        seed."""
+        seed (``hold``: :mod:`railgym.envs.base`)."""
         if not options:
             return
         unknown = sorted(set(options) - set(OPTIONS))
         if unknown:
             raise val.FieldError(
-                f"options[{unknown[0]!r}]", f"is not a reset option; options: {list(OPTIONS)}"
+                f"options[{unknown[0]!r}]",
+                f"is not a reset option; options: {[*OPTIONS, 'hold']}",
             )
         fixed = dict(self._fixed)
         if "speed_kmh" in options:
@@ -251,6 +252,31 @@ class _CrashShell:
 
     def _episode(self) -> tuple[Any, Any]:
         return self._fixed.get("speed_kmh"), self._fixed.get("payload_t")
+
+    def _case(self, sim: Any, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """The initial speed (m/s) and payload of each car (kg) of the episodes of ``sim``'s
+        trains ``idx`` (as ``info["initial_speed"]``, ``info["payload_kg"]``), and whether
+        reset options fixed them (``speed_fixed``, ``payload_fixed``; else drawn, or the
+        scenario's)."""
+        n = len(idx)
+        speed, payload = self._episode()
+        return {
+            "speed": sim.speed[idx],
+            "payload_kg": sim.payload[idx],
+            "speed_fixed": np.full(n, speed is not None),
+            "payload_fixed": np.full(n, payload is not None),
+        }
+
+    def _case_text(self, episode: tuple) -> str:
+        """``episode`` = ``(speed, payload)`` fixed by options (m/s, kg per car; ``None``:
+        drawn or the scenario's)."""
+        speed, payload = episode
+        if speed is None and payload is None:
+            return "the scenario's impact conditions (drawn from its envelope, if it has one)"
+        parts = [] if speed is None else [f"the initial speed fixed at {3.6 * speed:.4g} km/h"]
+        if payload is not None:
+            parts.append(f"the payload fixed at {', '.join(f'{p / 1e3:.4g}' for p in payload)} t")
+        return " and ".join(parts)
 
     def _frame(self, state: dict[str, Any]) -> np.ndarray:
         from railgym.envs.rendering import render_crash
@@ -275,6 +301,7 @@ class TrainCrashEnv(_CrashShell, BatchEnv):
     _single = True
     #: packaged elements of this version (``""``: current; ``"v0"``: ``TrainCrash-v1``'s)
     elements_release = ""
+    _case_attrs = ("_fixed",)
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         self.cfg = CrashParams.from_kwargs(kwargs)

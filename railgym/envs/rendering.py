@@ -16,6 +16,10 @@ Two scene renderers build on the primitives:
 * :func:`render_crash`: cars running towards a rigid wall at ``+x``, drawn to scale, with
   their crush zones shortened by the crush.
 
+Every bar on a frame carries its label in the bitmap font (:mod:`railgym.envs.text`), left
+of the bar: ``time`` for the progress bar along the top, ``force`` for an actuator gauge
+under it (:data:`BAR_ROWS`, :func:`draw_progress_bar`, :func:`draw_gauge`).
+
 Colours of the scene parts are in :data:`VERTICAL_COLORS` and :data:`CRASH_COLORS`.
 """
 
@@ -27,17 +31,21 @@ from typing import Any
 
 import numpy as np
 
-from railgym.envs.text import draw_text
+from railgym.envs.text import draw_text, text_width
 
 __all__ = [
+    "BAR_ROWS",
     "CRASH_COLORS",
     "DISPLACEMENT_PX_PER_M",
     "VERTICAL_COLORS",
+    "bar_columns",
     "canvas",
     "draw_caption",
     "draw_damper",
+    "draw_gauge",
     "draw_line",
     "draw_polyline",
+    "draw_progress_bar",
     "draw_spring",
     "fill_circle",
     "fill_rect",
@@ -52,6 +60,11 @@ DISPLACEMENT_PX_PER_M = 2000.0
 #: Schematic scale of the vertical vehicle's parts at a frame height of 400 px, px/m.
 SCHEMATIC_PX_PER_M = 20.0
 _REFERENCE_HEIGHT = 400.0
+#: rows ``(top, bottom)`` (px, edges) of the frames' bars: the progress bar (``"time"``) and
+#: the actuator gauges (``"force"``); each bar's label is drawn left of it, centred on its rows
+BAR_ROWS = {"time": (3.0, 8.0), "force": (11.0, 16.0)}
+#: px: left margin of the bar labels, gap between a label and its bar
+_LABEL_X, _LABEL_GAP = 4, 4
 _FAR = 1e9  # coordinates are clamped to +-_FAR px before any arithmetic (handles inf)
 
 VERTICAL_COLORS: dict[str, tuple[int, int, int]] = {
@@ -320,8 +333,63 @@ def _box(
     )
 
 
-def _progress_bar(img: np.ndarray, state: Mapping[str, Any], colors: Mapping[str, Color]) -> None:
-    """Bar along the top edge: ``time / duration`` (``duration`` defaults to 10 s, wrapping)."""
+def bar_columns(width: int) -> tuple[int, int]:
+    """Columns ``(x0, x1)`` (px, edges) of the full-width bars of a frame ``width`` px wide:
+    after the longest label (``time``, ``force``) to 4 px from the right edge."""
+    x0 = _LABEL_X + max(text_width(label) for label in BAR_ROWS) + _LABEL_GAP
+    return x0, max(int(width) - 4, x0 + 1)
+
+
+def _bar_label(
+    img: np.ndarray, text: str, x_end: float, rows: tuple[float, float], color: Color
+) -> None:
+    """``text`` ending ``_LABEL_GAP`` px left of column ``x_end``, centred on ``rows``."""
+    y = 0.5 * (rows[0] + rows[1]) - 3.5  # the glyphs are 7 px high
+    draw_text(img, x_end - _LABEL_GAP - text_width(text), y, text, color)
+
+
+def draw_progress_bar(
+    img: np.ndarray, frac: float, colors: Mapping[str, Color], text_color: Color
+) -> None:
+    """The progress bar along the top edge (rows :data:`BAR_ROWS` ``["time"]``, columns
+    :func:`bar_columns`) filled to ``frac`` (clipped to [0, 1]), labelled ``time``."""
+    rows = BAR_ROWS["time"]
+    x0, x1 = bar_columns(img.shape[1])
+    fill_rect(img, x0, rows[0], x1, rows[1], colors["bar_back"])
+    fill_rect(
+        img, x0, rows[0], x0 + min(max(frac, 0.0), 1.0) * (x1 - x0), rows[1], colors["bar_front"]
+    )
+    _bar_label(img, "time", x0, rows, text_color)
+
+
+def draw_gauge(
+    img: np.ndarray,
+    centre: int,
+    half: int,
+    ratio: float,
+    colors: Mapping[str, Color],
+    label: str = "force",
+) -> None:
+    """An actuator gauge on the rows :data:`BAR_ROWS` ``["force"]``: a track of ``half`` px
+    each side of the column edge ``centre`` with a 1 px zero mark, filled from it by
+    ``ratio`` (force / f_max, clipped to [−1, 1]) of ``half``, to the right in
+    ``actuator_push`` for a positive ratio, to the left in ``actuator_pull``; ``label`` left of
+    the track (in ``outline``)."""
+    rows = BAR_ROWS["force"]
+    ratio = float(np.clip(ratio, -1.0, 1.0))
+    fill_rect(img, centre - half, rows[0], centre + half, rows[1], colors["bar_back"])
+    fill_rect(img, centre, rows[0] - 1, centre + 1, rows[1] + 1, colors["outline"])
+    color = colors["actuator_push"] if ratio > 0 else colors["actuator_pull"]
+    if ratio != 0.0:
+        fill_rect(img, centre, rows[0], centre + ratio * half, rows[1], color)
+    _bar_label(img, label, centre - half, rows, colors["outline"])
+
+
+def _progress_bar(
+    img: np.ndarray, state: Mapping[str, Any], colors: Mapping[str, Color], text_color: Color
+) -> None:
+    """:func:`draw_progress_bar` of ``time / duration`` (``duration`` defaults to 10 s,
+    wrapping); nothing without ``state["time"]``."""
     if "time" not in state:
         return
     t = _scalar(state, "time")
@@ -329,9 +397,7 @@ def _progress_bar(img: np.ndarray, state: Mapping[str, Any], colors: Mapping[str
     if duration <= 0:
         raise ValueError(f"state['duration'] must be > 0 s, got {duration}")
     frac = min(t / duration, 1.0) if "duration" in state else (t % duration) / duration
-    w = img.shape[1]
-    fill_rect(img, 4, 3, w - 4, 8, colors["bar_back"])
-    fill_rect(img, 4, 3, 4 + max(frac, 0.0) * (w - 8), 8, colors["bar_front"])
+    draw_progress_bar(img, frac, colors, text_color)
 
 
 def draw_caption(
@@ -427,7 +493,8 @@ def _draw_secondary(
 ) -> None:
     """Secondary suspension between the carbody (row ``body_bottom``) and the bogie
     (``bogie_top``) centred at column ``xc``: air spring (two lobes), damper, and the actuator
-    arrow and gauge of ``force_ratio`` = force / f_max."""
+    arrow and gauge (:func:`draw_gauge` under the progress bar, across the frame) of
+    ``force_ratio`` = force / f_max."""
     h, w = img.shape[:2]
     ds = 0.10 * w
     lobe = 0.025 * w
@@ -443,7 +510,9 @@ def _draw_secondary(
     ratio = float(np.clip(force_ratio, -1.0, 1.0))
     length = 0.45 * 0.14 * h * ratio
     arrow = col["actuator_push"] if ratio > 0 else col["actuator_pull"]
-    fill_rect(img, xc, 11, xc + ratio * (xc - 4), 16, arrow)
+    x0, x1 = bar_columns(w)
+    centre = (x0 + x1) // 2
+    draw_gauge(img, centre, min(centre - x0, x1 - centre), ratio, col)
     if abs(length) >= 1.0:
         y_mid = 0.5 * (body_bottom + bogie_top)
         y_tip = y_mid - length
@@ -475,8 +544,10 @@ def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 40
     ``(height, width, 3)`` uint8 image. The vehicle is centred horizontally; heights and
     displacements use :data:`DISPLACEMENT_PX_PER_M` x ``height / 400``. The actuator arrow
     points up for positive force, its length is ``|force_a| / f_max`` (capped at 1) of 45 %
-    of the nominal secondary gap, green when pushing, red when pulling; a gauge below the
-    progress bar repeats ``force_a / f_max`` from the centre (full scale: half the width).
+    of the nominal secondary gap, green when pushing, red when pulling; a gauge labelled
+    ``force`` below the progress bar (labelled ``time``) repeats ``force_a / f_max`` from its
+    zero mark at the middle of the bar columns (:func:`bar_columns`; full scale: half their
+    width).
     """
     _frame_size(width, height)
     x1, x2, z = _scalar(state, "x1"), _scalar(state, "x2"), _scalar(state, "z")
@@ -489,7 +560,7 @@ def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 40
     w, h = int(width), int(height)
     k = DISPLACEMENT_PX_PER_M * h / _REFERENCE_HEIGHT
     img = canvas(w, h, col["background"])
-    _progress_bar(img, state, col)
+    _progress_bar(img, state, col, col["outline"])
 
     y_track0 = 0.82 * h
     _draw_track(img, s, tx, tz, y_track0, k, col)
@@ -569,7 +640,7 @@ def render_crash(state: Mapping[str, Any], width: int = 800, height: int = 300) 
         return (x - x_min) * sx
 
     img = canvas(w, h, col["background"])
-    _progress_bar(img, state, col)
+    _progress_bar(img, state, col, col["wall"])
     y_rail = 0.78 * h
     fill_rect(img, 0, y_rail, w, y_rail + 3, col["rail"])
     fill_rect(img, px(wall_x), 0.15 * h, px(wall_x) + 0.02 * w, y_rail + 3, col["wall"])

@@ -1,8 +1,8 @@
 """Text on ``rgb_array`` frames: a 5 x 7 pixel bitmap font (numpy only, no font files).
 
-The glyphs cover what the frame captions print: digits, ``. - + / : %`` and the lowercase
-letters of the units and labels (``t s v km/h a m/s2 x g peak displ``). A character without a
-glyph is drawn as a blank.
+The glyphs cover what the frame captions and bar labels print: digits, ``. - + / : %`` and
+the lowercase letters of the units and labels (``t s v km/h a m/s2 x g peak displ``, ``time``,
+``force``, ``front``, ``rear``). A character without a glyph is drawn as a blank.
 """
 
 from __future__ import annotations
@@ -34,13 +34,17 @@ a ..... ..... .###. ....# .#### #...# .####
 c ..... ..... .###. #.... #.... #...# .###.
 d ....# ....# .##.# #..## #...# #...# .####
 e ..... ..... .###. #...# ##### #.... .###.
+f ..##. .#..# .#... ###.. .#... .#... .#...
 g ..... .#### #...# #...# .#### ....# .###.
 h #.... #.... #.##. ##..# #...# #...# #...#
 i ..#.. ..... .##.. ..#.. ..#.. ..#.. .###.
 k #.... #.... #..#. #.#.. ##... #.#.. #..#.
 l .##.. ..#.. ..#.. ..#.. ..#.. ..#.. .###.
 m ..... ..... ##.#. #.#.# #.#.# #...# #...#
+n ..... ..... #.##. ##..# #...# #...# #...#
+o ..... ..... .###. #...# #...# #...# .###.
 p ..... ..... ####. #...# ####. #.... #....
+r ..... ..... #.##. ##..# #.... #.... #....
 s ..... ..... .#### #.... .###. ....# ####.
 t .#... .#... ###.. .#... .#... .#..# ..##.
 v ..... ..... #...# #...# #...# .#.#. ..#..

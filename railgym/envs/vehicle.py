@@ -230,13 +230,15 @@ def _batch(
 
 
 def _vehicle_surrogate(
-    backend: str, surrogate: Any, dt: float
+    backend: str, surrogate: Any, dt: float, vehicle: Any = None
 ) -> tuple[Any, OperatingEnvelope | None]:
     """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
     (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
     default is the packaged whole-vehicle element (``vehicle_lpr.json``, docs/validation.md);
-    and the element's operating envelope (``None``: none)."""
-    return _surrogate_arrays(backend, surrogate, dt, relaxation=True)
+    and the element's operating envelope (``None``: none). ``vehicle``: the user gave the
+    element, checked against that vehicle's secondary suspension (one warning when it does
+    not look like it, docs/envs/vertical.md, *Element plausibility*)."""
+    return _surrogate_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle, stacklevel=6)
 
 
 class _VehicleAccessors:
@@ -293,12 +295,14 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
     params_class = VehicleParams
     n_actuators = 2
     cfg: VehicleParams
+    _case_attrs = ("track_class", "speeds", "profile", "_speed_arg")
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         surrogate = self._declare(kwargs)
         cfg = self.cfg
         self.speeds = _speed_range(cfg.track_class, cfg.speed, cfg.speed_limit)
-        lpr, envelope = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt)
+        given = cfg.model if cfg.surrogate is not None else None  # the user's element
+        lpr, envelope = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt, given)
         self.vehicle = cfg.model
         v_min = min(self.speeds[0], SIZING_SPEED)
         self._start(_batch(1, cfg, lpr, v_min, envelope), render_mode)
@@ -311,7 +315,8 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
-        without a speed uses that class's speed; ``profile=None`` returns to FRA track)."""
+        without a speed uses that class's speed; ``profile=None`` returns to FRA track;
+        ``hold``: :mod:`railgym.envs.base`)."""
         if not options:
             return
         tc, sp = self._track_options(options)
@@ -328,6 +333,13 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
 
     def _episode(self) -> tuple[int, tuple[float, float], Any]:
         return self.track_class, self.speeds, self.profile
+
+    def _case(self, sim: Any, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """The track shell's case (``speed``: the episode's drawn speed) and ``speed_range``,
+        ``(v_min, v_max)`` m/s, the range it is drawn from (equal for a fixed speed)."""
+        case = super()._case(sim, idx)
+        case["speed_range"] = np.tile(np.array(self.speeds, np.float64), (len(idx), 1))
+        return case
 
     def _frame(self, state: dict[str, Any]) -> np.ndarray:
         from railgym.envs.vehicle_render import render_vehicle

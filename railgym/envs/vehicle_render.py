@@ -13,11 +13,12 @@ from railgym.envs.rendering import (
     VERTICAL_COLORS,
     canvas,
     draw_caption,
+    draw_gauge,
     draw_line,
     draw_polyline,
+    draw_progress_bar,
     draw_spring,
     fill_circle,
-    fill_rect,
 )
 
 _KEYS = (
@@ -47,8 +48,11 @@ def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400
     the time and the exaggeration of heights over lengths.
     Horizontal scale: ``track_x`` over the width; heights and displacements at
     ``DISPLACEMENT_PX_PER_M · height/400`` (exaggerated), each part drawn at its nominal
-    height plus its displacement. Actuator bars above the bogies: green pushing the carbody
-    up, red pulling, length ``|force|/f_max``.
+    height plus its displacement. The progress bar (labelled ``time``) along the top; under it
+    an actuator gauge centred above each bogie (labelled ``front force``, ``rear force``:
+    the bogie at the larger position is the front), filled from its zero mark by
+    ``force/f_max`` of its half-width (8 % of the frame width), green to the right pushing the
+    carbody up, red to the left pulling (:func:`~railgym.envs.rendering.draw_gauge`).
     """
     arr = _state_arrays(state, width, height)
     w, h = int(width), int(height)
@@ -61,9 +65,8 @@ def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400
     g = _Geometry(tx[0], w / (tx[-1] - tx[0]), k, y_bogie0, y_bogie0 - 0.14 * h)
     img = canvas(w, h, col["background"])
     if "time" in state and "duration" in state and float(state["duration"]) > 0:
-        frac = min(max(float(state["time"]) / float(state["duration"]), 0.0), 1.0)
-        fill_rect(img, 4, 4, w - 4, 8, col["bar_back"])
-        fill_rect(img, 4, 4, 4 + frac * (w - 8), 8, col["bar_front"])
+        frac = float(state["time"]) / float(state["duration"])
+        draw_progress_bar(img, frac, col, col["outline"])
 
     # track: ground under the exaggerated profile, rail on top
     cols = np.arange(w) + 0.5
@@ -149,18 +152,18 @@ def _draw_carbody(img: np.ndarray, arr: dict[str, np.ndarray], g: _Geometry) -> 
 
 
 def _draw_secondaries(img: np.ndarray, arr: dict[str, np.ndarray], g: _Geometry) -> None:
-    """Secondary suspension (air spring, damper) at each bogie and the actuator bars above."""
+    """Secondary suspension (air spring, damper) at each bogie and its actuator gauge above."""
     col = VERTICAL_COLORS
     h, w = img.shape[:2]
     bx = arr["body_x"]
     f_max = float(arr["f_max"])
+    front = int(np.argmax(arr["bogie_x"]))
     for i in range(2):
         xb = float(g.px(arr["bogie_x"][i]))
         yb = g.y_bogie0 - g.k * arr["bogie_z"][i] - 0.02 * h
         yf = g.y_floor0 - g.k * np.interp(arr["bogie_x"][i], bx, arr["body_z"])
         draw_spring(img, xb - 0.02 * w, yf, yb, col["air_spring"], 3, 0.01 * w, 2)
         ratio = float(np.clip(arr["force"][i] / f_max, -1.0, 1.0)) if f_max > 0 else 0.0
-        color = col["actuator_push"] if ratio > 0 else col["actuator_pull"]
         draw_line(img, xb + 0.02 * w, yb, xb + 0.02 * w, yf, col["damper"], 2)
-        if ratio != 0.0:
-            fill_rect(img, xb - 0.04 * w, 14, xb - 0.04 * w + ratio * 0.08 * w, 20, color)
+        label = "front force" if i == front else "rear force"
+        draw_gauge(img, round(xb), round(0.08 * w), ratio, col, label)

@@ -51,6 +51,7 @@ from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.element_envelope import OperatingEnvelope, element_envelope
+from railgym.vehicles.element_plausibility import implausible_element_warning
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
     LprArrays,
@@ -188,7 +189,13 @@ LIMITS = {
 
 
 def _surrogate_arrays(
-    backend: str, surrogate: Any, dt: float, kriging: bool = False, relaxation: bool = False
+    backend: str,
+    surrogate: Any,
+    dt: float,
+    kriging: bool = False,
+    relaxation: bool = False,
+    vehicle: Any = None,
+    stacklevel: int = 5,
 ) -> tuple[LprArrays, OperatingEnvelope | None]:
     """Kernel arrays of the surrogate element (packaged default, a JSON path or a model) and
     its operating envelope (``metadata.envelope``,
@@ -199,8 +206,11 @@ def _surrogate_arrays(
     or whose ``τ`` is below ``dt/2`` (s) is rejected, and so is a Kriging unless ``kriging``
     is set (the one-bogie kernels evaluate it), and so is a relaxation law unless
     ``relaxation`` is set (the whole vehicle's kernels integrate it), and so is a malformed
-    envelope.
+    envelope. With ``vehicle`` (the user gave the element), one ``UserWarning`` when the
+    element does not look like that vehicle's secondary suspension
+    (:mod:`railgym.vehicles.element_plausibility`; ``stacklevel``: of that warning).
     """
+    given = surrogate
     if backend != "surrogate":
         if surrogate is not None:
             warnings.warn(
@@ -233,7 +243,26 @@ def _surrogate_arrays(
     except ValueError as exc:
         raise val.FieldError("surrogate", str(exc)) from None
     _check_element_units(surrogate, lpr.lo.shape[0])
+    if vehicle is not None:
+        _check_element_plausibility(surrogate, vehicle, given, stacklevel)
     return lpr, envelope
+
+
+def _check_element_plausibility(model: Any, vehicle: Any, given: Any, stacklevel: int) -> None:
+    """One ``UserWarning`` when the element ``model`` (the argument ``given``: a path or the
+    model) does not look like the secondary suspension of ``vehicle``
+    (:func:`~railgym.vehicles.element_plausibility.implausible_element_warning`); an object
+    without ``predict`` and ``domain_`` (kernel arrays only) is not measured."""
+    if not (hasattr(model, "predict") and hasattr(model, "domain_")):
+        return
+    if isinstance(given, str | Path):
+        name = repr(str(given))
+    else:
+        source = (getattr(model, "metadata_", None) or {}).get("source")
+        name = f"({type(model).__name__}{f', {source}' if source else ''})"
+    text = implausible_element_warning(model, vehicle, name)
+    if text is not None:
+        warnings.warn(text, UserWarning, stacklevel=stacklevel)
 
 
 #: units of the suspension element's inputs (deflection, its rate, Maxwell state) and output
@@ -314,7 +343,9 @@ def _batch(
 class TrackEnvShell(BatchEnv):
     """What the single envs of a vehicle on a track share (``VerticalSuspension``,
     ``VerticalVehicle``): the declared arguments (:attr:`params_class`, checked into
-    :attr:`cfg`), the packaged element by default, the spaces, the track reset options."""
+    :attr:`cfg`), the packaged element by default, the spaces, the track reset options and
+    the case they set (``info["case"]``: ``track_class``, ``speed`` in m/s, ``profile``: a
+    measured or user profile, not FRA track)."""
 
     #: the declared arguments of the env
     params_class: type[TrackEnvParams]
@@ -360,6 +391,25 @@ class TrackEnvShell(BatchEnv):
         tc = options.get("track_class", self.track_class)
         sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
         return tc, sp
+
+    def _case(self, sim: Any, idx: np.ndarray) -> dict[str, np.ndarray]:
+        """The track class, the speed (m/s) and whether a measured or user profile is ridden
+        of the episodes of ``sim``'s vehicles ``idx``."""
+        return {
+            "track_class": sim.track_class[idx],
+            "speed": sim.speed[idx],
+            "profile": sim.measured[idx],
+        }
+
+    def _case_text(self, episode: tuple) -> str:
+        """``episode`` = ``(track_class, speed, profile)``; the speed (m/s) or a range."""
+        track_class, speed, profile = episode
+        if isinstance(speed, tuple) and speed[0] != speed[1]:
+            at = f"{speed[0]:.4g}–{speed[1]:.4g} m/s"
+        else:
+            at = f"{speed[0] if isinstance(speed, tuple) else speed:.4g} m/s"
+        where = "FRA track" if profile is None else "a measured or user profile"
+        return f"class {int(track_class)} at {at} on {where}"
 
 
 class TrackVectorShell(BatchVectorEnv):
@@ -439,25 +489,27 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
     params_class = VerticalParams
     n_actuators = 1
     cfg: VerticalParams
+    _case_attrs = ("track_class", "speed", "profile", "_speed_arg")
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         surrogate = self._declare(kwargs)
         cfg = self.cfg
         self.track_class, self.speed = _check_track(cfg.track_class, cfg.speed, cfg.speed_limit)
-        lpr, envelope = _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True)
+        given = cfg.model if cfg.surrogate is not None else None  # the user's element
+        lpr, envelope = _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True, vehicle=given)
         self._start(_batch(1, cfg, lpr, envelope), render_mode)
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
-        without a speed uses that class's speed; ``profile=None`` returns to FRA track)."""
+        without a speed uses that class's speed; ``profile=None`` returns to FRA track;
+        ``hold``: :mod:`railgym.envs.base`)."""
         if not options:
             return
         tc, sp = self._track_options(options)
         track_class, speed = _check_track(tc, sp, self.speed_limit)
         if "profile" in options:
             self.profile = _check_profile(options["profile"], self.cfg.wheelbase)
-        self.track_class, self.speed = track_class, speed
-        self._speed_arg = options.get("speed", self._speed_arg)
+        self.track_class, self.speed, self._speed_arg = track_class, speed, sp
 
     def _episode(self) -> tuple[int, float, tuple[np.ndarray, np.ndarray] | None]:
         return self.track_class, self.speed, self.profile

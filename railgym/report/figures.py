@@ -40,23 +40,38 @@ def _samples(plt: Any, art: Artifacts, plan: Plan) -> Any:
 
 
 def _oob(plt: Any, art: Artifacts, plan: Plan) -> Any:
-    """Fig. 8: out-of-bag predictions of both models against the reference force."""
+    """Fig. 8: out-of-bag predictions of both models against the reference force, one panel
+    per model on the same axes (in one panel the markers of one model hide the other's).
+
+    The output is the secondary suspension force ``F_s = m2·ẍ2`` of the passive training
+    run (:func:`railgym.vehicles.collect.collect_vertical`), in kN."""
     U, V = art.data["U"], art.data["V"]
     m = plan.table3_m
     oob = art.reports["lpr", m].oob_idx
-    fig, ax = plt.subplots(figsize=(5.5, 4.5))
-    for kind, mk in (("lpr", "."), ("kriging", "x")):
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), sharex=True, sharey=True)
+    lim = [V.min() / 1e3, V.max() / 1e3]
+    for ax, (kind, mk, color) in zip(
+        axes, (("lpr", ".", "tab:blue"), ("kriging", "x", "tab:orange")), strict=True
+    ):
         rel = art.reports[kind, m].oob_nrms
         pred = art.models[kind, m].predict(U[oob]) / 1e3
-        ax.plot(V[oob] / 1e3, pred, mk, ms=3, label=f"{LABEL[kind]} (rel. RMS {rel:.3f})")
-    lim = [V.min() / 1e3, V.max() / 1e3]
-    ax.plot(lim, lim, "k-", lw=0.8)
-    ax.set(
-        xlabel="reference m2·ẍ2 (kN)",
-        ylabel="prediction (kN)",
-        title=f"Out-of-bag predictions, M = {m} (paper fig. 8)",
-    )
-    ax.legend()
+        ax.plot(lim, lim, "k-", lw=0.8, label="prediction = reference")
+        ax.plot(
+            V[oob] / 1e3,
+            pred,
+            mk,
+            ms=3,
+            color=color,
+            label=f"{LABEL[kind]} ({len(oob)} points, rel. RMS {rel:.3f})",
+        )
+        ax.set(
+            xlabel=r"reference secondary force $F_s = m_2 \ddot{x}_2$ (kN)",
+            ylabel=r"predicted secondary force $\hat{F}_s$ (kN)",
+            title=LABEL[kind],
+        )
+        ax.legend(loc="upper left", fontsize=8)
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"Out-of-bag predictions of the secondary force, M = {m} (paper fig. 8)")
     return fig
 
 
@@ -91,9 +106,13 @@ def _time_histories(plt: Any, art: Artifacts, plan: Plan) -> Any:
 
 def _errors(plt: Any, table5: dict[str, Any], plan: Plan) -> Any:
     """Fig. 11: eq. 9 errors of the LPR and Kriging elements vs the sample size M, ours beside
-    the paper's (table 5, Simpack source) where it gives that M."""
+    the paper's (table 5, Simpack source) where it gives that M.
+
+    One legend for the three panels, below them (inside a panel it covers bars); on a log
+    axis the floor lies a factor below the smallest bar and the top above the tallest, so no
+    bar is cut at the axis (a bar starts at the floor)."""
     published = table5.get("published", {})
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.4), layout="constrained")
     x = np.arange(len(plan.sizes))
     for i, (ax, (q, label)) in enumerate(zip(axes, QUANTITIES, strict=True)):
         bars = []
@@ -114,8 +133,15 @@ def _errors(plt: Any, table5: dict[str, Any], plan: Plan) -> Any:
             )
         ax.set_xticks(x, [f"{m} samples" for m in plan.sizes])
         shown = [v for _, _, vals in bars for v in vals if np.isfinite(v) and v > 0]
-        ax.set(yscale="log" if max(shown) > 10 * min(shown) else "linear", title=label)
-        ax.legend(fontsize=8)
+        if max(shown) > 10 * min(shown):
+            ax.set_yscale("log")
+            ax.set_ylim(min(shown) / 3.0, max(shown) * 3.0)
+        else:
+            ax.set_ylim(0.0, max(shown) * 1.1)
+        ax.set_title(label)
+        ax.grid(axis="y", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=9)
     fig.suptitle("Simulation errors vs sample size, ours and the paper's (paper fig. 11)")
     return fig
 
@@ -206,7 +232,8 @@ def write_figures(out: Path, art: Artifacts, plan: Plan, table5: dict[str, Any])
     figures = dict(zip(FIGURE_FILES, draws, strict=True))
     for name, draw in figures.items():
         fig = draw()
-        fig.tight_layout()
+        if fig.get_layout_engine() is None:  # a figure may bring its own (constrained)
+            fig.tight_layout()
         fig.savefig(out / name, dpi=90)
         plt.close(fig)
     return list(figures)

@@ -65,6 +65,40 @@ def _shadow_of(
     return shadow
 
 
+class _TimedAdvance:
+    """Stands in for ``sim.advance`` of a batch (an instance attribute, so the batch's own
+    method runs unchanged): runs it and keeps its wall time, s, in :attr:`last`."""
+
+    def __init__(self, sim: Any) -> None:
+        self.sim = sim
+        self.inner = sim.__dict__.get("advance")  # another stand-in already there, if any
+        self.last = 0.0
+
+    @classmethod
+    def install(cls, sim: Any) -> _TimedAdvance:
+        """Set a stand-in on ``sim``; returns it."""
+        timer = cls(sim)
+        sim.advance = timer
+        return timer
+
+    def __call__(self) -> None:
+        sim, inner = self.sim, self.inner
+        t0 = time.perf_counter()
+        if inner is None:
+            type(sim).advance(sim)
+        else:
+            inner()
+        self.last = time.perf_counter() - t0
+
+    def remove(self) -> None:
+        """Put back what was there before :meth:`install`."""
+        if self.sim.__dict__.get("advance") is self:
+            if self.inner is None:
+                del self.sim.advance
+            else:
+                self.sim.advance = self.inner
+
+
 class ReferenceShadow(gym.Wrapper):
     """Run the reference model in lock-step with the wrapped env and report its errors.
 
@@ -86,6 +120,13 @@ class ReferenceShadow(gym.Wrapper):
     receives the actuator force the wrapped env applied (``actuator_force / f_max``), so
     action-transforming wrappers inside this one are followed exactly.
 
+    Speed is measured the same way on both sides: the wall time of each env's one batch
+    call per control step (``sim.advance``: for the numba backends the compiled kernel, its
+    argument unboxing included; for ``"fmu"`` the FMU calls through FMPy), timed by a
+    stand-in for that call set on both batches while the wrapper is open (``close`` removes
+    it). It excludes the Python shell around it (action check, ``info``, observation,
+    gymnasium's wrappers): the same code for every backend, and most of a single-env step.
+
     ``info`` of every step adds ``shadow_err_disp`` (m), ``shadow_err_vel`` (m/s),
     ``shadow_err_acc`` (m/s²): running eq. 9 average absolute error ``mean_k |ŷ_k − y_k|``
     of the carbody displacement x2, velocity ẋ2 and acceleration ẍ2 over the steps so far
@@ -97,9 +138,15 @@ class ReferenceShadow(gym.Wrapper):
     ``(value, "relative" | "absolute")`` chosen by the paper's rule (eq. 8 only when the
     reference output stays far from zero, :func:`surrogates.metrics.paper_error`);
     ``rms_acc_model``, ``rms_acc_reference`` (m/s²); ``out_of_domain`` (surrogate
-    evaluations outside the training box); ``wall_time_model_s``, ``wall_time_reference_s``
-    (the paper's T_s per episode: ``time.perf_counter`` around each model's ``step``, the
-    wrapped env's inner wrappers included) and ``speedup`` (reference / model);
+    evaluations outside the training box); ``kernel_s_per_step_model``,
+    ``kernel_s_per_step_reference``: the median over the episode's steps of the time in each
+    batch's call (s; see above) and ``speedup``: ``kernel_s_per_step_reference /
+    kernel_s_per_step_model``, the kernel speed-up of a single env (one vehicle per call;
+    the surrogate's lane kernel, which vector envs of 8 or more sub-envs run, is faster per
+    vehicle and not measured here: see ``railgym demo``); ``wall_time_model_s``,
+    ``wall_time_reference_s``: the summed wall time of each side's ``step`` over the
+    episode, Python shell included (the wrapped env's inner wrappers too, the shadow has
+    none), so not a comparison of the models;
     ``model_diverged``, ``reference_diverged``; ``backend``, ``reference_backend``.
     If the shadow diverges first, it stops and the errors cover the steps before.
     """
@@ -128,10 +175,12 @@ class ReferenceShadow(gym.Wrapper):
         )
         n = base.cfg.n_steps
         self._trace = np.zeros((2, n, 3))  # [model, reference] × step × (x2, v2, ẍ2)
+        self._kernel = np.zeros((2, n))  # [model, reference] × step: time in sim.advance, s
+        self._timers = (_TimedAdvance.install(base.sim), _TimedAdvance.install(self.shadow.sim))
         self._clear()
 
     def _clear(self) -> None:
-        self._n = 0
+        self._n = self._n_model = 0
         self._abs_sum = np.zeros(3)
         self._time_model = self._time_ref = 0.0
         self._ref_done = self._ref_diverged = False
@@ -152,6 +201,8 @@ class ReferenceShadow(gym.Wrapper):
         t0 = time.perf_counter()
         obs, reward, terminated, truncated, info = self.env.step(action)
         self._time_model += time.perf_counter() - t0
+        self._kernel[0, self._n_model] = self._timers[0].last
+        self._n_model += 1
         base = self.base
         if not self._ref_done:
             u = np.array([base.actuator_force / base.cfg.f_max])
@@ -160,6 +211,7 @@ class ReferenceShadow(gym.Wrapper):
             self._time_ref += time.perf_counter() - t0
             self._ref_done, self._ref_diverged = s_term or s_trunc, s_term
             k = self._n
+            self._kernel[1, k] = self._timers[1].last
             self._trace[0, k] = _carbody(base)
             self._trace[1, k] = _carbody(self.shadow)
             self._abs_sum += np.abs(self._trace[0, k] - self._trace[1, k])
@@ -185,9 +237,13 @@ class ReferenceShadow(gym.Wrapper):
         out["rms_acc_model"] = float(np.sqrt(np.mean(model[:, 2] ** 2)))
         out["rms_acc_reference"] = float(np.sqrt(np.mean(ref[:, 2] ** 2)))
         out["out_of_domain"] = int(info.get("out_of_domain", self.base.out_of_domain))
+        k_model = float(np.median(self._kernel[0, : self._n_model]))
+        k_ref = float(np.median(self._kernel[1, :n]))
+        out["kernel_s_per_step_model"] = k_model
+        out["kernel_s_per_step_reference"] = k_ref
+        out["speedup"] = k_ref / k_model if k_model > 0 else np.nan
         out["wall_time_model_s"] = self._time_model
         out["wall_time_reference_s"] = self._time_ref
-        out["speedup"] = self._time_ref / self._time_model if self._time_model > 0 else np.nan
         out["model_diverged"] = model_diverged
         out["reference_diverged"] = self._ref_diverged
         out["backend"] = self.base.backend
@@ -195,6 +251,8 @@ class ReferenceShadow(gym.Wrapper):
         return out
 
     def close(self) -> None:
-        """Close the shadow and the wrapped env."""
+        """Remove the timing stand-ins, close the shadow and the wrapped env."""
+        for timer in self._timers:
+            timer.remove()
         self.shadow.close()
         super().close()

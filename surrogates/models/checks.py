@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import math
 import sys
+import warnings
 from numbers import Integral
 from typing import Any, TypeVar, cast
 
@@ -35,6 +36,39 @@ class NotFittedError(RuntimeError, ValueError, AttributeError):
 
 class DataConversionWarning(UserWarning):
     """An input was converted (a column vector of outputs), as scikit-learn's warning."""
+
+
+class UnderdeterminedFitWarning(UserWarning):
+    """A Legendre fit with more terms than samples: its coefficients are not determined by
+    the data and the minimum-norm solution is returned. The degree searches of
+    :mod:`surrogates.selection` treat it as a refusal and skip the candidate."""
+
+
+#: most terms of a Legendre fit with fewer samples than terms (solved by minimum norm); a fit
+#: with more is refused, as is a determined fit whose data cannot hold its terms (bounds the
+#: design matrix of a fit on a few samples)
+MAX_UNDERDETERMINED_TERMS = 1000
+
+
+def underdetermined_fit(n: int, T: int, what: str) -> None:
+    """Check a Legendre fit of ``T`` terms on ``n < T`` samples: warn
+    (:class:`UnderdeterminedFitWarning`) that it is solved by minimum norm, or raise
+    ``ValueError`` beyond :data:`MAX_UNDERDETERMINED_TERMS` terms; ``what`` names the
+    hyperparameters (``degree=5``)."""
+    need = f"X has {n} samples but {what} needs at least {T} (one per term)"
+    if T > MAX_UNDERDETERMINED_TERMS:
+        raise ValueError(
+            f"{need}; a fit with fewer samples than terms is solved by minimum norm only up "
+            f"to {MAX_UNDERDETERMINED_TERMS} terms"
+        )
+    warnings.warn(
+        UnderdeterminedFitWarning(
+            f"{need} to be determined: the least-squares coefficients of smallest norm are "
+            "returned, one of many that fit the samples as well (lower the degree or add "
+            "samples for a determined fit)"
+        ),
+        stacklevel=4,
+    )
 
 
 @functools.cache

@@ -18,6 +18,14 @@ here the columns of ``P`` are scaled to unit 2-norm and the least-squares proble
 SVD-based solver (:func:`numpy.linalg.lstsq`). ``cond_`` is the condition number of the scaled
 design matrix.
 
+With fewer samples than terms (``n < T``, e.g. scikit-learn's estimator checks at the default
+degree) the coefficients are not determined by the data: ``fit`` warns
+(:class:`~surrogates.models.checks.UnderdeterminedFitWarning`) and returns the least-squares
+solution of smallest norm (in the column-scaled coefficients; up to
+:data:`~surrogates.models.checks.MAX_UNDERDETERMINED_TERMS` terms, more are refused). The
+degree searches (:mod:`surrogates.selection`) skip such a candidate, as they skip one that
+cannot be fitted. A determined fit (``n ≥ T``) is unchanged by this.
+
 The module-level numba kernels :func:`lpr_eval`, :func:`lpr_eval_batch` and
 :func:`lpr_is_outside` evaluate a fitted model from the plain arrays of
 :meth:`LegendreRegression.kernel_arrays`, for use inside compiled vehicle models;
@@ -44,6 +52,7 @@ from surrogates.models.checks import (
     field_array,
     legendre_degree,
     real_or_nan,
+    underdetermined_fit,
 )
 
 #: extrapolation policy → integer mode understood by the numba kernels
@@ -73,7 +82,8 @@ class LegendreRegression(SurrogateModel):
     n_terms_ : int
         Number of terms ``T``.
     cond_ : float
-        2-norm condition number of the column-scaled design matrix.
+        2-norm condition number of the column-scaled design matrix (of its rank-``r`` part,
+        ``s_1 / s_r``, when the fit had fewer samples than terms).
     """
 
     kind: ClassVar[str] = "lpr"
@@ -109,15 +119,14 @@ class LegendreRegression(SurrogateModel):
                 raise ValueError(f"degree has {len(degrees)} entries but X has {d} columns")
             T = 1 + sum(degrees)
         if n < T:
-            raise ValueError(
-                f"X has {n} samples but degree={self.degree!r} "
-                f"(interactions={self.interactions}) needs at least {T} (one per term)"
-            )
+            underdetermined_fit(n, T, f"degree={self.degree!r} (interactions={self.interactions})")
         E = self.make_exponents(d)
         A = design_matrix(self._map(U), E)
         norms = np.linalg.norm(A, axis=0)
+        if n < T:  # a column that vanishes on every sample gets the coefficient 0
+            norms = np.where(norms > 0.0, norms, 1.0)
         coef_scaled, _, rank, s = np.linalg.lstsq(A / norms, V, rcond=None)
-        if rank < T:
+        if n >= T and rank < T:
             raise ValueError(
                 f"degree={self.degree!r} is too high for the data: the design matrix has rank "
                 f"{rank} < {T} terms (too few distinct values in some column of X)"
@@ -125,7 +134,8 @@ class LegendreRegression(SurrogateModel):
         self.coef_ = coef_scaled / norms
         self.exponents_ = E
         self.n_terms_ = T
-        self.cond_ = float(s[0] / s[-1])
+        # under-determined: the condition number of the part that the samples determine
+        self.cond_ = float(s[0] / s[-1]) if n >= T else float(s[0] / s[rank - 1])
 
     def make_exponents(self, d: int) -> np.ndarray:
         """Exponent table (T, d) for ``d`` inputs; row 0 is the constant term."""

@@ -251,3 +251,33 @@ def test_command_in_a_fresh_process_writes_only_railgym_lines(tmp_path, argv, wa
     lines = [line for line in err.splitlines() if line.strip()]
     assert lines and all(line.startswith(f"railgym {args[0]}: ") for line in lines), err
     assert not (tmp_path / "pwned").exists()
+
+
+def test_railgym_version_names_the_installed_distribution():
+    import subprocess
+    import sys
+    from importlib.metadata import version
+
+    done = subprocess.run(
+        [sys.executable, "-m", "agents.cli", "--version"], capture_output=True, text=True
+    )
+    assert done.returncode == 0 and done.stdout.strip() == f"railgym {version('railgym')}"
+
+
+@pytest.mark.parametrize("name", ["train", "benchmark", "collect", "validate", "crash-report"])
+def test_module_commands_are_railgym_subcommands(name):
+    """``railgym NAME`` runs the module's own parser: the same arguments and help."""
+    import subprocess
+    import sys
+
+    from agents.cli import MODULE_COMMANDS
+
+    module = MODULE_COMMANDS[name][0]
+    via = subprocess.run(
+        [sys.executable, "-m", "agents.cli", name, "--help"], capture_output=True, text=True
+    )
+    direct = subprocess.run(
+        [sys.executable, "-m", module, "--help"], capture_output=True, text=True
+    )
+    assert via.returncode == direct.returncode == 0
+    assert via.stdout == direct.stdout and "usage:" in via.stdout

@@ -4,8 +4,9 @@ import csv
 
 import numpy as np
 import pytest
+import yaml
 
-from agents.benchmark import main, summary_table
+from agents.benchmark import curve_figure, main, summary_table
 
 TINY = """\
 railgym/VerticalSuspension-v1:
@@ -70,3 +71,43 @@ def test_summary_table_statistics():
     table = summary_table(rows, "ppo")
     # mean 2, sample std 1, t(0.975, 2) = 4.303: half-width 4.303/√3 = 2.484
     assert "| c | a_w (m/s²) | 2 ± 1 (-0.4841…4.484) | 1.5 |" in table
+
+
+def _eval_csvs(out, n, seeds=(0, 1, 2)):
+    """``seed_<s>/eval.csv`` of ``n`` evaluations each (512 decisions apart)."""
+    for s in seeds:
+        (out / f"seed_{s}").mkdir(parents=True)
+        rows = ["timesteps,mean_rms_carbody_acc"]
+        rows += [f"{512 * (k + 1)},{0.5 - 0.05 * k + 0.02 * s}" for k in range(n)]
+        (out / f"seed_{s}" / "eval.csv").write_text("\n".join(rows) + "\n")
+
+
+@pytest.mark.parametrize("n", [1, 4])
+def test_the_learning_curve_shows_the_agent_with_one_evaluation_too(tmp_path, n):
+    """One evaluation (eval_freq >= n_timesteps) is one point: the agent's line carries a
+    visible marker there and the seeds' range is an error bar, the legend beside the axes."""
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+
+    from agents.train_config import load_config
+
+    cfg = load_config(yaml.safe_load(TINY))
+    _eval_csvs(tmp_path, n)
+    fig = curve_figure(tmp_path, cfg, [0, 1, 2], {"passive": 0.55, "lqg": 0.38})
+    ax = fig.axes[0]
+    (agent,) = [line for line in ax.get_lines() if line.get_label().startswith("ppo")]
+    assert agent.get_visible() and agent.get_marker() not in ("None", "", None, " ")
+    assert agent.get_markersize() > 0 and len(agent.get_xdata()) == n
+    np.testing.assert_allclose(agent.get_xdata(), 512 * np.arange(1, n + 1) * cfg.action_hold)
+    np.testing.assert_allclose(agent.get_ydata(), 0.52 - 0.05 * np.arange(n))
+    x0, x1 = ax.get_xlim()
+    assert x0 < agent.get_xdata()[0] < x1  # inside the axes, not on their edge
+    if n == 1:  # the min–max range of the seeds as a vertical bar at the point
+        (bar,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+        (segment,) = bar.get_segments()
+        np.testing.assert_allclose(segment[:, 1], [0.5, 0.54])
+    fig.canvas.draw()
+    legend = ax.get_legend().get_window_extent()
+    assert legend.x0 >= ax.get_window_extent().x1  # beside the curves, covering nothing
+    plt.close(fig)

@@ -23,7 +23,7 @@ from railgym.envs.params import specs, update_docs
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "envs" / "crash.md"
 #: keys the env shell adds to the declared ones
-SHELL_KEYS = {"reward_terms", "crash_over"}
+SHELL_KEYS = {"reward_terms", "crash_over", "case"}
 
 
 def _size(size: str, n: int) -> tuple[int, ...]:

@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 
 from railgym.envs.rendering import (
+    BAR_ROWS,
     CRASH_COLORS,
     DISPLACEMENT_PX_PER_M,
     VERTICAL_COLORS,
+    bar_columns,
     canvas,
     draw_damper,
     draw_line,
@@ -19,6 +21,7 @@ from railgym.envs.rendering import (
     render_crash,
     render_vertical,
 )
+from railgym.envs.text import GLYPHS, draw_text, text_width
 
 INK = (255, 0, 0)
 
@@ -210,9 +213,17 @@ def test_vertical_actuator_arrow_and_gauge(ratio):
     m = mask_of(img, c[on])
     arrow_rows = np.nonzero(m[20:].any(axis=1))[0]
     assert np.ptp(arrow_rows) + 1 == pytest.approx(0.45 * 0.14 * 400 * abs(ratio), abs=1.5)
+    # the gauge under the progress bar: from its zero mark at the middle of the bar columns,
+    # full scale half their width, to the right when pushing
+    x0, x1 = bar_columns(600)
+    centre = (x0 + x1) // 2
+    half = min(centre - x0, x1 - centre)
     gauge_cols = np.nonzero(m[13])[0]
-    assert gauge_cols.size == pytest.approx(abs(ratio) * 296, abs=1)
-    assert (gauge_cols.min() >= 299) == (ratio > 0)
+    assert gauge_cols.size == pytest.approx(abs(ratio) * half, abs=1)
+    assert (gauge_cols.min() >= centre) == (ratio > 0)
+    track = mask_of(img, c["bar_back"])[13] | m[13]
+    track[centre] = True  # the zero mark
+    assert np.nonzero(track)[0].tolist() == list(range(centre - half, centre + half))
 
 
 def test_vertical_force_saturates_and_progress_bar():
@@ -220,8 +231,11 @@ def test_vertical_force_saturates_and_progress_bar():
     b = render_vertical(vertical_state(force_a=9e3))
     np.testing.assert_array_equal(a, b)
     img = render_vertical(vertical_state(time=2.5, duration=10.0))
-    filled = mask_of(img, VERTICAL_COLORS["bar_front"])[5].sum()
-    assert filled == pytest.approx(0.25 * 592, abs=1)
+    x0, x1 = bar_columns(600)
+    filled = mask_of(img, VERTICAL_COLORS["bar_front"])[5]
+    empty = mask_of(img, VERTICAL_COLORS["bar_back"])[5]
+    assert filled.sum() == pytest.approx(0.25 * (x1 - x0), abs=1)
+    assert np.nonzero(filled | empty)[0].tolist() == list(range(x0, x1))
 
 
 def test_vertical_is_deterministic_and_leaves_state_alone():
@@ -347,3 +361,107 @@ def test_crash_is_deterministic():
 def test_crash_bad_input(change, field):
     with pytest.raises(ValueError, match=field):
         render_crash(crash_state(**change))
+
+
+# --------------------------------------------------------------------------- bar labels
+def _label_box(img, text, x_end, rows, color, background):
+    """The pixels of ``text`` as the frames draw a bar's label (ending 4 px left of column
+    ``x_end``, centred on ``rows``): (region of ``img``, the same region with the text drawn
+    alone on ``background``)."""
+    y = round(0.5 * (rows[0] + rows[1]) - 3.5)
+    x = round(x_end - 4 - text_width(text))
+    region = (slice(y, y + 7), slice(max(x, 0), x_end - 4))
+    alone = canvas(img.shape[1], img.shape[0], background)
+    draw_text(alone, x, y, text, color)
+    return img[region], alone[region]
+
+
+def test_the_vertical_frames_bars_carry_their_labels():
+    img = render_vertical(vertical_state(time=2.5, duration=10.0, force_a=2.5e3))
+    c = VERTICAL_COLORS
+    x0, x1 = bar_columns(600)
+    centre = (x0 + x1) // 2
+    gauge_start = centre - min(centre - x0, x1 - centre)
+    for text, x_end in (("time", x0), ("force", gauge_start)):
+        got, want = _label_box(img, text, x_end, BAR_ROWS[text], c["outline"], c["background"])
+        np.testing.assert_array_equal(got, want)
+        assert mask_of(got, c["outline"]).sum() == sum(GLYPHS[ch].sum() for ch in text)
+
+
+def test_the_crash_frames_progress_bar_carries_its_label():
+    img = render_crash(crash_state(time=0.1, duration=1.0))
+    x0, _ = bar_columns(800)
+    c = CRASH_COLORS
+    got, want = _label_box(img, "time", x0, BAR_ROWS["time"], c["wall"], c["background"])
+    np.testing.assert_array_equal(got, want)
+    assert mask_of(got, c["wall"]).any()
+
+
+def _vehicle_state(**kw):
+    from railgym.envs.vehicle_render import render_vehicle  # noqa: F401  (the module tested)
+
+    tx = np.linspace(-18.0, 18.0, 301)
+    state = {
+        "track_x": tx,
+        "track_z": np.zeros_like(tx),
+        "body_x": np.linspace(-12.0, 12.0, 41),
+        "body_z": np.zeros(41),
+        "bogie_x": np.array([9.5, -9.5]),
+        "bogie_z": np.zeros(2),
+        "bogie_pitch": np.zeros(2),
+        "wheel_x": np.array([10.75, 8.25, -8.25, -10.75]),
+        "wheel_z": np.zeros(4),
+        "force": np.array([4e3, -2e3]),
+        "f_max": 8e3,
+        "time": 1.0,
+        "duration": 4.0,
+    }
+    state.update(kw)
+    return state
+
+
+def test_the_vehicle_frames_bars_carry_their_labels():
+    """The progress bar (``time``) and a gauge above each bogie (``front force`` over the
+    bogie at the larger position, ``rear force``), each filled from its zero mark."""
+    from railgym.envs.vehicle_render import render_vehicle
+
+    img = render_vehicle(_vehicle_state())
+    c = VERTICAL_COLORS
+    x0, _ = bar_columns(800)
+    got, want = _label_box(img, "time", x0, BAR_ROWS["time"], c["outline"], c["background"])
+    np.testing.assert_array_equal(got, want)
+    half = round(0.08 * 800)
+    for x, text, ratio in ((9.5, "front force", 0.5), (-9.5, "rear force", -0.25)):
+        centre = round((x + 18.0) * 800 / 36.0)
+        box = _label_box(img, text, centre - half, BAR_ROWS["force"], c["outline"], c["background"])
+        np.testing.assert_array_equal(*box)
+        row = img[13]
+        push = np.nonzero(np.all(row == c["actuator_push"], axis=1))[0]
+        pull = np.nonzero(np.all(row == c["actuator_pull"], axis=1))[0]
+        filled = push[(push >= centre - half) & (push < centre + half)]
+        if ratio < 0:
+            filled = pull[(pull >= centre - half) & (pull < centre + half)]
+        assert filled.size == pytest.approx(abs(ratio) * half, abs=1)
+        assert (filled.min() >= centre) == (ratio > 0)
+
+
+def test_the_frames_draw_their_bar_labels_through_the_font(monkeypatch):
+    """Every label goes through the font's draw_text (no label drawn by hand)."""
+    import railgym.envs.rendering as rendering
+    from railgym.envs.vehicle_render import render_vehicle
+
+    drawn: list[str] = []
+
+    def record(img, x, y, text, color, scale=1):
+        drawn.append(text)
+        draw_text(img, x, y, text, color, scale)
+
+    monkeypatch.setattr(rendering, "draw_text", record)
+    render_vertical(vertical_state(duration=10.0))
+    assert drawn[:2] == ["time", "force"]
+    drawn.clear()
+    render_vehicle(_vehicle_state())
+    assert {"time", "front force", "rear force"} <= set(drawn)
+    drawn.clear()
+    render_crash(crash_state(time=0.0))
+    assert "time" in drawn

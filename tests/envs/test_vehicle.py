@@ -153,7 +153,7 @@ def test_profile_option_file_and_arrays_agree(tmp_path):
     a = run(VerticalVehicleEnv(profile=str(path), **kw), acts, seed=0)
     env = VerticalVehicleEnv(**kw)
     env.reset(seed=0, options={"profile": (x, z)})
-    b = [(env.reset(seed=0)[0],)] + [env.step(u)[:4] for u in acts]
+    b = [(env.reset(seed=0, options={"hold": True})[0],)] + [env.step(u)[:4] for u in acts]
     for p, q in zip(a[1:], b[1:], strict=True):
         np.testing.assert_array_equal(p[0], q[0])
     flat = VerticalVehicleEnv(**kw)

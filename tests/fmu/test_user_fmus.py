@@ -122,3 +122,33 @@ def test_secondary_law_and_its_linearisation_in_the_vehicle_yaml() -> None:
     }
     assert mapping["outputs"]["deflection"] == "x1 - x2"
     assert mapping["outputs"]["bogie_acc"] == "der(v1)"
+
+
+def test_an_element_collected_from_the_users_fmu_is_plausible(user_c_fmu: Path, tmp_path) -> None:
+    """As tests/fmu/test_user_path.py builds it (the paper design on the FMU, the user's
+    vehicle from the mapping): its linearisation is the car's k2, c2, so neither env warns
+    that it does not look like the car's suspension."""
+    import warnings
+
+    import gymnasium as gym
+
+    import railgym  # noqa: F401  (registers the envs)
+    from railgym.fmu.collect import collect_fmu
+    from railgym.vehicles.collect import build_vertical_surrogate
+    from railgym.vehicles.element_plausibility import element_plausibility
+    from railgym.vehicles.vertical import load_vehicle
+
+    car = tmp_path / "my_car.yaml"
+    car.write_text(USER_VEHICLE_YAML)
+    mapping = {**yaml.safe_load(USER_MAPPING_YAML), "fmu": str(user_c_fmu), "vehicle": str(car)}
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(mapping, sort_keys=False))
+    data = collect_fmu(tmp_path / "map.yaml", "paper")
+    model, _, _ = build_vertical_surrogate(data=data, vehicle=str(car))
+    p = element_plausibility(model, load_vehicle(str(car)))
+    assert p.plausible and p.findings == ()
+    assert p.stiffness_ratio == pytest.approx(1.0, abs=0.02)
+    assert p.damping_ratio == pytest.approx(1.0, abs=0.05)  # the tanh blend: mean of slopes
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        gym.make("railgym/VerticalSuspension-v1", surrogate=model, vehicle=str(car))
+    assert not [w for w in record if "does not look like" in str(w.message)]

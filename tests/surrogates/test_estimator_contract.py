@@ -13,7 +13,10 @@ import numpy as np
 import pytest
 
 from surrogates import Kriging, LegendreRegression, io
-from surrogates.passive import PassiveLegendreRegression
+from surrogates.models import checks
+from surrogates.models.lpr import design_matrix
+from surrogates.passive import PassiveLegendreRegression, passivity_check
+from surrogates.selection import factory_for, select_kfold, select_oob
 
 sklearn_base = pytest.importorskip("sklearn.base")
 estimator_checks = pytest.importorskip("sklearn.utils.estimator_checks")
@@ -118,11 +121,11 @@ def test_old_files_without_the_new_fields_still_load(tmp_path):
 
 
 # ----------------------------------------------------------------- scikit-learn interplay
-#: the estimators as checked, each check of ``check_estimator`` run with no exclusion: Kriging as
-#: constructed by default; the Legendre fits at degree 1, since the checks' data sets have 10-50
-#: samples of up to 10 features and a Legendre fit needs one sample per term
-#: (``test_default_legendre_fits_fail_only_for_too_few_samples``)
-CHECKED = [LegendreRegression(degree=1), PassiveLegendreRegression(degree=1), Kriging()]
+#: the estimators as checked, each as constructed by default and each check of
+#: ``check_estimator`` run with no exclusion; the checks' data sets have 10-50 samples of up to
+#: 10 features, fewer than the 1 + 5·d terms of a default Legendre fit, which then returns the
+#: minimum-norm coefficients with a warning (``test_underdetermined_fit_is_minimum_norm``)
+CHECKED = [LegendreRegression(), PassiveLegendreRegression(), Kriging()]
 
 
 with warnings.catch_warnings():  # the models do not inherit from sklearn.base.BaseEstimator
@@ -130,6 +133,7 @@ with warnings.catch_warnings():  # the models do not inherit from sklearn.base.B
     EVERY_CHECK = parametrize_with_checks(CHECKED)
 
 
+@pytest.mark.filterwarnings("ignore::surrogates.models.checks.UnderdeterminedFitWarning")
 @EVERY_CHECK
 def test_sklearn_check_estimator(estimator, check):
     check(estimator)
@@ -137,6 +141,7 @@ def test_sklearn_check_estimator(estimator, check):
 
 @pytest.mark.filterwarnings("ignore:Estimator .* does not inherit from `sklearn.base")
 @pytest.mark.filterwarnings("ignore:Skipping check")
+@pytest.mark.filterwarnings("ignore::surrogates.models.checks.UnderdeterminedFitWarning")
 @pytest.mark.parametrize("model", CHECKED, ids=lambda m: type(m).__name__)
 def test_check_estimator_passes_whole(model):
     results = estimator_checks.check_estimator(model, on_fail=None)
@@ -148,6 +153,10 @@ def test_check_estimator_passes_whole(model):
         "check_fit1d",
         "check_fit_score_takes_y",
         "check_n_features_in_after_fitting",
+        "check_estimators_dtypes",
+        "check_estimators_nan_inf",
+        "check_regressors_no_decision_function",
+        "check_regressors_int",
         "check_estimators_unfitted",
         "check_regressors_train",  # R² > 0.5 on scikit-learn's regression data
     } <= passed
@@ -157,28 +166,71 @@ def test_check_estimator_passes_whole(model):
     assert skipped <= {"check_array_api_input", "check_regressor_data_not_an_array"}
 
 
-@pytest.mark.filterwarnings("ignore:Estimator .* does not inherit from `sklearn.base")
-@pytest.mark.filterwarnings("ignore:Skipping check")
-@pytest.mark.parametrize("cls", [LegendreRegression, PassiveLegendreRegression])
-def test_default_legendre_fits_fail_only_for_too_few_samples(cls):
-    """Default degree 5: the checks whose data sets have fewer samples than the model has
-    terms (1 + 5·d) get the model's own error, by design (an under-determined least-squares
-    fit is refused, not regularised); every other check passes."""
-    results = estimator_checks.check_estimator(cls(), on_fail=None)
-    failed = {r["check_name"]: r["exception"] for r in results if r["status"] == "failed"}
-    for exc in failed.values():
-        assert isinstance(exc, ValueError)
-        got = re.fullmatch(r"X has (\d+) samples but degree=5 .*needs at least (\d+) .*", str(exc))
-        assert got is not None, exc
-        assert int(got[1]) < int(got[2])
-    assert set(failed) <= {
-        "check_n_features_in_after_fitting",
-        "check_estimators_dtypes",
-        "check_estimators_nan_inf",
-        "check_regressors_no_decision_function",
-        "check_regressors_int",
-    }
-    assert sum(r["status"] == "passed" for r in results) >= 45
+@pytest.mark.parametrize(
+    ("cls", "params"),
+    [(LegendreRegression, {}), (PassiveLegendreRegression, {"monotone": False})],
+)
+def test_underdetermined_fit_is_minimum_norm(cls, params):
+    """Fewer samples than terms: one UnderdeterminedFitWarning naming both counts, pointing
+    at the caller, and the least-squares coefficients of smallest norm (column-scaled), which
+    here (full row rank) interpolate the samples; the passive fit without a constraint is the
+    ridge limit of it."""
+    rng = np.random.default_rng(5)
+    X = rng.uniform(-1.0, 1.0, (12, 4))
+    y = np.sin(2.0 * X[:, 0]) + X[:, 1] ** 2 - X[:, 2] + 0.3 * X[:, 3]
+    model = cls(degree=5, **params)
+    with pytest.warns(checks.UnderdeterminedFitWarning) as record:
+        model.fit(X, y)
+    assert len(record) == 1 and record[0].filename == __file__
+    text = str(record[0].message)
+    assert re.match(r"X has 12 samples but degree=5 .*needs at least 21 \(one per term\)", text)
+    assert model.n_terms_ == 21 and np.isfinite(model.cond_) and model.cond_ >= 1.0
+    A = design_matrix(model._map(X), model.exponents_)
+    norms = np.linalg.norm(A, axis=0)
+    smallest = np.linalg.pinv(A / norms) @ y
+    tol = 1e-12 if cls is LegendreRegression else 1e-5  # the passive ridge: RIDGE = 1e-4
+    np.testing.assert_allclose(model.coef_ * norms, smallest, rtol=0, atol=tol)
+    np.testing.assert_allclose(model.predict(X), y, atol=tol)
+    back = cls.from_dict(json.loads(json.dumps(model.to_dict())))
+    np.testing.assert_array_equal(back.predict(X), model.predict(X))
+
+
+def test_underdetermined_passive_fit_keeps_its_slopes_non_negative():
+    rng = np.random.default_rng(8)
+    X = rng.uniform(-1.0, 1.0, (9, 3))
+    y = X[:, 0] ** 3 - 0.5 * X[:, 1] + np.cos(3.0 * X[:, 2])  # decreasing in parts
+    with pytest.warns(checks.UnderdeterminedFitWarning, match="needs at least 16"):
+        model = PassiveLegendreRegression(degree=5).fit(X, y)
+    assert np.all(model.min_slope_ >= 0.0)
+    assert np.all(passivity_check(model, scale=1.0, n=41)["min_slope"] >= -1e-9)
+
+
+def test_underdetermined_candidates_are_still_skipped_by_the_searches():
+    """The degree searches skip a candidate with more terms than samples, as when fit
+    refused it: its row carries the reason and no score, and no warning escapes."""
+    rng = np.random.default_rng(6)
+    X = rng.uniform(-1.0, 1.0, (40, 2))
+    y = np.sin(2.0 * X[:, 0]) + X[:, 1] ** 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        oob = select_oob(factory_for("lpr"), [(2, 2), (20, 20)], X[:30], y[:30], X[30:], y[30:])
+        kfold = select_kfold(factory_for("lpr"), [(2, 2), (20, 20)], X, y, k=4)
+        passive = select_kfold(
+            lambda c: PassiveLegendreRegression(degree=c), [(2, 2), (20, 20)], X, y, k=4
+        )
+    for res in (oob, kfold, passive):
+        assert res.best == (2, 2)
+        assert np.isfinite(res.table[0]["rms"]) and np.isnan(res.table[1]["rms"])
+        assert "needs at least 41 (one per term)" in res.table[1]["error"]
+    with pytest.raises(ValueError, match=r"20,20: X has 30 samples but degree=\(20, 20\)"):
+        select_oob(factory_for("lpr"), [(20, 20)], X[:30], y[:30], X[30:], y[30:])
+
+
+def test_an_absurd_underdetermined_fit_is_still_refused():
+    X = np.random.default_rng(7).uniform(-1.0, 1.0, (30, 2))
+    assert 20301 > checks.MAX_UNDERDETERMINED_TERMS
+    with pytest.raises(ValueError, match=r"needs at least 20301 .*only up to 1000 terms"):
+        LegendreRegression(degree=200, interactions=True).fit(X, X[:, 0])
 
 
 def test_fit_predict_score_take_scikit_learns_names():

@@ -250,6 +250,52 @@ def test_shadow_track_is_copied_without_seed_and_follows_inner_action_wrappers()
     assert info["shadow"]["err_vel"] == 0.0
 
 
+def test_shadow_speed_is_the_batch_call_of_each_side_timed_alike(monkeypatch):
+    """With a clock that moves only inside the batches' ``advance`` (3 µs a step on the
+    surrogate, 12 µs on the reference, 1 s on the model's first step as a compile would),
+    the kernel times are those costs (the median drops the first step), ``speedup`` is their
+    ratio, the wall times sum every step; the stand-ins go on ``close``."""
+    import railgym.wrappers.reference_shadow as rs
+    from railgym.envs.vertical_batch import VerticalBatch
+
+    clock = [0.0]
+    monkeypatch.setattr(rs, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
+    advance, cost = VerticalBatch.advance, {"surrogate": 3e-6, "dynamic": 12e-6}
+    calls = {"surrogate": 0, "dynamic": 0}
+
+    def costly(sim):
+        variant = sim.cfg.variant
+        clock[0] += 1.0 if variant == "surrogate" and calls[variant] == 0 else cost[variant]
+        calls[variant] += 1
+        advance(sim)
+
+    monkeypatch.setattr(VerticalBatch, "advance", costly)
+    env = ReferenceShadow(gym.make(ENV_ID, duration=0.3))
+    infos, _ = run(env, seed=3)
+    s = infos[-1]["shadow"]
+    assert s["steps"] == calls["dynamic"] == calls["surrogate"] == 30
+    # exact up to the rounding of the clock's sums
+    assert s["kernel_s_per_step_model"] == pytest.approx(3e-6, rel=1e-9)
+    assert s["kernel_s_per_step_reference"] == pytest.approx(12e-6, rel=1e-9)
+    assert s["speedup"] == s["kernel_s_per_step_reference"] / s["kernel_s_per_step_model"]
+    assert s["speedup"] == pytest.approx(4.0, rel=1e-9)
+    assert s["wall_time_model_s"] == pytest.approx(1.0 + 29 * 3e-6, rel=1e-12)
+    assert s["wall_time_reference_s"] == pytest.approx(30 * 12e-6, rel=1e-12)
+    sims = (env.unwrapped.sim, env.shadow.sim)
+    assert all(isinstance(sim.__dict__["advance"], rs._TimedAdvance) for sim in sims)
+    env.close()
+    assert all("advance" not in sim.__dict__ for sim in sims)
+
+
+def test_shadow_speed_fields_of_a_real_episode_are_consistent():
+    env = ReferenceShadow(VerticalSuspensionEnv(backend="surrogate", duration=0.5))
+    s = run(env, seed=1)[0][-1]["shadow"]
+    k_model, k_ref = s["kernel_s_per_step_model"], s["kernel_s_per_step_reference"]
+    assert 0 < k_model < np.inf and 0 < k_ref < np.inf
+    assert s["speedup"] == k_ref / k_model
+    assert s["wall_time_model_s"] > 0 and s["wall_time_reference_s"] > 0
+
+
 def test_shadow_through_gym_make_and_unsupported_env():
     env = ReferenceShadow(gym.make(ENV_ID, duration=0.3))
     infos, _ = run(env, seed=5)
