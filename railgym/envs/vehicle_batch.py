@@ -9,7 +9,6 @@ counters behind the ``info`` values, whose keys are declared once (:data:`INFO_K
 from __future__ import annotations
 
 import math
-import warnings
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -23,11 +22,7 @@ from railgym.envs.params import TrackEnvParams, consts
 from railgym.envs.vertical_batch import TRACK_BYTES, reward_sections
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_with_slope
-from railgym.vehicles.element_envelope import (
-    OperatingEnvelope,
-    envelope_warning,
-    outside_envelope,
-)
+from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
 from railgym.vehicles.vehicle import (
     Lpr,
     WholeVehicle,
@@ -325,7 +320,7 @@ class VehicleBatch:
         self.track_class = np.zeros(n, np.int64)
         self.measured = np.zeros(n, np.bool_)  # the episode runs a measured or user profile
         self.envelope = envelope
-        self._envelope_warned = False
+        self._envelope_check = EnvelopeCheck(envelope, "VerticalVehicle")
         #: per step: an element evaluation was outside the training box (``outside_element``)
         self.outside = np.zeros(n, np.bool_)
         #: per episode: its class / speed is outside :attr:`envelope` (``outside_envelope``)
@@ -411,13 +406,9 @@ class VehicleBatch:
 
     def _outside_envelope(self, i: int) -> bool:
         """Whether vehicle ``i``'s episode is outside :attr:`envelope`; warns the first time."""
-        tc, v, measured = int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
-        outside = outside_envelope(self.envelope, tc, v, measured)
-        if outside and not self._envelope_warned and self.envelope is not None:
-            self._envelope_warned = True
-            text = envelope_warning(self.envelope, tc, v, measured)
-            warnings.warn(f"VerticalVehicle: {text}", UserWarning, stacklevel=2)
-        return outside
+        return self._envelope_check(
+            int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
+        )
 
     def set_action(self, actions: np.ndarray) -> None:
         """Store the clipped actions (n, 2); :meth:`advance` applies ``action · f_max`` (N)."""

@@ -10,7 +10,6 @@ episode flags.
 from __future__ import annotations
 
 import math
-import warnings
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -28,11 +27,7 @@ from railgym.envs.compiled import (
 from railgym.envs.params import TrackEnvParams, consts
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
-from railgym.vehicles.element_envelope import (
-    OperatingEnvelope,
-    envelope_warning,
-    outside_envelope,
-)
+from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
 from railgym.vehicles.vertical import (
     RAISE_MODE,
     LprArrays,
@@ -282,7 +277,7 @@ class VerticalBatch:
         self.speed = np.zeros(n)
         self.measured = np.zeros(n, np.bool_)  # the episode runs a measured or user profile
         self.envelope = envelope
-        self._envelope_warned = False
+        self._envelope_check = EnvelopeCheck(envelope, "VerticalSuspension")
         self.inv_scale = 1.0 / cfg.obs_scale
         w = cfg.reward_weights
         self.step_consts = consts(
@@ -377,13 +372,9 @@ class VerticalBatch:
 
     def _outside_envelope(self, i: int) -> bool:
         """Whether vehicle ``i``'s episode is outside :attr:`envelope`; warns the first time."""
-        tc, v, measured = int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
-        outside = outside_envelope(self.envelope, tc, v, measured)
-        if outside and not self._envelope_warned and self.envelope is not None:
-            self._envelope_warned = True
-            text = envelope_warning(self.envelope, tc, v, measured)
-            warnings.warn(f"VerticalSuspension: {text}", UserWarning, stacklevel=2)
-        return outside
+        return self._envelope_check(
+            int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
+        )
 
     def set_action(self, actions: np.ndarray) -> None:
         """Store the clipped actions (n, 1); :meth:`advance` applies ``action · f_max`` (N)."""

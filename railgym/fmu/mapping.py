@@ -274,6 +274,19 @@ def _declared(var: Any) -> str | None:
     return str(unit) if unit else None
 
 
+def _with_unit(spec: dict, key: str, field: str, source: str) -> tuple[str, str | None]:
+    """``spec[key]`` (a non-empty string) and its optional ``unit`` of the mapping entry
+    ``{key: ..., unit: ...}`` at ``field``; any other key is an error."""
+    with _in_file(source):
+        f = val.Fields(spec, field)
+        text = f.text(key)
+        unit = f.get("unit", None)
+        f.done()
+    if unit is not None and not isinstance(unit, str):
+        raise FMUError(f"{field}.unit", f"{source}: {field}.unit must be a string", full=True)
+    return text, unit
+
+
 def _signal(
     spec: Any,
     field: str,
@@ -284,13 +297,7 @@ def _signal(
     causalities: tuple[str, ...],
 ) -> Signal:
     if isinstance(spec, dict):
-        with _in_file(source):
-            f = val.Fields(spec, field)
-            name = f.text("name")
-            unit = f.get("unit", None)
-            f.done()
-        if unit is not None and not isinstance(unit, str):
-            raise FMUError(f"{field}.unit", f"{source}: {field}.unit must be a string", full=True)
+        name, unit = _with_unit(spec, "name", field, source)
     elif isinstance(spec, str) and spec:
         name, unit = spec, None
     else:
@@ -467,13 +474,7 @@ def _output(
         return Output(field, Expression.of(sig.name), (sig,))
     unit = None
     if isinstance(spec, dict):
-        with _in_file(source):
-            f = val.Fields(spec, field)
-            text = f.text("expr")
-            unit = f.get("unit", None)
-            f.done()
-        if unit is not None and not isinstance(unit, str):
-            raise FMUError(f"{field}.unit", f"{source}: {field}.unit must be a string", full=True)
+        text, unit = _with_unit(spec, "expr", field, source)
     elif isinstance(spec, str):
         text = spec
     else:

@@ -23,6 +23,7 @@ an envelope (e.g. one fitted in this session) is never reported outside.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
@@ -33,6 +34,7 @@ __all__ = [
     "OperatingEnvelope",
     "design_envelope",
     "element_envelope",
+    "EnvelopeCheck",
     "envelope_warning",
     "outside_envelope",
     "parse_envelope",
@@ -180,3 +182,21 @@ def envelope_warning(
         "(info['outside_envelope'] is True for such episodes; docs/validation.md, Validity "
         "flags). Warned once per env."
     )
+
+
+class EnvelopeCheck:
+    """Whether a batch's episodes run outside ``envelope`` (``None``: never), with one
+    ``UserWarning`` the first time (``env``: the env's name in it)."""
+
+    def __init__(self, envelope: OperatingEnvelope | None, env: str) -> None:
+        self.envelope, self.env, self.warned = envelope, env, False
+
+    def __call__(self, track_class: int, speed: float, measured: bool = False) -> bool:
+        """True when FRA ``track_class`` at ``speed`` (m/s; ``measured``: a measured or user
+        profile) is outside the envelope; warns the first time."""
+        outside = outside_envelope(self.envelope, track_class, speed, measured)
+        if outside and not self.warned and self.envelope is not None:
+            self.warned = True
+            text = envelope_warning(self.envelope, track_class, speed, measured)
+            warnings.warn(f"{self.env}: {text}", UserWarning, stacklevel=3)
+        return outside
