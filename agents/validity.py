@@ -21,59 +21,25 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
 from agents._args import bounded_real, duration_s, episodes, track_class
-from agents.policies import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
+from agents.vehicle_validation import ENVS, SEED, record_episodes
 from railgym.track import class_speed
 
 __all__ = ["ENVS", "THRESHOLD", "case_episodes", "format_rows", "target_holds", "validity_rows"]
 
-#: per ``--env``: env id, its controllers, the points of ``info["carbody_acc"]``
-ENVS: dict[str, tuple[str, dict[str, Any], int]] = {
-    "vertical": (ENV_ID, CONTROLLERS, 1),
-    "vehicle": (VEHICLE_ID, VEHICLE_CONTROLLERS, 3),
-}
 #: relative RMS error above which an episode must be flagged, %
 THRESHOLD = 8.0
-#: first track seed (never used to build an element)
-SEED = 2000
 
 
-def _record(env_id: str, controller: str, kwargs: dict[str, Any], n: int, seed: int) -> dict:
-    """One episode of ``n`` sub-envs in closed loop with ``controller``: carbody
-    accelerations (steps, n, points) m/s², steps with ``outside_element`` (n,), the episodes'
-    ``outside_envelope`` (n,) and diverged flags (n,)."""
-    name = "vertical" if env_id == ENV_ID else "vehicle"
-    _, table, points = ENVS[name]
-    cls, ctl_kwargs, obs_kwargs = table[controller]
-    with warnings.catch_warnings():  # the envelope's warning: the flag is recorded instead
+def _record(env_name: str, controller: str, kwargs: dict[str, Any], n: int, seed: int) -> dict:
+    """:func:`~agents.vehicle_validation.record_episodes` without the envelope's warning
+    (the flag is recorded instead)."""
+    with warnings.catch_warnings():
         warnings.filterwarnings("ignore", ".*the surrogate element was built for", UserWarning)
-        env = gym.make_vec(
-            env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs, **obs_kwargs
-        )
-        policy = cls(env, **ctl_kwargs)
-        obs, info = env.reset(seed=seed)
-    base: Any = env.unwrapped  # the native vector env: cfg
-    steps = base.cfg.n_steps
-    acc = np.zeros((steps, n, points))
-    outside = np.zeros(n, np.int64)
-    div = np.zeros(n, bool)
-    for k in range(steps):
-        action, _ = policy.predict(obs, deterministic=True)
-        obs, _, terminated, _, info = env.step(action)
-        acc[k] = np.reshape(info["carbody_acc"], (n, points))
-        outside += info["outside_element"]
-        div |= terminated
-    env.close()
-    return {
-        "acc": acc,
-        "outside": outside,
-        "envelope": np.asarray(info["outside_envelope"], bool),
-        "div": div,
-    }
+        return record_episodes(env_name, controller, kwargs, n, seed)
 
 
 def case_episodes(
@@ -89,11 +55,10 @@ def case_episodes(
     %, the largest over the floor points (inf where either run diverged), ``error_points``
     (n_seeds, points) %, ``outside_element_%`` (n_seeds,) share of the steps flagged,
     ``outside_envelope`` (n_seeds,), ``flagged`` (n_seeds,): either flag."""
-    env_id = ENVS[env_name][0]
     common = {"track_class": track_class, "speed": factor * class_speed(track_class)}
     common["duration"] = duration
-    sur = _record(env_id, controller, {"backend": "surrogate", **common}, n_seeds, seed)
-    ref = _record(env_id, controller, {"backend": "reference", **common}, n_seeds, seed)
+    sur = _record(env_name, controller, {"backend": "surrogate", **common}, n_seeds, seed)
+    ref = _record(env_name, controller, {"backend": "reference", **common}, n_seeds, seed)
     a, b = sur["acc"], ref["acc"]
     err = 100.0 * np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
     err[sur["div"] | ref["div"]] = np.inf

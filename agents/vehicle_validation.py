@@ -30,7 +30,7 @@ from agents.policies import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 
-__all__ = ["FLOOR", "floor_errors", "main", "validation_rows"]
+__all__ = ["ENVS", "FLOOR", "floor_errors", "main", "record_episodes", "validation_rows"]
 
 #: floor points of the env's ``carbody_acc`` (front, centre, rear)
 FLOOR = ("front", "centre", "rear")
@@ -43,24 +43,34 @@ ENVS: dict[str, tuple[str, dict[str, Any], tuple[str, ...]]] = {
 SEED = 2000
 
 
-def _record(
-    env: Any, controller: str, seed: int, env_name: str = "vehicle"
-) -> tuple[np.ndarray, np.ndarray]:
-    """Carbody accelerations (n_steps, n, points) of one episode of every sub-env, and the
-    diverged flags (n,)."""
-    _, table, points = ENVS[env_name]
-    cls, kwargs, _ = table[controller]
-    policy = cls(env, **kwargs)
-    obs, _ = env.reset(seed=seed)
-    n_steps = env.unwrapped.cfg.n_steps if hasattr(env, "unwrapped") else env.cfg.n_steps
-    rec = np.zeros((n_steps, env.num_envs, len(points)))
-    div = np.zeros(env.num_envs, bool)
-    for k in range(n_steps):
+def record_episodes(
+    env_name: str, controller: str, kwargs: Mapping[str, Any], n: int, seed: int
+) -> dict[str, np.ndarray]:
+    """One episode of a native vector env of ``n`` sub-envs of ``env_name`` (keywords
+    ``kwargs``; sub-env ``i`` on seed ``seed + i``) in closed loop with ``controller`` on its
+    own observation: ``acc`` the carbody accelerations (steps, n, points) m/s², ``outside``
+    the steps with ``info["outside_element"]`` (n,), ``envelope`` the episodes'
+    ``info["outside_envelope"]`` (n,) and ``div`` the diverged flags (n,)."""
+    env_id, table, points = ENVS[env_name]
+    cls, ctl_kwargs, obs_kwargs = table[controller]
+    env = gym.make_vec(
+        env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs, **obs_kwargs
+    )
+    policy = cls(env, **ctl_kwargs)
+    obs, info = env.reset(seed=seed)
+    steps = env.unwrapped.cfg.n_steps
+    acc = np.zeros((steps, n, len(points)))
+    outside = np.zeros(n, np.int64)
+    div = np.zeros(n, bool)
+    for k in range(steps):
         action, _ = policy.predict(obs, deterministic=True)
         obs, _, terminated, _, info = env.step(action)
-        rec[k] = np.reshape(info["carbody_acc"], (env.num_envs, len(points)))
+        acc[k] = np.reshape(info["carbody_acc"], (n, len(points)))
+        outside += info["outside_element"]
         div |= terminated
-    return rec, div
+    env.close()
+    envelope = np.asarray(info["outside_envelope"], bool)
+    return {"acc": acc, "outside": outside, "envelope": envelope, "div": div}
 
 
 def floor_errors(
@@ -77,24 +87,14 @@ def floor_errors(
     ``element`` vs the high-fidelity env, per track and point (inf where either run
     diverged). ``reference``: that env's keywords (default ``{"backend": "reference"}``; an
     FMU: ``backend="fmu", fmu_map=…``, with ``vehicle=`` for both envs)."""
-    env_id, table, _ = ENVS[env_name]
-    obs_kw = table[controller][2]
     ref = dict(reference or {"backend": "reference"})
     common = {"vehicle": ref["vehicle"]} if "vehicle" in ref else {}
-    runs = []
-    for kw in ({"backend": "surrogate", "surrogate": element, **common}, ref):
-        env = gym.make_vec(
-            env_id,
-            num_envs=n_seeds,
-            vectorization_mode="vector_entry_point",
-            track_class=track_class,
-            duration=duration,
-            **kw,
-            **obs_kw,
-        )
-        runs.append(_record(env, controller, seed, env_name))
-        env.close()
-    (a, div_a), (b, div_b) = runs
+    case = {"track_class": track_class, "duration": duration}
+    runs = [
+        record_episodes(env_name, controller, {**case, **kw}, n_seeds, seed)
+        for kw in ({"backend": "surrogate", "surrogate": element, **common}, ref)
+    ]
+    (a, div_a), (b, div_b) = ((r["acc"], r["div"]) for r in runs)
     err = np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
     err[div_a | div_b] = np.inf
     return err
