@@ -1,12 +1,11 @@
 """argparse value types of the commands (a bad value is a one-line error naming the flag), the
-one-line error of a command that fails (:func:`error_status`) and its one-line warnings
-(:func:`one_line_warnings`)."""
+one-line error of a command that fails (:func:`error_status`, of :mod:`surrogates.cli_flags`)
+and its one-line warnings (:func:`one_line_warnings`)."""
 
 from __future__ import annotations
 
 import argparse
 import math
-import sys
 import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -15,6 +14,7 @@ from typing import Any
 from railgym import _checks as val
 from railgym.envs.vertical import LIMITS
 from surrogates.checks import bounded_int, seed_number
+from surrogates.cli_flags import error_status
 
 __all__ = [
     "MAX_EPISODES",
@@ -40,7 +40,7 @@ __all__ = [
 
 #: most episodes (sub-envs) of one evaluation case: ``--episodes`` and ``episodes=``
 MAX_EPISODES = 1000
-#: highest speed accepted by ``--speed``, km/h: a sanity bound above twice the FRA class 6
+#: highest speed accepted by ``--speed-kmh``, km/h: a sanity bound above twice the FRA class 6
 #: limit of 177 km/h
 MAX_SPEED_KMH = 400.0
 
@@ -62,7 +62,7 @@ def bounded_real(what: str, unit: str, top: float) -> Callable[[str], float]:
     return parse
 
 
-#: ``--speed``: km/h, ``0 < v <= MAX_SPEED_KMH``
+#: ``--speed-kmh``: km/h, ``0 < v <= MAX_SPEED_KMH``
 speed_kmh = bounded_real("speed", "km/h", MAX_SPEED_KMH)
 #: ``--duration``: s, ``0 < t <= LIMITS["duration"]`` (the envs' limit)
 duration_s = bounded_real("duration", "s", LIMITS["duration"])
@@ -166,19 +166,6 @@ def vehicle_cases(args: argparse.Namespace) -> dict[str, Any]:
     vehicle``: the case keywords of ``evaluate_vehicle`` / ``gap_vehicle``."""
     duration = VEHICLE_DURATION_S if args.duration is None else args.duration
     return {**vertical_cases(args), "speeds_kmh": args.speed or [None], "duration": duration}
-
-
-def error_status(prog: str, err: Exception, debug: bool = False) -> int:
-    """Exit status of the command ``prog`` that raised ``err``, after its one line on stderr:
-    ``prog: error: …`` and 2 for a user error (``ValueError``, ``OSError``), else ``prog:
-    Type: … (--debug shows the traceback)`` and 1; ``debug`` (``--debug``) re-raises ``err``."""
-    if debug:
-        raise err
-    if isinstance(err, ValueError | OSError):
-        print(f"{prog}: error: {err}", file=sys.stderr)
-        return 2
-    print(f"{prog}: {type(err).__name__}: {err} (--debug shows the traceback)", file=sys.stderr)
-    return 1
 
 
 @contextmanager

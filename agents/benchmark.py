@@ -2,23 +2,30 @@
 **reference** backend over held-out cases beside the classical baselines, and write the
 numbers, a learning curve and a table.
 
-    python -m agents.benchmark CONFIG --seeds 3 --workers 2 [--timesteps T] [--episodes E]
-                               [--out DIR] [--overwrite] [--first-seed S] [--address ADDR]
+    railgym benchmark CONFIG --seeds 3 --workers 2 [--timesteps T] [--episodes E]
+                             [-o DIR] [--overwrite] [--seed S] [--address ADDR]
 
 ``CONFIG`` is an :mod:`agents.train` config (file or packaged name). Each seed ``s`` of
-``first_seed … first_seed + seeds − 1`` is one task (:func:`railgym.parallel.run_tasks`: in
-this process, a process pool or Ray): ``agents.train`` with that seed into ``DIR/seed_<s>/``,
-then the held-out evaluation of its final ``model.zip`` (:data:`HELD_OUT`; tracks of seeds
-1000 + i, never trained on). Every task is seeded, so the numbers do not depend on the number
-of workers. Output in ``DIR`` (default ``runs/benchmark_<config stem>/``):
+``seed … seed + seeds − 1`` (``--seed``, ``--seeds``) is one task
+(:func:`railgym.parallel.run_tasks`: in this process, a process pool or Ray): ``agents.train``
+with that seed into ``DIR/seed_<s>/``, then the held-out evaluation of its final
+``model.zip`` (:data:`HELD_OUT`; tracks of seeds 1000 + i, never trained on). Every task is
+seeded, so the numbers do not depend on the number of workers. Output in ``DIR`` (default
+``runs/benchmark_<config stem>/``):
 
 * ``results.csv``: one row per (policy, seed, case, metric): ``value`` and ``unit``; the
   baselines have an empty seed.
 * ``learning_curve.png``: the evaluation metric of the training runs (``eval.csv``: reference
   backend, the config's evaluation env) against environment steps, mean and min–max band over
   the seeds, the baselines on the same evaluation episodes as horizontal lines.
-* ``table.md``: per case and metric, mean ± sample standard deviation over the seeds and the
-  95 % Student-t interval of the mean, beside each baseline's value.
+* ``table.md``: per case and metric (``a_w`` and the bump-stop contacts beside it), mean ±
+  sample standard deviation over the seeds and the 95 % Student-t interval of the mean, beside
+  each baseline's value; under it a line for each case where the agent's mean ``a_w`` beats a
+  baseline's with more mean contacts (:mod:`agents.contacts`).
+
+The baselines (:func:`baselines_of`): those of the env, and for a vertical config with
+``actuator: semi-active`` the controllers of the damper (:data:`SEMI_ACTIVE_BASELINES`); they
+run with the config's actuator settings (:data:`ACTUATOR_KEYS`) as the agent does.
 """
 
 from __future__ import annotations
@@ -42,14 +49,17 @@ from agents._args import (
     error_status,
     seed_number,
 )
+from agents.contacts import Score, contact_note, more_contacts
 from agents.policies import CRASH_ID, ENV_ID, VEHICLE_ID, evaluate_vehicle, load_policy
 from agents.sweeps import evaluate_sweep
 from agents.train_config import MAX_SEED, load_config
 from railgym import _checks as val
 from railgym.parallel import run_tasks
+from railgym.progress import quiet
 from railgym.report.output import prepare_output_dir, write_text_atomic
+from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
 
-__all__ = ["HELD_OUT", "benchmark", "main"]
+__all__ = ["HELD_OUT", "SEMI_ACTIVE_BASELINES", "baselines_of", "benchmark", "main"]
 
 #: held-out cases per env: FRA classes at their maximum speed (vertical, vehicle); the crash
 #: envelope's speeds × payloads (:data:`agents.crash_report.EVAL_SPEEDS_KMH`)
@@ -60,6 +70,10 @@ BASELINES = {
     VEHICLE_ID: ("passive", "modal-skyhook", "lqg", "lqr"),
     CRASH_ID: ("passive", "best constant", "speed-adaptive"),
 }
+#: the baselines of a vertical config with ``actuator: semi-active`` (passive: command 0)
+SEMI_ACTIVE_BASELINES = ("passive", "clipped-lqg", "skyhook-onoff", "skyhook", "groundhook")
+#: vertical env settings of a training config that the baselines share with the agent
+ACTUATOR_KEYS = ("actuator", "damper")
 #: learning-curve metric per env: ``eval.csv`` column (``_<j>`` columns reduced), reduction,
 #: axis label
 CURVES = {
@@ -72,6 +86,21 @@ EVAL_SEED = 1000
 FLOOR = ("front", "centre", "rear")
 #: crash env settings of a training config that the baselines share with the agent
 CRASH_KEYS = ("scenario", "control_dt", "absorber_range", "absorber_rate", "n_cars")
+
+
+def baselines_of(env_id: str, env_kwargs: dict[str, Any]) -> tuple[str, ...]:
+    """The baseline names of a config of ``env_id`` with ``env_kwargs``: :data:`BASELINES`,
+    or :data:`SEMI_ACTIVE_BASELINES` for ``actuator: semi-active``."""
+    if env_id == ENV_ID and env_kwargs.get("actuator") == "semi-active":
+        return SEMI_ACTIVE_BASELINES
+    return BASELINES[env_id]
+
+
+def _baseline_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The settings of ``env_kwargs`` the baselines share with the agent: :data:`CRASH_KEYS`
+    (crash), :data:`ACTUATOR_KEYS` (vertical)."""
+    keys = {CRASH_ID: CRASH_KEYS, ENV_ID: ACTUATOR_KEYS}.get(env_id, ())
+    return {k: v for k, v in env_kwargs.items() if k in keys}
 
 
 class SeedTask(NamedTuple):
@@ -136,15 +165,18 @@ def held_out(
     episodes: int,
     seed: int | None,
     label: str | None = None,
-    crash_kwargs: dict[str, Any] | None = None,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Held-out rows (:func:`_row` form) of ``policies`` (names or a ``.zip``) on the reference
     backend; ``label`` renames the zip's rows (``seed``: the training seed, ``None`` for
-    baselines); ``crash_kwargs``: env settings of the crash baselines (a zip's own come from
-    its config)."""
+    baselines); ``env_kwargs``: env settings of the crash and vertical baselines
+    (:func:`_baseline_kwargs`; a zip's own come from its config)."""
     if env_id == ENV_ID:
         rows = _vertical_rows(
-            evaluate_sweep(policies, "reference", HELD_OUT[env_id], episodes), seed
+            evaluate_sweep(
+                policies, "reference", HELD_OUT[env_id], episodes, env_kwargs=env_kwargs
+            ),
+            seed,
         )
     elif env_id == VEHICLE_ID:
         rows = _vehicle_rows(
@@ -154,7 +186,6 @@ def held_out(
         from agents import crash_report
 
         factories = {"passive": crash_report.BASELINES["passive"]}
-        env_kwargs = crash_kwargs
         for p in policies:
             if p in crash_report.BASELINES:
                 factories[p] = crash_report.BASELINES[p]
@@ -204,9 +235,10 @@ def _baseline_curve_values(cfg: Any) -> dict[str, float]:
 
     column, how, _ = CURVES[cfg.env_id]
     out = {}
-    for name in BASELINES[cfg.env_id]:
+    for name in baselines_of(cfg.env_id, cfg.env_kwargs):
+        extra: dict[str, Any] = {}
         if cfg.env_id == CRASH_ID:
-            factory, extra = CRASH_BASELINES[name], {}
+            factory = CRASH_BASELINES[name]
         else:
             factory, extra, _ = load_policy(name, cfg.env_id)
         kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs, **extra}
@@ -271,9 +303,33 @@ def plot_curves(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str, 
     return path
 
 
+def contact_lines(rows: list[dict[str, Any]], algo: str) -> list[str]:
+    """Markdown lines, one per case where the agent's ``a_w`` (mean over the seeds, and over
+    the floor points of a vehicle's ``a_w_<point>``) beats a baseline's with more bump-stop
+    contacts (mean over the seeds) than it; none without such a case."""
+    values: dict[tuple[str, str], dict[str, list[float]]] = {}
+    for r in rows:
+        kind = "contacts" if r["metric"] == "contacts" else "a_w"
+        if kind == "a_w" and not r["metric"].startswith("a_w"):
+            continue
+        policy = algo if r["seed"] != "" else r["policy"]
+        values.setdefault((r["case"], policy), {"a_w": [], "contacts": []})[kind].append(r["value"])
+    scores = [
+        Score(case, policy, float(np.mean(v["a_w"])), float(np.mean(v["contacts"])))
+        for (case, policy), v in values.items()
+        if v["a_w"] and v["contacts"]
+    ]
+    bases = {r["policy"] for r in rows if r["seed"] == ""}
+    return [
+        f"- {s.case}: {algo} has a lower a_w with {contact_note(names)} (bump-stop substeps)"
+        for s, names in zip(scores, more_contacts(scores, bases), strict=True)
+        if names and s.policy == algo
+    ]
+
+
 def summary_table(rows: list[dict[str, Any]], algo: str) -> str:
     """Markdown: per (case, metric), the agent's mean ± std over seeds with the 95 % Student-t
-    interval of the mean, and each baseline's value."""
+    interval of the mean, and each baseline's value; then the :func:`contact_lines`."""
     from scipy import stats
 
     keys = list(dict.fromkeys((r["case"], r["metric"], r["unit"]) for r in rows))
@@ -305,7 +361,8 @@ def summary_table(rows: list[dict[str, Any]], algo: str) -> str:
         }
         cells = " | ".join(f"{base[b]:.4g}" if b in base else "–" for b in bases)
         lines.append(f"| {case} | {metric} ({unit}) | {cell} | {cells} |")
-    return "\n".join(lines) + "\n"
+    notes = contact_lines(rows, algo)
+    return "\n".join(lines + ([""] + notes if notes else [])) + "\n"
 
 
 def benchmark(
@@ -336,8 +393,9 @@ def benchmark(
     for part in run_tasks(_run_seed, tasks, workers, address):
         rows.extend(part)
     print("held-out evaluation of the baselines …", file=sys.stderr)
-    crash = {k: v for k, v in cfg.env_kwargs.items() if k in CRASH_KEYS}
-    rows.extend(held_out(cfg.env_id, list(BASELINES[cfg.env_id]), episodes, None, None, crash))
+    names = list(baselines_of(cfg.env_id, cfg.env_kwargs))
+    shared = _baseline_kwargs(cfg.env_id, cfg.env_kwargs)
+    rows.extend(held_out(cfg.env_id, names, episodes, None, None, shared))
     with (out / "results.csv").open("w", newline="") as fh:
         writer = csv.DictWriter(fh, ["policy", "seed", "case", "metric", "value", "unit"])
         writer.writeheader()
@@ -360,35 +418,48 @@ def benchmark(
     return out
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``python -m agents.benchmark``; returns the exit status (2: user error)."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.benchmark", description=__doc__.split("\n\n")[0]
-    )
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym benchmark`` (``python -m agents.benchmark``)."""
+    parser = Parser(prog="railgym benchmark", description=__doc__.split("\n\n")[0])
     parser.add_argument("config", help="agents.train config: YAML file or packaged name")
     parser.add_argument("--seeds", type=bounded_int(1, 1000), default=3, help="training seeds")
-    parser.add_argument("--first-seed", type=seed_number, default=0)
+    seed = parser.add_argument(
+        "--seed", type=seed_number, default=0, help="first training seed (then +1, +2, ...)"
+    )
+    add_deprecated(parser, seed, "--first-seed")
     parser.add_argument("--timesteps", type=bounded_int(1), help="override n_timesteps")
     parser.add_argument("--episodes", type=episodes, default=10, help="held-out episodes per case")
-    parser.add_argument("--out", type=Path, help="output folder (default runs/benchmark_<stem>)")
-    parser.add_argument("--overwrite", action="store_true", help="write into a non-empty --out")
+    add_out(
+        parser,
+        "output folder (default: runs/benchmark_<config-stem>/)",
+        overwrite="write into a non-empty -o/--out folder",
+    )
     add_parallel_arguments(parser, "", "the seeds", "the numbers do")
+    add_common(parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``railgym benchmark`` (``python -m agents.benchmark``); returns the exit
+    status (2: user error)."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     try:
         check_parallel(args)
-        out = benchmark(
-            args.config,
-            args.seeds,
-            args.workers,
-            args.timesteps,
-            args.episodes,
-            args.out,
-            args.overwrite,
-            args.first_seed,
-            args.address,
-        )
-    except (ValueError, OSError) as err:
-        return error_status(parser.prog, err)
+        with quiet(args.quiet):
+            out = benchmark(
+                args.config,
+                args.seeds,
+                args.workers,
+                args.timesteps,
+                args.episodes,
+                args.out,
+                args.overwrite,
+                args.seed,
+                args.address,
+            )
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
     print(f"results.csv, learning_curve.png and table.md in {out}/")
     return 0
 

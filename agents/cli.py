@@ -1,12 +1,12 @@
-"""The ``railgym`` command.
+"""The ``railgym`` command: every entry point of railgym is one of its subcommands.
 
-- ``railgym demo [--out DIR]``: the main job of the quickstart — build the surrogate element
+- ``railgym demo [-o DIR]``: the main job of the quickstart — build the surrogate element
   from the reference model (paper stages 1–3), run one episode each on the surrogate and the
   reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
   indices, the env-steps/s of the surrogate, the reference and the reference FMU measured in
   the same run (:mod:`agents.speed`), and write the plots of :data:`DEMO_FILES` (a re-run
   replaces them).
-- ``railgym paper [--quick] [--out DIR]``: the paper's tables and figures on our models
+- ``railgym paper [--quick] [-o DIR]``: the paper's tables and figures on our models
   (:func:`railgym.report.make_report`), written as :data:`railgym.report.REPORT_FILES` (a
   re-run replaces them).
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies on the
@@ -17,14 +17,19 @@
   (:mod:`agents.refine`).
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
   (:mod:`agents.fmu_cli`).
+- the module commands of :data:`MODULE_COMMANDS` (``railgym train`` = ``python -m
+  agents.train``, ...): the module's own parser reads the rest of the command line.
 
-Every subcommand takes ``--debug`` and ``--quiet`` (no progress bars; they are drawn on stderr
+One vocabulary (:mod:`surrogates.cli_flags`, ``docs/cli.md``): ``-o/--out`` is what a command
+writes, ``--overwrite`` lets it replace what is there, ``--seed`` seeds what it draws, every
+command takes ``--debug`` and ``--quiet`` (no progress bars or notes; bars are drawn on stderr
 only when it is a terminal). Arguments and output folders are checked before any work; an
 output folder is reused when it holds only the command's own files (``demo``, ``paper``),
 one holding other files needs ``--overwrite``. A user error (bad value, such a folder
 without ``--overwrite``, unreadable file) is one line on stderr and exit status 2, another
 failure one line and status 1; ``--debug`` shows the traceback instead. A warning (e.g. of
-``--trust``) is one line ``railgym CMD: warning: …`` on stderr, without Python source.
+``--trust``, or of a deprecated flag spelling) is one line ``railgym CMD: warning: …`` on
+stderr, without Python source.
 """
 
 from __future__ import annotations
@@ -38,13 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import (
-    add_parallel_arguments,
-    check_parallel,
-    error_status,
-    one_line_warnings,
-    seed_number,
-)
+from agents._args import add_parallel_arguments, check_parallel, error_status, one_line_warnings
 from agents._extras import MissingExtraError, report_missing
 from agents.controllers import Passive, Skyhook
 from agents.speed import backend_speeds, format_speeds
@@ -55,6 +54,13 @@ from railgym.progress import quiet, stages
 from railgym.report import REPORT_FILES, make_report
 from railgym.report.output import prepare_output_dir
 from railgym.vehicles.collect import build_vertical_surrogate
+from surrogates.cli_flags import (
+    Parser,
+    RawHelpFormatter,
+    add_common,
+    add_out,
+    add_seed,
+)
 from surrogates.metrics import average_absolute_error
 
 
@@ -220,27 +226,17 @@ def paper(args: argparse.Namespace) -> int:
     return 0
 
 
-def _out_arguments(
-    parser: argparse.ArgumentParser, default: str, what: str, reuse: str = "an empty one"
-) -> None:
-    parser.add_argument(
-        "--out",
-        type=Path,
+def _out_arguments(parser: argparse.ArgumentParser, default: str, what: str, own: str) -> None:
+    """``-o/--out`` (a folder, ``default``; ``what`` is written there, a folder holding only
+    ``own`` is reused), ``--overwrite`` and ``--seed``."""
+    add_out(
+        parser,
+        f"folder for {what} (created, or {own})",
         default=Path(default),
-        help=f"folder for {what} (default {default}/; created, or {reuse})",
+        overwrite="write into an -o/--out folder that holds other files too (they are kept, "
+        "the command's own files replaced)",
     )
-    parser.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into an --out folder that holds other files too (they are kept, the "
-        "command's own files replaced)",
-    )
-    parser.add_argument(
-        "--seed",
-        type=seed_number,
-        default=0,
-        help="seed of the training track, sampling and folds",
-    )
+    add_seed(parser, "seed of the training track, sampling and folds")
 
 
 def _version() -> str:
@@ -253,14 +249,42 @@ def _version() -> str:
         return "unknown"
 
 
+#: subcommands that are the ``python -m`` entry points of their modules: name → (module,
+#: its line in ``railgym --help``); the module's ``main(argv)`` runs it, its
+#: ``build_parser()`` (or that of :data:`PARSER_MODULES`) has the arguments
+MODULE_COMMANDS = {
+    "train": ("agents.train", "train an SB3 agent from a config"),
+    "train-rllib": ("agents.train_rllib", "train an RLlib PPO agent from a config"),
+    "benchmark": ("agents.benchmark", "seeds, held-out evaluation, curve and table of a config"),
+    "pretrained": ("agents.pretrained", "ship a benchmarked policy as a pretrained one"),
+    "collect": ("railgym.vehicles.collect", "collect and build a vertical element"),
+    "collect-vehicle": ("railgym.vehicles.collect_vehicle", "build the whole-vehicle element"),
+    "validate": ("agents.vehicle_validation", "surrogate against reference or FMU, per class"),
+    "validity": ("agents.validity", "the validity flags against the surrogate's error"),
+    "crash-report": ("agents.crash_report", "crash baseline and surrogate-error tables"),
+    "crash-limits": ("agents.crash_limits", "ceilings of crash absorber control per range"),
+    "crash-fe": ("railgym.vehicles.crash.fe", "crash elements from LS-DYNA nodout/rcforc"),
+    "crash-elements": ("railgym.vehicles.crash.elements", "fit a scenario's crash elements"),
+    "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
+}
+#: the module with the parser of a module command whose own module needs an extra
+PARSER_MODULES = {"train-rllib": "agents.train_rllib_args"}
+
+
+def module_parser(name: str) -> argparse.ArgumentParser:
+    """The full parser of the module command ``name`` (:data:`MODULE_COMMANDS`)."""
+    import importlib
+
+    module = PARSER_MODULES.get(name, MODULE_COMMANDS[name][0])
+    parser: argparse.ArgumentParser = importlib.import_module(module).build_parser()
+    return parser
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """The ``railgym`` argument parser."""
+    """The ``railgym`` argument parser (a module command's own arguments: :func:`module_parser`)."""
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
-    common.add_argument(
-        "--quiet", action="store_true", help="no progress bars (shown only on a terminal)"
-    )
-    parser = argparse.ArgumentParser(prog="railgym", description=__doc__.split("\n\n")[0])
+    add_common(common)
+    parser = Parser(prog="railgym", description=__doc__.split("\n\n")[0])
     parser.add_argument("--version", action="version", version=f"railgym {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     written = "\n".join(f"  {name}: {what}" for name, what in DEMO_FILES.items())
@@ -272,10 +296,10 @@ def build_parser() -> argparse.ArgumentParser:
         "each on the surrogate and the reference, passive and with skyhook, print the\n"
         "paper's indices and the env-steps/s of the surrogate, the reference and the\n"
         "reference FMU measured in the same run, and write the plots.",
-        epilog=f"writes into --out (default railgym-demo/):\n{written}\nA folder that holds "
-        "only these files is reused and they are replaced, so the command\ncan be run "
-        "again; a folder with other files needs --overwrite.",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=f"writes into -o/--out:\n{written}\nA folder that holds only these files is "
+        "reused and they are replaced, so the command\ncan be run again; a folder with other "
+        "files needs --overwrite.",
+        formatter_class=RawHelpFormatter,
     )
     _out_arguments(d, "railgym-demo", "the plots", "one holding only these plots")
     report_files = "\n".join(f"  {name}" for name in REPORT_FILES)
@@ -285,10 +309,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="the paper's tables and figures",
         description="The paper's tables and figures on railgym's models: report.md and the "
         "figures.",
-        epilog=f"writes into --out (default railgym-paper/):\n{report_files}\nA folder that "
-        "holds only these files is reused and they are replaced, so the command\ncan be run "
-        "again; a folder with other files needs --overwrite.",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=f"writes into -o/--out:\n{report_files}\nA folder that holds only these files "
+        "is reused and they are replaced, so the command\ncan be run again; a folder with "
+        "other files needs --overwrite.",
+        formatter_class=RawHelpFormatter,
     )
     p.add_argument(
         "--quick",
@@ -297,40 +321,43 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures", "one holding only these files")
     add_parallel_arguments(p, "", "the validation matrix", "the report does")
-    from agents import evaluate
+    from agents import evaluate, fmu_cli, refine
 
-    evaluate.add_arguments(
-        sub.add_parser("evaluate", parents=[common], help="comfort indices of policies")
-    )
-    from agents import refine
-
-    refine.add_arguments(
-        sub.add_parser("refine", parents=[common], help="refine the element for a policy")
-    )
-    from agents import fmu_cli
-
-    fmu_cli.add_reference_arguments(
-        sub.add_parser(
-            "export-reference-fmu", parents=[common], help="the reference model as an FMU"
-        )
-    )
-    fmu_cli.add_policy_arguments(
-        sub.add_parser("export-policy", parents=[common], help="a trained policy as an FMU")
-    )
+    for name, add, what, description in (
+        ("evaluate", evaluate.add_arguments, "comfort indices of policies", EVALUATE),
+        ("refine", refine.add_arguments, "refine the element for a policy", REFINE),
+        (
+            "export-reference-fmu",
+            fmu_cli.add_reference_arguments,
+            "the reference model as an FMU",
+            fmu_cli.REFERENCE_DESCRIPTION,
+        ),
+        (
+            "export-policy",
+            fmu_cli.add_policy_arguments,
+            "a trained policy as an FMU",
+            fmu_cli.POLICY_DESCRIPTION,
+        ),
+    ):
+        add(sub.add_parser(name, parents=[common], help=what, description=description))
     for name, (module, what) in MODULE_COMMANDS.items():
-        sub.add_parser(name, help=f"{what} (python -m {module}; railgym {name} --help)")
+        sub.add_parser(name, help=f"{what} (python -m {module})", add_help=False)
     return parser
 
 
-#: subcommands that are the ``python -m`` entry points of their modules (the same arguments)
-MODULE_COMMANDS = {
-    "train": ("agents.train", "train an SB3 agent from a config"),
-    "benchmark": ("agents.benchmark", "seeds, held-out evaluation, curve and table of a config"),
-    "collect": ("railgym.vehicles.collect", "collect and build a vertical element"),
-    "validate": ("agents.vehicle_validation", "surrogate against reference or FMU, per class"),
-    "validity": ("agents.validity", "the validity flags against the surrogate's error"),
-    "crash-report": ("agents.crash_report", "crash baseline and surrogate-error tables"),
-}
+#: description of ``railgym evaluate --help``
+EVALUATE = (
+    "Comfort indices of controllers and saved policies (vertical env, whole vehicle with "
+    "--env vehicle) or crash indices (--env crash; the held-out impact envelope with "
+    "--envelope), beside the passive (and skyhook) rows; --gap runs each on the surrogate "
+    "and on --backend and prints their relative gap. Prints one table."
+)
+#: description of ``railgym refine --help``
+REFINE = (
+    "Refine a surrogate element for a policy: per round, run the policy on the reference, add "
+    "the samples where the element is worst and refit; print the held-out error per round and "
+    "write the refined element to -o/--out (docs/refine.md)."
+)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -339,7 +366,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv and argv[0] in MODULE_COMMANDS:  # the module's own parser reads the rest
         import importlib
 
-        module = importlib.import_module(MODULE_COMMANDS[argv[0]][0])
+        try:
+            module = importlib.import_module(MODULE_COMMANDS[argv[0]][0])
+        except MissingExtraError as err:
+            return report_missing(err, f"railgym {argv[0]}", argv[0])
         return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
     from agents import evaluate, fmu_cli, refine

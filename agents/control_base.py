@@ -15,7 +15,7 @@ from railgym.envs.vertical import ACC_REF
 from railgym.vehicles.vehicle import linear_state_space
 from railgym.vehicles.vertical import SuspensionParams, linear_model
 
-__all__ = ["vehicle_lqr_gain", "vertical_lqr_gain"]
+__all__ = ["vehicle_lqr_gain", "vehicle_lqr_weights", "vertical_lqr_gain"]
 
 
 class _Controller(ObservationController):
@@ -24,6 +24,9 @@ class _Controller(ObservationController):
     env_name = "VerticalSuspension"
     #: reads the bogie and carbody velocities (:meth:`_velocities`)
     needs_velocities = False
+    #: the env's ``actuator`` it commands (an env without that argument: ``"force"``); the
+    #: semi-active damper's controllers: :mod:`agents.semi_active_control`
+    actuator = "force"
 
     def __init__(self, env: Any) -> None:
         super().__init__(env)
@@ -35,6 +38,12 @@ class _Controller(ObservationController):
                 f"env must be a railgym {self.env_name} env (actuator force f_max"
                 f"{', bogie and carbody velocities observed' if self.needs_velocities else ''}"
                 f"), got {type(base).__name__}"
+            )
+        env_actuator = getattr(base.cfg, "actuator", "force")
+        if env_actuator != self.actuator:
+            raise ValueError(
+                f"{type(self).__name__} commands actuator={self.actuator!r}, the env has "
+                f"actuator={env_actuator!r}"
             )
         self.f_max = float(base.cfg.f_max)
         self.n_act = int(getattr(base, "single_action_space", base.action_space).shape[-1])
@@ -122,6 +131,28 @@ class _VehicleController(_Controller):
         return np.stack([v + s * p.a * w + p.phi_a * qd for s in (1.0, -1.0)], axis=1)
 
 
+def vehicle_lqr_weights(
+    vehicle: Any,
+    params: Any,
+    cfg: Any,
+    q_acc: float | None = None,
+    q_defl: float | None = None,
+    r_force: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, Q, N, R)`` of :class:`VehicleLQR`: the linear model (14 states) and the
+    weights of ``J = ∫ (xᵀQx + 2xᵀN·F + FᵀR·F) dt`` (SI; see :class:`VehicleLQR`)."""
+    w_acc, w_defl, w_force = _lqr_weights(cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force)
+    a, b, _, c, d = linear_state_space(vehicle, cfg.flexible)
+    q = w_acc * c.T @ c / 3.0
+    for s in (1.0, -1.0):  # δ_i = z_b,i − z_c − x_i·θ_c − φ(a)·q
+        c_d = np.zeros(a.shape[0])
+        c_d[[3 if s > 0 else 5, 0, 1, 2]] = 1.0, -1.0, -s * params.a, -params.phi_a
+        q += 0.5 * w_defl * np.outer(c_d, c_d)
+    n = w_acc * c.T @ d / 3.0
+    r = 0.5 * w_force * np.eye(2) + w_acc * d.T @ d / 3.0
+    return a, b, q, n, r
+
+
 def vehicle_lqr_gain(
     vehicle: Any,
     params: Any,
@@ -132,14 +163,6 @@ def vehicle_lqr_gain(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A, B, P, K)`` of :class:`VehicleLQR` for ``vehicle``, its kernel ``params`` and the
     env config ``cfg`` (weights: see :class:`VehicleLQR`); ``K`` is (2, 14)."""
-    w_acc, w_defl, w_force = _lqr_weights(cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force)
-    a, b, _, c, d = linear_state_space(vehicle, cfg.flexible)
-    q = w_acc * c.T @ c / 3.0
-    for s in (1.0, -1.0):  # δ_i = z_b,i − z_c − x_i·θ_c − φ(a)·q
-        c_d = np.zeros(a.shape[0])
-        c_d[[3 if s > 0 else 5, 0, 1, 2]] = 1.0, -1.0, -s * params.a, -params.phi_a
-        q += 0.5 * w_defl * np.outer(c_d, c_d)
-    n = w_acc * c.T @ d / 3.0
-    r = 0.5 * w_force * np.eye(2) + w_acc * d.T @ d / 3.0
+    a, b, q, n, r = vehicle_lqr_weights(vehicle, params, cfg, q_acc, q_defl, r_force)
     p = solve_continuous_are(a, b, q, r, s=n)
     return a, b, p, np.linalg.solve(r, b.T @ p + n.T)

@@ -34,13 +34,17 @@ from agents.control_base import (
     vertical_lqr_gain,
 )
 from agents.lqg import LQG, VehicleLQG
+from agents.preview import LQGPreview, LQRPreview
+from agents.semi_active_control import SEMI_ACTIVE_CONTROLLERS
 from railgym import _checks as val
 from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical import ACC_REF
 from railgym.vehicles.vertical import linear_model
 
 __all__ = [
+    "ByActuator",
     "CONTROLLERS",
+    "FORCE_CONTROLLERS",
     "CONTROLLERS_OF",
     "CRASH_ID",
     "DEFAULT_C_GND",
@@ -332,9 +336,10 @@ class VehicleLQR(_VehicleController):
 ENV_ID = "railgym/VerticalSuspension-v1"
 VEHICLE_ID = "railgym/VerticalVehicle-v1"
 CRASH_ID = "railgym/TrainCrash-v1"
-#: controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name: (class, its
-#: arguments, the env arguments it needs)
-CONTROLLERS = {
+#: an entry of the controller tables: (class, its arguments, the env arguments it needs)
+Entry = tuple[Any, dict[str, Any], dict[str, Any]]
+#: force-actuator controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name
+FORCE_CONTROLLERS: dict[str, Entry] = {
     "passive": (Passive, {}, {}),
     "skyhook": (Skyhook, {"mode": "active"}, {}),
     "semi-active": (Skyhook, {"mode": "semi-active"}, {}),
@@ -342,13 +347,48 @@ CONTROLLERS = {
     "lqr": (LQR, {}, {"observation": "full"}),
     "lqg": (LQG, {}, {"observation": "sensors"}),
 }
+
+
+class ByActuator:
+    """The controller of a name that both actuators of ``VerticalSuspension-v1`` have
+    (``passive``, ``skyhook``, ``groundhook``), called like a class: ``force``'s (class,
+    arguments), or ``semi``'s on an env with ``actuator="semi-active"``."""
+
+    def __init__(self, force: tuple[Any, dict[str, Any]], semi: tuple[Any, dict[str, Any]]) -> None:
+        self.force, self.semi = force, semi
+
+    def __call__(self, env: Any) -> Any:
+        actuator = getattr(getattr(env, "unwrapped", env).cfg, "actuator", "force")
+        cls, kwargs = self.semi if actuator == "semi-active" else self.force
+        return cls(env, **kwargs)
+
+
+def _both_actuators() -> dict[str, Entry]:
+    """:data:`FORCE_CONTROLLERS` and :data:`~agents.semi_active_control.SEMI_ACTIVE_CONTROLLERS`
+    (a name of both: :class:`ByActuator`)."""
+    table = dict(FORCE_CONTROLLERS)
+    for name, (cls, kwargs, env_kwargs) in SEMI_ACTIVE_CONTROLLERS.items():
+        force = FORCE_CONTROLLERS.get(name)
+        if force is None:
+            table[name] = (cls, kwargs, env_kwargs)
+        else:  # both sides need the same env arguments (none)
+            table[name] = (ByActuator(force[:2], (cls, kwargs)), {}, env_kwargs)
+    return table
+
+
+#: controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name, of either
+#: actuator: each refuses an env of the other (the env argument ``actuator``); a name of both
+#: builds the one of the env's actuator
+CONTROLLERS = _both_actuators()
 #: controllers of ``railgym/VerticalVehicle-v1`` (two actuators)
-VEHICLE_CONTROLLERS = {
+VEHICLE_CONTROLLERS: dict[str, Entry] = {
     "passive": (Passive, {}, {}),
     "skyhook": (BogieSkyhook, {}, {}),
     "modal-skyhook": (ModalSkyhook, {}, {}),
     "lqr": (VehicleLQR, {}, {"observation": "full"}),
     "lqg": (VehicleLQG, {}, {"observation": "sensors"}),
+    "lqr-preview": (LQRPreview, {}, {"observation": "full"}),
+    "lq-preview": (LQGPreview, {}, {"observation": "sensors"}),
 }
 #: controller names of each env id (the crash env: trained policies only)
 CONTROLLERS_OF = {ENV_ID: CONTROLLERS, VEHICLE_ID: VEHICLE_CONTROLLERS}

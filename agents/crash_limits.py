@@ -1,7 +1,7 @@
 """What limits a learning crash agent: ceilings of constant absorber settings on the held-out
 envelope of ``railgym/TrainCrash-v1`` (reference backend), beside the speed-adaptive rule.
 
-    python -m agents.crash_limits [--range 0.3 0.5] [--levels 9]
+    railgym crash-limits [--range 0.3 0.5] [--levels 9]
 
 For each absorber range, every constant action per zone on a grid of ``levels`` values in
 [−1, 1] runs at every held-out case (:data:`agents.crash_report.EVAL_SPEEDS_KMH` × the two
@@ -26,6 +26,8 @@ import numpy as np
 from agents.crash_baselines import CrashPassive, SpeedAdaptive, _Fixed, rollout
 from agents.crash_report import EVAL_PAYLOADS_T, EVAL_SPEEDS_KMH, envelope_rows, envelope_summary
 from railgym.envs.crash import TrainCrashVectorEnv
+from railgym.progress import quiet
+from surrogates.cli_flags import Parser, add_common, error_status
 
 __all__ = ["ceilings", "main"]
 
@@ -81,27 +83,43 @@ def rule(absorber_range: float = 0.3, absorber_rate: float = 20.0) -> float:
     return envelope_summary(rows)["speed-adaptive"]["peak_g"]
 
 
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym crash-limits`` (``python -m agents.crash_limits``)."""
+    parser = Parser(prog="railgym crash-limits", description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--range",
+        type=float,
+        nargs="+",
+        default=[0.3, 0.5],
+        dest="ranges",
+        help="absorber ranges ±r of the env (absorber_range, 0 < r < 1)",
+    )
+    parser.add_argument("--levels", type=int, default=9, help="grid values per zone")
+    add_common(parser)
+    return parser
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the markdown table of :func:`ceilings` and :func:`rule` per absorber range."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.crash_limits", description=__doc__.split("\n\n")[0]
-    )
-    parser.add_argument("--range", type=float, nargs="+", default=[0.3, 0.5], dest="ranges")
-    parser.add_argument("--levels", type=int, default=9, help="grid values per zone")
+    parser = build_parser()
     args = parser.parse_args(argv)
     for r in args.ranges:
         if not 0.0 < r < 1.0:
             parser.error(f"--range: must be in (0, 1), got {r}")
     if args.levels < 2:
         parser.error(f"--levels: must be at least 2, got {args.levels}")
+    try:
+        with quiet(args.quiet):
+            rows = [(r, ceilings(r, args.levels), rule(r), rule(r, 200.0)) for r in args.ranges]
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
     print(
         "| absorber range | passive | best single setting | best per speed | best per case "
         "| speed-adaptive | speed-adaptive, 10× rate |"
     )
     print("|---|---|---|---|---|---|---|")
-    for r in args.ranges:
-        c = ceilings(r, args.levels)
-        cells = [c["one"], c["per_speed"], c["per_case"], rule(r), rule(r, 200.0)]
+    for r, c, adaptive, fast in rows:
+        cells = [c["one"], c["per_speed"], c["per_case"], adaptive, fast]
         text = " | ".join(f"{x:.2f} ({100 * (x / c['passive'] - 1):+.1f} %)" for x in cells)
         print(f"| ±{100 * r:.0f} % | {c['passive']:.2f} | {text} |")
     return 0

@@ -1,6 +1,6 @@
 """Baseline and surrogate-error tables of ``railgym/TrainCrash-v1`` over an impact envelope.
 
-``python -m agents.crash_report`` prints the markdown tables of
+``railgym crash-report`` (``python -m agents.crash_report``) prints the markdown tables of
 ``docs/envs/crash_baselines.md`` (``--matrix``: the surrogate-vs-reference matrix of
 ``docs/envs/crash.md``, :mod:`agents.crash_matrix`): the crash criteria
 (:mod:`railgym.vehicles.crash.criteria`) of the passive train, the best constant setting and
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import one_line_warnings
+from agents._args import error_status, one_line_warnings
 from agents.crash_baselines import (
     BEST_CONSTANT_ACTION,
     ConstantAbsorber,
@@ -31,6 +31,7 @@ from agents.policies import CRASH_ID, load_policy
 from railgym.envs.crash import TrainCrashVectorEnv, default_surrogate, env_surrogate
 from railgym.progress import bar, quiet
 from railgym.vehicles.crash import load_scenario
+from surrogates.cli_flags import Parser, add_common
 
 #: envelope speeds of the tables, km/h
 SPEEDS_KMH = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
@@ -284,10 +285,17 @@ def error_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Print the markdown tables of ``docs/envs/crash_baselines.md``."""
-    parser = argparse.ArgumentParser(prog="python -m agents.crash_report", description=__doc__)
-    parser.add_argument("--scenario", default="paper", help="crash scenario (default: paper)")
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym crash-report`` (``python -m agents.crash_report``)."""
+    parser = Parser(prog="railgym crash-report", description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "policy",
+        nargs="*",
+        metavar="POLICY_ZIP",
+        help="--envelope: trained policies (SB3 .zip written by railgym train) beside the "
+        "baselines",
+    )
+    parser.add_argument("--scenario", default="paper", help="crash scenario (name or YAML)")
     parser.add_argument(
         "--matrix",
         action="store_true",
@@ -296,24 +304,34 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--envelope",
-        nargs="*",
-        metavar="POLICY_ZIP",
+        action="store_true",
         help="only the held-out envelope evaluation on the reference (speeds × payloads) of "
-        "the baselines and these trained policies (SB3 .zip written by agents.train)",
+        "the baselines and the POLICY_ZIP files",
     )
     parser.add_argument("--trust", action="store_true", help="as for railgym evaluate")
-    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_common(parser)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the markdown tables of ``docs/envs/crash_baselines.md``."""
+    parser = build_parser()
     args = parser.parse_args(argv)
-    with quiet(args.quiet), one_line_warnings(parser.prog):
-        return _report(args)
+    if args.policy and not args.envelope:
+        parser.error("POLICY_ZIP: only with --envelope")
+    try:
+        with quiet(args.quiet), one_line_warnings(parser.prog):
+            return _report(args)
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
 
 
 def _report(args: argparse.Namespace) -> int:
     """The tables ``args`` ask for, printed."""
-    if args.envelope is not None:
+    if args.envelope:
         policies: dict[str, Any] = dict(BASELINES)
         env_kwargs: dict[str, Any] = {}
-        for path in args.envelope:
+        for path in args.policy:
             factory, env_kwargs, label = load_policy(path, CRASH_ID, args.trust)
             policies[label] = factory
         print(envelope_table(envelope_rows(policies, env_kwargs)))

@@ -8,9 +8,13 @@ over the held-out impact envelope beside the crash baselines.
     railgym evaluate modal-skyhook lqr --env vehicle --track-class 5 --speed 60 100 144 200
     railgym evaluate runs/ppo_crash/model.zip --env crash --speed 36 40 44
     railgym evaluate runs/ppo_crash/model.zip --env crash --envelope
+    railgym evaluate clipped-lqg skyhook-onoff groundhook --actuator semi-active
 
 A policy is a controller name (vertical: ``passive``, ``skyhook``, ``semi-active``,
-``groundhook``, ``lqr``, ``lqg``; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
+``groundhook``, ``lqr``, ``lqg``; with ``--actuator semi-active``, the command of the env's
+controllable damper: ``passive`` (command 0), ``constant-max``, ``skyhook-onoff``, ``skyhook``,
+``groundhook``, ``clipped-lqg`` of :mod:`agents.semi_active_control`, and a controller of the
+other actuator is refused; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
 ``modal-skyhook``, ``lqr``, ``lqg``) or a stable-baselines3 ``.zip``: of :mod:`agents.train` (its
 ``model.zip`` or a checkpoint ``checkpoints/model_N_steps.zip``: the algorithm and the env's
 observation settings from the run's ``config.yaml``), of rl-zoo3 (the run's ``args.yml`` and
@@ -27,8 +31,10 @@ The command always adds rows to compare against, whether or not they are named: 
 and ``skyhook`` on the vertical env and the vehicle (first, in that order; the Δa_w column is
 the reduction against passive), ``passive`` on the crash env (Δpeak against it), and the three
 crash baselines ``passive``, ``best-constant``, ``speed-adaptive`` with ``--envelope``. Naming
-one of them as well adds no second row. A crash run that the env cut as diverged
-(``info["diverged"]``) is marked in the table and named in a line under it.
+one of them as well adds no second row. Beside ``a_w`` the vertical and vehicle tables give the
+bump-stop contacts (substeps), and a column ``note`` says where a trained policy's ``a_w`` beats
+a classical controller's with more contacts (:mod:`agents.contacts`). A crash run that the env
+cut as diverged (``info["diverged"]``) is marked in the table and named in a line under it.
 """
 
 from __future__ import annotations
@@ -58,6 +64,8 @@ from agents._args import (
     vertical_cases,
     with_policy_kwargs,
 )
+from agents.contacts import Score, contact_note, more_contacts
+from agents.controllers import FORCE_CONTROLLERS
 from agents.gap import run_gap
 from agents.policies import (
     CONTROLLERS,
@@ -77,9 +85,11 @@ from agents.policies import (
     run_vehicle_policy,
 )
 from agents.pretrained import PRETRAINED
+from agents.semi_active_control import SEMI_ACTIVE_CONTROLLERS
 from agents.sweeps import evaluate_sweep
 from railgym import _checks as val
 from railgym.progress import bar
+from surrogates.cli_flags import add_deprecated
 
 __all__ = [
     "CONTROLLERS",
@@ -93,6 +103,7 @@ __all__ = [
     "VEHICLE_CONTROLLERS",
     "VEHICLE_ID",
     "VehicleTask",
+    "actuator_kwargs",
     "add_arguments",
     "evaluate_crash",
     "evaluate_envelope",
@@ -144,9 +155,26 @@ def _with_validity(
     return columns + VALIDITY_COLUMNS, [c + flags(r) for c, r in zip(cells, rows, strict=True)]
 
 
+def _with_contact_notes(
+    scores: list[Score],
+    baselines: Sequence[str],
+    columns: list[tuple[str, str, int]],
+    cells: list[list[str]],
+) -> tuple[list[tuple[str, str, int]], list[list[str]]]:
+    """``columns`` and ``cells`` with a column ``note`` where a trained policy's ``a_w`` beats
+    a baseline's of its case (a classical controller: a name of ``baselines``) with more
+    bump-stop contacts (:func:`agents.contacts.more_contacts`): ``more contacts than lqg``."""
+    notes = [contact_note(names) for names in more_contacts(scores, baselines)]
+    if not any(notes):
+        return columns, cells
+    return columns + [("note", "<", 4)], [c + [n] for c, n in zip(cells, notes, strict=True)]
+
+
 def format_rows(rows: list[dict[str, Any]]) -> str:
     """Aligned text table of :func:`agents.sweeps.evaluate_sweep` rows (each column as wide
-    as its widest entry; on the surrogate backend with :data:`VALIDITY_COLUMNS`)."""
+    as its widest entry; on the surrogate backend with :data:`VALIDITY_COLUMNS`; a column
+    ``note`` names the classical controllers a trained policy beats in ``a_w`` with more
+    bump-stop contacts)."""
     columns = [
         ("class", ">", 5),
         ("policy", "<", 16),
@@ -170,13 +198,17 @@ def format_rows(rows: list[dict[str, Any]]) -> str:
         ]
         for r in rows
     ]
-    return _aligned(*_with_validity(rows, columns, cells))
+    scores = [Score(r["track_class"], str(r["policy"]), r["a_w"], r["contacts"]) for r in rows]
+    return _aligned(
+        *_with_contact_notes(scores, list(CONTROLLERS), *_with_validity(rows, columns, cells))
+    )
 
 
 def format_vehicle_rows(rows: list[dict[str, Any]]) -> str:
     """Aligned text table of :func:`evaluate_vehicle` rows, front / centre / rear per index
     (each column as wide as its widest entry; on the surrogate backend with
-    :data:`VALIDITY_COLUMNS`)."""
+    :data:`VALIDITY_COLUMNS`; a column ``note`` names the classical controllers a trained
+    policy beats in ``a_w``, the mean over the floor points, with more bump-stop contacts)."""
 
     def three(x: np.ndarray, fmt: str) -> str:
         return "/".join(fmt.format(v) for v in x)
@@ -208,7 +240,19 @@ def format_vehicle_rows(rows: list[dict[str, Any]]) -> str:
         ]
         for r in rows
     ]
-    return _aligned(*_with_validity(rows, columns, cells))
+    scores = [
+        Score(
+            (r["track_class"], r["speed_kmh"]),
+            str(r["policy"]),
+            float(np.mean(r["a_w"])),
+            r["contacts"],
+        )
+        for r in rows
+    ]
+    notes = _with_contact_notes(
+        scores, list(VEHICLE_CONTROLLERS), *_with_validity(rows, columns, cells)
+    )
+    return _aligned(*notes)
 
 
 # ================================================================ railgym/TrainCrash-v1
@@ -241,7 +285,7 @@ def evaluate_crash(
             obs, _ = env.reset(seed=0, options={"speed_kmh": v})
             while True:
                 if ctrl is None:
-                    action = np.zeros(env.action_space.shape, np.float32)
+                    action = np.zeros(env.action_space.shape or (), np.float32)
                 else:
                     action, _ = ctrl.predict(obs, deterministic=True)
                 obs, _, term, trunc, info = env.step(action)
@@ -370,18 +414,40 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"vertical, vehicle: episodes per case, 1..{MAX_EPISODES} (one sub-env each)",
     )
     parser.add_argument("--seed", type=seed_number, default=1000, help="track seed of sub-env 0")
-    parser.add_argument("--env", choices=["vertical", "vehicle", "crash"], default="vertical")
     parser.add_argument(
-        "--speed",
+        "--env",
+        choices=["vertical", "vehicle", "crash"],
+        default="vertical",
+        help="the env: VerticalSuspension-v1, VerticalVehicle-v1 or TrainCrash-v1",
+    )
+    parser.add_argument(
+        "--actuator",
+        choices=["force", "semi-active"],
+        help="vertical: what the policies command, an actuator force (default) or the "
+        f"controllable damper (semi-active: {', '.join(SEMI_ACTIVE_CONTROLLERS)}; passive is "
+        "command 0)",
+    )
+    speed = parser.add_argument(
+        "--speed-kmh",
+        dest="speed",
         type=speed_kmh,
         nargs="+",
         help="vehicle: running speeds, km/h (default: each class's maximum speed); "
         "crash: impact speeds, km/h (default 40; --envelope: 25 30 35 40 45 50)",
     )
+    add_deprecated(parser, speed, "--speed")
     parser.add_argument(
         "--duration",
         type=duration_s,
         help=f"vehicle: seconds per episode (default {VEHICLE_DURATION_S:g})",
+    )
+    parser.add_argument(
+        "--preview",
+        type=float,
+        default=0.0,
+        help="vehicle: track preview horizon ahead of the rear wheelset, m (the env's preview=; "
+        "0, the default: none; at most the front-to-rear wheelset distance, 21.56 m on the "
+        "packaged vehicle); every policy runs with it (lq-preview uses it)",
     )
     parser.add_argument(
         "--gap",
@@ -406,6 +472,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def actuator_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The env keyword of ``--actuator`` (``{}`` without the flag: the force); a classical
+    controller of the other actuator is refused, naming the flag."""
+    if args.env != "vertical":
+        if args.actuator is not None:
+            raise ValueError(f"--actuator: only for --env vertical, not --env {args.env}")
+        return {}
+    actuator = args.actuator or "force"
+    names = SEMI_ACTIVE_CONTROLLERS if actuator == "semi-active" else FORCE_CONTROLLERS
+    for p in args.policy:
+        if p in CONTROLLERS and p not in names:
+            other = "--actuator semi-active" if actuator == "force" else "the force actuator"
+            raise ValueError(
+                f"--actuator {actuator}: {p} is a controller of {other}; the controllers of "
+                f"--actuator {actuator} are {', '.join(names)}"
+            )
+    return {} if args.actuator is None else {"actuator": args.actuator}
+
+
 def _only_for(args: argparse.Namespace, flags: dict[str, bool], envs: str) -> None:
     """One error naming each flag of ``flags`` that is set (True) but not used by ``--env``."""
     for flag, given in flags.items():
@@ -415,8 +500,11 @@ def _only_for(args: argparse.Namespace, flags: dict[str, bool], envs: str) -> No
 
 def run(args: argparse.Namespace) -> int:
     """``railgym evaluate``: the policies plus passive (and skyhook) for comparison."""
+    actuated = actuator_kwargs(args)
+    if args.preview and (args.env != "vehicle" or args.gap):
+        raise ValueError("--preview: only for --env vehicle (and not with --gap)")
     if args.gap:
-        return run_gap(args)
+        return run_gap(args, actuated)
     parallel = {"--workers": args.workers != 1, "--address": args.address is not None}
     fmu = env_kwargs_of(args)
     if args.env == "crash":
@@ -446,9 +534,14 @@ def run(args: argparse.Namespace) -> int:
     check_parallel(args)
     policies = ["passive", "skyhook"] + [p for p in args.policy if p not in ("passive", "skyhook")]
     if args.env == "vehicle":
-        rows = evaluate_vehicle(policies, args.backend, env_kwargs=fmu, **vehicle_cases(args))
+        preview = {"preview": args.preview} if args.preview else {}
+        rows = evaluate_vehicle(
+            policies, args.backend, env_kwargs={**fmu, **preview}, **vehicle_cases(args)
+        )
         print(
-            f"VerticalVehicle-v1, backend: {args.backend}, {args.episodes} episodes per case "
+            f"VerticalVehicle-v1, backend: {args.backend}"
+            f"{f', preview {args.preview:g} m' if args.preview else ''}, {args.episodes} "
+            "episodes per case "
             f"(seeds {args.seed}+i); per floor point front/centre/rear; Δa_w: reduction of the "
             "Wk-weighted RMS vs passive"
         )
@@ -459,10 +552,17 @@ def run(args: argparse.Namespace) -> int:
         {"--speed": args.speed is not None, "--duration": args.duration is not None},
         "--env vehicle and crash",
     )
-    rows = evaluate_sweep(policies, args.backend, env_kwargs=fmu, **vertical_cases(args))
+    env_kwargs = {**fmu, **actuated}
+    rows = evaluate_sweep(policies, args.backend, env_kwargs=env_kwargs, **vertical_cases(args))
+    damper = (
+        ", actuator: semi-active (passive: damper command 0)"
+        if actuated.get("actuator") == "semi-active"
+        else ""
+    )
     print(
-        f"backend: {args.backend}, {args.episodes} episodes per class (seeds {args.seed}+i); "
-        "Δa_w: reduction of the Wk-weighted RMS vs passive"
+        f"backend: {args.backend}{damper}, {args.episodes} episodes per class (seeds "
+        f"{args.seed}+i); Δa_w: reduction of the Wk-weighted RMS vs passive; contacts: "
+        "bump-stop substeps"
     )
     print(format_rows(rows))
     return 0

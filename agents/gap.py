@@ -11,6 +11,9 @@ cases, and every task metric is reported on both with its relative gap
   ``seed + i``; :func:`agents.sweeps.evaluate_sweep`);
 * ``vehicle`` (``VerticalVehicle-v1``): per track class and speed, ``a_w`` at the front,
   centre and rear floor points (:func:`agents.policies.evaluate_vehicle`);
+* beside ``a_w`` (vertical, vehicle) the bump-stop contacts (substeps) on both sides, and a
+  line under the table for each policy whose ``a_w`` beats a classical controller's of its
+  case on the reference side with more contacts there (:mod:`agents.contacts`);
 * ``crash`` (``TrainCrash-v1``): per impact speed × payload of the held-out envelope
   (:data:`agents.crash_report.EVAL_SPEEDS_KMH`, :data:`~agents.crash_report.EVAL_PAYLOADS_T`),
   each car's peak and 10 ms moving-average peak deceleration (g), each zone's maximum crush and
@@ -41,8 +44,15 @@ from agents._args import (
     vertical_cases,
     with_policy_kwargs,
 )
+from agents.contacts import Score, contact_note, more_contacts
 from agents.crash_baselines import rollout
-from agents.policies import CRASH_ID, evaluate_vehicle, load_policy
+from agents.policies import (
+    CONTROLLERS,
+    CRASH_ID,
+    VEHICLE_CONTROLLERS,
+    evaluate_vehicle,
+    load_policy,
+)
 from agents.sweeps import evaluate_sweep
 from railgym import _checks as val
 from railgym.envs.crash import TrainCrashVectorEnv
@@ -75,6 +85,11 @@ def _row(case: str, policy: str, metric: str, s: float, r: float) -> dict[str, A
     }
 
 
+def _contacts(s: dict[str, Any], r: dict[str, Any]) -> dict[str, float]:
+    """The bump-stop contacts (substeps) of the evaluation rows ``s`` and ``r`` of both sides."""
+    return {"contacts_surrogate": float(s["contacts"]), "contacts_reference": float(r["contacts"])}
+
+
 def gap_vertical(
     policies: Sequence[str],
     track_classes: Sequence[int] = (4, 5, 6),
@@ -86,7 +101,8 @@ def gap_vertical(
     backends: tuple[str, str] = (SURROGATE, "reference"),
     env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
-    """Gap rows of ``VerticalSuspension-v1``: one per (track class, policy), metric ``a_w``.
+    """Gap rows of ``VerticalSuspension-v1``: one per (track class, policy), metric ``a_w``,
+    with the bump-stop contacts of both sides (``contacts_surrogate``, ``contacts_reference``).
 
     ``backends``: the (surrogate, reference) pair compared; ``env_kwargs`` go to both
     (``fmu``, ``fmu_map`` to the ``"fmu"`` backend only); the other arguments as
@@ -107,7 +123,10 @@ def gap_vertical(
         for b in backends
     ]
     return [
-        _row(f"class {s['track_class']}", s["policy"], "a_w (m/s²)", s["a_w"], r["a_w"])
+        {
+            **_row(f"class {s['track_class']}", s["policy"], "a_w (m/s²)", s["a_w"], r["a_w"]),
+            **_contacts(s, r),
+        }
         for s, r in zip(*runs, strict=True)
     ]
 
@@ -126,7 +145,8 @@ def gap_vehicle(
     env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Gap rows of ``VerticalVehicle-v1``: per (track class, speed, policy) the metric
-    ``a_w`` at each floor point; ``env_kwargs`` as :func:`gap_vertical`'s, the other
+    ``a_w`` at each floor point, each with the case's bump-stop contacts of both sides (as
+    :func:`gap_vertical`); ``env_kwargs`` as :func:`gap_vertical`'s, the other
     arguments as :func:`agents.policies.evaluate_vehicle`."""
     runs = [
         evaluate_vehicle(
@@ -149,7 +169,8 @@ def gap_vehicle(
         case = f"class {s['track_class']}, {s['speed_kmh']:.0f} km/h"
         for k, point in enumerate(FLOOR_POINTS):
             metric = f"a_w {point} (m/s²)"
-            rows.append(_row(case, s["policy"], metric, s["a_w"][k], r["a_w"][k]))
+            row = _row(case, s["policy"], metric, s["a_w"][k], r["a_w"][k])
+            rows.append({**row, **_contacts(s, r)})
     return rows
 
 
@@ -186,7 +207,7 @@ def gap_crash(
     """
     speeds = crash_report.EVAL_SPEEDS_KMH if speeds_kmh is None else tuple(speeds_kmh)
     payloads = crash_report.EVAL_PAYLOADS_T if payloads_t is None else tuple(payloads_t)
-    loaded = []
+    loaded: list[tuple[Any, dict[str, Any], str]] = []
     baselines = {name.replace(" ", "-"): name for name in crash_report.BASELINES}
     for p in val.sequence(policies, "policies"):
         if p in baselines:
@@ -220,15 +241,21 @@ def gap_crash(
 
 def format_gap(rows: list[dict[str, Any]], against: str = "reference") -> str:
     """Aligned text table of gap rows (``against``: the label of the reference column), then
-    the largest |gap| of each policy. Rows with a ``diverged`` key (the crash's) get a
-    column ``diverged`` and the diverged runs are named in a line under the table."""
+    the largest |gap| of each policy. Rows with contacts (vertical, vehicle) get a column
+    ``contacts`` (bump-stop substeps, surrogate / reference) and a line under the table per
+    policy whose ``a_w`` beats a classical controller's of its case on the reference side with
+    more contacts there (:func:`contact_lines`). Rows with a ``diverged`` key (the crash's) get
+    a column ``diverged`` and the diverged runs are named in a line under the table."""
     wc = max([4, *(len(r["case"]) for r in rows)])
     wp = max([6, *(len(r["policy"]) for r in rows)])
     wm = max([6, *(len(r["metric"]) for r in rows)])
     marked = any("diverged" in r for r in rows)
+    counted = any("contacts_reference" in r for r in rows)
     lines = [
         f"{'case':<{wc}}  {'policy':<{wp}}  {'metric':<{wm}}  {'surrogate':>10}  "
-        f"{against:>10}  {'gap %':>8}" + ("  diverged" if marked else "")
+        f"{against:>10}  {'gap %':>8}"
+        + ("  contacts" if counted else "")
+        + ("  diverged" if marked else "")
     ]
     cut: dict[str, None] = {}
     for r in rows:
@@ -238,9 +265,15 @@ def format_gap(rows: list[dict[str, Any]], against: str = "reference") -> str:
         lines.append(
             f"{r['case']:<{wc}}  {r['policy']:<{wp}}  {r['metric']:<{wm}}  "
             f"{r['surrogate']:10.4g}  {r['reference']:10.4g}  {100 * r['gap']:8.2f}"
+            + (
+                f"  {r['contacts_surrogate']:.0f} / {r['contacts_reference']:.0f}"
+                if counted
+                else ""
+            )
             + (f"  {sides or 'no'}" if marked else "")
         )
     lines += crash_report.diverged_lines(list(cut))
+    lines += contact_lines(rows, against)
     worst: dict[str, float] = {}
     for r in rows:
         worst[r["policy"]] = max(worst.get(r["policy"], 0.0), abs(r["gap"]))
@@ -249,14 +282,42 @@ def format_gap(rows: list[dict[str, Any]], against: str = "reference") -> str:
     return "\n".join(lines)
 
 
-def run_gap(args: argparse.Namespace) -> int:
+def contact_lines(rows: list[dict[str, Any]], against: str = "reference") -> list[str]:
+    """``"class 4, ppo: more contacts than lqg (reference)"`` for each (case, policy) of the
+    gap ``rows`` whose reference ``a_w`` (a vehicle's: the mean over its floor points) beats a
+    classical controller's of the same case with more bump-stop contacts on that side."""
+    grouped: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for r in rows:
+        if "contacts_reference" in r:
+            grouped.setdefault((r["case"], r["policy"]), []).append(r)
+    scores = [
+        Score(
+            case,
+            policy,
+            float(np.mean([r["reference"] for r in group])),
+            group[0]["contacts_reference"],
+        )
+        for (case, policy), group in grouped.items()
+    ]
+    baselines = {*CONTROLLERS, *VEHICLE_CONTROLLERS}
+    return [
+        f"{s.case}, {s.policy}: {contact_note(names)} ({against})"
+        for s, names in zip(scores, more_contacts(scores, baselines), strict=True)
+        if names
+    ]
+
+
+def run_gap(args: argparse.Namespace, actuated: dict[str, Any] | None = None) -> int:
     """``railgym evaluate POLICY... --gap``: gap rows of the given policies between the
-    surrogate and ``--backend`` (default the reference), printed as a table."""
+    surrogate and ``--backend`` (default the reference), printed as a table; ``actuated``: the
+    env keyword of ``--actuator`` (:func:`agents.evaluate.actuator_kwargs`), to both sides."""
     if args.envelope:
         raise ValueError("--gap: runs the held-out envelope itself (--env crash), not --envelope")
     backends = (SURROGATE, args.backend)
-    models = env_kwargs_of(args)  # --fmu, --fmu-map, --vehicle: checked, passed to both
+    # --fmu, --fmu-map, --vehicle, --actuator: checked, passed to both
+    models = {**env_kwargs_of(args), **(actuated or {})}
     what = f"surrogate vs {args.backend}; gap = (surrogate − {args.backend}) / |{args.backend}|"
+    counted = f"; contacts: bump-stop substeps, surrogate / {args.backend}"
     if args.env == "crash":
         if args.backend == "linear":
             raise ValueError("--backend: the crash env has backends reference and surrogate")
@@ -278,6 +339,7 @@ def run_gap(args: argparse.Namespace) -> int:
         rows = gap_vehicle(args.policy, backends=backends, env_kwargs=models, **cases)
         print(
             f"VerticalVehicle-v1, {args.episodes} episodes per case (seeds {args.seed}+i); {what}"
+            f"{counted}"
         )
     else:
         for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
@@ -288,7 +350,7 @@ def run_gap(args: argparse.Namespace) -> int:
         )
         print(
             f"VerticalSuspension-v1, {args.episodes} episodes per track class "
-            f"(seeds {args.seed}+i); {what}"
+            f"(seeds {args.seed}+i); {what}{counted}"
         )
     print(format_gap(rows, args.backend))
     return 0

@@ -134,12 +134,19 @@ class _LQGMixin:
             self.u_prev[rows] = 0.0
         return super().predict(observation, state, episode_start, deterministic)  # type: ignore[misc]
 
+    def feedforward(self, x: np.ndarray) -> np.ndarray:
+        """Force added to the LQR's (n, n_act), N, from the physical observation: none here
+        (the preview controllers of :mod:`agents.preview` add theirs)."""
+        return np.zeros((x.shape[0], self.n_act))
+
     def action(self, x: np.ndarray) -> np.ndarray:
-        """Filter update with the observation, LQR on the estimate, filter prediction."""
+        """Filter update with the sensor channels of the observation (the first ones; an env
+        with track preview adds its own after them), LQR on the estimate plus
+        :meth:`feedforward`, filter prediction."""
         kf = self.kf
-        innov = x - self.x_pred @ kf.c.T - self.u_prev @ kf.d.T
+        innov = x[:, : kf.c.shape[0]] - self.x_pred @ kf.c.T - self.u_prev @ kf.d.T
         x_est = self.x_pred + innov @ kf.M.T
-        u = np.clip(-(x_est @ self.K.T), -self.f_max, self.f_max)
+        u = np.clip(-(x_est @ self.K.T) + self.feedforward(x), -self.f_max, self.f_max)
         self.x_est = x_est
         self.x_pred = x_est @ kf.phi.T + u @ kf.gamma.T
         self.u_prev = u
@@ -275,7 +282,7 @@ class VehicleLQG(_LQGMixin, _VehicleController):
             rows_x[9 + bgi, [7, 8, 9]] = 1.0, x_b, p.phi_a
         c = rows_x + rows_d @ a
         d = rows_d @ b
-        r = _noise(base, self.obs_scale)
+        r = _noise(base, self.obs_scale[: c.shape[0]])  # the sensor channels
         self.kf = KalmanFilter(a, b, g, np.full(4, q), c, d, r, cfg.control_dt)
         self.K = np.zeros((2, n))
         self.K[:, :14] = k

@@ -108,6 +108,9 @@ POLICY_ENV_KWARGS = frozenset(
         "n_actuators",
         "flexible",
         "vehicle",
+        "actuator",
+        "damper",
+        "preview",
     }
 )
 
@@ -217,8 +220,14 @@ def _sb3_policy(
     if name is not None:  # one controller per factory call, designed for the training case
         design = {k: v for k, v in network.env_kwargs.items() if k in RESIDUAL_DESIGN_KWARGS}
         design_env = gym.make(env_id, **design_env_kwargs(env_id, design))
+        space = design_env.action_space
+        bounds = (np.asarray(space.low, np.float64), np.asarray(space.high, np.float64))
         return (
-            (lambda env: ResidualPolicy(net, build_controller(env_id, name, design_env), scale)),
+            (
+                lambda env: ResidualPolicy(
+                    net, build_controller(env_id, name, design_env), scale, bounds
+                )
+            ),
             env_kwargs,
             label,
         )

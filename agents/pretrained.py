@@ -12,8 +12,8 @@ Each is the folder ``agents/pretrained/<name>/`` as :mod:`agents.train` writes i
 any trained policy, weights only: :func:`agents.evaluate.load_policy`). They are the best seed
 of a :mod:`agents.benchmark` run (lowest held-out :data:`RANKING` metric), copied by::
 
-    python -m agents.benchmark ppo_vertical_lqg --seeds 3 --out runs/bench_vertical
-    python -m agents.pretrained ppo-vertical runs/bench_vertical --overwrite
+    railgym benchmark ppo_vertical_lqg --seeds 3 -o runs/bench_vertical
+    railgym pretrained ppo-vertical runs/bench_vertical --overwrite
 
 The budgets and held-out figures of the shipped policies are in ``docs/results.md``.
 """
@@ -33,6 +33,7 @@ import numpy as np
 from agents._args import error_status
 from agents.policy_io import write_manifest
 from railgym.registration import env_family
+from surrogates.cli_flags import Parser, add_common
 
 __all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
 
@@ -96,19 +97,29 @@ def install(name: str, benchmark_dir: str | Path, overwrite: bool = False) -> Pa
     return dst
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m agents.pretrained NAME BENCHMARK_DIR [--overwrite]``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.pretrained", description=__doc__.split("\n\n")[0]
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym pretrained`` (``python -m agents.pretrained``)."""
+    parser = Parser(prog="railgym pretrained", description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "name",
+        choices=sorted(PRETRAINED),
+        metavar="NAME",
+        help=f"the pretrained policy: {', '.join(sorted(PRETRAINED))}",
     )
-    parser.add_argument("name", choices=sorted(PRETRAINED))
-    parser.add_argument("benchmark_dir", type=Path, help="output folder of agents.benchmark")
+    parser.add_argument("benchmark_dir", type=Path, help="output folder of railgym benchmark")
     parser.add_argument("--overwrite", action="store_true", help="replace a shipped policy")
+    add_common(parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``railgym pretrained NAME BENCHMARK_DIR [--overwrite]``."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     try:
         dst = install(args.name, args.benchmark_dir, args.overwrite)
-    except (ValueError, OSError) as err:
-        return error_status(parser.prog, err)
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
     print(f"{args.name}: {dst}")
     return 0
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import bounded_int, duration_s, seed_number, track_class
+from agents._args import bounded_int, duration_s, track_class
 from agents.policies import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICLE_ID, load_policy
 from railgym.envs.vehicle import VerticalVehicleEnv
 from railgym.envs.vertical import VerticalSuspensionEnv
@@ -32,6 +32,7 @@ from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 from railgym.vehicles.refine_vehicle import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from railgym.vehicles.refinement import RefineOptions
 from surrogates import io
+from surrogates.cli_flags import add_deprecated, add_out, add_seed
 
 #: env observation channel → entry of the raw observation of ``refine``
 _CHANNELS = {
@@ -109,17 +110,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="vertical",
         help="VerticalSuspension-v1 (one bogie) or VerticalVehicle-v1 (both bogies)",
     )
-    parser.add_argument("--model", type=Path, help="element JSON (default: the packaged one)")
-    parser.add_argument("--rounds", type=bounded_int(0, 50), default=3, help="rounds K")
-    parser.add_argument("--track-class", type=track_class, default=5, help="FRA class")
+    element = parser.add_argument(
+        "--surrogate",
+        type=Path,
+        help="the element to refine, model JSON (default: the packaged one)",
+    )
+    add_deprecated(parser, element, "--model")
+    parser.add_argument("--rounds", type=bounded_int(0, 50), default=3, help="rounds K per class")
+    parser.add_argument(
+        "--track-class",
+        type=track_class,
+        nargs="+",
+        default=[5],
+        help="FRA track classes 1..6, refined for in turn (K rounds each)",
+    )
     parser.add_argument("--duration", type=duration_s, default=10.0, help="s per track")
     parser.add_argument("--tracks", type=bounded_int(1, 100), default=2, help="tracks per round")
     parser.add_argument(
         "--add", type=bounded_int(1, 10**6), default=400, help="samples added per round"
     )
-    parser.add_argument("--seed", type=seed_number, default=0, help="seed of the tracks")
-    parser.add_argument("--out", type=Path, help="write the refined element (model JSON)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    add_seed(parser, "seed of the tracks")
+    add_out(parser, "write the refined element here (model JSON)")
     parser.add_argument(
         "--trust", action="store_true", help="load a policy .zip not listed in its manifest"
     )
@@ -133,14 +144,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """``railgym refine``: print the error per round, write ``--out`` if given."""
+    """``railgym refine``: print the error per round (``--rounds`` per class of
+    ``--track-class``, in turn), write ``-o/--out`` if given."""
     if args.out is not None and args.out.exists() and not args.overwrite:
         raise ValueError(f"--out {args.out}: exists; pass --overwrite to replace it")
     if args.out is not None and not args.out.parent.is_dir():  # before the rounds of work
         raise ValueError(f"--out {args.out}: the folder {str(args.out.parent)!r} does not exist")
     vehicle = getattr(args, "env", "vertical") == "vehicle"
-    if args.model is not None:
-        model = io.load(args.model)
+    if args.surrogate is not None:
+        model = io.load(args.surrogate)
     else:
         model = default_vehicle_surrogate() if vehicle else default_vertical_surrogate()
     if vehicle:
@@ -165,21 +177,24 @@ def run(args: argparse.Namespace) -> int:
         loop, observe = refine, observation_map(env)
         extra = {"fmu_map": args.fmu_map, "fmu": args.fmu, "vehicle": env.cfg.vehicle}
     where = "the whole vehicle" if vehicle else "one bogie"
-    print(f"refining the element for policy {label} on FRA class {args.track_class} ({where})")
-    options = RefineOptions(
-        track_class=args.track_class,
-        duration=args.duration,
-        n_tracks=args.tracks,
-        n_add=args.add,
-        control_dt=env.cfg.control_dt,
-        f_max=env.cfg.f_max,
-        seed=args.seed,
-    )
-    refined, _ = loop(
-        model, factory(env), rounds=args.rounds, options=options, observe=observe, **extra
-    )
+    classes = " ".join(str(c) for c in args.track_class)
+    policy = factory(env)
+    for fra_class in args.track_class:
+        print(f"refining the element for policy {label} on FRA class {fra_class} ({where})")
+        options = RefineOptions(
+            track_class=fra_class,
+            duration=args.duration,
+            n_tracks=args.tracks,
+            n_add=args.add,
+            control_dt=env.cfg.control_dt,
+            f_max=env.cfg.f_max,
+            seed=args.seed,
+        )
+        model, _ = loop(
+            model, policy, rounds=args.rounds, options=options, observe=observe, **extra
+        )
     if args.out is not None:
-        source = f"railgym refine {args.policy}: {args.rounds} rounds on class {args.track_class}"
-        save_vertical_surrogate(refined, None, args.out, source)
+        source = f"railgym refine {args.policy}: {args.rounds} rounds on class {classes}"
+        save_vertical_surrogate(model, None, args.out, source)
         print(f"written to {args.out}")
     return 0

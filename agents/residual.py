@@ -3,12 +3,13 @@
 The agent learns a correction of a baseline that already works (residual policy learning,
 Johannink et al. 2019, Silver et al. 2018): the env receives
 
-    a = clip(a_base + scale·clip(a_agent, −1, 1), −1, 1)
+    a = clip(a_base + scale·clip(a_agent, −1, 1), low, high)
 
 with ``a_base`` the controller's normalised action on the same observation (the controller
 sees what the agent sees; an ``lqg`` base keeps its Kalman estimate from step to step) and
-``a_agent`` the policy's. Both clips are part of the definition: the env's action space is
-[−1, 1] per actuator. A policy whose output is 0 is the baseline itself.
+``a_agent`` the policy's. Both clips are part of the definition: ``[low, high]`` is the env's
+action space per actuator ([−1, 1] for a force, [0, 1] for a semi-active damper's command).
+A policy whose output is 0 is the baseline itself.
 
 * :class:`ResidualVectorEnv` — the training side: a Gymnasium vector wrapper whose ``step``
   takes the agent's action, adds the controller's and steps the wrapped env. The controller's
@@ -50,10 +51,13 @@ def check_scale(scale: Any, field: str = "residual_scale") -> float:
     return float(value)
 
 
-def residual_action(base: np.ndarray, agent: Any, scale: float) -> np.ndarray:
-    """``clip(base + scale·clip(agent, −1, 1), −1, 1)`` as float32 (module docstring)."""
+def residual_action(
+    base: np.ndarray, agent: Any, scale: float, low: Any = -1.0, high: Any = 1.0
+) -> np.ndarray:
+    """``clip(base + scale·clip(agent, −1, 1), low, high)`` as float32 (module docstring)."""
     agent = np.clip(np.asarray(agent, np.float64), -1.0, 1.0)
-    return np.clip(np.asarray(base, np.float64) + scale * agent, -1.0, 1.0).astype(np.float32)
+    total = np.asarray(base, np.float64) + scale * agent
+    return np.clip(total, low, high).astype(np.float32)
 
 
 class ResidualVectorEnv(VectorWrapper):
@@ -70,6 +74,8 @@ class ResidualVectorEnv(VectorWrapper):
     def __init__(self, env: VectorEnv, controller: Any, scale: float = 1.0) -> None:
         super().__init__(env)
         self.controller, self.scale = controller, check_scale(scale, "scale")
+        space = env.single_action_space
+        self._bounds = (np.asarray(space.low, np.float64), np.asarray(space.high, np.float64))
         mode = env.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP)
         self._next_step = mode == AutoresetMode.NEXT_STEP
         self._obs: np.ndarray | None = None
@@ -91,7 +97,9 @@ class ResidualVectorEnv(VectorWrapper):
         if self._obs is None:
             raise RuntimeError("call reset before step")
         base, _ = self.controller.predict(self._obs, episode_start=self._start)
-        total = residual_action(np.reshape(base, np.shape(actions)), actions, self.scale)
+        total = residual_action(
+            np.reshape(base, np.shape(actions)), actions, self.scale, *self._bounds
+        )
         obs, reward, terminated, truncated, info = self.env.step(total)
         ended = np.asarray(terminated | truncated, np.bool_)
         # a new episode's first observation: this step's (SAME_STEP), or the one of the step
@@ -110,11 +118,15 @@ class ResidualPolicy:
     policy, controller : objects with stable-baselines3's ``predict(obs, deterministic=True)``;
         the controller gets ``episode_start`` too.
     scale : weight of the policy's action, in (0, :data:`MAX_SCALE`].
+    bounds : the env's action bounds ``(low, high)``.
     """
 
-    def __init__(self, policy: Any, controller: Any, scale: float = 1.0) -> None:
+    def __init__(
+        self, policy: Any, controller: Any, scale: float = 1.0, bounds: tuple = (-1.0, 1.0)
+    ) -> None:
         self.policy, self.controller = policy, controller
         self.scale = check_scale(scale, "scale")
+        self.bounds = bounds
 
     def predict(
         self,
@@ -126,4 +138,5 @@ class ResidualPolicy:
         """The summed action and ``None`` (feed-forward policies only)."""
         base, _ = self.controller.predict(observation, episode_start=episode_start)
         agent, _ = self.policy.predict(observation, deterministic=deterministic)
-        return residual_action(np.reshape(base, np.shape(agent)), agent, self.scale), None
+        base = np.reshape(base, np.shape(agent))
+        return residual_action(base, agent, self.scale, *self.bounds), None

@@ -12,7 +12,9 @@ as the Python controller's ``predict`` does:
     x⁻ ← Φ·x̂ + Γ·F,  u⁻ ← F                 the state for the next step
 
 * ``lqg`` (:class:`agents.lqg.LQG`, :class:`agents.lqg.VehicleLQG`): the steady-state
-  Kalman filter and the LQR gain on the estimate (``G = 0``). Its state ``[x⁻, u⁻]`` starts
+  Kalman filter and the LQR gain on the estimate (``G = 0``; ``lq-preview``,
+  :class:`agents.preview.LQGPreview`: ``G`` its preview feed-forward, the filter blind to
+  the preview channels). Its state ``[x⁻, u⁻]`` starts
   at rest (zeros), as the Python estimate does at an episode start.
 * the memoryless bases linear in the observation (``passive``, ``skyhook``, ``groundhook``,
   ``lqr``; the vehicle's ``skyhook``, ``modal-skyhook``, ``lqr``): no states, ``G`` the gain
@@ -107,10 +109,17 @@ def linear_base(ctrl: Any, name: str, scale: float) -> LinearBase:
     n_obs, n_act = len(ctrl.obs_names), int(ctrl.n_act)
     obs_scale = np.asarray(ctrl.obs_scale, float)
     kf = getattr(ctrl, "kf", None)
-    if isinstance(kf, KalmanFilter):  # the LQG: filter and gain, no direct feedback
+    if isinstance(kf, KalmanFilter):  # the LQG: filter and gain, G its feed-forward
         k = np.asarray(ctrl.K, float)
-        g = np.zeros((n_act, n_obs))
-        c, d, m, phi, gamma = (np.asarray(a, float) for a in (kf.c, kf.d, kf.M, kf.phi, kf.gamma))
+        g = np.asarray(ctrl.feedforward(np.eye(n_obs)), float).T  # lq-preview's; else 0
+        n_s = kf.c.shape[0]  # the filter measures the first channels (not a track preview)
+        c, d, m = (
+            np.zeros((n_obs, kf.c.shape[1])),
+            np.zeros((n_obs, n_act)),
+            np.zeros((kf.M.shape[0], n_obs)),
+        )
+        c[:n_s], d[:n_s], m[:, :n_s] = kf.c, kf.d, kf.M
+        phi, gamma = np.asarray(kf.phi, float), np.asarray(kf.gamma, float)
     elif callable(getattr(ctrl, "action", None)):
         g = _gain(ctrl, name, n_obs, n_act, obs_scale)
         c, d, m = np.zeros((n_obs, 0)), np.zeros((n_obs, n_act)), np.zeros((0, n_obs))

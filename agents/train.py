@@ -2,8 +2,8 @@
 
 Usage::
 
-    python -m agents.train CONFIG [--out DIR] [--overwrite] [--timesteps N] [--seed S]
-                           [--algo ALGO] [--no-progress] [--debug]
+    railgym train CONFIG [-o DIR] [--overwrite] [--timesteps N] [--seed S] [--algo ALGO]
+                         [--quiet] [--debug]
 
 ``CONFIG`` is a ``.yaml`` / ``.yml`` file or the name of a packaged config
 (``ppo_vertical``, ``sac_vertical``, ``ppo_crash``; :func:`railgym._checks.resolve_yaml`).
@@ -33,7 +33,11 @@ by ``railgym evaluate``, which reads only their weights), ``checkpoints/`` (with
 (stable-baselines3's training log), ``eval.csv`` (per evaluation: mean/std episode reward,
 episode length and the mean of every numeric ``info`` entry at episode end, e.g.
 ``mean_rms_carbody_acc`` in m/s²) and ``config.yaml`` (the resolved config with its seeds,
-loadable again, plus a ``run`` section: package versions, wall time, steps/s).
+loadable again, plus a ``run`` section: package versions, wall and CPU time of ``learn``, env
+steps per wall second overall (``steps_per_s``, evaluations included) and of the rollouts and
+the updates alone (``rollout_s``, ``rollout_steps_per_s``, ``update_s``,
+``update_steps_per_s``; ``eval_s``: the evaluations). The same rates, so far, are in
+``progress.csv`` (``time/rollout_steps_per_s``, ``time/update_steps_per_s``).
 
 SB3 expects vector envs that reset a finished sub-env in the same step and put the final
 observation into ``info["terminal_observation"]``; :class:`GymVecToSB3` provides this on top of
@@ -56,7 +60,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from tqdm import tqdm
 
-from agents._args import bounded_int, error_status, seed_number
+from agents._args import bounded_int, error_status
 from agents._extras import extra_error, report_missing
 
 try:  # the 'agents' extra
@@ -87,18 +91,21 @@ from agents.train_config import (
 )
 from railgym import _checks as val
 from railgym.report.output import atomic_path, prepare_output_dir
+from surrogates.cli_flags import Parser, add_common, add_out, add_seed
 
 
-def _split_infos(infos: dict[str, Any], n: int) -> list[dict[str, Any]]:
-    """Gymnasium's batched ``info`` dict (values + ``_key`` masks) → one dict per sub-env."""
-    out: list[dict[str, Any]] = [{} for _ in range(n)]
+def _infos_at(infos: dict[str, Any], idx: np.ndarray) -> list[dict[str, Any]]:
+    """Sub-envs ``idx`` of Gymnasium's batched ``info`` dict (values + ``_key`` masks): one
+    dict each, in the order of ``idx``."""
+    out: list[dict[str, Any]] = [{} for _ in idx]
     for key, value in infos.items():
         if key.startswith("_"):
             continue
-        mask = infos.get(f"_{key}", np.ones(n, np.bool_))
-        parts = _split_infos(value, n) if isinstance(value, dict) else value
-        for i in np.flatnonzero(mask):
-            out[i][key] = parts[i]
+        mask = infos.get(f"_{key}")
+        parts = _infos_at(value, idx) if isinstance(value, dict) else None
+        for j, i in enumerate(idx):
+            if mask is None or mask[i]:
+                out[j][key] = value[i] if parts is None else parts[j]
     return out
 
 
@@ -119,6 +126,11 @@ class GymVecToSB3(VecEnv):
       and from then on ends every unfinished episode as truncated (``TimeLimit.truncated``;
       SB3 bootstraps its value from ``terminal_observation``) and resets the whole vector env
       with a seed drawn from its generator (seeded by :meth:`reset` after :meth:`seed`).
+
+    The ``infos`` of a step are empty dicts except for the sub-envs whose episode ended there
+    (all that SB3 reads): the final step's ``info`` with ``terminal_observation`` and
+    ``TimeLimit.truncated``; ``reset_infos[i]`` is the ``info`` of sub-env ``i``'s last reset.
+    Observations and rewards are the vector env's arrays (rewards as float32), not copied.
 
     ``get_attr``/``set_attr``/``env_method`` act on the vector env itself (shared by all
     sub-envs). The wrapped env must not be stepped by anyone else.
@@ -141,7 +153,7 @@ class GymVecToSB3(VecEnv):
         if seed is not None:
             self._rng = np.random.default_rng(seed)
         obs, infos = self.venv.reset(seed=seed, options=self._options[0] or None)
-        self.reset_infos = _split_infos(infos, self.num_envs)
+        self.reset_infos = _infos_at(infos, np.arange(self.num_envs))
         self._reset_seeds()
         self._reset_options()
         return obs
@@ -152,34 +164,30 @@ class GymVecToSB3(VecEnv):
     def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
         obs, rewards, terminated, truncated, infos = self.venv.step(self._actions)
         dones = terminated | truncated
-        n = self.num_envs
-        out = _split_infos(infos, n)
+        out: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         if dones.any() and self.autoreset_mode == AutoresetMode.SAME_STEP:
-            for i in np.flatnonzero(dones):
-                out[i] = {
-                    **out[i].get("final_info", {}),
-                    "terminal_observation": out[i]["final_obs"],
-                }
+            ended = np.flatnonzero(dones)
+            for i, info in zip(ended, _infos_at(infos, ended), strict=True):
+                out[i] = {**info.get("final_info", {}), "terminal_observation": info["final_obs"]}
         elif dones.any():
-            obs, cut = self._next_step_reset(obs, dones, out)
+            obs, cut = self._next_step_reset(obs, dones, infos, out)
             if cut:  # every unfinished episode was ended too
-                truncated, dones = truncated | ~dones, np.ones(n, np.bool_)
+                truncated, dones = truncated | ~dones, np.ones(self.num_envs, np.bool_)
         for i in np.flatnonzero(dones):
             out[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
         return obs, np.asarray(rewards, np.float32), dones, out
 
     def _next_step_reset(
-        self, obs: np.ndarray, dones: np.ndarray, out: list[dict]
+        self, obs: np.ndarray, dones: np.ndarray, infos: dict[str, Any], out: list[dict]
     ) -> tuple[np.ndarray, bool]:
-        """Reset the finished sub-envs of a NEXT_STEP env now (see the class docstring).
-        Returns the new observations and whether all sub-envs had to be reset."""
-        for i in np.flatnonzero(dones):
-            out[i]["terminal_observation"] = obs[i]
+        """Reset the finished sub-envs of a NEXT_STEP env now (see the class docstring) and
+        put the ended episodes' final ``infos`` into ``out``. Returns the new observations and
+        whether all sub-envs had to be reset."""
         if dones.all():
-            obs, _, _, _, infos = self.venv.step(self._actions)  # sub-envs only reset
+            new, _, _, _, new_infos = self.venv.step(self._actions)  # sub-envs only reset
         elif self.partial_reset:
             try:
-                obs, infos = self.venv.reset(options={"reset_mask": dones.copy()})
+                new, new_infos = self.venv.reset(options={"reset_mask": dones.copy()})
             except ValueError as err:
                 warnings.warn(
                     f"{type(self.venv).__name__} has no partial reset ({err}); "
@@ -189,13 +197,13 @@ class GymVecToSB3(VecEnv):
                 self.partial_reset = False
         cut = not (dones.all() or self.partial_reset)
         if cut:
-            for i in np.flatnonzero(~dones):
-                out[i]["terminal_observation"] = obs[i]
-            obs, infos = self.venv.reset(seed=int(self._rng.integers(2**31 - 1)))
-        for i, info in enumerate(_split_infos(infos, self.num_envs)):
-            if info:
-                self.reset_infos[i] = info
-        return obs, cut
+            new, new_infos = self.venv.reset(seed=int(self._rng.integers(2**31 - 1)))
+        ended = np.arange(self.num_envs) if cut else np.flatnonzero(dones)
+        for i, info in zip(ended, _infos_at(infos, ended), strict=True):
+            out[i] = {**info, "terminal_observation": obs[i]}
+        for i, info in zip(ended, _infos_at(new_infos, ended), strict=True):
+            self.reset_infos[i] = info
+        return new, cut
 
     def close(self) -> None:
         self.venv.close()
@@ -266,9 +274,9 @@ def evaluate(policy: Any, venv: VectorEnv, seed: int) -> dict[str, float]:
         lengths[active] += 1
         ended = (terminated | truncated) & active
         if ended.any():
-            split = _split_infos(infos, n)
-            for i in np.flatnonzero(ended):
-                final[i] = split[i].get("final_info", split[i])
+            idx = np.flatnonzero(ended)
+            for i, info in zip(idx, _infos_at(infos, idx), strict=True):
+                final[i] = info.get("final_info", info)
             active &= ~ended
     stats = {
         "mean_reward": float(returns.mean()),
@@ -303,15 +311,61 @@ class _ProgressBar(BaseCallback):
         self.bar.close()
 
 
+def _rate(steps: int, seconds: float) -> float | None:
+    """Steps per second, 1/s (``None`` for a phase that took no measurable time)."""
+    return round(steps / seconds, 1) if seconds > 0 else None
+
+
+class _Timing(BaseCallback):
+    """Wall time of ``learn`` split into collecting env steps (``rollout_s``, s, evaluations
+    excluded), updating the networks (``update_s``, s) and evaluating (``eval_s``, s, added by
+    :class:`_EvalCallback`); the env steps per second of rollouts and updates so far go to
+    SB3's log (``time/rollout_steps_per_s``, ``time/update_steps_per_s``). First in the
+    callback list, so that the evaluation after the last update is not update time."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rollout_s = self.update_s = self.eval_s = 0.0
+        self._start = self._eval_at_start = 0.0
+        self._end: float | None = None  # end of the last rollout: an update follows it
+
+    def _on_rollout_start(self) -> None:
+        self._start, self._eval_at_start = time.perf_counter(), self.eval_s
+        if self._end is not None:
+            self.update_s += self._start - self._end
+            self.logger.record("time/update_steps_per_s", _rate(self.num_timesteps, self.update_s))
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self._end = time.perf_counter()
+        self.rollout_s += self._end - self._start - (self.eval_s - self._eval_at_start)
+        self.logger.record("time/rollout_steps_per_s", _rate(self.num_timesteps, self.rollout_s))
+
+    def _on_training_end(self) -> None:
+        if self._end is not None:
+            self.update_s += time.perf_counter() - self._end
+            self._end = None
+
+
 class _EvalCallback(BaseCallback):
     """Every ``freq`` steps and after the last update (the saved model): :func:`evaluate`, a
-    row of ``eval.csv`` and ``best_model.zip`` on a new best mean reward."""
+    row of ``eval.csv`` and ``best_model.zip`` on a new best mean reward; the time it takes
+    is added to ``timing.eval_s``."""
 
     def __init__(
-        self, venv: VectorEnv, seed: int, freq: int, out: Path, echo: list[str] | None
+        self,
+        venv: VectorEnv,
+        seed: int,
+        freq: int,
+        out: Path,
+        echo: list[str] | None,
+        timing: _Timing,
     ) -> None:
         super().__init__()
         self.venv, self.seed, self.freq, self.out, self.echo = venv, seed, freq, out, echo
+        self.timing = timing
         self.next_eval, self.best = freq, -np.inf
         self.t0 = time.perf_counter()
         self.fields: list[str] | None = None
@@ -329,6 +383,7 @@ class _EvalCallback(BaseCallback):
         self._evaluate()
 
     def _evaluate(self) -> None:
+        t0 = time.perf_counter()
         stats = evaluate(self.model, self.venv, self.seed)
         row = {
             "timesteps": self.num_timesteps,
@@ -357,6 +412,7 @@ class _EvalCallback(BaseCallback):
                 f"eval @ {self.num_timesteps} steps: reward {stats['mean_reward']:.4g} "
                 f"± {stats['std_reward']:.3g}{extra}"
             )
+        self.timing.eval_s += time.perf_counter() - t0
 
 
 def train(
@@ -420,15 +476,17 @@ def train(
     model.set_logger(configure(str(out), ["csv"]))
     echo = cfg.eval_echo if progress else None
     every = max(cfg.checkpoint_freq // cfg.n_envs, 1)
+    timing = _Timing()
     callbacks: list[BaseCallback] = [
-        _EvalCallback(eval_venv, cfg.eval_seed, cfg.eval_freq, out, echo=echo),
+        timing,
+        _EvalCallback(eval_venv, cfg.eval_seed, cfg.eval_freq, out, echo, timing),
         CheckpointCallback(every, str(out / "checkpoints"), name_prefix="model"),
     ]
     if progress:
         callbacks.append(_ProgressBar())
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     model.learn(cfg.n_timesteps, callback=callbacks)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     with atomic_path(out / "model.zip") as tmp:
         model.save(tmp)
     write_manifest(out)
@@ -436,31 +494,32 @@ def train(
         write_manifest(out / "checkpoints")
     env.close()
     eval_venv.close()
+    steps = int(model.num_timesteps)
     run.update(
         wall_s=round(wall, 1),
-        steps_per_s=round(model.num_timesteps / wall, 1),
-        timesteps=int(model.num_timesteps),
+        steps_per_s=_rate(steps, wall),
+        timesteps=steps,
+        cpu_s=round(cpu, 1),
+        rollout_s=round(timing.rollout_s, 1),
+        rollout_steps_per_s=_rate(steps, timing.rollout_s),
+        update_s=round(timing.update_s, 1),
+        update_steps_per_s=_rate(steps, timing.update_s),
+        eval_s=round(timing.eval_s, 1),
     )
     write_config(out, cfg, run)
     return out
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``python -m agents.train``; returns the exit status (2: user error)."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.train", description=__doc__.split("\n\n")[0]
-    )
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym train`` (``python -m agents.train``)."""
+    parser = Parser(prog="railgym train", description=__doc__.split("\n\n")[0])
     parser.add_argument(
         "config", help="YAML file (agents.train format), or the name of a packaged config"
     )
-    parser.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="output folder (default runs/<config-stem>/ in the working folder)",
-    )
-    parser.add_argument(
-        "--overwrite", action="store_true", help="write into an existing non-empty --out folder"
+    add_out(
+        parser,
+        "output folder (default: runs/<config-stem>/ in the working folder)",
+        overwrite="write into an existing non-empty -o/--out folder",
     )
     parser.add_argument(
         "--timesteps",
@@ -468,7 +527,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=None,
         help="override n_timesteps",
     )
-    parser.add_argument("--seed", type=seed_number, default=None, help="override seed")
+    add_seed(parser, "override the config's seed", default=None)
     parser.add_argument(
         "--algo",
         choices=sorted(ALGOS),
@@ -476,22 +535,33 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="algorithm of an rl-zoo3 hyperparameter file (rl-zoo3's --algo; the agents.train "
         "format names it in the file)",
     )
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    add_common(parser, quiet_old=["--no-progress"])
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``railgym train`` (``python -m agents.train``); returns the exit status
+    (2: user error)."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     try:
         out = train(
             args.config,
             args.out,
             args.timesteps,
-            not args.no_progress,
+            not args.quiet,
             args.seed,
             args.overwrite,
             args.algo,
         )
     except Exception as err:
         return error_status(parser.prog, err, args.debug)
-    print(f"{speed_text(read_run(out))}; model, logs and config in {out}/")
+    run = read_run(out)
+    print(
+        f"{speed_text(run)}: rollouts {run['rollout_steps_per_s']} steps/s, updates "
+        f"{run['update_steps_per_s']} steps/s, evaluations {run['eval_s']} s; "
+        f"model, logs and config in {out}/"
+    )
     return 0
 
 

@@ -3,8 +3,8 @@
 Usage (needs the ``rllib`` extra, its own virtual environment: ``ray[rllib]`` pins
 ``gymnasium==1.2.2``; see ``docs/scaling.md``)::
 
-    python -m agents.train_rllib CONFIG.yaml [--out DIR] [--overwrite] [--iterations N]
-                                 [--seed S] [--address ADDR] [--debug]
+    railgym train-rllib CONFIG.yaml [-o DIR] [--overwrite] [--iterations N] [--seed S]
+                                    [--address ADDR] [--quiet] [--debug]
 
     python -m agents.train_rllib railgym/configs/agents/ppo_vertical_rllib.yaml
 
@@ -45,7 +45,6 @@ or an existing cluster with ``--address``.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import inspect
 import json
@@ -59,14 +58,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents._args import bounded_int, error_status, seed_number
+from agents._args import error_status
 from agents._extras import extra_error, report_missing
 from agents.policy_io import RLLIB_MODULE_PATH, refuse_untrusted, sha256
+from agents.train_rllib_args import MAX_ITERATIONS, build_parser
 from railgym import _checks as val
+from railgym.progress import quiet
 from railgym.report.output import prepare_output_dir, write_text_atomic
-
-#: most training iterations of one run (each thousands of env steps: weeks of training)
-MAX_ITERATIONS = 10**6
 
 try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' extra
     import ray
@@ -355,25 +353,16 @@ def train_rllib(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``python -m agents.train_rllib``; returns the exit status (2: user error)."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.train_rllib", description=__doc__.split("\n\n")[0]
-    )
-    parser.add_argument("config", type=Path, help="YAML file with trainer: rllib")
-    parser.add_argument("--out", type=Path, default=None, help="output folder")
-    parser.add_argument("--overwrite", action="store_true", help="write into a non-empty --out")
-    parser.add_argument(
-        "--iterations", type=bounded_int(1, MAX_ITERATIONS), default=None, help="override"
-    )
-    parser.add_argument("--seed", type=seed_number, default=None, help="override seed")
-    parser.add_argument("--address", default=None, help="Ray cluster to join (HOST:PORT)")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    """Entry point of ``railgym train-rllib`` (``python -m agents.train_rllib``); returns the
+    exit status (2: user error)."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        out = train_rllib(
-            args.config, args.out, args.iterations, args.seed, args.address, args.overwrite
-        )
-    except (ValueError, OSError) as err:
+        with quiet(args.quiet):
+            out = train_rllib(
+                args.config, args.out, args.iterations, args.seed, args.address, args.overwrite
+            )
+    except Exception as err:
         return error_status(parser.prog, err, args.debug)
     run = read_run(out)
     reward = run["eval"]["mean_reward"]

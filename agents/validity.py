@@ -2,8 +2,8 @@
 error of the carbody acceleration against the reference, beside ``info["outside_element"]``
 (share of steps) and ``info["outside_envelope"]`` (docs/validation.md, *Validity flags*).
 
-    python -m agents.validity                     # classes 3-6 at 1.0, 1.5, 2.0 x, 5 seeds
-    python -m agents.validity --env vertical --track-class 4 --factor 2.0 --controller skyhook
+    railgym validity                     # both envs, classes 3-6 at 1.0, 1.5, 2.0 x, 5 seeds
+    railgym validity --env vertical --track-class 4 --factor 2.0 --controller skyhook
 
 For each env, class, speed factor (× the class's maximum speed) and controller, a native vector
 env on the packaged surrogate element and one on the reference backend run the same
@@ -24,9 +24,11 @@ from typing import Any
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import bounded_real, duration_s, episodes, track_class
+from agents._args import bounded_real, duration_s, episodes, error_status, track_class
 from agents.vehicle_validation import ENVS, SEED, record_episodes
+from railgym.progress import quiet
 from railgym.track import class_speed
+from surrogates.cli_flags import Parser, add_common, add_seed
 
 __all__ = ["ENVS", "THRESHOLD", "case_episodes", "format_rows", "target_holds", "validity_rows"]
 
@@ -143,14 +145,17 @@ def format_rows(rows: Sequence[dict[str, Any]], threshold: float = THRESHOLD) ->
     return "\n".join(lines)
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.validity",
-        description=__doc__.split("\n\n")[0],
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym validity`` (``python -m agents.validity``)."""
+    parser = Parser(prog="railgym validity", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--env", choices=sorted(ENVS), default=None, help="the env (default: both)")
+    parser.add_argument(
+        "--track-class",
+        type=track_class,
+        nargs="+",
+        default=[3, 4, 5, 6],
+        help="FRA track classes 1..6",
     )
-    parser.add_argument("--env", nargs="+", choices=sorted(ENVS), default=["vertical", "vehicle"])
-    parser.add_argument("--track-class", type=track_class, nargs="+", default=[3, 4, 5, 6])
     parser.add_argument(
         "--factor",
         type=bounded_real("speed factor", "× the class's maximum speed", 2.0),
@@ -158,26 +163,44 @@ def _parser() -> argparse.ArgumentParser:
         default=[1.0, 1.5, 2.0],
         help="speeds as multiples of each class's maximum speed (the envs accept up to 2)",
     )
-    parser.add_argument("--controller", nargs="+", default=["passive", "skyhook"])
+    parser.add_argument(
+        "--controller", nargs="+", default=["passive", "skyhook"], help="closed-loop controllers"
+    )
     parser.add_argument("--seeds", type=episodes, default=5, help="tracks per case")
+    add_seed(parser, "track seed of the first track (then +1, +2, ...)", default=SEED)
     parser.add_argument("--duration", type=duration_s, default=20.0, help="s per track")
     parser.add_argument(
-        "--threshold", type=bounded_real("error", "%", 100.0), default=THRESHOLD, help="%"
+        "--threshold",
+        type=bounded_real("error", "%", 100.0),
+        default=THRESHOLD,
+        help="relative RMS error, %%, above which an episode must be flagged",
     )
+    add_common(parser)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the table; exit status 1 when the target does not hold."""
-    parser = _parser()
+    parser = build_parser()
     args = parser.parse_args(argv)
-    for env in args.env:
+    envs = ["vertical", "vehicle"] if args.env is None else [args.env]
+    for env in envs:
         for c in args.controller:
             if c not in ENVS[env][1]:
                 parser.error(f"--controller {c!r} is not a controller of --env {env}")
-    rows = validity_rows(
-        args.env, args.track_class, args.factor, args.controller, args.seeds, args.duration
-    )
+    try:
+        with quiet(args.quiet):
+            rows = validity_rows(
+                envs,
+                args.track_class,
+                args.factor,
+                args.controller,
+                args.seeds,
+                args.duration,
+                args.seed,
+            )
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
     print(format_rows(rows, args.threshold))
     return 0 if target_holds(rows, args.threshold) else 1
 

@@ -3,9 +3,9 @@ over unseen tracks, on ``railgym/VerticalVehicle-v1`` (per floor point: front, c
 or on ``railgym/VerticalSuspension-v1`` (``--env vertical``, one bogie), against the reference
 backend or the user's FMU (``--backend fmu --fmu-map MAP [--vehicle FILE]``).
 
-    python -m agents.vehicle_validation --seeds 20 --track-class 3 4 5 6
-    python -m agents.vehicle_validation --element vehicle maxwell --controller modal-skyhook lqr
-    python -m agents.vehicle_validation --env vertical --element my_element.json \
+    railgym validate --seeds 20 --track-class 3 4 5 6
+    railgym validate --element vehicle maxwell --controller modal-skyhook lqr
+    railgym validate --env vertical --element my_element.json \
         --backend fmu --fmu-map my_car.yaml --vehicle my_car_vehicle.yaml --seeds 10
 
 For each class, controller and element, a native vector env with the surrogate and one with
@@ -25,10 +25,12 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import duration_s, episodes, track_class
+from agents._args import duration_s, episodes, error_status, track_class
 from agents.policies import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
+from railgym.progress import quiet
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+from surrogates.cli_flags import Parser, add_common, add_seed
 
 __all__ = ["ENVS", "FLOOR", "floor_errors", "main", "record_episodes", "validation_rows"]
 
@@ -108,16 +110,17 @@ def validation_rows(
     duration: float = 20.0,
     env_name: str = "vehicle",
     reference: Mapping[str, Any] | None = None,
+    seed: int = SEED,
 ) -> list[dict[str, Any]]:
     """One row per element × class × controller: ``median``, ``p90``, ``max`` (points,) in
-    %, and ``errors`` (n_seeds, points); ``env_name`` and ``reference`` as
+    %, and ``errors`` (n_seeds, points); ``env_name``, ``reference`` and ``seed`` as
     :func:`floor_errors`'s."""
     rows = []
     for name, element in elements.items():
         for c in classes:
             for ctl in controllers:
                 e = 100.0 * floor_errors(
-                    element, c, n_seeds, ctl, duration, env_name=env_name, reference=reference
+                    element, c, n_seeds, ctl, duration, seed, env_name, reference
                 )
                 rows.append(
                     {
@@ -160,12 +163,9 @@ def _packaged(name: str) -> Any:
     return name
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.vehicle_validation",
-        description=__doc__.split("\n\n")[0],
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-    )
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym validate`` (``python -m agents.vehicle_validation``)."""
+    parser = Parser(prog="railgym validate", description=__doc__.split("\n\n")[0])
     parser.add_argument("--env", choices=sorted(ENVS), default="vehicle", help="the env")
     parser.add_argument(
         "--element",
@@ -174,9 +174,18 @@ def _parser() -> argparse.ArgumentParser:
         help="packaged element (vehicle: the whole vehicle's default; maxwell, static: the "
         "one-bogie elements) or JSON (default: the env's packaged one)",
     )
-    parser.add_argument("--track-class", type=track_class, nargs="+", default=[3, 4, 5, 6])
-    parser.add_argument("--controller", nargs="+", default=["passive"])
+    parser.add_argument(
+        "--track-class",
+        type=track_class,
+        nargs="+",
+        default=[3, 4, 5, 6],
+        help="FRA track classes 1..6",
+    )
+    parser.add_argument(
+        "--controller", nargs="+", default=["passive"], help="closed-loop controllers"
+    )
     parser.add_argument("--seeds", type=episodes, default=20, help="tracks per class")
+    add_seed(parser, "track seed of the first track (then +1, +2, ...)", default=SEED)
     parser.add_argument("--duration", type=duration_s, default=20.0, help="s per track")
     parser.add_argument(
         "--backend", choices=("reference", "fmu"), default="reference", help="the model compared"
@@ -188,12 +197,13 @@ def _parser() -> argparse.ArgumentParser:
         help="vehicle YAML (name or path) of both envs (default: the packaged one; with "
         "--backend fmu the mapping's vehicle:)",
     )
+    add_common(parser)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the table (relative RMS error, %, median / 90th percentile / max per point)."""
-    parser = _parser()
+    parser = build_parser()
     args = parser.parse_args(argv)
     _, table, _ = ENVS[args.env]
     for c in args.controller:
@@ -215,17 +225,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             reference["vehicle"] = args.vehicle
         names = args.element or ["vehicle" if args.env == "vehicle" else "maxwell"]
         elements = {e: _packaged(e) for e in names}
-        rows = validation_rows(
-            elements,
-            args.track_class,
-            args.controller,
-            args.seeds,
-            args.duration,
-            env_name=args.env,
-            reference=reference,
-        )
-    except (ValueError, OSError) as err:
-        parser.exit(2, f"{parser.prog}: error: {err}\n")
+        with quiet(args.quiet):
+            rows = validation_rows(
+                elements,
+                args.track_class,
+                args.controller,
+                args.seeds,
+                args.duration,
+                env_name=args.env,
+                reference=reference,
+                seed=args.seed,
+            )
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
     print(format_rows(rows))
     return 0
 

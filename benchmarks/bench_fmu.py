@@ -17,9 +17,11 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
+from agents.speed import fmu_unavailable
 from benchmarks import measured, row
 from benchmarks._stepping import rate, steps, vector_steps
 from benchmarks._timing import interleaved
+from railgym.fmu.reference import export_reference_fmu
 
 ID = "railgym/VerticalSuspension-v1"
 N_VEC = 1024
@@ -27,15 +29,9 @@ N_VEC = 1024
 
 def run() -> list[dict]:
     """Rows of measurements (see ``benchmarks/__main__.py``)."""
-    try:
-        import fmpy  # noqa: F401
-
-        from railgym.fmu.reference import export_reference_fmu
-        from surrogates.fmi.export import find_compiler
-
-        find_compiler()
-    except Exception as err:  # noqa: BLE001 - no fmpy or no compiler: no FMU rows
-        return [row("FMU env (skipped)", float("nan"), "", context=str(err)[:60])]
+    why = fmu_unavailable()
+    if why is not None:
+        return [row("FMU env (skipped)", float("nan"), "", context=why)]
     tmp = Path(tempfile.mkdtemp(prefix="bench-fmu-"))
     envs: list = []
     try:

@@ -1,4 +1,5 @@
-"""Command line: ``surrogates build data.csv --inputs du dv --output F -o model.json``."""
+"""Command line: ``surrogates build data.csv --inputs du dv --target F -o model.json`` and
+``surrogates export-fmu model.json -o element.fmu`` (also ``railgym surrogates ...``)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import numpy as np
 from surrogates import io
 from surrogates.builder import build
 from surrogates.checks import MAX_SEED
+from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
 from surrogates.models.checks import MAX_DEGREE
 from surrogates.units import KNOWN_UNITS, check_units
 
@@ -68,8 +70,9 @@ BUILD_DESCRIPTION = (
 )
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="surrogates", description=__doc__)
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``surrogates`` (also ``railgym surrogates``)."""
+    parser = Parser(prog="surrogates", description=__doc__)
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     sub = parser.add_subparsers(dest="command", required=True)
     b = sub.add_parser(
@@ -77,38 +80,36 @@ def _parser() -> argparse.ArgumentParser:
     )
     b.add_argument("data", help="CSV file with a header row ('du' or 'du [m]' per column)")
     b.add_argument("--inputs", nargs="+", required=True, help="input column names")
-    b.add_argument("--output", required=True, help="output column name")
-    b.add_argument("-o", "--model", required=True, help="where to write the model JSON")
-    b.add_argument("--overwrite", action="store_true", help="replace existing output files")
-    b.add_argument(
-        "--kind",
-        choices=["lpr", "kriging"],
-        default="lpr",
-        help="Legendre regression or Kriging (default: %(default)s)",
+    target = b.add_argument("--target", required=True, help="output (target) column name")
+    add_deprecated(b, target, "--output")
+    add_out(
+        b,
+        "where to write the model JSON",
+        required=True,
+        overwrite="replace existing output files",
+        old=["--model"],
+        type=str,
     )
     b.add_argument(
-        "--m",
-        type=int,
-        default=101,
-        help="number of training rows; the other rows are out-of-bag (default: %(default)s)",
+        "--kind", choices=["lpr", "kriging"], default="lpr", help="Legendre regression or Kriging"
+    )
+    b.add_argument(
+        "--m", type=int, default=101, help="number of training rows; the other rows are out-of-bag"
     )
     b.add_argument(
         "--sampling",
         choices=["ga", "greedy", "random"],
         default="ga",
-        help="how the training rows are picked (default: %(default)s)",
+        help="how the training rows are picked",
     )
     b.add_argument(
         "--selection",
         choices=["oob", "kfold"],
         default="oob",
-        help="how the degree or kernel is chosen (default: %(default)s)",
+        help="how the degree or kernel is chosen",
     )
-    b.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        help=f"seed of the sampling, 0..{MAX_SEED} (default: %(default)s)",
+    b.add_argument(  # checked in the build: a bad seed is one line and status 2 as any other
+        "--seed", type=int, default=0, help=f"seed of the sampling, 0..{MAX_SEED}"
     )
     b.add_argument(
         "--units",
@@ -119,21 +120,36 @@ def _parser() -> argparse.ArgumentParser:
         "read from a header 'du [m]'); known units: " + ", ".join(sorted(KNOWN_UNITS)),
     )
     b.add_argument("--report", help="also write the build report as JSON here")
-    b.add_argument(
-        "--quiet",
-        action="store_true",
-        help="print the summary alone: no candidate table, progress bars or notes",
-    )
     add_degree_arguments(b)
-    b.add_argument(
-        "--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks"
+    add_common(
+        b,
+        debug_default=argparse.SUPPRESS,
+        quiet_help="print the summary alone: no candidate table, progress bars or notes",
     )
-    e = sub.add_parser("export-fmu", help="export a saved Legendre element as an FMI 2.0 FMU")
+    e = sub.add_parser(
+        "export-fmu",
+        help="export a saved Legendre element as an FMI 2.0 FMU",
+        description="Export a saved Legendre element (model JSON) as a standalone FMI 2.0 FMU: "
+        "model exchange, co-simulation or both, with a binary for this platform or sources only.",
+    )
     e.add_argument("model", help="model JSON written by 'surrogates build'")
-    e.add_argument("-o", "--fmu", required=True, help="where to write the .fmu")
-    e.add_argument("--kind", choices=["me", "cs", "both"], default="both")
+    add_out(
+        e,
+        "where to write the .fmu",
+        required=True,
+        overwrite="replace an existing FMU",
+        old=["--fmu"],
+        type=str,
+    )
+    kind = e.add_argument(
+        "--fmu-kind",
+        choices=["me", "cs", "both"],
+        default="both",
+        help="FMI interfaces: model exchange, co-simulation or both",
+    )
+    add_deprecated(e, kind, "--kind")
     e.add_argument("--sources-only", action="store_true", help="do not compile a binary")
-    e.add_argument("--overwrite", action="store_true", help="replace an existing FMU")
+    add_common(e, debug_default=argparse.SUPPRESS)
     return parser
 
 
@@ -193,18 +209,18 @@ def _build(args: argparse.Namespace) -> int:
         if name in units:
             raise UsageError(f"--units gives a unit for {name!r} twice")
         units[name] = unit
-    names = [*args.inputs, args.output]
+    names = [*args.inputs, args.target]
     dups = sorted({c for c in names if names.count(c) > 1})
     if dups:
-        raise UsageError(f"--inputs/--output name the column(s) {dups} more than once")
+        raise UsageError(f"--inputs/--target name the column(s) {dups} more than once")
     if args.m < 1:
         raise UsageError(f"--m must be >= 1, got {args.m}")
     if not 0 <= args.seed <= MAX_SEED:  # the bound of every command's --seed
         raise UsageError(f"--seed must be an integer in 0..{MAX_SEED}, got {args.seed}")
     candidates = _candidates(args, len(args.inputs))
-    _check_output(args.model, "-o", args.overwrite)
+    _check_output(args.out, "-o", args.overwrite)
     if args.report:
-        if Path(args.report).resolve() == Path(args.model).resolve():
+        if Path(args.report).resolve() == Path(args.out).resolve():
             raise UsageError("--report and -o name the same file")
         _check_output(args.report, "--report", args.overwrite)
     cols, header_units = io.read_csv_units(args.data, columns=names)
@@ -226,7 +242,7 @@ def _build(args: argparse.Namespace) -> int:
             )
     model, report = build(
         U,
-        cols[args.output],
+        cols[args.target],
         kind=args.kind,
         m=args.m,
         sampling=args.sampling,
@@ -235,14 +251,14 @@ def _build(args: argparse.Namespace) -> int:
         progress=None if args.quiet else _progress_bar(),
         candidates=candidates,
         inputs=args.inputs,
-        output=args.output,
+        output=args.target,
         units=units,
     )
     if args.report:
         io.write_atomic(args.report, json.dumps(report.to_dict(), indent=1) + "\n")
-    io.save(model, args.model, metadata={"source": str(args.data), "report": report.to_dict()})
-    print(report.format(units.get(args.output), table=not args.quiet))
-    print(f"model written to {args.model}")
+    io.save(model, args.out, metadata={"source": str(args.data), "report": report.to_dict()})
+    print(report.format(units.get(args.target), table=not args.quiet))
+    print(f"model written to {args.out}")
     return 0
 
 
@@ -265,7 +281,7 @@ def _units(
             )
     flag = "--units" if not header else "--units and the CSV header"
     try:
-        return check_units({**header, **given}, args.inputs, args.output, flag, cli=True)
+        return check_units({**header, **given}, args.inputs, args.target, flag, cli=True)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
 
@@ -275,15 +291,17 @@ def _export_fmu(args: argparse.Namespace) -> int:
     from surrogates.fmi import FMUExportError, export_fmu
 
     try:
-        _check_output(args.fmu, "-o", args.overwrite)
+        _check_output(args.out, "-o", args.overwrite)
         path = export_fmu(
             args.model,
-            args.fmu,
-            kind=args.kind,
+            args.out,
+            kind=args.fmu_kind,
             binary=not args.sources_only,
             overwrite=args.overwrite,
         )
     except (OSError, ValueError, FMUExportError) as exc:
+        if args.debug:
+            raise
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(f"FMU written to {path}")
@@ -296,7 +314,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     Exit code 0 on success and 2 for a user error (bad argument, path, CSV file or data),
     reported as one line on stderr; ``--debug`` shows the traceback instead.
     """
-    args = _parser().parse_args(argv)
+    args = build_parser().parse_args(argv)
     if args.command == "export-fmu":
         return _export_fmu(args)
     try:

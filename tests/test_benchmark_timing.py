@@ -4,6 +4,7 @@ on a fake clock. Nothing here times real work."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -130,3 +131,49 @@ def test_printed_row_has_the_spread_and_the_verdict():
     assert "% ≤ 1.3" in line and " met " in line and line.endswith("ctx")
     line = format_row({"name": "y", "value": 3.0, "unit": "s", "target": "<= 2 s"})
     assert " — " in line and "met" not in line and "missed" not in line  # no spread, no verdict
+
+
+def test_surrogate_ratios_are_per_round_ratios_with_spread_and_verdict():
+    """``benchmarks.bench_replaced.ratio_rows`` on synthetic env-steps/s, one sample per
+    round: the ratio rows are the medians of the per-round ratios (not the ratio of the
+    medians), with their spread, and met / missed / unresolved against ≥ 5 and ≥ 100."""
+    from benchmarks.bench_replaced import TARGET_FMU, TARGET_REFERENCE, ratio_rows
+
+    rates = {
+        "surrogate": np.array([8.0e6, 2.0e6, 3.0e6, 6.6e6, 6.2e6]),
+        "reference": np.array([1.0e6, 1.0e6, 0.5e6, 1.1e6, 1.0e6]),
+        "fmu": np.array([5e4, 5e4, 5e4, 5e4, 5e4]),
+    }
+    rows = {r["name"]: r for r in ratio_rows("Env", rates, "16 FMU instances", threads=2)}
+    ref = rows["  surrogate / reference (Env)"]
+    per_round = [8.0, 2.0, 6.0, 6.0, 6.2]  # median 6; the medians' ratio 6.2e6 / 1e6 = 6.2
+    assert ref["value"] == pytest.approx(6.0) and ref["target"] == TARGET_REFERENCE == "≥ 5"
+    assert ref["spread"] == pytest.approx(0.2 / 6.0) == spread(per_round)  # IQR 6 → 6.2
+    assert " met " in format_row(ref)  # margin 1/6 above the IQR
+    fmu = rows["  surrogate / FMU env (Env)"]
+    assert fmu["value"] == pytest.approx(124.0) and fmu["target"] == TARGET_FMU == "≥ 100"
+    assert fmu["spread"] == pytest.approx(spread(rates["surrogate"] / 5e4))
+    # 124 with an IQR of 58 % (60 → 132 per round): the spread exceeds the 19 % margin
+    assert " unresolved " in format_row(fmu)
+    assert rows["Env surrogate vector (1024)"]["value"] == pytest.approx(6.2)  # M steps/s
+    assert rows["Env FMU in the loop (16)"]["value"] == pytest.approx(50.0)  # k steps/s
+    assert "2 numba threads" in rows["Env reference vector (1024)"]["context"]
+    slow = {"surrogate": np.full(5, 4e6), "reference": np.full(5, 1e6)}
+    rows = {r["name"]: r for r in ratio_rows("Env", slow, "FMPy is not installed")}
+    assert " missed " in format_row(rows["  surrogate / reference (Env)"])  # 4 < 5, no spread
+    skipped = rows["  surrogate / FMU env (Env)"]
+    assert np.isnan(skipped["value"]) and skipped["spread"] is None
+    assert skipped["context"] == "FMPy is not installed" and "Env FMU in the loop (16)" not in rows
+
+
+def test_fmu_env_is_skipped_with_the_reason(monkeypatch):
+    """No FMU env (and nothing built) for the crash env, whose reference exports no FMU, nor
+    where FMPy or a C compiler is missing: the row says why."""
+    from benchmarks import bench_replaced
+
+    env, why = bench_replaced.fmu_env("railgym/TrainCrash-v1", Path("unused"))
+    assert env is None and why == "no FMU of its reference (exported: vertical, vehicle)"
+    reason = "no C compiler to build the FMU (install gcc or set CC)"
+    monkeypatch.setattr(bench_replaced, "fmu_unavailable", lambda: reason)
+    for env_id in ("railgym/VerticalSuspension-v1", "railgym/VerticalVehicle-v1"):
+        assert bench_replaced.fmu_env(env_id, Path("unused")) == (None, reason)

@@ -15,6 +15,7 @@ compiled call (the single env is a batch of one).
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -24,6 +25,7 @@ from railgym.envs.params import (
     TrackEnvParams,
     check_speed,
     declared,
+    derived,
     limits,
     param,
 )
@@ -62,6 +64,8 @@ __all__ = [
     "LIMITS",
     "MIN_COMFORT_SAMPLES",
     "OBSERVATIONS",
+    "PREVIEW_SCALE",
+    "PREVIEW_SPACING",
     "REWARD_TERMS",
     "SIZING_SPEED",
     "VehicleParams",
@@ -70,6 +74,7 @@ __all__ = [
     "VerticalVehicleVectorEnv",
     "VerticalVehicleVectorEnvV0",
     "episode_comfort",
+    "preview_points",
 ]
 
 _POS = ("z_c", "theta_c", "q", "z_b0", "theta_b0", "z_b1", "theta_b1")
@@ -100,6 +105,11 @@ OBSERVATIONS = {
     name: (tuple(c for c, _ in chans), tuple(s for _, s in chans))
     for name, chans in (("sensors", _SENSORS), ("full", _FULL))
 }
+#: largest spacing of the preview samples, m: half the default shortest wavelength (1 m)
+PREVIEW_SPACING = 0.5
+#: scale of the preview channels: track height (m) and its rate under a wheelset (m/s), as the
+#: wheelset inputs of ``observation="full"``
+PREVIEW_SCALE = (0.01, 0.1)
 DEFAULT_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
 #: lowest speed the track arrays are sized for unless the env is made with a lower one, m/s
 SIZING_SPEED = 10.0
@@ -193,6 +203,17 @@ class VehicleParams(TrackEnvParams):
         values=ACC_WEIGHTINGS,
     )
     flexible: bool = param(True, "", "False freezes the carbody's first bending mode", kind="bool")
+    preview: float = param(
+        0.0,
+        "m",
+        "track preview: the track height and rate (measured at the front wheelset) ahead of "
+        "the rear wheelset up to this distance join the observation (*Preview*); 0: none; at "
+        "most the front-to-rear wheelset distance 2(a + b) (21.56 m on `manchester_whole`)",
+        lo=0.0,
+    )
+    preview_points: np.ndarray = derived(
+        "m", "distances of the preview samples ahead of the rear wheelset (empty: no preview)"
+    )
 
     def _default_dt(self) -> float:
         return DEFAULT_DT
@@ -206,6 +227,40 @@ class VehicleParams(TrackEnvParams):
         speeds = _speed_range(self.track_class, self.speed, self.speed_limit)
         if self.profile is None:
             check_band_speed(self.band, speeds[1], self.dt)
+        self._derive_preview()
+
+    def _derive_preview(self) -> None:
+        """The preview grid (:func:`preview_points`) and its channels appended to the
+        observation: ``preview_z_i`` (m, scale 0.01), then ``preview_zdot_i`` (m/s, 0.1)."""
+        points = preview_points(self.preview, self.model)
+        self._set("preview_points", points)
+        if points.size == 0:
+            return
+        idx = range(points.size)
+        names = [f"preview_{q}_{i}" for q in ("z", "zdot") for i in idx]
+        scales = np.repeat(np.array(PREVIEW_SCALE), points.size)
+        self._set("obs_names", (*self.obs_names, *names))
+        self._set("obs_scale", np.concatenate([self.obs_scale, scales]))
+
+
+def preview_points(horizon: float, vehicle: Any) -> np.ndarray:
+    """Distances ahead of the rear wheelset (m) of the preview samples of ``horizon`` (m):
+    ``n + 1`` points ``i·horizon/n``, ``i = 0..n``, ``n = ceil(horizon / PREVIEW_SPACING)``
+    (0: the track under the rear wheelset now; ``horizon`` at most the front-to-rear wheelset
+    distance ``2(a + b)``, whose track the front wheelset has measured, to a rounding of
+    10⁻⁹); empty for 0. FieldError naming ``preview`` beyond that distance."""
+    span = float(vehicle.wheelset_positions[0] - vehicle.wheelset_positions[-1])
+    if horizon > span * (1.0 + 1e-9):
+        raise val.FieldError(
+            "preview",
+            f"{horizon!r} m is beyond the front wheelset, {span:.4g} m ahead of the rear one: "
+            "the track ahead of the front wheelset is not measured; give at most "
+            f"{span:.4g} m",
+        )
+    if horizon == 0.0:
+        return np.zeros(0)
+    horizon = min(horizon, span)  # a rounded full horizon ends at the front wheelset
+    return np.linspace(0.0, horizon, math.ceil(horizon / PREVIEW_SPACING) + 1)
 
 
 #: documented argument limits (docs/envs/vehicle_vertical.md): the declared bounds of
@@ -247,6 +302,7 @@ class _VehicleAccessors:
     env."""
 
     sim: VehicleBatch
+    cfg: VehicleParams
     _rows: Any
 
     @property
@@ -275,6 +331,12 @@ class _VehicleAccessors:
     def vehicle_params(self) -> Params:
         """The vehicle's kernel parameters."""
         return self.sim.params
+
+    @property
+    def preview_points(self) -> np.ndarray:
+        """Distances of the preview samples ahead of the rear wheelset, m (empty: no preview;
+        docs/envs/vehicle_vertical.md, *Preview*)."""
+        return self.cfg.preview_points.copy()
 
 
 class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):

@@ -131,35 +131,46 @@ class StepCfg(NamedTuple):
     sos: np.ndarray  # (n_sec, 6) the reward's weighting of the floor accelerations
     n_steps: int  # control steps per episode (truncation)
     flag_ood: bool  # "raise" policy: flag steps with out-of-domain surrogate evaluations
+    preview_frac: np.ndarray  # (n_p,) preview points as fractions of the front wheelset's offset
 
 
 @njit(cache=True, error_model="numpy")
 def _observe(vehicles, out, params, consts, book, i):
     """Normalised observation of vehicle ``i`` into ``book.obs[i]`` (``vehicles``: the
     kernel's :class:`~railgym.vehicles.vehicle.Batch`, ``params`` its
-    :class:`~railgym.vehicles.vehicle.Params`)."""
+    :class:`~railgym.vehicles.vehicle.Params`): the channels of ``observation``, then the
+    preview samples (heights, then rates) at ``consts.preview_frac`` of the front wheelset's
+    distance ahead of the rear one."""
     x = vehicles.state[i]
     o = book.obs[i]
     inv = consts.inv_scale
+    kk = min(float(vehicles.k[i]), vehicles.z.shape[1] - 1 - vehicles.off[i, 0])
     if consts.full:
         for j in range(14):
             o[j] = x[j] * inv[j]
         for j in range(5):
             o[14 + j] = out.acc[i, j] * inv[14 + j]
-        kk = min(float(vehicles.k[i]), vehicles.z.shape[1] - 1 - vehicles.off[i, 0])
         for j in range(4):
             zw, zdw = hermite(vehicles.z[i], vehicles.zdot[i], kk + vehicles.off[i, j], consts.dt)
             o[19 + j] = zw * inv[19 + j]
             o[23 + j] = zdw * inv[23 + j]
-        return
-    for j in range(5):
-        o[j] = out.acc[i, j] * inv[j]
-    for b in range(2):
-        xb = params.a if b == 0 else -params.a
-        o[5 + b] = (x[3 + 2 * b] - x[0] - xb * x[1] - params.phi_a * x[2]) * inv[5 + b]
-        vel = x[7] + xb * x[8] + params.phi_a * x[9]
-        o[7 + b] = (x[10 + 2 * b] - vel) * inv[7 + b]
-        o[9 + b] = vel * inv[9 + b]
+        n_obs = 27
+    else:
+        for j in range(5):
+            o[j] = out.acc[i, j] * inv[j]
+        for b in range(2):
+            xb = params.a if b == 0 else -params.a
+            o[5 + b] = (x[3 + 2 * b] - x[0] - xb * x[1] - params.phi_a * x[2]) * inv[5 + b]
+            vel = x[7] + xb * x[8] + params.phi_a * x[9]
+            o[7 + b] = (x[10 + 2 * b] - vel) * inv[7 + b]
+            o[9 + b] = vel * inv[9 + b]
+        n_obs = 11
+    n_p = consts.preview_frac.shape[0]
+    for j in range(n_p):
+        pos = kk + vehicles.off[i, 0] * consts.preview_frac[j]
+        zp, zdp = hermite(vehicles.z[i], vehicles.zdot[i], pos, consts.dt)
+        o[n_obs + j] = zp * inv[n_obs + j]
+        o[n_obs + n_p + j] = zdp * inv[n_obs + n_p + j]
 
 
 # Without the runtime's reference counting: the arrays come from the batch, which owns them
@@ -315,6 +326,7 @@ class VehicleBatch:
             weights=np.array(cfg.weights),
             sos=sos,
             flag_ood=self.lpr.mode == RAISE_MODE,
+            preview_frac=self._preview_fractions(),
         )
         self.speed = np.zeros(n)
         self.track_class = np.zeros(n, np.int64)
@@ -326,6 +338,13 @@ class VehicleBatch:
         #: per episode: its class / speed is outside :attr:`envelope` (``outside_envelope``)
         self.off_envelope = np.zeros(n, np.bool_)
         self._link()
+
+    def _preview_fractions(self) -> np.ndarray:
+        """The preview points (``cfg.preview_points``, m) as fractions of the front
+        wheelset's distance ahead of the rear one (1: the front wheelset)."""
+        points = getattr(self.cfg, "preview_points", np.zeros(0))
+        positions = self.vehicle.wheelset_positions
+        return np.asarray(points, np.float64) / (positions[0] - positions[-1])
 
     def _link(self) -> None:
         """Views and the compiled entry point (re-made after a copy: not picklable)."""

@@ -5,9 +5,11 @@ seeded FRA track profile (paper eq. 1/2) or a measured/user profile
 (:mod:`railgym.profile`); the secondary suspension is either a surrogate
 element F̂(δ, δ̇) (``backend="surrogate"``, paper eq. 2), the high-fidelity reference
 (``"reference"``: air spring with reservoir + Maxwell damper + bump stops) or the linear
-suspension (``"linear"``). The agent commands an actuator force between bogie and carbody.
-See ``docs/envs/vertical.md`` for the tables of observation, action, reward, ``info`` and
-the argument limits.
+suspension (``"linear"``). The agent commands an actuator force between bogie and carbody
+(``actuator="force"``) or the command of a controllable damper at its place
+(``actuator="semi-active"``, :mod:`railgym.vehicles.semi_active`). See
+``docs/envs/vertical.md`` for the tables of observation, action, reward, ``info`` and the
+argument limits.
 
 The physics is in :mod:`railgym.vehicles.vertical` (numba RK4 kernels); the single env
 and the native vector env are the shells of :mod:`railgym.envs.base` around
@@ -36,6 +38,7 @@ from railgym.envs.params import (
     TrackEnvParams,
     check_speed,
     declared,
+    derived,
     keyword_signature,
     limits,
     param,
@@ -52,18 +55,22 @@ from railgym.track import class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.element_envelope import OperatingEnvelope, element_envelope
 from railgym.vehicles.element_plausibility import implausible_element_warning
+from railgym.vehicles.semi_active import DamperParams, load_damper
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
+    DamperLaw,
     LprArrays,
     SuspensionParams,
     load_vehicle,
     surrogate_arrays,
 )
+from railgym.vehicles.vertical.kernels import damper_law
 from surrogates import io
 
 __all__ = [
     "ACC_REF",
     "ACC_WEIGHTINGS",
+    "ACTUATORS",
     "BACKENDS",
     "ENV_BACKENDS",
     "DEFAULT_WEIGHTS",
@@ -94,6 +101,12 @@ OBSERVATIONS = {
 DEFAULT_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
 #: frequency weightings of the reward's acceleration term (ISO 2631-1), ``"none"``: raw
 ACC_WEIGHTINGS = ("none", "Wk")
+#: what the action commands: an actuator force, or a controllable damper
+ACTUATORS = ("force", "semi-active")
+#: the observation channel ``actuator="semi-active"`` adds (last), with its scale
+DAMPER_CHANNEL = ("damper_command", 1.0)
+#: the packaged damper of ``damper=`` (``configs/dampers/``)
+DEFAULT_DAMPER = "mr_secondary"
 
 
 def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[int, float]:
@@ -157,6 +170,25 @@ class VerticalParams(TrackEnvParams):
         kind="choice",
         values=ACC_WEIGHTINGS,
     )
+    actuator: str = param(
+        "force",
+        "",
+        '`"force"`: the action is the actuator force / `f_max`, in [−1, 1]; `"semi-active"`: '
+        "the command in [0, 1] of the controllable damper `damper` at its place (not with "
+        'backend `"fmu"`)',
+        kind="choice",
+        values=ACTUATORS,
+    )
+    damper: Any = param(
+        DEFAULT_DAMPER,
+        "",
+        'controllable damper of actuator `"semi-active"`: name in `configs/dampers/` or YAML path',
+        kind="object",
+    )
+
+    damper_params: DamperParams | None = derived(
+        "", 'the loaded `damper` (`None` with actuator `"force"`)'
+    )
 
     def _default_dt(self) -> float:
         return DEFAULT_DT[self.variant]
@@ -175,6 +207,25 @@ class VerticalParams(TrackEnvParams):
                 f"{self.acc_weighting!r} needs a control rate of at least {MIN_FS:g} Hz "
                 f"(control_dt at most {1.0 / MIN_FS:g} s), got control_dt={self.control_dt:g} s",
             )
+        self._derive_damper()
+
+    def _derive_damper(self) -> None:
+        """The damper of ``actuator="semi-active"`` (``damper_params``) and its observation
+        channel; ``damper=`` other than the default with ``actuator="force"`` is refused."""
+        if self.actuator == "force":
+            if not (isinstance(self.damper, str) and self.damper == DEFAULT_DAMPER):
+                raise val.FieldError(
+                    "damper", "is only used with actuator='semi-active', not 'force'"
+                )
+            self._set("damper_params", None)
+            return
+        if self.backend == "fmu":
+            raise val.FieldError(
+                "actuator", "'semi-active' is not available with backend='fmu'", full=False
+            )
+        self._set("damper_params", load_damper(self.damper))
+        self._set("obs_names", (*self.obs_names, DAMPER_CHANNEL[0]))
+        self._set("obs_scale", np.append(self.obs_scale, DAMPER_CHANNEL[1]))
 
 
 #: documented limits (docs/envs/vertical.md): the declared bounds of :class:`VerticalParams`
@@ -325,15 +376,23 @@ def check_element_vehicle(backend: str, lpr: LprArrays, vehicle: Any) -> None:
         )
 
 
+def _damper(cfg: VerticalParams) -> DamperLaw | None:
+    """The controllable damper the kernels integrate (``None``: ``actuator="force"``): the
+    exact law of ``cfg.damper_params`` on every backend (the surrogate backend's data-driven
+    damper element is chosen here by its law kind, ``DamperLaw.law``)."""
+    return None if cfg.damper_params is None else damper_law(cfg.damper_params)
+
+
 def _batch(
     n: int, cfg: VerticalParams, lpr: LprArrays, envelope: OperatingEnvelope | None = None
 ) -> VerticalBatch:
     """The batch of ``n`` vehicles: compiled kernels (``envelope``: the element's, behind
-    ``info["outside_envelope"]``), or FMU instances for ``backend="fmu"`` (``cfg.fmu``: the
-    FMU file, ``cfg.fmu_map``: its mapping file, :mod:`railgym.fmu.mapping`)."""
+    ``info["outside_envelope"]``; the damper of :func:`_damper`), or FMU instances for
+    ``backend="fmu"`` (``cfg.fmu``: the FMU file, ``cfg.fmu_map``: its mapping file,
+    :mod:`railgym.fmu.mapping`)."""
     check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
-        return VerticalBatch(n, cfg, cfg.model, lpr, envelope)
+        return VerticalBatch(n, cfg, cfg.model, lpr, envelope, _damper(cfg))
     from railgym.fmu.batch import FMUBatch
     from railgym.fmu.mapping import load_mapping
 
@@ -372,13 +431,14 @@ class TrackEnvShell(BatchEnv):
         """The element used without ``surrogate=`` (``None``: the kernel's packaged one)."""
         return default_vertical_surrogate(*self.default_element) if self.default_element else None
 
-    def _start(self, sim: Any, render_mode: str | None) -> None:
-        """The shell around ``sim``: observation (n_obs,) and action (n_actuators,) boxes."""
+    def _start(self, sim: Any, render_mode: str | None, low: float = -1.0) -> None:
+        """The shell around ``sim``: observation (n_obs,) and action (n_actuators,) boxes, the
+        action in [``low``, 1]."""
         self._init_shell(
             sim,
             render_mode,
             spaces.Box(-np.inf, np.inf, (len(self.obs_names),), np.float32),
-            spaces.Box(-1.0, 1.0, (self.n_actuators,), np.float32),
+            spaces.Box(low, 1.0, (self.n_actuators,), np.float32),
         )
 
     def _track_options(self, options: dict[str, Any]) -> tuple[Any, Any]:
@@ -449,7 +509,8 @@ class _VerticalAccessors:
     @property
     def state(self) -> np.ndarray:
         """Copy of the state(s) ``[x1, v1, x2, v2, …]`` (m, m/s; dynamic: Pa, Pa, m;
-        surrogate: the element's Maxwell state ``s``, m)."""
+        surrogate: the element's Maxwell state ``s``, m; semi-active: then the damper's
+        ``u, w``)."""
         return self._rows(self.sim.state)
 
     @property
@@ -459,7 +520,8 @@ class _VerticalAccessors:
 
     @property
     def actuator_force(self) -> Any:
-        """Actuator force applied over the last step, N (float; vector: (n,))."""
+        """Actuator force applied over the last step (semi-active: the damper's force at its
+        end), N (float; vector: (n,))."""
         return self._rows(self.sim.force)
 
     @property
@@ -497,7 +559,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
         self.track_class, self.speed = _check_track(cfg.track_class, cfg.speed, cfg.speed_limit)
         given = cfg.model if cfg.surrogate is not None else None  # the user's element
         lpr, envelope = _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True, vehicle=given)
-        self._start(_batch(1, cfg, lpr, envelope), render_mode)
+        low = 0.0 if cfg.actuator == "semi-active" else -1.0
+        self._start(_batch(1, cfg, lpr, envelope), render_mode, low)
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class

@@ -4,7 +4,10 @@
 arrays the kernels of :mod:`railgym.vehicles.vertical` work on, and a compiled control step
 (:func:`control_step`) runs the kernel of the variant and turns its outputs into observation,
 reward, reward terms, the ``info`` values (layout declared in :data:`INFO_KEYS`) and the
-episode flags.
+episode flags. With a controllable damper (``actuator="semi-active"``) the action is its
+command, the kernel :func:`~railgym.vehicles.vertical.kernels.advance_semi_active` and the
+force of the step (``force``: reward, ``info["actuator_force"]``) the damper's at its end;
+``info`` adds :data:`SEMI_ACTIVE_INFO_KEYS`.
 """
 
 from __future__ import annotations
@@ -30,11 +33,13 @@ from railgym.track import track_time_input
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
 from railgym.vehicles.vertical import (
     RAISE_MODE,
+    DamperLaw,
     LprArrays,
     SuspensionParams,
     VerticalVehicle,
     advance_dynamic,
     advance_linear,
+    advance_semi_active,
     advance_static,
     advance_surrogate,
     initial_state,
@@ -49,6 +54,7 @@ __all__ = [
     "MAX_NUM_ENVS",
     "OBS_LIMIT",
     "REWARD_TERMS",
+    "SEMI_ACTIVE_INFO_KEYS",
     "TRACK_BYTES",
     "VerticalBatch",
     "control_step",
@@ -92,7 +98,7 @@ class StepCfg(NamedTuple):
     dt: float  #: integration step, s
     n_steps: int  #: control steps per episode (truncation)
     control_dt: float  #: s
-    f_max: float  #: actuator force at action ±1, N
+    f_max: float  #: actuator force at action ±1, N (semi-active: the reward's force scale)
     free_travel: float  #: m
     w_acc: float
     w_defl: float
@@ -100,6 +106,8 @@ class StepCfg(NamedTuple):
     sos: np.ndarray  #: float64 (n_sec, 6) the reward's weighting of ẍ2 (:func:`reward_sections`)
     inv_scale: np.ndarray  #: float64 (n_obs,) 1/scale of each observation channel
     flag_ood: bool  #: "raise" policy: flag steps with out-of-domain surrogate evaluations
+    full_obs: bool  #: the ``"full"`` observation (else ``"sensors"``)
+    semi_active: bool  #: a controllable damper: its command ``u`` observed and in ``info``
 
 
 class StepResult(NamedTuple):
@@ -127,9 +135,14 @@ INFO_KEYS = (
     ("rms_carbody_acc", float),  # m/s²
     ("actuator_force", float),  # N
 )
+#: the keys ``actuator="semi-active"`` adds after :data:`INFO_KEYS`
+SEMI_ACTIVE_INFO_KEYS = (
+    ("damper_force", float),  # N, the damper's at the end of the step
+    ("damper_command", float),  # its filtered command u at the end of the step
+)
 _INFO = [key for key, _ in INFO_KEYS]
 #: column of each info key in :attr:`StepResult.info`; the compiled step writes them by name
-INFO_COLUMN = {key: j for j, key in enumerate(_INFO)}
+INFO_COLUMN = {key: j for j, key in enumerate(_INFO + [k for k, _ in SEMI_ACTIVE_INFO_KEYS])}
 I_TIME, I_ACC, I_RMS, I_FORCE = (
     INFO_COLUMN[k] for k in ("time", "carbody_acc", "rms_carbody_acc", "actuator_force")
 )
@@ -137,6 +150,7 @@ I_OOD, I_CONTACTS, I_OUTSIDE, I_ENVELOPE = (
     INFO_COLUMN[k]
     for k in ("out_of_domain", "bump_stop_contacts", "outside_element", "outside_envelope")
 )
+I_DAMPER_FORCE, I_DAMPER_COMMAND = (INFO_COLUMN[k] for k in ("damper_force", "damper_command"))
 #: (column, type) of the single env's int and bool values; the vector env's array dtypes
 _CAST_INFO = tuple((j, kind) for j, (_, kind) in enumerate(INFO_KEYS) if kind is not float)
 _DTYPES = {int: np.int64, bool: np.bool_}
@@ -148,10 +162,14 @@ REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
 
 
 @njit(cache=True)
-def _observe(state, acc, z, zdot, k, s, i, obs):
+def _observe(state, acc, z, zdot, k, s, i, obs, full, damper):
     """Normalised observation of vehicle ``i`` into ``obs[i]``; ``s`` is 1/scale per channel,
-    8 channels mean the ``"full"`` observation."""
-    if obs.shape[1] == 8:
+    ``full``: the ``"full"`` observation, ``damper``: the damper's command ``u`` (state
+    column −2) as the last channel."""
+    if damper:
+        n = obs.shape[1] - 1
+        obs[i, n] = state[i, state.shape[1] - 2] * s[n]
+    if full:
         kk = min(k[i], z.shape[1] - 1)
         raw = (
             state[i, 0],
@@ -188,7 +206,18 @@ def _post_step(state, z, zdot, out, force, counters, result, consts):
         counters.contacts[i] += out.count[i, 0]
         counters.ood[i] += out.count[i, 1]
         counters.acc_sq[i] += out.acc[i, 1] * out.acc[i, 1]
-        _observe(state, out.acc, z, zdot, counters.k, consts.inv_scale, i, result.obs)
+        _observe(
+            state,
+            out.acc,
+            z,
+            zdot,
+            counters.k,
+            consts.inv_scale,
+            i,
+            result.obs,
+            consts.full_obs,
+            consts.semi_active,
+        )
         defl = (state[i, 0] - state[i, 2]) / consts.free_travel
         fa = force[i] / consts.f_max
         a2 = weigh(consts.sos, counters.zi[i], out.acc[i, 1]) / ACC_REF
@@ -203,6 +232,9 @@ def _post_step(state, z, zdot, out, force, counters, result, consts):
         result.info[i, I_RMS] = math.sqrt(counters.acc_sq[i] / max(counters.steps[i], 1))
         result.info[i, I_FORCE] = force[i]
         result.info[i, I_OUTSIDE] = 1.0 if out.count[i, 1] > 0 else 0.0
+        if consts.semi_active:
+            result.info[i, I_DAMPER_FORCE] = force[i]
+            result.info[i, I_DAMPER_COMMAND] = state[i, state.shape[1] - 2]
         result.truncated[i] = counters.steps[i] >= consts.n_steps
         if consts.flag_ood:
             result.extrapolated[i] = out.count[i, 1] > 0
@@ -214,14 +246,22 @@ def _post_step(state, z, zdot, out, force, counters, result, consts):
 # arrays are still allocated and freed by the runtime (tests/envs/test_vehicle_shell.py checks the
 # balance).
 @njit(cache=True, _nrt=False)
-def control_step(state, z, zdot, action, force, params, lpr, out, counters, result, consts):
+def control_step(state, z, zdot, action, force, params, lpr, damper, out, counters, result, consts):
     """One control step of every vehicle: actuator forces ``action[:, 0] · f_max`` (N), the
     kernel of variant ``consts.kind`` (arguments as
     :func:`~railgym.vehicles.vertical.advance_linear` with ``k0 = counters.k``), then
-    :func:`_post_step`."""
+    :func:`_post_step`. With a ``damper`` (:class:`~railgym.vehicles.vertical.DamperLaw`,
+    else ``None``) ``action[:, 0]`` is its command and ``force`` receives its force (N)."""
+    k, n_sub, dt, kind = counters.k, consts.n_sub, consts.dt, consts.kind
+    if damper is not None:
+        command = action[:, 0]
+        advance_semi_active(
+            kind, state, z, zdot, k, n_sub, dt, command, params, lpr, damper, out, force
+        )
+        _post_step(state, z, zdot, out, force, counters, result, consts)
+        return
     for i in range(state.shape[0]):
         force[i] = action[i, 0] * consts.f_max
-    k, n_sub, dt, kind = counters.k, consts.n_sub, consts.dt, consts.kind
     if kind == _LINEAR:
         advance_linear(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
     elif kind == _STATIC:
@@ -240,7 +280,8 @@ class VerticalBatch:
     It holds the arrays the kernels work on and computes observation, reward, its terms and
     the ``info`` quantities of :class:`VerticalSuspensionEnv`. ``envelope``: the operating
     envelope of the surrogate element (``None``: none, or not the surrogate backend), behind
-    ``info["outside_envelope"]`` and the warning of the first episode outside it.
+    ``info["outside_envelope"]`` and the warning of the first episode outside it. ``damper``:
+    the controllable damper of ``actuator="semi-active"`` (``None``: the actuator force).
     """
 
     def __init__(
@@ -250,12 +291,17 @@ class VerticalBatch:
         vehicle: VerticalVehicle,
         lpr: LprArrays,
         envelope: OperatingEnvelope | None = None,
+        damper: DamperLaw | None = None,
     ) -> None:
         self.n, self.cfg = n, cfg
         self.vehicle = vehicle
         self.params: SuspensionParams = vehicle.kernel_params()
         self.params_record = self.params.record()
         self.lpr = lpr
+        self.damper = damper
+        semi_active = damper is not None
+        self._info_keys = INFO_KEYS + (SEMI_ACTIVE_INFO_KEYS if semi_active else ())
+        self._info_names = [key for key, _ in self._info_keys]
         n_samples = cfg.n_steps * cfg.n_sub + 1
         if n * n_samples * 16 > TRACK_BYTES:
             raise val.FieldError(
@@ -266,7 +312,7 @@ class VerticalBatch:
             )
         self.z = np.zeros((n, n_samples))
         self.zdot = np.zeros((n, n_samples))
-        self.state = initial_state(cfg.variant, n, lpr)
+        self.state = initial_state(cfg.variant, n, lpr, semi_active)
         self.action = np.zeros((n, 1))
         self.force = np.zeros(n)
         self.out = step_outputs(n)
@@ -290,12 +336,14 @@ class VerticalBatch:
             sos=sos,
             inv_scale=self.inv_scale,
             flag_ood=lpr.mode == RAISE_MODE,
+            full_obs=cfg.observation == "full",
+            semi_active=semi_active,
         )
         self.res = StepResult(
             obs=np.zeros((n, len(cfg.obs_names))),
             reward=np.zeros(n),
             terms=np.zeros((n, len(REWARD_TERMS))),
-            info=np.zeros((n, len(INFO_KEYS))),
+            info=np.zeros((n, len(self._info_keys))),
             truncated=np.zeros(n, np.bool_),
             extrapolated=np.zeros(n, np.bool_),
         )
@@ -319,6 +367,7 @@ class VerticalBatch:
             self.force,
             self.params_record,
             self.lpr,
+            self.damper,
             self.out,
             self.cnt,
             self.res,
@@ -368,7 +417,19 @@ class VerticalBatch:
         self.terms[i] = self.info_rows[i] = self.cnt.zi[i] = 0.0
         self.div[i] = self.extrapolated[i] = self.trunc[i] = False
         self.info_rows[i, I_ENVELOPE] = self._outside_envelope(i)
-        _observe(self.state, self.acc, self.z, self.zdot, self.k, self.inv_scale, i, self.obs)
+        c = self.step_consts
+        _observe(
+            self.state,
+            self.acc,
+            self.z,
+            self.zdot,
+            self.k,
+            self.inv_scale,
+            i,
+            self.obs,
+            c.full_obs,
+            c.semi_active,
+        )
 
     def _outside_envelope(self, i: int) -> bool:
         """Whether vehicle ``i``'s episode is outside :attr:`envelope`; warns the first time."""
@@ -377,7 +438,8 @@ class VerticalBatch:
         )
 
     def set_action(self, actions: np.ndarray) -> None:
-        """Store the clipped actions (n, 1); :meth:`advance` applies ``action · f_max`` (N)."""
+        """Store the clipped actions (n, 1); :meth:`advance` applies ``action · f_max`` (N), or
+        with a damper takes them as its command."""
         self.action[...] = actions
 
     def advance(self) -> None:
@@ -394,15 +456,17 @@ class VerticalBatch:
         return self.trunc
 
     def info(self, i: int | None = None) -> dict[str, Any]:
-        """The :data:`INFO_KEYS` of vehicle ``i`` (Python numbers), or of all ((n,) arrays)."""
+        """The :data:`INFO_KEYS` (with a damper also :data:`SEMI_ACTIVE_INFO_KEYS`) of vehicle
+        ``i`` (Python numbers), or of all ((n,) arrays)."""
+        names = self._info_names
         if i is not None:  # the single env builds this every step
             row = self.info_rows[i].tolist()
             for j, kind in _CAST_INFO:
                 row[j] = kind(row[j])
-            return dict(zip(_INFO, row, strict=True))
-        out = {key: self.info_rows[:, j].copy() for j, key in enumerate(_INFO)}
+            return dict(zip(names, row, strict=True))
+        out = {key: self.info_rows[:, j].copy() for j, key in enumerate(names)}
         for j, kind in _CAST_INFO:
-            out[_INFO[j]] = out[_INFO[j]].astype(_DTYPES[kind])
+            out[names[j]] = out[names[j]].astype(_DTYPES[kind])
         return out
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:

@@ -12,7 +12,7 @@ features (:func:`~railgym.vehicles.collect.memory_training_data`) and the fit ar
 the one-bogie element. The packaged element ``railgym/data/vehicle_lpr.json`` (the default of
 ``VerticalVehicle-v1``, :func:`default_vehicle_surrogate`) is rebuilt by::
 
-    python -m railgym.vehicles.collect_vehicle --output railgym/data/vehicle_lpr.json --overwrite
+    railgym collect-vehicle -o railgym/data/vehicle_lpr.json --overwrite
 
 Its Maxwell state follows a fitted nonlinear relaxation law (:mod:`surrogates.memory`): the
 reference's damper is a stiffness in series with a dashpot whose slope depends on the
@@ -51,6 +51,7 @@ from railgym.vehicles.vehicle import (
 )
 from railgym.vehicles.vertical import bump_stop_force, load_vehicle
 from surrogates import io
+from surrogates.cli_flags import Parser, add_common, add_out, add_seed, error_status
 from surrogates.memory import TauSelection, fit_relaxation, shortest_time_constant
 from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression
@@ -259,21 +260,39 @@ def _law_runs(data: dict[str, Any], base: str) -> list[dict[str, Any]]:
     return out
 
 
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym collect-vehicle`` (``python -m railgym.vehicles.collect_vehicle``)."""
+    parser = Parser(prog="railgym collect-vehicle", description=__doc__.split("\n\n")[0])
+    add_out(parser, "model JSON to write", required=True, old=["--output"])
+    add_seed(parser, "seed of the folds")
+    add_common(parser)
+    return parser
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Build the whole-vehicle element of :data:`VEHICLE_DESIGN` and write it to ``--output``."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--output", required=True, help="model JSON")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing --output")
+    """Build the whole-vehicle element of :data:`VEHICLE_DESIGN` and write it to ``-o/--out``."""
+    parser = build_parser()
     args = parser.parse_args(argv)
-    out = Path(args.output)
+    out = Path(args.out)
     if out.exists() and not args.overwrite:
-        parser.error(f"{out} exists; pass --overwrite to replace it")
-    print(
-        "collecting the whole-vehicle design, fitting the relaxation law and the degrees "
-        "(a few minutes)",
-        file=sys.stderr,
-    )
-    model, sel, _ = build_vehicle_surrogate()
+        parser.error(f"--out {out}: exists; pass --overwrite to replace it")
+    if not out.parent.is_dir():
+        parser.error(f"--out {out}: the folder {str(out.parent)!r} does not exist")
+    try:
+        return _collect(out, args.seed, args.quiet)
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
+
+
+def _collect(out: Path, seed: int, quiet: bool) -> int:
+    """``railgym collect-vehicle`` after the parse: collect, fit, write ``out``."""
+    if not quiet:
+        print(
+            "collecting the whole-vehicle design, fitting the relaxation law and the degrees "
+            "(a few minutes)",
+            file=sys.stderr,
+        )
+    model, sel, _ = build_vehicle_surrogate(seed=seed)
     d = VEHICLE_DESIGN
     source = (
         "railgym whole-vehicle dynamic reference (manchester_whole), FRA classes "
@@ -285,7 +304,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # the design's classes and speeds, at most each class's maximum speed (where it was
     # validated: docs/validation.md, *Validity flags*)
     envelope = design_envelope(d)._replace(speed_factor=(0.0, 1.0))
-    command = f"python -m railgym.vehicles.collect_vehicle --output {out.name}"
+    command = f"railgym collect-vehicle -o {out.name}" + (f" --seed {seed}" if seed else "")
     save_vertical_surrogate(model, sel, out, source, command, envelope=envelope)
     print(sel.format())
     print(f"written to {out}")

@@ -32,6 +32,9 @@ states ``[s_0, s_1]`` of the two bogies (``ṡ_i = (δ_i − s_i)/τ``, or ``g(�
 the element's nonlinear relaxation law; element inputs ``(δ_i, δ̇_i, δ_i − s_i)``), the
 same element at each bogie (:func:`state_size`). An
 element with the ``"bump_stop"`` known physics adds the vehicle's bump-stop law to ``F̂``.
+With controllable dampers (:mod:`railgym.vehicles.vehicle_damper`) in place of the actuators,
+``F_a,i`` is the damper's force and its states ``[u_0, w_0, u_1, w_1]`` come last
+(``state_size(..., damper=True)``); they take the per-vehicle kernel, not the lane kernel.
 
 Track input: one profile per vehicle sampled on the time grid of the rear wheelset,
 ``Z[k] = z(v·k·dt)`` and ``Ż[k] = v·z'(v·k·dt)``; wheelset ``j`` sees it shifted by the
@@ -44,28 +47,24 @@ Integration: classic RK4 with fixed ``dt``; one compiled kernel steps a batch.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
-from pathlib import Path
 from typing import Any, NamedTuple
 
 import numba
 import numpy as np
 from numba import njit, prange
 
-from railgym import _checks as val
+from railgym.vehicles.vehicle_damper import DAMPER_COLUMNS, damper_stage
 from railgym.vehicles.vehicle_lanes import LANES, LANES_MIN, hermite, lanes_block
-from railgym.vehicles.vertical import (
-    DIVERGENCE_DISPLACEMENT,
-    VerticalVehicle,
-    load_vehicle,
-    surrogate_arrays,
-)
+from railgym.vehicles.vertical import DIVERGENCE_DISPLACEMENT, surrogate_arrays
 from railgym.vehicles.vertical.elements import (
     bump_stop_force,
     damper_force,
     dynamic_element,
     in_contact,
 )
+from railgym.vehicles.whole_vehicle import FLOOR_POINTS as FLOOR_POINTS
+from railgym.vehicles.whole_vehicle import WholeVehicle, mode_shape
+from railgym.vehicles.whole_vehicle import load_whole_vehicle as load_whole_vehicle
 from surrogates.memory import relaxation_rate
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside, lpr_scratch
 
@@ -75,9 +74,6 @@ N_MECH = 14
 #: states per vehicle of each variant (surrogate: with a static element; a memory element adds
 #: its two Maxwell states, see :func:`state_size`)
 STATE_SIZE = {"linear": N_MECH, "static": N_MECH, "dynamic": N_MECH + 6, "surrogate": N_MECH}
-#: floor points where the carbody acceleration is reported: over the front bogie, centre,
-#: over the rear bogie (multiples of the bogie semi-spacing ``a``)
-FLOOR_POINTS = (1.0, 0.0, -1.0)
 #: default RK4 step, s: every mode lies below 12 Hz (ω·dt < 0.15) and the shortest track
 #: wavelength (1 m) spans 9 samples at 200 km/h; measured accuracy in docs/envs/vehicle_vertical.md
 DEFAULT_DT = 2e-3
@@ -89,98 +85,6 @@ numba.get_num_threads()
 #: chunks of vehicles of a parallel :func:`advance`, each with its own scratch; numba's
 #: scheduler spreads them over the threads
 PARALLEL_CHUNKS = 64
-#: whole-vehicle fields that may be zero (the others must be positive)
-_NON_NEGATIVE = ("bogie_semi_spacing", "semi_wheelbase", "bending_damping")
-#: root of cos(βL)·cosh(βL) = 1 of the first free–free beam mode
-BETA_L = 4.730040744862704
-
-
-def mode_shape(x: Any, length: float) -> np.ndarray:
-    """First free–free bending mode ``φ(x)`` of a uniform beam, ``φ(0) = 1`` (x from centre, m)."""
-    bl = BETA_L
-    sigma = (math.cosh(bl) - math.cos(bl)) / (math.sinh(bl) - math.sin(bl))
-
-    def raw(s: np.ndarray) -> np.ndarray:
-        u = bl * s
-        return np.cosh(u) + np.cos(u) - sigma * (np.sinh(u) + np.sin(u))
-
-    s = np.asarray(x, dtype=float) / length + 0.5
-    return raw(s) / raw(np.asarray(0.5))
-
-
-@dataclass(frozen=True)
-class WholeVehicle:
-    """Whole-vehicle data (SI), see ``configs/vehicles/manchester_whole.yaml``.
-
-    ``suspension`` is the one-bogie model whose primary/secondary suspension data apply to
-    each bogie; its ``m2`` is set to half the carbody (the air-spring preload).
-    """
-
-    name: str
-    carbody_mass: float
-    carbody_pitch_inertia: float
-    carbody_length: float
-    bending_frequency: float
-    bending_damping: float
-    bending_modal_mass: float
-    bogie_mass: float
-    bogie_pitch_inertia: float
-    bogie_semi_spacing: float
-    semi_wheelbase: float
-    suspension: VerticalVehicle
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            if f.name in ("name", "suspension"):
-                continue
-            check = val.non_negative if f.name in _NON_NEGATIVE else val.positive
-            object.__setattr__(
-                self, f.name, check(getattr(self, f.name), f"whole_vehicle.{f.name}")
-            )
-        if 2.0 * self.bogie_semi_spacing >= self.carbody_length:
-            raise val.FieldError(
-                "whole_vehicle.bogie_semi_spacing",
-                f"must lie within the carbody (2·a < carbody_length = {self.carbody_length} m), "
-                f"got {self.bogie_semi_spacing!r}",
-            )
-
-    @property
-    def wheelset_positions(self) -> np.ndarray:
-        """Wheelset positions from the carbody centre, front to rear, m (4,)."""
-        a, b = self.bogie_semi_spacing, self.semi_wheelbase
-        return np.array([a + b, a - b, -a + b, -a - b])
-
-    @property
-    def floor_positions(self) -> np.ndarray:
-        """Floor points of :data:`FLOOR_POINTS`, m (3,)."""
-        return self.bogie_semi_spacing * np.array(FLOOR_POINTS)
-
-
-_WHOLE_FIELDS = tuple(f.name for f in fields(WholeVehicle) if f.name not in ("name", "suspension"))
-
-
-def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVehicle:
-    """Load a whole vehicle: a packaged name or the path of a ``.yaml`` file with the
-    sections ``base`` (name or path of the one-bogie vehicle) and ``whole_vehicle``.
-
-    The "name or path" rule is :func:`railgym._checks.resolve_yaml`'s; errors in a file
-    name the file and the field.
-    """
-    text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))
-    try:
-        top = val.Fields(val.load_yaml(text, source), "")
-        base = load_vehicle(top.get("base"))
-        sec = top.section("whole_vehicle")
-        values = {name: sec.get(name) for name in _WHOLE_FIELDS}
-        sec.done()
-        top.done()
-        mass = val.positive(values["carbody_mass"], "whole_vehicle.carbody_mass")
-        suspension = replace(base, m2=0.5 * mass)
-        return WholeVehicle(name=str(name_or_path), suspension=suspension, **values)
-    except val.FieldError as exc:
-        if str(exc).startswith(source):
-            raise
-        raise type(exc)(exc.field, f"{source}: {exc}", full=True) from None
 
 
 # ======================================================================= kernel data
@@ -274,13 +178,14 @@ def lpr_arrays(surrogate: Any = None, dt: float | None = None) -> Lpr:
     return Lpr(*surrogate_arrays(surrogate, dt, relaxation=True)[: len(Lpr._fields)])
 
 
-def state_size(variant: str, lpr: Lpr | None = None) -> int:
+def state_size(variant: str, lpr: Lpr | None = None, damper: bool = False) -> int:
     """States per vehicle of ``variant``: :data:`STATE_SIZE`, plus the two Maxwell states of
-    a memory element ``lpr`` for ``"surrogate"``."""
+    a memory element ``lpr`` for ``"surrogate"``, plus ``damper``: the dampers' four last."""
     check_variant(variant)
+    extra = DAMPER_COLUMNS if damper else 0
     if variant == "surrogate" and lpr is not None and lpr.tau > 0.0:
-        return N_MECH + 2
-    return STATE_SIZE[variant]
+        return N_MECH + 2 + extra
+    return STATE_SIZE[variant] + extra
 
 
 def check_variant(variant: str) -> int:
@@ -443,28 +348,33 @@ class Work(NamedTuple):
     w: np.ndarray  # (4, 2) wheel inputs at the start/end of a substep
     wm: np.ndarray  # (4, 2) at its midpoint
     fs: np.ndarray  # (2,) secondary forces
+    fa: np.ndarray  # (2,) forces of the controllable dampers, N
     u: np.ndarray  # (d,) surrogate input
     rt: np.ndarray  # (3,) dynamic-element rates
     lw: np.ndarray  # LPR scratch
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out):
+def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper=None):
     """Advance every vehicle of ``arrays`` (:class:`VehicleArrays`) by ``n_sub`` RK4 steps of
     ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``params``:
     :class:`Params`, ``suspension_record``: ``SuspensionParams.record()``, ``lpr``:
-    :class:`Lpr`.
+    :class:`Lpr`. ``damper``: the controllable dampers
+    (:class:`~railgym.vehicles.vehicle_damper.VehicleDampers`, their commands held) in place
+    of the actuators; their forces at the end of the step go into ``arrays.force`` (0 where
+    the step diverged).
 
     A vehicle whose state turns non-finite or beyond ``DIVERGENCE_DISPLACEMENT`` is frozen at
     its last finite state, its outputs are zero and ``out.div`` is set. Batches of
     ``PARALLEL_MIN`` vehicles or more run :func:`advance_parallel`, smaller ones
     :func:`advance_serial`; the surrogate variant with ``LANES_MIN`` vehicles or more runs the
     lane kernel (:mod:`railgym.vehicles.vehicle_lanes`, on all threads from
-    ``PARALLEL_MIN``). All give bit-identical results.
+    ``PARALLEL_MIN``). All give bit-identical results. The dampers never take the lane kernel.
     """
     n = arrays.state.shape[0]
     d = lpr.lo.shape[0]
-    if kind == 3 and (d == 2 or (d == 3 and lpr.additive)) and n >= LANES_MIN:
+    lanes = kind == 3 and (d == 2 or (d == 3 and lpr.additive)) and n >= LANES_MIN
+    if damper is None and lanes:
         _check_track(kind, arrays, n_sub, lpr)
         if n >= PARALLEL_MIN:
             _lanes_parallel(arrays, n_sub, dt, params, suspension_record, lpr, out)
@@ -472,17 +382,23 @@ def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out):
             for i0 in range(0, n, LANES):
                 lanes_block(arrays, i0, n_sub, dt, params, suspension_record, lpr, out)
     elif n >= PARALLEL_MIN:
-        advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out)
+        advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper)
     else:
-        advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out)
+        advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper)
 
 
 @njit(cache=True, error_model="numpy")
-def _check_track(kind, arrays, n_sub, lpr):
-    """Raise unless every vehicle's track window of ``n_sub`` samples lies in its profile, and
-    for a memory element unless the states hold its two Maxwell states."""
+def _check_track(kind, arrays, n_sub, lpr, damper=None):
+    """Raise unless every vehicle's track window of ``n_sub`` samples lies in its profile, for
+    a memory element unless the states hold its two Maxwell states, and with ``damper``
+    unless they end with the dampers' four and every vehicle has its commands."""
     if kind == 3 and lpr.tau > 0.0 and arrays.state.shape[1] < N_MECH + 2:
         raise ValueError("a memory surrogate element needs N_MECH + 2 states (Maxwell states)")
+    if damper is not None:
+        own = N_MECH + (6 if kind == 2 else (2 if kind == 3 and lpr.tau > 0.0 else 0))
+        n = arrays.state.shape[0]
+        if arrays.state.shape[1] != own + DAMPER_COLUMNS or damper.command.shape != (n, 2):
+            raise ValueError("the dampers need their 4 last states and (n, 2) commands")
     last = arrays.z.shape[1] - 1
     for i in range(arrays.state.shape[0]):
         if arrays.k[i] < 0 or arrays.k[i] + n_sub + arrays.off[i, 0] > last:
@@ -502,6 +418,7 @@ def _work(n_states, lpr):
         np.empty((4, 2)),
         np.empty((4, 2)),
         np.empty(2),
+        np.empty(2),
         np.empty(lpr.lo.shape[0]),
         np.empty(3),
         lpr_scratch(lpr.exps, lpr.lo, lpr.up),
@@ -509,25 +426,29 @@ def _work(n_states, lpr):
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out):
+def advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper=None):
     """:func:`advance` on one thread: :func:`_advance_one` for each vehicle in turn."""
-    _check_track(kind, arrays, n_sub, lpr)
+    _check_track(kind, arrays, n_sub, lpr, damper)
     work = _work(arrays.state.shape[1], lpr)
+    susp = suspension_record[0]
     for i in range(arrays.state.shape[0]):
-        _advance_one(kind, arrays, i, n_sub, dt, params, suspension_record[0], lpr, out, work)
+        _advance_one(kind, arrays, i, n_sub, dt, params, susp, lpr, out, work, damper)
 
 
 @njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
-def advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out):
+def advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper=None):
     """:func:`advance` on all numba threads: ``prange`` over chunks of vehicles, each chunk with
     its own scratch running the same :func:`_advance_one` as :func:`advance_serial`."""
-    _check_track(kind, arrays, n_sub, lpr)
+    _check_track(kind, arrays, n_sub, lpr, damper)
     n = arrays.state.shape[0]
     chunks = min(n, PARALLEL_CHUNKS)
     for chunk in prange(chunks):
         work = _work(arrays.state.shape[1], lpr)
+        # the record is indexed inside the loop: a record hoisted out of a prange is passed to
+        # numba's gufunc by value, which its lowering refuses
         for i in range(chunk * n // chunks, (chunk + 1) * n // chunks):
-            _advance_one(kind, arrays, i, n_sub, dt, params, suspension_record[0], lpr, out, work)
+            susp = suspension_record[0]
+            _advance_one(kind, arrays, i, n_sub, dt, params, susp, lpr, out, work, damper)
 
 
 @njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
@@ -542,15 +463,30 @@ def _lanes_parallel(arrays, n_sub, dt, params, suspension_record, lpr, out):
 # allocated here): the counting of every array passed on to the element functions would
 # cost more than the arithmetic of a substep.
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _advance_one(kind, arrays, i, n_sub, dt, params, suspension, lpr, out, work):
+def _stage(kind, x, wheels, fa, params, suspension, lpr, work, rates, damper, i):
+    """:func:`_rhs` of one RK4 stage of vehicle ``i`` into ``rates`` (returns its
+    out-of-domain count); with ``damper`` (else ``None``) the dampers' forces into ``fa`` and
+    their state rates first (:func:`~railgym.vehicles.vehicle_damper.damper_stage`)."""
+    if damper is not None:
+        damper_stage(x, params, damper.law, damper.command[i], fa, rates)
+    return _rhs(
+        kind, x, wheels, fa, params, suspension, lpr, work.u, work.rt, work.lw, rates, work.fs
+    )
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _advance_one(kind, arrays, i, n_sub, dt, params, suspension, lpr, out, work, damper=None):
     """RK4 steps of vehicle ``i`` (see :func:`advance`); ``suspension``: one suspension
-    record; ``work``: :class:`Work`."""
+    record; ``work``: :class:`Work`; ``damper``: :func:`advance`'s."""
     s = arrays.state.shape[1]
     x, xt, r1, r2, r3, r4 = work.x, work.xt, work.r1, work.r2, work.r3, work.r4
-    w, wm, fs, u, rt, lw = work.w, work.wm, work.fs, work.u, work.rt, work.lw
+    w, wm, fs = work.w, work.wm, work.fs
     h6 = dt / 6.0
     kk = arrays.k[i]
-    actuator_force = arrays.force[i]
+    if damper is None:
+        fa = arrays.force[i]
+    else:
+        fa = work.fa
     z, zd, off = arrays.z[i], arrays.zdot[i], arrays.off[i]
     for j in range(s):
         x[j] = arrays.state[i, j]
@@ -560,18 +496,18 @@ def _advance_one(kind, arrays, i, n_sub, dt, params, suspension, lpr, out, work)
     _inputs(z, zd, off, float(kk), dt, w)  # then carried from the end of each substep
     for m in range(n_sub):
         t0 = float(kk + m)
-        ood += _rhs(kind, x, w, actuator_force, params, suspension, lpr, u, rt, lw, r1, fs)
+        ood += _stage(kind, x, w, fa, params, suspension, lpr, work, r1, damper, i)
         _inputs(z, zd, off, t0 + 0.5, dt, wm)
         for j in range(s):
             xt[j] = x[j] + 0.5 * dt * r1[j]
-        ood += _rhs(kind, xt, wm, actuator_force, params, suspension, lpr, u, rt, lw, r2, fs)
+        ood += _stage(kind, xt, wm, fa, params, suspension, lpr, work, r2, damper, i)
         for j in range(s):
             xt[j] = x[j] + 0.5 * dt * r2[j]
-        ood += _rhs(kind, xt, wm, actuator_force, params, suspension, lpr, u, rt, lw, r3, fs)
+        ood += _stage(kind, xt, wm, fa, params, suspension, lpr, work, r3, damper, i)
         _inputs(z, zd, off, t0 + 1.0, dt, w)
         for j in range(s):
             xt[j] = x[j] + dt * r3[j]
-        ood += _rhs(kind, xt, w, actuator_force, params, suspension, lpr, u, rt, lw, r4, fs)
+        ood += _stage(kind, xt, w, fa, params, suspension, lpr, work, r4, damper, i)
         ok = True
         for j in range(s):
             xt[j] = x[j] + h6 * (r1[j] + 2.0 * r2[j] + 2.0 * r3[j] + r4[j])
@@ -592,7 +528,7 @@ def _advance_one(kind, arrays, i, n_sub, dt, params, suspension, lpr, out, work)
     for j in range(s):
         arrays.state[i, j] = x[j]
     if not div:  # w holds the inputs at the end of the step
-        _rhs(kind, x, w, actuator_force, params, suspension, lpr, u, rt, lw, r1, fs)
+        _stage(kind, x, w, fa, params, suspension, lpr, work, r1, damper, i)
         _outputs(r1, params, out.acc, i)
         for j in range(5):
             if not math.isfinite(out.acc[i, j]):
@@ -604,6 +540,9 @@ def _advance_one(kind, arrays, i, n_sub, dt, params, suspension, lpr, out, work)
             out.acc[i, j] = 0.0
         out.fs[i, 0] = 0.0
         out.fs[i, 1] = 0.0
+    if damper is not None:
+        for b in range(2):
+            arrays.force[i, b] = 0.0 if div else fa[b]
     out.count[i, 0] = contact
     out.count[i, 1] = ood
     out.div[i] = div
@@ -611,11 +550,11 @@ def _advance_one(kind, arrays, i, n_sub, dt, params, suspension, lpr, out, work)
 
 # ======================================================================== utilities
 def new_arrays(
-    n: int, variant: str, n_samples: int, lpr: Lpr | None = None
+    n: int, variant: str, n_samples: int, lpr: Lpr | None = None, damper: bool = False
 ) -> tuple[VehicleArrays, Out]:
     """Zeroed :class:`VehicleArrays` and :class:`Out` for ``n`` vehicles and ``n_samples`` samples
-    (states sized by :func:`state_size` for the element ``lpr``)."""
-    s = state_size(variant, lpr)
+    (states sized by :func:`state_size` for the element ``lpr`` and ``damper``)."""
+    s = state_size(variant, lpr, damper)
     arrays = VehicleArrays(
         np.zeros((n, s)),
         np.zeros((n, n_samples)),

@@ -12,7 +12,7 @@ force the wrapped env just applied to a second env of the same class with
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -99,6 +99,21 @@ class _TimedAdvance:
                 self.sim.advance = self.inner
 
 
+def _compared(model: str, reference: str, n_model: int, n_reference: int) -> str:
+    """What ``speedup`` compared: the backends, their batch calls and the steps timed."""
+
+    def call(backend: str) -> str:
+        return "FMU calls through FMPy" if backend == "fmu" else "compiled per-env kernel"
+
+    steps = f"{n_model}" if n_model == n_reference else f"{n_model} and {n_reference}"
+    return (
+        f"median time per control step in sim.advance, backend {reference!r} "
+        f"({call(reference)}) over backend {model!r} ({call(model)}), over {steps} steps of "
+        "this episode, one vehicle per call, Python shell excluded; not the lane kernel of "
+        "vector envs"
+    )
+
+
 class ReferenceShadow(gym.Wrapper):
     """Run the reference model in lock-step with the wrapped env and report its errors.
 
@@ -143,7 +158,8 @@ class ReferenceShadow(gym.Wrapper):
     batch's call (s; see above) and ``speedup``: ``kernel_s_per_step_reference /
     kernel_s_per_step_model``, the kernel speed-up of a single env (one vehicle per call;
     the surrogate's lane kernel, which vector envs of 8 or more sub-envs run, is faster per
-    vehicle and not measured here: see ``railgym demo``); ``wall_time_model_s``,
+    vehicle and not measured here: see ``railgym demo``); ``speedup_compared``: that
+    comparison in words (backends, batch calls, steps timed); ``wall_time_model_s``,
     ``wall_time_reference_s``: the summed wall time of each side's ``step`` over the
     episode, Python shell included (the wrapped env's inner wrappers too, the shadow has
     none), so not a comparison of the models;
@@ -196,7 +212,7 @@ class ReferenceShadow(gym.Wrapper):
         self._clear()
         return obs, info
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Step the wrapped env, then the shadow with the force it applied."""
         t0 = time.perf_counter()
         obs, reward, terminated, truncated, info = self.env.step(action)
@@ -242,6 +258,9 @@ class ReferenceShadow(gym.Wrapper):
         out["kernel_s_per_step_model"] = k_model
         out["kernel_s_per_step_reference"] = k_ref
         out["speedup"] = k_ref / k_model if k_model > 0 else np.nan
+        out["speedup_compared"] = _compared(
+            self.base.backend, self.reference_backend, self._n_model, n
+        )
         out["wall_time_model_s"] = self._time_model
         out["wall_time_reference_s"] = self._time_ref
         out["model_diverged"] = model_diverged

@@ -91,14 +91,14 @@ def test_cli_gap_prints_both_values_and_a_zero_gap_against_the_same_backend(caps
     assert main([*argv, "--backend", "surrogate"]) == 0
     out = capsys.readouterr().out
     (line,) = [ln for ln in out.splitlines() if ln.startswith("class 4")]
-    _, _, policy, metric, unit, s, r, gap = line.split()
+    _, _, policy, metric, unit, s, r, gap, c_s, _, c_r = line.split()  # contacts: s / r
     assert (policy, metric, unit) == ("skyhook", "a_w", "(m/s²)")
-    assert s == r and float(gap) == 0.0 and float(s) > 0
+    assert s == r and float(gap) == 0.0 and float(s) > 0 and c_s == c_r
     assert "surrogate vs surrogate" in out
     assert main([*argv, "--backend", "linear"]) == 0
     out = capsys.readouterr().out
     (line,) = [ln for ln in out.splitlines() if ln.startswith("class 4")]
-    s, r, gap = (float(x) for x in line.split()[-3:])
+    s, r, gap = (float(x) for x in line.split()[5:8])
     assert gap == pytest.approx(100 * (s - r) / r, abs=0.01 + 1e-3 * abs(gap)) and gap != 0.0
 
 

@@ -1,33 +1,36 @@
 """The speed table of ``railgym demo`` (:mod:`agents.speed`): what it measured, positive rates,
-the ratio column, and the FMU row skipped with a note where it cannot be built. No figure is
-compared with a speed target (speed belongs in ``benchmarks/``)."""
+the ratio column, every figure taken from the clock (a fake clock proves the table prints what
+it timed), and the FMU row skipped with a note where it cannot be built. No figure is compared
+with a speed target (speed belongs in ``benchmarks/``)."""
 
 from __future__ import annotations
 
 import re
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import pytest
 
 from agents import speed
 from agents.speed import SpeedRow, backend_speeds, format_speeds
+from railgym.envs.vertical import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
 from railgym.vehicles.collect import default_vertical_surrogate
 
-#: a table row: label, sub-envs, steps, env-steps/s, × reference
+#: a table row: mode, label, sub-envs, steps, env-steps/s, × reference
 ROW = re.compile(
-    r"^(surrogate \(numba\)|reference \(numba\)|reference FMU \(FMPy\))\s+(\d+)\s+(\d+)\s+"
-    r"(\S+)\s+(\S+)$"
+    r"^(vector|single)\s+(surrogate \(numba\)|reference \(numba\)|reference FMU \(FMPy\))\s+"
+    r"(\d+)\s+(\d+)\s+(\S+)\s+(\S+)$"
 )
 
 
-def _table(out: str) -> dict[str, tuple[int, int, float, float]]:
+def _table(out: str) -> dict[tuple[str, str], tuple[int, int, float, float]]:
     rows = {}
     for line in out.splitlines():
         m = ROW.match(line.strip())
         if m:
-            label, n_envs, n_steps, rate, ratio = m.groups()
-            rows[label] = (int(n_envs), int(n_steps), float(rate), float(ratio))
+            mode, label, n_envs, n_steps, rate, ratio = m.groups()
+            rows[mode, label] = (int(n_envs), int(n_steps), float(rate), float(ratio))
     return rows
 
 
@@ -45,20 +48,27 @@ def test_demo_in_a_fresh_process_prints_the_speed_table(tmp_path):
     assert "5. speed: the surrogate element against the reference model it replaces" in out
     # says what it measured: sub-envs (a column), steps, rounds, threads, compilation
     assert re.search(r"200 steps per round .*median of 3 interleaved rounds, 1 numba thread", out)
+    assert "500 of the single envs" in out
     assert "kernels compiled before timing" in out
-    assert re.search(r"sub-envs +steps +env-steps/s +× reference", out)
+    assert re.search(r"mode +model +sub-envs +steps +env-steps/s +× reference", out)
     rows = _table(out)
-    assert set(rows) >= {"surrogate (numba)", "reference (numba)"}
+    numba_rows = {
+        (m, f"{b} (numba)") for m in ("vector", "single") for b in ("surrogate", "reference")
+    }
+    assert set(rows) >= numba_rows
     for n_envs, n_steps, rate, ratio in rows.values():
         assert n_envs > 0 and n_steps > 0 and rate > 0 and ratio > 0
-    assert rows["surrogate (numba)"][:2] == rows["reference (numba)"][:2] == (256, 200)
-    assert rows["reference (numba)"][3] == 1.0
-    if "reference FMU (FMPy)" in rows:
-        assert rows["reference FMU (FMPy)"][:2] == (speed.FMU_ENVS, 20)
+    vec, one = ("vector", "surrogate (numba)"), ("single", "surrogate (numba)")
+    assert rows[vec][:2] == rows["vector", "reference (numba)"][:2] == (256, 200)
+    assert rows[one][:2] == rows["single", "reference (numba)"][:2] == (1, 500)
+    assert rows["vector", "reference (numba)"][3] == rows["single", "reference (numba)"][3] == 1.0
+    if ("vector", "reference FMU (FMPy)") in rows:
+        assert rows["vector", "reference FMU (FMPy)"][:2] == (speed.FMU_ENVS, 20)
         assert re.search(r"× as fast as the reference FMU in the loop", out)
     else:
         assert "reference FMU: not measured: " in out
-    assert re.search(r"the surrogate steps \S+ × as fast as the reference", out)
+    assert re.search(r"vector envs: the surrogate steps \S+ × as fast as the reference", out)
+    assert re.search(r"single env: \S+ × as fast as the reference \(this machine, this run\)", out)
     # the existing outputs stay: the episode table with its wall-time column, the plots line
     assert re.search(r"surrogate +passive +\S+ +\S+ +\S+ +\d+ +\d+ +\S+", out)
     assert f"plots written to {tmp_path / 'd'}/" in out
@@ -69,8 +79,13 @@ def test_speed_table_skips_the_fmu_row_without_fmpy_or_compiler(monkeypatch):
 
     model = default_vertical_surrogate("static")
     monkeypatch.setitem(sys.modules, "fmpy", None)  # import fmpy raises ImportError
-    rows, skipped = backend_speeds(model, n_envs=8, n_steps=3, rounds=1)
-    assert [r.model for r in rows] == ["surrogate", "reference"]
+    rows, skipped = backend_speeds(model, n_envs=8, n_steps=3, rounds=1, single_steps=3)
+    assert [(r.mode, r.model) for r in rows] == [
+        ("vector", "surrogate"),
+        ("vector", "reference"),
+        ("single", "surrogate"),
+        ("single", "reference"),
+    ]
     assert skipped is not None and "pip install 'railgym[fmi]'" in skipped
     text = format_speeds(rows, skipped, 1)
     assert f"reference FMU: not measured: {skipped}" in text
@@ -94,12 +109,104 @@ def test_format_speeds_prints_the_rows_and_their_ratios():
     text = format_speeds(rows, None, 3)
     table = _table(text)
     assert table == {
-        "surrogate (numba)": (256, 200, 1.2e6, 3.0),
-        "reference (numba)": (256, 200, 4.0e5, 1.0),
-        "reference FMU (FMPy)": (16, 20, 5.0e3, 0.0125),
+        ("vector", "surrogate (numba)"): (256, 200, 1.2e6, 3.0),
+        ("vector", "reference (numba)"): (256, 200, 4.0e5, 1.0),
+        ("vector", "reference FMU (FMPy)"): (16, 20, 5.0e3, 0.0125),
     }
-    assert "200 steps per round (20 of the FMU), median of 3 interleaved rounds" in text
+    assert "200 steps per round of the vector envs (20 of the FMU), median of 3 interleaved" in text
     assert text.splitlines()[-1] == (
-        "the surrogate steps 3 × as fast as the reference and 240 × as fast as the reference "
-        "FMU in the loop (this machine, this run)"
+        "vector envs: the surrogate steps 3 × as fast as the reference and 240 × as fast as the "
+        "reference FMU in the loop (this machine, this run)"
     )
+    single = [SpeedRow("surrogate", 1, 500, 6e4, 1.5, 1.0, "single")]
+    single.append(SpeedRow("reference", 1, 500, 4e4, 1.0, 1.5, "single"))
+    text = format_speeds(rows + single, None, 3)
+    assert _table(text)["single", "surrogate (numba)"] == (1, 500, 6e4, 1.5)
+    assert ", 500 of the single envs, median of 3" in text
+    assert text.splitlines()[-1].endswith(
+        "in the loop; single env: 1.5 × as fast as the reference (this machine, this run)"
+    )
+
+
+#: seconds per env-step in each round on the fake clock, by (mode, backend)
+COSTS = {
+    ("vector", "surrogate"): (1e-6, 3e-6, 2e-6),
+    ("vector", "reference"): (5e-6, 6e-6, 10e-6),
+    ("vector", "fmu"): (400e-6, 500e-6, 800e-6),
+    ("single", "surrogate"): (20e-6, 20e-6, 40e-6),
+    ("single", "reference"): (25e-6, 30e-6, 30e-6),
+}
+
+
+@pytest.mark.parametrize("with_fmu", [False, True], ids=["no FMU", "FMU"])
+def test_speed_table_prints_what_the_clock_measured(monkeypatch, with_fmu):
+    """On a clock that moves only in env steps, by :data:`COSTS` a step in each round (the
+    first step, before the timing, is round -1 and free): the rates are the medians of the
+    per-round rates, each ratio the median of the per-round ratios (5, not 6 / 2 = 3, the
+    ratio of the medians), and the printed table shows exactly these figures."""
+    if with_fmu and speed.fmu_unavailable() is not None:
+        pytest.skip(f"no FMU: {speed.fmu_unavailable()}")
+    if not with_fmu:
+        monkeypatch.setattr(speed, "fmu_unavailable", lambda: "FMU left out by the test")
+    clock, calls = [0.0], {}
+    monkeypatch.setattr(speed, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
+    n_steps, fmu_steps, single_steps = 4, 2, 3
+    blocks = {"vector": n_steps, "fmu": fmu_steps, "single": single_steps}
+
+    def costly(step):
+        def timed_step(env, action):
+            vector = isinstance(env, VerticalSuspensionVectorEnv)
+            mode, backend = "vector" if vector else "single", env.cfg.backend
+            k = calls[id(env)] = calls.get(id(env), -1) + 1
+            if k > 0:  # step k - 1 of the rounds: round (k - 1) // steps per round
+                per_round = blocks["fmu" if backend == "fmu" else mode]
+                cost = COSTS[mode, backend][(k - 1) // per_round]
+                clock[0] += cost * (env.num_envs if vector else 1)
+            return step(env, action)
+
+        return timed_step
+
+    for cls in (VerticalSuspensionVectorEnv, VerticalSuspensionEnv):
+        monkeypatch.setattr(cls, "step", costly(cls.step))
+    model = default_vertical_surrogate("static")
+    rows, skipped = backend_speeds(
+        model, n_envs=8, n_steps=n_steps, rounds=3, fmu_steps=fmu_steps, single_steps=single_steps
+    )
+    by = {(r.mode, r.model): r for r in rows}
+    assert (skipped is None) == with_fmu and (("vector", "reference FMU") in by) == with_fmu
+    want = {  # (env-steps/s, × reference, surrogate × it)
+        ("vector", "surrogate"): (5e5, 5.0, 1.0),
+        ("vector", "reference"): (1e6 / 6, 1.0, 5.0),
+        ("vector", "reference FMU"): (2000.0, 0.0125, 400.0),
+        ("single", "surrogate"): (5e4, 1.25, 1.0),
+        ("single", "reference"): (1e6 / 30, 1.0, 1.25),
+    }
+    if not with_fmu:
+        del want["vector", "reference FMU"]
+    assert set(by) == set(want)
+    for key, (rate, vs_ref, sur_over) in want.items():
+        r = by[key]
+        assert r.steps_per_s == pytest.approx(rate, rel=1e-9), key
+        assert r.vs_reference == pytest.approx(vs_ref, rel=1e-9), key
+        assert r.surrogate_over == pytest.approx(sur_over, rel=1e-9), key
+    assert by["vector", "surrogate"].n_envs == 8 and by["single", "surrogate"].n_envs == 1
+    text = format_speeds(rows, skipped, 3)
+    table = _table(text)
+    for (mode, model_name), (rate, vs_ref, _) in want.items():
+        n_envs, steps, printed_rate, printed_ratio = table[mode, speed._WHAT[model_name]]
+        assert (n_envs, steps) == (by[mode, model_name].n_envs, by[mode, model_name].n_steps)
+        assert printed_rate == pytest.approx(rate, rel=1e-3)
+        assert printed_ratio == pytest.approx(vs_ref, rel=1e-3)
+    fmu_part = " and 400 × as fast as the reference FMU in the loop" if with_fmu else ""
+    assert text.splitlines()[-1] == (
+        f"vector envs: the surrogate steps 5 × as fast as the reference{fmu_part}; single env: "
+        "1.25 × as fast as the reference (this machine, this run)"
+    )
+
+
+def test_single_steps_longer_than_an_episode_are_refused():
+    n = VerticalSuspensionEnv().cfg.n_steps
+    with pytest.raises(ValueError, match=f"single_steps must be at most an episode's {n} steps"):
+        backend_speeds(
+            default_vertical_surrogate("static"), n_envs=8, n_steps=1, single_steps=n + 1
+        )

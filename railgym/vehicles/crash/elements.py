@@ -12,7 +12,7 @@ not refitted per speed; the envelope is fitted on the samples inside plastic flo
 matches its scenario (:func:`packaged_surrogate`), so every packaged scenario of that train
 (``paper``, ``envelope``, ``speed25``, ``speed50``, ...) shares it. Regenerate with::
 
-    python -m railgym.vehicles.crash.elements --scenario paper --overwrite
+    railgym crash-elements --scenario paper --overwrite
 
 :func:`validation_matrix` runs surrogate and reference side by side at speeds × absorber
 scales and returns each car's peak deceleration and each zone's largest crush on both.
@@ -38,6 +38,7 @@ from railgym.vehicles.crash.outputs import CrashResult
 from railgym.vehicles.crash.piecewise import PIECE_DEGREES
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import CrashSurrogate, build_crash_surrogate
+from surrogates.cli_flags import Parser, add_common, add_out, add_seed, error_status
 
 __all__ = [
     "FIT_DEGREES",
@@ -343,20 +344,45 @@ def validation_matrix(
     return rows
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Fit the envelope elements of a scenario and write its packaged file."""
-    parser = argparse.ArgumentParser(
-        prog="python -m railgym.vehicles.crash.elements", description=__doc__.split("\n")[0]
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym crash-elements`` (``python -m railgym.vehicles.crash.elements``)."""
+    parser = Parser(prog="railgym crash-elements", description=__doc__.split("\n")[0])
+    parser.add_argument("--scenario", default="paper", help="packaged scenario")
+    add_out(
+        parser,
+        "the elements JSON (default: the scenario's packaged file)",
+        overwrite="replace an existing file",
+        type=Path,
     )
-    parser.add_argument("--scenario", default="paper", help="packaged scenario (default paper)")
-    parser.add_argument("--out", type=Path, default=None, help="default: the packaged file")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    add_seed(
+        parser,
+        "seed of the fit (default: 0, the packaged files'; another needs -o/--out)",
+        default=None,
+    )
+    add_common(parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Fit the envelope elements of a scenario and write its packaged file (or ``-o/--out``)."""
+    parser = build_parser()
     args = parser.parse_args(argv)
+    if args.seed is not None and args.out is None:
+        parser.error("--seed needs -o/--out (the packaged elements are not replaced)")
+    try:
+        return _fit(parser, args)
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
+
+
+def _fit(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """``railgym crash-elements`` after the parse: fit, write."""
     sc = load_scenario(args.scenario)
     out = args.out or packaged_path(sc.name)
     if out.exists() and not args.overwrite:
         parser.error(f"{out} exists; pass --overwrite to replace it")
-    sur = build_envelope_surrogate(sc)
+    seed = 0 if args.seed is None else args.seed
+    sur = build_envelope_surrogate(sc, seed=seed)
     meta = {
         "train_key": train_key(sc),
         "variant": sur.variant,
@@ -366,7 +392,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "payloads_t": [list(p) for p in FIT_PAYLOADS_T],
         "nodes_per_car": NODES_PER_CAR,
         "degrees": list(PIECE_DEGREES),
-        "command": f"python -m railgym.vehicles.crash.elements --scenario {sc.name} --overwrite",
+        "command": f"python -m railgym.vehicles.crash.elements --scenario {sc.name} --overwrite"
+        + (f" --seed {seed}" if seed else ""),
     }
     save_crash_surrogate(sur, out, overwrite=True, metadata=meta)
     print(f"wrote {out} (train key {meta['train_key']})")

@@ -30,7 +30,7 @@ co-simulation FMU (see ``docs/fmi.md``).
 :class:`~railgym.vehicles.crash.CrashSurrogate` as JSON (each LPR as a
 :func:`surrogates.io.model_to_document`). Command line::
 
-    python -m railgym.vehicles.crash.fe --nodout nodout --rcforc rcforc --units mm-ms-kg-kN \\
+    railgym crash-fe --nodout nodout --rcforc rcforc --unit-system mm-ms-kg-kN \\
         --car-nodes 1001 2001 --wall-contact 1 --interface-contacts 2 -o elements.json \\
         [--fmu-dir fmus/]
 """
@@ -40,7 +40,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -60,7 +59,14 @@ from railgym.vehicles.crash.surrogate import (
     build_crash_surrogate,
 )
 from surrogates import io
-from surrogates.checks import seed_number
+from surrogates.cli_flags import (
+    Parser,
+    add_common,
+    add_deprecated,
+    add_out,
+    add_seed,
+    error_status,
+)
 from surrogates.features import TimeHistory
 from surrogates.models.base import _jsonable
 from surrogates.selection import SelectionResult
@@ -408,61 +414,84 @@ def export_crash_element_fmu(
 
 
 # ------------------------------------------------------------------------------ command line
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m railgym.vehicles.crash.fe``: crash elements from LS-DYNA nodout/rcforc."""
-    p = argparse.ArgumentParser(
-        prog="python -m railgym.vehicles.crash.fe", description=main.__doc__
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym crash-fe`` (``python -m railgym.vehicles.crash.fe``)."""
+    p = Parser(
+        prog="railgym crash-fe",
+        description="Crash elements (wall and interface force laws) fitted to an LS-DYNA "
+        "run's ASCII nodout and rcforc files (docs/data.md).",
     )
     p.add_argument("--nodout", required=True, help="LS-DYNA ASCII nodout file")
     p.add_argument("--rcforc", required=True, help="LS-DYNA ASCII rcforc file")
-    p.add_argument("--units", required=True, help="unit set of the FE model, e.g. mm-ms-kg-kN")
+    units = p.add_argument(
+        "--unit-system", required=True, help="unit set of the FE model, e.g. mm-ms-kg-kN"
+    )
+    add_deprecated(p, units, "--units")
     p.add_argument("--car-nodes", type=int, nargs="+", required=True, help="node per car")
     p.add_argument("--wall-contact", type=int, required=True, help="wall contact id")
-    p.add_argument("--interface-contacts", type=int, nargs="+", required=True)
+    p.add_argument(
+        "--interface-contacts", type=int, nargs="+", required=True, help="contact id per interface"
+    )
     p.add_argument("--scenario", default="paper", help="scenario of the FE model (name or YAML)")
-    p.add_argument("--variant", choices=["hysteretic", "paper"], default="hysteretic")
-    p.add_argument("--axis", choices=list(AXES), default="x")
-    p.add_argument("--direction", type=float, choices=[1.0, -1.0], default=1.0)
+    p.add_argument(
+        "--variant", choices=["hysteretic", "paper"], default="hysteretic", help="element form"
+    )
+    p.add_argument("--axis", choices=list(AXES), default="x", help="the impact axis")
+    p.add_argument(
+        "--direction",
+        type=float,
+        choices=[1.0, -1.0],
+        default=1.0,
+        help="sign of the impact along --axis",
+    )
     p.add_argument("--start-time", type=float, default=None, help="first contact, s")
-    p.add_argument("--seed", type=seed_number, default=0)
-    p.add_argument("-o", "--output", required=True, help="where to write the elements JSON")
+    add_seed(p, "seed of the fit's sampling")
+    add_out(p, "the elements JSON to write", required=True, old=["--output"], type=str)
     p.add_argument("--fmu-dir", help="also export each element as <name>.fmu (co-simulation)")
-    p.add_argument("--overwrite", action="store_true")
+    add_common(p)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``railgym crash-fe``: crash elements from LS-DYNA nodout/rcforc."""
+    p = build_parser()
     args = p.parse_args(argv)
-    if Path(args.output).exists() and not args.overwrite:
-        print(f"error: {args.output} exists; pass --overwrite to replace it", file=sys.stderr)
-        return 2
     try:
-        sur = crash_surrogate_from_fe(
-            args.nodout,
-            args.rcforc,
-            units=args.units,
-            car_nodes=args.car_nodes,
-            wall_contact=args.wall_contact,
-            interface_contacts=args.interface_contacts,
-            scenario=args.scenario,
-            fit=CrashFitOptions(variant=args.variant, seed=args.seed),
-            axis=args.axis,
-            direction=args.direction,
-            start_time=args.start_time,
-        )
-    except (OSError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    save_crash_surrogate(sur, args.output, overwrite=args.overwrite)
+        return _from_fe(args)
+    except Exception as err:
+        return error_status(p.prog, err, args.debug)
+
+
+def _from_fe(args: argparse.Namespace) -> int:
+    """``railgym crash-fe`` after the parse: fit, write the elements (and their FMUs)."""
+    if Path(args.out).exists() and not args.overwrite:
+        raise ValueError(f"--out {args.out}: exists; pass --overwrite to replace it")
+    sur = crash_surrogate_from_fe(
+        args.nodout,
+        args.rcforc,
+        units=args.unit_system,
+        car_nodes=args.car_nodes,
+        wall_contact=args.wall_contact,
+        interface_contacts=args.interface_contacts,
+        scenario=args.scenario,
+        fit=CrashFitOptions(variant=args.variant, seed=args.seed),
+        axis=args.axis,
+        direction=args.direction,
+        start_time=args.start_time,
+    )
+    save_crash_surrogate(sur, args.out, overwrite=args.overwrite)
     if args.fmu_dir:
         for name, el in sur.elements.items():
             fmu = Path(args.fmu_dir) / f"{name}.fmu"
             try:
                 export_crash_element_fmu(el, fmu, overwrite=args.overwrite)
-            except (OSError, RuntimeError) as exc:
-                print(f"error: {exc}", file=sys.stderr)
-                return 2
+            except RuntimeError as exc:
+                raise ValueError(str(exc)) from None
             print(f"{name} element FMU written to {fmu}")
     for name, el in sur.elements.items():
         ku = el.unloading_stiffness
         print(f"{name}: degrees {el.degrees}, k_u {ku:.4g} N/m, samples {el.n_samples}")
-    print(f"elements written to {args.output}")
+    print(f"elements written to {args.out}")
     return 0
 
 

@@ -54,6 +54,11 @@ model converges with order 4, the nonlinear ones with order ≈ 2: their right-h
 not smooth (the damper's slope jumps at δ̇ = 0, the bump-stop onset is only C1). The step
 ``DEFAULT_DT`` and its measured convergence and cost are in ``docs/envs/vertical.md``.
 
+A controllable damper between bogie and carbody (:class:`DamperLaw`, the law of
+:mod:`railgym.vehicles.semi_active`) takes the actuator's place in
+:func:`advance_semi_active` (any variant, scalar path): ``F_a`` is then its force, its states
+``(u, w)`` are the last two columns of the state (``state_size(..., damper=True)``).
+
 Per control step the kernels also report the bump-stop contact count (substeps whose end
 state is beyond the free travel, for every variant: a geometric measure), the out-of-domain
 count (surrogate only) and a diverged flag: when a substep yields a non-finite state or
@@ -69,6 +74,8 @@ name is re-exported here.
 from __future__ import annotations
 
 from railgym.vehicles.vertical.elements import (
+    DAMPER_LAWS,
+    DamperLaw,
     LprArrays,
     bump_stop_force,
     damper_force,
@@ -84,8 +91,10 @@ from railgym.vehicles.vertical.kernels import (
     StepOutputs,
     advance_dynamic,
     advance_linear,
+    advance_semi_active,
     advance_static,
     advance_surrogate,
+    damper_law,
     initial_state,
     state_size,
     step_outputs,
@@ -110,6 +119,7 @@ P_M1, P_M2, P_K1, P_C1, P_K2, P_C2 = (
 )
 
 __all__ = [
+    "DAMPER_LAWS",
     "DEFAULT_DT",
     "DIVERGENCE_DISPLACEMENT",
     "KERNELS",
@@ -125,6 +135,7 @@ __all__ = [
     "AirSpring",
     "BumpStop",
     "Damper",
+    "DamperLaw",
     "LprArrays",
     "StaticSpring",
     "StepOutputs",
@@ -132,10 +143,12 @@ __all__ = [
     "VerticalVehicle",
     "advance_dynamic",
     "advance_linear",
+    "advance_semi_active",
     "advance_static",
     "advance_surrogate",
     "bump_stop_force",
     "damper_force",
+    "damper_law",
     "damper_velocity",
     "element_response",
     "initial_state",

@@ -1,7 +1,8 @@
 """Compiled secondary-suspension element laws and the vehicle's right-hand side (eq. 1–2).
 
 Every function reads the vehicle from a :class:`~railgym.vehicles.vertical.params.SuspensionParams`
-``p`` by field name; the surrogate element (an LPR or a Kriging) from an :class:`LprArrays` tuple.
+``p`` by field name; the surrogate element (an LPR or a Kriging) from an :class:`LprArrays` tuple;
+a controllable damper in parallel with the secondary suspension from a :class:`DamperLaw`.
 """
 
 from __future__ import annotations
@@ -12,12 +13,19 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from railgym.vehicles.semi_active import DamperParams
+from railgym.vehicles.semi_active import damper_force as law_force
+from railgym.vehicles.semi_active import damper_rates as law_rates
 from surrogates.models.kriging import kriging_eval_into
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside
 
 __all__ = [
+    "DAMPER_LAWS",
+    "DamperLaw",
     "LprArrays",
     "bump_stop_force",
+    "controlled_damper",
+    "damped_rhs",
     "damper_force",
     "damper_velocity",
 ]
@@ -63,6 +71,20 @@ class LprArrays(NamedTuple):
     y_mean: float = 0.0  #: Kriging: output mean, N
     y_std: float = 1.0  #: Kriging: output standard deviation, N
     kernel: int = 0  #: Kriging: 0 Gaussian, 1 Matérn-5/2
+
+
+#: law kinds of a controllable damper (:attr:`DamperLaw.law`): ``"exact"`` is the Bouc–Wen law
+#: of :mod:`railgym.vehicles.semi_active`
+DAMPER_LAWS = {"exact": 0}
+
+
+class DamperLaw(NamedTuple):
+    """A controllable damper between bogie and carbody as the kernels read it: the law kind
+    (:data:`DAMPER_LAWS`) and its parameters. Its two states ``(u, w)`` (filtered command,
+    hysteresis or memory state) are the last two columns of the vehicle's state."""
+
+    law: int  #: :data:`DAMPER_LAWS` value
+    params: DamperParams  #: the exact law's parameters (``eta``: the command filter of every law)
 
 
 @njit(cache=True, error_model="numpy")
@@ -210,3 +232,27 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
     dx[2] = x[3]
     dx[3] = (fs + fa) / p.m2
     return fs, outside
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def controlled_damper(v, u, w, command, dmp):
+    """Force (N, on the carbody in the direction of ``v``) and state rates ``(u̇, ẇ)`` (1/s) of
+    the controllable damper ``dmp`` at extension rate ``v = ẋ1 − ẋ2`` (m/s), states ``u, w``
+    and ``command`` in [0, 1]: the exact law (``dmp.law = DAMPER_LAWS["exact"]``, the one kind
+    so far; another kind adds its branch here)."""
+    f = law_force(v, u, w, dmp.params)
+    du, dw = law_rates(v, u, w, command, dmp.params)
+    return f, du, dw
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def damped_rhs(kind, x, zc, zdc, command, p, lpr, dmp, u, lw, dx):
+    """:func:`rhs` with the controllable damper ``dmp`` in place of the actuator: its force
+    enters as ``fa`` (carbody +F, bogie −F), its states are ``x[-2:]`` (``(u, w)``, rates into
+    ``dx[-2:]``), ``command`` in [0, 1] is held by the caller; returns (F_s, outside, F_d)."""
+    s = x.shape[0]
+    f_d, du, dw = controlled_damper(x[1] - x[3], x[s - 2], x[s - 1], command, dmp)
+    fs, outside = rhs(kind, x, zc, zdc, f_d, p, lpr, u, lw, dx)
+    dx[s - 2] = du
+    dx[s - 1] = dw
+    return fs, outside, f_d

@@ -4,6 +4,11 @@ Each variant has a kernel ``advance_<variant>(state, z, zdot, k0, n_sub, dt, for
 out)``: ``p`` is :class:`~railgym.vehicles.vertical.params.SuspensionParams`, ``lpr`` an
 :class:`~railgym.vehicles.vertical.elements.LprArrays` (placeholders for the physical
 variants) and ``out`` a :class:`StepOutputs` of preallocated arrays.
+
+:func:`advance_semi_active` runs any variant with a controllable damper (:class:`DamperLaw`)
+at the actuator's place: its two states are the last two columns of ``state``
+(:func:`state_size` with ``damper=True``), integrated in the RK4 stages with the vehicle, the
+command held over the step. It takes the scalar path (no lane kernel).
 """
 
 from __future__ import annotations
@@ -14,7 +19,15 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from railgym.vehicles.vertical.elements import LprArrays, in_contact, rhs
+from railgym.vehicles.semi_active import DAMPER_STATES, DamperParams
+from railgym.vehicles.vertical.elements import (
+    DAMPER_LAWS,
+    DamperLaw,
+    LprArrays,
+    damped_rhs,
+    in_contact,
+    rhs,
+)
 from railgym.vehicles.vertical.lanes import (
     LANES_MIN,
     PARALLEL_MIN,
@@ -35,9 +48,11 @@ __all__ = [
     "VARIANTS",
     "advance_dynamic",
     "advance_linear",
+    "advance_semi_active",
     "advance_static",
     "advance_surrogate",
     "check_variant",
+    "damper_law",
     "initial_state",
     "state_size",
     "step_outputs",
@@ -91,13 +106,29 @@ def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
         _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _stage(kind, x, zc, zdc, fa, p, lpr, dmp, u, lw, dx):
+    """One right-hand side of :func:`_advance_scalar`: :func:`rhs` with the actuator force
+    ``fa`` (N) when ``dmp`` is ``None``, else :func:`damped_rhs` with ``fa`` the damper
+    command; returns (F_s, outside, force between bogie and carbody in N)."""
+    if dmp is None:
+        fs, outside = rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx)
+        return fs, outside, fa
+    return damped_rhs(kind, x, zc, zdc, fa, p, lpr, dmp, u, lw, dx)
+
+
 @njit(cache=True, error_model="numpy", _nrt=True)
-def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
-    """RK4 of one vehicle after another (see :func:`advance_linear`)."""
+def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, dmp=None, f_d=None):
+    """RK4 of one vehicle after another (see :func:`advance_linear`); with a damper ``dmp``
+    as :func:`advance_semi_active` (``force_a`` the commands, damper forces into ``f_d``)."""
     q = p[0]
     n, s = state.shape
     if kind == 3 and lpr.tau > 0.0 and s < 5:
         raise ValueError("a memory surrogate element needs 5 states [x1, v1, x2, v2, s]")
+    if dmp is not None:
+        own = 7 if kind == 2 else (5 if kind == 3 and lpr.tau > 0.0 else 4)
+        if s != own + DAMPER_STATES:
+            raise ValueError("a controllable damper needs its 2 states (u, w) after the variant's")
     buf = np.empty((6, s))  # one allocation: state, stage state, the four stage rates
     x, xt, r1, r2, r3, r4 = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
     u = np.empty(lpr.lo.shape[0])
@@ -123,16 +154,16 @@ def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
             zdb = zdot[i, ka + 1]
             zm = 0.5 * (za + zb) + dt8 * (zda - zdb)
             zdm = c3 * (zb - za) - 0.25 * (zda + zdb)
-            _, o1 = rhs(kind, x, za, zda, fa, q, lpr, u, lw, r1)
+            _, o1, _ = _stage(kind, x, za, zda, fa, q, lpr, dmp, u, lw, r1)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r1[j]
-            _, o2 = rhs(kind, xt, zm, zdm, fa, q, lpr, u, lw, r2)
+            _, o2, _ = _stage(kind, xt, zm, zdm, fa, q, lpr, dmp, u, lw, r2)
             for j in range(s):
                 xt[j] = x[j] + 0.5 * dt * r2[j]
-            _, o3 = rhs(kind, xt, zm, zdm, fa, q, lpr, u, lw, r3)
+            _, o3, _ = _stage(kind, xt, zm, zdm, fa, q, lpr, dmp, u, lw, r3)
             for j in range(s):
                 xt[j] = x[j] + dt * r3[j]
-            _, o4 = rhs(kind, xt, zb, zdb, fa, q, lpr, u, lw, r4)
+            _, o4, _ = _stage(kind, xt, zb, zdb, fa, q, lpr, dmp, u, lw, r4)
             ood += o1 + o2 + o3 + o4
             ok = True
             for j in range(s):
@@ -150,9 +181,10 @@ def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
                 contact += 1
         for j in range(s):
             state[i, j] = x[j]
+        fd = 0.0
         if not div:
             ke = kk + n_sub
-            fs, _ = rhs(kind, x, z[i, ke], zdot[i, ke], fa, q, lpr, u, lw, r1)
+            fs, _, fd = _stage(kind, x, z[i, ke], zdot[i, ke], fa, q, lpr, dmp, u, lw, r1)
             if math.isfinite(fs) and math.isfinite(r1[1]) and math.isfinite(r1[3]):
                 out.acc[i, 0] = r1[1]
                 out.acc[i, 1] = r1[3]
@@ -163,6 +195,9 @@ def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
             out.acc[i, 0] = 0.0
             out.acc[i, 1] = 0.0
             out.force[i] = 0.0
+            fd = 0.0
+        if f_d is not None:
+            f_d[i] = fd
         out.count[i, 0] = contact
         out.count[i, 1] = ood
         out.div[i] = div
@@ -216,6 +251,18 @@ def advance_surrogate(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     (static form) or ``F̂(δ, δ̇, δ − s)`` with the Maxwell state ``s = state[:, 4]``
     (``ṡ = (δ − s)/τ``), plus the bump-stop law where ``lpr.bump`` is set."""
     _advance(3, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+
+
+@njit(cache=True, error_model="numpy")
+def advance_semi_active(kind, state, z, zdot, k0, n_sub, dt, command, p, lpr, damper, out, f_d):
+    """:func:`advance_linear` of variant number ``kind`` (:func:`check_variant`) with the
+    controllable damper ``damper`` between bogie and carbody in place of the actuator.
+
+    ``command`` (n,) in [0, 1] is held over the step; the damper's states ``(u, w)`` are
+    ``state[:, -2:]`` (:func:`state_size` with ``damper=True``) and its force (N, on the carbody,
+    bogie −F) at the end of the step goes into ``f_d`` (n,), 0 where the step diverged.
+    """
+    _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, command, p, lpr, out, damper, f_d)
 
 
 KERNELS = {
@@ -350,6 +397,14 @@ def _kriging_arrays(k: KrigingArrays, form: Any, dt: float | None) -> LprArrays:
     )
 
 
+def damper_law(params: DamperParams) -> DamperLaw:
+    """The :class:`DamperLaw` of the exact law with ``params``
+    (:func:`~railgym.vehicles.semi_active.load_damper`)."""
+    if not isinstance(params, DamperParams):
+        raise TypeError(f"damper must be a DamperParams, got {type(params).__name__}")
+    return DamperLaw(DAMPER_LAWS["exact"], DamperParams(*(float(v) for v in params)))
+
+
 def check_variant(variant: str) -> int:
     """Kernel number of ``variant``; ValueError naming ``variant`` otherwise."""
     if not isinstance(variant, str) or variant not in _KIND:
@@ -357,15 +412,20 @@ def check_variant(variant: str) -> int:
     return _KIND[variant]
 
 
-def state_size(variant: str, lpr: LprArrays | None = None) -> int:
+def state_size(variant: str, lpr: LprArrays | None = None, damper: bool = False) -> int:
     """State variables of ``variant``; for ``"surrogate"`` 5 with a memory element ``lpr``
-    (or none given), 4 with a static one."""
+    (or none given), 4 with a static one; ``damper``: 2 more, the controllable damper's
+    ``(u, w)`` last."""
     check_variant(variant)
+    extra = DAMPER_STATES if damper else 0
     if variant == "surrogate" and lpr is not None and lpr.tau == 0.0:
-        return 4
-    return STATE_SIZE[variant]
+        return 4 + extra
+    return STATE_SIZE[variant] + extra
 
 
-def initial_state(variant: str, n: int = 1, lpr: LprArrays | None = None) -> np.ndarray:
-    """Static equilibrium state(s), float64 (n, :func:`state_size`) of zeros."""
-    return np.zeros((n, state_size(variant, lpr)))
+def initial_state(
+    variant: str, n: int = 1, lpr: LprArrays | None = None, damper: bool = False
+) -> np.ndarray:
+    """Static equilibrium state(s), float64 (n, :func:`state_size`) of zeros (a damper at
+    rest: ``u = w = 0``)."""
+    return np.zeros((n, state_size(variant, lpr, damper)))

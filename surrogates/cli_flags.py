@@ -1,0 +1,244 @@
+"""The shared vocabulary of every command (``railgym`` and its subcommands, ``surrogates``):
+one spelling and one meaning per flag (``docs/cli.md``).
+
+- ``-o/--out``: where the command writes (a file or a folder, as the command needs), with
+  ``--overwrite`` to replace what is there (:func:`add_out`).
+- ``--quiet``: no progress bars and notes on stderr; ``--debug``: tracebacks instead of the
+  one-line errors (:func:`add_common`, every command).
+- ``--seed``: the seed of what the command draws (tracks, samples, weights) (:func:`add_seed`).
+
+Every parser is a :class:`Parser` with :class:`HelpFormatter`: each option's help shows its
+default. An old spelling (:func:`add_deprecated`) still works, hidden from the help; after the
+parse it is one line ``PROG: warning: option '--old' is deprecated; use '--new'`` on stderr
+(none with ``--quiet``). :func:`error_status` is the exit status and one-line error of a
+failed command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from surrogates.checks import seed_number
+
+__all__ = [
+    "DEPRECATED",
+    "REQUIRED",
+    "HelpFormatter",
+    "Parser",
+    "RawHelpFormatter",
+    "add_common",
+    "add_deprecated",
+    "add_out",
+    "add_seed",
+    "error_status",
+    "shown_default",
+]
+
+#: namespace attribute collecting the old spellings used in one parse
+_USED = "_deprecated_spellings"
+#: attribute of an action that is an old spelling: the option it stands for
+DEPRECATED = "replaced_by"
+#: attribute of a required option with old spellings: :class:`Parser` checks it after the
+#: parse (argparse's own check would not count an old spelling)
+REQUIRED = "required_in_any_spelling"
+
+
+def shown_default(value: Any) -> str:
+    """A default as the help and ``docs/cli.md`` show it: lists space-separated."""
+    if isinstance(value, list | tuple):
+        return " ".join(shown_default(v) for v in value)
+    return str(value)
+
+
+class _DefaultsMixin:
+    """Every option's help ends with ``(default: X)``, unless it names its default itself or
+    has none (``None``, a switch that is off, an empty list, a positional)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if (
+            not action.option_strings
+            or "default" in text
+            or default is None
+            or default is False
+            or default == []
+            or default is argparse.SUPPRESS
+            or text is argparse.SUPPRESS
+        ):
+            return action.help
+        return f"{text} (default: {shown_default(default).replace('%', '%%')})"
+
+
+class HelpFormatter(_DefaultsMixin, argparse.HelpFormatter):
+    """Wrapped description and helps, defaults shown."""
+
+
+class RawHelpFormatter(_DefaultsMixin, argparse.RawDescriptionHelpFormatter):
+    """Description and epilog as written (line breaks kept), defaults shown."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` with :class:`HelpFormatter` that prints one warning line per
+    deprecated spelling used, after the parse (none with ``--quiet``), and requires an
+    option with old spellings (:data:`REQUIRED`) given in any of them."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        """``ArgumentParser.parse_known_args``, then the deprecation lines."""
+        ns, rest = super().parse_known_args(args, namespace)
+        missing = [
+            "/".join(a.option_strings)
+            for a in self._actions
+            if getattr(a, REQUIRED, False) and getattr(ns, a.dest, None) is None
+        ]
+        if missing:
+            self.error(f"the following arguments are required: {', '.join(missing)}")
+        used = vars(ns).pop(_USED, [])
+        if not getattr(ns, "quiet", False):
+            for old, new in used:
+                print(
+                    f"{self.prog}: warning: option {old!r} is deprecated; use {new!r}",
+                    file=sys.stderr,
+                )
+        return ns, rest
+
+    @contextmanager
+    def _all_required_shown(self) -> Iterator[None]:
+        """Within the block the options of :data:`REQUIRED` are required (for the usage)."""
+        marked = [a for a in self._actions if getattr(a, REQUIRED, False)]
+        for action in marked:
+            action.required = True
+        try:
+            yield
+        finally:
+            for action in marked:
+                action.required = False
+
+    def format_usage(self) -> str:
+        """The usage line, required options of :data:`REQUIRED` without brackets."""
+        with self._all_required_shown():
+            return super().format_usage()
+
+    def format_help(self) -> str:
+        """The help, required options of :data:`REQUIRED` without brackets."""
+        with self._all_required_shown():
+            return super().format_help()
+
+
+class _Deprecated(argparse.Action):
+    """An old spelling of ``target``: does what ``target`` does and records its use."""
+
+    def __init__(
+        self, option_strings: list[str], dest: str, target: argparse.Action, **kwargs: Any
+    ) -> None:
+        super().__init__(option_strings, dest, **kwargs)
+        setattr(self, DEPRECATED, target)
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        target: argparse.Action = getattr(self, DEPRECATED)
+        target(parser, namespace, values, option_string)
+        new = max(target.option_strings, key=len)
+        used = getattr(namespace, _USED, [])
+        setattr(namespace, _USED, [*used, (option_string, new)])
+
+
+def add_deprecated(parser: argparse.ArgumentParser, target: argparse.Action, *old: str) -> None:
+    """The old spellings ``old`` of the option ``target`` (added to ``parser``): the same
+    value and effect, hidden from the help, one warning line when used."""
+    if not old:
+        return
+    if target.required:  # argparse would not count the old spelling as giving it
+        if not isinstance(parser, Parser):
+            raise TypeError("a required option's old spellings need a surrogates Parser")
+        target.required = False
+        setattr(target, REQUIRED, True)
+    kwargs: dict[str, Any] = {
+        "nargs": target.nargs,
+        "const": target.const,
+        "type": target.type,
+        "choices": target.choices,
+        "metavar": target.metavar,
+    }
+    parser.add_argument(
+        *old,
+        action=_Deprecated,
+        target=target,
+        dest=target.dest,
+        default=argparse.SUPPRESS,
+        help=argparse.SUPPRESS,
+        **kwargs,
+    )
+
+
+def add_common(
+    parser: argparse.ArgumentParser,
+    debug_default: Any = False,
+    quiet_old: Sequence[str] = (),
+    quiet_help: str = "no progress bars or notes on stderr",
+) -> None:
+    """``--quiet`` (``quiet_old``: its deprecated spellings; ``quiet_help``: its help) and
+    ``--debug`` (``debug_default=argparse.SUPPRESS``: a subcommand whose parent parser has
+    ``--debug`` too)."""
+    quiet = parser.add_argument("--quiet", action="store_true", help=quiet_help)
+    add_deprecated(parser, quiet, *quiet_old)
+    parser.add_argument(
+        "--debug",
+        action="store_true",
+        default=debug_default,
+        help="show the traceback of an error instead of its one line",
+    )
+
+
+def add_out(
+    parser: argparse.ArgumentParser,
+    what: str,
+    *,
+    default: Any = None,
+    required: bool = False,
+    overwrite: str = "replace an existing -o/--out",
+    old: Sequence[str] = (),
+    type: Callable[[str], Any] = Path,
+) -> argparse.Action:
+    """``-o/--out`` (``what``: its help, the file or folder written) and ``--overwrite``
+    (``overwrite``: its help); ``old``: deprecated spellings of ``-o/--out``."""
+    action = parser.add_argument(
+        "-o", "--out", type=type, default=default, required=required, help=what
+    )
+    add_deprecated(parser, action, *old)
+    parser.add_argument("--overwrite", action="store_true", help=overwrite)
+    return action
+
+
+def add_seed(parser: argparse.ArgumentParser, what: str, default: int | None = 0) -> None:
+    """``--seed`` (0 … ``MAX_SEED``): ``what`` is the help."""
+    parser.add_argument("--seed", type=seed_number, default=default, help=what)
+
+
+def error_status(prog: str, err: Exception, debug: bool = False) -> int:
+    """Exit status of the command ``prog`` that raised ``err``, after its one line on stderr:
+    ``prog: error: …`` and 2 for a user error (``ValueError``, ``OSError``), else ``prog:
+    Type: … (--debug shows the traceback)`` and 1; ``debug`` (``--debug``) re-raises ``err``."""
+    if debug:
+        raise err
+    if isinstance(err, ValueError | OSError):
+        print(f"{prog}: error: {err}", file=sys.stderr)
+        return 2
+    print(f"{prog}: {type(err).__name__}: {err} (--debug shows the traceback)", file=sys.stderr)
+    return 1

@@ -1,0 +1,208 @@
+"""One command, one vocabulary (docs/cli.md): the flag table is the parsers', a flag means the
+same in every command, every subcommand has a described ``--help``, and the shared flags are
+wherever the rule of docs/cli.md puts them."""
+
+from __future__ import annotations
+
+import argparse
+from collections import defaultdict
+
+import pytest
+
+pytest.importorskip("stable_baselines3")  # railgym train's parser names SB3's algorithms
+
+from agents.cli import main  # noqa: E402
+from agents.cli_table import DOC, command_parsers, documented, flag_rows, markdown  # noqa: E402
+from surrogates.cli_flags import DEPRECATED  # noqa: E402
+
+#: the rule of docs/cli.md, per command: what it does with its results
+WRITES = {
+    "demo",
+    "paper",
+    "refine",
+    "export-reference-fmu",
+    "export-policy",
+    "train",
+    "train-rllib",
+    "benchmark",
+    "collect",
+    "collect-vehicle",
+    "crash-fe",
+    "crash-elements",
+    "surrogates build",
+    "surrogates export-fmu",
+}
+PRINTS = {"evaluate", "validate", "validity", "crash-report", "crash-limits"}
+#: writes into the installed package, where its NAME says: --overwrite, no -o
+FIXED_PLACE = {"pretrained"}
+#: commands whose result depends on nothing drawn at random
+UNSEEDED = {
+    "export-reference-fmu",
+    "export-policy",
+    "surrogates export-fmu",
+    "crash-report",
+    "crash-limits",
+    "pretrained",
+}
+
+
+@pytest.fixture(scope="module")
+def parsers() -> dict[str, argparse.ArgumentParser]:
+    return command_parsers()
+
+
+def _options(parser: argparse.ArgumentParser) -> dict[str, argparse.Action]:
+    """Option string → action, old spellings left out."""
+    return {
+        flag: action
+        for action in parser._actions
+        for flag in action.option_strings
+        if getattr(action, DEPRECATED, None) is None and flag not in ("-h", "--help")
+    }
+
+
+def _kind(value: object) -> str:
+    """The kind of value an argparse ``type`` gives: integer, real or text."""
+    if value is None or value is str or getattr(value, "__name__", "") == "Path":
+        return "text"
+    probe = {"int": "integer", "float": "real"}.get(getattr(value, "__name__", ""))
+    if probe is not None:
+        return probe
+    try:
+        out = value("1")  # type: ignore[operator]
+    except (argparse.ArgumentTypeError, ValueError, TypeError):
+        out = value("0.5")  # type: ignore[operator]
+    return "integer" if isinstance(out, int) else "real" if isinstance(out, float) else "text"
+
+
+def _count(nargs: object) -> str:
+    return {None: "one", "?": "one", 0: "none"}.get(nargs, "many")  # type: ignore[arg-type]
+
+
+def test_docs_table_is_the_parsers_table(parsers):
+    """(a) docs/cli.md holds the table generated from the parsers now."""
+    assert documented(DOC.read_text(encoding="utf-8")) == markdown(flag_rows(parsers))
+
+
+def test_no_flag_has_two_meanings(parsers):
+    """(b) Wherever a flag string is taken it has one destination, action, value kind
+    (integer, real, text) and count (none, one, several), and its choices overlap."""
+    seen: dict[str, dict[tuple, list[str]]] = defaultdict(lambda: defaultdict(list))
+    choices: dict[str, list[tuple[str, set]]] = defaultdict(list)
+    for command, parser in parsers.items():
+        for flag, action in _options(parser).items():
+            meaning = (action.dest, type(action).__name__, _kind(action.type), _count(action.nargs))
+            seen[flag][meaning].append(command)
+            if action.choices is not None:
+                choices[flag].append((command, set(map(str, action.choices))))
+    clashes = {flag: dict(m) for flag, m in seen.items() if len(m) > 1}
+    assert not clashes, clashes
+    for flag, sets in choices.items():
+        for (a, first), (b, second) in zip(sets, sets[1:], strict=False):
+            assert first & second, f"{flag}: {a} {sorted(first)} vs {b} {sorted(second)}"
+    # the real numbers behind the check: the common flags are in many commands, one meaning
+    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 14
+    assert len(seen["-o"][("out", "_StoreAction", "text", "one")]) == len(WRITES)
+
+
+def test_old_spellings_do_what_the_new_do_and_say_so(parsers, capsys):
+    evaluate = parsers["evaluate"]
+    old = evaluate.parse_args(["passive", "--env", "crash", "--speed", "36", "40"])
+    new = evaluate.parse_args(["passive", "--env", "crash", "--speed-kmh", "36", "40"])
+    assert old == new and new.speed == [36.0, 40.0]
+    err = capsys.readouterr().err
+    assert err == "railgym evaluate: warning: option '--speed' is deprecated; use '--speed-kmh'\n"
+    build = parsers["surrogates build"]
+    args = build.parse_args(["d.csv", "--inputs", "a", "--output", "F", "--model", "m.json"])
+    assert (args.target, args.out) == ("F", "m.json")
+    assert capsys.readouterr().err.count("is deprecated") == 2
+    train = parsers["train"].parse_args(["ppo_vertical", "--no-progress"])
+    assert train.quiet and capsys.readouterr().err == ""  # --quiet: no warning either
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        "demo",
+        "paper",
+        "evaluate",
+        "refine",
+        "export-reference-fmu",
+        "export-policy",
+        "train",
+        "benchmark",
+        "pretrained",
+        "collect",
+        "collect-vehicle",
+        "validate",
+        "validity",
+        "crash-report",
+        "crash-limits",
+        "crash-fe",
+        "crash-elements",
+        "surrogates build",
+        "surrogates export-fmu",
+    ],
+)
+def test_every_subcommand_help_exits_0_with_a_description(parsers, capsys, argv):
+    """(c) ``railgym CMD --help``: status 0, the usage, the description and every visible
+    option's help with its default."""
+    with pytest.raises(SystemExit) as exc:
+        main([*argv.split(), "--help"])
+    out = capsys.readouterr().out
+    parser = parsers[argv]
+    assert exc.value.code == 0 and out.startswith(f"usage: {parser.prog}")
+    assert parser.description and parser.description.split()[0] in out
+    for flag, action in _options(parser).items():
+        assert action.help, f"{argv} {flag}: no help"
+        shown = action.default not in (None, False, [], argparse.SUPPRESS)
+        if shown and action.nargs != 0 and "default" not in action.help:
+            assert "(default: " in out, f"{argv} {flag}"
+
+
+def test_train_rllib_parser_needs_no_ray(parsers):
+    assert parsers["train-rllib"].prog == "railgym train-rllib"
+    assert {"-o", "--seed", "--quiet", "--debug"} <= set(_options(parsers["train-rllib"]))
+
+
+def test_shared_flags_are_where_the_rule_puts_them(parsers):
+    """(d) docs/cli.md, *The vocabulary*: every command --quiet and --debug; a command that
+    writes -o/--out and --overwrite; a seeded one --seed; --track-class several values;
+    speeds in km/h with the unit in the flag."""
+    assert set(parsers) == WRITES | PRINTS | FIXED_PLACE
+    for command, parser in parsers.items():
+        flags = _options(parser)
+        assert {"--quiet", "--debug"} <= set(flags), command
+        writes = {"-o", "--out", "--overwrite"} <= set(flags)
+        assert writes == (command in WRITES), command
+        if command in PRINTS:
+            assert not {"-o", "--out"} & set(flags), command
+        if command in FIXED_PLACE:
+            assert "--overwrite" in flags and "-o" not in flags
+        assert ("--seed" in flags) == (command not in UNSEEDED), command
+        if "--track-class" in flags:
+            assert flags["--track-class"].nargs == "+", command
+        for flag in flags:
+            if "speed" in flag:
+                assert flag.endswith("-kmh"), f"{command} {flag}"
+
+
+def test_packaged_config_by_name_from_any_folder(tmp_path, monkeypatch, capsys):
+    """``railgym train ppo_vertical`` in a folder without configs: the packaged config is
+    read (envs and model built), then the file given as -o is refused — not the name."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "file").write_text("x")
+    for command in ("train", "benchmark"):
+        assert main([command, "ppo_vertical", "-o", "file", "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err == f"railgym {command}: error: --out file: exists and is not a folder\n"
+
+
+def test_version(capsys):
+    """(e) ``railgym --version``: the installed distribution's version."""
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"railgym {version('railgym')}"
