@@ -15,7 +15,16 @@ from railgym.envs.vertical import ACC_REF
 from railgym.vehicles.vehicle import linear_state_space
 from railgym.vehicles.vertical import SuspensionParams, linear_model
 
-__all__ = ["vehicle_lqr_gain", "vehicle_lqr_weights", "vertical_lqr_gain"]
+__all__ = [
+    "DEFAULT_C_GND",
+    "DEFAULT_C_SKY",
+    "check_gain",
+    "default_c_gnd",
+    "default_c_sky",
+    "vehicle_lqr_gain",
+    "vehicle_lqr_weights",
+    "vertical_lqr_gain",
+]
 
 
 class _Controller(ObservationController):
@@ -166,3 +175,37 @@ def vehicle_lqr_gain(
     a, b, q, n, r = vehicle_lqr_weights(vehicle, params, cfg, q_acc, q_defl, r_force)
     p = solve_continuous_are(a, b, q, r, s=n)
     return a, b, p, np.linalg.solve(r, b.T @ p + n.T)
+
+
+#: skyhook gain, N·s/m: ``c_sky·σ(ẋ2)`` ≈ f_max/2 at the passive carbody velocity RMS on the
+#: training case (8.6 cm/s, class 5 at 144 km/h), i.e. a skyhook damping ratio of 0.2
+DEFAULT_C_SKY = 4.7e4
+#: groundhook gain, N·s/m: ``c_gnd·σ(ẋ1)`` ≈ f_max/2 at the passive bogie velocity RMS on the
+#: training case (10 cm/s), like the skyhook gain; 0.16 of the bogie mode's critical damping
+DEFAULT_C_GND = 4.0e4
+#: the vehicle the default gains were chosen for (Manchester, one bogie): ``m1, m2`` kg,
+#: ``k1, k2`` N/m; another vehicle gets them scaled to the same damping ratio of its modes
+_GAIN_VEHICLE = {"m1": 2615.0, "m2": 16000.0, "k1": 4.88e6, "k2": 8.6e5}
+
+
+def default_c_sky(p: Any) -> float:
+    """``DEFAULT_C_SKY`` scaled to the bounce mode of the vehicle ``p`` (``m2``, ``k2``):
+    the same skyhook damping ratio ``c_sky / (2·√(k2·m2))``, N·s/m."""
+    g = _GAIN_VEHICLE
+    return DEFAULT_C_SKY * float(np.sqrt(p.k2 * p.m2 / (g["k2"] * g["m2"])))
+
+
+def default_c_gnd(p: Any) -> float:
+    """``DEFAULT_C_GND`` scaled to the bogie mode of the vehicle ``p`` (``m1``, ``k1 + k2``):
+    the same ratio to its critical damping ``2·√((k1 + k2)·m1)``, N·s/m."""
+    g = _GAIN_VEHICLE
+    ref = (g["k1"] + g["k2"]) * g["m1"]
+    return DEFAULT_C_GND * float(np.sqrt((p.k1 + p.k2) * p.m1 / ref))
+
+
+def check_gain(value: float | None, default: float, name: str) -> float:
+    """A checked non-negative gain (N·s/m); ``None``: ``default``."""
+    value = default if value is None else value
+    if not (np.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a non-negative number in N·s/m, got {value!r}")
+    return float(value)

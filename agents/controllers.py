@@ -27,9 +27,14 @@ from typing import Any
 import numpy as np
 
 from agents.control_base import (
+    DEFAULT_C_GND,
+    DEFAULT_C_SKY,
     _Controller,
     _lqr_weights,
     _VehicleController,
+    check_gain,
+    default_c_gnd,
+    default_c_sky,
     vehicle_lqr_gain,
     vertical_lqr_gain,
 )
@@ -69,39 +74,6 @@ __all__ = [
     "vertical_lqr_gain",
 ]
 
-#: skyhook gain, N·s/m: ``c_sky·σ(ẋ2)`` ≈ f_max/2 at the passive carbody velocity RMS on the
-#: training case (8.6 cm/s, class 5 at 144 km/h), i.e. a skyhook damping ratio of 0.2
-DEFAULT_C_SKY = 4.7e4
-#: groundhook gain, N·s/m: ``c_gnd·σ(ẋ1)`` ≈ f_max/2 at the passive bogie velocity RMS on the
-#: training case (10 cm/s), like the skyhook gain; 0.16 of the bogie mode's critical damping
-DEFAULT_C_GND = 4.0e4
-#: the vehicle the default gains were chosen for (Manchester, one bogie): ``m1, m2`` kg,
-#: ``k1, k2`` N/m; another vehicle gets them scaled to the same damping ratio of its modes
-_GAIN_VEHICLE = {"m1": 2615.0, "m2": 16000.0, "k1": 4.88e6, "k2": 8.6e5}
-
-
-def default_c_sky(p: Any) -> float:
-    """``DEFAULT_C_SKY`` scaled to the bounce mode of the vehicle ``p`` (``m2``, ``k2``):
-    the same skyhook damping ratio ``c_sky / (2·√(k2·m2))``, N·s/m."""
-    g = _GAIN_VEHICLE
-    return DEFAULT_C_SKY * float(np.sqrt(p.k2 * p.m2 / (g["k2"] * g["m2"])))
-
-
-def default_c_gnd(p: Any) -> float:
-    """``DEFAULT_C_GND`` scaled to the bogie mode of the vehicle ``p`` (``m1``, ``k1 + k2``):
-    the same ratio to its critical damping ``2·√((k1 + k2)·m1)``, N·s/m."""
-    g = _GAIN_VEHICLE
-    ref = (g["k1"] + g["k2"]) * g["m1"]
-    return DEFAULT_C_GND * float(np.sqrt((p.k1 + p.k2) * p.m1 / ref))
-
-
-def _gain(value: float | None, default: float, name: str) -> float:
-    """A checked non-negative gain (N·s/m); ``None``: ``default``."""
-    value = default if value is None else value
-    if not (np.isfinite(value) and value >= 0):
-        raise ValueError(f"{name} must be a non-negative number in N·s/m, got {value!r}")
-    return float(value)
-
 
 class Passive(_Controller):
     """Zero actuator force: the passive suspension alone."""
@@ -132,7 +104,7 @@ class Skyhook(_Controller):
 
     def __init__(self, env: Any, c_sky: float | None = None, mode: str = "active") -> None:
         super().__init__(env)
-        self.c_sky = _gain(c_sky, default_c_sky(self._base.vehicle_params), "c_sky")
+        self.c_sky = check_gain(c_sky, default_c_sky(self._base.vehicle_params), "c_sky")
         if mode not in ("active", "semi-active"):
             raise ValueError(f"mode must be 'active' or 'semi-active', got {mode!r}")
         self.mode = mode
@@ -166,7 +138,7 @@ class Groundhook(_Controller):
 
     def __init__(self, env: Any, c_gnd: float | None = None) -> None:
         super().__init__(env)
-        self.c_gnd = _gain(c_gnd, default_c_gnd(self._base.vehicle_params), "c_gnd")
+        self.c_gnd = check_gain(c_gnd, default_c_gnd(self._base.vehicle_params), "c_gnd")
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Groundhook force on the carbody (n,), N."""
@@ -238,7 +210,7 @@ class BogieSkyhook(_VehicleController):
 
     def __init__(self, env: Any, c_sky: float | None = None) -> None:
         super().__init__(env)
-        self.c_sky = _gain(c_sky, default_c_sky(self.vehicle.suspension), "c_sky")
+        self.c_sky = check_gain(c_sky, default_c_sky(self.vehicle.suspension), "c_sky")
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Skyhook forces (n, 2), N."""

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.control_base import _Controller
+from agents.control_base import _Controller, check_gain, default_c_gnd, default_c_sky
 from agents.lqg import LQG, _LQGMixin
 from railgym.envs.vertical import DAMPER_CHANNEL
 from railgym.vehicles.semi_active import DamperParams
@@ -79,12 +79,9 @@ def damper_command(demand: np.ndarray, v: np.ndarray, p: DamperParams) -> np.nda
 
 def _default_gain(name: str, value: float | None, params: Any) -> float:
     """The checked gain ``name`` (``"c_sky"`` or ``"c_gnd"``, N·s/m): ``value``, or
-    the force-mode default scaled to the vehicle ``params``. (:mod:`agents.controllers`
-    registers this module's controllers, so its gains are imported here, at call time.)"""
-    from agents.controllers import _gain, default_c_gnd, default_c_sky
-
+    the force-mode default scaled to the vehicle ``params``."""
     default = {"c_sky": default_c_sky, "c_gnd": default_c_gnd}[name](params)
-    return _gain(value, default, name)
+    return check_gain(value, default, name)
 
 
 class _SemiActive(_Controller):
