@@ -31,10 +31,11 @@ DT, N_SUB, STEPS = 1e-3, 10, 40
 
 def _predict(v: float, u: float, m: float) -> float:
     """The element's force from the fitted model (not the kernels' power basis), with the
-    passivity cut; inside the training box only."""
+    passivity cut; ``u`` and ``m`` clipped to the training box (as the element does), ``v``
+    inside it."""
     lo, up = ELEMENT.model.lower_, ELEMENT.model.upper_
-    x = np.array([v, u, m])
-    assert np.all(x >= lo) and np.all(x <= up), "the run left the element's box"
+    assert lo[0] <= v <= up[0], "the run left the element's velocity range"
+    x = np.array([v, np.clip(u, lo[1], up[1]), np.clip(m, lo[2], up[2])])
     f = float(ELEMENT.model.predict(x[None, :])[0])
     return f if f * v > 0.0 else 0.0
 
