@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import inspect
 import warnings
+from functools import lru_cache
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +58,7 @@ from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.element_envelope import OperatingEnvelope, element_envelope
 from railgym.vehicles.element_plausibility import implausible_element_warning
 from railgym.vehicles.semi_active import DamperParams, load_damper
+from railgym.vehicles.semi_active_element import DamperElement, load_damper_element
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
     DamperLaw,
@@ -186,8 +189,23 @@ class VerticalParams(TrackEnvParams):
         kind="object",
     )
 
+    damper_element: Any = param(
+        None,
+        "",
+        'data-driven element of `damper` that backend `"surrogate"` runs: packaged name or '
+        "`.json` path (`python -m railgym.vehicles.semi_active_element`); default: the packaged "
+        "element of a packaged `damper`",
+        kind="object",
+        optional=True,
+    )
+
     damper_params: DamperParams | None = derived(
         "", 'the loaded `damper` (`None` with actuator `"force"`)'
+    )
+    damper_model: DamperElement | None = derived(
+        "",
+        'the loaded `damper_element` (`None` unless actuator `"semi-active"` on backend '
+        '`"surrogate"`)',
     )
 
     def _default_dt(self) -> float:
@@ -212,10 +230,15 @@ class VerticalParams(TrackEnvParams):
     def _derive_damper(self) -> None:
         """The damper of ``actuator="semi-active"`` (``damper_params``) and its observation
         channel; ``damper=`` other than the default with ``actuator="force"`` is refused."""
+        self._set("damper_model", None)
         if self.actuator == "force":
             if not (isinstance(self.damper, str) and self.damper == DEFAULT_DAMPER):
                 raise val.FieldError(
                     "damper", "is only used with actuator='semi-active', not 'force'"
+                )
+            if self.damper_element is not None:
+                raise val.FieldError(
+                    "damper_element", "is only used with actuator='semi-active', not 'force'"
                 )
             self._set("damper_params", None)
             return
@@ -224,8 +247,53 @@ class VerticalParams(TrackEnvParams):
                 "actuator", "'semi-active' is not available with backend='fmu'", full=False
             )
         self._set("damper_params", load_damper(self.damper))
+        if self.backend == "surrogate":
+            self._set("damper_model", _damper_element(self.damper, self.damper_element))
+        elif self.damper_element is not None:
+            warnings.warn(
+                f"damper_element is ignored by backend={self.backend!r} (only "
+                "backend='surrogate' uses it)",
+                UserWarning,
+                stacklevel=6,
+            )
         self._set("obs_names", (*self.obs_names, DAMPER_CHANNEL[0]))
         self._set("obs_scale", np.append(self.obs_scale, DAMPER_CHANNEL[1]))
+
+
+def _damper_element(damper: Any, element: Any) -> DamperElement:
+    """The element of ``damper`` for the surrogate backend: ``element`` (packaged name or
+    ``.json`` path) or, without one, the packaged element of the packaged ``damper``."""
+    if element is None:
+        if not (isinstance(damper, str) and _is_packaged_element(damper)):
+            raise val.FieldError(
+                "damper_element",
+                f"damper {str(damper)!r} has no packaged element: give damper_element= (built "
+                "by python -m railgym.vehicles.semi_active_element --damper DAMPER --out "
+                "ELEMENT.json) or use another backend",
+            )
+        return _packaged_element(damper)
+    if not isinstance(element, str | Path):
+        raise val.FieldTypeError(
+            "damper_element", f"must be a packaged name or a .json path, got {element!r}"
+        )
+    if str(element).endswith(".json"):
+        try:
+            return load_damper_element(element)
+        except (OSError, ValueError) as exc:
+            raise val.FieldError("damper_element", str(exc)) from None
+    if not _is_packaged_element(str(element)):
+        raise val.FieldError("damper_element", f"no packaged element {str(element)!r}")
+    return _packaged_element(str(element))
+
+
+def _is_packaged_element(name: str) -> bool:
+    return (resources.files("railgym") / "data" / f"damper_{name}.json").is_file()
+
+
+@lru_cache(maxsize=2)
+def _packaged_element(name: str) -> DamperElement:
+    """A packaged damper element, loaded once."""
+    return load_damper_element(name)
 
 
 #: documented limits (docs/envs/vertical.md): the declared bounds of :class:`VerticalParams`
@@ -377,10 +445,12 @@ def check_element_vehicle(backend: str, lpr: LprArrays, vehicle: Any) -> None:
 
 
 def _damper(cfg: VerticalParams) -> DamperLaw | None:
-    """The controllable damper the kernels integrate (``None``: ``actuator="force"``): the
-    exact law of ``cfg.damper_params`` on every backend (the surrogate backend's data-driven
-    damper element is chosen here by its law kind, ``DamperLaw.law``)."""
-    return None if cfg.damper_params is None else damper_law(cfg.damper_params)
+    """The controllable damper the kernels integrate (``None``: ``actuator="force"``): its
+    element ``cfg.damper_model`` on the surrogate backend, the exact law of
+    ``cfg.damper_params`` on the others."""
+    if cfg.damper_params is None:
+        return None
+    return damper_law(cfg.damper_params, cfg.damper_model)
 
 
 def _batch(

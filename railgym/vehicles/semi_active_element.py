@@ -87,8 +87,9 @@ SAMPLES = 600
 #: candidate memory lengths ℓ, m, and total degrees D
 LENGTHS = (1e-3, 2e-3, 3e-3, 4e-3)
 DEGREES = tuple(range(3, 11))
-#: range of the runs' peak velocity, m/s (a secondary suspension's relative velocity)
-PEAK = (0.1, 0.35)
+#: range of the runs' peak velocity, m/s (a secondary suspension's relative velocity, up to
+#: the peaks of FRA classes 3–4 at their maximum speed)
+PEAK = (0.1, 1.0)
 #: ``metadata.element`` of a saved damper element
 ELEMENT_KIND = "semi_active_damper"
 INPUTS = ("v", "u", "m")

@@ -54,10 +54,12 @@ model converges with order 4, the nonlinear ones with order ≈ 2: their right-h
 not smooth (the damper's slope jumps at δ̇ = 0, the bump-stop onset is only C1). The step
 ``DEFAULT_DT`` and its measured convergence and cost are in ``docs/envs/vertical.md``.
 
-A controllable damper between bogie and carbody (:class:`DamperLaw`, the law of
-:mod:`railgym.vehicles.semi_active`) takes the actuator's place in
+A controllable damper between bogie and carbody (:class:`DamperLaw`: the exact law of
+:mod:`railgym.vehicles.semi_active` or its data-driven element,
+:mod:`railgym.vehicles.semi_active_element`) takes the actuator's place in
 :func:`advance_semi_active` (any variant, scalar path): ``F_a`` is then its force, its states
-``(u, w)`` are the last two columns of the state (``state_size(..., damper=True)``).
+(``u`` and ``w``, or ``u`` and the element's memory ``m``) are the last two columns of the
+state (``state_size(..., damper=True)``).
 
 Per control step the kernels also report the bump-stop contact count (substeps whose end
 state is beyond the free travel, for every variant: a geometric measure), the out-of-domain

@@ -16,6 +16,11 @@ from numba import njit
 from railgym.vehicles.semi_active import DamperParams
 from railgym.vehicles.semi_active import damper_force as law_force
 from railgym.vehicles.semi_active import damper_rates as law_rates
+from railgym.vehicles.semi_active_element import (
+    DamperElementArrays,
+    element_force,
+    element_rates,
+)
 from surrogates.models.kriging import kriging_eval_into
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside
 
@@ -74,17 +79,23 @@ class LprArrays(NamedTuple):
 
 
 #: law kinds of a controllable damper (:attr:`DamperLaw.law`): ``"exact"`` is the Bouc–Wen law
-#: of :mod:`railgym.vehicles.semi_active`
-DAMPER_LAWS = {"exact": 0}
+#: of :mod:`railgym.vehicles.semi_active`, ``"element"`` its data-driven element
+#: (:mod:`railgym.vehicles.semi_active_element`)
+DAMPER_LAWS = {"exact": 0, "element": 1}
+
+#: placeholder element arrays of an exact law (the kernels see one :class:`DamperLaw` type)
+_NO_ELEMENT = DamperElementArrays(np.zeros((1, 1, 1)), np.zeros(3), np.ones(3), np.ones(3), 0, 1.0)
 
 
 class DamperLaw(NamedTuple):
     """A controllable damper between bogie and carbody as the kernels read it: the law kind
-    (:data:`DAMPER_LAWS`) and its parameters. Its two states ``(u, w)`` (filtered command,
-    hysteresis or memory state) are the last two columns of the vehicle's state."""
+    (:data:`DAMPER_LAWS`) and its parameters. Its two states (filtered command ``u``, then the
+    exact law's hysteresis state ``w`` or the element's memory ``m``) are the last two columns
+    of the vehicle's state."""
 
     law: int  #: :data:`DAMPER_LAWS` value
     params: DamperParams  #: the exact law's parameters (``eta``: the command filter of every law)
+    element: DamperElementArrays = _NO_ELEMENT  #: the element law's arrays
 
 
 @njit(cache=True, error_model="numpy")
@@ -238,8 +249,12 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
 def controlled_damper(v, u, w, command, dmp):
     """Force (N, on the carbody in the direction of ``v``) and state rates ``(u̇, ẇ)`` (1/s) of
     the controllable damper ``dmp`` at extension rate ``v = ẋ1 − ẋ2`` (m/s), states ``u, w``
-    and ``command`` in [0, 1]: the exact law (``dmp.law = DAMPER_LAWS["exact"]``, the one kind
-    so far; another kind adds its branch here)."""
+    and ``command`` in [0, 1]: the exact law (``dmp.law = DAMPER_LAWS["exact"]``, ``w`` its
+    hysteresis state) or the element (``DAMPER_LAWS["element"]``, ``w`` its memory ``m`` in m,
+    ``ṁ`` in m/s)."""
+    if dmp.law == 1:
+        f = element_force(v, u, w, dmp.element)
+        return f, dmp.params.eta * (command - u), element_rates(v, w, dmp.element)
     f = law_force(v, u, w, dmp.params)
     du, dw = law_rates(v, u, w, command, dmp.params)
     return f, du, dw

@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from railgym.vehicles.semi_active import DAMPER_STATES, DamperParams
+from railgym.vehicles.semi_active_element import DamperElement, DamperElementArrays
 from railgym.vehicles.vertical.elements import (
     DAMPER_LAWS,
     DamperLaw,
@@ -397,12 +398,23 @@ def _kriging_arrays(k: KrigingArrays, form: Any, dt: float | None) -> LprArrays:
     )
 
 
-def damper_law(params: DamperParams) -> DamperLaw:
+def damper_law(params: DamperParams, element: DamperElement | None = None) -> DamperLaw:
     """The :class:`DamperLaw` of the exact law with ``params``
-    (:func:`~railgym.vehicles.semi_active.load_damper`)."""
+    (:func:`~railgym.vehicles.semi_active.load_damper`), or with ``element``
+    (:func:`~railgym.vehicles.semi_active_element.load_damper_element`) the element's law,
+    its command filter the element's ``eta`` (1/s)."""
     if not isinstance(params, DamperParams):
         raise TypeError(f"damper must be a DamperParams, got {type(params).__name__}")
-    return DamperLaw(DAMPER_LAWS["exact"], DamperParams(*(float(v) for v in params)))
+    exact = DamperParams(*(float(v) for v in params))
+    if element is None:
+        return DamperLaw(DAMPER_LAWS["exact"], exact)
+    if not isinstance(element, DamperElement):
+        raise TypeError(f"damper element must be a DamperElement, got {type(element).__name__}")
+    a = element.arrays()
+    arrays = DamperElementArrays(
+        *(np.ascontiguousarray(x, dtype=np.float64) for x in a[:4]), int(a.degree), float(a.length)
+    )
+    return DamperLaw(DAMPER_LAWS["element"], exact._replace(eta=float(element.eta)), arrays)
 
 
 def check_variant(variant: str) -> int:
