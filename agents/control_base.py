@@ -15,10 +15,19 @@ from railgym.envs.vertical import ACC_REF
 from railgym.vehicles.vehicle import linear_state_space
 from railgym.vehicles.vertical import SuspensionParams, linear_model
 
-__all__ = ["vehicle_lqr_gain", "vehicle_lqr_weights", "vertical_lqr_gain"]
+__all__ = [
+    "DEFAULT_C_GND",
+    "DEFAULT_C_SKY",
+    "checked_gain",
+    "default_c_gnd",
+    "default_c_sky",
+    "vehicle_lqr_gain",
+    "vehicle_lqr_weights",
+    "vertical_lqr_gain",
+]
 
 
-class _Controller(ObservationController):
+class Controller(ObservationController):
     """Vertical-env baselines: a demanded actuator force, normalised by ``f_max``."""
 
     env_name = "VerticalSuspension"
@@ -67,7 +76,7 @@ class _Controller(ObservationController):
         return (self.force(x) / self.f_max).reshape(x.shape[0], self.n_act)
 
 
-def _lqr_weights(
+def lqr_weights(
     cfg: Any, acc_ref: float, q_acc: float | None, q_defl: float | None, r_force: float | None
 ) -> tuple[float, float, float]:
     """LQR weights in SI; ``None`` = the env's reward weights (``cfg.reward_weights``, default
@@ -100,7 +109,7 @@ def vertical_lqr_gain(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A, B, P, K)`` of :class:`LQR` for kernel parameters ``params`` and the env config
     ``cfg`` (weights: see :class:`LQR`); ``K`` is (1, 4), N per SI state."""
-    w_acc, w_defl, w_force = _lqr_weights(cfg, ACC_REF, q_acc, q_defl, r_force)
+    w_acc, w_defl, w_force = lqr_weights(cfg, ACC_REF, q_acc, q_defl, r_force)
     a, b, c, d = linear_model(params)
     c_d = np.array([1.0, 0.0, -1.0, 0.0])
     q = w_acc * np.outer(c, c) + w_defl * np.outer(c_d, c_d)
@@ -110,7 +119,7 @@ def vertical_lqr_gain(
     return a, b, p, np.linalg.solve(r, b.T @ p + n.T)
 
 
-class _VehicleController(_Controller):
+class VehicleController(Controller):
     """Plumbing for the whole-vehicle env: carbody velocities over the two bogies."""
 
     def __init__(self, env: Any) -> None:
@@ -141,7 +150,7 @@ def vehicle_lqr_weights(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A, B, Q, N, R)`` of :class:`VehicleLQR`: the linear model (14 states) and the
     weights of ``J = ∫ (xᵀQx + 2xᵀN·F + FᵀR·F) dt`` (SI; see :class:`VehicleLQR`)."""
-    w_acc, w_defl, w_force = _lqr_weights(cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force)
+    w_acc, w_defl, w_force = lqr_weights(cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force)
     a, b, _, c, d = linear_state_space(vehicle, cfg.flexible)
     q = w_acc * c.T @ c / 3.0
     for s in (1.0, -1.0):  # δ_i = z_b,i − z_c − x_i·θ_c − φ(a)·q
@@ -166,3 +175,37 @@ def vehicle_lqr_gain(
     a, b, q, n, r = vehicle_lqr_weights(vehicle, params, cfg, q_acc, q_defl, r_force)
     p = solve_continuous_are(a, b, q, r, s=n)
     return a, b, p, np.linalg.solve(r, b.T @ p + n.T)
+
+
+#: skyhook gain, N·s/m: ``c_sky·σ(ẋ2)`` ≈ f_max/2 at the passive carbody velocity RMS on the
+#: training case (8.6 cm/s, class 5 at 144 km/h), i.e. a skyhook damping ratio of 0.2
+DEFAULT_C_SKY = 4.7e4
+#: groundhook gain, N·s/m: ``c_gnd·σ(ẋ1)`` ≈ f_max/2 at the passive bogie velocity RMS on the
+#: training case (10 cm/s), like the skyhook gain; 0.16 of the bogie mode's critical damping
+DEFAULT_C_GND = 4.0e4
+#: the vehicle the default gains were chosen for (Manchester, one bogie): ``m1, m2`` kg,
+#: ``k1, k2`` N/m; another vehicle gets them scaled to the same damping ratio of its modes
+_GAIN_VEHICLE = {"m1": 2615.0, "m2": 16000.0, "k1": 4.88e6, "k2": 8.6e5}
+
+
+def default_c_sky(p: Any) -> float:
+    """``DEFAULT_C_SKY`` scaled to the bounce mode of the vehicle ``p`` (``m2``, ``k2``):
+    the same skyhook damping ratio ``c_sky / (2·√(k2·m2))``, N·s/m."""
+    g = _GAIN_VEHICLE
+    return DEFAULT_C_SKY * float(np.sqrt(p.k2 * p.m2 / (g["k2"] * g["m2"])))
+
+
+def default_c_gnd(p: Any) -> float:
+    """``DEFAULT_C_GND`` scaled to the bogie mode of the vehicle ``p`` (``m1``, ``k1 + k2``):
+    the same ratio to its critical damping ``2·√((k1 + k2)·m1)``, N·s/m."""
+    g = _GAIN_VEHICLE
+    ref = (g["k1"] + g["k2"]) * g["m1"]
+    return DEFAULT_C_GND * float(np.sqrt((p.k1 + p.k2) * p.m1 / ref))
+
+
+def checked_gain(value: float | None, default: float, name: str) -> float:
+    """A checked non-negative gain (N·s/m); ``None``: ``default``."""
+    value = default if value is None else value
+    if not (np.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a non-negative number in N·s/m, got {value!r}")
+    return float(value)

@@ -27,9 +27,14 @@ from typing import Any
 import numpy as np
 
 from agents.control_base import (
-    _Controller,
-    _lqr_weights,
-    _VehicleController,
+    DEFAULT_C_GND,
+    DEFAULT_C_SKY,
+    Controller,
+    VehicleController,
+    checked_gain,
+    default_c_gnd,
+    default_c_sky,
+    lqr_weights,
     vehicle_lqr_gain,
     vertical_lqr_gain,
 )
@@ -69,41 +74,8 @@ __all__ = [
     "vertical_lqr_gain",
 ]
 
-#: skyhook gain, N·s/m: ``c_sky·σ(ẋ2)`` ≈ f_max/2 at the passive carbody velocity RMS on the
-#: training case (8.6 cm/s, class 5 at 144 km/h), i.e. a skyhook damping ratio of 0.2
-DEFAULT_C_SKY = 4.7e4
-#: groundhook gain, N·s/m: ``c_gnd·σ(ẋ1)`` ≈ f_max/2 at the passive bogie velocity RMS on the
-#: training case (10 cm/s), like the skyhook gain; 0.16 of the bogie mode's critical damping
-DEFAULT_C_GND = 4.0e4
-#: the vehicle the default gains were chosen for (Manchester, one bogie): ``m1, m2`` kg,
-#: ``k1, k2`` N/m; another vehicle gets them scaled to the same damping ratio of its modes
-_GAIN_VEHICLE = {"m1": 2615.0, "m2": 16000.0, "k1": 4.88e6, "k2": 8.6e5}
 
-
-def default_c_sky(p: Any) -> float:
-    """``DEFAULT_C_SKY`` scaled to the bounce mode of the vehicle ``p`` (``m2``, ``k2``):
-    the same skyhook damping ratio ``c_sky / (2·√(k2·m2))``, N·s/m."""
-    g = _GAIN_VEHICLE
-    return DEFAULT_C_SKY * float(np.sqrt(p.k2 * p.m2 / (g["k2"] * g["m2"])))
-
-
-def default_c_gnd(p: Any) -> float:
-    """``DEFAULT_C_GND`` scaled to the bogie mode of the vehicle ``p`` (``m1``, ``k1 + k2``):
-    the same ratio to its critical damping ``2·√((k1 + k2)·m1)``, N·s/m."""
-    g = _GAIN_VEHICLE
-    ref = (g["k1"] + g["k2"]) * g["m1"]
-    return DEFAULT_C_GND * float(np.sqrt((p.k1 + p.k2) * p.m1 / ref))
-
-
-def _gain(value: float | None, default: float, name: str) -> float:
-    """A checked non-negative gain (N·s/m); ``None``: ``default``."""
-    value = default if value is None else value
-    if not (np.isfinite(value) and value >= 0):
-        raise ValueError(f"{name} must be a non-negative number in N·s/m, got {value!r}")
-    return float(value)
-
-
-class Passive(_Controller):
+class Passive(Controller):
     """Zero actuator force: the passive suspension alone."""
 
     def force(self, x: np.ndarray) -> np.ndarray:
@@ -111,7 +83,7 @@ class Passive(_Controller):
         return np.zeros((x.shape[0], self.n_act))
 
 
-class Skyhook(_Controller):
+class Skyhook(Controller):
     """Skyhook damper on the carbody, ``F = −c_sky·ẋ2`` (absolute carbody velocity).
 
     ``mode="active"``: the actuator applies ``−c_sky·ẋ2`` whatever its power flow.
@@ -132,7 +104,7 @@ class Skyhook(_Controller):
 
     def __init__(self, env: Any, c_sky: float | None = None, mode: str = "active") -> None:
         super().__init__(env)
-        self.c_sky = _gain(c_sky, default_c_sky(self._base.vehicle_params), "c_sky")
+        self.c_sky = checked_gain(c_sky, default_c_sky(self._base.vehicle_params), "c_sky")
         if mode not in ("active", "semi-active"):
             raise ValueError(f"mode must be 'active' or 'semi-active', got {mode!r}")
         self.mode = mode
@@ -146,7 +118,7 @@ class Skyhook(_Controller):
         return f
 
 
-class Groundhook(_Controller):
+class Groundhook(Controller):
     """Groundhook damper on the bogie: ``−c_gnd·ẋ1`` on the bogie, i.e. ``F_a = +c_gnd·ẋ1``.
 
     The ideal groundhook is a damper from the bogie to the (inertial) ground, force
@@ -166,7 +138,7 @@ class Groundhook(_Controller):
 
     def __init__(self, env: Any, c_gnd: float | None = None) -> None:
         super().__init__(env)
-        self.c_gnd = _gain(c_gnd, default_c_gnd(self._base.vehicle_params), "c_gnd")
+        self.c_gnd = checked_gain(c_gnd, default_c_gnd(self._base.vehicle_params), "c_gnd")
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Groundhook force on the carbody (n,), N."""
@@ -174,7 +146,7 @@ class Groundhook(_Controller):
         return self.c_gnd * v1
 
 
-class LQR(_Controller):
+class LQR(Controller):
     """Linear-quadratic regulator on the linearised vertical model (needs ``observation="full"``).
 
     Minimises ``J = ∫ (q_acc·ẍ2² + q_defl·δ² + r_force·F_a²) dt`` with ``ẍ2 = C·x + D·F_a``
@@ -208,7 +180,7 @@ class LQR(_Controller):
                 "observation must be 'full' for LQR (it needs the states x1, v1, x2, v2); "
                 f"the env observes {list(self.obs_names)}"
             )
-        self.q_acc, self.q_defl, self.r_force = _lqr_weights(
+        self.q_acc, self.q_defl, self.r_force = lqr_weights(
             self._base.cfg, ACC_REF, q_acc, q_defl, r_force
         )
         self.A, self.B, self.P, self.K = vertical_lqr_gain(
@@ -227,7 +199,7 @@ class LQR(_Controller):
 # ============================================================ VerticalVehicle-v1 (2 actuators)
 
 
-class BogieSkyhook(_VehicleController):
+class BogieSkyhook(VehicleController):
     """Skyhook damper at each bogie: ``F_i = −c_sky·v_i``, ``v_i`` the carbody's absolute
     velocity over bogie ``i`` (m/s).
 
@@ -238,14 +210,14 @@ class BogieSkyhook(_VehicleController):
 
     def __init__(self, env: Any, c_sky: float | None = None) -> None:
         super().__init__(env)
-        self.c_sky = _gain(c_sky, default_c_sky(self.vehicle.suspension), "c_sky")
+        self.c_sky = checked_gain(c_sky, default_c_sky(self.vehicle.suspension), "c_sky")
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Skyhook forces (n, 2), N."""
         return -self.c_sky * self._body_velocities(x)
 
 
-class ModalSkyhook(_VehicleController):
+class ModalSkyhook(VehicleController):
     """Skyhook on the carbody's rigid modes: bounce force ``−c_bounce·ż_c`` and pitch moment
     ``−c_pitch·θ̇_c`` shared by the two actuators ``a`` from the centre.
 
@@ -289,7 +261,7 @@ class ModalSkyhook(_VehicleController):
         return np.stack([bounce + pitch, bounce - pitch], axis=1)
 
 
-class VehicleLQR(_VehicleController):
+class VehicleLQR(VehicleController):
     """LQR on the full linear whole-vehicle model (needs ``observation="full"``).
 
     Model :func:`railgym.vehicles.vehicle.linear_state_space` (14 states, linear secondary,
@@ -316,7 +288,7 @@ class VehicleLQR(_VehicleController):
                 f"the env observes {list(self.obs_names)}"
             )
         cfg = self._base.cfg
-        self.q_acc, self.q_defl, self.r_force = _lqr_weights(
+        self.q_acc, self.q_defl, self.r_force = lqr_weights(
             cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force
         )
         self.A, self.B, self.P, self.K = vehicle_lqr_gain(

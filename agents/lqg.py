@@ -28,8 +28,8 @@ import numpy as np
 from scipy.linalg import expm, solve_discrete_are
 
 from agents.control_base import (
-    _Controller,
-    _VehicleController,
+    Controller,
+    VehicleController,
     vehicle_lqr_gain,
     vertical_lqr_gain,
 )
@@ -102,7 +102,7 @@ class KalmanFilter:
         return np.linalg.eigvals(self.phi @ (np.eye(self.phi.shape[0]) - self.M @ self.c))
 
 
-class _LQGMixin:
+class LQGMixin:
     """Estimate bookkeeping shared by :class:`LQG` and :class:`VehicleLQG`."""
 
     kf: KalmanFilter
@@ -165,7 +165,7 @@ def _noise(base: Any, scale: np.ndarray) -> np.ndarray:
     return np.diag((sigma * scale) ** 2)
 
 
-def _design_speed(env: Any) -> tuple[int, float]:
+def design_speed(env: Any) -> tuple[int, float]:
     """Track class and speed (m/s) of the env (a speed range: its middle)."""
     single = getattr(env, "single_env", env)
     speed = getattr(single, "speed", None)
@@ -174,7 +174,7 @@ def _design_speed(env: Any) -> tuple[int, float]:
     return int(single.track_class), float(speed)
 
 
-class LQG(_LQGMixin, _Controller):
+class LQG(LQGMixin, Controller):
     """LQG for ``railgym/VerticalSuspension-v1`` with the sensor observation (carbody and bogie
     accelerations, deflection and its rate, carbody velocity: ``observation="sensors"``).
 
@@ -203,7 +203,7 @@ class LQG(_LQGMixin, _Controller):
         base = self._base
         params = base.vehicle_params
         a4, b4, _, k = vertical_lqr_gain(params, base.cfg, q_acc, q_defl, r_force)
-        track_class, speed = _design_speed(base)
+        track_class, speed = design_speed(base)
         a_t, q = fra_shaping(track_class, speed, base.cfg.band[1])
         k1, c1, m1 = params[P_K1], params[P_C1], params[P_M1]
         a = np.zeros((6, 6))
@@ -229,7 +229,7 @@ class LQG(_LQGMixin, _Controller):
         self.x_pred = None  # type: ignore[assignment]
 
 
-class VehicleLQG(_LQGMixin, _VehicleController):
+class VehicleLQG(LQGMixin, VehicleController):
     """LQG for ``railgym/VerticalVehicle-v1`` with the sensor observation (three floor and two
     bogie accelerations, the two secondary deflections and their rates, the carbody velocity
     over each bogie: ``observation="sensors"``).
@@ -257,7 +257,7 @@ class VehicleLQG(_LQGMixin, _VehicleController):
         cfg, p = base.cfg, self.params
         a14, b14, _, k = vehicle_lqr_gain(self.vehicle, p, cfg, q_acc, q_defl, r_force)
         _, _, e, _, _ = linear_state_space(self.vehicle, cfg.flexible)
-        track_class, speed = _design_speed(base)
+        track_class, speed = design_speed(base)
         a_t, q = fra_shaping(track_class, speed, cfg.band[1])
         n = 14 + 8
         a = np.zeros((n, n))

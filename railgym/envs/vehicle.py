@@ -45,9 +45,9 @@ from railgym.envs.vertical import (
     ACC_WEIGHTINGS,
     TrackEnvShell,
     TrackVectorShell,
-    _surrogate_arrays,
     check_element_vehicle,
     check_speed_limit,
+    element_arrays,
 )
 from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
@@ -294,7 +294,7 @@ def _vehicle_surrogate(
     and the element's operating envelope (``None``: none). ``vehicle``: the user gave the
     element, checked against that vehicle's secondary suspension (one warning when it does
     not look like it, docs/envs/vertical.md, *Element plausibility*)."""
-    return _surrogate_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle, stacklevel=6)
+    return element_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle, stacklevel=6)
 
 
 class _VehicleAccessors:

@@ -239,7 +239,7 @@ LIMITS = {
 }
 
 
-def _surrogate_arrays(
+def element_arrays(
     backend: str,
     surrogate: Any,
     dt: float,
@@ -572,7 +572,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
         cfg = self.cfg
         self.track_class, self.speed = _check_track(cfg.track_class, cfg.speed, cfg.speed_limit)
         given = cfg.model if cfg.surrogate is not None else None  # the user's element
-        lpr, envelope = _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True, vehicle=given)
+        lpr, envelope = element_arrays(cfg.backend, surrogate, cfg.dt, True, vehicle=given)
         low = 0.0 if cfg.actuator == "semi-active" else -1.0
         self._start(_batch(1, cfg, lpr, envelope), render_mode, low)
 

@@ -327,7 +327,7 @@ def _run_policy(
     }
 
 
-def _element_pairs(
+def element_pairs(
     model: SurrogateModel, run: dict[str, Any], rows: np.ndarray, vehicle: str
 ) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of ``model``'s feature form from a full-rate run at ``rows``."""
@@ -339,7 +339,7 @@ def _element_pairs(
     return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
 
 
-def _initial_pairs(
+def initial_pairs(
     model: SurrogateModel, vehicle: Any, fmu_map: Any = None, fmu: Any = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of the packaged recipe of ``model``'s form (memory: :data:`MEMORY_DESIGN`;
@@ -435,7 +435,7 @@ def refine(
     law = _policy_force(policy, observe, o.f_max)
     v0 = o.speed_or_class()
     if data is None:
-        U, V = _initial_pairs(model, vehicle, fmu_map, fmu)
+        U, V = initial_pairs(model, vehicle, fmu_map, fmu)
     else:
         U, V = np.asarray(data[0]), data[1]
     V = np.asarray(V, dtype=np.float64)
@@ -456,7 +456,7 @@ def refine(
                 run = reference_run(*track((2, r, i)))
                 rows = np.arange(0, run["t"].size, every)
                 rows = rows[np.isfinite(run["force"][rows])]
-                candidates.append(_element_pairs(model, run, rows, vehicle))
+                candidates.append(element_pairs(model, run, rows, vehicle))
             model, U, V = refit_worst(model, (U, V), candidates, o.n_add)
         runs = [_run_policy("surrogate", veh, z, zd, law, model, dt, n_sub) for z, zd in holdout]
         errors, ood = holdout_error(runs, refs, "a2")

@@ -17,8 +17,8 @@ import numpy as np
 from railgym import _checks as val
 from railgym.track import fra_profile_with_slope
 from railgym.vehicles.collect import (
-    _element_pairs,
-    _initial_pairs,
+    element_pairs,
+    initial_pairs,
     memory_training_data,
 )
 from railgym.vehicles.collect_vehicle import VEHICLE_DESIGN, collect_vehicle
@@ -173,7 +173,7 @@ def refine_vehicle(
     elif element_form(getattr(model, "features_", None)).relaxation is not None:
         U, V = _vehicle_pairs(model, vehicle)
     else:
-        U, V = _initial_pairs(model, base)
+        U, V = initial_pairs(model, base)
     V = np.asarray(V, dtype=np.float64)
 
     def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -196,7 +196,7 @@ def refine_vehicle(
                 for b in range(2):
                     bogie = {k: ref[k][b] for k in ("delta", "delta_dot", "force")}
                     keep = rows[np.isfinite(bogie["force"][rows])]
-                    candidates.append(_element_pairs(model, {"t": ref["t"], **bogie}, keep, base))
+                    candidates.append(element_pairs(model, {"t": ref["t"], **bogie}, keep, base))
             model, U, V = refit_worst(model, (U, V), candidates, o.n_add)
         errors, ood = holdout_error([run("surrogate", tr, model) for tr in holdout], refs, "acc")
         row = {"round": r, "error": float(errors.max()), "errors": errors, "ood": ood}
