@@ -4,7 +4,7 @@ LQR gains of both vertical envs (SI units throughout)."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy.linalg import solve_continuous_are
@@ -18,6 +18,7 @@ from railgym.vehicles.vertical import SuspensionParams, linear_model
 __all__ = [
     "DEFAULT_C_GND",
     "DEFAULT_C_SKY",
+    "LQDesign",
     "checked_gain",
     "default_c_gnd",
     "default_c_sky",
@@ -138,6 +139,42 @@ class VehicleController(Controller):
         p = self.params
         v, w, qd = (x[:, self._index(n)] for n in ("z_c_dot", "theta_c_dot", "q_dot"))
         return np.stack([v + s * p.a * w + p.phi_a * qd for s in (1.0, -1.0)], axis=1)
+
+
+class LQDesign:
+    """The constructor the LQR and LQG designs share (:class:`~agents.controllers.LQR`,
+    :class:`~agents.lqg.LQG` and their whole-vehicle variants): ``(env, q_acc, q_defl,
+    r_force)`` (weights: :func:`lqr_weights`), the env's observation checked
+    (:meth:`_observes`; the error from :attr:`NEEDS`), then :meth:`_design` with the weights.
+    Listed before the controller base it initialises."""
+
+    #: ``(observation mode, design name, what it needs)`` of the observation error
+    NEEDS: ClassVar[tuple[str, str, str]]
+    obs_names: tuple[str, ...]
+
+    def __init__(
+        self,
+        env: Any,
+        q_acc: float | None = None,
+        q_defl: float | None = None,
+        r_force: float | None = None,
+    ) -> None:
+        super().__init__(env)  # type: ignore[call-arg]
+        mode, name, needs = self.NEEDS
+        if not self._observes(self.obs_names):
+            raise ValueError(
+                f"observation must be {mode!r} for {name} ({needs}); "
+                f"the env observes {list(self.obs_names)}"
+            )
+        self._design(q_acc, q_defl, r_force)
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        """Whether the env's observation channels ``names`` are what the design needs."""
+        raise NotImplementedError
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
+        """The design (gain, filter) with the weights (``None``: the env's reward weights)."""
+        raise NotImplementedError
 
 
 def vehicle_lqr_weights(

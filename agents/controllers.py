@@ -30,6 +30,7 @@ from agents.control_base import (
     DEFAULT_C_GND,
     DEFAULT_C_SKY,
     Controller,
+    LQDesign,
     VehicleController,
     checked_gain,
     default_c_gnd,
@@ -146,7 +147,7 @@ class Groundhook(Controller):
         return self.c_gnd * v1
 
 
-class LQR(Controller):
+class LQR(LQDesign, Controller):
     """Linear-quadratic regulator on the linearised vertical model (needs ``observation="full"``).
 
     Minimises ``J = ∫ (q_acc·ẍ2² + q_defl·δ² + r_force·F_a²) dt`` with ``ẍ2 = C·x + D·F_a``
@@ -167,19 +168,12 @@ class LQR(Controller):
     q_acc, q_defl, r_force : weights; ``None`` = the reward-based defaults above.
     """
 
-    def __init__(
-        self,
-        env: Any,
-        q_acc: float | None = None,
-        q_defl: float | None = None,
-        r_force: float | None = None,
-    ) -> None:
-        super().__init__(env)
-        if self.obs_names[:4] != ("x1", "v1", "x2", "v2"):
-            raise ValueError(
-                "observation must be 'full' for LQR (it needs the states x1, v1, x2, v2); "
-                f"the env observes {list(self.obs_names)}"
-            )
+    NEEDS = ("full", "LQR", "it needs the states x1, v1, x2, v2")
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        return names[:4] == ("x1", "v1", "x2", "v2")
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
         self.q_acc, self.q_defl, self.r_force = lqr_weights(
             self._base.cfg, ACC_REF, q_acc, q_defl, r_force
         )
@@ -261,7 +255,7 @@ class ModalSkyhook(VehicleController):
         return np.stack([bounce + pitch, bounce - pitch], axis=1)
 
 
-class VehicleLQR(VehicleController):
+class VehicleLQR(LQDesign, VehicleController):
     """LQR on the full linear whole-vehicle model (needs ``observation="full"``).
 
     Model :func:`railgym.vehicles.vehicle.linear_state_space` (14 states, linear secondary,
@@ -274,19 +268,12 @@ class VehicleLQR(VehicleController):
     clipped).
     """
 
-    def __init__(
-        self,
-        env: Any,
-        q_acc: float | None = None,
-        q_defl: float | None = None,
-        r_force: float | None = None,
-    ) -> None:
-        super().__init__(env)
-        if self.obs_names[0] != "z_c":
-            raise ValueError(
-                "observation must be 'full' for VehicleLQR (it needs the 14 states); "
-                f"the env observes {list(self.obs_names)}"
-            )
+    NEEDS = ("full", "VehicleLQR", "it needs the 14 states")
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        return names[0] == "z_c"
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
         cfg = self._base.cfg
         self.q_acc, self.q_defl, self.r_force = lqr_weights(
             cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force

@@ -29,6 +29,7 @@ from scipy.linalg import expm, solve_discrete_are
 
 from agents.control_base import (
     Controller,
+    LQDesign,
     VehicleController,
     vehicle_lqr_gain,
     vertical_lqr_gain,
@@ -174,7 +175,7 @@ def design_speed(env: Any) -> tuple[int, float]:
     return int(single.track_class), float(speed)
 
 
-class LQG(LQGMixin, Controller):
+class LQG(LQGMixin, LQDesign, Controller):
     """LQG for ``railgym/VerticalSuspension-v1`` with the sensor observation (carbody and bogie
     accelerations, deflection and its rate, carbody velocity: ``observation="sensors"``).
 
@@ -187,19 +188,12 @@ class LQG(LQGMixin, Controller):
 
     SENSORS = ("carbody_acc", "bogie_acc", "deflection", "deflection_rate", "carbody_vel")
 
-    def __init__(
-        self,
-        env: Any,
-        q_acc: float | None = None,
-        q_defl: float | None = None,
-        r_force: float | None = None,
-    ) -> None:
-        super().__init__(env)
-        if self.obs_names != self.SENSORS:
-            raise ValueError(
-                "observation must be 'sensors' for LQG (with 'full', use LQR); "
-                f"the env observes {list(self.obs_names)}"
-            )
+    NEEDS = ("sensors", "LQG", "with 'full', use LQR")
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        return names == self.SENSORS
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
         base = self._base
         params = base.vehicle_params
         a4, b4, _, k = vertical_lqr_gain(params, base.cfg, q_acc, q_defl, r_force)
@@ -229,7 +223,7 @@ class LQG(LQGMixin, Controller):
         self.x_pred = None  # type: ignore[assignment]
 
 
-class VehicleLQG(LQGMixin, VehicleController):
+class VehicleLQG(LQGMixin, LQDesign, VehicleController):
     """LQG for ``railgym/VerticalVehicle-v1`` with the sensor observation (three floor and two
     bogie accelerations, the two secondary deflections and their rates, the carbody velocity
     over each bogie: ``observation="sensors"``).
@@ -240,20 +234,13 @@ class VehicleLQG(LQGMixin, VehicleController):
     ``K``. Designed for the env's track class at its speed (the middle of a speed range).
     """
 
-    def __init__(
-        self,
-        env: Any,
-        q_acc: float | None = None,
-        q_defl: float | None = None,
-        r_force: float | None = None,
-    ) -> None:
-        super().__init__(env)
+    NEEDS = ("sensors", "VehicleLQG", "with 'full', use VehicleLQR")
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        return names[0] == "acc_front"
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
         base = self._base
-        if self.obs_names[0] != "acc_front":
-            raise ValueError(
-                "observation must be 'sensors' for VehicleLQG (with 'full', use VehicleLQR); "
-                f"the env observes {list(self.obs_names)}"
-            )
         cfg, p = base.cfg, self.params
         a14, b14, _, k = vehicle_lqr_gain(self.vehicle, p, cfg, q_acc, q_defl, r_force)
         _, _, e, _, _ = linear_state_space(self.vehicle, cfg.flexible)
