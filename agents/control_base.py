@@ -4,7 +4,7 @@ LQR gains of both vertical envs (SI units throughout)."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy.linalg import solve_continuous_are
@@ -18,7 +18,8 @@ from railgym.vehicles.vertical import SuspensionParams, linear_model
 __all__ = [
     "DEFAULT_C_GND",
     "DEFAULT_C_SKY",
-    "check_gain",
+    "LQDesign",
+    "checked_gain",
     "default_c_gnd",
     "default_c_sky",
     "vehicle_lqr_gain",
@@ -27,7 +28,7 @@ __all__ = [
 ]
 
 
-class _Controller(ObservationController):
+class Controller(ObservationController):
     """Vertical-env baselines: a demanded actuator force, normalised by ``f_max``."""
 
     env_name = "VerticalSuspension"
@@ -76,7 +77,7 @@ class _Controller(ObservationController):
         return (self.force(x) / self.f_max).reshape(x.shape[0], self.n_act)
 
 
-def _lqr_weights(
+def lqr_weights(
     cfg: Any, acc_ref: float, q_acc: float | None, q_defl: float | None, r_force: float | None
 ) -> tuple[float, float, float]:
     """LQR weights in SI; ``None`` = the env's reward weights (``cfg.reward_weights``, default
@@ -109,7 +110,7 @@ def vertical_lqr_gain(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A, B, P, K)`` of :class:`LQR` for kernel parameters ``params`` and the env config
     ``cfg`` (weights: see :class:`LQR`); ``K`` is (1, 4), N per SI state."""
-    w_acc, w_defl, w_force = _lqr_weights(cfg, ACC_REF, q_acc, q_defl, r_force)
+    w_acc, w_defl, w_force = lqr_weights(cfg, ACC_REF, q_acc, q_defl, r_force)
     a, b, c, d = linear_model(params)
     c_d = np.array([1.0, 0.0, -1.0, 0.0])
     q = w_acc * np.outer(c, c) + w_defl * np.outer(c_d, c_d)
@@ -119,7 +120,7 @@ def vertical_lqr_gain(
     return a, b, p, np.linalg.solve(r, b.T @ p + n.T)
 
 
-class _VehicleController(_Controller):
+class VehicleController(Controller):
     """Plumbing for the whole-vehicle env: carbody velocities over the two bogies."""
 
     def __init__(self, env: Any) -> None:
@@ -140,6 +141,42 @@ class _VehicleController(_Controller):
         return np.stack([v + s * p.a * w + p.phi_a * qd for s in (1.0, -1.0)], axis=1)
 
 
+class LQDesign:
+    """The constructor the LQR and LQG designs share (:class:`~agents.controllers.LQR`,
+    :class:`~agents.lqg.LQG` and their whole-vehicle variants): ``(env, q_acc, q_defl,
+    r_force)`` (weights: :func:`lqr_weights`), the env's observation checked
+    (:meth:`_observes`; the error from :attr:`NEEDS`), then :meth:`_design` with the weights.
+    Listed before the controller base it initialises."""
+
+    #: ``(observation mode, design name, what it needs)`` of the observation error
+    NEEDS: ClassVar[tuple[str, str, str]]
+    obs_names: tuple[str, ...]
+
+    def __init__(
+        self,
+        env: Any,
+        q_acc: float | None = None,
+        q_defl: float | None = None,
+        r_force: float | None = None,
+    ) -> None:
+        super().__init__(env)  # type: ignore[call-arg]
+        mode, name, needs = self.NEEDS
+        if not self._observes(self.obs_names):
+            raise ValueError(
+                f"observation must be {mode!r} for {name} ({needs}); "
+                f"the env observes {list(self.obs_names)}"
+            )
+        self._design(q_acc, q_defl, r_force)
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        """Whether the env's observation channels ``names`` are what the design needs."""
+        raise NotImplementedError
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
+        """The design (gain, filter) with the weights (``None``: the env's reward weights)."""
+        raise NotImplementedError
+
+
 def vehicle_lqr_weights(
     vehicle: Any,
     params: Any,
@@ -150,7 +187,7 @@ def vehicle_lqr_weights(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A, B, Q, N, R)`` of :class:`VehicleLQR`: the linear model (14 states) and the
     weights of ``J = ∫ (xᵀQx + 2xᵀN·F + FᵀR·F) dt`` (SI; see :class:`VehicleLQR`)."""
-    w_acc, w_defl, w_force = _lqr_weights(cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force)
+    w_acc, w_defl, w_force = lqr_weights(cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force)
     a, b, _, c, d = linear_state_space(vehicle, cfg.flexible)
     q = w_acc * c.T @ c / 3.0
     for s in (1.0, -1.0):  # δ_i = z_b,i − z_c − x_i·θ_c − φ(a)·q
@@ -203,7 +240,7 @@ def default_c_gnd(p: Any) -> float:
     return DEFAULT_C_GND * float(np.sqrt((p.k1 + p.k2) * p.m1 / ref))
 
 
-def check_gain(value: float | None, default: float, name: str) -> float:
+def checked_gain(value: float | None, default: float, name: str) -> float:
     """A checked non-negative gain (N·s/m); ``None``: ``default``."""
     value = default if value is None else value
     if not (np.isfinite(value) and value >= 0):

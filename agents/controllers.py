@@ -29,12 +29,13 @@ import numpy as np
 from agents.control_base import (
     DEFAULT_C_GND,
     DEFAULT_C_SKY,
-    _Controller,
-    _lqr_weights,
-    _VehicleController,
-    check_gain,
+    Controller,
+    LQDesign,
+    VehicleController,
+    checked_gain,
     default_c_gnd,
     default_c_sky,
+    lqr_weights,
     vehicle_lqr_gain,
     vertical_lqr_gain,
 )
@@ -75,7 +76,7 @@ __all__ = [
 ]
 
 
-class Passive(_Controller):
+class Passive(Controller):
     """Zero actuator force: the passive suspension alone."""
 
     def force(self, x: np.ndarray) -> np.ndarray:
@@ -83,7 +84,7 @@ class Passive(_Controller):
         return np.zeros((x.shape[0], self.n_act))
 
 
-class Skyhook(_Controller):
+class Skyhook(Controller):
     """Skyhook damper on the carbody, ``F = −c_sky·ẋ2`` (absolute carbody velocity).
 
     ``mode="active"``: the actuator applies ``−c_sky·ẋ2`` whatever its power flow.
@@ -104,7 +105,7 @@ class Skyhook(_Controller):
 
     def __init__(self, env: Any, c_sky: float | None = None, mode: str = "active") -> None:
         super().__init__(env)
-        self.c_sky = check_gain(c_sky, default_c_sky(self._base.vehicle_params), "c_sky")
+        self.c_sky = checked_gain(c_sky, default_c_sky(self._base.vehicle_params), "c_sky")
         if mode not in ("active", "semi-active"):
             raise ValueError(f"mode must be 'active' or 'semi-active', got {mode!r}")
         self.mode = mode
@@ -118,7 +119,7 @@ class Skyhook(_Controller):
         return f
 
 
-class Groundhook(_Controller):
+class Groundhook(Controller):
     """Groundhook damper on the bogie: ``−c_gnd·ẋ1`` on the bogie, i.e. ``F_a = +c_gnd·ẋ1``.
 
     The ideal groundhook is a damper from the bogie to the (inertial) ground, force
@@ -138,7 +139,7 @@ class Groundhook(_Controller):
 
     def __init__(self, env: Any, c_gnd: float | None = None) -> None:
         super().__init__(env)
-        self.c_gnd = check_gain(c_gnd, default_c_gnd(self._base.vehicle_params), "c_gnd")
+        self.c_gnd = checked_gain(c_gnd, default_c_gnd(self._base.vehicle_params), "c_gnd")
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Groundhook force on the carbody (n,), N."""
@@ -146,7 +147,7 @@ class Groundhook(_Controller):
         return self.c_gnd * v1
 
 
-class LQR(_Controller):
+class LQR(LQDesign, Controller):
     """Linear-quadratic regulator on the linearised vertical model (needs ``observation="full"``).
 
     Minimises ``J = ∫ (q_acc·ẍ2² + q_defl·δ² + r_force·F_a²) dt`` with ``ẍ2 = C·x + D·F_a``
@@ -167,20 +168,13 @@ class LQR(_Controller):
     q_acc, q_defl, r_force : weights; ``None`` = the reward-based defaults above.
     """
 
-    def __init__(
-        self,
-        env: Any,
-        q_acc: float | None = None,
-        q_defl: float | None = None,
-        r_force: float | None = None,
-    ) -> None:
-        super().__init__(env)
-        if self.obs_names[:4] != ("x1", "v1", "x2", "v2"):
-            raise ValueError(
-                "observation must be 'full' for LQR (it needs the states x1, v1, x2, v2); "
-                f"the env observes {list(self.obs_names)}"
-            )
-        self.q_acc, self.q_defl, self.r_force = _lqr_weights(
+    NEEDS = ("full", "LQR", "it needs the states x1, v1, x2, v2")
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        return names[:4] == ("x1", "v1", "x2", "v2")
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
+        self.q_acc, self.q_defl, self.r_force = lqr_weights(
             self._base.cfg, ACC_REF, q_acc, q_defl, r_force
         )
         self.A, self.B, self.P, self.K = vertical_lqr_gain(
@@ -199,7 +193,7 @@ class LQR(_Controller):
 # ============================================================ VerticalVehicle-v1 (2 actuators)
 
 
-class BogieSkyhook(_VehicleController):
+class BogieSkyhook(VehicleController):
     """Skyhook damper at each bogie: ``F_i = −c_sky·v_i``, ``v_i`` the carbody's absolute
     velocity over bogie ``i`` (m/s).
 
@@ -210,14 +204,14 @@ class BogieSkyhook(_VehicleController):
 
     def __init__(self, env: Any, c_sky: float | None = None) -> None:
         super().__init__(env)
-        self.c_sky = check_gain(c_sky, default_c_sky(self.vehicle.suspension), "c_sky")
+        self.c_sky = checked_gain(c_sky, default_c_sky(self.vehicle.suspension), "c_sky")
 
     def force(self, x: np.ndarray) -> np.ndarray:
         """Skyhook forces (n, 2), N."""
         return -self.c_sky * self._body_velocities(x)
 
 
-class ModalSkyhook(_VehicleController):
+class ModalSkyhook(VehicleController):
     """Skyhook on the carbody's rigid modes: bounce force ``−c_bounce·ż_c`` and pitch moment
     ``−c_pitch·θ̇_c`` shared by the two actuators ``a`` from the centre.
 
@@ -261,7 +255,7 @@ class ModalSkyhook(_VehicleController):
         return np.stack([bounce + pitch, bounce - pitch], axis=1)
 
 
-class VehicleLQR(_VehicleController):
+class VehicleLQR(LQDesign, VehicleController):
     """LQR on the full linear whole-vehicle model (needs ``observation="full"``).
 
     Model :func:`railgym.vehicles.vehicle.linear_state_space` (14 states, linear secondary,
@@ -274,21 +268,14 @@ class VehicleLQR(_VehicleController):
     clipped).
     """
 
-    def __init__(
-        self,
-        env: Any,
-        q_acc: float | None = None,
-        q_defl: float | None = None,
-        r_force: float | None = None,
-    ) -> None:
-        super().__init__(env)
-        if self.obs_names[0] != "z_c":
-            raise ValueError(
-                "observation must be 'full' for VehicleLQR (it needs the 14 states); "
-                f"the env observes {list(self.obs_names)}"
-            )
+    NEEDS = ("full", "VehicleLQR", "it needs the 14 states")
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        return names[0] == "z_c"
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
         cfg = self._base.cfg
-        self.q_acc, self.q_defl, self.r_force = _lqr_weights(
+        self.q_acc, self.q_defl, self.r_force = lqr_weights(
             cfg, VEHICLE_ACC_REF, q_acc, q_defl, r_force
         )
         self.A, self.B, self.P, self.K = vehicle_lqr_gain(

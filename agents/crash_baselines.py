@@ -233,7 +233,7 @@ def search_constant(
     peaks, intr = [], []
     for v in speeds:
         env = TrainCrashVectorEnv(num_envs=len(cand), speed=float(v), **env_kwargs)
-        crits = [r.criteria() for r in rollout(env, _Fixed(cand))]
+        crits = [r.criteria() for r in rollout(env, FixedActions(cand))]
         peaks.append([c.peak_decel_g.max() for c in crits])
         intr.append([c.intrusion_m.max() for c in crits])
     peak, intrusion = np.array(peaks), np.array(intr)
@@ -245,7 +245,7 @@ def search_constant(
     return ConstantSearch(cand[best], float(score[best]), cand, peak, intrusion, ok)
 
 
-class _Fixed:
+class FixedActions:
     """A fixed action per sub-env (rows of ``actions``), for :func:`search_constant`."""
 
     def __init__(self, actions: np.ndarray) -> None:

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.crash_baselines import CrashPassive, SpeedAdaptive, _Fixed, rollout
+from agents.crash_baselines import CrashPassive, FixedActions, SpeedAdaptive, rollout
 from agents.crash_report import EVAL_PAYLOADS_T, EVAL_SPEEDS_KMH, envelope_rows, envelope_summary
 from railgym.envs.crash import TrainCrashVectorEnv
 from railgym.progress import quiet
@@ -55,7 +55,7 @@ def ceilings(
         for pay in payloads_t:
             env = TrainCrashVectorEnv(num_envs=len(cand), **kwargs)
             opts = {"speed_kmh": float(kmh), "payload_t": list(pay)}
-            crit = [r.criteria() for r in rollout(env, _Fixed(cand), options=opts)]
+            crit = [r.criteria() for r in rollout(env, FixedActions(cand), options=opts)]
             peak[kmh, pay] = np.array([c.peak_decel_g.max() for c in crit])
             intr[kmh, pay] = np.array([c.intrusion_m.max() for c in crit])
 

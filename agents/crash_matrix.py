@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.crash_baselines import _Fixed, rollout
+from agents.crash_baselines import FixedActions, rollout
 from railgym.envs.crash import TrainCrashVectorEnv
 from railgym.vehicles.crash import CrashSurrogate
 
@@ -143,7 +143,7 @@ def constant_action_cases(
         for end in (0, 1):
             payload_t = tuple(float(x) / 1e3 for x in rng[:, end])
             options = {"speed_kmh": kmh, "payload_t": list(payload_t)}
-            ref, sur, _ = _both(_Fixed(table), len(actions), surrogate, options, 0, kwargs)
+            ref, sur, _ = _both(FixedActions(table), len(actions), surrogate, options, 0, kwargs)
             for a, r, s in zip(actions, ref, sur, strict=True):
                 cases.append(MatrixCase(kmh, payload_t, f"{a:+g}", _metrics(r), _metrics(s)))
     return cases

@@ -21,8 +21,8 @@ from agents.crash_baselines import (
     BEST_CONSTANT_ACTION,
     ConstantAbsorber,
     CrashPassive,
+    FixedActions,
     SpeedAdaptive,
-    _Fixed,
     rollout,
     search_constant,
 )
@@ -90,7 +90,7 @@ def surrogate_error_rows(
                 speed=kmh / 3.6,
                 surrogate=sur if backend == "surrogate" else None,
             )
-            out[backend] = rollout(env, _Fixed(actions))
+            out[backend] = rollout(env, FixedActions(actions))
         for a, ref, srg in zip(ERROR_ACTIONS, out["reference"], out["surrogate"], strict=True):
             rows.append({"speed_kmh": kmh, "action": a, "reference": ref, "surrogate": srg})
     return rows

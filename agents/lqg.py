@@ -28,8 +28,9 @@ import numpy as np
 from scipy.linalg import expm, solve_discrete_are
 
 from agents.control_base import (
-    _Controller,
-    _VehicleController,
+    Controller,
+    LQDesign,
+    VehicleController,
     vehicle_lqr_gain,
     vertical_lqr_gain,
 )
@@ -102,7 +103,7 @@ class KalmanFilter:
         return np.linalg.eigvals(self.phi @ (np.eye(self.phi.shape[0]) - self.M @ self.c))
 
 
-class _LQGMixin:
+class LQGMixin:
     """Estimate bookkeeping shared by :class:`LQG` and :class:`VehicleLQG`."""
 
     kf: KalmanFilter
@@ -165,7 +166,7 @@ def _noise(base: Any, scale: np.ndarray) -> np.ndarray:
     return np.diag((sigma * scale) ** 2)
 
 
-def _design_speed(env: Any) -> tuple[int, float]:
+def design_speed(env: Any) -> tuple[int, float]:
     """Track class and speed (m/s) of the env (a speed range: its middle)."""
     single = getattr(env, "single_env", env)
     speed = getattr(single, "speed", None)
@@ -174,7 +175,7 @@ def _design_speed(env: Any) -> tuple[int, float]:
     return int(single.track_class), float(speed)
 
 
-class LQG(_LQGMixin, _Controller):
+class LQG(LQGMixin, LQDesign, Controller):
     """LQG for ``railgym/VerticalSuspension-v1`` with the sensor observation (carbody and bogie
     accelerations, deflection and its rate, carbody velocity: ``observation="sensors"``).
 
@@ -187,23 +188,16 @@ class LQG(_LQGMixin, _Controller):
 
     SENSORS = ("carbody_acc", "bogie_acc", "deflection", "deflection_rate", "carbody_vel")
 
-    def __init__(
-        self,
-        env: Any,
-        q_acc: float | None = None,
-        q_defl: float | None = None,
-        r_force: float | None = None,
-    ) -> None:
-        super().__init__(env)
-        if self.obs_names != self.SENSORS:
-            raise ValueError(
-                "observation must be 'sensors' for LQG (with 'full', use LQR); "
-                f"the env observes {list(self.obs_names)}"
-            )
+    NEEDS = ("sensors", "LQG", "with 'full', use LQR")
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        return names == self.SENSORS
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
         base = self._base
         params = base.vehicle_params
         a4, b4, _, k = vertical_lqr_gain(params, base.cfg, q_acc, q_defl, r_force)
-        track_class, speed = _design_speed(base)
+        track_class, speed = design_speed(base)
         a_t, q = fra_shaping(track_class, speed, base.cfg.band[1])
         k1, c1, m1 = params[P_K1], params[P_C1], params[P_M1]
         a = np.zeros((6, 6))
@@ -229,7 +223,7 @@ class LQG(_LQGMixin, _Controller):
         self.x_pred = None  # type: ignore[assignment]
 
 
-class VehicleLQG(_LQGMixin, _VehicleController):
+class VehicleLQG(LQGMixin, LQDesign, VehicleController):
     """LQG for ``railgym/VerticalVehicle-v1`` with the sensor observation (three floor and two
     bogie accelerations, the two secondary deflections and their rates, the carbody velocity
     over each bogie: ``observation="sensors"``).
@@ -240,24 +234,17 @@ class VehicleLQG(_LQGMixin, _VehicleController):
     ``K``. Designed for the env's track class at its speed (the middle of a speed range).
     """
 
-    def __init__(
-        self,
-        env: Any,
-        q_acc: float | None = None,
-        q_defl: float | None = None,
-        r_force: float | None = None,
-    ) -> None:
-        super().__init__(env)
+    NEEDS = ("sensors", "VehicleLQG", "with 'full', use VehicleLQR")
+
+    def _observes(self, names: tuple[str, ...]) -> bool:
+        return names[0] == "acc_front"
+
+    def _design(self, q_acc: float | None, q_defl: float | None, r_force: float | None) -> None:
         base = self._base
-        if self.obs_names[0] != "acc_front":
-            raise ValueError(
-                "observation must be 'sensors' for VehicleLQG (with 'full', use VehicleLQR); "
-                f"the env observes {list(self.obs_names)}"
-            )
         cfg, p = base.cfg, self.params
         a14, b14, _, k = vehicle_lqr_gain(self.vehicle, p, cfg, q_acc, q_defl, r_force)
         _, _, e, _, _ = linear_state_space(self.vehicle, cfg.flexible)
-        track_class, speed = _design_speed(base)
+        track_class, speed = design_speed(base)
         a_t, q = fra_shaping(track_class, speed, cfg.band[1])
         n = 14 + 8
         a = np.zeros((n, n))

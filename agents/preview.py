@@ -34,8 +34,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from scipy.linalg import expm, solve_discrete_are
 
-from agents.control_base import _VehicleController, vehicle_lqr_gain, vehicle_lqr_weights
-from agents.lqg import VehicleLQG, _design_speed
+from agents.control_base import VehicleController, vehicle_lqr_gain, vehicle_lqr_weights
+from agents.lqg import VehicleLQG, design_speed
 from railgym.vehicles.vehicle import linear_state_space
 
 __all__ = [
@@ -102,7 +102,7 @@ def preview_design(
     """The :class:`PreviewDesign` of ``env`` (its design speed), its ``cfg`` (``control_dt``,
     ``band``, reward weights), ``vehicle`` and its kernel ``params``, for ``horizon`` metres
     of preview; ``weights``: ``q_acc``, ``q_defl``, ``r_force`` of :class:`VehicleLQR`."""
-    _, speed = _design_speed(env)
+    _, speed = design_speed(env)
     dt = float(cfg.control_dt)
     a, b, q, n_cost, r = vehicle_lqr_weights(vehicle, params, cfg, **weights)
     _, _, e, _, _ = linear_state_space(vehicle, cfg.flexible)
@@ -169,7 +169,7 @@ class _PreviewFeedForward:
         self.design = preview_design(
             self._base, cfg, self.vehicle, self.params, points[-1], **weights
         )
-        _, speed = _design_speed(self._base)
+        _, speed = design_speed(self._base)
         spacing = points[1] - points[0]
         grid = _track_rows(self.design.positions / spacing, points.size, spacing / speed)
         first = self.obs_names.index("preview_z_0")
@@ -187,7 +187,7 @@ class _PreviewFeedForward:
         return -(self.register(x) @ self.k_preview.T)
 
 
-class LQRPreview(_PreviewFeedForward, _VehicleController):
+class LQRPreview(_PreviewFeedForward, VehicleController):
     """:class:`~agents.controllers.VehicleLQR` (its gain ``K`` on the 14 states of
     ``observation="full"``) plus the preview feed-forward (module docstring); without preview
     its actions are :class:`VehicleLQR`'s."""

@@ -36,8 +36,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.control_base import _Controller, check_gain, default_c_gnd, default_c_sky
-from agents.lqg import LQG, _LQGMixin
+from agents.control_base import Controller, checked_gain, default_c_gnd, default_c_sky
+from agents.lqg import LQG, LQGMixin
 from railgym.envs.vertical import DAMPER_CHANNEL
 from railgym.vehicles.semi_active import DamperParams
 
@@ -81,10 +81,10 @@ def _default_gain(name: str, value: float | None, params: Any) -> float:
     """The checked gain ``name`` (``"c_sky"`` or ``"c_gnd"``, N·s/m): ``value``, or
     the force-mode default scaled to the vehicle ``params``."""
     default = {"c_sky": default_c_sky, "c_gnd": default_c_gnd}[name](params)
-    return check_gain(value, default, name)
+    return checked_gain(value, default, name)
 
 
-class _SemiActive(_Controller):
+class _SemiActive(Controller):
     """Semi-active baselines: a command in [0, 1] from a force demand (N) and the deflection
     rate, through the damper's inverse (:func:`damper_command`)."""
 
@@ -192,7 +192,7 @@ class _DamperLQG(LQG):
     actuator = "semi-active"
 
 
-class ClippedLQG(_LQGMixin, _SemiActive):
+class ClippedLQG(LQGMixin, _SemiActive):
     """The LQG's force demand clipped to what the damper can give (``clipped-lqg``).
 
     Filter and gain: :class:`agents.lqg.LQG` on the env's sensor channels (the env's reward
@@ -228,7 +228,7 @@ class ClippedLQG(_LQGMixin, _SemiActive):
 
     def action(self, x: np.ndarray) -> np.ndarray:
         """Filter update and LQG demand, its command, the filter told the damper's force."""
-        demand = _LQGMixin.action(self, x[:, self._sensors]) * self.f_max
+        demand = LQGMixin.action(self, x[:, self._sensors]) * self.f_max
         v = self._rate(x)
         command = damper_command(demand[:, 0], v, self.damper)
         mean_u = command + (x[:, self._index(DAMPER_CHANNEL[0])] - command) * self._lag

@@ -148,7 +148,7 @@ def _names(value: Any, field: str) -> list[str]:
 PATH_ARGUMENTS = ("vehicle", "surrogate", "fmu", "fmu_map", "profile")
 
 
-def _kwargs(value: Any, field: str, folder: Path | None = None) -> dict[str, Any]:
+def checked_env_kwargs(value: Any, field: str, folder: Path | None = None) -> dict[str, Any]:
     """A mapping of env arguments; ``None`` is the empty mapping. A relative path of
     :data:`PATH_ARGUMENTS` that names a file in ``folder`` (the config file's) becomes that
     file, so a config works from any working directory."""
@@ -399,8 +399,10 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
         seed=val.integer(seed, "seed", min=0, max=MAX_SEED),
         n_timesteps=count("n_timesteps", None, hi=MAX_TIMESTEPS),
         n_envs=count("n_envs", 1, hi=MAX_ENVS),
-        env_kwargs=_kwargs(f.get("env_kwargs", None), "env_kwargs", folder),
-        eval_env_kwargs=_kwargs(f.get("eval_env_kwargs", None), "eval_env_kwargs", folder),
+        env_kwargs=checked_env_kwargs(f.get("env_kwargs", None), "env_kwargs", folder),
+        eval_env_kwargs=checked_env_kwargs(
+            f.get("eval_env_kwargs", None), "eval_env_kwargs", folder
+        ),
         eval_freq=count("eval_freq", 10_000, hi=MAX_TIMESTEPS),
         n_eval_episodes=count("n_eval_episodes", 4, hi=MAX_ENVS),
         eval_seed=count("eval_seed", EVAL_SEED, lo=0, hi=MAX_SEED),

@@ -84,7 +84,7 @@ try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' ex
         write_csv,
     )
     from agents.train import evaluate, make_vec
-    from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, _kwargs
+    from agents.train_config import EVAL_SEED, MAX_ENVS, MAX_SEED, RUN_KEY, checked_env_kwargs
 except ImportError as _err:
     if __name__ == "__main__":
         sys.exit(report_missing(_err, "python -m agents.train_rllib", "RLlib training"))
@@ -161,8 +161,8 @@ def load_rllib_config(config: str | Path | dict[str, Any]) -> RLlibConfig:
     if seed is None:
         seed = int(np.random.default_rng().integers(2**31))  # OS entropy, recorded
     model_fields = {x.name for x in dataclasses.fields(DefaultModelConfig)}
-    training = _kwargs(f.get("training", None), f.field("training"))
-    model = _kwargs(f.get("model", None), f.field("model"))
+    training = checked_env_kwargs(f.get("training", None), f.field("training"))
+    model = checked_env_kwargs(f.get("model", None), f.field("model"))
     return RLlibConfig(
         env_id=env_id,
         iterations=f.integer("iterations", min=1, max=MAX_ITERATIONS),
@@ -172,8 +172,10 @@ def load_rllib_config(config: str | Path | dict[str, Any]) -> RLlibConfig:
         num_envs_per_env_runner=val.integer(
             f.get("num_envs_per_env_runner", 8), f.field("num_envs_per_env_runner"), 1, MAX_ENVS
         ),
-        env_kwargs=_kwargs(f.get("env_kwargs", None), f.field("env_kwargs")),
-        eval_env_kwargs=_kwargs(f.get("eval_env_kwargs", None), f.field("eval_env_kwargs")),
+        env_kwargs=checked_env_kwargs(f.get("env_kwargs", None), f.field("env_kwargs")),
+        eval_env_kwargs=checked_env_kwargs(
+            f.get("eval_env_kwargs", None), f.field("eval_env_kwargs")
+        ),
         n_eval_episodes=val.integer(
             f.get("n_eval_episodes", 4), f.field("n_eval_episodes"), 1, MAX_ENVS
         ),

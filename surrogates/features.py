@@ -33,7 +33,7 @@ def _finite_number(x: Any) -> float | None:
     return value if np.isfinite(value) else None
 
 
-def _vector(x: Any, name: str, n: int | None = None) -> np.ndarray:
+def finite_vector(x: Any, name: str, n: int | None = None) -> np.ndarray:
     """``x`` as a read-only finite 1-D float array (of length ``n`` if given)."""
     a = np.array(x, dtype=float)
     if a.ndim != 1:
@@ -47,9 +47,9 @@ def _vector(x: Any, name: str, n: int | None = None) -> np.ndarray:
     return a
 
 
-def _time(t: Any, n: int | None = None) -> np.ndarray:
+def time_base(t: Any, n: int | None = None) -> np.ndarray:
     """Time base (s): finite, 1-D, at least 2 samples, strictly increasing."""
-    t = _vector(t, "t", n)
+    t = finite_vector(t, "t", n)
     if t.size < 2:
         raise ValueError(f"t needs at least 2 samples, got {t.size}")
     back = np.flatnonzero(np.diff(t) <= 0.0)
@@ -77,7 +77,7 @@ class TimeHistory:
     def __init__(
         self, t: Any, channels: Mapping[str, Any], units: Mapping[str, str] | None = None
     ) -> None:
-        self._t = _time(t)
+        self._t = time_base(t)
         n = self._t.size
         if not channels:
             raise ValueError("channels is empty")
@@ -87,7 +87,7 @@ class TimeHistory:
                 raise ValueError(f"channel names must be non-empty strings, got {name!r}")
             if name == "t":
                 raise ValueError("channel name 't' is reserved for the time base")
-            data[name] = _vector(values, f"channel {name!r}", n)
+            data[name] = finite_vector(values, f"channel {name!r}", n)
         all_units = {"t": "s", **(units or {})}
         for name, unit in all_units.items():
             if name != "t" and name not in data:
@@ -177,10 +177,10 @@ def vertical_features(
     mass = _finite_number(m2)
     if mass is None or mass <= 0:
         raise ValueError(f"m2 must be a positive finite mass in kg, got {m2!r}")
-    x1 = _vector(x1, "x1")
+    x1 = finite_vector(x1, "x1")
     n = x1.size
     x2, v1, v2, a2 = (
-        _vector(a, name, n) for a, name in ((x2, "x2"), (v1, "v1"), (v2, "v2"), (a2, "a2"))
+        finite_vector(a, name, n) for a, name in ((x2, "x2"), (v1, "v1"), (v2, "v2"), (a2, "a2"))
     )
     return np.column_stack([x1 - x2, v1 - v2]), mass * a2
 
@@ -243,7 +243,7 @@ def split_branches(
     labels : (n,) int8 array of ``LOADING`` (+1) / ``UNLOADING`` (−1); all loading when the
     deformation never moves.
     """
-    d = _vector(deformation, "deformation")
+    d = finite_vector(deformation, "deformation")
     if d.size < 2:
         raise ValueError(f"deformation needs at least 2 samples, got {d.size}")
     if isinstance(min_length, bool) or not isinstance(min_length, int | np.integer):
@@ -253,7 +253,7 @@ def split_branches(
     tol_ = _finite_number(tol)
     if tol_ is None or tol_ < 0:
         raise ValueError(f"tol must be a finite number >= 0, got {tol!r}")
-    dt = np.ones(d.size - 1) if t is None else np.diff(_time(t, d.size))
+    dt = np.ones(d.size - 1) if t is None else np.diff(time_base(t, d.size))
     rate = np.diff(d) / dt
     speed = np.abs(rate)
     scale = np.quantile(speed, 0.9)
@@ -296,10 +296,10 @@ def crash_features(
     "interface_unloading": ...}`` with ``U`` (k, 1) the deformation (m) and ``V`` (k,) the
     force (N) of the samples of that branch; loading = deformation increasing.
     """
-    t = _time(t)
+    t = time_base(t)
     n = t.size
     x1, x2, f1, f2 = (
-        _vector(a, name, n) for a, name in ((x1, "x1"), (x2, "x2"), (f1, "f1"), (f2, "f2"))
+        finite_vector(a, name, n) for a, name in ((x1, "x1"), (x2, "x2"), (f1, "f1"), (f2, "f2"))
     )
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for element, deformation, force in (("wall", x1, f1), ("interface", x1 - x2, f2)):

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 from scipy.optimize import minimize
 
-from surrogates.features import _time, _vector
+from surrogates.features import finite_vector, time_base
 from surrogates.models import SurrogateModel
 from surrogates.models.checks import ModelFieldError
 from surrogates.selection import SelectionResult, select_kfold
@@ -203,8 +203,8 @@ def relaxed_state(delta: Any, t: Any, law: Any) -> np.ndarray:
     -------
     zeta : (n,), m.
     """
-    t = _time(t)
-    delta = _vector(delta, "delta", t.size)
+    t = time_base(t)
+    delta = finite_vector(delta, "delta", t.size)
     z, r = relaxation_law(law)
     return _relaxed(delta, np.diff(t), z, r)
 
@@ -270,7 +270,7 @@ def fit_relaxation(
     max_evaluations : Nelder–Mead budget.
     """
     V = np.concatenate([np.asarray(r["force"], float) for r in runs])
-    fixed = [(np.asarray(r["delta"], float), np.diff(_time(r["t"]))) for r in runs]
+    fixed = [(np.asarray(r["delta"], float), np.diff(time_base(r["t"]))) for r in runs]
     base = np.concatenate([np.column_stack([r["delta"], r["delta_dot"]])[r["rows"]] for r in runs])
 
     def params(x: np.ndarray) -> tuple[float, ...]:
@@ -322,8 +322,8 @@ def maxwell_state(delta: Any, t: Any, tau: float, zeta0: float = 0.0) -> np.ndar
     -------
     zeta : (n,), m.
     """
-    t = _time(t)
-    delta = _vector(delta, "delta", t.size)
+    t = time_base(t)
+    delta = finite_vector(delta, "delta", t.size)
     tau = _tau(tau)
     if not (np.isscalar(zeta0) and np.isfinite(zeta0)):
         raise ValueError(f"zeta0 must be a finite number in m, got {zeta0!r}")
@@ -364,9 +364,9 @@ def memory_features(
     """
     if form not in FEATURE_FORMS:
         raise ValueError(f"form must be one of {sorted(FEATURE_FORMS)}, got {form!r}")
-    t = _time(t)
-    delta = _vector(delta, "delta", t.size)
-    delta_dot = _vector(delta_dot, "delta_dot", t.size)
+    t = time_base(t)
+    delta = finite_vector(delta, "delta", t.size)
+    delta_dot = finite_vector(delta_dot, "delta_dot", t.size)
     if form == "static":
         return np.column_stack([delta, delta_dot])
     if relaxation is not None:
@@ -440,7 +440,7 @@ def select_tau(
     if not taus:
         raise ValueError("taus is empty")
     degrees = list(degrees)
-    V = _vector(V, "V")
+    V = finite_vector(V, "V")
     sel = np.arange(V.size) if rows is None else np.asarray(rows)
     out = TauSelection()
     for tau in taus:

@@ -146,3 +146,57 @@ def test_no_import_circle_among_the_project_modules():
     graph = _module_graph()
     assert len(graph) > 100
     assert _cycles(graph) == []
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _private_reaches() -> list[str]:
+    """``from X import _name`` and ``X._name`` where ``X`` is another project module: each as
+    ``path:line name``. A module named with an underscore (``railgym._checks``,
+    ``agents._args``) is project-internal, and importing it or its public names is fine; its
+    underscore names, like any module's, are its own."""
+    files = [p for pkg in ("surrogates", "railgym", "agents") for p in (ROOT / pkg).rglob("*.py")]
+    modules = {_module_name(p): p for p in files}
+    found = []
+    for name, path in sorted(modules.items()):
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        tree = ast.parse(path.read_text())
+        bound: dict[str, str] = {}  # local name → the project module it is
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name in modules:
+                        bound[a.asname or a.name.split(".")[0]] = (
+                            a.name if a.asname else a.name.split(".")[0]
+                        )
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                    base = ".".join([*up, base] if base else up)
+                if base not in modules:
+                    continue
+                for a in node.names:
+                    if f"{base}.{a.name}" in modules:
+                        bound[a.asname or a.name] = f"{base}.{a.name}"
+                    elif _private(a.name) and base != name:
+                        found.append(f"{path.relative_to(ROOT)}:{node.lineno} {base}.{a.name}")
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and _private(node.attr):
+                chain, value = [], node.value
+                while isinstance(value, ast.Attribute):
+                    chain.append(value.attr)
+                    value = value.value
+                if isinstance(value, ast.Name) and value.id in bound:
+                    target = ".".join([bound[value.id], *reversed(chain)])
+                    if target in modules and target != name:
+                        found.append(f"{path.relative_to(ROOT)}:{node.lineno} {target}.{node.attr}")
+    return found
+
+
+def test_no_module_reaches_into_another_modules_private_names():
+    """A name another module needs is public where it is defined (or moved to where both
+    take it publicly): an underscore name is its module's own."""
+    assert _private_reaches() == []

@@ -21,7 +21,6 @@ compiled call. ``info`` carries the crash criteria of
 from __future__ import annotations
 
 import functools
-import inspect
 from collections.abc import Mapping
 from typing import Any
 
@@ -33,7 +32,7 @@ from railgym.envs.base import BatchEnv, BatchVectorEnv
 from railgym.envs.crash_batch import CrashBatch
 from railgym.envs.crash_layout import INFO_FIELDS, REWARD_TERMS
 from railgym.envs.crash_params import BACKENDS, DEFAULT_WEIGHTS, CrashParams, nominal_force
-from railgym.envs.params import keyword_signature
+from railgym.envs.params import checked_keywords
 from railgym.vehicles.crash import (
     LIMITS,
     CrashModel,
@@ -299,12 +298,31 @@ class TrainCrashEnv(_CrashShell, BatchEnv):
     """
 
     _single = True
+    #: the declared arguments of the env
+    params_class = CrashParams
     #: packaged elements of this version (``""``: current; ``"v0"``: ``TrainCrash-v1``'s)
     elements_release = ""
     _case_attrs = ("_fixed",)
 
-    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        self.cfg = CrashParams.from_kwargs(kwargs)
+    @checked_keywords(CrashParams)
+    def __init__(
+        self,
+        *,
+        render_mode: str | None = None,
+        backend: str = "surrogate",
+        scenario: Any = "paper",
+        n_cars: int | None = 2,
+        speed: float | None = None,
+        control_dt: float = 0.001,
+        max_duration: float = 2.0,
+        absorber_range: float = 0.3,
+        absorber_rate: float = 20.0,
+        speed_jitter: float = 0.0,
+        reward_weights: dict[str, float] | None = DEFAULT_WEIGHTS,
+        surrogate: Any = None,
+        surrogate_variant: str = "hysteretic",
+    ) -> None:
+        self.cfg = CrashParams.from_kwargs(CrashParams.arguments_from(locals()))
         self.backend = self.cfg.backend
         self.model = make_model(self.cfg, self.elements_release)
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
@@ -330,23 +348,31 @@ class TrainCrashVectorEnv(_CrashShell, BatchVectorEnv):
     #: the single env whose configuration and elements the sub-envs share
     single_class: type[TrainCrashEnv] = TrainCrashEnv
 
-    def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
+    @checked_keywords(CrashParams)
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        render_mode: str | None = None,
+        backend: str = "surrogate",
+        scenario: Any = "paper",
+        n_cars: int | None = 2,
+        speed: float | None = None,
+        control_dt: float = 0.001,
+        max_duration: float = 2.0,
+        absorber_range: float = 0.3,
+        absorber_rate: float = 20.0,
+        speed_jitter: float = 0.0,
+        reward_weights: dict[str, float] | None = DEFAULT_WEIGHTS,
+        surrogate: Any = None,
+        surrogate_variant: str = "hysteretic",
+    ) -> None:
+        args = CrashParams.arguments_from(locals())
         num_envs = val.integer(num_envs, "num_envs", min=1, max=MAX_NUM_ENVS)
-        single = self.single_class(render_mode=render_mode, **kwargs)
+        single = self.single_class(render_mode=render_mode, **args)
         self.cfg = single.cfg
         self.obs_names, self.obs_scale = self.cfg.obs_names, self.cfg.obs_scale
         self._init_vector(single, CrashBatch(num_envs, self.cfg, single.model), num_envs)
-
-
-_POSITIONAL = inspect.Parameter.POSITIONAL_OR_KEYWORD
-TrainCrashEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
-    CrashParams, inspect.Parameter("render_mode", _POSITIONAL, default=None)
-)
-TrainCrashVectorEnv.__signature__ = keyword_signature(  # type: ignore[attr-defined]
-    CrashParams,
-    inspect.Parameter("num_envs", _POSITIONAL, default=1),
-    inspect.Parameter("render_mode", _POSITIONAL, default=None),
-)
 
 
 class TrainCrashEnvV0(TrainCrashEnv):

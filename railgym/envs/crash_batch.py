@@ -20,12 +20,12 @@ from railgym.envs.crash_layout import (
 )
 from railgym.envs.crash_params import CrashParams
 from railgym.envs.crash_step import (
-    _ENV,
-    _STATE,
+    ENV_START,
+    STATE_START,
     EnvConsts,
-    _advance_reference,
-    _advance_surrogate,
-    _advance_surrogate_parallel,
+    advance_reference,
+    advance_surrogate,
+    advance_surrogate_parallel,
     crush_limits,
     plain,
 )
@@ -58,7 +58,7 @@ class CrashBatch:
         counts["ring"] = (cfg.criteria.window_steps + 1) * nc
         counts.update(obs=len(cfg.obs_names), info=n_info)
         arrays = new_episode_arrays(n, counts)
-        # every per-train float array in one buffer, in the field order of _advance_*
+        # every per-train float array in one buffer, in the field order of advance_*
         self._state_type = type(state)
         self._buf, self._fields = self._pack([*out, *(arrays[f] for f in ENV_FIELDS), *state])
         self._flag_arrays = [arrays[a.name] for a in EPISODE if a.name not in ENV_FIELDS]
@@ -121,16 +121,16 @@ class CrashBatch:
         """Named views of the buffer and the kernel arguments (again after a copy: a pickled
         view is a detached array)."""
         views = [self._view(f) for f in range(self._fields.shape[0])]
-        self.out = CrashOutputs(*views[:_ENV])
-        self.episode = Episode(*views[_ENV:_STATE], *self._flag_arrays)
-        self.state = self._state_type(*views[_STATE:])
+        self.out = CrashOutputs(*views[:ENV_START])
+        self.episode = Episode(*views[ENV_START:STATE_START], *self._flag_arrays)
+        self.state = self._state_type(*views[STATE_START:])
         model = self.model
         if model.backend == "reference":
-            self._kernel = self._init_kernel = _advance_reference
+            self._kernel = self._init_kernel = advance_reference
         else:  # a reset (one train) always runs serially
-            self._init_kernel = _advance_surrogate
+            self._init_kernel = advance_surrogate
             parallel = self.n >= PARALLEL_MIN
-            self._kernel = _advance_surrogate_parallel if parallel else _advance_surrogate
+            self._kernel = advance_surrogate_parallel if parallel else advance_surrogate
         flags = tuple(self._flag_arrays)
         stepping = (model.dt, model.n_sub)
         self._args = (

@@ -35,14 +35,19 @@ from railgym.vehicles.crash.criteria import zero_crossing
 __all__ = [
     "DECEL_REF_G",
     "DIVERGENCE_PENALTY",
+    "ENV_START",
     "F_STOP",
     "INTRUSION_REF",
     "PEAK_REF_G",
     "STATE_LIMIT",
+    "STATE_START",
     "TIME_REF",
     "V_STOP",
     "Criteria",
     "EnvConsts",
+    "advance_reference",
+    "advance_surrogate",
+    "advance_surrogate_parallel",
     "crush_limits",
     "plain",
 ]
@@ -141,8 +146,8 @@ _named_reference = named_rebuild(ReferenceParams)
 _named_surrogate = named_rebuild(SurrogateParams)
 _OUTPUT_DIMS = tuple(1 if name == "stored" else 2 for name in CrashOutputs._fields)
 #: buffer layout: the :class:`CrashOutputs` arrays, :data:`ENV_FIELDS`, the model state
-_ENV = len(CrashOutputs._fields)
-_STATE = _ENV + len(ENV_FIELDS)
+ENV_START = len(CrashOutputs._fields)
+STATE_START = ENV_START + len(ENV_FIELDS)
 _output_views = buffer_views(_OUTPUT_DIMS)
 _episode_views = buffer_views(tuple(1 if name in COLUMNS else 2 for name in ENV_FIELDS))
 _reference_views = buffer_views((2,) * len(ReferenceState._fields))
@@ -438,7 +443,7 @@ def _views(buf, fields, flags):
     """The :class:`CrashOutputs` and the :class:`Episode` (``flags`` = div, over, steps) of a
     :class:`CrashBatch` buffer, as views."""
     outputs = CrashOutputs(*_output_views(buf, fields, 0))
-    return outputs, Episode(*_episode_views(buf, fields, _ENV), *flags)
+    return outputs, Episode(*_episode_views(buf, fields, ENV_START), *flags)
 
 
 # One compiled call per control step (absorber scales, physics, bookkeeping) per backend, and
@@ -462,88 +467,54 @@ def _begin(buf, fields, flags, consts, actions, active, init):
 @njit(cache=True, inline="always")
 def _reference_state(buf, fields):
     """The :class:`ReferenceState` of a :class:`CrashBatch` buffer, as views."""
-    return ReferenceState(*_reference_views(buf, fields, _STATE))
+    return ReferenceState(*_reference_views(buf, fields, STATE_START))
 
 
 @njit(cache=True, inline="always")
 def _surrogate_state(buf, fields):
     """The :class:`SurrogateState` of a :class:`CrashBatch` buffer, as views."""
-    return SurrogateState(*_surrogate_views(buf, fields, _STATE))
+    return SurrogateState(*_surrogate_views(buf, fields, STATE_START))
 
 
-@njit(cache=True)
-def _advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
-    """:func:`_set_scale` (unless ``init``), :func:`reference_batch_step` and
-    :func:`_post_step` on a :class:`CrashBatch` buffer; ``False`` (nothing done) for a
-    non-finite action. ``params``, ``consts``: :func:`plain` tuples of
-    :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` = (dt, n_sub)."""
+@njit(inline="always")
+def _advance(step, state, params, args):
+    """:func:`_set_scale` (unless ``init``), the model's batch step ``step`` on its ``state``
+    and named ``params``, and :func:`_post_step` on a :class:`CrashBatch` buffer; ``False``
+    (nothing done) for a non-finite action. Inlined into each backend's entry point, so the
+    compiled ``step`` is a constant there (the entry points stay cached). ``args``: the
+    entry point's ``(buf, fields, flags, consts, actions, active, init, stepping)``."""
+    buf, fields, flags, consts, actions, active, init, stepping = args
     named, outputs, episode, ok = _begin(buf, fields, flags, consts, actions, active, init)
     if not ok:
         return False
-    state, model_params = _reference_state(buf, fields), _named_reference(params)
     dt, n_sub = stepping
-    reference_batch_step(
-        state,
-        outputs,
-        model_params,
-        episode.scale,
-        active,
-        init,
-        dt,
-        n_sub,
-        STATE_LIMIT,
-        episode.div,
-    )
+    step(state, outputs, params, episode.scale, active, init, dt, n_sub, STATE_LIMIT, episode.div)
     _post_step(outputs, episode, named, active, init)
     return True
 
 
 @njit(cache=True)
-def _advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
-    """:func:`_advance_reference` with :func:`surrogate_batch_step`."""
-    named, outputs, episode, ok = _begin(buf, fields, flags, consts, actions, active, init)
-    if not ok:
-        return False
-    state, model_params = _surrogate_state(buf, fields), _named_surrogate(params)
-    dt, n_sub = stepping
-    surrogate_batch_step(
-        state,
-        outputs,
-        model_params,
-        episode.scale,
-        active,
-        init,
-        dt,
-        n_sub,
-        STATE_LIMIT,
-        episode.div,
-    )
-    _post_step(outputs, episode, named, active, init)
-    return True
+def advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
+    """:func:`_advance` with :func:`reference_batch_step`. ``params``, ``consts``:
+    :func:`plain` tuples of :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` =
+    (dt, n_sub)."""
+    state, named = _reference_state(buf, fields), _named_reference(params)
+    args = (buf, fields, flags, consts, actions, active, init, stepping)
+    return _advance(reference_batch_step, state, named, args)
+
+
+@njit(cache=True)
+def advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
+    """:func:`advance_reference` with :func:`surrogate_batch_step`."""
+    state, named = _surrogate_state(buf, fields), _named_surrogate(params)
+    args = (buf, fields, flags, consts, actions, active, init, stepping)
+    return _advance(surrogate_batch_step, state, named, args)
 
 
 # Not cached: it calls the uncached parallel kernel.
 @njit
-def _advance_surrogate_parallel(
-    buf, fields, flags, params, stepping, consts, actions, active, init
-):
-    """:func:`_advance_surrogate` with :func:`surrogate_batch_step_parallel` (all threads)."""
-    named, outputs, episode, ok = _begin(buf, fields, flags, consts, actions, active, init)
-    if not ok:
-        return False
-    state, model_params = _surrogate_state(buf, fields), _named_surrogate(params)
-    dt, n_sub = stepping
-    surrogate_batch_step_parallel(
-        state,
-        outputs,
-        model_params,
-        episode.scale,
-        active,
-        init,
-        dt,
-        n_sub,
-        STATE_LIMIT,
-        episode.div,
-    )
-    _post_step(outputs, episode, named, active, init)
-    return True
+def advance_surrogate_parallel(buf, fields, flags, params, stepping, consts, actions, active, init):
+    """:func:`advance_surrogate` with :func:`surrogate_batch_step_parallel` (all threads)."""
+    state, named = _surrogate_state(buf, fields), _named_surrogate(params)
+    args = (buf, fields, flags, consts, actions, active, init, stepping)
+    return _advance(surrogate_batch_step_parallel, state, named, args)

@@ -26,6 +26,7 @@ name (:func:`consts`), the docs table of arguments is generated (:func:`argument
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import re
 import sys
@@ -46,16 +47,19 @@ __all__ = [
     "BACKENDS",
     "ENV_BACKENDS",
     "KINDS",
+    "REWARD_WEIGHTS",
     "Params",
     "Spec",
     "TrackEnvParams",
     "arguments_table",
     "check_field",
     "check_speed",
+    "checked_keywords",
     "consts",
     "declared",
     "derived",
     "keyword_signature",
+    "keyword_source",
     "limits",
     "param",
     "specs",
@@ -74,6 +78,7 @@ KINDS = {
 }
 _SPEC = "railgym.spec"
 T = TypeVar("T")
+F = TypeVar("F", bound=Callable[..., None])
 
 
 @dataclass(frozen=True)
@@ -222,11 +227,14 @@ class Params:
     def from_kwargs(cls: type[T], kwargs: Mapping[str, Any]) -> T:
         """The params of an env's keyword arguments; an unknown name is a ``TypeError``
         listing the arguments."""
-        names = set(specs(cls))
-        unknown = sorted(set(kwargs) - names)
-        if unknown:
-            raise TypeError(f"unknown argument(s) {unknown}; arguments: {list(specs(cls))}")
+        _refuse_unknown(cls, kwargs, set(specs(cls)))
         return cls(**kwargs)
+
+    @classmethod
+    def arguments_from(cls, values: Mapping[str, Any]) -> dict[str, Any]:
+        """The declared arguments among ``values`` by name (an env constructor's
+        ``locals()``, whose keyword-only parameters are the declared fields)."""
+        return {name: values[name] for name in specs(cls)}
 
     @classmethod
     def check(cls, name: str, value: Any) -> Any:
@@ -256,12 +264,61 @@ def consts(cls: Callable[..., T], source: Any, **extra: Any) -> T:
     return cls(**values)
 
 
+def _refuse_unknown(cls: type, kwargs: Mapping[str, Any], names: set[str]) -> None:
+    unknown = sorted(set(kwargs) - names)
+    if unknown:
+        raise TypeError(f"unknown argument(s) {unknown}; arguments: {list(specs(cls))}")
+
+
+def _annotation(f: dataclasses.Field) -> str:
+    """The declared type of ``f``, ``| None`` added where ``None`` is accepted."""
+    s: Spec = f.metadata[_SPEC]
+    none = (s.optional or s.kind == "weights") and str(f.type) != "Any"
+    none = none and "None" not in str(f.type)
+    return f"{f.type} | None" if none else str(f.type)
+
+
 def keyword_signature(cls: type, *first: inspect.Parameter) -> inspect.Signature:
     """Signature of an env constructor taking ``first`` and then the fields of ``cls`` as
-    keywords with their declared defaults (for ``help()`` and ``inspect``)."""
+    keyword-only arguments with their declared types and defaults: what the written-out
+    constructors must be (``tests/envs/test_params.py`` compares them)."""
     kw = inspect.Parameter.KEYWORD_ONLY
-    rest = [inspect.Parameter(f.name, kw, default=default(f)) for f in _fields(cls)]
+    rest = [
+        inspect.Parameter(f.name, kw, default=default(f), annotation=_annotation(f))
+        for f in _fields(cls)
+    ]
     return inspect.Signature([*first, *rest])
+
+
+def keyword_source(cls: type, names: Mapping[str, str] | None = None) -> str:
+    """The keyword-only parameters of :func:`keyword_signature` as source lines, to paste
+    into a constructor after ``*,``; ``names`` maps a field to the constant written as its
+    default (a mutable default, e.g. ``{"reward_weights": "REWARD_WEIGHTS"}``)."""
+    names = names or {}
+    lines = []
+    for f in _fields(cls):
+        value = names.get(f.name, repr(default(f)).replace("'", '"'))
+        lines.append(f"        {f.name}: {_annotation(f)} = {value},")
+    return "\n".join(lines)
+
+
+def checked_keywords(cls: type) -> Callable[[F], F]:
+    """Decorator of an env constructor whose keyword-only parameters are the fields of
+    ``cls``: an unknown keyword is the ``TypeError`` of :meth:`Params.from_kwargs` (it lists
+    the arguments), not Python's; the constructor's own signature is kept
+    (``inspect.signature``, type checkers)."""
+
+    def decorate(init: F) -> F:
+        names = set(inspect.signature(init).parameters)
+
+        @functools.wraps(init)
+        def checked(*args: Any, **kwargs: Any) -> None:
+            _refuse_unknown(cls, kwargs, names)
+            init(*args, **kwargs)
+
+        return checked  # type: ignore[return-value]
+
+    return decorate
 
 
 def limits(cls: type) -> dict[str, Any]:
@@ -372,6 +429,8 @@ ENV_BACKENDS = {**BACKENDS, "fmu": "dynamic"}
 SPEED_MIN = 1.0
 #: ``speed`` at most this × the class's maximum speed unless ``speed_limit`` is given
 SPEED_FACTOR = 2.0
+#: default weights of the reward terms of the track envs
+REWARD_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
 
 
 def check_speed(speed: Any, field: str = "speed") -> float:
@@ -471,7 +530,7 @@ class TrackEnvParams(Params):
         0.0, "1", "std of the additive noise on the normalised observation", lo=0.0, hi=10.0
     )
     reward_weights: dict[str, float] = param(
-        {"acceleration": 1.0, "deflection": 1.0, "force": 0.1},
+        REWARD_WEIGHTS,
         "1",
         "weights of the reward terms; `None` or missing keys: the default",
         kind="weights",

@@ -22,8 +22,10 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.envs.params import (
+    REWARD_WEIGHTS,
     TrackEnvParams,
     check_speed,
+    checked_keywords,
     declared,
     derived,
     limits,
@@ -43,10 +45,9 @@ from railgym.envs.vertical import (
     ACC_WEIGHTINGS,
     TrackEnvShell,
     TrackVectorShell,
-    _surrogate_arrays,
     check_element_vehicle,
     check_speed_limit,
-    declare_signatures,
+    element_arrays,
 )
 from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
@@ -293,7 +294,7 @@ def _vehicle_surrogate(
     and the element's operating envelope (``None``: none). ``vehicle``: the user gave the
     element, checked against that vehicle's secondary suspension (one warning when it does
     not look like it, docs/envs/vertical.md, *Element plausibility*)."""
-    return _surrogate_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle, stacklevel=6)
+    return element_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle, stacklevel=6)
 
 
 class _VehicleAccessors:
@@ -359,8 +360,34 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
     cfg: VehicleParams
     _case_attrs = ("track_class", "speeds", "profile", "_speed_arg")
 
-    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        surrogate = self._declare(kwargs)
+    @checked_keywords(VehicleParams)
+    def __init__(
+        self,
+        *,
+        render_mode: str | None = None,
+        backend: str = "surrogate",
+        surrogate: Any = None,
+        track_class: int = 5,
+        speed: Any = None,
+        speed_limit: float | None = None,
+        profile: Any = None,
+        duration: float = 20.0,
+        control_dt: float = 0.01,
+        dt: float | None = None,
+        f_max: float = 8000.0,
+        observation: str = "sensors",
+        sensor_noise: float = 0.0,
+        reward_weights: dict[str, float] | None = REWARD_WEIGHTS,
+        band: tuple[float, float] = (1.0, 100.0),
+        vehicle: Any = None,
+        fmu: Any = None,
+        fmu_map: Any = None,
+        n_actuators: int = 2,
+        acc_weighting: str = "none",
+        flexible: bool = True,
+        preview: float = 0.0,
+    ) -> None:
+        surrogate = self._declare(VehicleParams.arguments_from(locals()))
         cfg = self.cfg
         self.speeds = _speed_range(cfg.track_class, cfg.speed, cfg.speed_limit)
         given = cfg.model if cfg.surrogate is not None else None  # the user's element
@@ -429,8 +456,36 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, TrackVectorShell):
     single_class: type[VerticalVehicleEnv] = VerticalVehicleEnv
     cfg: VehicleParams
 
-    def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
-        num_envs, single = self._single(num_envs, render_mode, kwargs)
+    @checked_keywords(VehicleParams)
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        render_mode: str | None = None,
+        backend: str = "surrogate",
+        surrogate: Any = None,
+        track_class: int = 5,
+        speed: Any = None,
+        speed_limit: float | None = None,
+        profile: Any = None,
+        duration: float = 20.0,
+        control_dt: float = 0.01,
+        dt: float | None = None,
+        f_max: float = 8000.0,
+        observation: str = "sensors",
+        sensor_noise: float = 0.0,
+        reward_weights: dict[str, float] | None = REWARD_WEIGHTS,
+        band: tuple[float, float] = (1.0, 100.0),
+        vehicle: Any = None,
+        fmu: Any = None,
+        fmu_map: Any = None,
+        n_actuators: int = 2,
+        acc_weighting: str = "none",
+        flexible: bool = True,
+        preview: float = 0.0,
+    ) -> None:
+        args = VehicleParams.arguments_from(locals())
+        num_envs, single = self._single(num_envs, render_mode, args)
         one = single.sim
         self.vehicle = one.vehicle
         sim = _batch(num_envs, self.cfg, one.lpr, one.v_min, one.envelope)
@@ -463,6 +518,3 @@ class VerticalVehicleVectorEnvV0(VerticalVehicleVectorEnv):
     """Native vector version of :class:`VerticalVehicleEnvV0`."""
 
     single_class = VerticalVehicleEnvV0
-
-
-declare_signatures(VerticalVehicleEnv, VerticalVehicleVectorEnv, VehicleParams)

@@ -19,7 +19,6 @@ each on its own track, in one compiled call.
 
 from __future__ import annotations
 
-import inspect
 import warnings
 from functools import lru_cache
 from importlib import resources
@@ -35,13 +34,14 @@ from railgym.envs.base import BatchEnv, BatchVectorEnv
 from railgym.envs.params import (
     BACKENDS,
     ENV_BACKENDS,
+    REWARD_WEIGHTS,
     SPEED_FACTOR,
     SPEED_MIN,
     TrackEnvParams,
     check_speed,
+    checked_keywords,
     declared,
     derived,
-    keyword_signature,
     limits,
     param,
 )
@@ -307,7 +307,7 @@ LIMITS = {
 }
 
 
-def _surrogate_arrays(
+def element_arrays(
     backend: str,
     surrogate: Any,
     dt: float,
@@ -557,18 +557,6 @@ class TrackVectorShell(BatchVectorEnv):
         return num_envs, single
 
 
-def declare_signatures(single: type, vector: type, params: type) -> None:
-    """The constructors' signatures (``inspect``, ``help``): ``render_mode`` (vector:
-    ``num_envs``, ``render_mode``), then the declared fields of ``params`` as keywords."""
-    pos = inspect.Parameter.POSITIONAL_OR_KEYWORD
-    num_envs = inspect.Parameter("num_envs", pos, default=1)
-    render_mode = inspect.Parameter("render_mode", pos, default=None)
-    single.__signature__ = keyword_signature(params, render_mode)  # type: ignore[attr-defined]
-    vector.__signature__ = keyword_signature(  # type: ignore[attr-defined]
-        params, num_envs, render_mode
-    )
-
-
 class _VerticalAccessors:
     """Public read-only accessors of the simulated vehicles: arrays over the sub-envs of the
     vector env, sub-env 0's entry (a copy, or a Python number) for the single env."""
@@ -623,12 +611,39 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
     cfg: VerticalParams
     _case_attrs = ("track_class", "speed", "profile", "_speed_arg")
 
-    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        surrogate = self._declare(kwargs)
+    @checked_keywords(VerticalParams)
+    def __init__(
+        self,
+        *,
+        render_mode: str | None = None,
+        backend: str = "surrogate",
+        surrogate: Any = None,
+        track_class: int = 5,
+        speed: Any = None,
+        speed_limit: float | None = None,
+        profile: Any = None,
+        duration: float = 20.0,
+        control_dt: float = 0.01,
+        dt: float | None = None,
+        f_max: float = 8000.0,
+        observation: str = "sensors",
+        sensor_noise: float = 0.0,
+        reward_weights: dict[str, float] | None = REWARD_WEIGHTS,
+        band: tuple[float, float] = (1.0, 100.0),
+        vehicle: Any = None,
+        fmu: Any = None,
+        fmu_map: Any = None,
+        wheelbase: float | None = None,
+        acc_weighting: str = "none",
+        actuator: str = "force",
+        damper: Any = DEFAULT_DAMPER,
+        damper_element: Any = None,
+    ) -> None:
+        surrogate = self._declare(VerticalParams.arguments_from(locals()))
         cfg = self.cfg
         self.track_class, self.speed = _check_track(cfg.track_class, cfg.speed, cfg.speed_limit)
         given = cfg.model if cfg.surrogate is not None else None  # the user's element
-        lpr, envelope = _surrogate_arrays(cfg.backend, surrogate, cfg.dt, True, vehicle=given)
+        lpr, envelope = element_arrays(cfg.backend, surrogate, cfg.dt, True, vehicle=given)
         low = 0.0 if cfg.actuator == "semi-active" else -1.0
         self._start(_batch(1, cfg, lpr, envelope), render_mode, low)
 
@@ -684,13 +699,39 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, TrackVectorShell):
     single_class: type[VerticalSuspensionEnv] = VerticalSuspensionEnv
     cfg: VerticalParams
 
-    def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs: Any) -> None:
-        num_envs, single = self._single(num_envs, render_mode, kwargs)
+    @checked_keywords(VerticalParams)
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        render_mode: str | None = None,
+        backend: str = "surrogate",
+        surrogate: Any = None,
+        track_class: int = 5,
+        speed: Any = None,
+        speed_limit: float | None = None,
+        profile: Any = None,
+        duration: float = 20.0,
+        control_dt: float = 0.01,
+        dt: float | None = None,
+        f_max: float = 8000.0,
+        observation: str = "sensors",
+        sensor_noise: float = 0.0,
+        reward_weights: dict[str, float] | None = REWARD_WEIGHTS,
+        band: tuple[float, float] = (1.0, 100.0),
+        vehicle: Any = None,
+        fmu: Any = None,
+        fmu_map: Any = None,
+        wheelbase: float | None = None,
+        acc_weighting: str = "none",
+        actuator: str = "force",
+        damper: Any = DEFAULT_DAMPER,
+        damper_element: Any = None,
+    ) -> None:
+        args = VerticalParams.arguments_from(locals())
+        num_envs, single = self._single(num_envs, render_mode, args)
         sim = _batch(num_envs, self.cfg, single.sim.lpr, single.sim.envelope)
         self._init_vector(single, sim, num_envs)
-
-
-declare_signatures(VerticalSuspensionEnv, VerticalSuspensionVectorEnv, VerticalParams)
 
 
 class VerticalSuspensionEnvV0(VerticalSuspensionEnv):

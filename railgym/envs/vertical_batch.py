@@ -80,7 +80,7 @@ def reward_sections(acc_weighting: str, control_dt: float) -> np.ndarray:
 
 
 class Counters(NamedTuple):
-    """Per-vehicle episode counters updated by :func:`_post_step`."""
+    """Per-vehicle episode counters updated by :func:`post_step`."""
 
     k: np.ndarray  #: int64 (n,) current track sample
     steps: np.ndarray  #: int64 (n,) control steps this episode
@@ -111,7 +111,7 @@ class StepCfg(NamedTuple):
 
 
 class StepResult(NamedTuple):
-    """Outputs of :func:`_post_step` per vehicle: observation (n, n_obs), reward (n,), its
+    """Outputs of :func:`post_step` per vehicle: observation (n, n_obs), reward (n,), its
     terms (n, len(REWARD_TERMS)), the info values (n, len(INFO_KEYS)), and the truncated and
     extrapolated flags (n,)."""
 
@@ -192,7 +192,7 @@ def _observe(state, acc, z, zdot, k, s, i, obs, full, damper):
 
 
 @njit(cache=True)
-def _post_step(state, z, zdot, out, force, counters, result, consts):
+def post_step(state, z, zdot, out, force, counters, result, consts):
     """Bookkeeping after a kernel call: counters, observation, reward and its terms
     (:func:`~railgym.envs.compiled.settle_reward`: a divergence also when the reward is not
     finite or the observation too large; ẍ2 weighted in the reward by ``consts.sos``,
@@ -250,7 +250,7 @@ def control_step(state, z, zdot, action, force, params, lpr, damper, out, counte
     """One control step of every vehicle: actuator forces ``action[:, 0] · f_max`` (N), the
     kernel of variant ``consts.kind`` (arguments as
     :func:`~railgym.vehicles.vertical.advance_linear` with ``k0 = counters.k``), then
-    :func:`_post_step`. With a ``damper`` (:class:`~railgym.vehicles.vertical.DamperLaw`,
+    :func:`post_step`. With a ``damper`` (:class:`~railgym.vehicles.vertical.DamperLaw`,
     else ``None``) ``action[:, 0]`` is its command and ``force`` receives its force (N)."""
     k, n_sub, dt, kind = counters.k, consts.n_sub, consts.dt, consts.kind
     if damper is not None:
@@ -258,7 +258,7 @@ def control_step(state, z, zdot, action, force, params, lpr, damper, out, counte
         advance_semi_active(
             kind, state, z, zdot, k, n_sub, dt, command, params, lpr, damper, out, force
         )
-        _post_step(state, z, zdot, out, force, counters, result, consts)
+        post_step(state, z, zdot, out, force, counters, result, consts)
         return
     for i in range(state.shape[0]):
         force[i] = action[i, 0] * consts.f_max
@@ -270,7 +270,7 @@ def control_step(state, z, zdot, action, force, params, lpr, damper, out, counte
         advance_dynamic(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
     else:
         advance_surrogate(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
-    _post_step(state, z, zdot, out, force, counters, result, consts)
+    post_step(state, z, zdot, out, force, counters, result, consts)
 
 
 class VerticalBatch:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from railgym.envs.params import TrackEnvParams
-from railgym.envs.vertical_batch import VerticalBatch, _post_step
+from railgym.envs.vertical_batch import VerticalBatch, post_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMUInstances, FMURunner
 from railgym.vehicles.vertical import LprArrays, VerticalVehicle
@@ -71,7 +71,7 @@ class FMUBatch(FMUInstances, VerticalBatch):
             self.fs[i] = 0.0
             self.count[i, 1] = 0
             self.div[i] = not ok
-        _post_step(
+        post_step(
             self.state,
             self.z,
             self.zdot,

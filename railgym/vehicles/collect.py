@@ -65,7 +65,7 @@ from railgym.vehicles.memory_element import (
     memory_training_data,
     stage,
 )
-from railgym.vehicles.refinement import RefineOptions, holdout_error, refit_worst
+from railgym.vehicles.refinement import RefineOptions, refine_rounds
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
     KERNELS,
@@ -327,7 +327,7 @@ def _run_policy(
     }
 
 
-def _element_pairs(
+def element_pairs(
     model: SurrogateModel, run: dict[str, Any], rows: np.ndarray, vehicle: str
 ) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of ``model``'s feature form from a full-rate run at ``rows``."""
@@ -339,7 +339,7 @@ def _element_pairs(
     return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
 
 
-def _initial_pairs(
+def initial_pairs(
     model: SurrogateModel, vehicle: Any, fmu_map: Any = None, fmu: Any = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of the packaged recipe of ``model``'s form (memory: :data:`MEMORY_DESIGN`;
@@ -435,7 +435,7 @@ def refine(
     law = _policy_force(policy, observe, o.f_max)
     v0 = o.speed_or_class()
     if data is None:
-        U, V = _initial_pairs(model, vehicle, fmu_map, fmu)
+        U, V = initial_pairs(model, vehicle, fmu_map, fmu)
     else:
         U, V = np.asarray(data[0]), data[1]
     V = np.asarray(V, dtype=np.float64)
@@ -446,28 +446,33 @@ def refine(
         return z, zdot
 
     reference_run = _reference_runner(reference, veh, law, dt, n_sub, fmu_map, fmu)
-    holdout = [track((1, i)) for i in range(o.n_holdout)]
-    refs = [reference_run(z, zd) for z, zd in holdout]
-    history = []
-    for r in range(rounds + 1):
-        if r > 0:
-            candidates = []
-            for i in range(o.n_tracks):
-                run = reference_run(*track((2, r, i)))
-                rows = np.arange(0, run["t"].size, every)
-                rows = rows[np.isfinite(run["force"][rows])]
-                candidates.append(_element_pairs(model, run, rows, vehicle))
-            model, U, V = refit_worst(model, (U, V), candidates, o.n_add)
-        runs = [_run_policy("surrogate", veh, z, zd, law, model, dt, n_sub) for z, zd in holdout]
-        errors, ood = holdout_error(runs, refs, "a2")
+
+    def pairs(model: SurrogateModel, run: dict[str, Any]) -> list[tuple[Any, Any]]:
+        rows = np.arange(0, run["t"].size, every)
+        rows = rows[np.isfinite(run["force"][rows])]
+        return [element_pairs(model, run, rows, vehicle)]
+
+    def report(r: int, errors: Any, ood: int, n: int) -> tuple[dict[str, Any], str]:
         error = float(errors)
-        history.append({"round": r, "error": error, "ood": ood, "n_samples": int(V.size)})
-        if log is not None:
-            log(
-                f"round {r}: held-out rel. RMS error of the carbody acceleration "
-                f"{100 * error:.2f} %, out-of-domain evaluations {ood}, samples {V.size}"
-            )
-    return model, history
+        line = (
+            f"round {r}: held-out rel. RMS error of the carbody acceleration "
+            f"{100 * error:.2f} %, out-of-domain evaluations {ood}, samples {n}"
+        )
+        return {"round": r, "error": error, "ood": ood, "n_samples": n}, line
+
+    return refine_rounds(
+        model,
+        (U, V),
+        rounds,
+        o,
+        track,
+        lambda tr: reference_run(*tr),
+        lambda tr, m: _run_policy("surrogate", veh, *tr, law, m, dt, n_sub),
+        pairs,
+        "a2",
+        report,
+        log,
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -17,12 +17,12 @@ import numpy as np
 from railgym import _checks as val
 from railgym.track import fra_profile_with_slope
 from railgym.vehicles.collect import (
-    _element_pairs,
-    _initial_pairs,
+    element_pairs,
+    initial_pairs,
     memory_training_data,
 )
 from railgym.vehicles.collect_vehicle import VEHICLE_DESIGN, collect_vehicle
-from railgym.vehicles.refinement import RefineOptions, holdout_error, refit_worst
+from railgym.vehicles.refinement import RefineOptions, refine_rounds
 from railgym.vehicles.vehicle import (
     DEFAULT_DT,
     N_MECH,
@@ -173,7 +173,7 @@ def refine_vehicle(
     elif element_form(getattr(model, "features_", None)).relaxation is not None:
         U, V = _vehicle_pairs(model, vehicle)
     else:
-        U, V = _initial_pairs(model, base)
+        U, V = initial_pairs(model, base)
     V = np.asarray(V, dtype=np.float64)
 
     def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -184,27 +184,34 @@ def refine_vehicle(
     def run(variant: str, tr: tuple[np.ndarray, ...], element: Any) -> dict[str, Any]:
         return run_vehicle_policy(variant, veh, tr, law, element, n_steps, n_sub)
 
-    holdout = [track((1, i)) for i in range(o.n_holdout)]
-    refs = [run("dynamic", tr, None) for tr in holdout]
-    history = []
-    for r in range(rounds + 1):
-        if r > 0:
-            candidates = []
-            for i in range(o.n_tracks):
-                ref = run("dynamic", track((2, r, i)), None)
-                rows = np.arange(0, ref["t"].size, every)
-                for b in range(2):
-                    bogie = {k: ref[k][b] for k in ("delta", "delta_dot", "force")}
-                    keep = rows[np.isfinite(bogie["force"][rows])]
-                    candidates.append(_element_pairs(model, {"t": ref["t"], **bogie}, keep, base))
-            model, U, V = refit_worst(model, (U, V), candidates, o.n_add)
-        errors, ood = holdout_error([run("surrogate", tr, model) for tr in holdout], refs, "acc")
+    def pairs(model: SurrogateModel, ref: dict[str, Any]) -> list[tuple[Any, Any]]:
+        rows = np.arange(0, ref["t"].size, every)
+        out = []
+        for b in range(2):
+            bogie = {k: ref[k][b] for k in ("delta", "delta_dot", "force")}
+            keep = rows[np.isfinite(bogie["force"][rows])]
+            out.append(element_pairs(model, {"t": ref["t"], **bogie}, keep, base))
+        return out
+
+    def report(r: int, errors: Any, ood: int, n: int) -> tuple[dict[str, Any], str]:
         row = {"round": r, "error": float(errors.max()), "errors": errors, "ood": ood}
-        history.append({**row, "n_samples": int(V.size)})
-        if log is not None:
-            log(
-                f"round {r}: held-out rel. RMS error of the floor acceleration front / centre / "
-                f"rear {' / '.join(f'{100 * e:.2f}' for e in errors)} %, out-of-domain "
-                f"evaluations {ood}, samples {V.size}"
-            )
-    return model, history
+        line = (
+            f"round {r}: held-out rel. RMS error of the floor acceleration front / centre / "
+            f"rear {' / '.join(f'{100 * e:.2f}' for e in errors)} %, out-of-domain "
+            f"evaluations {ood}, samples {n}"
+        )
+        return {**row, "n_samples": n}, line
+
+    return refine_rounds(
+        model,
+        (U, V),
+        rounds,
+        o,
+        track,
+        lambda tr: run("dynamic", tr, None),
+        lambda tr, m: run("surrogate", tr, m),
+        pairs,
+        "acc",
+        report,
+        log,
+    )

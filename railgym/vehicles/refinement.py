@@ -5,6 +5,7 @@ their runs (:class:`RefineOptions`), the refit on the worst samples and the held
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -15,7 +16,7 @@ from railgym.track import class_speed
 from railgym.vehicles.collect_design import MEMORY_SAMPLE_RATE
 from surrogates.models import SurrogateModel
 
-__all__ = ["RefineOptions", "holdout_error", "refit_worst"]
+__all__ = ["RefineOptions", "holdout_error", "refine_rounds", "refit_worst"]
 
 
 @dataclass(frozen=True)
@@ -103,3 +104,43 @@ def holdout_error(
         else:
             errs.append(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)))
     return np.median(errs, axis=0), ood
+
+
+def refine_rounds(
+    model: SurrogateModel,
+    data: tuple[np.ndarray, np.ndarray],
+    rounds: int,
+    options: RefineOptions,
+    track: Callable[[tuple[int, ...]], Any],
+    reference: Callable[[Any], dict[str, Any]],
+    surrogate: Callable[[Any, SurrogateModel], dict[str, Any]],
+    pairs: Callable[[SurrogateModel, dict[str, Any]], list[tuple[np.ndarray, np.ndarray]]],
+    key: str,
+    report: Callable[[int, np.ndarray, int, int], tuple[dict[str, Any], str]],
+    log: Any = print,
+) -> tuple[SurrogateModel, list[dict[str, Any]]]:
+    """The refinement loop of both refiners: the reference run (``reference(track)``) on the
+    ``options.n_holdout`` fixed tracks ``track((1, i))``; then for each round ``r`` of
+    0..``rounds``, from round 1 the ``options.n_add`` worst of the candidate ``pairs(model,
+    run)`` of reference runs on ``options.n_tracks`` new tracks ``track((2, r, i))`` added to
+    ``data`` and refitted (:func:`refit_worst`), and the element scored on the held-out
+    tracks (``surrogate(track, model)``, :func:`holdout_error` of ``run[key]``).
+    ``report(r, errors, ood, n_samples)`` gives the round's history row and its ``log`` line
+    (``log=None``: silent). Returns ``(model, history)``."""
+    U, V = data
+    holdout = [track((1, i)) for i in range(options.n_holdout)]
+    refs = [reference(tr) for tr in holdout]
+    history = []
+    for r in range(rounds + 1):
+        if r > 0:
+            candidates = []
+            for i in range(options.n_tracks):
+                candidates.extend(pairs(model, reference(track((2, r, i)))))
+            model, U, V = refit_worst(model, (U, V), candidates, options.n_add)
+        runs = [surrogate(tr, model) for tr in holdout]
+        errors, ood = holdout_error(runs, refs, key)
+        row, line = report(r, errors, ood, int(V.size))
+        history.append(row)
+        if log is not None:
+            log(line)
+    return model, history

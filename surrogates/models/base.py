@@ -290,9 +290,9 @@ class SurrogateModel:
         self._check_fitted()
         return {
             "kind": self.kind,
-            "params": _jsonable(self.get_params()),
+            "params": jsonable(self.get_params()),
             "domain": {"lower": self.lower_.tolist(), "upper": self.upper_.tolist()},
-            "state": _jsonable(self._state()),
+            "state": jsonable(self._state()),
         }
 
     @classmethod
@@ -414,12 +414,12 @@ def check_domain(lower: np.ndarray, upper: np.ndarray, what: str) -> None:
         )
 
 
-def _jsonable(obj: Any) -> Any:
+def jsonable(obj: Any) -> Any:
     """Convert numpy arrays/scalars inside ``obj`` to plain Python for JSON."""
     if isinstance(obj, dict):
-        return {k: _jsonable(v) for k, v in obj.items()}
+        return {k: jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, np.generic):

@@ -4,6 +4,7 @@ the stored value, the limits, the constructor's keywords and the docs table."""
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import inspect
 import math
 from pathlib import Path
@@ -24,6 +25,8 @@ from railgym.envs.params import (
     consts,
     declared,
     default,
+    keyword_signature,
+    keyword_source,
     limits,
     param,
     specs,
@@ -37,6 +40,7 @@ from railgym.envs.vertical import (
     VerticalSuspensionEnv,
     VerticalSuspensionVectorEnv,
 )
+from railgym.registration import ENVS as REGISTERED
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "envs"
 CLASSES = [VerticalParams, VehicleParams]
@@ -159,6 +163,44 @@ def test_the_constructors_take_the_declared_fields_as_keywords(single, vector, c
     assert list(inspect.signature(vector).parameters)[:2] == ["num_envs", "render_mode"]
     for name, s in specs(cls).items():
         assert s.desc, name  # every argument says what it is
+
+
+def _registered_classes() -> list[type]:
+    """Every class behind a registered id: the single and the vector entry points."""
+    out = []
+    for entries in REGISTERED.values():
+        for entry in entries:
+            module, name = entry.split(":")
+            out.append(getattr(importlib.import_module(module), name))
+    return out
+
+
+@pytest.mark.parametrize("env_class", _registered_classes(), ids=lambda c: c.__name__)
+def test_every_constructor_writes_out_the_declared_arguments(env_class):
+    """The constructor's own keyword-only parameters are the declared fields of its params
+    class, in order, with their declared types and defaults (``keyword_signature``): what
+    ``inspect``, type checkers and IDEs read. A declaration added without its parameter fails
+    here; paste ``keyword_source(params)`` into the constructor."""
+    single = getattr(env_class, "single_class", env_class)
+    params = single.params_class
+    pos = inspect.Parameter.POSITIONAL_OR_KEYWORD
+    first = [inspect.Parameter("render_mode", inspect.Parameter.KEYWORD_ONLY, default=None)]
+    if single is not env_class:
+        first.insert(0, inspect.Parameter("num_envs", pos, default=1))
+    expected = keyword_signature(params, *first).parameters
+    init = inspect.signature(env_class.__init__).parameters
+    assert "self" in init and "kwargs" not in init
+    got = inspect.signature(env_class).parameters
+    hint = "the constructor's parameters after render_mode:\n" + keyword_source(params)
+    assert list(got) == list(expected), hint
+    for name, p in expected.items():
+        q = got[name]
+        assert q.kind == p.kind, name
+        assert q.default == p.default and type(q.default) is type(p.default), name
+        if name not in ("num_envs", "render_mode"):
+            assert q.annotation == p.annotation, (name, q.annotation, hint)
+    with pytest.raises(TypeError, match=r"unknown argument\(s\) \['nope'\]"):
+        env_class(nope=1)
 
 
 def test_limits_are_the_declared_bounds():

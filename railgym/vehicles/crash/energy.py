@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from railgym.vehicles.crash.surrogate import VARIANTS, CrashElement
-from railgym.vehicles.crash.surrogate_model import _element_force, _element_model
+from railgym.vehicles.crash.surrogate_model import crash_element_force, crash_element_model
 
 __all__ = [
     "CycleWork",
@@ -140,12 +140,12 @@ def element_force_history(element: CrashElement, u: np.ndarray, t: np.ndarray) -
     f = np.zeros(u.size)
     up = 0.0
     for k in range(u.size):
-        mdl = _element_model(u[k], rate[k], up, variant, element.unilateral, ku, 0, 1)
+        mdl = crash_element_model(u[k], rate[k], up, variant, element.unilateral, ku, 0, 1)
         f_lpr, (f_min, f_max) = (load[k], ranges[0]) if mdl == 0 else (unload[k], ranges[1])
         if mdl < 0:
             f_lpr = f_min = f_max = 0.0
         law = (variant, element.unilateral, ku, kt, slack)
-        f[k], up = _element_force(u[k], up, f_lpr, f_min, f_max, 1.0, *law)
+        f[k], up = crash_element_force(u[k], up, f_lpr, f_min, f_max, 1.0, *law)
     return f
 
 

@@ -68,7 +68,7 @@ from surrogates.cli_flags import (
     error_status,
 )
 from surrogates.features import TimeHistory
-from surrogates.models.base import _jsonable
+from surrogates.models.base import jsonable
 from surrogates.selection import SelectionResult
 
 __all__ = [
@@ -303,7 +303,7 @@ def save_crash_surrogate(
         "build_time_s": surrogate.build_time,
         "elements": {k: _element_document(e) for k, e in surrogate.elements.items()},
     }
-    io.write_atomic(path, json.dumps(_jsonable(doc), indent=1) + "\n")
+    io.write_atomic(path, json.dumps(jsonable(doc), indent=1) + "\n")
     return path
 
 

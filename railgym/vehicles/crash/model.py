@@ -15,23 +15,23 @@ from pathlib import Path
 
 import numpy as np
 
-from railgym.vehicles.crash.outputs import CrashOutputs, _check_run, _steps, new_outputs
+from railgym.vehicles.crash.outputs import CrashOutputs, check_run, new_outputs, sub_steps
 from railgym.vehicles.crash.reference import (
     ReferenceParams,
     ReferenceState,
-    _build_chain,
-    _new_reference_state,
-    _reference_steps,
+    build_chain,
+    new_reference_state,
     reference_batch_step,
+    reference_steps,
 )
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from railgym.vehicles.crash.surrogate import CrashSurrogate
 from railgym.vehicles.crash.surrogate_model import (
     SurrogateParams,
     SurrogateState,
-    _new_surrogate_state,
-    _surrogate_system,
+    new_surrogate_state,
     surrogate_batch_step,
+    surrogate_system,
 )
 
 __all__ = ["MODEL_BACKENDS", "CrashModel", "crash_model"]
@@ -77,8 +77,8 @@ class CrashModel:
         """Zeroed kernel state of ``n`` simulations."""
         nz = len(self.zone_names)
         if self.backend == "reference":
-            return _new_reference_state(n, self.masses, nz)
-        return _new_surrogate_state(n, self.masses, nz)
+            return new_reference_state(n, self.masses, nz)
+        return new_surrogate_state(n, self.masses, nz)
 
     def new_outputs(self, n: int) -> CrashOutputs:
         """Zeroed outputs of ``n`` simulations."""
@@ -148,14 +148,14 @@ def crash_model(
     scenario = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
     if backend not in MODEL_BACKENDS:
         raise ValueError(f"backend must be one of {MODEL_BACKENDS}, got {backend!r}")
-    _check_run(sample_dt, sample_dt)
+    check_run(sample_dt, sample_dt)
     if backend == "reference":
         if surrogate is not None:
             raise ValueError(
                 "surrogate is only used by backend='surrogate', got one for 'reference'"
             )
-        system = _build_chain(scenario)
-        step, n_sub = _reference_steps(system, sample_dt, safety)
+        system = build_chain(scenario)
+        step, n_sub = reference_steps(system, sample_dt, safety)
         p = system.params
         car_nodes = np.column_stack([p.body_start, p.body_end])[: scenario.n_cars]
     else:
@@ -163,8 +163,8 @@ def crash_model(
             raise ValueError("surrogate is required for backend='surrogate'")
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
-        system = _surrogate_system(scenario, surrogate)
-        step, n_sub = _steps(sample_dt, dt)
+        system = surrogate_system(scenario, surrogate)
+        step, n_sub = sub_steps(sample_dt, dt)
         p = system.params
         car_nodes = np.column_stack([p.body_start, p.body_end])[: scenario.n_cars]
     return CrashModel(

@@ -127,7 +127,7 @@ def chunk_mask(active, c, chunks):
 
 
 @njit(cache=True)
-def _healthy(x, v, a, limit):
+def state_healthy(x, v, a, limit):
     """True if every entry is finite and |x|, |v| ≤ ``limit``."""
     for j in range(x.shape[0]):
         if not (abs(x[j]) <= limit and abs(v[j]) <= limit and math.isfinite(a[j])):
@@ -136,7 +136,7 @@ def _healthy(x, v, a, limit):
 
 
 @njit(cache=True)
-def _crash_over(out, fz, stop):
+def crash_over(out, fz, stop):
     """True if no zone of simulation 0 carries more than ``stop.f_stop`` (conservative force
     ``fz``) and none closes faster than ``stop.v_stop``."""
     for z in range(fz.shape[1]):
@@ -230,12 +230,12 @@ def recorded_result(
     )
 
 
-def _steps(sample_dt: float, dt_max: float) -> tuple[float, int]:
+def sub_steps(sample_dt: float, dt_max: float) -> tuple[float, int]:
     n_sub = max(1, math.ceil(sample_dt / dt_max - 1e-9))
     return sample_dt / n_sub, n_sub
 
 
-def _check_run(duration: float, sample_dt: float) -> None:
+def check_run(duration: float, sample_dt: float) -> None:
     for name, value in (("duration", duration), ("sample_dt", sample_dt)):
         if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
             raise ValueError(f"{name} must be a positive finite number (s), got {value!r}")

@@ -40,12 +40,12 @@ from railgym.vehicles.crash.outputs import (
     V_EPS,
     CrashResult,
     StopRule,
-    _check_run,
-    _crash_over,
-    _healthy,
-    _steps,
+    check_run,
+    crash_over,
     one_train,
     recorded_result,
+    state_healthy,
+    sub_steps,
 )
 from railgym.vehicles.crash.scenario import CrashScenario, CrushZone, Obstacle, load_scenario
 from railgym.vehicles.crash.zone import absorber_zone_force
@@ -266,7 +266,7 @@ def _omega_max(chain: _ChainLists, zone_stiffness: np.ndarray, wall_zone: int) -
     return float(np.sqrt(np.max(2.0 * k_node / m)))
 
 
-def _build_chain(scenario: CrashScenario) -> _Chain:
+def build_chain(scenario: CrashScenario) -> _Chain:
     """The reference chain of ``scenario``: the obstacle (if any) in front, then the cars."""
     types = [scenario.wall, scenario.interface] + (
         [scenario.obstacle.zone] if scenario.obstacle else []
@@ -424,7 +424,7 @@ def reference_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
                 w_damp += 0.5 * (fd_o[e] + fdl[e]) * (dx[e + 1] - dx[e])
             for j in range(N):
                 w_fric += 0.5 * (ff_o[j] + ffl[j]) * dx[j]
-        if not _healthy(xl, vl, al, limit):
+        if not state_healthy(xl, vl, al, limit):
             div[i] = True
             continue
         state.x[i], state.v[i], state.a[i], state.dp[i], state.fz[i] = xl, vl, al, dpl, fzl
@@ -477,12 +477,12 @@ def _record_reference(state, out, params, dt, n_sub, stop, rec):
         rec.energy[k, 3], rec.energy[k, 4] = out.dissipated[0, 0], out.dissipated[0, 1]
         rec.x[k], rec.v[k], rec.a[k] = out.x[0], out.v[0], out.a[0]
         rec.crush[k], rec.force[k], rec.permanent_set[k] = out.crush[0], out.force[0], state.dp[0]
-        if stop.enabled and k > 0 and _crash_over(out, state.fz, stop):
+        if stop.enabled and k > 0 and crash_over(out, state.fz, stop):
             return k + 1
     return rec.x.shape[0]
 
 
-def _new_reference_state(n: int, masses: np.ndarray, n_zones: int) -> ReferenceState:
+def new_reference_state(n: int, masses: np.ndarray, n_zones: int) -> ReferenceState:
     """Zeroed :class:`ReferenceState` of ``n`` simulations with node ``masses`` (kg)."""
     n_nodes = masses.size
     node = [np.zeros((n, n_nodes)) for _ in range(3)]
@@ -498,11 +498,11 @@ def reference_time_step(
 
     ``dt = safety · 2 / ω_max`` rounded down to ``sample_dt / n_sub``.
     """
-    return _reference_steps(_build_chain(scenario), sample_dt, safety)
+    return reference_steps(build_chain(scenario), sample_dt, safety)
 
 
-def _reference_steps(chain: _Chain, sample_dt: float, safety: float) -> tuple[float, int]:
-    """:func:`_steps` of the chain's stable step ``safety · 2 / ω_max``, rejecting one below
+def reference_steps(chain: _Chain, sample_dt: float, safety: float) -> tuple[float, int]:
+    """:func:`sub_steps` of the chain's stable step ``safety · 2 / ω_max``, rejecting one below
     :data:`MIN_REFERENCE_DT`."""
     if not 0 < safety <= 1:
         raise ValueError(f"safety must be in (0, 1], got {safety!r}")
@@ -513,7 +513,7 @@ def _reference_steps(chain: _Chain, sample_dt: float, safety: float) -> tuple[fl
             f"{MIN_REFERENCE_DT:g} s; its cars are too light or too stiff (crash.cars.*.mass_t, "
             "EA_MN, n_nodes, crash.zones.*.unloading_stiffness_kN_per_mm)"
         )
-    return _steps(sample_dt, dt_max)
+    return sub_steps(sample_dt, dt_max)
 
 
 def simulate_reference(
@@ -542,10 +542,10 @@ def simulate_reference(
     """
     scenario = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
     scenario = scenario.with_overrides(n_cars=n_cars, speed=speed)
-    _check_run(duration, sample_dt)
-    ch = _build_chain(scenario)
-    dt, n_sub = _reference_steps(ch, sample_dt, safety)
-    state, out, rec = one_train(ch, _new_reference_state, duration, sample_dt, energies=True)
+    check_run(duration, sample_dt)
+    ch = build_chain(scenario)
+    dt, n_sub = reference_steps(ch, sample_dt, safety)
+    state, out, rec = one_train(ch, new_reference_state, duration, sample_dt, energies=True)
     t0 = time.perf_counter()
     n = _record_reference(
         state, out, ch.params, dt, n_sub, StopRule(stop_when_over, v_stop, f_stop), rec

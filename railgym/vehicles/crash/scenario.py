@@ -26,7 +26,7 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.vehicles.crash.criteria import CriteriaLimits
-from railgym.vehicles.crash.zone import _envelope
+from railgym.vehicles.crash.zone import envelope_force
 
 __all__ = [
     "LIMITS",
@@ -126,7 +126,7 @@ class CrushZone:
         d = np.atleast_1d(np.asarray(crush, dtype=float))
         s, f = np.asarray(self.stroke), np.asarray(self.force)
         return np.array(
-            [_envelope(x, s, f, s.size, self.fold_amplitude, self.fold_wavelength) for x in d]
+            [envelope_force(x, s, f, s.size, self.fold_amplitude, self.fold_wavelength) for x in d]
         )
 
     def absorber_energy(self) -> float:

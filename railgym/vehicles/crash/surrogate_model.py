@@ -17,11 +17,11 @@ from railgym.vehicles.crash.outputs import (
     V_EPS,
     CrashResult,
     StopRule,
-    _check_run,
-    _crash_over,
-    _steps,
+    check_run,
+    crash_over,
     one_train,
     recorded_result,
+    sub_steps,
 )
 from railgym.vehicles.crash.piecewise import PiecewiseEnvelope
 from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
@@ -146,7 +146,7 @@ class SurrogateState(NamedTuple):
     m: np.ndarray
 
 
-def _new_surrogate_state(n: int, masses: np.ndarray, n_elements: int) -> SurrogateState:
+def new_surrogate_state(n: int, masses: np.ndarray, n_elements: int) -> SurrogateState:
     """Zeroed :class:`SurrogateState` of ``n`` simulations with node ``masses`` (kg)."""
     n_bodies = masses.size
     body = [np.zeros((n, n_bodies)) for _ in range(3)]
@@ -227,8 +227,8 @@ def _piece_rows(u, q0, n_pieces, lpr, nb, t, b1, b2, f, fc, piece):
 
 
 @njit(cache=True, inline="always")
-def _element_model(u, rate, up, variant, unilateral, ku, i_load, i_unload):
-    """Index of the LPR model the element law (:func:`_element_force`) reads at feature ``u``,
+def crash_element_model(u, rate, up, variant, unilateral, ku, i_load, i_unload):
+    """Index of the LPR model the element law (:func:`crash_element_force`) reads at feature ``u``,
     rate ``u̇`` and permanent set ``up``; −1 where it needs none."""
     if unilateral and u <= 0.0:
         return -1
@@ -238,10 +238,10 @@ def _element_model(u, rate, up, variant, unilateral, ku, i_load, i_unload):
 
 
 @njit(cache=True, inline="always")
-def _element_force(u, up, f_lpr, f_min, f_max, s, variant, unilateral, ku, kt, slack):
+def crash_element_force(u, up, f_lpr, f_min, f_max, s, variant, unilateral, ku, kt, slack):
     """Force (N, compression positive) and new permanent set of one surrogate element.
 
-    ``f_lpr`` is the value at ``u`` of the LPR model chosen by :func:`_element_model` and
+    ``f_lpr`` is the value at ``u`` of the LPR model chosen by :func:`crash_element_model` and
     ``[f_min, f_max]`` that model's force range, N (unused where it chose none). ``s``
     multiplies the LPR force (controllable absorber, 1 beyond the absorber stroke, as
     :func:`absorber_zone_force`). ``variant`` 0 is ``"paper"``, 1 ``"hysteretic"``; ``k_u``,
@@ -383,7 +383,7 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
             q_load, q_unload = ty_.load_model[ty], ty_.unload_model[ty]
             use_load = use_unload = False
             for b in range(nb):
-                mdl = _element_model(
+                mdl = crash_element_model(
                     u_e[b], rate[e, b], upl[e, b], variant, unilateral, ku, q_load, q_unload
                 )
                 use_load = use_load or mdl == q_load
@@ -398,7 +398,7 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
             absorber, kt, slack = ty_.absorber[ty], ty_.tension_stiffness[ty], ty_.slack[ty]
             for b in range(nb):
                 u = u_e[b]
-                mdl = _element_model(
+                mdl = crash_element_model(
                     u, rate[e, b], upl[e, b], variant, unilateral, ku, q_load, q_unload
                 )
                 f_lpr = f_min = f_max = 0.0
@@ -406,7 +406,7 @@ def _step_block(state, out, params, scale, init, dt, n_sub, limit, div, w, nb):
                     f_lpr = fa[b] if mdl == q_load else fb[b]
                     f_min, f_max = FR[mdl, 0], FR[mdl, 1]
                 s = scale[idx[b], e] if u <= absorber else 1.0
-                f, upl[e, b] = _element_force(
+                f, upl[e, b] = crash_element_force(
                     u, upl[e, b], f_lpr, f_min, f_max, s, variant, unilateral, ku, kt, slack
                 )
                 fl[e, b] = f
@@ -534,7 +534,7 @@ def _record_surrogate(state, out, params, dt, n_sub, stop, rec):
         _step_block(state, out, params, scale, k == 0, dt, n_sub, math.inf, div, w, 1)
         rec.x[k], rec.v[k], rec.a[k] = out.x[0], out.v[0], out.a[0]
         rec.crush[k], rec.force[k], rec.permanent_set[k] = out.crush[0], out.force[0], state.up[0]
-        if stop.enabled and k > 0 and _crash_over(out, state.fz, stop):
+        if stop.enabled and k > 0 and crash_over(out, state.fz, stop):
             return k + 1
     return rec.x.shape[0]
 
@@ -575,7 +575,7 @@ class _System:
     zone_names: list[str]
 
 
-def _surrogate_system(scenario: CrashScenario, surrogate: CrashSurrogate) -> _System:
+def surrogate_system(scenario: CrashScenario, surrogate: CrashSurrogate) -> _System:
     """Bodies, elements and packed LPR models of ``surrogate`` on scenario ``sc``."""
     for key in ("wall", "interface"):
         if key not in surrogate.elements and (key == "wall" or scenario.n_cars > 1):
@@ -689,12 +689,12 @@ def simulate_surrogate(
     """
     scenario = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
     scenario = scenario.with_overrides(n_cars=n_cars, speed=speed)
-    _check_run(duration, sample_dt)
+    check_run(duration, sample_dt)
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
-    dt, n_sub = _steps(sample_dt, dt)
-    sy = _surrogate_system(scenario, surrogate)
-    state, out, rec = one_train(sy, _new_surrogate_state, duration, sample_dt, energies=False)
+    dt, n_sub = sub_steps(sample_dt, dt)
+    sy = surrogate_system(scenario, surrogate)
+    state, out, rec = one_train(sy, new_surrogate_state, duration, sample_dt, energies=False)
     stop = StopRule(stop_when_over, v_stop, f_stop)
     t0 = time.perf_counter()
     n = _record_surrogate(state, out, sy.params, dt, n_sub, stop, rec)

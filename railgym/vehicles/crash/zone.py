@@ -16,7 +16,7 @@ __all__ = ["absorber_zone_force", "zone_force"]
 
 
 @njit(cache=True)
-def _envelope(d: float, s: np.ndarray, f: np.ndarray, n: int, amp: float, lam: float) -> float:
+def envelope_force(d: float, s: np.ndarray, f: np.ndarray, n: int, amp: float, lam: float) -> float:
     """Loading-envelope force (N) at crush ``d`` (m): origin → points, then constant; times the
     folding wave ``1 + amp sin(2π (d − s[0]) / lam)`` beyond the first point."""
     if d <= 0.0:
@@ -64,7 +64,7 @@ def absorber_zone_force(
     trial = ku * (d - dp)
     if trial <= 0.0:
         return 0.0, dp
-    env = _envelope(d, s, f, n, amp, lam)
+    env = envelope_force(d, s, f, n, amp, lam)
     if d <= absorber:
         env *= scale
     if trial >= env:

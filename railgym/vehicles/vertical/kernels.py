@@ -91,7 +91,7 @@ def step_outputs(n: int) -> StepOutputs:
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def _advance(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+def advance_kind(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`):
     the lane kernel (:mod:`~railgym.vehicles.vertical.lanes`) for an additive LPR surrogate
     element and at least ``LANES_MIN`` vehicles (on all threads from ``PARALLEL_MIN``), else
@@ -231,19 +231,19 @@ def advance_linear(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     out : StepOutputs
         Accelerations, force, counters and the diverged flags of this step.
     """
-    _advance(0, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    advance_kind(0, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
 @njit(cache=True, error_model="numpy")
 def advance_static(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_linear` with the static nonlinear reference suspension."""
-    _advance(1, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    advance_kind(1, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
 @njit(cache=True, error_model="numpy")
 def advance_dynamic(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_linear` with the dynamic reference (air spring + Maxwell damper)."""
-    _advance(2, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    advance_kind(2, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -251,7 +251,7 @@ def advance_surrogate(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_linear` with the LPR surrogate as secondary suspension: ``F̂(δ, δ̇)``
     (static form) or ``F̂(δ, δ̇, δ − s)`` with the Maxwell state ``s = state[:, 4]``
     (``ṡ = (δ − s)/τ``), plus the bump-stop law where ``lpr.bump`` is set."""
-    _advance(3, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    advance_kind(3, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
 
 
 @njit(cache=True, error_model="numpy")

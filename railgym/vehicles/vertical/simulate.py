@@ -21,7 +21,7 @@ from railgym.vehicles.vertical.elements import (
 )
 from railgym.vehicles.vertical.kernels import (
     RAISE_MODE,
-    _advance,
+    advance_kind,
     check_variant,
     initial_state,
     state_size,
@@ -68,7 +68,7 @@ def _simulate_loop(kind, state, z, zdot, every, dt, fa, p, lpr, rec, out):
     for m in range(fa.size):
         k0[0] = m * every
         f1[0] = fa[m]
-        _advance(kind, state, z, zdot, k0, every, dt, f1, p, lpr, out)
+        advance_kind(kind, state, z, zdot, k0, every, dt, f1, p, lpr, out)
         rec.counts[0] += out.count[0, 0]
         rec.counts[1] += out.count[0, 1]
         if out.div[0]:
