@@ -18,6 +18,7 @@ from railgym.vehicles.vertical import SuspensionParams, linear_model
 __all__ = [
     "DEFAULT_C_GND",
     "DEFAULT_C_SKY",
+    "body_velocities",
     "check_gain",
     "default_c_gnd",
     "default_c_sky",
@@ -25,6 +26,16 @@ __all__ = [
     "vehicle_lqr_weights",
     "vertical_lqr_gain",
 ]
+
+
+#: channel pairs from which the bogie and carbody velocities are known (one-bogie full and
+#: sensors, whole-vehicle full and sensors)
+_VELOCITY_CHANNELS = (
+    ("v1", "v2"),
+    ("carbody_vel", "deflection_rate"),
+    ("z_c_dot", "z_b0_dot"),
+    ("carbody_vel_front", "deflection_rate_front"),
+)
 
 
 class _Controller(ObservationController):
@@ -41,7 +52,7 @@ class _Controller(ObservationController):
         super().__init__(env)
         base = self._base
         names = set(self.obs_names)
-        velocities = {"v1", "v2"} <= names or {"carbody_vel", "deflection_rate"} <= names
+        velocities = any(set(pair) <= names for pair in _VELOCITY_CHANNELS)
         if not hasattr(base.cfg, "f_max") or (self.needs_velocities and not velocities):
             raise ValueError(
                 f"env must be a railgym {self.env_name} env (actuator force f_max"
@@ -133,11 +144,17 @@ class _VehicleController(_Controller):
 
     def _body_velocities(self, x: np.ndarray) -> np.ndarray:
         """Absolute carbody velocities over the front and rear bogie (n, 2), m/s."""
-        if "carbody_vel_front" in self.obs_names:
-            return x[:, [self._index("carbody_vel_front"), self._index("carbody_vel_rear")]]
-        p = self.params
-        v, w, qd = (x[:, self._index(n)] for n in ("z_c_dot", "theta_c_dot", "q_dot"))
-        return np.stack([v + s * p.a * w + p.phi_a * qd for s in (1.0, -1.0)], axis=1)
+        return body_velocities(x, self.obs_names, self.params)
+
+
+def body_velocities(x: np.ndarray, obs_names: tuple[str, ...], params: Any) -> np.ndarray:
+    """Absolute carbody velocities over the front and rear bogie (n, 2), m/s, from the
+    physical whole-vehicle observation ``x`` (n, n_obs) of channels ``obs_names`` (kernel
+    ``params``: bogie semi-spacing ``a``, m, bending mode at the bogies ``phi_a``)."""
+    if "carbody_vel_front" in obs_names:
+        return x[:, [obs_names.index("carbody_vel_front"), obs_names.index("carbody_vel_rear")]]
+    v, w, qd = (x[:, obs_names.index(n)] for n in ("z_c_dot", "theta_c_dot", "q_dot"))
+    return np.stack([v + s * params.a * w + params.phi_a * qd for s in (1.0, -1.0)], axis=1)
 
 
 def vehicle_lqr_weights(
