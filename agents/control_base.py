@@ -28,22 +28,17 @@ __all__ = [
 ]
 
 
-#: channel pairs from which the bogie and carbody velocities are known (one-bogie full and
-#: sensors, whole-vehicle full and sensors)
-_VELOCITY_CHANNELS = (
-    ("v1", "v2"),
-    ("carbody_vel", "deflection_rate"),
-    ("z_c_dot", "z_b0_dot"),
-    ("carbody_vel_front", "deflection_rate_front"),
-)
-
-
 class _Controller(ObservationController):
     """Vertical-env baselines: a demanded actuator force, normalised by ``f_max``."""
 
     env_name = "VerticalSuspension"
     #: reads the bogie and carbody velocities (:meth:`_velocities`)
     needs_velocities = False
+    #: channel sets any of which gives those velocities (one bogie: full, sensors)
+    velocity_channels: tuple[tuple[str, ...], ...] = (
+        ("v1", "v2"),
+        ("carbody_vel", "deflection_rate"),
+    )
     #: the env's ``actuator`` it commands (an env without that argument: ``"force"``); the
     #: semi-active damper's controllers: :mod:`agents.semi_active_control`
     actuator = "force"
@@ -52,7 +47,7 @@ class _Controller(ObservationController):
         super().__init__(env)
         base = self._base
         names = set(self.obs_names)
-        velocities = any(set(pair) <= names for pair in _VELOCITY_CHANNELS)
+        velocities = any(set(chans) <= names for chans in self.velocity_channels)
         if not hasattr(base.cfg, "f_max") or (self.needs_velocities and not velocities):
             raise ValueError(
                 f"env must be a railgym {self.env_name} env (actuator force f_max"

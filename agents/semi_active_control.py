@@ -106,6 +106,12 @@ class _SemiActive(_Controller):
     (n, n_act), one column per damper (one bogie: one; whole vehicle: front, rear)."""
 
     actuator = "semi-active"
+    #: also the whole vehicle's (full, sensors)
+    velocity_channels = (
+        *_Controller.velocity_channels,
+        ("z_c_dot", "theta_c_dot", "q_dot", "z_b0_dot", "z_b1_dot"),
+        ("carbody_vel_front", "carbody_vel_rear", "deflection_rate_front", "deflection_rate_rear"),
+    )
 
     def __init__(self, env: Any) -> None:
         super().__init__(env)
