@@ -19,6 +19,7 @@ __all__ = [
     "DEFAULT_C_GND",
     "DEFAULT_C_SKY",
     "LQDesign",
+    "body_velocities",
     "checked_gain",
     "default_c_gnd",
     "default_c_sky",
@@ -34,6 +35,11 @@ class Controller(ObservationController):
     env_name = "VerticalSuspension"
     #: reads the bogie and carbody velocities (:meth:`_velocities`)
     needs_velocities = False
+    #: channel sets any of which gives those velocities (one bogie: full, sensors)
+    velocity_channels: tuple[tuple[str, ...], ...] = (
+        ("v1", "v2"),
+        ("carbody_vel", "deflection_rate"),
+    )
     #: the env's ``actuator`` it commands (an env without that argument: ``"force"``); the
     #: semi-active damper's controllers: :mod:`agents.semi_active_control`
     actuator = "force"
@@ -42,7 +48,7 @@ class Controller(ObservationController):
         super().__init__(env)
         base = self._base
         names = set(self.obs_names)
-        velocities = {"v1", "v2"} <= names or {"carbody_vel", "deflection_rate"} <= names
+        velocities = any(set(chans) <= names for chans in self.velocity_channels)
         if not hasattr(base.cfg, "f_max") or (self.needs_velocities and not velocities):
             raise ValueError(
                 f"env must be a railgym {self.env_name} env (actuator force f_max"
@@ -134,11 +140,17 @@ class VehicleController(Controller):
 
     def _body_velocities(self, x: np.ndarray) -> np.ndarray:
         """Absolute carbody velocities over the front and rear bogie (n, 2), m/s."""
-        if "carbody_vel_front" in self.obs_names:
-            return x[:, [self._index("carbody_vel_front"), self._index("carbody_vel_rear")]]
-        p = self.params
-        v, w, qd = (x[:, self._index(n)] for n in ("z_c_dot", "theta_c_dot", "q_dot"))
-        return np.stack([v + s * p.a * w + p.phi_a * qd for s in (1.0, -1.0)], axis=1)
+        return body_velocities(x, self.obs_names, self.params)
+
+
+def body_velocities(x: np.ndarray, obs_names: tuple[str, ...], params: Any) -> np.ndarray:
+    """Absolute carbody velocities over the front and rear bogie (n, 2), m/s, from the
+    physical whole-vehicle observation ``x`` (n, n_obs) of channels ``obs_names`` (kernel
+    ``params``: bogie semi-spacing ``a``, m, bending mode at the bogies ``phi_a``)."""
+    if "carbody_vel_front" in obs_names:
+        return x[:, [obs_names.index("carbody_vel_front"), obs_names.index("carbody_vel_rear")]]
+    v, w, qd = (x[:, obs_names.index(n)] for n in ("z_c_dot", "theta_c_dot", "q_dot"))
+    return np.stack([v + s * params.a * w + params.phi_a * qd for s in (1.0, -1.0)], axis=1)
 
 
 class LQDesign:

@@ -67,6 +67,7 @@ __all__ = [
     "ENV_ID",
     "VehicleLQG",
     "VEHICLE_CONTROLLERS",
+    "VEHICLE_FORCE_CONTROLLERS",
     "VEHICLE_ID",
     "VehicleLQR",
     "build_controller",
@@ -309,8 +310,8 @@ FORCE_CONTROLLERS: dict[str, Entry] = {
 
 
 class ByActuator:
-    """The controller of a name that both actuators of ``VerticalSuspension-v1`` have
-    (``passive``, ``skyhook``, ``groundhook``), called like a class: ``force``'s (class,
+    """The controller of a name that both actuators of an env have (``passive``,
+    ``skyhook``, ``groundhook``), called like a class: ``force``'s (class,
     arguments), or ``semi``'s on an env with ``actuator="semi-active"``."""
 
     def __init__(self, force: tuple[Any, dict[str, Any]], semi: tuple[Any, dict[str, Any]]) -> None:
@@ -322,12 +323,13 @@ class ByActuator:
         return cls(env, **kwargs)
 
 
-def _both_actuators() -> dict[str, Entry]:
-    """:data:`FORCE_CONTROLLERS` and :data:`~agents.semi_active_control.SEMI_ACTIVE_CONTROLLERS`
-    (a name of both: :class:`ByActuator`)."""
-    table = dict(FORCE_CONTROLLERS)
+def _both_actuators(force_controllers: dict[str, Entry]) -> dict[str, Entry]:
+    """The force-actuator controllers ``force_controllers`` of an env and
+    :data:`~agents.semi_active_control.SEMI_ACTIVE_CONTROLLERS` (a name of both:
+    :class:`ByActuator`)."""
+    table = dict(force_controllers)
     for name, (cls, kwargs, env_kwargs) in SEMI_ACTIVE_CONTROLLERS.items():
-        force = FORCE_CONTROLLERS.get(name)
+        force = force_controllers.get(name)
         if force is None:
             table[name] = (cls, kwargs, env_kwargs)
         else:  # both sides need the same env arguments (none)
@@ -338,9 +340,9 @@ def _both_actuators() -> dict[str, Entry]:
 #: controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name, of either
 #: actuator: each refuses an env of the other (the env argument ``actuator``); a name of both
 #: builds the one of the env's actuator
-CONTROLLERS = _both_actuators()
-#: controllers of ``railgym/VerticalVehicle-v1`` (two actuators)
-VEHICLE_CONTROLLERS: dict[str, Entry] = {
+CONTROLLERS = _both_actuators(FORCE_CONTROLLERS)
+#: force-actuator controllers of ``railgym/VerticalVehicle-v1`` (two actuators)
+VEHICLE_FORCE_CONTROLLERS: dict[str, Entry] = {
     "passive": (Passive, {}, {}),
     "skyhook": (BogieSkyhook, {}, {}),
     "modal-skyhook": (ModalSkyhook, {}, {}),
@@ -349,6 +351,9 @@ VEHICLE_CONTROLLERS: dict[str, Entry] = {
     "lqr-preview": (LQRPreview, {}, {"observation": "full"}),
     "lq-preview": (LQGPreview, {}, {"observation": "sensors"}),
 }
+#: controllers of ``railgym/VerticalVehicle-v1`` of either actuator, as :data:`CONTROLLERS`
+#: (the semi-active ones per bogie)
+VEHICLE_CONTROLLERS = _both_actuators(VEHICLE_FORCE_CONTROLLERS)
 #: controller names of each env id (the crash env: trained policies only)
 CONTROLLERS_OF = {ENV_ID: CONTROLLERS, VEHICLE_ID: VEHICLE_CONTROLLERS}
 

@@ -15,7 +15,8 @@ A policy is a controller name (vertical: ``passive``, ``skyhook``, ``semi-active
 controllable damper: ``passive`` (command 0), ``constant-max``, ``skyhook-onoff``, ``skyhook``,
 ``groundhook``, ``clipped-lqg`` of :mod:`agents.semi_active_control`, and a controller of the
 other actuator is refused; vehicle: ``passive``, ``skyhook`` (skyhook per bogie),
-``modal-skyhook``, ``lqr``, ``lqg``) or a stable-baselines3 ``.zip``: of :mod:`agents.train` (its
+``modal-skyhook``, ``lqr``, ``lqg``, and with ``--actuator semi-active`` the same damper
+controllers per bogie) or a stable-baselines3 ``.zip``: of :mod:`agents.train` (its
 ``model.zip`` or a checkpoint ``checkpoints/model_N_steps.zip``: the algorithm and the env's
 observation settings from the run's ``config.yaml``), of rl-zoo3 (the run's ``args.yml`` and
 ``config.yml``) or any other (the algorithm and network from the zip's JSON ``data``; the env
@@ -65,7 +66,7 @@ from agents._args import (
     with_policy_kwargs,
 )
 from agents.contacts import Score, contact_note, more_contacts
-from agents.controllers import FORCE_CONTROLLERS
+from agents.controllers import FORCE_CONTROLLERS, VEHICLE_FORCE_CONTROLLERS
 from agents.gap import run_gap
 from agents.policies import (
     CONTROLLERS,
@@ -423,9 +424,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--actuator",
         choices=["force", "semi-active"],
-        help="vertical: what the policies command, an actuator force (default) or the "
+        help="vertical, vehicle: what the policies command, an actuator force (default) or the "
         f"controllable damper (semi-active: {', '.join(SEMI_ACTIVE_CONTROLLERS)}; passive is "
-        "command 0)",
+        "command 0; vehicle: one damper per bogie)",
     )
     speed = parser.add_argument(
         "--speed-kmh",
@@ -475,14 +476,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def actuator_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """The env keyword of ``--actuator`` (``{}`` without the flag: the force); a classical
     controller of the other actuator is refused, naming the flag."""
-    if args.env != "vertical":
+    if args.env == "crash":
         if args.actuator is not None:
-            raise ValueError(f"--actuator: only for --env vertical, not --env {args.env}")
+            raise ValueError(
+                f"--actuator: only for --env vertical and vehicle, not --env {args.env}"
+            )
         return {}
     actuator = args.actuator or "force"
-    names = SEMI_ACTIVE_CONTROLLERS if actuator == "semi-active" else FORCE_CONTROLLERS
+    vehicle = args.env == "vehicle"
+    both = VEHICLE_CONTROLLERS if vehicle else CONTROLLERS
+    force = VEHICLE_FORCE_CONTROLLERS if vehicle else FORCE_CONTROLLERS
+    names = SEMI_ACTIVE_CONTROLLERS if actuator == "semi-active" else force
     for p in args.policy:
-        if p in CONTROLLERS and p not in names:
+        if p in both and p not in names:
             other = "--actuator semi-active" if actuator == "force" else "the force actuator"
             raise ValueError(
                 f"--actuator {actuator}: {p} is a controller of {other}; the controllers of "
@@ -533,13 +539,21 @@ def run(args: argparse.Namespace) -> int:
     _only_for(args, {"--envelope": args.envelope}, "--env crash")
     check_parallel(args)
     policies = ["passive", "skyhook"] + [p for p in args.policy if p not in ("passive", "skyhook")]
+    damper = (
+        ", actuator: semi-active (passive: damper command 0)"
+        if actuated.get("actuator") == "semi-active"
+        else ""
+    )
     if args.env == "vehicle":
         preview = {"preview": args.preview} if args.preview else {}
         rows = evaluate_vehicle(
-            policies, args.backend, env_kwargs={**fmu, **preview}, **vehicle_cases(args)
+            policies,
+            args.backend,
+            env_kwargs={**fmu, **preview, **actuated},
+            **vehicle_cases(args),
         )
         print(
-            f"VerticalVehicle-v1, backend: {args.backend}"
+            f"VerticalVehicle-v1, backend: {args.backend}{damper}"
             f"{f', preview {args.preview:g} m' if args.preview else ''}, {args.episodes} "
             "episodes per case "
             f"(seeds {args.seed}+i); per floor point front/centre/rear; Δa_w: reduction of the "
@@ -554,11 +568,6 @@ def run(args: argparse.Namespace) -> int:
     )
     env_kwargs = {**fmu, **actuated}
     rows = evaluate_sweep(policies, args.backend, env_kwargs=env_kwargs, **vertical_cases(args))
-    damper = (
-        ", actuator: semi-active (passive: damper command 0)"
-        if actuated.get("actuator") == "semi-active"
-        else ""
-    )
     print(
         f"backend: {args.backend}{damper}, {args.episodes} episodes per class (seeds "
         f"{args.seed}+i); Δa_w: reduction of the Wk-weighted RMS vs passive; contacts: "

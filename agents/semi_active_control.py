@@ -1,7 +1,10 @@
-"""Semi-active baselines of ``railgym/VerticalSuspension-v1`` with ``actuator="semi-active"``:
-the action is the command in [0, 1] of a controllable damper in parallel with the secondary
-suspension (:mod:`railgym.vehicles.semi_active`), and each controller turns a force demand
-into the command the damper can follow.
+"""Semi-active baselines of ``railgym/VerticalSuspension-v1`` and ``railgym/VerticalVehicle-v1``
+with ``actuator="semi-active"``: the action is the command in [0, 1] of each controllable damper
+in parallel with a secondary suspension (:mod:`railgym.vehicles.semi_active`; the whole
+vehicle: one per bogie, front first), and each controller turns a force demand into the
+command the damper can follow. On the whole vehicle every law runs per bogie: ``ẋ2`` is the
+carbody's absolute velocity above that bogie, ``ẋ1`` the bogie's, ``v`` that bogie's
+secondary deflection rate.
 
 The damper's force ``F`` acts on the carbody in the direction of its extension rate
 ``v = ẋ1 − ẋ2`` (m/s, the deflection rate: ``F`` has the sign of the actuator force ``F_a`` of
@@ -18,13 +21,15 @@ By ``railgym evaluate`` name (:data:`SEMI_ACTIVE_CONTROLLERS`):
 * ``skyhook``: the skyhook demand ``−c_sky·ẋ2`` through :func:`damper_command`
   (:class:`DamperSkyhook`); ``groundhook``: the groundhook demand ``+c_gnd·ẋ1`` (force on
   the carbody of a damper from the bogie to the ground) likewise (:class:`DamperGroundhook`);
-* ``clipped-lqg``: the LQG force demand of :class:`agents.lqg.LQG` (same filter, same gain, on
-  the env's five sensor channels) through :func:`damper_command`; the filter is told the
-  force the damper gives, not the demand (:class:`ClippedLQG`).
+* ``clipped-lqg``: the LQG force demand of :class:`agents.lqg.LQG` (whole vehicle:
+  :class:`agents.lqg.VehicleLQG`; same filter, same gain, on the env's sensor channels)
+  through :func:`damper_command`; the filter is told the force the damper gives, not the
+  demand (:class:`ClippedLQG`).
 
 They read what the force-mode baselines read: the skyhook family the bogie and carbody
-velocities (sensors: ``carbody_vel`` and ``ẋ1 = ẋ2 + deflection_rate``; full: ``v1``, ``v2``),
-the LQG the sensor channels, and all the deflection rate ``v``. Gains: those of the force-mode
+velocities (sensors: ``carbody_vel`` and ``ẋ1 = ẋ2 + deflection_rate``; full: ``v1``, ``v2``;
+whole vehicle: ``carbody_vel_front``, ``deflection_rate_front`` …, or the full state), the LQG
+the sensor channels, and all the deflection rate ``v``. Gains: those of the force-mode
 skyhook and groundhook (:func:`agents.controllers.default_c_sky`,
 :func:`~agents.controllers.default_c_gnd`), scaled to the vehicle.
 """
@@ -36,9 +41,16 @@ from typing import Any
 
 import numpy as np
 
-from agents.control_base import Controller, checked_gain, default_c_gnd, default_c_sky
-from agents.lqg import LQG, LQGMixin
-from railgym.envs.vertical import DAMPER_CHANNEL
+from agents.control_base import (
+    Controller,
+    body_velocities,
+    checked_gain,
+    default_c_gnd,
+    default_c_sky,
+)
+from agents.lqg import LQG, LQGMixin, VehicleLQG
+from railgym.envs.damper_params import damper_channels
+from railgym.envs.vehicle import OBSERVATIONS as VEHICLE_OBSERVATIONS
 from railgym.vehicles.semi_active import DamperParams
 
 __all__ = [
@@ -84,28 +96,63 @@ def _default_gain(name: str, value: float | None, params: Any) -> float:
     return checked_gain(value, default, name)
 
 
+#: the sensor channels of the whole vehicle (its LQG's filter inputs)
+VEHICLE_SENSORS = VEHICLE_OBSERVATIONS["sensors"][0]
+
+
 class _SemiActive(Controller):
-    """Semi-active baselines: a command in [0, 1] from a force demand (N) and the deflection
-    rate, through the damper's inverse (:func:`damper_command`)."""
+    """Semi-active baselines: a command in [0, 1] per damper from a force demand (N) and the
+    deflection rate, through the damper's inverse (:func:`damper_command`); all arrays
+    (n, n_act), one column per damper (one bogie: one; whole vehicle: front, rear)."""
 
     actuator = "semi-active"
+    #: also the whole vehicle's (full, sensors)
+    velocity_channels = (
+        *Controller.velocity_channels,
+        ("z_c_dot", "theta_c_dot", "q_dot", "z_b0_dot", "z_b1_dot"),
+        ("carbody_vel_front", "carbody_vel_rear", "deflection_rate_front", "deflection_rate_rear"),
+    )
 
     def __init__(self, env: Any) -> None:
         super().__init__(env)
         self.damper: DamperParams = self._base.cfg.damper_params
+        self._commands = [self._index(name) for name in damper_channels(self.n_act)]
 
     def _rate(self, x: np.ndarray) -> np.ndarray:
-        """Damper extension rate ``v = ẋ1 − ẋ2`` (n,), m/s."""
-        if "deflection_rate" in self.obs_names:
-            return x[:, self._index("deflection_rate")]
-        return x[:, self._index("v1")] - x[:, self._index("v2")]
+        """Damper extension rates ``v = ẋ1 − ẋ2`` (n, n_act), m/s."""
+        if self.n_act == 1:
+            if "deflection_rate" in self.obs_names:
+                return x[:, self._index("deflection_rate")][:, None]
+            return (x[:, self._index("v1")] - x[:, self._index("v2")])[:, None]
+        if "deflection_rate_front" in self.obs_names:
+            return x[:, [self._index("deflection_rate_front"), self._index("deflection_rate_rear")]]
+        bogies = x[:, [self._index("z_b0_dot"), self._index("z_b1_dot")]]
+        return bogies - self._body(x)
+
+    def _body(self, x: np.ndarray) -> np.ndarray:
+        """The carbody's absolute velocities at the dampers ``ẋ2`` (n, n_act), m/s."""
+        if self.n_act == 1:
+            return self._velocities(x)[1][:, None]
+        return body_velocities(x, self.obs_names, self._base.vehicle_params)
+
+    def _bogie(self, x: np.ndarray) -> np.ndarray:
+        """The bogies' absolute velocities ``ẋ1`` (n, n_act), m/s."""
+        if self.n_act == 1:
+            return self._velocities(x)[0][:, None]
+        return self._body(x) + self._rate(x)
+
+    def _suspension(self) -> Any:
+        """What the default gains scale to: the one-bogie vehicle's kernel parameters, or the
+        whole vehicle's secondary suspension (one bogie's share)."""
+        base = self._base
+        return base.vehicle_params if self.n_act == 1 else base.vehicle.suspension
 
     def command(self, x: np.ndarray) -> np.ndarray:
-        """Damper command (n,) in [0, 1] from the physical observation (n, n_obs)."""
+        """Damper commands (n, n_act) in [0, 1] from the physical observation (n, n_obs)."""
         return damper_command(self.force(x), self._rate(x), self.damper)
 
     def action(self, x: np.ndarray) -> np.ndarray:
-        """The command (n, 1)."""
+        """The commands (n, n_act)."""
         return self.command(x).reshape(x.shape[0], self.n_act)
 
 
@@ -119,8 +166,8 @@ class ConstantCommand(_SemiActive):
         self.value = float(command)
 
     def command(self, x: np.ndarray) -> np.ndarray:
-        """``value`` for every row (n,)."""
-        return np.full(x.shape[0], self.value)
+        """``value`` for every damper (n, n_act)."""
+        return np.full((x.shape[0], self.n_act), self.value)
 
 
 class DamperSkyhook(_SemiActive):
@@ -134,11 +181,11 @@ class DamperSkyhook(_SemiActive):
 
     def __init__(self, env: Any, c_sky: float | None = None) -> None:
         super().__init__(env)
-        self.c_sky = _default_gain("c_sky", c_sky, self._base.vehicle_params)
+        self.c_sky = _default_gain("c_sky", c_sky, self._suspension())
 
     def force(self, x: np.ndarray) -> np.ndarray:
-        """Skyhook demand on the carbody (n,), N."""
-        return -self.c_sky * self._velocities(x)[1]
+        """Skyhook demands on the carbody (n, n_act), N."""
+        return -self.c_sky * self._body(x)
 
 
 class OnOffSkyhook(DamperSkyhook):
@@ -147,7 +194,7 @@ class OnOffSkyhook(DamperSkyhook):
     sign (any positive gain switches alike)."""
 
     def command(self, x: np.ndarray) -> np.ndarray:
-        """1 where ``−c_sky·ẋ2·v > 0``, else 0 (n,)."""
+        """1 where ``−c_sky·ẋ2·v > 0``, else 0 (n, n_act)."""
         return (self.force(x) * self._rate(x) > 0.0).astype(np.float64)
 
 
@@ -161,22 +208,21 @@ class DamperGroundhook(_SemiActive):
 
     def __init__(self, env: Any, c_gnd: float | None = None) -> None:
         super().__init__(env)
-        self.c_gnd = _default_gain("c_gnd", c_gnd, self._base.vehicle_params)
+        self.c_gnd = _default_gain("c_gnd", c_gnd, self._suspension())
 
     def force(self, x: np.ndarray) -> np.ndarray:
-        """Groundhook demand on the carbody (n,), N."""
-        return self.c_gnd * self._velocities(x)[0]
+        """Groundhook demands on the carbody (n, n_act), N."""
+        return self.c_gnd * self._bogie(x)
 
 
 class _SensorChannels:
-    """The semi-active env as the LQG design sees it: the five sensor channels of
-    :class:`agents.lqg.LQG` (the filtered command left out); every other attribute is the
-    env's."""
+    """The semi-active env as the LQG design sees it: its sensor channels ``sensors`` (the
+    filtered commands left out); every other attribute is the env's."""
 
-    def __init__(self, base: Any) -> None:
+    def __init__(self, base: Any, sensors: tuple[str, ...]) -> None:
         self._env = base
-        self.obs_names = LQG.SENSORS
-        self.obs_scale = np.asarray(base.obs_scale)[[base.obs_names.index(n) for n in LQG.SENSORS]]
+        self.obs_names = sensors
+        self.obs_scale = np.asarray(base.obs_scale)[[base.obs_names.index(n) for n in sensors]]
 
     @property
     def unwrapped(self) -> _SensorChannels:
@@ -192,14 +238,21 @@ class _DamperLQG(LQG):
     actuator = "semi-active"
 
 
+class _DamperVehicleLQG(VehicleLQG):
+    """The whole vehicle's LQG designed on the semi-active env's sensor channels."""
+
+    actuator = "semi-active"
+
+
 class ClippedLQG(LQGMixin, _SemiActive):
     """The LQG's force demand clipped to what the damper can give (``clipped-lqg``).
 
-    Filter and gain: :class:`agents.lqg.LQG` on the env's sensor channels (the env's reward
-    weights, or ``q_acc``, ``q_defl``, ``r_force``; needs ``observation="sensors"``); the
-    demand ``−K·x̂`` (N, within ±f_max) goes through :func:`damper_command` at the measured
-    deflection rate. The filter's prediction uses the force the damper gives over the coming
-    step instead of the demand: :func:`steady_force` at the mean filtered command of the step,
+    Filter and gain: :class:`agents.lqg.LQG` (whole vehicle: :class:`agents.lqg.VehicleLQG`)
+    on the env's sensor channels (the env's reward weights, or ``q_acc``, ``q_defl``,
+    ``r_force``; needs ``observation="sensors"``); each demand of ``−K·x̂`` (N, within ±f_max)
+    goes through :func:`damper_command` at its measured deflection rate. The filter's
+    prediction uses the force the damper gives over the coming step instead of the demand:
+    :func:`steady_force` at the mean filtered command of the step,
     ``ū = c + (u₀ − c)·(1 − e^{−η·Δt})/(η·Δt)`` (``u₀`` the observed filtered command,
     ``c`` the new command, ``η`` the damper's command bandwidth, ``Δt`` = ``control_dt``).
     The estimate is kept between ``predict`` calls as :class:`~agents.lqg.LQG`'s.
@@ -213,33 +266,37 @@ class ClippedLQG(LQGMixin, _SemiActive):
         r_force: float | None = None,
     ) -> None:
         super().__init__(env)
-        wanted = (*LQG.SENSORS, DAMPER_CHANNEL[0])
+        sensors, lqg = (
+            (LQG.SENSORS, _DamperLQG) if self.n_act == 1 else (VEHICLE_SENSORS, _DamperVehicleLQG)
+        )
+        wanted = (*sensors, *damper_channels(self.n_act))
         if not set(wanted) <= set(self.obs_names):
             raise ValueError(
                 f"observation must be 'sensors' for clipped-lqg (channels {list(wanted)}); "
                 f"the env observes {list(self.obs_names)}"
             )
-        self._sensors = [self._index(n) for n in LQG.SENSORS]
-        design = _DamperLQG(_SensorChannels(self._base), q_acc, q_defl, r_force)
+        self._sensors = [self._index(n) for n in sensors]
+        design = lqg(_SensorChannels(self._base, sensors), q_acc, q_defl, r_force)
         self.kf, self.K = design.kf, design.K
         step = self._base.cfg.control_dt * self.damper.eta
         self._lag = -math.expm1(-step) / step
         self.x_pred = None  # type: ignore[assignment]
 
     def action(self, x: np.ndarray) -> np.ndarray:
-        """Filter update and LQG demand, its command, the filter told the damper's force."""
+        """Filter update and LQG demands, their commands, the filter told the dampers'
+        forces."""
         demand = LQGMixin.action(self, x[:, self._sensors]) * self.f_max
         v = self._rate(x)
-        command = damper_command(demand[:, 0], v, self.damper)
-        mean_u = command + (x[:, self._index(DAMPER_CHANNEL[0])] - command) * self._lag
-        applied = steady_force(v, mean_u, self.damper)[:, None]
+        command = damper_command(demand, v, self.damper)
+        mean_u = command + (x[:, self._commands] - command) * self._lag
+        applied = steady_force(v, mean_u, self.damper)
         self.x_pred = self.x_pred + (applied - demand) @ self.kf.gamma.T
         self.u_prev = applied
-        return command[:, None]
+        return command
 
 
-#: the semi-active controllers by ``railgym evaluate`` name: (class, its arguments, the env
-#: arguments it needs besides ``actuator="semi-active"``)
+#: the semi-active controllers by ``railgym evaluate`` name, of both envs: (class, its
+#: arguments, the env arguments it needs besides ``actuator="semi-active"``)
 SEMI_ACTIVE_CONTROLLERS: dict[str, tuple[type, dict[str, Any], dict[str, Any]]] = {
     "passive": (ConstantCommand, {"command": 0.0}, {}),
     "constant-max": (ConstantCommand, {"command": 1.0}, {}),

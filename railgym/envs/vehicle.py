@@ -2,7 +2,9 @@
 
 Carbody bounce, pitch and first bending on two bogies, four wheelsets on a seeded FRA track
 or a measured/user profile (:mod:`railgym.vehicles.vehicle`); one actuator in the secondary
-suspension of each bogie. The secondary elements are the backends of
+suspension of each bogie (``actuator="force"``), or a controllable damper at its place whose
+command the agent sets (``actuator="semi-active"``, :mod:`railgym.vehicles.vehicle_damper`).
+The secondary elements are the backends of
 ``VerticalSuspension-v1``: ``"surrogate"`` (LPR element, both bogies), ``"reference"``
 (air spring with reservoir, Maxwell damper, bump stops) or ``"linear"``. Observation,
 action, reward, ``info`` and the argument limits are tabulated in
@@ -21,6 +23,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from railgym import _checks as val
+from railgym.envs.damper_params import DEFAULT_DAMPER, DamperArgs, damper_law_of
 from railgym.envs.params import (
     REWARD_WEIGHTS,
     TrackEnvParams,
@@ -141,7 +144,7 @@ def _speed_range(track_class: Any, speed: Any, speed_limit: float | None) -> tup
 
 
 @declared
-class VehicleParams(TrackEnvParams):
+class VehicleParams(DamperArgs, TrackEnvParams):
     """The arguments of ``VerticalVehicle-v1`` (:class:`VerticalVehicleEnv`), declared once:
     defaults, units, limits (docs/envs/vehicle_vertical.md, *Arguments*)."""
 
@@ -229,6 +232,7 @@ class VehicleParams(TrackEnvParams):
         if self.profile is None:
             check_band_speed(self.band, speeds[1], self.dt)
         self._derive_preview()
+        self._derive_damper(2)
 
     def _derive_preview(self) -> None:
         """The preview grid (:func:`preview_points`) and its channels appended to the
@@ -273,11 +277,12 @@ def _batch(
     n: int, cfg: VehicleParams, lpr: Any, v_min: float, envelope: OperatingEnvelope | None = None
 ) -> VehicleBatch:
     """The batch of ``n`` vehicles: the compiled kernel (``envelope``: the element's, behind
-    ``info["outside_envelope"]``), or FMU instances for ``backend="fmu"`` (``cfg.fmu``,
-    ``cfg.fmu_map``: :mod:`railgym.fmu.mapping`)."""
+    ``info["outside_envelope"]``; the dampers of
+    :func:`~railgym.envs.damper_params.damper_law_of`), or FMU instances for
+    ``backend="fmu"`` (``cfg.fmu``, ``cfg.fmu_map``: :mod:`railgym.fmu.mapping`)."""
     check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
-        return VehicleBatch(n, cfg, cfg.model, lpr, v_min, envelope)
+        return VehicleBatch(n, cfg, cfg.model, lpr, v_min, envelope, damper_law_of(cfg))
     from railgym.fmu.mapping import load_mapping
     from railgym.fmu.vehicle_batch import FMUVehicleBatch
 
@@ -310,7 +315,8 @@ class _VehicleAccessors:
     def state(self) -> np.ndarray:
         """Copy of the state (s,): ``[z_c, θ_c, q, z_b0, θ_b0, z_b1, θ_b1]`` (m, rad, m),
         their rates, and for the reference backend the air-spring and damper states, for a
-        memory surrogate element its Maxwell states ``[s_0, s_1]`` (m)."""
+        memory surrogate element its Maxwell states ``[s_0, s_1]`` (m); semi-active: then the
+        dampers' ``[u_0, w_0, u_1, w_1]``."""
         return self._rows(self.sim.arrays.state)
 
     @property
@@ -320,7 +326,8 @@ class _VehicleAccessors:
 
     @property
     def actuator_force(self) -> np.ndarray:
-        """Actuator forces front, rear applied over the last step, N (2,)."""
+        """Actuator forces front, rear applied over the last step (semi-active: the dampers'
+        forces at its end), N (2,)."""
         return self._rows(self.sim.arrays.force)
 
     @property
@@ -382,6 +389,9 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
         vehicle: Any = None,
         fmu: Any = None,
         fmu_map: Any = None,
+        actuator: str = "force",
+        damper: Any = DEFAULT_DAMPER,
+        damper_element: Any = None,
         n_actuators: int = 2,
         acc_weighting: str = "none",
         flexible: bool = True,
@@ -394,7 +404,8 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
         lpr, envelope = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt, given)
         self.vehicle = cfg.model
         v_min = min(self.speeds[0], SIZING_SPEED)
-        self._start(_batch(1, cfg, lpr, v_min, envelope), render_mode)
+        low = 0.0 if cfg.actuator == "semi-active" else -1.0
+        self._start(_batch(1, cfg, lpr, v_min, envelope), render_mode, low)
 
     def _default_surrogate(self) -> Any:
         """The whole vehicle's packaged element (v0: :attr:`default_element`)."""
@@ -436,8 +447,9 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
         return render_vehicle(state)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """Advance ``control_dt``; the action is clipped to [−1, 1], non-finite raises. The
-        last step of an episode adds ``info["comfort"]``."""
+        """Advance ``control_dt``; the action is clipped to the action space ([−1, 1]; the
+        damper commands: [0, 1]), non-finite raises. The last step of an episode adds
+        ``info["comfort"]``."""
         obs, reward, terminated, truncated, info = super().step(action)
         if terminated or truncated:
             info["comfort"] = self.sim.comfort(0)
@@ -479,6 +491,9 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, TrackVectorShell):
         vehicle: Any = None,
         fmu: Any = None,
         fmu_map: Any = None,
+        actuator: str = "force",
+        damper: Any = DEFAULT_DAMPER,
+        damper_element: Any = None,
         n_actuators: int = 2,
         acc_weighting: str = "none",
         flexible: bool = True,

@@ -3,7 +3,11 @@
 :class:`VehicleBatch` implements the batch contract of :mod:`railgym.envs.base`: it holds the
 arrays the kernel of :mod:`railgym.vehicles.vehicle` works on, and a compiled control step
 (:func:`control_step`) turns each kernel call into observation, reward, reward terms and the
-counters behind the ``info`` values, whose keys are declared once (:data:`INFO_KEYS`).
+counters behind the ``info`` values, whose keys are declared once (:data:`INFO_KEYS`). With
+controllable dampers (``actuator="semi-active"``,
+:class:`~railgym.vehicles.vehicle_damper.VehicleDampers`) the actions are their commands, the
+kernel writes their forces in place of the actuator forces, and their filtered commands are
+observed (last) and in ``info`` with their forces (:data:`SEMI_ACTIVE_INFO_LAYOUT`).
 """
 
 from __future__ import annotations
@@ -34,7 +38,8 @@ from railgym.vehicles.vehicle import (
     new_arrays,
     wheelset_offsets,
 )
-from railgym.vehicles.vertical import RAISE_MODE
+from railgym.vehicles.vehicle_damper import DAMPER_COLUMNS, VehicleDampers
+from railgym.vehicles.vertical import RAISE_MODE, DamperLaw
 
 __all__ = [
     "ACC_REF",
@@ -44,6 +49,7 @@ __all__ = [
     "INFO_LAYOUT",
     "MIN_COMFORT_SAMPLES",
     "REWARD_TERMS",
+    "SEMI_ACTIVE_INFO_LAYOUT",
     "VehicleBatch",
     "book_step",
     "control_step",
@@ -71,16 +77,31 @@ INFO_LAYOUT = (
     ("actuator_force", (2,), float),  # N
 )
 INFO_KEYS = tuple(key for key, _, _ in INFO_LAYOUT)
+#: the keys ``actuator="semi-active"`` adds after :data:`INFO_LAYOUT`
+SEMI_ACTIVE_INFO_LAYOUT = (
+    ("damper_force", (2,), float),  # N, front and rear damper at the end of the step
+    ("damper_command", (2,), float),  # their filtered commands u at the end of the step
+)
 #: columns of each array-valued info key in ``Book.info`` (one row is copied per single-env
-#: step), in declared order
+#: step), in declared order (the semi-active keys after the others)
 INFO_COLUMNS: dict[str, slice] = {}
-for _key, _shape, _ in INFO_LAYOUT:
+for _key, _shape, _ in INFO_LAYOUT + SEMI_ACTIVE_INFO_LAYOUT:
     if _shape:
         _start = sum(c.stop - c.start for c in INFO_COLUMNS.values())
         INFO_COLUMNS[_key] = slice(_start, _start + _shape[0])
-INFO_ROW = sum(c.stop - c.start for c in INFO_COLUMNS.values())
-_C_ACC, _C_BOGIE, _C_RMS, _C_FORCE = (
-    INFO_COLUMNS[k].start for k in ("carbody_acc", "bogie_acc", "rms_carbody_acc", "actuator_force")
+#: width of a row of ``Book.info`` without and with the dampers
+INFO_ROW = INFO_COLUMNS["actuator_force"].stop
+SEMI_ACTIVE_INFO_ROW = INFO_COLUMNS["damper_command"].stop
+_C_ACC, _C_BOGIE, _C_RMS, _C_FORCE, _C_DAMPER_FORCE, _C_DAMPER_COMMAND = (
+    INFO_COLUMNS[k].start
+    for k in (
+        "carbody_acc",
+        "bogie_acc",
+        "rms_carbody_acc",
+        "actuator_force",
+        "damper_force",
+        "damper_command",
+    )
 )
 #: columns of ``Book.terms``, the keys of ``info["reward_terms"]``
 REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
@@ -132,6 +153,7 @@ class StepCfg(NamedTuple):
     n_steps: int  # control steps per episode (truncation)
     flag_ood: bool  # "raise" policy: flag steps with out-of-domain surrogate evaluations
     preview_frac: np.ndarray  # (n_p,) preview points as fractions of the front wheelset's offset
+    semi_active: bool  # controllable dampers: their filtered commands observed and in info
 
 
 @njit(cache=True, error_model="numpy")
@@ -140,7 +162,8 @@ def _observe(vehicles, out, params, consts, book, i):
     kernel's :class:`~railgym.vehicles.vehicle.Batch`, ``params`` its
     :class:`~railgym.vehicles.vehicle.Params`): the channels of ``observation``, then the
     preview samples (heights, then rates) at ``consts.preview_frac`` of the front wheelset's
-    distance ahead of the rear one."""
+    distance ahead of the rear one, then with dampers their filtered commands ``u_0, u_1``
+    (the state's columns −4 and −2)."""
     x = vehicles.state[i]
     o = book.obs[i]
     inv = consts.inv_scale
@@ -171,6 +194,11 @@ def _observe(vehicles, out, params, consts, book, i):
         zp, zdp = hermite(vehicles.z[i], vehicles.zdot[i], pos, consts.dt)
         o[n_obs + j] = zp * inv[n_obs + j]
         o[n_obs + n_p + j] = zdp * inv[n_obs + n_p + j]
+    if consts.semi_active:
+        s = x.shape[0] - DAMPER_COLUMNS
+        for b in range(2):
+            j = n_obs + 2 * n_p + b
+            o[j] = x[s + 2 * b] * inv[j]
 
 
 # Without the runtime's reference counting: the arrays come from the batch, which owns them
@@ -179,15 +207,18 @@ def _observe(vehicles, out, params, consts, book, i):
 # arrays are still allocated and freed by the runtime (tests/envs/test_vehicle_shell.py checks the
 # balance).
 @njit(cache=True, error_model="numpy", _nrt=False)
-def control_step(kind, vehicles, params, element, lpr, out, book, consts):
+def control_step(kind, vehicles, params, element, lpr, out, book, consts, damper):
     """One control step of every vehicle: actuator forces ``book.action · f_max`` (N), the
     kernel (:func:`~railgym.vehicles.vehicle.advance` of ``kind`` on ``vehicles``, with the
     vehicle's ``params``, the suspension ``element`` record and the surrogate ``lpr``), then
-    :func:`book_step`."""
-    for i in range(vehicles.state.shape[0]):
-        for b in range(2):
-            vehicles.force[i, b] = book.action[i, b] * consts.f_max
-    advance(kind, vehicles, consts.n_sub, consts.dt, params, element, lpr, out)
+    :func:`book_step`. With ``damper`` (:class:`~railgym.vehicles.vehicle_damper.VehicleDampers`
+    whose commands are ``book.action``, else ``None``) the kernel writes the dampers' forces
+    instead."""
+    if damper is None:
+        for i in range(vehicles.state.shape[0]):
+            for b in range(2):
+                vehicles.force[i, b] = book.action[i, b] * consts.f_max
+    advance(kind, vehicles, consts.n_sub, consts.dt, params, element, lpr, out, damper)
     book_step(vehicles, params, out, book, consts)
 
 
@@ -234,6 +265,11 @@ def book_step(vehicles, params, out, book, consts):
             book.info[i, _C_BOGIE + b] = out.acc[i, 3 + b]
         for b in range(2):
             book.info[i, _C_FORCE + b] = vehicles.force[i, b]
+        if consts.semi_active:
+            s = x.shape[0] - DAMPER_COLUMNS
+            for b in range(2):
+                book.info[i, _C_DAMPER_FORCE + b] = vehicles.force[i, b]
+                book.info[i, _C_DAMPER_COMMAND + b] = x[s + 2 * b]
         book.truncated[i] = book.steps[i] >= consts.n_steps
         if consts.flag_ood:
             book.extrapolated[i] = out.count[i, 1] > 0
@@ -269,7 +305,9 @@ class VehicleBatch:
     ``info`` quantities of :class:`~railgym.envs.vehicle.VerticalVehicleEnv`. The track
     arrays are sized for speeds down to ``v_min`` (m/s). ``envelope``: the operating envelope
     of the surrogate element (``None``: none, or not the surrogate backend), behind
-    ``info["outside_envelope"]`` and the warning of the first episode outside it.
+    ``info["outside_envelope"]`` and the warning of the first episode outside it. ``damper``:
+    the law of the controllable dampers of ``actuator="semi-active"`` (``None``: the actuator
+    forces).
     """
 
     def __init__(
@@ -280,8 +318,12 @@ class VehicleBatch:
         lpr: Lpr,
         v_min: float,
         envelope: OperatingEnvelope | None = None,
+        damper: DamperLaw | None = None,
     ) -> None:
         self.n, self.cfg, self.vehicle = n, cfg, vehicle
+        self.damper = damper
+        #: the ``info`` layout of this batch (with dampers: :data:`SEMI_ACTIVE_INFO_LAYOUT`)
+        self.info_layout = INFO_LAYOUT + (() if damper is None else SEMI_ACTIVE_INFO_LAYOUT)
         self.kind = check_variant(cfg.variant)
         self.params = kernel_params(vehicle, cfg.flexible)
         self.elem = vehicle.suspension.kernel_params().record()
@@ -297,7 +339,9 @@ class VehicleBatch:
                 f"(num_envs={n}, {self.n_samples} samples each); the limit is "
                 f"{TRACK_BYTES / 2**30:g} GiB",
             )
-        self.arrays, self.out = new_arrays(n, cfg.variant, self.n_samples, self.lpr)
+        self.arrays, self.out = new_arrays(
+            n, cfg.variant, self.n_samples, self.lpr, damper is not None
+        )
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)
@@ -314,7 +358,7 @@ class VehicleBatch:
             terms=np.zeros((n, len(REWARD_TERMS))),
             zi=np.zeros((n, 3, sos.shape[0], 2)),
             action=np.zeros((n, 2)),
-            info=np.zeros((n, INFO_ROW)),
+            info=np.zeros((n, INFO_ROW if damper is None else SEMI_ACTIVE_INFO_ROW)),
             truncated=np.zeros(n, np.bool_),
             extrapolated=np.zeros(n, np.bool_),
         )
@@ -327,6 +371,7 @@ class VehicleBatch:
             sos=sos,
             flag_ood=self.lpr.mode == RAISE_MODE,
             preview_frac=self._preview_fractions(),
+            semi_active=damper is not None,
         )
         self.speed = np.zeros(n)
         self.track_class = np.zeros(n, np.int64)
@@ -359,6 +404,10 @@ class VehicleBatch:
             "outside_envelope": self.off_envelope,
         }
         self._flags = {"diverged": self.out.div, "extrapolated": self.extrapolated}
+        #: the dampers read their commands from the stored actions
+        self.dampers = (
+            None if self.damper is None else VehicleDampers(self.damper, self.book.action)
+        )
         self._args = (
             self.kind,
             self.arrays,
@@ -368,12 +417,21 @@ class VehicleBatch:
             self.out,
             self.book,
             self.step_consts,
+            self.dampers,
         )
         self._step = compiled_entry(control_step, self._args)
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for key in ("reward", "extrapolated", "_flags", "_info_scalars", "_args", "_step"):
+        for key in (
+            "reward",
+            "extrapolated",
+            "_flags",
+            "_info_scalars",
+            "dampers",
+            "_args",
+            "_step",
+        ):
             del state[key]
         return state
 
@@ -430,7 +488,8 @@ class VehicleBatch:
         )
 
     def set_action(self, actions: np.ndarray) -> None:
-        """Store the clipped actions (n, 2); :meth:`advance` applies ``action · f_max`` (N)."""
+        """Store the clipped actions (n, 2); :meth:`advance` applies ``action · f_max`` (N), or
+        with dampers takes them as their commands."""
         self.book.action[...] = actions
 
     def advance(self) -> None:
@@ -449,22 +508,24 @@ class VehicleBatch:
         return self.book.truncated
 
     def info(self, i: int | None = None) -> dict[str, Any]:
-        """The :data:`INFO_LAYOUT` of vehicle ``i`` (Python numbers and views of one fresh copy
-        of its info row) or of all (arrays with a leading axis n); copies."""
+        """The :data:`INFO_LAYOUT` (with dampers also :data:`SEMI_ACTIVE_INFO_LAYOUT`) of
+        vehicle ``i`` (Python numbers and views of one fresh copy of its info row) or of all
+        (arrays with a leading axis n); copies."""
         book, scalars, dt = self.book, self._info_scalars, self.cfg.control_dt
+        layout = self.info_layout
         if i is None:
             return {
                 key: book.steps * dt
                 if key == "time"
                 else (book.info[:, INFO_COLUMNS[key]] if shape else scalars[key]).copy()
-                for key, shape, _ in INFO_LAYOUT
+                for key, shape, _ in layout
             }
         row = book.info[i].copy()
         return {
             key: int(book.steps[i]) * dt
             if key == "time"
             else (row[INFO_COLUMNS[key]] if shape else kind(scalars[key][i]))
-            for key, shape, kind in INFO_LAYOUT
+            for key, shape, kind in layout
         }
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:

@@ -20,8 +20,6 @@ each on its own track, in one compiled call.
 from __future__ import annotations
 
 import warnings
-from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +29,13 @@ from gymnasium import spaces
 from railgym import _checks as val
 from railgym.comfort import MIN_FS
 from railgym.envs.base import BatchEnv, BatchVectorEnv
+from railgym.envs.damper_params import (
+    ACTUATORS,
+    DAMPER_CHANNEL,
+    DEFAULT_DAMPER,
+    DamperArgs,
+    damper_law_of,
+)
 from railgym.envs.params import (
     BACKENDS,
     ENV_BACKENDS,
@@ -41,7 +46,6 @@ from railgym.envs.params import (
     check_speed,
     checked_keywords,
     declared,
-    derived,
     limits,
     param,
 )
@@ -57,23 +61,20 @@ from railgym.track import class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.element_envelope import OperatingEnvelope, element_envelope
 from railgym.vehicles.element_plausibility import implausible_element_warning
-from railgym.vehicles.semi_active import DamperParams, load_damper
-from railgym.vehicles.semi_active_element import DamperElement, load_damper_element
 from railgym.vehicles.vertical import (
     DEFAULT_DT,
-    DamperLaw,
     LprArrays,
     SuspensionParams,
     load_vehicle,
     surrogate_arrays,
 )
-from railgym.vehicles.vertical.kernels import damper_law
 from surrogates import io
 
 __all__ = [
     "ACC_REF",
     "ACC_WEIGHTINGS",
     "ACTUATORS",
+    "DAMPER_CHANNEL",
     "BACKENDS",
     "ENV_BACKENDS",
     "DEFAULT_WEIGHTS",
@@ -104,12 +105,6 @@ OBSERVATIONS = {
 DEFAULT_WEIGHTS = {"acceleration": 1.0, "deflection": 1.0, "force": 0.1}
 #: frequency weightings of the reward's acceleration term (ISO 2631-1), ``"none"``: raw
 ACC_WEIGHTINGS = ("none", "Wk")
-#: what the action commands: an actuator force, or a controllable damper
-ACTUATORS = ("force", "semi-active")
-#: the observation channel ``actuator="semi-active"`` adds (last), with its scale
-DAMPER_CHANNEL = ("damper_command", 1.0)
-#: the packaged damper of ``damper=`` (``configs/dampers/``)
-DEFAULT_DAMPER = "mr_secondary"
 
 
 def _check_track(track_class: Any, speed: Any, speed_limit: float | None) -> tuple[int, float]:
@@ -150,7 +145,7 @@ def _check_profile(profile: Any, wheelbase: float | None) -> tuple[np.ndarray, n
 
 
 @declared
-class VerticalParams(TrackEnvParams):
+class VerticalParams(DamperArgs, TrackEnvParams):
     """The arguments of ``VerticalSuspension-v1`` (:class:`VerticalSuspensionEnv`), declared
     once: defaults, units, limits (docs/envs/vertical.md, *Arguments*)."""
 
@@ -173,40 +168,6 @@ class VerticalParams(TrackEnvParams):
         kind="choice",
         values=ACC_WEIGHTINGS,
     )
-    actuator: str = param(
-        "force",
-        "",
-        '`"force"`: the action is the actuator force / `f_max`, in [−1, 1]; `"semi-active"`: '
-        "the command in [0, 1] of the controllable damper `damper` at its place (not with "
-        'backend `"fmu"`)',
-        kind="choice",
-        values=ACTUATORS,
-    )
-    damper: Any = param(
-        DEFAULT_DAMPER,
-        "",
-        'controllable damper of actuator `"semi-active"`: name in `configs/dampers/` or YAML path',
-        kind="object",
-    )
-
-    damper_element: Any = param(
-        None,
-        "",
-        'data-driven element of `damper` that backend `"surrogate"` runs: packaged name or '
-        "`.json` path (`python -m railgym.vehicles.semi_active_element`); default: the packaged "
-        "element of a packaged `damper`",
-        kind="object",
-        optional=True,
-    )
-
-    damper_params: DamperParams | None = derived(
-        "", 'the loaded `damper` (`None` with actuator `"force"`)'
-    )
-    damper_model: DamperElement | None = derived(
-        "",
-        'the loaded `damper_element` (`None` unless actuator `"semi-active"` on backend '
-        '`"surrogate"`)',
-    )
 
     def _default_dt(self) -> float:
         return DEFAULT_DT[self.variant]
@@ -225,75 +186,7 @@ class VerticalParams(TrackEnvParams):
                 f"{self.acc_weighting!r} needs a control rate of at least {MIN_FS:g} Hz "
                 f"(control_dt at most {1.0 / MIN_FS:g} s), got control_dt={self.control_dt:g} s",
             )
-        self._derive_damper()
-
-    def _derive_damper(self) -> None:
-        """The damper of ``actuator="semi-active"`` (``damper_params``) and its observation
-        channel; ``damper=`` other than the default with ``actuator="force"`` is refused."""
-        self._set("damper_model", None)
-        if self.actuator == "force":
-            if not (isinstance(self.damper, str) and self.damper == DEFAULT_DAMPER):
-                raise val.FieldError(
-                    "damper", "is only used with actuator='semi-active', not 'force'"
-                )
-            if self.damper_element is not None:
-                raise val.FieldError(
-                    "damper_element", "is only used with actuator='semi-active', not 'force'"
-                )
-            self._set("damper_params", None)
-            return
-        if self.backend == "fmu":
-            raise val.FieldError(
-                "actuator", "'semi-active' is not available with backend='fmu'", full=False
-            )
-        self._set("damper_params", load_damper(self.damper))
-        if self.backend == "surrogate":
-            self._set("damper_model", _damper_element(self.damper, self.damper_element))
-        elif self.damper_element is not None:
-            warnings.warn(
-                f"damper_element is ignored by backend={self.backend!r} (only "
-                "backend='surrogate' uses it)",
-                UserWarning,
-                stacklevel=6,
-            )
-        self._set("obs_names", (*self.obs_names, DAMPER_CHANNEL[0]))
-        self._set("obs_scale", np.append(self.obs_scale, DAMPER_CHANNEL[1]))
-
-
-def _damper_element(damper: Any, element: Any) -> DamperElement:
-    """The element of ``damper`` for the surrogate backend: ``element`` (packaged name or
-    ``.json`` path) or, without one, the packaged element of the packaged ``damper``."""
-    if element is None:
-        if not (isinstance(damper, str) and _is_packaged_element(damper)):
-            raise val.FieldError(
-                "damper_element",
-                f"damper {str(damper)!r} has no packaged element: give damper_element= (built "
-                "by python -m railgym.vehicles.semi_active_element --damper DAMPER --out "
-                "ELEMENT.json) or use another backend",
-            )
-        return _packaged_element(damper)
-    if not isinstance(element, str | Path):
-        raise val.FieldTypeError(
-            "damper_element", f"must be a packaged name or a .json path, got {element!r}"
-        )
-    if str(element).endswith(".json"):
-        try:
-            return load_damper_element(element)
-        except (OSError, ValueError) as exc:
-            raise val.FieldError("damper_element", str(exc)) from None
-    if not _is_packaged_element(str(element)):
-        raise val.FieldError("damper_element", f"no packaged element {str(element)!r}")
-    return _packaged_element(str(element))
-
-
-def _is_packaged_element(name: str) -> bool:
-    return (resources.files("railgym") / "data" / f"damper_{name}.json").is_file()
-
-
-@lru_cache(maxsize=2)
-def _packaged_element(name: str) -> DamperElement:
-    """A packaged damper element, loaded once."""
-    return load_damper_element(name)
+        self._derive_damper(1)
 
 
 #: documented limits (docs/envs/vertical.md): the declared bounds of :class:`VerticalParams`
@@ -444,25 +337,17 @@ def check_element_vehicle(backend: str, lpr: LprArrays, vehicle: Any) -> None:
         )
 
 
-def _damper(cfg: VerticalParams) -> DamperLaw | None:
-    """The controllable damper the kernels integrate (``None``: ``actuator="force"``): its
-    element ``cfg.damper_model`` on the surrogate backend, the exact law of
-    ``cfg.damper_params`` on the others."""
-    if cfg.damper_params is None:
-        return None
-    return damper_law(cfg.damper_params, cfg.damper_model)
-
-
 def _batch(
     n: int, cfg: VerticalParams, lpr: LprArrays, envelope: OperatingEnvelope | None = None
 ) -> VerticalBatch:
     """The batch of ``n`` vehicles: compiled kernels (``envelope``: the element's, behind
-    ``info["outside_envelope"]``; the damper of :func:`_damper`), or FMU instances for
+    ``info["outside_envelope"]``; the damper of
+    :func:`~railgym.envs.damper_params.damper_law_of`), or FMU instances for
     ``backend="fmu"`` (``cfg.fmu``: the FMU file, ``cfg.fmu_map``: its mapping file,
     :mod:`railgym.fmu.mapping`)."""
     check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
-        return VerticalBatch(n, cfg, cfg.model, lpr, envelope, _damper(cfg))
+        return VerticalBatch(n, cfg, cfg.model, lpr, envelope, damper_law_of(cfg))
     from railgym.fmu.batch import FMUBatch
     from railgym.fmu.mapping import load_mapping
 
@@ -633,11 +518,11 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
         vehicle: Any = None,
         fmu: Any = None,
         fmu_map: Any = None,
-        wheelbase: float | None = None,
-        acc_weighting: str = "none",
         actuator: str = "force",
         damper: Any = DEFAULT_DAMPER,
         damper_element: Any = None,
+        wheelbase: float | None = None,
+        acc_weighting: str = "none",
     ) -> None:
         surrogate = self._declare(VerticalParams.arguments_from(locals()))
         cfg = self.cfg
@@ -722,11 +607,11 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, TrackVectorShell):
         vehicle: Any = None,
         fmu: Any = None,
         fmu_map: Any = None,
-        wheelbase: float | None = None,
-        acc_weighting: str = "none",
         actuator: str = "force",
         damper: Any = DEFAULT_DAMPER,
         damper_element: Any = None,
+        wheelbase: float | None = None,
+        acc_weighting: str = "none",
     ) -> None:
         args = VerticalParams.arguments_from(locals())
         num_envs, single = self._single(num_envs, render_mode, args)

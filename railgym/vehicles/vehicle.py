@@ -369,12 +369,15 @@ def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper
     ``PARALLEL_MIN`` vehicles or more run :func:`advance_parallel`, smaller ones
     :func:`advance_serial`; the surrogate variant with ``LANES_MIN`` vehicles or more runs the
     lane kernel (:mod:`railgym.vehicles.vehicle_lanes`, on all threads from
-    ``PARALLEL_MIN``). All give bit-identical results. The dampers never take the lane kernel.
+    ``PARALLEL_MIN``). All give bit-identical results. The dampers take
+    :func:`advance_serial` only.
     """
     n = arrays.state.shape[0]
     d = lpr.lo.shape[0]
     lanes = kind == 3 and (d == 2 or (d == 3 and lpr.additive)) and n >= LANES_MIN
-    if damper is None and lanes:
+    if damper is not None:  # numba's parallel lowering refuses the damper's nested law
+        advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper)
+    elif lanes:
         _check_track(kind, arrays, n_sub, lpr)
         if n >= PARALLEL_MIN:
             _lanes_parallel(arrays, n_sub, dt, params, suspension_record, lpr, out)
@@ -382,7 +385,7 @@ def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper
             for i0 in range(0, n, LANES):
                 lanes_block(arrays, i0, n_sub, dt, params, suspension_record, lpr, out)
     elif n >= PARALLEL_MIN:
-        advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper)
+        advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out)
     else:
         advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper)
 

@@ -76,7 +76,11 @@ ROWS = [
     ("railgym", "evaluate skyhook --env vehicle --duration 0", "--duration"),
     ("railgym", "evaluate skyhook --env vehicle --duration 1e9", "--duration"),
     ("railgym", "evaluate skyhook --env vehicle --duration nan", "--duration"),
-    ("railgym", "evaluate groundhook --env vehicle", "policy must be one of"),
+    (
+        "railgym",
+        "evaluate groundhook --env vehicle",
+        "groundhook is a controller of --actuator semi",
+    ),
     ("railgym", "evaluate modal-skyhook", "policy must be one of"),
     ("railgym", "evaluate skyhook --speed 100", "--speed: only for --env vehicle"),
     ("railgym", "evaluate skyhook --duration 5", "--duration: only for"),

@@ -122,7 +122,11 @@ def test_a_shared_name_builds_the_controller_of_the_envs_actuator_and_others_are
     [
         (["lqg", "--actuator", "semi-active"], "--actuator semi-active: lqg is a controller of"),
         (["clipped-lqg"], "--actuator force: clipped-lqg is a controller of --actuator semi"),
-        (["passive", "--actuator", "force", "--env", "vehicle"], "--actuator: only for --env"),
+        (["passive", "--actuator", "force", "--env", "crash"], "--actuator: only for --env"),
+        (
+            ["modal-skyhook", "--actuator", "semi-active", "--env", "vehicle"],
+            "--actuator semi-active: modal-skyhook is a controller of the force actuator",
+        ),
     ],
 )
 def test_cli_refuses_a_controller_of_the_other_actuator_naming_the_flag(argv, words, capsys):
