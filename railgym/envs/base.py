@@ -202,7 +202,7 @@ def _same(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
-def _caller_level() -> int:
+def caller_level() -> int:
     """``stacklevel`` of a warning given by the caller of this function that names the first
     frame outside the env shells, railgym's wrappers and gymnasium (the user's ``reset``)."""
     level, frame = 1, sys._getframe(1)
@@ -307,7 +307,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
                 "return to it, options={'hold': True} to keep the held case without this "
                 "warning; info['case'] reports the case of each reset (warned once per env)",
                 UserWarning,
-                stacklevel=_caller_level(),
+                stacklevel=caller_level(),
             )
 
     def _case_arrays(self, sim: Batch, idx: np.ndarray) -> dict[str, np.ndarray]:

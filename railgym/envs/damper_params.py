@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from railgym import _checks as val
+from railgym.envs.base import caller_level
 from railgym.envs.params import Params, derived, param
 from railgym.vehicles.semi_active import DamperParams, load_damper
 from railgym.vehicles.semi_active_element import DamperElement, load_damper_element
@@ -120,7 +121,7 @@ class DamperArgs(Params):
                 f"damper_element is ignored by backend={backend!r} (only "
                 "backend='surrogate' uses it)",
                 UserWarning,
-                stacklevel=6,
+                stacklevel=caller_level(),
             )
         names, scale = self.obs_names, self.obs_scale  # type: ignore[attr-defined]
         self._set("obs_names", (*names, *damper_channels(n)))

@@ -299,7 +299,7 @@ def _vehicle_surrogate(
     and the element's operating envelope (``None``: none). ``vehicle``: the user gave the
     element, checked against that vehicle's secondary suspension (one warning when it does
     not look like it, docs/envs/vertical.md, *Element plausibility*)."""
-    return element_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle, stacklevel=6)
+    return element_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle)
 
 
 class _VehicleAccessors:

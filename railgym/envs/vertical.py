@@ -28,7 +28,7 @@ from gymnasium import spaces
 
 from railgym import _checks as val
 from railgym.comfort import MIN_FS
-from railgym.envs.base import BatchEnv, BatchVectorEnv
+from railgym.envs.base import BatchEnv, BatchVectorEnv, caller_level
 from railgym.envs.damper_params import (
     ACTUATORS,
     DAMPER_CHANNEL,
@@ -207,7 +207,6 @@ def element_arrays(
     kriging: bool = False,
     relaxation: bool = False,
     vehicle: Any = None,
-    stacklevel: int = 5,
 ) -> tuple[LprArrays, OperatingEnvelope | None]:
     """Kernel arrays of the surrogate element (packaged default, a JSON path or a model) and
     its operating envelope (``metadata.envelope``,
@@ -220,7 +219,8 @@ def element_arrays(
     ``relaxation`` is set (the whole vehicle's kernels integrate it), and so is a malformed
     envelope. With ``vehicle`` (the user gave the element), one ``UserWarning`` when the
     element does not look like that vehicle's secondary suspension
-    (:mod:`railgym.vehicles.element_plausibility`; ``stacklevel``: of that warning).
+    (:mod:`railgym.vehicles.element_plausibility`). The warnings name the user's line
+    (:func:`~railgym.envs.base.caller_level`).
     """
     given = surrogate
     if backend != "surrogate":
@@ -228,7 +228,7 @@ def element_arrays(
             warnings.warn(
                 f"surrogate is ignored by backend={backend!r} (only backend='surrogate' uses it)",
                 UserWarning,
-                stacklevel=4,
+                stacklevel=caller_level(),
             )
         return surrogate_arrays(None), None
     if surrogate is None:
@@ -256,11 +256,11 @@ def element_arrays(
         raise val.FieldError("surrogate", str(exc)) from None
     _check_element_units(surrogate, lpr.lo.shape[0])
     if vehicle is not None:
-        _check_element_plausibility(surrogate, vehicle, given, stacklevel)
+        _check_element_plausibility(surrogate, vehicle, given)
     return lpr, envelope
 
 
-def _check_element_plausibility(model: Any, vehicle: Any, given: Any, stacklevel: int) -> None:
+def _check_element_plausibility(model: Any, vehicle: Any, given: Any) -> None:
     """One ``UserWarning`` when the element ``model`` (the argument ``given``: a path or the
     model) does not look like the secondary suspension of ``vehicle``
     (:func:`~railgym.vehicles.element_plausibility.implausible_element_warning`); an object
@@ -274,7 +274,7 @@ def _check_element_plausibility(model: Any, vehicle: Any, given: Any, stacklevel
         name = f"({type(model).__name__}{f', {source}' if source else ''})"
     text = implausible_element_warning(model, vehicle, name)
     if text is not None:
-        warnings.warn(text, UserWarning, stacklevel=stacklevel)
+        warnings.warn(text, UserWarning, stacklevel=caller_level())
 
 
 #: units of the suspension element's inputs (deflection, its rate, Maxwell state) and output
