@@ -24,8 +24,10 @@ seeded, so the numbers do not depend on the number of workers. Output in ``DIR``
   baseline's with more mean contacts (:mod:`agents.contacts`).
 
 The baselines (:func:`baselines_of`): those of the env, and for a vertical config with
-``actuator: semi-active`` the controllers of the damper (:data:`SEMI_ACTIVE_BASELINES`); they
-run with the config's actuator settings (:data:`ACTUATOR_KEYS`) as the agent does.
+``actuator: semi-active`` the controllers of the damper (:data:`SEMI_ACTIVE_BASELINES`), for a
+vehicle config with ``preview`` the LQG and the LQ preview (:data:`PREVIEW_BASELINES`); they
+run with the config's actuator and preview settings (:data:`ACTUATOR_KEYS`,
+:data:`VEHICLE_KEYS`) as the agent does.
 """
 
 from __future__ import annotations
@@ -59,7 +61,14 @@ from railgym.progress import quiet
 from railgym.report.output import prepare_output_dir, write_text_atomic
 from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
 
-__all__ = ["HELD_OUT", "SEMI_ACTIVE_BASELINES", "baselines_of", "benchmark", "main"]
+__all__ = [
+    "HELD_OUT",
+    "PREVIEW_BASELINES",
+    "SEMI_ACTIVE_BASELINES",
+    "baselines_of",
+    "benchmark",
+    "main",
+]
 
 #: held-out cases per env: FRA classes at their maximum speed (vertical, vehicle); the crash
 #: envelope's speeds × payloads (:data:`agents.crash_report.EVAL_SPEEDS_KMH`)
@@ -72,8 +81,12 @@ BASELINES = {
 }
 #: the baselines of a vertical config with ``actuator: semi-active`` (passive: command 0)
 SEMI_ACTIVE_BASELINES = ("passive", "clipped-lqg", "skyhook-onoff", "skyhook", "groundhook")
+#: the baselines of a vehicle config with ``preview`` (the LQG without it, the LQ preview)
+PREVIEW_BASELINES = ("passive", "lqg", "lq-preview")
 #: vertical env settings of a training config that the baselines share with the agent
 ACTUATOR_KEYS = ("actuator", "damper")
+#: vehicle env settings of a training config that the baselines share with the agent
+VEHICLE_KEYS = ("preview",)
 #: learning-curve metric per env: ``eval.csv`` column (``_<j>`` columns reduced), reduction,
 #: axis label
 CURVES = {
@@ -90,16 +103,19 @@ CRASH_KEYS = ("scenario", "control_dt", "absorber_range", "absorber_rate", "n_ca
 
 def baselines_of(env_id: str, env_kwargs: dict[str, Any]) -> tuple[str, ...]:
     """The baseline names of a config of ``env_id`` with ``env_kwargs``: :data:`BASELINES`,
-    or :data:`SEMI_ACTIVE_BASELINES` for ``actuator: semi-active``."""
+    :data:`SEMI_ACTIVE_BASELINES` for ``actuator: semi-active``, :data:`PREVIEW_BASELINES` for
+    a vehicle with ``preview``."""
     if env_id == ENV_ID and env_kwargs.get("actuator") == "semi-active":
         return SEMI_ACTIVE_BASELINES
+    if env_id == VEHICLE_ID and env_kwargs.get("preview"):
+        return PREVIEW_BASELINES
     return BASELINES[env_id]
 
 
 def _baseline_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
     """The settings of ``env_kwargs`` the baselines share with the agent: :data:`CRASH_KEYS`
-    (crash), :data:`ACTUATOR_KEYS` (vertical)."""
-    keys = {CRASH_ID: CRASH_KEYS, ENV_ID: ACTUATOR_KEYS}.get(env_id, ())
+    (crash), :data:`ACTUATOR_KEYS` (vertical), :data:`VEHICLE_KEYS` (vehicle)."""
+    keys = {CRASH_ID: CRASH_KEYS, ENV_ID: ACTUATOR_KEYS, VEHICLE_ID: VEHICLE_KEYS}.get(env_id, ())
     return {k: v for k, v in env_kwargs.items() if k in keys}
 
 
@@ -180,7 +196,10 @@ def held_out(
         )
     elif env_id == VEHICLE_ID:
         rows = _vehicle_rows(
-            evaluate_vehicle(policies, "reference", HELD_OUT[env_id], (None,), episodes), seed
+            evaluate_vehicle(
+                policies, "reference", HELD_OUT[env_id], (None,), episodes, env_kwargs=env_kwargs
+            ),
+            seed,
         )
     else:
         from agents import crash_report

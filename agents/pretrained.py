@@ -1,14 +1,20 @@
 """Pretrained policies shipped in the package, loaded by name: ``ppo-vertical``
 (trained on ``railgym/VerticalSuspension-v1``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v1``)
 and ``ppo-crash`` (``railgym/TrainCrash-v1``); each runs on any version of its env. The two
-vertical ones are residuals of the LQG (:mod:`agents.residual`)::
+vertical ones are residuals of the LQG (:mod:`agents.residual`). ``ppo-preview`` (the vehicle
+with ``preview=21.56``, a residual of ``lq-preview``) and ``ppo-semiactive`` (the vertical env
+with ``actuator="semi-active"``, a residual of ``clipped-lqg``) carry those env settings with
+them (issue 30)::
 
     railgym evaluate ppo-vertical --track-class 4 5 6
     railgym evaluate ppo-vehicle --env vehicle --track-class 5
     railgym evaluate ppo-crash --env crash --envelope
+    railgym evaluate ppo-preview lq-preview lqg --env vehicle --track-class 4 5 --preview 21.56
+    railgym evaluate ppo-semiactive clipped-lqg --actuator semi-active --track-class 4 5 6
 
 Each is the folder ``agents/pretrained/<name>/`` as :mod:`agents.train` writes it: the final
-``model.zip``, its ``config.yaml`` and a ``manifest.json`` with the zip's SHA-256 (loaded like
+``model.zip`` (weights only in the newer ones: the optimizer's state left out), its
+``config.yaml`` and a ``manifest.json`` with the zip's SHA-256 (loaded like
 any trained policy, weights only: :func:`agents.evaluate.load_policy`). They are the best seed
 of a :mod:`agents.benchmark` run (lowest held-out :data:`RANKING` metric), copied by::
 
@@ -24,6 +30,7 @@ import argparse
 import csv
 import shutil
 import sys
+import zipfile
 from collections.abc import Sequence
 from importlib.resources import files
 from pathlib import Path
@@ -42,6 +49,8 @@ PRETRAINED = {
     "ppo-vertical": "railgym/VerticalSuspension-v1",
     "ppo-vehicle": "railgym/VerticalVehicle-v1",
     "ppo-crash": "railgym/TrainCrash-v1",
+    "ppo-preview": "railgym/VerticalVehicle-v1",
+    "ppo-semiactive": "railgym/VerticalSuspension-v1",
 }
 #: held-out metrics (``results.csv`` of :mod:`agents.benchmark`) whose mean over the cases
 #: ranks the seeds, per env id (lower is better)
@@ -91,10 +100,24 @@ def install(name: str, benchmark_dir: str | Path, overwrite: bool = False) -> Pa
     dst.mkdir(parents=True, exist_ok=True)
     for old in dst.iterdir():
         old.unlink()
-    for part in ("model.zip", "config.yaml"):
-        shutil.copyfile(src / part, dst / part)
+    _copy_weights(src / "model.zip", dst / "model.zip")
+    shutil.copyfile(src / "config.yaml", dst / "config.yaml")
     write_manifest(dst)
     return dst
+
+
+#: entries of an SB3 zip that only a resumed training reads (the optimizer's moments: twice
+#: the size of the weights); loading by name reads ``policy.pth`` only
+TRAINING_STATE = ("policy.optimizer.pth",)
+
+
+def _copy_weights(src: Path, dst: Path) -> None:
+    """Copy the SB3 zip ``src`` to ``dst`` without its :data:`TRAINING_STATE` (the package
+    ships what :func:`agents.policy_io.load_policy_weights` reads, a third of the size)."""
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            if item.filename not in TRAINING_STATE:
+                zout.writestr(item, zin.read(item.filename))
 
 
 def build_parser() -> argparse.ArgumentParser:

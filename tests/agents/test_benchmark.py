@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.benchmark import curve_figure, main, summary_table
+from agents.benchmark import (
+    PREVIEW_BASELINES,
+    _baseline_kwargs,
+    baselines_of,
+    curve_figure,
+    main,
+    summary_table,
+)
+from agents.policies import VEHICLE_ID
 
 TINY = """\
 railgym/VerticalSuspension-v1:
@@ -111,3 +119,13 @@ def test_the_learning_curve_shows_the_agent_with_one_evaluation_too(tmp_path, n)
     legend = ax.get_legend().get_window_extent()
     assert legend.x0 >= ax.get_window_extent().x1  # beside the curves, covering nothing
     plt.close(fig)
+
+
+def test_a_preview_config_is_benchmarked_against_the_lqg_and_the_lq_preview():
+    """A vehicle config with ``preview``: the LQG (no preview) and ``lq-preview`` beside it,
+    run with the config's preview; without it the vehicle baselines as before."""
+    kwargs = {"backend": "surrogate", "preview": 21.56, "duration": 10.0}
+    assert baselines_of(VEHICLE_ID, kwargs) == PREVIEW_BASELINES
+    assert {"lqg", "lq-preview"} <= set(PREVIEW_BASELINES)
+    assert _baseline_kwargs(VEHICLE_ID, kwargs) == {"preview": 21.56}
+    assert "lq-preview" not in baselines_of(VEHICLE_ID, {"backend": "surrogate"})

@@ -128,6 +128,43 @@ def test_vehicle_lqg_is_a_residual_base():
     assert np.all(np.isfinite(reward))
 
 
+def test_lq_preview_is_a_residual_base_with_zero_residual_its_own_action():
+    """``residual: lq-preview`` (ppo_vehicle_preview): a zero agent action applies exactly the
+    LQ preview controller's forces, preview channels included."""
+    from agents.controllers import build_controller
+
+    kwargs = {"backend": "linear", "duration": 0.05, "preview": 21.56}
+    env = _native(VEHICLE_ID, 2, **kwargs)
+    venv = ResidualVectorEnv(env, build_controller(VEHICLE_ID, "lq-preview", env), 0.5)
+    ref = _native(VEHICLE_ID, 2, **kwargs)
+    ctrl = build_controller(VEHICLE_ID, "lq-preview", ref)
+    obs, _ = venv.reset(seed=3)
+    ref_obs, _ = ref.reset(seed=3)
+    start = np.ones(2, np.bool_)
+    for _ in range(4):
+        action, _ = ctrl.predict(ref_obs, episode_start=start)
+        start[:] = False
+        ref_obs, *_ = ref.step(np.clip(action, -1.0, 1.0).astype(np.float32))
+        obs, *_ = venv.step(np.zeros((2, 2), np.float32))
+        np.testing.assert_array_equal(obs, ref_obs)
+
+
+def test_clipped_lqg_is_a_residual_base_clipped_to_the_command_range():
+    """``residual: clipped-lqg`` (ppo_vertical_semiactive): the sum is clipped to the damper's
+    command range [0, 1], whatever the agent's action."""
+    from agents.controllers import build_controller
+
+    env = _native(ENV_ID, 2, **SHORT, actuator="semi-active")
+    venv = ResidualVectorEnv(env, build_controller(ENV_ID, "clipped-lqg", env), 2.0)
+    venv.reset(seed=0)
+    for a in (1.0, -1.0):
+        _, reward, *_ = venv.step(np.full((2, 1), a, np.float32))
+        assert np.all(np.isfinite(reward))
+    assert tuple(venv._bounds[0]) == (0.0,) and tuple(venv._bounds[1]) == (1.0,)
+    for cfg in ("ppo_vehicle_preview", "ppo_vertical_semiactive"):
+        assert load_config(cfg).residual in ("lq-preview", "clipped-lqg")
+
+
 BLOCK = {"algo": "ppo", "n_timesteps": 64, "residual": "lqg"}
 
 
