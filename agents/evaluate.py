@@ -121,6 +121,7 @@ __all__ = [
     "run",
     "run_policy",
     "run_vehicle_policy",
+    "trained_actuator",
 ]
 
 
