@@ -10,6 +10,10 @@ over the held-out impact envelope beside the crash baselines.
     railgym evaluate runs/ppo_crash/model.zip --env crash --envelope
     railgym evaluate clipped-lqg skyhook-onoff groundhook --actuator semi-active
 
+Without ``--actuator`` the command takes the actuator a trained policy was trained with (its
+run's settings; e.g. ``ppo-semiactive``: the damper), so that its comparison rows run on the
+same actuator; an ``--actuator`` other than a trained policy's is refused.
+
 A policy is a controller name (vertical: ``passive``, ``skyhook``, ``semi-active``,
 ``groundhook``, ``lqr``, ``lqg``; with ``--actuator semi-active``, the command of the env's
 controllable damper: ``passive`` (command 0), ``constant-max``, ``skyhook-onoff``, ``skyhook``,
@@ -84,6 +88,7 @@ from agents.policies import (
     load_policy,
     run_policy,
     run_vehicle_policy,
+    trained_actuator,
 )
 from agents.pretrained import PRETRAINED
 from agents.semi_active_control import SEMI_ACTIVE_CONTROLLERS
@@ -116,6 +121,7 @@ __all__ = [
     "run",
     "run_policy",
     "run_vehicle_policy",
+    "trained_actuator",
 ]
 
 
@@ -424,8 +430,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--actuator",
         choices=["force", "semi-active"],
-        help="vertical, vehicle: what the policies command, an actuator force (default) or the "
-        f"controllable damper (semi-active: {', '.join(SEMI_ACTIVE_CONTROLLERS)}; passive is "
+        help="vertical, vehicle: what the policies command, an actuator force or the "
+        "controllable damper (semi-active; default: the actuator a trained policy was trained "
+        "with, else the force; another one than the policy's is refused; semi-active "
+        f"controllers: {', '.join(SEMI_ACTIVE_CONTROLLERS)}; passive is "
         "command 0; vehicle: one damper per bogie)",
     )
     speed = parser.add_argument(
@@ -474,16 +482,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def actuator_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """The env keyword of ``--actuator`` (``{}`` without the flag: the force); a classical
-    controller of the other actuator is refused, naming the flag."""
+    """The env keyword of ``--actuator``, or without the flag the actuator the trained
+    policies were trained with (``{}`` where none says: the force), so that the comparison
+    rows run on the same actuator as the policy; a trained policy of another actuator than
+    ``--actuator`` (or than another trained policy) and a classical controller of the other
+    actuator are refused, naming the flag."""
     if args.env == "crash":
         if args.actuator is not None:
             raise ValueError(
                 f"--actuator: only for --env vertical and vehicle, not --env {args.env}"
             )
         return {}
-    actuator = args.actuator or "force"
     vehicle = args.env == "vehicle"
+    env_id = VEHICLE_ID if vehicle else ENV_ID
+    trained = {p: a for p in args.policy if (a := trained_actuator(p, env_id)) is not None}
+    for p, a in trained.items():
+        if args.actuator is not None and a != args.actuator:
+            raise ValueError(
+                f"--actuator {args.actuator}: policy {p} was trained with actuator {a}; drop "
+                f"the flag (the policy's actuator is used) or give --actuator {a}"
+            )
+    if len(set(trained.values())) > 1:
+        raise ValueError(
+            "the trained policies were trained with different actuators ("
+            + ", ".join(f"{p}: {a}" for p, a in trained.items())
+            + "); evaluate each actuator's policies in their own command"
+        )
+    given = args.actuator or next(iter(trained.values()), None)
+    actuator = given or "force"
     both = VEHICLE_CONTROLLERS if vehicle else CONTROLLERS
     force = VEHICLE_FORCE_CONTROLLERS if vehicle else FORCE_CONTROLLERS
     names = SEMI_ACTIVE_CONTROLLERS if actuator == "semi-active" else force
@@ -494,7 +520,7 @@ def actuator_kwargs(args: argparse.Namespace) -> dict[str, Any]:
                 f"--actuator {actuator}: {p} is a controller of {other}; the controllers of "
                 f"--actuator {actuator} are {', '.join(names)}"
             )
-    return {} if args.actuator is None else {"actuator": args.actuator}
+    return {} if given is None else {"actuator": given}
 
 
 def _only_for(args: argparse.Namespace, flags: dict[str, bool], envs: str) -> None:

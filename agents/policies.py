@@ -92,6 +92,35 @@ def load_policy(
     return _sb3_policy(path, env_id, trust, pretrained)
 
 
+def trained_actuator(policy: str, env_id: str = ENV_ID) -> str | None:
+    """The actuator (``"force"`` or ``"semi-active"``) a trained policy was trained with, read
+    from its run's settings without loading it: an :mod:`agents.train` or rl-zoo3 zip (or a
+    pretrained name); ``None`` for a controller name, an RLlib checkpoint, a bare zip (its env
+    comes from the command) or a path that is not there (:func:`load_policy` says why)."""
+    if not isinstance(policy, str | Path) or str(policy) in CONTROLLERS_OF.get(env_id, {}):
+        return None
+    policy = str(policy)
+    if policy in PRETRAINED:
+        try:
+            path = pretrained_zip(policy, env_id)
+        except ValueError:
+            return None
+    else:
+        path = Path(policy)
+    if path.suffix != ".zip" or not path.is_file():
+        return None
+    source = find_source(path)
+    if source.kind == "agents.train":
+        from agents.train_config import load_config
+
+        env_kwargs = load_config(source.config).env_kwargs
+    elif source.kind == "rl-zoo3":
+        env_kwargs = source.env_kwargs
+    else:
+        return None
+    return str(env_kwargs.get("actuator", "force"))
+
+
 #: the env arguments a trained policy carries to the env it runs on (they shape its
 #: observation and action); the others are the run's own
 POLICY_ENV_KWARGS = frozenset(
@@ -436,4 +465,5 @@ __all__ = [
     "load_policy",
     "run_policy",
     "run_vehicle_policy",
+    "trained_actuator",
 ]

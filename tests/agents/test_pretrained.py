@@ -72,3 +72,47 @@ def test_ppo_crash_reproduces_its_figure():
     peak = float(np.max(rows[1]["peak_decel_g"]))
     assert peak == pytest.approx(STORED["ppo-crash"], rel=1e-3)
     assert PRETRAINED["ppo-crash"].rsplit("-v", 1)[0] == CRASH_ID.rsplit("-v", 1)[0]
+
+
+def _table(out: str) -> dict[str, str]:
+    """``policy: row`` of a ``railgym evaluate`` table (one class)."""
+    return {ln.split()[1]: ln for ln in out.splitlines()[2:] if ln.strip()}
+
+
+def test_cli_evaluate_of_a_semi_active_policy_compares_on_its_damper(capsys):
+    """Without --actuator the command takes the policy's actuator: passive is damper command 0
+    and skyhook the semi-active one, the same rows as with --actuator semi-active."""
+    from agents.cli import main
+
+    case = ["--backend", "linear", "--track-class", "4", "--episodes", "1"]
+    assert main(["evaluate", "ppo-semiactive", *case]) == 0
+    out = capsys.readouterr().out
+    assert "actuator: semi-active (passive: damper command 0)" in out.splitlines()[0]
+    rows = _table(out)
+    assert list(rows) == ["passive", "skyhook", "ppo-semiactive"]
+    assert main(["evaluate", "passive", "skyhook", "--actuator", "semi-active", *case]) == 0
+    damper = _table(capsys.readouterr().out)
+    assert rows["passive"] == damper["passive"] and rows["skyhook"] == damper["skyhook"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (
+            ["ppo-semiactive", "--actuator", "force"],
+            "--actuator force: policy ppo-semiactive was trained with actuator semi-active",
+        ),
+        (
+            ["ppo-vertical", "--actuator", "semi-active"],
+            "--actuator semi-active: policy ppo-vertical was trained with actuator force",
+        ),
+        (["ppo-semiactive", "ppo-vertical"], "trained with different actuators"),
+        (["ppo-semiactive", "lqg"], "--actuator semi-active: lqg is a controller of"),
+    ],
+)
+def test_cli_refuses_an_actuator_the_policy_was_not_trained_with(argv, words, capsys):
+    from agents.cli import main
+
+    assert main(["evaluate", *argv, "--episodes", "1"]) == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err
