@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -73,6 +74,11 @@ class _DefaultsMixin:
         ):
             return action.help
         return f"{text} (default: {shown_default(default).replace('%', '%%')})"
+
+    def _split_lines(self, text: str, width: int) -> list[str]:
+        """Help lines wrapped at spaces only: a name like ``speed-adaptive`` or
+        ``clipped-lqg`` is never split at its hyphen."""
+        return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False)
 
 
 class HelpFormatter(_DefaultsMixin, argparse.HelpFormatter):
