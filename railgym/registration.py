@@ -14,6 +14,11 @@ ENVS = {
         "railgym.envs.vertical:VerticalSuspensionEnv",
         "railgym.envs.vertical:VerticalSuspensionVectorEnv",
     ),
+    # v2: the same element evaluated by Hermite tables inside its box (docs: Version history)
+    "railgym/VerticalSuspension-v2": (
+        "railgym.envs.vertical:VerticalSuspensionEnvV2",
+        "railgym.envs.vertical:VerticalSuspensionVectorEnvV2",
+    ),
     # v0: the static packaged element by default; v1: the memory element (docs: Version history)
     "railgym/VerticalVehicle-v0": (
         "railgym.envs.vehicle:VerticalVehicleEnvV0",
@@ -22,6 +27,11 @@ ENVS = {
     "railgym/VerticalVehicle-v1": (
         "railgym.envs.vehicle:VerticalVehicleEnv",
         "railgym.envs.vehicle:VerticalVehicleVectorEnv",
+    ),
+    # v2: the same element evaluated by Hermite tables inside its box (docs: Version history)
+    "railgym/VerticalVehicle-v2": (
+        "railgym.envs.vehicle:VerticalVehicleEnvV2",
+        "railgym.envs.vehicle:VerticalVehicleVectorEnvV2",
     ),
     # v0: one mass per car, global LPR elements; v1: elastic cars, piecewise elements
     "railgym/TrainCrash-v0": (

@@ -75,8 +75,10 @@ __all__ = [
     "VehicleParams",
     "VerticalVehicleEnv",
     "VerticalVehicleEnvV0",
+    "VerticalVehicleEnvV2",
     "VerticalVehicleVectorEnv",
     "VerticalVehicleVectorEnvV0",
+    "VerticalVehicleVectorEnvV2",
     "episode_comfort",
     "preview_points",
 ]
@@ -291,15 +293,16 @@ def _batch(
 
 
 def _vehicle_surrogate(
-    backend: str, surrogate: Any, dt: float, vehicle: Any = None
+    backend: str, surrogate: Any, dt: float, vehicle: Any = None, grid: bool = False
 ) -> tuple[Any, OperatingEnvelope | None]:
     """Kernel arrays of the secondary-suspension element, the same at both bogies: a static
     (δ, δ̇) or a memory (δ, δ̇, δ − s) element, each bogie with its own Maxwell state; the
     default is the packaged whole-vehicle element (``vehicle_lpr.json``, docs/validation.md);
     and the element's operating envelope (``None``: none). ``vehicle``: the user gave the
     element, checked against that vehicle's secondary suspension (one warning when it does
-    not look like it, docs/envs/vertical.md, *Element plausibility*)."""
-    return element_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle)
+    not look like it, docs/envs/vertical.md, *Element plausibility*). ``grid``: an additive
+    memory element is evaluated by its Hermite tables inside its box."""
+    return element_arrays(backend, surrogate, dt, relaxation=True, vehicle=vehicle, grid=grid)
 
 
 class _VehicleAccessors:
@@ -355,7 +358,8 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
     checked arguments are :attr:`cfg`. Without ``surrogate=`` the surrogate backend uses the
     whole vehicle's packaged element
     (:func:`~railgym.vehicles.collect_vehicle.default_vehicle_surrogate`);
-    :attr:`default_element` is ``("static", "")`` for ``VerticalVehicle-v0``.
+    :attr:`default_element` is ``("static", "")`` for ``VerticalVehicle-v0``,
+    :attr:`element_grid` is set for ``VerticalVehicle-v2``.
 
     Single-env accessors (the vector env's, of sub-env 0): :attr:`state` (s,),
     :attr:`carbody_acceleration` (3,), :attr:`actuator_force` (2,), :attr:`out_of_domain`,
@@ -401,7 +405,7 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
         cfg = self.cfg
         self.speeds = _speed_range(cfg.track_class, cfg.speed, cfg.speed_limit)
         given = cfg.model if cfg.surrogate is not None else None  # the user's element
-        lpr, envelope = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt, given)
+        lpr, envelope = _vehicle_surrogate(cfg.backend, surrogate, cfg.dt, given, self.element_grid)
         self.vehicle = cfg.model
         v_min = min(self.speeds[0], SIZING_SPEED)
         low = 0.0 if cfg.actuator == "semi-active" else -1.0
@@ -533,3 +537,17 @@ class VerticalVehicleVectorEnvV0(VerticalVehicleVectorEnv):
     """Native vector version of :class:`VerticalVehicleEnvV0`."""
 
     single_class = VerticalVehicleEnvV0
+
+
+class VerticalVehicleEnvV2(VerticalVehicleEnv):
+    """``VerticalVehicle-v2``: an additive memory element evaluated by its Hermite tables
+    inside the box (:mod:`surrogates.models.lpr_grid`); everything else as
+    :class:`VerticalVehicleEnv` (docs/envs/vehicle_vertical.md, *Version history*)."""
+
+    element_grid = True
+
+
+class VerticalVehicleVectorEnvV2(VerticalVehicleVectorEnv):
+    """Native vector version of :class:`VerticalVehicleEnvV2`."""
+
+    single_class = VerticalVehicleEnvV2

@@ -32,6 +32,7 @@ from railgym.vehicles.vehicle import (
     WholeVehicle,
     advance,
     check_variant,
+    element_lpr,
     hermite,
     kernel_params,
     mode_shape,
@@ -327,7 +328,7 @@ class VehicleBatch:
         self.kind = check_variant(cfg.variant)
         self.params = kernel_params(vehicle, cfg.flexible)
         self.elem = vehicle.suspension.kernel_params().record()
-        self.lpr = Lpr(*lpr[: len(Lpr._fields)])  # the LPR fields (a Kriging is refused)
+        self.lpr = element_lpr(lpr)  # the LPR fields (a Kriging is refused)
         self.span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)  # m
         self.v_min = v_min
         self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(self.span / (v_min * cfg.dt)) + 2

@@ -85,8 +85,10 @@ __all__ = [
     "VerticalParams",
     "VerticalSuspensionEnv",
     "VerticalSuspensionEnvV0",
+    "VerticalSuspensionEnvV2",
     "VerticalSuspensionVectorEnv",
     "VerticalSuspensionVectorEnvV0",
+    "VerticalSuspensionVectorEnvV2",
     "check_speed",
     "check_speed_limit",
 ]
@@ -207,6 +209,7 @@ def element_arrays(
     kriging: bool = False,
     relaxation: bool = False,
     vehicle: Any = None,
+    grid: bool = False,
 ) -> tuple[LprArrays, OperatingEnvelope | None]:
     """Kernel arrays of the surrogate element (packaged default, a JSON path or a model) and
     its operating envelope (``metadata.envelope``,
@@ -220,7 +223,9 @@ def element_arrays(
     envelope. With ``vehicle`` (the user gave the element), one ``UserWarning`` when the
     element does not look like that vehicle's secondary suspension
     (:mod:`railgym.vehicles.element_plausibility`). The warnings name the user's line
-    (:func:`~railgym.envs.base.caller_level`).
+    (:func:`~railgym.envs.base.caller_level`). ``grid``: an additive LPR element is
+    evaluated by its Hermite tables inside the box
+    (:func:`~railgym.vehicles.vertical.surrogate_arrays`).
     """
     given = surrogate
     if backend != "surrogate":
@@ -247,7 +252,7 @@ def element_arrays(
             f"got {type(surrogate).__name__}",
         )
     try:
-        lpr = surrogate_arrays(surrogate, dt, kriging, relaxation)
+        lpr = surrogate_arrays(surrogate, dt, kriging, relaxation, grid)
     except ValueError as exc:
         raise val.FieldError("surrogate", str(exc), full=True) from None
     try:
@@ -369,6 +374,9 @@ class TrackEnvShell(BatchEnv):
     #: :func:`~railgym.vehicles.collect.default_vertical_surrogate`; ``None``: the current
     #: memory element (the versions: docs, *Version history*)
     default_element: tuple[str, str] | None = None
+    #: an additive LPR element evaluated by its Hermite tables inside the box
+    #: (:mod:`surrogates.models.lpr_grid`; the versions: docs, *Version history*)
+    element_grid: bool = False
     cfg: TrackEnvParams
 
     def _declare(self, kwargs: dict[str, Any]) -> Any:
@@ -484,7 +492,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
     The keyword arguments are the fields of :class:`VerticalParams` (default, unit, limits
     and meaning of each: docs/envs/vertical.md, *Arguments*) and ``render_mode``; the checked
     arguments are :attr:`cfg`. :attr:`default_element` is ``("maxwell", "v0")`` for
-    ``VerticalSuspension-v0``.
+    ``VerticalSuspension-v0``, :attr:`element_grid` is set for ``VerticalSuspension-v2``.
 
     Single-env accessors: :attr:`state` (s,), :attr:`carbody_acceleration`,
     :attr:`actuator_force` (floats), :attr:`out_of_domain`, :attr:`vehicle_params`, :meth:`track`,
@@ -528,7 +536,9 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
         cfg = self.cfg
         self.track_class, self.speed = _check_track(cfg.track_class, cfg.speed, cfg.speed_limit)
         given = cfg.model if cfg.surrogate is not None else None  # the user's element
-        lpr, envelope = element_arrays(cfg.backend, surrogate, cfg.dt, True, vehicle=given)
+        lpr, envelope = element_arrays(
+            cfg.backend, surrogate, cfg.dt, True, vehicle=given, grid=self.element_grid
+        )
         low = 0.0 if cfg.actuator == "semi-active" else -1.0
         self._start(_batch(1, cfg, lpr, envelope), render_mode, low)
 
@@ -631,3 +641,17 @@ class VerticalSuspensionVectorEnvV0(VerticalSuspensionVectorEnv):
     """Native vector version of :class:`VerticalSuspensionEnvV0`."""
 
     single_class = VerticalSuspensionEnvV0
+
+
+class VerticalSuspensionEnvV2(VerticalSuspensionEnv):
+    """``VerticalSuspension-v2``: an additive LPR element evaluated by its Hermite tables
+    inside the box (:mod:`surrogates.models.lpr_grid`); everything else as
+    :class:`VerticalSuspensionEnv` (docs/envs/vertical.md, *Version history*)."""
+
+    element_grid = True
+
+
+class VerticalSuspensionVectorEnvV2(VerticalSuspensionVectorEnv):
+    """Native vector version of :class:`VerticalSuspensionEnvV2`."""
+
+    single_class = VerticalSuspensionEnvV2

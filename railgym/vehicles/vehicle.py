@@ -67,6 +67,7 @@ from railgym.vehicles.whole_vehicle import WholeVehicle, mode_shape
 from railgym.vehicles.whole_vehicle import load_whole_vehicle as load_whole_vehicle
 from surrogates.memory import relaxation_rate
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside, lpr_scratch
+from surrogates.models.lpr_grid import lpr_grid_inside
 
 VARIANTS = ("linear", "static", "dynamic", "surrogate")
 _KIND = {"linear": 0, "static": 1, "dynamic": 2, "surrogate": 3}
@@ -125,6 +126,10 @@ class Lpr(NamedTuple):
     additive: bool
     relax_z: np.ndarray  # knots of a nonlinear relaxation law ṡ = g(δ − s), m (empty: linear)
     relax_r: np.ndarray  # its rates at the knots, m/s
+    gridded: bool  # a memory element evaluated by its Hermite tables inside the box
+    grid: np.ndarray  # (d, M, 4) interval coefficients of the tables, N
+    grid_scale: np.ndarray  # (d,) intervals per input unit
+    grid_top: np.ndarray  # (d,) last interval of each input
 
 
 class VehicleArrays(NamedTuple):
@@ -172,10 +177,17 @@ def kernel_params(vehicle: WholeVehicle, flexible: bool = True) -> Params:
     )
 
 
-def lpr_arrays(surrogate: Any = None, dt: float | None = None) -> Lpr:
+def lpr_arrays(surrogate: Any = None, dt: float | None = None, grid: bool = False) -> Lpr:
     """:class:`Lpr` of a fitted LPR model (or its ``kernel_arrays()``), static or memory
-    form; placeholders for None. ``dt`` (s), when given, is checked against ``2τ``."""
-    return Lpr(*surrogate_arrays(surrogate, dt, relaxation=True)[: len(Lpr._fields)])
+    form; placeholders for None. ``dt`` (s), when given, is checked against ``2τ``. ``grid``:
+    an additive memory element is evaluated by its Hermite tables inside the box
+    (:mod:`surrogates.models.lpr_grid`)."""
+    return element_lpr(surrogate_arrays(surrogate, dt, relaxation=True, grid=grid))
+
+
+def element_lpr(arrays: Any) -> Lpr:
+    """The :class:`Lpr` fields of an element's :class:`~railgym.vehicles.vertical.LprArrays`."""
+    return Lpr(*(getattr(arrays, name) for name in Lpr._fields))
 
 
 def state_size(variant: str, lpr: Lpr | None = None, damper: bool = False) -> int:
@@ -255,7 +267,8 @@ def _rhs(
     ``kind``: the variant's code (:func:`check_variant`); ``params``: :class:`Params`;
     ``suspension``: one suspension record; ``u`` (d,) element inputs, ``element_rates`` (3,) and
     ``lpr_work`` are work arrays. A memory element's states are ``state[N_MECH + i]``; it is
-    evaluated by the additive fast path inside its box, like the one-bogie kernel."""
+    evaluated by its Hermite tables (``lpr.gridded``) or the additive fast path inside its box,
+    like the one-bogie kernel."""
     outside = 0
     f0 = 0.0
     f1 = 0.0
@@ -284,7 +297,9 @@ def _rhs(
             out_i = lpr_is_outside(u, lpr.lo, lpr.up)
             if out_i:
                 outside += 1
-            if memory and lpr.additive and not out_i:
+            if memory and lpr.gridded and not out_i:
+                f = lpr_grid_inside(u, lpr.grid, lpr.lo, lpr.grid_scale, lpr.grid_top)
+            elif memory and lpr.additive and not out_i:
                 f = lpr_additive_inside(u, lpr.table, lpr.lo, lpr_work)
             else:
                 f = lpr_eval_into(u, lpr.exps, lpr.coef, lpr.lo, lpr.up, lpr.mode, lpr_work)

@@ -22,6 +22,7 @@ from numba import njit
 from railgym.vehicles.vertical.elements import bump_stop_force
 from surrogates.memory import relaxation_rate
 from surrogates.models.lpr import additive_terms, lpr_eval_into, lpr_scratch
+from surrogates.models.lpr_grid import grid_eval
 
 __all__ = ["LANES", "LANES_MIN", "hermite", "lanes_block"]
 
@@ -134,19 +135,55 @@ def _element(block, legendre, lpr, lpr_work, u, n_lanes):
 def _element_memory(block, lpr, lpr_work, u, n_lanes):
     """Value of an additive three-input (memory) element at the inputs in rows ``_U, _U + 1,
     _UZ`` into row ``_EL``: the operations of :func:`~surrogates.models.lpr.lpr_additive_inside`
-    (three interleaved recurrences) lane by lane; lanes outside the box by ``lpr_eval_into``
-    (their flags added to row ``_OUT``)."""
-    table, lo, up = lpr.table, lpr.lo, lpr.up
-    n = table.shape[1]
+    (three interleaved recurrences) or, for a gridded element, of
+    :func:`~surrogates.models.lpr_grid.lpr_grid_inside` lane by lane; lanes outside the box by
+    ``lpr_eval_into`` (their flags added to row ``_OUT``)."""
+    lo, up = lpr.lo, lpr.up
     for l in range(n_lanes):
         block[_FB, l] = 0.0
     for j in range(3):
         row = _U + j if j < 2 else _UZ
-        lj, uj, scale = lo[j], up[j], lpr_work[6, j]
+        lj, uj = lo[j], up[j]
         for l in range(n_lanes):
             v = block[row, l]
             block[_FB, l] = max(block[_FB, l], 1.0 if (v < lj) | (v > uj) else 0.0)
-            t = (v - lj) * scale - 1.0
+    if lpr.gridded:
+        coef, scale, top = lpr.grid, lpr.grid_scale, lpr.grid_top
+        for j in range(3):
+            row = _U + j if j < 2 else _UZ
+            lj, sj, tj = lo[j], scale[j], top[j]
+            for l in range(n_lanes):
+                block[_S + j, l] = grid_eval(block[row, l], lj, sj, tj, coef, j)
+    else:
+        _memory_sums(block, lpr, lpr_work, n_lanes)
+    outside = 0.0
+    for l in range(n_lanes):
+        block[_EL, l] = block[_S, l] + block[_S + 1, l] + block[_S + 2, l]
+        block[_OUT, l] += block[_FB, l]
+        outside += block[_FB, l]
+    if outside > 0.0:
+        for l in range(n_lanes):
+            if block[_FB, l] > 0.0:
+                u[0], u[1], u[2] = (
+                    block[_U, l],
+                    block[_U + 1, l],
+                    block[_UZ, l],
+                )
+                block[_EL, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _memory_sums(block, lpr, lpr_work, n_lanes):
+    """Rows ``_S + j``: the Legendre sums of the memory element's three inputs (the constant
+    in row ``_S``), the recurrences of :func:`~surrogates.models.lpr.lpr_additive_inside`
+    interleaved lane by lane."""
+    table, lo = lpr.table, lpr.lo
+    n = table.shape[1]
+    for j in range(3):
+        row = _U + j if j < 2 else _UZ
+        lj, scale = lo[j], lpr_work[6, j]
+        for l in range(n_lanes):
+            t = (block[row, l] - lj) * scale - 1.0
             block[_TM + j, l] = t
             block[_A + j, l] = 1.0
             block[_B + j, l] = t
@@ -186,20 +223,6 @@ def _element_memory(block, lpr, lpr_work, u, n_lanes):
                 block[_S + j, l] += ct * nx
                 block[o, l] = nx
             o, nw = nw, o
-    outside = 0.0
-    for l in range(n_lanes):
-        block[_EL, l] = block[_S, l] + block[_S + 1, l] + block[_S + 2, l]
-        block[_OUT, l] += block[_FB, l]
-        outside += block[_FB, l]
-    if outside > 0.0:
-        for l in range(n_lanes):
-            if block[_FB, l] > 0.0:
-                u[0], u[1], u[2] = (
-                    block[_U, l],
-                    block[_U + 1, l],
-                    block[_UZ, l],
-                )
-                block[_EL, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

@@ -218,11 +218,12 @@ def test_synthetic_maxwell_element_is_recovered_at_both_bogies(vehicle):
     assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
 
 
+@pytest.mark.parametrize("grid", [False, True], ids=["legendre", "grid"])
 @pytest.mark.parametrize("n", [LANES_MIN + 3, 2 * LANES + 5, PARALLEL_MIN + 37])
-def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle, element, n):
+def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle, element, n, grid):
     """``advance`` (lane kernel) with the memory element equals ``advance_serial`` bit for bit,
     Maxwell states included, through bump-stop contact, inputs outside the box and a
-    diverging vehicle."""
+    diverging vehicle; with the Legendre recurrence and with the element's Hermite tables."""
     off = wheelset_offsets(vehicle, SPEED, DT)
     n_sub = 25
     samples = int(off.max()) + 4 * n_sub + 2
@@ -232,7 +233,8 @@ def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle
     force = rng.uniform(-2e4, 2e4, (n, 2))
     p = kernel_params(vehicle)
     e = vehicle.suspension.kernel_params().record()
-    lpr = lpr_arrays(element, DT)
+    lpr = lpr_arrays(element, DT, grid)
+    assert lpr.gridded == grid
     runs = []
     for step in (advance_serial, advance):
         bt, out = new_arrays(n, "surrogate", samples, lpr)

@@ -3,7 +3,8 @@
 Both integrate the same RK4 step with the same operations; the lane kernel takes the vehicles
 ``LANES`` at a time as structure-of-arrays rows, the scalar one vehicle after another. The
 batches below run through bump-stop contact, inputs outside the element's box (the scalar
-fallback of the lane kernel) and divergence, in full and partial blocks, serial and parallel.
+fallback of the lane kernel) and divergence, in full and partial blocks, serial and parallel,
+with the Legendre recurrence and with the Hermite tables of a gridded element.
 """
 
 from __future__ import annotations
@@ -33,7 +34,9 @@ from railgym.vehicles.vertical.lanes import (
 P = load_vehicle("manchester").kernel_params().record()
 N_SUB, DT = 10, 1e-3
 ELEMENTS = {
-    form: surrogate_arrays(default_vertical_surrogate(form)) for form in ("maxwell", "static")
+    f"{form}{'-grid' * grid}": surrogate_arrays(default_vertical_surrogate(form), grid=grid)
+    for form in ("maxwell", "static")
+    for grid in (False, True)
 }
 
 
@@ -87,8 +90,9 @@ def test_lanes_equal_the_scalar_kernel_through_contact_extrapolation_and_diverge
     assert np.isfinite(lanes[-5]).all()
 
 
-def test_parallel_lanes_equal_serial_lanes():
-    lpr = ELEMENTS["maxwell"]
+@pytest.mark.parametrize("name", ["maxwell", "maxwell-grid"])
+def test_parallel_lanes_equal_serial_lanes(name):
+    lpr = ELEMENTS[name]
     z, zdot, fa = _batch(PARALLEL_MIN + 3, seed=4, severity=10.0)
     serial = _run(advance_lanes, lpr, z, zdot, fa, steps=6)
     parallel = _run(advance_lanes_parallel, lpr, z, zdot, fa, steps=6)

@@ -23,6 +23,7 @@ from railgym.vehicles.semi_active_element import (
 )
 from surrogates.models.kriging import kriging_eval_into
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside
+from surrogates.models.lpr_grid import lpr_grid_inside
 
 __all__ = [
     "DAMPER_LAWS",
@@ -39,6 +40,7 @@ __all__ = [
 _NONE2 = np.zeros((0, 2))
 _NONE1 = np.zeros(0)
 _ONE = np.ones(2)
+_NO_GRID = np.zeros((1, 1, 4))
 
 
 class LprArrays(NamedTuple):
@@ -51,7 +53,9 @@ class LprArrays(NamedTuple):
     (:meth:`Kriging.kernel_arrays`; same names, so that
     :func:`~surrogates.models.kriging.kriging_eval_into` reads this tuple), with one-term
     placeholders in ``exps``, ``coef``, ``table``. The Kriging fields are flat (no nested
-    tuple) so that the tuple passes into the ``prange`` lane kernel.
+    tuple) so that the tuple passes into the ``prange`` lane kernel; so are the Hermite
+    tables of a gridded additive LPR (``gridded``, :mod:`surrogates.models.lpr_grid`), which
+    replace the Legendre recurrence inside the box (outside: the polynomial as without them).
     """
 
     exps: np.ndarray  #: int64 (L, d) exponents
@@ -76,6 +80,12 @@ class LprArrays(NamedTuple):
     y_mean: float = 0.0  #: Kriging: output mean, N
     y_std: float = 1.0  #: Kriging: output standard deviation, N
     kernel: int = 0  #: Kriging: 0 Gaussian, 1 Matérn-5/2
+    #: an additive LPR evaluated inside the box by its Hermite tables (the fields below,
+    #: :class:`~surrogates.models.lpr_grid.LprGrid`) instead of the Legendre recurrence
+    gridded: bool = False
+    grid: np.ndarray = _NO_GRID  #: float64 (d, M, 4) interval coefficients, N
+    grid_scale: np.ndarray = _ONE  #: float64 (d,) intervals per input unit
+    grid_top: np.ndarray = _NONE1  #: float64 (d,) last interval of each input
 
 
 #: law kinds of a controllable damper (:attr:`DamperLaw.law`): ``"exact"`` is the Bouc–Wen law
@@ -232,6 +242,8 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
             outside = 1
         if lpr.kriging:
             fs = kriging_eval_into(u, lpr, lw)
+        elif lpr.gridded and outside == 0:
+            fs = lpr_grid_inside(u, lpr.grid, lpr.lo, lpr.grid_scale, lpr.grid_top)
         elif lpr.additive and outside == 0:
             fs = lpr_additive_inside(u, lpr.table, lpr.lo, lw)
         else:

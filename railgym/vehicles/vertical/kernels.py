@@ -38,6 +38,7 @@ from railgym.vehicles.vertical.lanes import (
 from surrogates.memory import FEATURE_FORMS, element_form, shortest_time_constant
 from surrogates.models.kriging import KrigingArrays
 from surrogates.models.lpr import EXTRAPOLATION_MODES, additive_table, lpr_scratch
+from surrogates.models.lpr_grid import lpr_grid
 
 __all__ = [
     "DEFAULT_DT",
@@ -275,7 +276,11 @@ KERNELS = {
 
 
 def surrogate_arrays(
-    surrogate: Any = None, dt: float | None = None, kriging: bool = False, relaxation: bool = False
+    surrogate: Any = None,
+    dt: float | None = None,
+    kriging: bool = False,
+    relaxation: bool = False,
+    grid: bool = False,
 ) -> LprArrays:
     """:class:`LprArrays` from a fitted LPR model (or its ``kernel_arrays()`` tuple), or with
     ``kriging=True`` also from a fitted :class:`~surrogates.models.kriging.Kriging`.
@@ -288,7 +293,9 @@ def surrogate_arrays(
     rejected, and so is a Kriging unless ``kriging`` is set (the vertical kernels of this
     package evaluate it; kernels that read the LPR fields only do not), and a memory element
     with a nonlinear relaxation law unless ``relaxation`` is set (the whole vehicle's kernels
-    integrate it, the one-bogie kernels do not).
+    integrate it, the one-bogie kernels do not). ``grid``: an additive LPR is evaluated
+    inside its box by Hermite tables (:func:`~surrogates.models.lpr_grid.lpr_grid`, within
+    ``GRID_RTOL`` of its output range) instead of the Legendre recurrence.
     """
     if surrogate is None:
         return LprArrays(
@@ -336,6 +343,9 @@ def surrogate_arrays(
     arrays = LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
     if table is not None:
         arrays = arrays._replace(table=table, additive=True)
+        if grid:
+            g = lpr_grid(table, lo, up)
+            arrays = arrays._replace(gridded=True, grid=g.coef, grid_scale=g.scale, grid_top=g.top)
     if form.relaxation is not None:
         if not relaxation:
             raise ValueError(

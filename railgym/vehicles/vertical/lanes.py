@@ -20,6 +20,7 @@ from numba import njit, prange
 
 from railgym.vehicles.vertical.elements import bump_stop_force
 from surrogates.models.lpr import additive_terms, lpr_eval_into, lpr_scratch
+from surrogates.models.lpr_grid import grid_eval
 
 __all__ = ["LANES", "LANES_MIN", "PARALLEL_MIN", "advance_lanes", "advance_lanes_parallel"]
 
@@ -56,20 +57,60 @@ _ROWS = 58
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _element(block, lpr, lpr_work, u, n_lanes):
     """Element force ``F̂(u)`` into row ``_FS`` from the inputs in rows ``_U``: the additive
-    Legendre sums of :func:`~surrogates.models.lpr.lpr_additive_inside` lane-parallel, then
-    the lanes outside the box by :func:`~surrogates.models.lpr.lpr_eval_into`."""
+    Legendre sums of :func:`~surrogates.models.lpr.lpr_additive_inside` (or the Hermite
+    tables of a gridded element) lane-parallel, then the lanes outside the box by
+    :func:`~surrogates.models.lpr.lpr_eval_into`."""
     d = lpr.lo.shape[0]
-    table = lpr.table
-    n = table.shape[1]
     lo, up = lpr.lo, lpr.up
     for l in range(n_lanes):
         block[_OUT, l] = 0.0
     for j in range(d):
-        lj, uj, scale = lo[j], up[j], lpr_work[d + 3, j]
+        lj, uj = lo[j], up[j]
         for l in range(n_lanes):
             v = block[_U + j, l]
             block[_OUT, l] = max(block[_OUT, l], 1.0 if (v < lj) | (v > uj) else 0.0)
-            t = (v - lj) * scale - 1.0
+    if lpr.gridded:
+        _grid_sums(block, lpr, n_lanes)
+    else:
+        _legendre_sums(block, lpr, lpr_work, n_lanes)
+    for l in range(n_lanes):
+        block[_FS, l] = block[_S, l]
+    for j in range(1, d):
+        for l in range(n_lanes):
+            block[_FS, l] += block[_S + j, l]
+    outside = 0.0
+    for l in range(n_lanes):
+        outside += block[_OUT, l]
+    if outside > 0.0:
+        for l in range(n_lanes):
+            if block[_OUT, l] > 0.0:
+                for j in range(d):
+                    u[j] = block[_U + j, l]
+                block[_FS, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _grid_sums(block, lpr, n_lanes):
+    """Row ``_S + j``: the Hermite table ``j`` of a gridded element at the inputs in row
+    ``_U + j`` (:func:`~surrogates.models.lpr_grid.grid_eval`, every lane)."""
+    coef, lo, scale, top = lpr.grid, lpr.lo, lpr.grid_scale, lpr.grid_top
+    for j in range(lo.shape[0]):
+        lj, sj, tj = lo[j], scale[j], top[j]
+        for l in range(n_lanes):
+            block[_S + j, l] = grid_eval(block[_U + j, l], lj, sj, tj, coef, j)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _legendre_sums(block, lpr, lpr_work, n_lanes):
+    """Row ``_S + j``: the Legendre sum of input ``j`` (the constant in row ``_S``) at the
+    inputs in rows ``_U`` (mapped into rows ``_T``), the recurrences lane-parallel."""
+    d = lpr.lo.shape[0]
+    table = lpr.table
+    n = table.shape[1]
+    for j in range(d):
+        lj, scale = lpr.lo[j], lpr_work[d + 3, j]
+        for l in range(n_lanes):
+            t = (block[_U + j, l] - lj) * scale - 1.0
             block[_T + j, l] = t
             block[_A + j, l] = 1.0
             block[_B + j, l] = t
@@ -95,20 +136,6 @@ def _element(block, lpr, lpr_work, u, n_lanes):
                 block[_S + j, l] += ct * nx
                 block[older, l] = nx
             older, newer = newer, older
-    for l in range(n_lanes):
-        block[_FS, l] = block[_S, l]
-    for j in range(1, d):
-        for l in range(n_lanes):
-            block[_FS, l] += block[_S + j, l]
-    outside = 0.0
-    for l in range(n_lanes):
-        outside += block[_OUT, l]
-    if outside > 0.0:
-        for l in range(n_lanes):
-            if block[_OUT, l] > 0.0:
-                for j in range(d):
-                    u[j] = block[_U + j, l]
-                block[_FS, l] = lpr_eval_into(u, lpr.exps, lpr.coef, lo, up, lpr.mode, lpr_work)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
