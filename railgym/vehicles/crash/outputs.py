@@ -29,9 +29,6 @@ __all__ = [
 
 #: batches of at least this many trains are stepped on all threads (``*_batch_step_parallel``)
 PARALLEL_MIN = 256
-#: chunks of trains of a parallel batch step (:func:`chunk_mask`); numba's scheduler spreads
-#: them over the threads
-PARALLEL_CHUNKS = 64
 #: friction regularisation velocity of tanh(v / v_ε), m/s
 V_EPS = 0.01
 
@@ -115,15 +112,6 @@ def one_train(
     state = new_state(1, system.params.m, nz)
     state.v[0] = system.v0
     return state, new_outputs(1, nb, nz), new_record(n_samples, nb, nz, energies=energies)
-
-
-@njit(cache=True)
-def chunk_mask(active, c, chunks):
-    """``active`` restricted to chunk ``c`` of ``chunks`` equal runs of trains."""
-    n = active.shape[0]
-    part = np.zeros(n, np.bool_)
-    part[c * n // chunks : (c + 1) * n // chunks] = active[c * n // chunks : (c + 1) * n // chunks]
-    return part
 
 
 @njit(cache=True)

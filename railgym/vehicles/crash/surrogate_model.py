@@ -13,7 +13,6 @@ import numpy as np
 from numba import njit, prange
 
 from railgym.vehicles.crash.outputs import (
-    PARALLEL_CHUNKS,
     V_EPS,
     CrashResult,
     StopRule,
@@ -503,9 +502,9 @@ def surrogate_batch_step(state, out, params, scale, active, init, dt, n_sub, lim
 
 @njit(cache=True, error_model="numpy", parallel=True)
 def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n_sub, limit, div):
-    """:func:`surrogate_batch_step` on all numba threads: ``prange`` over
-    :data:`PARALLEL_CHUNKS` equal runs of trains, each stepped as the serial kernel steps
-    them: bit-identical results.
+    """:func:`surrogate_batch_step` on all numba threads: ``prange`` over runs of
+    :data:`BLOCK` trains (full blocks: a shorter run fills only part of the lanes), each
+    stepped as the serial kernel steps them: bit-identical results.
 
     The parameters are taken apart and rebuilt inside the loop: numba's parallel loop cannot
     capture a NamedTuple that nests NamedTuples of arrays.
@@ -516,10 +515,10 @@ def surrogate_batch_step_parallel(state, out, params, scale, active, init, dt, n
     bs, be = params.body_start, params.body_end
     types, lpr = ElementTypes(*params.types), LprModels(*params.lpr)
     n = active.shape[0]
-    chunks = min(n, PARALLEL_CHUNKS)
-    for c in prange(chunks):
+    blocks = (n + BLOCK - 1) // BLOCK
+    for c in prange(blocks):
         p = SurrogateParams(m, mu, g, v_eps, front, back, kind, lf, lk, lc, bs, be, types, lpr)
-        first, last = c * n // chunks, (c + 1) * n // chunks
+        first, last = c * BLOCK, min(n, (c + 1) * BLOCK)
         _step_range(state, out, p, scale, active, first, last, init, dt, n_sub, limit, div)
 
 
