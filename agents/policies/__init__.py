@@ -18,22 +18,14 @@ from agents.controllers.registry import (
     ENV_ID,
     VEHICLE_CONTROLLERS,
     VEHICLE_ID,
-    build_controller,
 )
-from agents.policies.loading import (
-    POLICY_ENV_KWARGS,
-    RESIDUAL_DESIGN_KWARGS,
-    design_env_kwargs,
-    load_policy,
-    trained_actuator,
-)
+from agents.policies.loading import load_policy, trained_actuator
 from agents.policies.policy_io import RLLIB_MODULE_PATH
 
 #: names of the former module that :mod:`agents.evaluation.runs` defines
 RUNS = ("VEHICLE_COMFORT", "VehicleTask", "evaluate_vehicle", "run_policy", "run_vehicle_policy")
 
-#: the public names of the former module (``POLICY_ENV_KWARGS``, ``RESIDUAL_DESIGN_KWARGS``,
-#: ``build_controller`` and ``design_env_kwargs`` are importable too)
+#: the public names of the former module
 __all__ = [
     "CONTROLLERS",
     "CONTROLLERS_OF",
