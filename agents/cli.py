@@ -4,7 +4,7 @@
   from the reference model (paper stages 1–3), run one episode each on the surrogate and the
   reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
   indices, the env-steps/s of the surrogate, the reference and the reference FMU measured in
-  the same run (:mod:`agents.speed`), and write the plots of :data:`DEMO_FILES` (a re-run
+  the same run (:mod:`agents.evaluation.speed`), and write the plots of :data:`DEMO_FILES` (a re-run
   replaces them).
 - ``railgym paper [--quick] [-o DIR]``: the paper's tables and figures on our models
   (:func:`railgym.report.make_report`), written as :data:`railgym.report.REPORT_FILES` (a
@@ -12,13 +12,13 @@
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies on the
   vertical env and the whole vehicle (``--env vehicle``), crash indices (``--env crash``, the
   held-out impact envelope with ``--envelope``); ``--workers N`` / ``--address ADDR`` run the
-  cases in parallel (:mod:`agents.evaluate`).
+  cases in parallel (:mod:`agents.evaluation.evaluate`).
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
-  (:mod:`agents.refine`).
+  (:mod:`agents.evaluation.refine`).
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
   (:mod:`agents.fmu_cli`).
 - the module commands of :data:`MODULE_COMMANDS` (``railgym train`` = ``python -m
-  agents.train``, ...): the module's own parser reads the rest of the command line.
+  agents.training.train``, ...): the module's own parser reads the rest of the command line.
 
 One vocabulary (:mod:`surrogates.cli_flags`, ``docs/cli.md``): ``-o/--out`` is what a command
 writes, ``--overwrite`` lets it replace what is there, ``--seed`` seeds what it draws, every
@@ -45,8 +45,8 @@ import numpy as np
 
 from agents._args import add_parallel_arguments, check_parallel, error_status, one_line_warnings
 from agents._extras import MissingExtraError, report_missing
-from agents.controllers import Passive, Skyhook
-from agents.speed import backend_speeds, format_speeds
+from agents.controllers.classical import Passive, Skyhook
+from agents.evaluation.speed import backend_speeds, format_speeds
 from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.envs.vertical import VerticalSuspensionEnv
@@ -94,7 +94,7 @@ def _indices(run: dict[str, Any], fs: float) -> dict[str, float]:
     }
 
 
-#: interleaved rounds of the speed table of ``railgym demo`` (:mod:`agents.speed`)
+#: interleaved rounds of the speed table of ``railgym demo`` (:mod:`agents.evaluation.speed`)
 SPEED_ROUNDS = 3
 
 #: the files ``railgym demo`` writes into its folder, with what each shows
@@ -253,22 +253,31 @@ def _version() -> str:
 #: its line in ``railgym --help``); the module's ``main(argv)`` runs it, its
 #: ``build_parser()`` (or that of :data:`PARSER_MODULES`) has the arguments
 MODULE_COMMANDS = {
-    "train": ("agents.train", "train an SB3 agent from a config"),
-    "train-rllib": ("agents.train_rllib", "train an RLlib PPO agent from a config"),
-    "benchmark": ("agents.benchmark", "seeds, held-out evaluation, curve and table of a config"),
-    "pretrained": ("agents.pretrained", "ship a benchmarked policy as a pretrained one"),
+    "train": ("agents.training.train", "train an SB3 agent from a config"),
+    "train-rllib": ("agents.training.train_rllib", "train an RLlib PPO agent from a config"),
+    "benchmark": (
+        "agents.evaluation.benchmark",
+        "seeds, held-out evaluation, curve and table of a config",
+    ),
+    "pretrained": ("agents.policies.pretrained", "ship a benchmarked policy as a pretrained one"),
     "collect": ("railgym.vehicles.collect", "collect and build a vertical element"),
     "collect-vehicle": ("railgym.vehicles.collect_vehicle", "build the whole-vehicle element"),
-    "validate": ("agents.vehicle_validation", "surrogate against reference or FMU, per class"),
-    "validity": ("agents.validity", "the validity flags against the surrogate's error"),
-    "crash-report": ("agents.crash_report", "crash baseline and surrogate-error tables"),
-    "crash-limits": ("agents.crash_limits", "ceilings of crash absorber control per range"),
+    "validate": (
+        "agents.evaluation.vehicle_validation",
+        "surrogate against reference or FMU, per class",
+    ),
+    "validity": ("agents.evaluation.validity", "the validity flags against the surrogate's error"),
+    "crash-report": ("agents.evaluation.crash_report", "crash baseline and surrogate-error tables"),
+    "crash-limits": (
+        "agents.evaluation.crash_limits",
+        "ceilings of crash absorber control per range",
+    ),
     "crash-fe": ("railgym.vehicles.crash.fe", "crash elements from LS-DYNA nodout/rcforc"),
     "crash-elements": ("railgym.vehicles.crash.elements", "fit a scenario's crash elements"),
     "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
 }
 #: the module with the parser of a module command whose own module needs an extra
-PARSER_MODULES = {"train-rllib": "agents.train_rllib_args"}
+PARSER_MODULES = {"train-rllib": "agents.training.train_rllib_args"}
 
 
 def module_parser(name: str) -> argparse.ArgumentParser:
@@ -321,7 +330,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures", "one holding only these files")
     add_parallel_arguments(p, "", "the validation matrix", "the report does")
-    from agents import evaluate, fmu_cli, refine
+    from agents import fmu_cli
+    from agents.evaluation import evaluate, refine
 
     for name, add, what, description in (
         ("evaluate", evaluate.add_arguments, "comfort indices of policies", EVALUATE),
@@ -372,7 +382,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return report_missing(err, f"railgym {argv[0]}", argv[0])
         return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
-    from agents import evaluate, fmu_cli, refine
+    from agents import fmu_cli
+    from agents.evaluation import evaluate, refine
 
     command = {
         "export-reference-fmu": fmu_cli.run_reference,

@@ -5,7 +5,7 @@
   (:func:`railgym.fmu.reference.export_reference_fmu`), so that ``backend="fmu"`` runs it.
 - ``railgym export-policy POLICY -o OUT.fmu [--onnx OUT.onnx]``: a trained SB3 policy (a zip
   or a pretrained name such as ``ppo-vertical``; plain or residual) as a standalone
-  co-simulation FMU (:mod:`agents.policy_fmu`).
+  co-simulation FMU (:mod:`agents.policies.policy_fmu`).
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ def add_policy_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_policy(args: argparse.Namespace) -> int:
     """Write the controller FMU (and ONNX); print the paths."""
-    from agents.policy_fmu import export_policy
+    from agents.policies.policy_fmu import export_policy
 
     fmu, onnx = export_policy(
         args.policy, args.out, args.onnx, trust=args.trust, overwrite=args.overwrite

@@ -130,7 +130,7 @@ def test_envelope_evaluation_of_the_baselines_at_one_speed(capsys):
     assert [(r["controller"], r["payload_t"]) for r in rows] == [
         (name, payload)
         for payload in ((0.0, 0.0), (2.0, 8.0))
-        for name in ("passive", "best constant", "speed-adaptive")
+        for name in ("passive", "best-constant", "speed-adaptive")
     ]
     empty, loaded = (r["criteria"] for r in rows if r["controller"] == "passive")
     assert not np.array_equal(loaded.peak_decel_g, empty.peak_decel_g)  # the payload is applied
@@ -152,7 +152,7 @@ def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_pa
     )
     out = train({"railgym/TrainCrash-v1": block}, tmp_path / "ppo_crash", progress=False)
     rows = evaluate_envelope([str(out / "model.zip"), "passive"], speeds_kmh=(30.0,))
-    names = ("passive", "best constant", "speed-adaptive", "ppo_crash")
+    names = ("passive", "best-constant", "speed-adaptive", "ppo_crash")
     assert [r["controller"] for r in rows] == list(names) * 2
     for r in rows:
         c = r["criteria"]
@@ -262,7 +262,7 @@ def test_bad_evaluate_arguments_name_the_argument(call, name):
 
 def test_rllib_checkpoint_without_the_extra_is_a_clear_error(tmp_path, monkeypatch):
     (tmp_path / "ckpt" / RLLIB_MODULE_PATH).mkdir(parents=True)
-    monkeypatch.setitem(sys.modules, "agents.train_rllib", None)  # as if ray were absent
+    monkeypatch.setitem(sys.modules, "agents.training.train_rllib", None)  # as if ray were absent
     with pytest.raises(ValueError, match="install the 'rllib' extra"):
         load_policy(str(tmp_path / "ckpt"))
 
@@ -312,7 +312,7 @@ def test_envelope_table_marks_diverged_runs():
     text = envelope_table(rows)
     cases = [ln for ln in text.splitlines() if ln.startswith("| 400 |")]
     assert len(cases) == 6 and all(ln.endswith("| yes |") for ln in cases)
-    assert "diverged: passive at 400 km/h, payload 0 / 0 t; best constant" in text
+    assert "diverged: passive at 400 km/h, payload 0 / 0 t; best-constant" in text
     assert "| max intrusion m ≤ 45 km/h |" in text  # the summary too (NaN: no such case)
 
 

@@ -1,8 +1,8 @@
 """Classical baselines for ``railgym/VerticalSuspension-v1``: passive, skyhook, groundhook, LQR;
 for ``railgym/VerticalVehicle-v1`` (two actuators): passive, skyhook per bogie, modal skyhook
 and LQR on the full linear model (:class:`BogieSkyhook`, :class:`ModalSkyhook`,
-:class:`VehicleLQR`, at the end of the module); the observer-based :class:`LQG` and
-:class:`VehicleLQG` (:mod:`agents.lqg`) are re-exported here.
+:class:`VehicleLQR`, at the end of the module); the observer-based LQG is in
+:mod:`agents.controllers.lqg`.
 
 Every controller reads the env's observation (physical value = obs × ``obs_scale``, SI) and
 returns the normalised actuator commands ``F_a / f_max`` clipped to [−1, 1] with
@@ -12,8 +12,8 @@ convention of the env (see :mod:`railgym.vehicles.vertical`): velocities are upw
 ``F_a > 0`` pushes the carbody up and the bogie down (``m2·ẍ2 = F_s + F_a``,
 ``m1·ẍ1 = … − F_s − F_a``), and the deflection rate is ``δ̇ = ẋ1 − ẋ2``.
 
-The controllers by their ``railgym evaluate`` name, per env id: :data:`CONTROLLERS_OF`
-(:func:`build_controller`).
+The controllers by their ``railgym evaluate`` name, per env id, and the baselines of each
+env: :mod:`agents.controllers.registry`.
 
 Default gains are chosen for the Manchester vehicle (``m2`` = 16 t, ``k2`` = 860 kN/m,
 ``c2`` = 40 kN·s/m: body bounce 1.17 Hz, passive damping ratio 0.17) and the env's default
@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.control_base import (
+from agents.controllers.control_base import (
     DEFAULT_C_GND,
     DEFAULT_C_SKY,
     Controller,
@@ -39,38 +39,22 @@ from agents.control_base import (
     vehicle_lqr_gain,
     vertical_lqr_gain,
 )
-from agents.lqg import LQG, VehicleLQG
-from agents.preview import LQGPreview, LQRPreview
-from agents.semi_active_control import SEMI_ACTIVE_CONTROLLERS
-from railgym import _checks as val
 from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical import ACC_REF
 from railgym.vehicles.vertical import linear_model
 
 __all__ = [
-    "ByActuator",
-    "CONTROLLERS",
-    "FORCE_CONTROLLERS",
-    "CONTROLLERS_OF",
-    "CRASH_ID",
     "DEFAULT_C_GND",
     "DEFAULT_C_SKY",
-    "default_c_gnd",
-    "default_c_sky",
-    "LQG",
     "LQR",
     "BogieSkyhook",
     "Groundhook",
     "ModalSkyhook",
     "Passive",
     "Skyhook",
-    "ENV_ID",
-    "VehicleLQG",
-    "VEHICLE_CONTROLLERS",
-    "VEHICLE_FORCE_CONTROLLERS",
-    "VEHICLE_ID",
     "VehicleLQR",
-    "build_controller",
+    "default_c_gnd",
+    "default_c_sky",
     "linear_model",
     "vehicle_lqr_gain",
     "vertical_lqr_gain",
@@ -290,90 +274,3 @@ class VehicleLQR(LQDesign, VehicleController):
     def force(self, x: np.ndarray) -> np.ndarray:
         """State feedback ``−K·x`` (n, 2), N."""
         return -(x[:, :14] @ self.K.T)
-
-
-# ============================================= the controllers by name (railgym evaluate)
-ENV_ID = "railgym/VerticalSuspension-v1"
-VEHICLE_ID = "railgym/VerticalVehicle-v1"
-CRASH_ID = "railgym/TrainCrash-v1"
-#: an entry of the controller tables: (class, its arguments, the env arguments it needs)
-Entry = tuple[Any, dict[str, Any], dict[str, Any]]
-#: force-actuator controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name
-FORCE_CONTROLLERS: dict[str, Entry] = {
-    "passive": (Passive, {}, {}),
-    "skyhook": (Skyhook, {"mode": "active"}, {}),
-    "semi-active": (Skyhook, {"mode": "semi-active"}, {}),
-    "groundhook": (Groundhook, {}, {}),
-    "lqr": (LQR, {}, {"observation": "full"}),
-    "lqg": (LQG, {}, {"observation": "sensors"}),
-}
-
-
-class ByActuator:
-    """The controller of a name that both actuators of an env have (``passive``,
-    ``skyhook``, ``groundhook``), called like a class: ``force``'s (class,
-    arguments), or ``semi``'s on an env with ``actuator="semi-active"``."""
-
-    def __init__(self, force: tuple[Any, dict[str, Any]], semi: tuple[Any, dict[str, Any]]) -> None:
-        self.force, self.semi = force, semi
-
-    def __call__(self, env: Any) -> Any:
-        actuator = getattr(getattr(env, "unwrapped", env).cfg, "actuator", "force")
-        cls, kwargs = self.semi if actuator == "semi-active" else self.force
-        return cls(env, **kwargs)
-
-
-def _both_actuators(force_controllers: dict[str, Entry]) -> dict[str, Entry]:
-    """The force-actuator controllers ``force_controllers`` of an env and
-    :data:`~agents.semi_active_control.SEMI_ACTIVE_CONTROLLERS` (a name of both:
-    :class:`ByActuator`)."""
-    table = dict(force_controllers)
-    for name, (cls, kwargs, env_kwargs) in SEMI_ACTIVE_CONTROLLERS.items():
-        force = force_controllers.get(name)
-        if force is None:
-            table[name] = (cls, kwargs, env_kwargs)
-        else:  # both sides need the same env arguments (none)
-            table[name] = (ByActuator(force[:2], (cls, kwargs)), {}, env_kwargs)
-    return table
-
-
-#: controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name, of either
-#: actuator: each refuses an env of the other (the env argument ``actuator``); a name of both
-#: builds the one of the env's actuator
-CONTROLLERS = _both_actuators(FORCE_CONTROLLERS)
-#: force-actuator controllers of ``railgym/VerticalVehicle-v1`` (two actuators)
-VEHICLE_FORCE_CONTROLLERS: dict[str, Entry] = {
-    "passive": (Passive, {}, {}),
-    "skyhook": (BogieSkyhook, {}, {}),
-    "modal-skyhook": (ModalSkyhook, {}, {}),
-    "lqr": (VehicleLQR, {}, {"observation": "full"}),
-    "lqg": (VehicleLQG, {}, {"observation": "sensors"}),
-    "lqr-preview": (LQRPreview, {}, {"observation": "full"}),
-    "lq-preview": (LQGPreview, {}, {"observation": "sensors"}),
-}
-#: controllers of ``railgym/VerticalVehicle-v1`` of either actuator, as :data:`CONTROLLERS`
-#: (the semi-active ones per bogie)
-VEHICLE_CONTROLLERS = _both_actuators(VEHICLE_FORCE_CONTROLLERS)
-#: controller names of each env id (the crash env: trained policies only)
-CONTROLLERS_OF = {ENV_ID: CONTROLLERS, VEHICLE_ID: VEHICLE_CONTROLLERS}
-
-
-def build_controller(env_id: str, name: str, env: Any) -> Any:
-    """The classical controller ``name`` of ``env_id`` built on ``env`` (a single or native
-    vector env); the error of an env it cannot run on (e.g. ``lqg`` on the full observation)
-    names ``residual``."""
-    cls, kwargs, _ = CONTROLLERS_OF[env_id][name]
-    try:
-        return cls(env, **kwargs)
-    except ValueError as err:
-        raise val.FieldError("residual", f"{name}: {err}") from None
-
-
-# Crash controllers of railgym/TrainCrash-v1 (same predict interface), defined with their
-# rollout and search helpers in agents.crash_baselines.
-from agents.crash_baselines import (  # noqa: E402, F401  (re-exported)
-    BEST_CONSTANT_ACTION,
-    ConstantAbsorber,
-    CrashPassive,
-    SpeedAdaptive,
-)

@@ -1,0 +1,135 @@
+"""What limits a learning crash agent: ceilings of constant absorber settings on the held-out
+envelope of ``railgym/TrainCrash-v1`` (reference backend), beside the speed-adaptive rule.
+
+    railgym crash-limits [--range 0.3 0.5] [--levels 9]
+
+For each absorber range, every constant action per zone on a grid of ``levels`` values in
+[−1, 1] runs at every held-out case (:data:`agents.evaluation.crash_report.EVAL_SPEEDS_KMH` × the
+two payloads). Admissible settings have no more intrusion than passive in the cases they are used
+for. The mean worst-car peak deceleration (g) over the cases is printed for: passive; the best
+single setting for all cases; the best setting per impact speed (a policy that knows the speed
+at first contact, which the observation ``v_lead`` gives, but not the payload); the best
+setting per case (speed and payload known); and
+:class:`~agents.controllers.crash_baselines.SpeedAdaptive` with the env's rate limit and a tenfold
+one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from agents.controllers.crash_baselines import CrashPassive, FixedActions, SpeedAdaptive, rollout
+from agents.evaluation.crash_report import (
+    EVAL_PAYLOADS_T,
+    EVAL_SPEEDS_KMH,
+    envelope_rows,
+    envelope_summary,
+)
+from railgym.envs.crash import TrainCrashVectorEnv
+from railgym.progress import quiet
+from surrogates.cli_flags import Parser, add_common, error_status
+
+__all__ = ["ceilings", "main"]
+
+#: env settings of the shipped crash training config (configs/agents/ppo_crash.yaml)
+BASE = {"scenario": "envelope", "control_dt": 0.005, "backend": "reference"}
+
+
+def ceilings(
+    absorber_range: float = 0.3,
+    levels: int = 9,
+    speeds_kmh: Sequence[float] = EVAL_SPEEDS_KMH,
+    payloads_t: Sequence[tuple[float, float]] = EVAL_PAYLOADS_T,
+) -> dict[str, float]:
+    """Mean worst-car peak deceleration (g) over the cases of passive and of the best constant
+    settings: ``one`` for all cases, ``per_speed``, ``per_case`` (see the module docstring)."""
+    kwargs = {**BASE, "absorber_range": absorber_range}
+    n_zones = TrainCrashVectorEnv(num_envs=1, **kwargs).single_action_space.shape[0]
+    grid = np.linspace(-1.0, 1.0, levels)
+    cand = np.array(list(itertools.product(grid, repeat=n_zones)))
+    zero = int(np.flatnonzero(np.all(cand == 0.0, axis=1))[0]) if levels % 2 else None
+    if zero is None:
+        cand, zero = np.vstack([np.zeros(n_zones), cand]), 0
+    peak, intr = {}, {}
+    for kmh in speeds_kmh:
+        for pay in payloads_t:
+            env = TrainCrashVectorEnv(num_envs=len(cand), **kwargs)
+            opts = {"speed_kmh": float(kmh), "payload_t": list(pay)}
+            crit = [r.criteria() for r in rollout(env, FixedActions(cand), options=opts)]
+            peak[kmh, pay] = np.array([c.peak_decel_g.max() for c in crit])
+            intr[kmh, pay] = np.array([c.intrusion_m.max() for c in crit])
+
+    def best(keys: list[Any]) -> list[float]:
+        ok = np.all([intr[k] <= intr[k][zero] + 1e-6 for k in keys], axis=0)
+        j = int(np.argmin(np.where(ok, np.mean([peak[k] for k in keys], axis=0), np.inf)))
+        return [float(peak[k][j]) for k in keys]
+
+    keys = list(peak)
+    per_speed = [p for v in speeds_kmh for p in best([k for k in keys if k[0] == v])]
+    return {
+        "passive": float(np.mean([peak[k][zero] for k in keys])),
+        "one": float(np.mean(best(keys))),
+        "per_speed": float(np.mean(per_speed)),
+        "per_case": float(np.mean([best([k])[0] for k in keys])),
+    }
+
+
+def rule(absorber_range: float = 0.3, absorber_rate: float = 20.0) -> float:
+    """Mean worst-car peak deceleration (g) of the speed-adaptive rule over the held-out cases."""
+    rows = envelope_rows(
+        {"passive": CrashPassive, "speed-adaptive": SpeedAdaptive},
+        {**BASE, "absorber_range": absorber_range, "absorber_rate": absorber_rate},
+    )
+    return envelope_summary(rows)["speed-adaptive"]["peak_g"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym crash-limits`` (``python -m agents.evaluation.crash_limits``)."""
+    parser = Parser(prog="railgym crash-limits", description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--range",
+        type=float,
+        nargs="+",
+        default=[0.3, 0.5],
+        dest="ranges",
+        help="absorber ranges ±r of the env (absorber_range, 0 < r < 1)",
+    )
+    parser.add_argument("--levels", type=int, default=9, help="grid values per zone")
+    add_common(parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Print the markdown table of :func:`ceilings` and :func:`rule` per absorber range."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    for r in args.ranges:
+        if not 0.0 < r < 1.0:
+            parser.error(f"--range: must be in (0, 1), got {r}")
+    if args.levels < 2:
+        parser.error(f"--levels: must be at least 2, got {args.levels}")
+    try:
+        with quiet(args.quiet):
+            rows = [(r, ceilings(r, args.levels), rule(r), rule(r, 200.0)) for r in args.ranges]
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
+    print(
+        "| absorber range | passive | best single setting | best per speed | best per case "
+        "| speed-adaptive | speed-adaptive, 10× rate |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for r, c, adaptive, fast in rows:
+        cells = [c["one"], c["per_speed"], c["per_case"], adaptive, fast]
+        text = " | ".join(f"{x:.2f} ({100 * (x / c['passive'] - 1):+.1f} %)" for x in cells)
+        print(f"| ±{100 * r:.0f} % | {c['passive']:.2f} | {text} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,246 @@
+"""Surrogate against the high-fidelity model: relative RMS error of the carbody acceleration
+over unseen tracks, on ``railgym/VerticalVehicle-v1`` (per floor point: front, centre, rear)
+or on ``railgym/VerticalSuspension-v1`` (``--env vertical``, one bogie), against the reference
+backend or the user's FMU (``--backend fmu --fmu-map MAP [--vehicle FILE]``).
+
+    railgym validate --seeds 20 --track-class 3 4 5 6
+    railgym validate --element vehicle maxwell --controller modal-skyhook lqr
+    railgym validate --env vertical --element my_element.json \
+        --backend fmu --fmu-map my_car.yaml --vehicle my_car_vehicle.yaml --seeds 10
+
+For each class, controller and element, a native vector env with the surrogate and one with
+the high-fidelity backend run the same ``n_seeds`` tracks (sub-env ``i`` on seed ``seed + i``)
+in closed loop, each driven by the controller on its own observation; the score of a track is
+``‖a − a_ref‖ / ‖a_ref‖`` of the accelerations recorded at the control rate over the whole
+episode. Rows: median, 90th percentile and max over the tracks, per floor point.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import railgym  # noqa: F401  (registers the environments)
+from agents._args import duration_s, episodes, error_status, track_class
+from agents.controllers.registry import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
+from railgym.progress import quiet
+from railgym.vehicles.collect import default_vertical_surrogate
+from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+from surrogates.cli_flags import Parser, add_common, add_seed
+
+__all__ = ["ENVS", "FLOOR", "floor_errors", "main", "record_episodes", "validation_rows"]
+
+#: floor points of the env's ``carbody_acc`` (front, centre, rear)
+FLOOR = ("front", "centre", "rear")
+#: per ``--env``: env id, controllers, points of ``carbody_acc``
+ENVS: dict[str, tuple[str, dict[str, Any], tuple[str, ...]]] = {
+    "vehicle": (VEHICLE_ID, VEHICLE_CONTROLLERS, FLOOR),
+    "vertical": (ENV_ID, CONTROLLERS, ("carbody",)),
+}
+#: first track seed: never used to build an element
+SEED = 2000
+
+
+def record_episodes(
+    env_name: str, controller: str, kwargs: Mapping[str, Any], n: int, seed: int
+) -> dict[str, np.ndarray]:
+    """One episode of a native vector env of ``n`` sub-envs of ``env_name`` (keywords
+    ``kwargs``; sub-env ``i`` on seed ``seed + i``) in closed loop with ``controller`` on its
+    own observation: ``acc`` the carbody accelerations (steps, n, points) m/s², ``outside``
+    the steps with ``info["outside_element"]`` (n,), ``envelope`` the episodes'
+    ``info["outside_envelope"]`` (n,) and ``div`` the diverged flags (n,)."""
+    env_id, table, points = ENVS[env_name]
+    cls, ctl_kwargs, obs_kwargs = table[controller]
+    env = gym.make_vec(
+        env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs, **obs_kwargs
+    )
+    policy = cls(env, **ctl_kwargs)
+    obs, info = env.reset(seed=seed)
+    steps = env.unwrapped.cfg.n_steps
+    acc = np.zeros((steps, n, len(points)))
+    outside = np.zeros(n, np.int64)
+    div = np.zeros(n, bool)
+    for k in range(steps):
+        action, _ = policy.predict(obs, deterministic=True)
+        obs, _, terminated, _, info = env.step(action)
+        acc[k] = np.reshape(info["carbody_acc"], (n, len(points)))
+        outside += info["outside_element"]
+        div |= terminated
+    env.close()
+    envelope = np.asarray(info["outside_envelope"], bool)
+    return {"acc": acc, "outside": outside, "envelope": envelope, "div": div}
+
+
+def floor_errors(
+    element: Any,
+    track_class: int,
+    n_seeds: int,
+    controller: str = "passive",
+    duration: float = 20.0,
+    seed: int = SEED,
+    env_name: str = "vehicle",
+    reference: Mapping[str, Any] | None = None,
+) -> np.ndarray:
+    """Relative RMS error (n_seeds, points) of the carbody accelerations, surrogate
+    ``element`` vs the high-fidelity env, per track and point (inf where either run
+    diverged). ``reference``: that env's keywords (default ``{"backend": "reference"}``; an
+    FMU: ``backend="fmu", fmu_map=…``, with ``vehicle=`` for both envs)."""
+    ref = dict(reference or {"backend": "reference"})
+    common = {"vehicle": ref["vehicle"]} if "vehicle" in ref else {}
+    case = {"track_class": track_class, "duration": duration}
+    runs = [
+        record_episodes(env_name, controller, {**case, **kw}, n_seeds, seed)
+        for kw in ({"backend": "surrogate", "surrogate": element, **common}, ref)
+    ]
+    (a, div_a), (b, div_b) = ((r["acc"], r["div"]) for r in runs)
+    err = np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0))
+    err[div_a | div_b] = np.inf
+    return err
+
+
+def validation_rows(
+    elements: Mapping[str, Any],
+    classes: Sequence[int] = (3, 4, 5, 6),
+    controllers: Sequence[str] = ("passive",),
+    n_seeds: int = 20,
+    duration: float = 20.0,
+    env_name: str = "vehicle",
+    reference: Mapping[str, Any] | None = None,
+    seed: int = SEED,
+) -> list[dict[str, Any]]:
+    """One row per element × class × controller: ``median``, ``p90``, ``max`` (points,) in
+    %, and ``errors`` (n_seeds, points); ``env_name``, ``reference`` and ``seed`` as
+    :func:`floor_errors`'s."""
+    rows = []
+    for name, element in elements.items():
+        for c in classes:
+            for ctl in controllers:
+                e = 100.0 * floor_errors(
+                    element, c, n_seeds, ctl, duration, seed, env_name, reference
+                )
+                rows.append(
+                    {
+                        "element": name,
+                        "class": c,
+                        "controller": ctl,
+                        "median": np.median(e, axis=0),
+                        "p90": np.percentile(e, 90, axis=0),
+                        "max": e.max(axis=0),
+                        "errors": e,
+                    }
+                )
+    return rows
+
+
+def format_rows(rows: Sequence[Mapping[str, Any]]) -> str:
+    """Markdown table of :func:`validation_rows` (points: those of the rows' env)."""
+    n = len(rows[0]["median"]) if rows else len(FLOOR)
+    points = FLOOR if n == len(FLOOR) else ENVS["vertical"][2]
+    lines = [
+        "| element | class | controller | " + " | ".join(points) + " |",
+        "|---|---|---|" + "---|" * len(points),
+    ]
+    for r in rows:
+        cells = [
+            f"{r['median'][j]:.1f} / {r['p90'][j]:.1f} / {r['max'][j]:.1f}"
+            for j in range(len(points))
+        ]
+        row = [str(r["element"]), str(r["class"]), str(r["controller"]), *cells]
+        lines.append("| " + " | ".join(row) + " |")
+    return "\n".join(lines)
+
+
+def _packaged(name: str) -> Any:
+    """A packaged element by name (``vehicle``, ``maxwell``, ``static``), else ``name`` (a path)."""
+    if name == "vehicle":
+        return default_vehicle_surrogate()
+    if name in ("maxwell", "static"):
+        return default_vertical_surrogate(name)
+    return name
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym validate`` (``python -m agents.evaluation.vehicle_validation``)."""
+    parser = Parser(prog="railgym validate", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--env", choices=sorted(ENVS), default="vehicle", help="the env")
+    parser.add_argument(
+        "--element",
+        nargs="+",
+        default=None,
+        help="packaged element (vehicle: the whole vehicle's default; maxwell, static: the "
+        "one-bogie elements) or JSON (default: the env's packaged one)",
+    )
+    parser.add_argument(
+        "--track-class",
+        type=track_class,
+        nargs="+",
+        default=[3, 4, 5, 6],
+        help="FRA track classes 1..6",
+    )
+    parser.add_argument(
+        "--controller", nargs="+", default=["passive"], help="closed-loop controllers"
+    )
+    parser.add_argument("--seeds", type=episodes, default=20, help="tracks per class")
+    add_seed(parser, "track seed of the first track (then +1, +2, ...)", default=SEED)
+    parser.add_argument("--duration", type=duration_s, default=20.0, help="s per track")
+    parser.add_argument(
+        "--backend", choices=("reference", "fmu"), default="reference", help="the model compared"
+    )
+    parser.add_argument("--fmu-map", help="--backend fmu: the FMU's mapping file")
+    parser.add_argument("--fmu", help="--backend fmu: the FMU (default: the mapping's fmu:)")
+    parser.add_argument(
+        "--vehicle",
+        help="vehicle YAML (name or path) of both envs (default: the packaged one; with "
+        "--backend fmu the mapping's vehicle:)",
+    )
+    add_common(parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Print the table (relative RMS error, %, median / 90th percentile / max per point)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    _, table, _ = ENVS[args.env]
+    for c in args.controller:
+        if c not in table:
+            parser.error(f"--controller must be among {sorted(table)}, got {c!r}")
+    if args.backend != "fmu" and (args.fmu_map or args.fmu):
+        parser.error("--fmu-map, --fmu: only with --backend fmu")
+    if args.backend == "fmu" and not args.fmu_map:
+        parser.error("--backend fmu needs --fmu-map")
+    reference: dict[str, Any] = {"backend": args.backend}
+    if args.backend == "fmu":
+        reference.update(fmu_map=args.fmu_map, fmu=args.fmu)
+    try:
+        if args.backend == "fmu":
+            from railgym.fmu.mapping import fmu_vehicle
+
+            reference["vehicle"] = str(fmu_vehicle(args.fmu_map, args.vehicle, "--vehicle "))
+        elif args.vehicle is not None:
+            reference["vehicle"] = args.vehicle
+        names = args.element or ["vehicle" if args.env == "vehicle" else "maxwell"]
+        elements = {e: _packaged(e) for e in names}
+        with quiet(args.quiet):
+            rows = validation_rows(
+                elements,
+                args.track_class,
+                args.controller,
+                args.seeds,
+                args.duration,
+                env_name=args.env,
+                reference=reference,
+                seed=args.seed,
+            )
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
+    print(format_rows(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
