@@ -24,6 +24,10 @@ The batch contract (:class:`Batch`)
     ``info`` layout (declared once by the batch) — both as Python numbers of system ``i`` or,
     for ``i=None``, as (n,) array copies —, ``flags()`` a dict of (n,) bool arrays of events
     (``diverged``; every flag terminates the episode) and ``truncated()`` (n,) bool.
+``advance_holding(hold)`` (optional)
+    :meth:`advance` of every system but those of the (n,) bool mask ``hold``, which keep the
+    state, observation, ``info`` and reward their reset left; without it the shell advances
+    all and restores the held ones with ``reset_state``.
 ``observe(rngs)``
     Observations (n, *obs_shape) float32, any sensor noise drawn from the per-system ``rngs``.
 ``render_state(i)``
@@ -449,9 +453,12 @@ class BatchVectorEnv(VectorEnv):
         if done.size:
             self._note_case(done)
             was_reset = self._prev_done.copy()
-        sim.advance()
-        for i in done:  # sub-envs that were reset do not move on this step
-            sim.reset_state(i)
+        if done.size and hasattr(sim, "advance_holding"):
+            sim.advance_holding(self._prev_done)  # sub-envs that were reset do not move
+        else:
+            sim.advance()
+            for i in done:  # sub-envs that were reset do not move on this step
+                sim.reset_state(i)
         flags = {k: v.copy() for k, v in sim.flags().items()}
         terminated = np.zeros(self.num_envs, np.bool_)
         for v in flags.values():

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from railgym.envs.compiled import compiled_entry
 from railgym.envs.crash_layout import (
     ENV_FIELDS,
     EPISODE,
@@ -90,10 +91,10 @@ class CrashBatch:
             tension_k=types.tension_stiffness[kind] if surrogate else np.zeros(0),
             info=columns,
         )
-        self._bind()
         self._actions = np.zeros((n, self.n_zones))
         self._all = np.ones(n, np.bool_)
         self._one = np.zeros(n, np.bool_)  # the train of reset_state
+        self._bind()
         # undeformed front end of each car at first contact (lead car at the wall), m
         self.lengths = lengths
         self.front0 = -np.concatenate(([0.0], np.cumsum(lengths[:-1])))
@@ -125,12 +126,6 @@ class CrashBatch:
         self.episode = Episode(*views[ENV_START:STATE_START], *self._flag_arrays)
         self.state = self._state_type(*views[STATE_START:])
         model = self.model
-        if model.backend == "reference":
-            self._kernel = self._init_kernel = advance_reference
-        else:  # a reset (one train) always runs serially
-            self._init_kernel = advance_surrogate
-            parallel = self.n >= PARALLEL_MIN
-            self._kernel = advance_surrogate_parallel if parallel else advance_surrogate
         flags = tuple(self._flag_arrays)
         stepping = (model.dt, model.n_sub)
         self._args = (
@@ -141,6 +136,16 @@ class CrashBatch:
             stepping,
             plain(self.consts),
         )
+        if model.backend == "reference":
+            kernel = init_kernel = advance_reference
+        else:  # a reset (one train) always runs serially
+            init_kernel = advance_surrogate
+            parallel = self.n >= PARALLEL_MIN
+            kernel = advance_surrogate_parallel if parallel else advance_surrogate
+        # resolved once: numba's per-call typing of the nested tuples costs more than a reset
+        example = (*self._args, self._actions, self._all, False)
+        self._kernel = compiled_entry(kernel, example)
+        self._init_kernel = compiled_entry(init_kernel, example)
         self._flags = {"crash_over": self.over, "diverged": self.div}
 
     _VIEWS = ("out", "episode", "state", "_kernel", "_init_kernel", "_args", "_flags")
@@ -207,6 +212,12 @@ class CrashBatch:
     def advance(self) -> None:
         """One control step of every train with the stored actions."""
         self._kernel(*self._args, self._actions, self._all, False)
+
+    def advance_holding(self, hold: np.ndarray) -> None:
+        """:meth:`advance` of every train but those of the (n,) bool mask ``hold`` (just
+        reset: they stay at first contact, observation, ``info`` and reward as the reset
+        left them)."""
+        self._kernel(*self._args, self._actions, ~hold, False)
 
     def flags(self) -> dict[str, np.ndarray]:
         """Events that end the episode: ``crash_over`` (no zone loaded or closing: every car
