@@ -7,12 +7,12 @@ from gymnasium.envs.registration import register, registry
 ENVS = {
     # v0: the memory element of railgym 0.2; v1: the envelope-fitted one (docs: Version history)
     "railgym/VerticalSuspension-v0": (
-        "railgym.envs.vertical:VerticalSuspensionEnvV0",
-        "railgym.envs.vertical:VerticalSuspensionVectorEnvV0",
+        "railgym.envs.vertical.env:VerticalSuspensionEnvV0",
+        "railgym.envs.vertical.env:VerticalSuspensionVectorEnvV0",
     ),
     "railgym/VerticalSuspension-v1": (
-        "railgym.envs.vertical:VerticalSuspensionEnv",
-        "railgym.envs.vertical:VerticalSuspensionVectorEnv",
+        "railgym.envs.vertical.env:VerticalSuspensionEnv",
+        "railgym.envs.vertical.env:VerticalSuspensionVectorEnv",
     ),
     # v0: the static packaged element by default; v1: the memory element (docs: Version history)
     "railgym/VerticalVehicle-v0": (

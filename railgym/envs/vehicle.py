@@ -34,6 +34,14 @@ from railgym.envs.params import (
     limits,
     param,
 )
+from railgym.envs.track_shell import (
+    ACC_WEIGHTINGS,
+    TrackEnvShell,
+    TrackVectorShell,
+    check_element_vehicle,
+    check_speed_limit,
+    element_arrays,
+)
 from railgym.envs.vehicle_batch import (
     ACC_REF,
     DIVERGENCE_PENALTY,
@@ -44,15 +52,7 @@ from railgym.envs.vehicle_batch import (
     check_band_speed,
     episode_comfort,
 )
-from railgym.envs.vertical import (
-    ACC_WEIGHTINGS,
-    TrackEnvShell,
-    TrackVectorShell,
-    check_element_vehicle,
-    check_speed_limit,
-    element_arrays,
-)
-from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
+from railgym.envs.vertical.env import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate

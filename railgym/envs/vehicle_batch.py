@@ -23,7 +23,7 @@ from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward, weigh
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.vertical_batch import TRACK_BYTES, reward_sections
+from railgym.envs.track_shell import TRACK_BYTES, reward_sections
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_with_slope
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope

@@ -1,5 +1,5 @@
 """``rgb_array`` frame of ``VerticalVehicle-v1``: bending carbody, two pitching bogies, four
-wheelsets on the track profile (primitives of :mod:`railgym.envs.rendering`)."""
+wheelsets on the track profile (primitives of :mod:`railgym.envs.raster`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from railgym.envs.rendering import (
+from railgym.envs.raster import (
     DISPLACEMENT_PX_PER_M,
     VERTICAL_COLORS,
     canvas,
@@ -52,7 +52,7 @@ def render_vehicle(state: Mapping[str, Any], width: int = 800, height: int = 400
     an actuator gauge centred above each bogie (labelled ``front force``, ``rear force``:
     the bogie at the larger position is the front), filled from its zero mark by
     ``force/f_max`` of its half-width (8 % of the frame width), green to the right pushing the
-    carbody up, red to the left pulling (:func:`~railgym.envs.rendering.draw_gauge`).
+    carbody up, red to the left pulling (:func:`~railgym.envs.raster.draw_gauge`).
     """
     arr = _state_arrays(state, width, height)
     w, h = int(width), int(height)

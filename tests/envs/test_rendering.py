@@ -1,11 +1,12 @@
-"""Tests for railgym.envs.rendering: primitives, vertical-vehicle and crash frames."""
+"""Tests for railgym.envs.raster (primitives) and the frames of the vertical vehicle, the whole
+vehicle and the crash."""
 
 import math
 
 import numpy as np
 import pytest
 
-from railgym.envs.rendering import (
+from railgym.envs.raster import (
     BAR_ROWS,
     CRASH_COLORS,
     DISPLACEMENT_PX_PER_M,
@@ -19,8 +20,8 @@ from railgym.envs.rendering import (
     fill_circle,
     fill_rect,
     render_crash,
-    render_vertical,
 )
+from railgym.envs.vertical.render import render_vertical
 from railgym.envs.text import GLYPHS, draw_text, text_width
 
 INK = (255, 0, 0)
@@ -447,7 +448,7 @@ def test_the_vehicle_frames_bars_carry_their_labels():
 
 def test_the_frames_draw_their_bar_labels_through_the_font(monkeypatch):
     """Every label goes through the font's draw_text (no label drawn by hand)."""
-    import railgym.envs.rendering as rendering
+    import railgym.envs.raster as raster
     from railgym.envs.vehicle_render import render_vehicle
 
     drawn: list[str] = []
@@ -456,7 +457,7 @@ def test_the_frames_draw_their_bar_labels_through_the_font(monkeypatch):
         drawn.append(text)
         draw_text(img, x, y, text, color, scale)
 
-    monkeypatch.setattr(rendering, "draw_text", record)
+    monkeypatch.setattr(raster, "draw_text", record)
     render_vertical(vertical_state(duration=10.0))
     assert drawn[:2] == ["time", "force"]
     drawn.clear()

@@ -19,7 +19,6 @@ import numpy as np
 from numba import njit
 
 from railgym import _checks as val
-from railgym.comfort import WeightingFilter
 from railgym.envs.compiled import (
     DIVERGENCE_PENALTY,
     OBS_LIMIT,
@@ -28,6 +27,7 @@ from railgym.envs.compiled import (
     weigh,
 )
 from railgym.envs.params import TrackEnvParams, consts
+from railgym.envs.track_shell import TRACK_BYTES, reward_sections
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -51,32 +51,16 @@ __all__ = [
     "ACC_REF",
     "DIVERGENCE_PENALTY",
     "INFO_KEYS",
-    "MAX_NUM_ENVS",
     "OBS_LIMIT",
     "REWARD_TERMS",
     "SEMI_ACTIVE_INFO_KEYS",
-    "TRACK_BYTES",
     "VerticalBatch",
     "control_step",
-    "reward_sections",
 ]
 
 #: reference carbody acceleration of the reward, m/s²: passive RMS on the training case
 #: (class 5, 144 km/h, dynamic reference), so that a passive step's reward is about −1
 ACC_REF = 0.75
-#: most sub-envs of the vector env
-MAX_NUM_ENVS = 65536
-#: largest track arrays of all sub-envs together, bytes
-TRACK_BYTES = 2**30
-
-
-def reward_sections(acc_weighting: str, control_dt: float) -> np.ndarray:
-    """Second-order sections (n_sec, 6) of the reward's acceleration weighting at the control
-    rate ``1/control_dt`` (Hz): ISO 2631-1 Wk for ``"Wk"``; none, shape (0, 6), for ``"none"``
-    (:func:`~railgym.envs.compiled.weigh` then returns its input unchanged)."""
-    if acc_weighting == "none":
-        return np.zeros((0, 6))
-    return WeightingFilter(1.0 / control_dt, acc_weighting, lowpass=False).sos
 
 
 class Counters(NamedTuple):
@@ -103,7 +87,7 @@ class StepCfg(NamedTuple):
     w_acc: float
     w_defl: float
     w_force: float
-    sos: np.ndarray  #: float64 (n_sec, 6) the reward's weighting of ẍ2 (:func:`reward_sections`)
+    sos: np.ndarray  #: float64 (n_sec, 6) the reward's weighting of ẍ2 (`reward_sections`)
     inv_scale: np.ndarray  #: float64 (n_obs,) 1/scale of each observation channel
     flag_ood: bool  #: "raise" policy: flag steps with out-of-domain surrogate evaluations
     full_obs: bool  #: the ``"full"`` observation (else ``"sensors"``)
@@ -493,7 +477,7 @@ class VerticalBatch:
         return np.sqrt(self.acc_sq / np.maximum(self.steps, 1))
 
     def render_state(self, i: int) -> dict[str, Any]:
-        """What :func:`railgym.envs.rendering.render_vertical` draws for vehicle ``i``."""
+        """What :func:`railgym.envs.vertical.render.render_vertical` draws for vehicle ``i``."""
         kk = min(int(self.k[i]), self.z.shape[1] - 1)
         dx = self.speed[i] * self.cfg.dt
         lo, hi = max(kk - int(10.0 / dx), 0), min(kk + int(10.0 / dx), self.z.shape[1] - 1)

@@ -5,16 +5,11 @@ array; coordinates are pixels (floats allowed) with ``x`` to the right and ``y``
 pixel ``(row j, column i)`` covering ``[i, i + 1) x [j, j + 1)``. Every primitive clips at
 the canvas borders, so any finite or infinite coordinate is safe; NaN raises ``ValueError``.
 
-Two scene renderers build on the primitives:
-
-* :func:`render_vertical`: the vertical 2-DOF vehicle (wheel on the track, primary
-  suspension, bogie, secondary air spring + damper + actuator, carbody). Track heights and
-  displacements are drawn at :data:`DISPLACEMENT_PX_PER_M` (2 px per mm at the reference
-  height of 400 px, scaled with the frame height), i.e. exaggerated x100 with respect to the
-  schematic vehicle scale of 20 px/m. Horizontally the track window ``track_x`` spans the
-  frame width.
-* :func:`render_crash`: cars running towards a rigid wall at ``+x``, drawn to scale, with
-  their crush zones shortened by the crush.
+The scenes build on the primitives, each in its env's folder: ``render_vertical``
+(:mod:`railgym.envs.vertical.render`), ``render_vehicle`` (:mod:`railgym.envs.vehicle.render`)
+and ``render_crash`` (:mod:`railgym.envs.crash.render`). Track heights and displacements are
+drawn at :data:`DISPLACEMENT_PX_PER_M` (2 px per mm at the reference height of 400 px, scaled
+with the frame height).
 
 Every bar on a frame carries its label in the bitmap font (:mod:`railgym.envs.text`), left
 of the bar: ``time`` for the progress bar along the top, ``force`` for an actuator gauge
@@ -37,9 +32,12 @@ __all__ = [
     "BAR_ROWS",
     "CRASH_COLORS",
     "DISPLACEMENT_PX_PER_M",
+    "REFERENCE_HEIGHT",
     "VERTICAL_COLORS",
     "bar_columns",
     "canvas",
+    "check_frame_size",
+    "draw_box",
     "draw_caption",
     "draw_damper",
     "draw_gauge",
@@ -47,19 +45,24 @@ __all__ = [
     "draw_polyline",
     "draw_progress_bar",
     "draw_spring",
+    "draw_time_bar",
+    "draw_track",
     "fill_circle",
     "fill_rect",
+    "fill_spans",
     "render_crash",
-    "render_vertical",
+    "state_scalar",
+    "state_vector",
+    "track_window",
 ]
 
 Color = Sequence[int]
 
-#: Vertical drawing scale of :func:`render_vertical` at a frame height of 400 px, px/m.
+#: Vertical drawing scale of track heights and displacements at a frame height of
+#: :data:`REFERENCE_HEIGHT`, px/m.
 DISPLACEMENT_PX_PER_M = 2000.0
-#: Schematic scale of the vertical vehicle's parts at a frame height of 400 px, px/m.
-SCHEMATIC_PX_PER_M = 20.0
-_REFERENCE_HEIGHT = 400.0
+#: px, the frame height at which the scales are given
+REFERENCE_HEIGHT = 400.0
 #: rows ``(top, bottom)`` (px, edges) of the frames' bars: the progress bar (``"time"``) and
 #: the actuator gauges (``"force"``); each bar's label is drawn left of it, centred on its rows
 BAR_ROWS = {"time": (3.0, 8.0), "force": (11.0, 16.0)}
@@ -295,7 +298,7 @@ def fill_circle(img: np.ndarray, cx: float, cy: float, r: float, color: Color) -
     img[j0 : j1 + 1, i0 : i1 + 1][u * u + v * v <= rr * rr] = _rgb(color)
 
 
-def _fill_spans(
+def fill_spans(
     img: np.ndarray, x: float, y_top: float, y_bottom: float, half_width: Any, color: Color
 ) -> None:
     """Fill, row by row, the span ``x +- half_width(s)`` with ``s`` in [0, 1] from top to bottom."""
@@ -311,7 +314,7 @@ def _fill_spans(
     img[j0 : j1 + 1][mask] = _rgb(color)
 
 
-def _box(
+def draw_box(
     img: np.ndarray,
     xc: float,
     yc: float,
@@ -385,15 +388,15 @@ def draw_gauge(
     _bar_label(img, label, centre - half, rows, colors["outline"])
 
 
-def _progress_bar(
+def draw_time_bar(
     img: np.ndarray, state: Mapping[str, Any], colors: Mapping[str, Color], text_color: Color
 ) -> None:
     """:func:`draw_progress_bar` of ``time / duration`` (``duration`` defaults to 10 s,
     wrapping); nothing without ``state["time"]``."""
     if "time" not in state:
         return
-    t = _scalar(state, "time")
-    duration = _scalar(state, "duration") if "duration" in state else 10.0
+    t = state_scalar(state, "time")
+    duration = state_scalar(state, "duration") if "duration" in state else 10.0
     if duration <= 0:
         raise ValueError(f"state['duration'] must be > 0 s, got {duration}")
     frac = min(t / duration, 1.0) if "duration" in state else (t % duration) / duration
@@ -408,11 +411,11 @@ def draw_caption(
     ``exaggeration`` factor of the drawing."""
     parts = []
     if "time" in state:
-        parts.append(f"t {_scalar(state, 'time'):.3f} s")
+        parts.append(f"t {state_scalar(state, 'time'):.3f} s")
     if "speed" in state:
-        parts.append(f"v {3.6 * _scalar(state, 'speed'):.0f} km/h")
+        parts.append(f"v {3.6 * state_scalar(state, 'speed'):.0f} km/h")
     if "carbody_acc" in state:
-        parts.append(f"a {_scalar(state, 'carbody_acc'):+.2f} m/s2")
+        parts.append(f"a {state_scalar(state, 'carbody_acc'):+.2f} m/s2")
     if exaggeration is not None:
         parts.append(f"displ x{exaggeration:.0f}")
     scale = max(1, img.shape[0] // 300)
@@ -420,7 +423,8 @@ def draw_caption(
 
 
 # --------------------------------------------------------------------------- state access
-def _scalar(state: Mapping[str, Any], key: str) -> float:
+def state_scalar(state: Mapping[str, Any], key: str) -> float:
+    """``state[key]`` as a finite float (``ValueError`` naming ``key`` otherwise)."""
     if key not in state:
         raise ValueError(f"state is missing key '{key}'")
     try:
@@ -432,7 +436,8 @@ def _scalar(state: Mapping[str, Any], key: str) -> float:
     return v
 
 
-def _vector(state: Mapping[str, Any], key: str, size: int | None = None) -> np.ndarray:
+def state_vector(state: Mapping[str, Any], key: str, size: int | None = None) -> np.ndarray:
+    """``state[key]`` as a finite non-empty 1-D float array, of ``size`` entries if given."""
     if key not in state:
         raise ValueError(f"state is missing key '{key}'")
     v = np.asarray(state[key], dtype=float)
@@ -445,21 +450,22 @@ def _vector(state: Mapping[str, Any], key: str, size: int | None = None) -> np.n
     return v
 
 
-def _frame_size(width: int, height: int) -> None:
+def check_frame_size(width: int, height: int) -> None:
+    """``ValueError`` unless the frame is at least 16 x 16 px."""
     if int(width) < 16 or int(height) < 16:
         raise ValueError(f"width and height must be >= 16 px, got {width} x {height}")
 
 
-def _track_window(state: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+def track_window(state: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     """``track_x`` (strictly increasing, >= 2 points) and ``track_z`` of ``state``."""
-    tx = _vector(state, "track_x")
-    tz = _vector(state, "track_z", tx.size)
+    tx = state_vector(state, "track_x")
+    tz = state_vector(state, "track_z", tx.size)
     if tx.size < 2 or np.any(np.diff(tx) <= 0):
         raise ValueError("state['track_x'] must be strictly increasing with >= 2 points")
     return tx, tz
 
 
-def _draw_track(
+def draw_track(
     img: np.ndarray,
     s: float,
     tx: np.ndarray,
@@ -481,112 +487,6 @@ def _draw_track(
     band = img[top:bottom]
     band[rows >= y_prof[None, :]] = col["ground"]
     band[(rows >= y_prof[None, :]) & (rows < y_prof[None, :] + 3)] = col["rail"]
-
-
-def _draw_secondary(
-    img: np.ndarray,
-    xc: float,
-    body_bottom: float,
-    bogie_top: float,
-    force_ratio: float,
-    col: Mapping[str, Color],
-) -> None:
-    """Secondary suspension between the carbody (row ``body_bottom``) and the bogie
-    (``bogie_top``) centred at column ``xc``: air spring (two lobes), damper, and the actuator
-    arrow and gauge (:func:`draw_gauge` under the progress bar, across the frame) of
-    ``force_ratio`` = force / f_max."""
-    h, w = img.shape[:2]
-    ds = 0.10 * w
-    lobe = 0.025 * w
-    _fill_spans(
-        img,
-        xc - ds,
-        body_bottom,
-        bogie_top,
-        lambda u: lobe * (0.55 + 0.45 * np.abs(np.sin(2 * np.pi * u))),
-        col["air_spring"],
-    )
-    draw_damper(img, xc + ds, body_bottom, bogie_top, col["damper"], 0.6 * lobe)
-    ratio = float(np.clip(force_ratio, -1.0, 1.0))
-    length = 0.45 * 0.14 * h * ratio
-    arrow = col["actuator_push"] if ratio > 0 else col["actuator_pull"]
-    x0, x1 = bar_columns(w)
-    centre = (x0 + x1) // 2
-    draw_gauge(img, centre, min(centre - x0, x1 - centre), ratio, col)
-    if abs(length) >= 1.0:
-        y_mid = 0.5 * (body_bottom + bogie_top)
-        y_tip = y_mid - length
-        head = min(0.4 * abs(length), 0.03 * h)
-        y_neck = y_tip + math.copysign(head, length)
-        fill_rect(img, xc - 2, y_mid, xc + 2, y_neck, arrow)
-        _fill_spans(img, xc, y_tip, y_neck, lambda u: 0.012 * w * u, arrow)
-
-
-# --------------------------------------------------------------------------- vertical scene
-def render_vertical(state: Mapping[str, Any], width: int = 600, height: int = 400) -> np.ndarray:
-    """Frame of the vertical vehicle model.
-
-    Parameters
-    ----------
-    state : mapping with ``x1``, ``x2`` (bogie and carbody displacement, m, up positive),
-        ``z`` (track height under the wheel, m), ``track_x`` (strictly increasing track
-        positions around the vehicle, m), ``track_z`` (profile heights there, m),
-        ``force_a`` (actuator force, N, positive pushes the carbody up) and ``f_max``
-        (actuator force limit, N, > 0). Optional: ``s`` (vehicle position in ``track_x``, m;
-        default the window's midpoint), ``time`` and ``duration`` (s, progress bar
-        ``time / duration``; without ``duration`` the bar wraps every 10 s, without ``time``
-        there is no bar), ``speed`` (m/s) and ``carbody_acc`` (m/s²), printed in the caption
-        (:func:`draw_caption`) with the time and the displacement exaggeration factor.
-    width, height : frame size, px.
-
-    Returns
-    -------
-    ``(height, width, 3)`` uint8 image. The vehicle is centred horizontally; heights and
-    displacements use :data:`DISPLACEMENT_PX_PER_M` x ``height / 400``. The actuator arrow
-    points up for positive force, its length is ``|force_a| / f_max`` (capped at 1) of 45 %
-    of the nominal secondary gap, green when pushing, red when pulling; a gauge labelled
-    ``force`` below the progress bar (labelled ``time``) repeats ``force_a / f_max`` from its
-    zero mark at the middle of the bar columns (:func:`bar_columns`; full scale: half their
-    width).
-    """
-    _frame_size(width, height)
-    x1, x2, z = _scalar(state, "x1"), _scalar(state, "x2"), _scalar(state, "z")
-    force, f_max = _scalar(state, "force_a"), _scalar(state, "f_max")
-    if f_max <= 0:
-        raise ValueError(f"state['f_max'] must be > 0 N, got {f_max}")
-    tx, tz = _track_window(state)
-    s = _scalar(state, "s") if "s" in state else 0.5 * (tx[0] + tx[-1])
-    col = VERTICAL_COLORS
-    w, h = int(width), int(height)
-    k = DISPLACEMENT_PX_PER_M * h / _REFERENCE_HEIGHT
-    img = canvas(w, h, col["background"])
-    _progress_bar(img, state, col, col["outline"])
-
-    y_track0 = 0.82 * h
-    _draw_track(img, s, tx, tz, y_track0, k, col)
-
-    # Geometry (px) at zero displacements, shifted by k * displacement.
-    xc = 0.5 * w
-    r_wheel = 0.045 * h
-    y_wheel = y_track0 - k * z - r_wheel
-    bogie_h, body_h = 0.06 * h, 0.22 * h
-    y_bogie = y_track0 - r_wheel - 0.12 * h - 0.5 * bogie_h - k * x1
-    y_body = y_track0 - r_wheel - 0.12 * h - bogie_h - 0.14 * h - 0.5 * body_h - k * x2
-    bogie_bottom, bogie_top = y_bogie + 0.5 * bogie_h, y_bogie - 0.5 * bogie_h
-    body_bottom = y_body + 0.5 * body_h
-
-    # Primary suspension between axle and bogie, then the wheel and axle beam.
-    dp, amp = 0.06 * w, 0.012 * w
-    draw_spring(img, xc - dp, bogie_bottom, y_wheel, col["primary_spring"], 5, amp, 2)
-    draw_damper(img, xc + dp, bogie_bottom, y_wheel, col["damper"], 0.9 * amp)
-    fill_rect(img, xc - 1.3 * dp, y_wheel - 2, xc + 1.3 * dp, y_wheel + 2, col["wheel"])
-    fill_circle(img, xc, y_wheel, r_wheel, col["wheel"])
-    _box(img, xc, y_bogie, 0.30 * w, bogie_h, col["bogie"], col["outline"])
-
-    _draw_secondary(img, xc, body_bottom, bogie_top, force / f_max, col)
-    _box(img, xc, y_body, 0.80 * w, body_h, col["carbody"], col["outline"])
-    draw_caption(img, state, col["outline"], DISPLACEMENT_PX_PER_M / SCHEMATIC_PX_PER_M)
-    return img
 
 
 # --------------------------------------------------------------------------- crash scene
@@ -611,13 +511,13 @@ def render_crash(state: Mapping[str, Any], width: int = 800, height: int = 300) 
     ``positions[i] - stroke[i]`` to the deformed front ``positions[i] - crush[i]``; with crush
     beyond the stroke the front is drawn at ``positions[i] - crush[i]`` with a 3 px red zone.
     """
-    _frame_size(width, height)
-    pos = _vector(state, "positions")
+    check_frame_size(width, height)
+    pos = state_vector(state, "positions")
     n = pos.size
-    lengths = _vector(state, "lengths", n)
-    crush = np.maximum(_vector(state, "crush", n), 0.0)
-    stroke = _vector(state, "stroke", n)
-    wall_x = _scalar(state, "wall_x")
+    lengths = state_vector(state, "lengths", n)
+    crush = np.maximum(state_vector(state, "crush", n), 0.0)
+    stroke = state_vector(state, "stroke", n)
+    wall_x = state_scalar(state, "wall_x")
     if np.any(lengths <= 0):
         raise ValueError("state['lengths'] must be > 0 m")
     if np.any(stroke < 0) or np.any(stroke > lengths):
@@ -640,7 +540,7 @@ def render_crash(state: Mapping[str, Any], width: int = 800, height: int = 300) 
         return (x - x_min) * sx
 
     img = canvas(w, h, col["background"])
-    _progress_bar(img, state, col, col["wall"])
+    draw_time_bar(img, state, col, col["wall"])
     y_rail = 0.78 * h
     fill_rect(img, 0, y_rail, w, y_rail + 3, col["rail"])
     fill_rect(img, px(wall_x), 0.15 * h, px(wall_x) + 0.02 * w, y_rail + 3, col["wall"])
