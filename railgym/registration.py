@@ -16,12 +16,12 @@ ENVS = {
     ),
     # v0: the static packaged element by default; v1: the memory element (docs: Version history)
     "railgym/VerticalVehicle-v0": (
-        "railgym.envs.vehicle:VerticalVehicleEnvV0",
-        "railgym.envs.vehicle:VerticalVehicleVectorEnvV0",
+        "railgym.envs.vehicle.env:VerticalVehicleEnvV0",
+        "railgym.envs.vehicle.env:VerticalVehicleVectorEnvV0",
     ),
     "railgym/VerticalVehicle-v1": (
-        "railgym.envs.vehicle:VerticalVehicleEnv",
-        "railgym.envs.vehicle:VerticalVehicleVectorEnv",
+        "railgym.envs.vehicle.env:VerticalVehicleEnv",
+        "railgym.envs.vehicle.env:VerticalVehicleVectorEnv",
     ),
     # v0: one mass per car, global LPR elements; v1: elastic cars, piecewise elements
     "railgym/TrainCrash-v0": (

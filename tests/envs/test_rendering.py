@@ -399,7 +399,7 @@ def test_the_crash_frames_progress_bar_carries_its_label():
 
 
 def _vehicle_state(**kw):
-    from railgym.envs.vehicle_render import render_vehicle  # noqa: F401  (the module tested)
+    from railgym.envs.vehicle.render import render_vehicle  # noqa: F401  (the module tested)
 
     tx = np.linspace(-18.0, 18.0, 301)
     state = {
@@ -424,7 +424,7 @@ def _vehicle_state(**kw):
 def test_the_vehicle_frames_bars_carry_their_labels():
     """The progress bar (``time``) and a gauge above each bogie (``front force`` over the
     bogie at the larger position, ``rear force``), each filled from its zero mark."""
-    from railgym.envs.vehicle_render import render_vehicle
+    from railgym.envs.vehicle.render import render_vehicle
 
     img = render_vehicle(_vehicle_state())
     c = VERTICAL_COLORS
@@ -449,7 +449,7 @@ def test_the_vehicle_frames_bars_carry_their_labels():
 def test_the_frames_draw_their_bar_labels_through_the_font(monkeypatch):
     """Every label goes through the font's draw_text (no label drawn by hand)."""
     import railgym.envs.raster as raster
-    from railgym.envs.vehicle_render import render_vehicle
+    from railgym.envs.vehicle.render import render_vehicle
 
     drawn: list[str] = []
 

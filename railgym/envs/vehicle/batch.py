@@ -225,7 +225,7 @@ def control_step(kind, vehicles, params, element, lpr, out, book, consts, damper
 @njit(cache=True, error_model="numpy", _nrt=False)
 def book_step(vehicles, params, out, book, consts):
     """The bookkeeping of :func:`control_step` after the kernel call (also run after an
-    FMU's step, :mod:`railgym.fmu.vehicle_batch`): counters, floor-acceleration record,
+    FMU's step, :mod:`railgym.envs.vehicle.fmu_batch`): counters, floor-acceleration record,
     observation, reward and its terms (:func:`~railgym.envs.compiled.settle_reward`: a
     divergence also when the reward is not finite or the observation too large), info row and
     the truncated and extrapolated flags."""
@@ -550,7 +550,7 @@ class VehicleBatch:
         return episode_comfort(self.book.rec[i, :m], 1.0 / self.cfg.control_dt, self.wk, self.wb)
 
     def render_state(self, i: int) -> dict[str, Any]:
-        """What :func:`railgym.envs.vehicle_render.render_vehicle` draws for vehicle ``i``:
+        """What :func:`railgym.envs.vehicle.render.render_vehicle` draws for vehicle ``i``:
         positions from the carbody centre (m), heights (m), forces (N)."""
         arrays, v = self.arrays, self.vehicle
         dx = self.speed[i] * self.cfg.dt

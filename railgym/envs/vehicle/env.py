@@ -11,7 +11,7 @@ action, reward, ``info`` and the argument limits are tabulated in
 ``docs/envs/vehicle_vertical.md``.
 
 The single env and the native vector env are the shells of :mod:`railgym.envs.base` around
-:class:`~railgym.envs.vehicle_batch.VehicleBatch`, which steps any number of vehicles in one
+:class:`~railgym.envs.vehicle.batch.VehicleBatch`, which steps any number of vehicles in one
 compiled call (the single env is a batch of one).
 """
 
@@ -42,7 +42,7 @@ from railgym.envs.track_shell import (
     check_speed_limit,
     element_arrays,
 )
-from railgym.envs.vehicle_batch import (
+from railgym.envs.vehicle.batch import (
     ACC_REF,
     DIVERGENCE_PENALTY,
     INFO_KEYS,
@@ -284,7 +284,7 @@ def _batch(
     if cfg.backend != "fmu":
         return VehicleBatch(n, cfg, cfg.model, lpr, v_min, envelope, damper_law_of(cfg))
     from railgym.fmu.mapping import load_mapping
-    from railgym.fmu.vehicle_batch import FMUVehicleBatch
+    from railgym.envs.vehicle.fmu_batch import FMUVehicleBatch
 
     mapping = load_mapping(cfg.fmu_map, cfg.fmu, "vehicle")
     return FMUVehicleBatch(n, cfg, cfg.model, lpr, v_min, mapping)
@@ -442,7 +442,7 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
         return case
 
     def _frame(self, state: dict[str, Any]) -> np.ndarray:
-        from railgym.envs.vehicle_render import render_vehicle
+        from railgym.envs.vehicle.render import render_vehicle
 
         return render_vehicle(state)
 
