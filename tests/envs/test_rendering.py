@@ -21,8 +21,8 @@ from railgym.envs.raster import (
     fill_rect,
     render_crash,
 )
-from railgym.envs.vertical.render import render_vertical
 from railgym.envs.text import GLYPHS, draw_text, text_width
+from railgym.envs.vertical.render import render_vertical
 
 INK = (255, 0, 0)
 

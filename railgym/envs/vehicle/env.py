@@ -283,8 +283,8 @@ def _batch(
     check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
         return VehicleBatch(n, cfg, cfg.model, lpr, v_min, envelope, damper_law_of(cfg))
-    from railgym.fmu.mapping import load_mapping
     from railgym.envs.vehicle.fmu_batch import FMUVehicleBatch
+    from railgym.fmu.mapping import load_mapping
 
     mapping = load_mapping(cfg.fmu_map, cfg.fmu, "vehicle")
     return FMUVehicleBatch(n, cfg, cfg.model, lpr, v_min, mapping)
