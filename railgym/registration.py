@@ -25,12 +25,12 @@ ENVS = {
     ),
     # v0: one mass per car, global LPR elements; v1: elastic cars, piecewise elements
     "railgym/TrainCrash-v0": (
-        "railgym.envs.crash:TrainCrashEnvV0",
-        "railgym.envs.crash:TrainCrashVectorEnvV0",
+        "railgym.envs.crash.env:TrainCrashEnvV0",
+        "railgym.envs.crash.env:TrainCrashVectorEnvV0",
     ),
     "railgym/TrainCrash-v1": (
-        "railgym.envs.crash:TrainCrashEnv",
-        "railgym.envs.crash:TrainCrashVectorEnv",
+        "railgym.envs.crash.env:TrainCrashEnv",
+        "railgym.envs.crash.env:TrainCrashVectorEnv",
     ),
 }
 

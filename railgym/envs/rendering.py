@@ -2,6 +2,7 @@
 :func:`~railgym.envs.vertical.render.render_vertical` and
 :func:`~railgym.envs.crash.render.render_crash`; kept for one version."""
 
+from railgym.envs.crash.render import render_crash
 from railgym.envs.raster import (
     BAR_ROWS,
     CRASH_COLORS,
@@ -19,7 +20,6 @@ from railgym.envs.raster import (
     draw_spring,
     fill_circle,
     fill_rect,
-    render_crash,
 )
 from railgym.envs.vertical.render import (
     SCHEMATIC_PX_PER_M,

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from railgym.envs.crash.render import render_crash
 from railgym.envs.raster import (
     BAR_ROWS,
     CRASH_COLORS,
@@ -19,7 +20,6 @@ from railgym.envs.raster import (
     draw_spring,
     fill_circle,
     fill_rect,
-    render_crash,
 )
 from railgym.envs.text import GLYPHS, draw_text, text_width
 from railgym.envs.vertical.render import render_vertical

@@ -1,13 +1,13 @@
 """The per-train arrays and the ``info`` keys of ``railgym/TrainCrash-v1``, declared once.
 
-:data:`EPISODE` declares every per-train array of :class:`~railgym.envs.crash_batch.CrashBatch`
+:data:`EPISODE` declares every per-train array of :class:`~railgym.envs.crash.batch.CrashBatch`
 (absorber scales, episode statistics, observation, reward, the flat ``info`` row and the
 flags) and :data:`INFO_FIELDS` every ``info`` key. Everything else is derived from them: the
 :class:`Episode` and :class:`InfoColumns` named tuples the kernels read, the array shapes
 (:func:`episode_shapes`), the columns of the flat ``info`` row (:func:`info_layout`), the
 values cleared at first contact (:data:`CLEARED`) and the compiled views of the buffer
 (:func:`buffer_views`). Adding an episode statistic is one entry here plus its computation in
-:mod:`railgym.envs.crash_step` (``docs/architecture.md``).
+:mod:`railgym.envs.crash.step` (``docs/architecture.md``).
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ EPISODE: tuple[Array, ...] = (
     Array("steps", "1", "1", "control steps since the reset", clear=0.0, dtype="int64"),
 )
 
-#: per-train arrays of :class:`~railgym.envs.crash_batch.CrashBatch`, in :data:`EPISODE` order
+#: per-train arrays of :class:`~railgym.envs.crash.batch.CrashBatch`, in :data:`EPISODE` order
 Episode = NamedTuple("Episode", [(a.name, np.ndarray) for a in EPISODE])  # type: ignore[misc]
 #: the float arrays of :class:`Episode`, kept in the batch's buffer
 ENV_FIELDS = tuple(a.name for a in EPISODE if a.dtype == "float64")
@@ -232,7 +232,7 @@ def _is_named_tuple(cls: Any) -> bool:
 
 def named_rebuild(cls: type) -> Callable[..., Any]:
     """Compiled ``named(t)``: the ``cls`` instance of the plain tuple ``t`` made by
-    :func:`~railgym.envs.crash_step.plain` of one, field by field of ``cls`` (nested named
+    :func:`~railgym.envs.crash.step.plain` of one, field by field of ``cls`` (nested named
     tuples, found from the field annotations, rebuilt as well)."""
     hints = get_type_hints(cls)
     fields = cls._fields  # type: ignore[attr-defined]

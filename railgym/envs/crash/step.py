@@ -10,7 +10,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from railgym.envs.crash_layout import (
+from railgym.envs.crash.layout import (
     CLEARED,
     COLUMNS,
     ENV_FIELDS,
@@ -135,7 +135,7 @@ class EnvConsts(NamedTuple):
 def plain(value: Any) -> Any:
     """``value`` with every NamedTuple turned into a plain tuple, recursively: compiled code
     types a plain tuple argument much faster than a NamedTuple (rebuilt inside by
-    :func:`~railgym.envs.crash_layout.named_rebuild`)."""
+    :func:`~railgym.envs.crash.layout.named_rebuild`)."""
     if isinstance(value, tuple):
         return tuple(plain(v) for v in value)
     return value
@@ -415,7 +415,7 @@ def _post_step(outputs, episode, consts, active, init):
 
     ``outputs`` :class:`CrashOutputs`, ``episode`` :class:`Episode`, ``consts``
     :class:`EnvConsts`. With ``init`` the trains are at first contact (the arrays of
-    :data:`~railgym.envs.crash_layout.CLEARED` already cleared, :func:`_begin`): the step is
+    :data:`~railgym.envs.crash.layout.CLEARED` already cleared, :func:`_begin`): the step is
     not scored.
     """
     col = consts.info
@@ -452,7 +452,7 @@ def _views(buf, fields, flags):
 @njit(cache=True, inline="always")
 def _begin(buf, fields, flags, consts, actions, active, init):
     """Named constants, the buffer's views, then with ``init`` the active trains' arrays of
-    :data:`~railgym.envs.crash_layout.CLEARED` cleared, else the absorber scales
+    :data:`~railgym.envs.crash.layout.CLEARED` cleared, else the absorber scales
     (:func:`_set_scale`); ``ok`` is False for a non-finite action."""
     named = _named_consts(consts)
     outputs, episode = _views(buf, fields, flags)

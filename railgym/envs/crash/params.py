@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from railgym import _checks as val
-from railgym.envs.crash_step import Criteria
+from railgym.envs.crash.step import Criteria
 from railgym.envs.params import Params, declared, derived, param
 from railgym.vehicles.crash import (
     LIMITS,

@@ -1,5 +1,5 @@
 """The batch of ``railgym/TrainCrash-v1`` (:mod:`railgym.envs.crash`): ``n`` trains stepped by
-one compiled call per control step (:mod:`railgym.envs.crash_step`), behind the batch contract
+one compiled call per control step (:mod:`railgym.envs.crash.step`), behind the batch contract
 of :mod:`railgym.envs.base`."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from railgym.envs.crash_layout import (
+from railgym.envs.crash.layout import (
     ENV_FIELDS,
     EPISODE,
     INFO_FIELDS,
@@ -18,8 +18,8 @@ from railgym.envs.crash_layout import (
     info_layout,
     new_episode_arrays,
 )
-from railgym.envs.crash_params import CrashParams
-from railgym.envs.crash_step import (
+from railgym.envs.crash.params import CrashParams
+from railgym.envs.crash.step import (
     ENV_START,
     STATE_START,
     EnvConsts,
@@ -243,7 +243,7 @@ class CrashBatch:
         return {key: terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
 
     def render_state(self, i: int) -> dict[str, Any]:
-        """What :func:`railgym.envs.rendering.render_crash` draws for train ``i``."""
+        """What :func:`railgym.envs.crash.render.render_crash` draws for train ``i``."""
         out, c = self.out, self.n_cars
         wall = float(out.x[i, c]) if out.x.shape[1] > c else 0.0  # the obstacle, if any
         return {
