@@ -7,40 +7,40 @@ from gymnasium.envs.registration import register, registry
 ENVS = {
     # v0: the memory element of railgym 0.2; v1: the envelope-fitted one (docs: Version history)
     "railgym/VerticalSuspension-v0": (
-        "railgym.envs.vertical:VerticalSuspensionEnvV0",
-        "railgym.envs.vertical:VerticalSuspensionVectorEnvV0",
+        "railgym.envs.vertical.env:VerticalSuspensionEnvV0",
+        "railgym.envs.vertical.env:VerticalSuspensionVectorEnvV0",
     ),
     "railgym/VerticalSuspension-v1": (
-        "railgym.envs.vertical:VerticalSuspensionEnv",
-        "railgym.envs.vertical:VerticalSuspensionVectorEnv",
+        "railgym.envs.vertical.env:VerticalSuspensionEnv",
+        "railgym.envs.vertical.env:VerticalSuspensionVectorEnv",
     ),
     # v2: the same element evaluated by Hermite tables inside its box (docs: Version history)
     "railgym/VerticalSuspension-v2": (
-        "railgym.envs.vertical:VerticalSuspensionEnvV2",
-        "railgym.envs.vertical:VerticalSuspensionVectorEnvV2",
+        "railgym.envs.vertical.env:VerticalSuspensionEnvV2",
+        "railgym.envs.vertical.env:VerticalSuspensionVectorEnvV2",
     ),
     # v0: the static packaged element by default; v1: the memory element (docs: Version history)
     "railgym/VerticalVehicle-v0": (
-        "railgym.envs.vehicle:VerticalVehicleEnvV0",
-        "railgym.envs.vehicle:VerticalVehicleVectorEnvV0",
+        "railgym.envs.vehicle.env:VerticalVehicleEnvV0",
+        "railgym.envs.vehicle.env:VerticalVehicleVectorEnvV0",
     ),
     "railgym/VerticalVehicle-v1": (
-        "railgym.envs.vehicle:VerticalVehicleEnv",
-        "railgym.envs.vehicle:VerticalVehicleVectorEnv",
+        "railgym.envs.vehicle.env:VerticalVehicleEnv",
+        "railgym.envs.vehicle.env:VerticalVehicleVectorEnv",
     ),
     # v2: the same element evaluated by Hermite tables inside its box (docs: Version history)
     "railgym/VerticalVehicle-v2": (
-        "railgym.envs.vehicle:VerticalVehicleEnvV2",
-        "railgym.envs.vehicle:VerticalVehicleVectorEnvV2",
+        "railgym.envs.vehicle.env:VerticalVehicleEnvV2",
+        "railgym.envs.vehicle.env:VerticalVehicleVectorEnvV2",
     ),
     # v0: one mass per car, global LPR elements; v1: elastic cars, piecewise elements
     "railgym/TrainCrash-v0": (
-        "railgym.envs.crash:TrainCrashEnvV0",
-        "railgym.envs.crash:TrainCrashVectorEnvV0",
+        "railgym.envs.crash.env:TrainCrashEnvV0",
+        "railgym.envs.crash.env:TrainCrashVectorEnvV0",
     ),
     "railgym/TrainCrash-v1": (
-        "railgym.envs.crash:TrainCrashEnv",
-        "railgym.envs.crash:TrainCrashVectorEnv",
+        "railgym.envs.crash.env:TrainCrashEnv",
+        "railgym.envs.crash.env:TrainCrashVectorEnv",
     ),
 }
 

@@ -26,6 +26,7 @@ import numpy as np
 from railgym import _checks as val
 
 __all__ = [
+    "EPISODE_DURATION",
     "TrackClassParameters",
     "TrackInput",
     "class_parameters",
@@ -36,6 +37,10 @@ __all__ = [
     "load_fra_table",
     "track_time_input",
 ]
+
+#: s, the default episode of the track envs (their ``duration``) and of the reference FMUs'
+#: default experiment
+EPISODE_DURATION = 20.0
 
 Kind = Literal["vertical", "alignment", "crosslevel"]
 KINDS: tuple[str, ...] = ("vertical", "alignment", "crosslevel")

@@ -1,5 +1,5 @@
-"""Imports flow one way: surrogates ← railgym physics ← railgym.report, railgym.envs ← wrappers
-← agents."""
+"""Imports flow one way: surrogates ← railgym physics (track, vehicles, FMU runner) ←
+railgym.report, railgym.envs ← wrappers ← agents; each env in its own folder."""
 
 import ast
 import subprocess
@@ -58,6 +58,64 @@ def test_report_uses_physics_only(path):
     outer = {"gymnasium", "torch", "stable_baselines3", "railgym.envs", "railgym.wrappers"}
     bad = _imports(path) & (outer | {"agents"})
     assert not bad, f"{path} imports {bad}"
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "railgym" / "fmu").rglob("*.py")), ids=str)
+def test_fmu_does_not_import_envs(path):
+    """The FMU runner, mapping, description, collection and exports sit below the envs: the
+    FMU batches of the envs live in the envs' folders."""
+    bad = _imports(path) & {"gymnasium", "railgym.envs", "railgym.wrappers", "agents"}
+    assert not bad, f"{path} imports {bad}"
+
+
+#: one folder per env: its module, batch, frame (and FMU batch, declared arguments, ...)
+ENV_FOLDERS = {
+    "vertical": ("env", "batch", "fmu_batch", "render"),
+    "vehicle": ("env", "batch", "fmu_batch", "render"),
+    "crash": ("env", "params", "batch", "step", "layout", "render"),
+}
+
+
+@pytest.mark.parametrize("env", sorted(ENV_FOLDERS))
+def test_each_env_has_its_folder(env):
+    folder = ROOT / "railgym" / "envs" / env
+    assert (folder / "__init__.py").is_file()
+    for module in ENV_FOLDERS[env]:
+        assert (folder / f"{module}.py").is_file(), f"railgym/envs/{env}/{module}.py"
+
+
+def test_envs_outside_their_folders_import_no_env_folder():
+    """The shared modules of railgym/envs (base, params, compiled, track_shell, raster, ...)
+    need no env's folder; the deprecated re-export modules of the old paths are the
+    exception."""
+    shims = {
+        "crash_batch",
+        "crash_layout",
+        "crash_params",
+        "crash_step",
+        "rendering",
+        "vehicle_batch",
+        "vehicle_render",
+        "vertical_batch",
+    }
+    folders = {f"railgym.envs.{env}" for env in ENV_FOLDERS}
+    for path in sorted((ROOT / "railgym" / "envs").glob("*.py")):
+        if path.stem in shims:
+            continue
+        names = {n for n in _full_imports(path) if n.startswith("railgym.envs.")}
+        bad = {n for n in names if any(n == f or n.startswith(f + ".") for f in folders)}
+        assert not bad, f"{path} imports {bad}"
+
+
+def _full_imports(path: Path) -> set[str]:
+    """The modules ``path`` imports (absolute, full dotted names; in functions too)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module)
+    return names
 
 
 def test_core_imports_without_torch():

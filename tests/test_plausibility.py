@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401  (registers the envs)
-from railgym.envs.crash_step import crush_limits
+from railgym.envs.crash.step import crush_limits
 from railgym.vehicles.crash import load_scenario
 
 

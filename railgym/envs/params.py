@@ -41,7 +41,7 @@ import numpy as np
 from railgym import _checks as val
 from railgym.envs.base import step_grid
 from railgym.profile import load_profile
-from railgym.track import class_parameters
+from railgym.track import EPISODE_DURATION, class_parameters
 
 __all__ = [
     "BACKENDS",
@@ -503,7 +503,7 @@ class TrackEnvParams(Params):
         check=_profile,
     )
     duration: float = param(
-        20.0,
+        EPISODE_DURATION,
         "s",
         "episode length (truncation), a whole multiple of `control_dt`",
         lo=0.0,

@@ -12,7 +12,6 @@ its stages the same cubic Hermite track input as the kernels.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from importlib import resources
 from pathlib import Path
@@ -20,8 +19,8 @@ from typing import NamedTuple
 
 import yaml
 
-from railgym.envs.params import TrackEnvParams, default
 from railgym.fmu.description import Variable, describe
+from railgym.track import EPISODE_DURATION
 from railgym.vehicles.vehicle import DEFAULT_DT as VEHICLE_DT
 from railgym.vehicles.vehicle import kernel_params as vehicle_params
 from railgym.vehicles.vehicle import load_whole_vehicle
@@ -112,9 +111,7 @@ VEHICLE_STATES = (
 C_FILES = ("model.c", "suspension.h")
 #: s, the episode length of both envs (their default ``duration``): the stop time of the FMU's
 #: default experiment, whose step is the FMU's RK4 step
-EPISODE_S = float(
-    next(default(f) for f in dataclasses.fields(TrackEnvParams) if f.name == "duration")
-)
+EPISODE_S = EPISODE_DURATION
 
 
 def c_struct(name: str, values: dict[str, float]) -> str:

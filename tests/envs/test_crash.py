@@ -7,7 +7,7 @@ from gymnasium.utils.env_checker import check_env
 
 import railgym  # noqa: F401  (registers the environments)
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
-from railgym.envs.crash_step import STATE_LIMIT
+from railgym.envs.crash.step import STATE_LIMIT
 from railgym.vehicles.crash import (
     PARALLEL_MIN,
     absorber_zone_force,

@@ -1,5 +1,5 @@
 """TrainCrash-v1 declared once: the per-train arrays and ``info`` keys of
-``railgym.envs.crash_layout`` and the arguments of ``railgym.envs.crash_params.CrashParams``
+``railgym.envs.crash.layout`` and the arguments of ``railgym.envs.crash.params.CrashParams``
 are what the env holds, returns, accepts and documents."""
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 import railgym  # noqa: F401
 from railgym import _checks as val
 from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv
-from railgym.envs.crash_layout import EPISODE, INFO_FIELDS, REWARD_TERMS, info_layout
-from railgym.envs.crash_params import CrashParams
+from railgym.envs.crash.layout import EPISODE, INFO_FIELDS, REWARD_TERMS, info_layout
+from railgym.envs.crash.params import CrashParams
 from railgym.envs.params import specs, update_docs
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "envs" / "crash.md"

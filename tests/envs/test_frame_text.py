@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401  (registers the environments)
-from railgym.envs.rendering import CRASH_COLORS, VERTICAL_COLORS, canvas
+from railgym.envs.raster import CRASH_COLORS, VERTICAL_COLORS, canvas
 from railgym.envs.text import GLYPHS, draw_text, text_width
 
 

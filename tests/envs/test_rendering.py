@@ -1,11 +1,13 @@
-"""Tests for railgym.envs.rendering: primitives, vertical-vehicle and crash frames."""
+"""Tests for railgym.envs.raster (primitives) and the frames of the vertical vehicle, the whole
+vehicle and the crash."""
 
 import math
 
 import numpy as np
 import pytest
 
-from railgym.envs.rendering import (
+from railgym.envs.crash.render import render_crash
+from railgym.envs.raster import (
     BAR_ROWS,
     CRASH_COLORS,
     DISPLACEMENT_PX_PER_M,
@@ -18,10 +20,9 @@ from railgym.envs.rendering import (
     draw_spring,
     fill_circle,
     fill_rect,
-    render_crash,
-    render_vertical,
 )
 from railgym.envs.text import GLYPHS, draw_text, text_width
+from railgym.envs.vertical.render import render_vertical
 
 INK = (255, 0, 0)
 
@@ -398,7 +399,7 @@ def test_the_crash_frames_progress_bar_carries_its_label():
 
 
 def _vehicle_state(**kw):
-    from railgym.envs.vehicle_render import render_vehicle  # noqa: F401  (the module tested)
+    from railgym.envs.vehicle.render import render_vehicle  # noqa: F401  (the module tested)
 
     tx = np.linspace(-18.0, 18.0, 301)
     state = {
@@ -423,7 +424,7 @@ def _vehicle_state(**kw):
 def test_the_vehicle_frames_bars_carry_their_labels():
     """The progress bar (``time``) and a gauge above each bogie (``front force`` over the
     bogie at the larger position, ``rear force``), each filled from its zero mark."""
-    from railgym.envs.vehicle_render import render_vehicle
+    from railgym.envs.vehicle.render import render_vehicle
 
     img = render_vehicle(_vehicle_state())
     c = VERTICAL_COLORS
@@ -447,8 +448,8 @@ def test_the_vehicle_frames_bars_carry_their_labels():
 
 def test_the_frames_draw_their_bar_labels_through_the_font(monkeypatch):
     """Every label goes through the font's draw_text (no label drawn by hand)."""
-    import railgym.envs.rendering as rendering
-    from railgym.envs.vehicle_render import render_vehicle
+    import railgym.envs.raster as raster
+    from railgym.envs.vehicle.render import render_vehicle
 
     drawn: list[str] = []
 
@@ -456,7 +457,7 @@ def test_the_frames_draw_their_bar_labels_through_the_font(monkeypatch):
         drawn.append(text)
         draw_text(img, x, y, text, color, scale)
 
-    monkeypatch.setattr(rendering, "draw_text", record)
+    monkeypatch.setattr(raster, "draw_text", record)
     render_vertical(vertical_state(duration=10.0))
     assert drawn[:2] == ["time", "force"]
     drawn.clear()

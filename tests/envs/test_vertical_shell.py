@@ -22,7 +22,7 @@ from railgym.envs.vertical import (
     VerticalSuspensionEnv,
     VerticalSuspensionVectorEnv,
 )
-from railgym.envs.vertical_batch import REWARD_TERMS
+from railgym.envs.vertical.batch import REWARD_TERMS
 from railgym.vehicles.vertical import load_vehicle
 
 

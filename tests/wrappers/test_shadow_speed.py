@@ -9,7 +9,7 @@ import pytest
 
 import railgym  # noqa: F401  (registers the environments)
 import railgym.wrappers.reference_shadow as rs
-from railgym.envs.vertical_batch import VerticalBatch
+from railgym.envs.vertical.batch import VerticalBatch
 from railgym.wrappers import ReferenceShadow
 
 ENV_ID = "railgym/VerticalSuspension-v1"

@@ -256,7 +256,7 @@ def test_shadow_speed_is_the_batch_call_of_each_side_timed_alike(monkeypatch):
     the kernel times are those costs (the median drops the first step), ``speedup`` is their
     ratio, the wall times sum every step; the stand-ins go on ``close``."""
     import railgym.wrappers.reference_shadow as rs
-    from railgym.envs.vertical_batch import VerticalBatch
+    from railgym.envs.vertical.batch import VerticalBatch
 
     clock = [0.0]
     monkeypatch.setattr(rs, "time", SimpleNamespace(perf_counter=lambda: clock[0]))

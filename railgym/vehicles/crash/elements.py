@@ -75,7 +75,7 @@ FIT_DEGREES = (10, 20, 30, 40, 60, 80)
 #: the validation matrix of issue 10 (32 km/h is not a fitting speed)
 MATRIX_SPEEDS_KMH = (25.0, 32.0, 40.0, 50.0)
 MATRIX_SCALES = (0.7, 1.0, 1.3)
-#: a run ends as the env's crash ends (railgym.envs.crash_step F_STOP, V_STOP): no zone
+#: a run ends as the env's crash ends (railgym.envs.crash.step F_STOP, V_STOP): no zone
 #: carries more than F_STOP (N) and none closes faster than V_STOP (m/s)
 F_STOP, V_STOP = 1e3, 0.01
 _DATA = ("data",)

@@ -11,7 +11,7 @@ action, reward, ``info`` and the argument limits are tabulated in
 ``docs/envs/vehicle_vertical.md``.
 
 The single env and the native vector env are the shells of :mod:`railgym.envs.base` around
-:class:`~railgym.envs.vehicle_batch.VehicleBatch`, which steps any number of vehicles in one
+:class:`~railgym.envs.vehicle.batch.VehicleBatch`, which steps any number of vehicles in one
 compiled call (the single env is a batch of one).
 """
 
@@ -34,7 +34,15 @@ from railgym.envs.params import (
     limits,
     param,
 )
-from railgym.envs.vehicle_batch import (
+from railgym.envs.track_shell import (
+    ACC_WEIGHTINGS,
+    TrackEnvShell,
+    TrackVectorShell,
+    check_element_vehicle,
+    check_speed_limit,
+    element_arrays,
+)
+from railgym.envs.vehicle.batch import (
     ACC_REF,
     DIVERGENCE_PENALTY,
     INFO_KEYS,
@@ -44,15 +52,7 @@ from railgym.envs.vehicle_batch import (
     check_band_speed,
     episode_comfort,
 )
-from railgym.envs.vertical import (
-    ACC_WEIGHTINGS,
-    TrackEnvShell,
-    TrackVectorShell,
-    check_element_vehicle,
-    check_speed_limit,
-    element_arrays,
-)
-from railgym.envs.vertical import LIMITS as _VERTICAL_LIMITS
+from railgym.envs.vertical.env import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
@@ -285,8 +285,8 @@ def _batch(
     check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
         return VehicleBatch(n, cfg, cfg.model, lpr, v_min, envelope, damper_law_of(cfg))
+    from railgym.envs.vehicle.fmu_batch import FMUVehicleBatch
     from railgym.fmu.mapping import load_mapping
-    from railgym.fmu.vehicle_batch import FMUVehicleBatch
 
     mapping = load_mapping(cfg.fmu_map, cfg.fmu, "vehicle")
     return FMUVehicleBatch(n, cfg, cfg.model, lpr, v_min, mapping)
@@ -446,7 +446,7 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
         return case
 
     def _frame(self, state: dict[str, Any]) -> np.ndarray:
-        from railgym.envs.vehicle_render import render_vehicle
+        from railgym.envs.vehicle.render import render_vehicle
 
         return render_vehicle(state)
 

@@ -13,7 +13,7 @@ The physics is in :mod:`railgym.vehicles.crash`: ``backend="reference"`` is the 
 chain with hysteretic crush zones (``simulate_reference``), ``"surrogate"`` the paper's eq. (4)
 with surrogate elements (packaged ones, else fitted on a reference run of the scenario). The
 single env and the native vector env are the shells of :mod:`railgym.envs.base` around
-:class:`~railgym.envs.crash_batch.CrashBatch`, which steps any number of trains in one
+:class:`~railgym.envs.crash.batch.CrashBatch`, which steps any number of trains in one
 compiled call. ``info`` carries the crash criteria of
 :mod:`railgym.vehicles.crash.criteria` with the scenario's limits. See ``docs/envs/crash.md``.
 """
@@ -29,9 +29,9 @@ from gymnasium import spaces
 
 from railgym import _checks as val
 from railgym.envs.base import BatchEnv, BatchVectorEnv
-from railgym.envs.crash_batch import CrashBatch
-from railgym.envs.crash_layout import INFO_FIELDS, REWARD_TERMS
-from railgym.envs.crash_params import BACKENDS, DEFAULT_WEIGHTS, CrashParams, nominal_force
+from railgym.envs.crash.batch import CrashBatch
+from railgym.envs.crash.layout import INFO_FIELDS, REWARD_TERMS
+from railgym.envs.crash.params import BACKENDS, DEFAULT_WEIGHTS, CrashParams, nominal_force
 from railgym.envs.params import checked_keywords
 from railgym.vehicles.crash import (
     LIMITS,
@@ -278,7 +278,7 @@ class _CrashShell:
         return " and ".join(parts)
 
     def _frame(self, state: dict[str, Any]) -> np.ndarray:
-        from railgym.envs.rendering import render_crash
+        from railgym.envs.crash.render import render_crash
 
         return render_crash(state)
 

@@ -1,6 +1,6 @@
 """The batch of ``VerticalSuspension-v1`` with ``backend="fmu"``: an FMU as the vehicle model.
 
-:class:`FMUBatch` is a :class:`~railgym.envs.vertical_batch.VerticalBatch` whose control step
+:class:`FMUBatch` is a :class:`~railgym.envs.vertical.batch.VerticalBatch` whose control step
 advances one FMU instance per sub-env (:class:`~railgym.fmu.runner.FMURunner`) instead of the
 compiled kernel; observation, reward, its terms, ``info`` and the episode flags come from the
 same compiled bookkeeping as the other backends. The FMU's outputs fill the state as
@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from railgym.envs.params import TrackEnvParams
-from railgym.envs.vertical_batch import VerticalBatch, post_step
+from railgym.envs.vertical.batch import VerticalBatch, post_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMUInstances, FMURunner
 from railgym.vehicles.vertical import LprArrays, VerticalVehicle

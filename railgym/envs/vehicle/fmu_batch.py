@@ -1,9 +1,9 @@
 """The batch of ``VerticalVehicle-v1`` with ``backend="fmu"``: an FMU as the whole vehicle.
 
-:class:`FMUVehicleBatch` is a :class:`~railgym.envs.vehicle_batch.VehicleBatch` whose control
+:class:`FMUVehicleBatch` is a :class:`~railgym.envs.vehicle.batch.VehicleBatch` whose control
 step advances one FMU instance per sub-env (:class:`~railgym.fmu.runner.FMURunner`) instead
 of the compiled kernel, then runs the same compiled bookkeeping
-(:func:`~railgym.envs.vehicle_batch.book_step`: observation, reward with its Wk filter, info,
+(:func:`~railgym.envs.vehicle.batch.book_step`: observation, reward with its Wk filter, info,
 comfort record). Each wheelset's track input is the env's cubic Hermite interpolation of the
 track at its offset (at the substeps' ends, and their midpoints for model exchange). The FMU's
 outputs (deflections, their rates and the carbody velocities over the bogies) are written
@@ -20,7 +20,7 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.envs.params import TrackEnvParams
-from railgym.envs.vehicle_batch import VehicleBatch, book_step
+from railgym.envs.vehicle.batch import VehicleBatch, book_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMUInstances, FMURunner
 from railgym.vehicles.vehicle import Lpr, WholeVehicle, hermite
