@@ -37,6 +37,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -373,6 +374,11 @@ REFINE = (
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``railgym`` command; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    # a command runs the env version its config or policy names: gymnasium's notice that a
+    # newer version is registered is for a user's own gym.make
+    warnings.filterwarnings(
+        "ignore", r".*environment railgym/\S+ is out of date", DeprecationWarning
+    )
     if argv and argv[0] in MODULE_COMMANDS:  # the module's own parser reads the rest
         import importlib
 

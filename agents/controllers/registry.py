@@ -39,6 +39,7 @@ from agents.controllers.lqg import LQG, VehicleLQG
 from agents.controllers.preview import LQGPreview, LQRPreview
 from agents.controllers.semi_active_control import SEMI_ACTIVE_CONTROLLERS
 from railgym import _checks as val
+from railgym.registration import env_family
 
 __all__ = [
     "BASELINES",
@@ -59,6 +60,7 @@ __all__ = [
     "baselines_of",
     "build_controller",
     "canonical_name",
+    "controllers_of",
     "crash_factories",
 ]
 
@@ -124,15 +126,24 @@ VEHICLE_FORCE_CONTROLLERS: dict[str, Entry] = {
 #: (the semi-active ones per bogie)
 VEHICLE_CONTROLLERS = _both_actuators(VEHICLE_FORCE_CONTROLLERS)
 #: controllers of each env id that ``railgym evaluate`` loads by name (the crash env's:
-#: :data:`CRASH_CONTROLLERS`, its baselines)
+#: :data:`CRASH_CONTROLLERS`, its baselines); every version of an env shares them
 CONTROLLERS_OF = {ENV_ID: CONTROLLERS, VEHICLE_ID: VEHICLE_CONTROLLERS}
+
+
+def controllers_of(env_id: str) -> dict[str, Entry]:
+    """The controllers of :data:`CONTROLLERS_OF` for any version of ``env_id`` (empty: none)."""
+    family = env_family(env_id)
+    for key, table in CONTROLLERS_OF.items():
+        if env_family(key) == family:
+            return table
+    return {}
 
 
 def build_controller(env_id: str, name: str, env: Any) -> Any:
     """The classical controller ``name`` of ``env_id`` built on ``env`` (a single or native
     vector env); the error of an env it cannot run on (e.g. ``lqg`` on the full observation)
     names ``residual``."""
-    cls, kwargs, _ = CONTROLLERS_OF[env_id][name]
+    cls, kwargs, _ = controllers_of(env_id)[name]
     try:
         return cls(env, **kwargs)
     except ValueError as err:

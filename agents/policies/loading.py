@@ -20,7 +20,7 @@ import numpy as np
 import railgym  # noqa: F401  (registers the environments)
 from agents._extras import require
 from agents.controllers.action_hold import HeldPolicy
-from agents.controllers.registry import CONTROLLERS_OF, CRASH_ID, ENV_ID, build_controller
+from agents.controllers.registry import CRASH_ID, ENV_ID, build_controller, controllers_of
 from agents.controllers.residual import ResidualPolicy
 from agents.policies.policy_io import RLLIB_MODULE_PATH, check_manifest, load_policy_weights
 from agents.policies.policy_zip import PolicySource, find_source, zip_network
@@ -61,7 +61,7 @@ def load_policy(
     if not isinstance(policy, str | Path):
         raise val.FieldTypeError("policy", f"must be a controller name or a path, got {policy!r}")
     policy = str(policy)
-    controllers = CONTROLLERS_OF.get(env_id, {})
+    controllers = controllers_of(env_id)
     if policy in controllers:
         cls, kwargs, env_kwargs = controllers[policy]
         return (lambda env: cls(env, **kwargs)), env_kwargs, policy
@@ -87,7 +87,7 @@ def trained_actuator(policy: str, env_id: str = ENV_ID) -> str | None:
     from its run's settings without loading it: an :mod:`agents.training.train` or rl-zoo3 zip (or a
     pretrained name); ``None`` for a controller name, an RLlib checkpoint, a bare zip (its env
     comes from the command) or a path that is not there (:func:`load_policy` says why)."""
-    if not isinstance(policy, str | Path) or str(policy) in CONTROLLERS_OF.get(env_id, {}):
+    if not isinstance(policy, str | Path) or str(policy) in controllers_of(env_id):
         return None
     policy = str(policy)
     if policy in PRETRAINED:

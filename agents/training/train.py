@@ -57,6 +57,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numba
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from tqdm import tqdm
@@ -486,7 +487,12 @@ def train(
     if progress:
         callbacks.append(_ProgressBar())
     t0, cpu0 = time.perf_counter(), time.process_time()
-    model.learn(cfg.n_timesteps, callback=callbacks)
+    threads = numba.get_num_threads()
+    numba.set_num_threads(min(cfg.env_threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        model.learn(cfg.n_timesteps, callback=callbacks)
+    finally:
+        numba.set_num_threads(threads)
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     with atomic_path(out / "model.zip") as tmp:
         model.save(tmp)

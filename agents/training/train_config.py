@@ -24,6 +24,11 @@ Config file: one top-level key, the Gymnasium env id, holding
 ``checkpoint_freq``     steps between checkpoints
 ``n_threads``           torch CPU threads (default 1: small networks are fastest on one
                         thread), at most 256
+``env_threads``         numba threads of the env kernels while training (default 1, at most
+                        256): torch's and numba's OpenMP threads spin-wait for the cores
+                        between their parallel regions, and alternating rollouts and updates
+                        on more threads than cores ran the env ~10 × slower (docs/results.md,
+                        *Training throughput*)
 ``envelope``            per-episode track class and speed of the training env (vertical and
                         vehicle envs; :mod:`agents.training.envelope`): ``track_class`` (list),
                         ``speed_kmh`` ([min, max]; absent: each class's maximum speed)
@@ -119,6 +124,7 @@ class TrainConfig:
     eval_seed: int = EVAL_SEED
     checkpoint_freq: int = 50_000
     n_threads: int = 1
+    env_threads: int = 1
     vectorization_mode: str | None = None
     eval_echo: list[str] = field(default_factory=list)
     envelope: dict[str, Any] | None = None
@@ -334,9 +340,9 @@ def _residual(name: Any, env_id: str, mode: str | None, hold: int) -> str | None
     """The checked ``residual`` controller name (``None``: none)."""
     if name is None:
         return None
-    from agents.controllers.registry import CONTROLLERS_OF
+    from agents.controllers.registry import controllers_of
 
-    controllers = CONTROLLERS_OF.get(env_id)
+    controllers = controllers_of(env_id)
     if not controllers:
         raise val.FieldError("residual", f"{env_id} has no classical controllers")
     name = val.choice(name, "residual", sorted(controllers))
@@ -408,6 +414,7 @@ def load_config(config: str | Path | dict[str, Any], algo: str | None = None) ->
         eval_seed=count("eval_seed", EVAL_SEED, lo=0, hi=MAX_SEED),
         checkpoint_freq=count("checkpoint_freq", 50_000, hi=MAX_TIMESTEPS),
         n_threads=count("n_threads", 1, hi=MAX_THREADS),
+        env_threads=count("env_threads", 1, hi=MAX_THREADS),
         vectorization_mode=mode,
         eval_echo=_names(f.get("eval_echo", None), "eval_echo"),
         envelope=envelope,

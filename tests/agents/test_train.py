@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 import gymnasium as gym
+import numba
 import numpy as np
 import pytest
 import yaml
@@ -277,6 +278,26 @@ def test_short_ppo_run_saves_reloadable_reproducible_policy(tmp_path, monkeypatc
     assert not np.array_equal(act(other), action)
 
 
+def test_env_kernels_run_on_env_threads_while_learning_and_are_restored(tmp_path, monkeypatch):
+    """torch's and numba's OpenMP threads spin for the cores: ``learn`` runs the env kernels on
+    ``env_threads`` numba threads, and the process gets its own number back afterwards."""
+    from stable_baselines3 import PPO
+
+    seen = []
+    learn = PPO.learn
+
+    def spy(self, *args, **kwargs):
+        seen.append(numba.get_num_threads())
+        return learn(self, *args, **kwargs)
+
+    monkeypatch.setattr(PPO, "learn", spy)
+    before = numba.get_num_threads()
+    cfg = _tiny_config()
+    cfg[ENV_ID]["env_threads"] = 1
+    train(cfg, tmp_path / "one", progress=False)
+    assert seen == [1] and numba.get_num_threads() == before
+
+
 def test_short_sac_run_with_schedule_reloads(tmp_path, capsys):
     from stable_baselines3 import SAC
 
@@ -354,6 +375,7 @@ def test_missing_seed_is_drawn_and_recorded():
         (lambda c: c[ENV_ID].update(seed=2**32) or c, "seed must be at most"),
         (lambda c: c[ENV_ID].update(eval_seed="1") or c, "eval_seed must be an integer"),
         (lambda c: c[ENV_ID].update(n_threads=True) or c, "n_threads must be an integer"),
+        (lambda c: c[ENV_ID].update(env_threads=0) or c, "env_threads must be at least 1"),
         (lambda c: c[ENV_ID].update(eval_echo="rms") or c, "eval_echo must be a sequence"),
         (lambda c: c[ENV_ID].update(eval_echo=["rms", 3]) or c, r"eval_echo\[1\] must be a name"),
         (lambda c: c[ENV_ID].update(policy=None) or c, "policy must be a policy name"),
