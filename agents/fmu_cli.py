@@ -71,7 +71,7 @@ def add_policy_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``railgym export-policy``."""
     parser.add_argument(
         "policy",
-        help="a pretrained policy name (ppo-vertical, ppo-vehicle) or a policy .zip "
+        help="a pretrained policy name (ppo-vertical, ppo-vehicle, ppo-preview) or a policy .zip "
         "(config.yaml beside it); a residual policy brings its classical controller",
     )
     add_out(

@@ -430,6 +430,11 @@ def _check_exportable(cfg: Any, where: str) -> None:
             f"a {cfg.env_id} policy's action {what}, not an actuator force (the FMU outputs "
             "the actuator forces of VerticalSuspension and VerticalVehicle policies)"
         )
+    if cfg.env_kwargs.get("actuator") == "semi-active":
+        reasons.append(
+            "its action is a damper command in [0, 1] (actuator: semi-active), not an actuator "
+            "force, and its base's force demand goes through the damper model"
+        )
     if cfg.action_hold > 1:
         reasons.append(f"action_hold is {cfg.action_hold}, but the FMU decides at every step")
     if reasons:

@@ -187,7 +187,7 @@ def _check_closed_loop(fmu_path, onnx_path, env, factory, stateful: bool) -> flo
     return rel
 
 
-@pytest.fixture(scope="module", params=["ppo-vertical", "ppo-vehicle"])
+@pytest.fixture(scope="module", params=["ppo-vertical", "ppo-vehicle", "ppo-preview"])
 def shipped(request, tmp_path_factory):
     """(name, env id, FMU, ONNX or None) of a shipped residual policy, exported by name."""
     from agents.policy_fmu import export_policy
@@ -201,8 +201,9 @@ def shipped(request, tmp_path_factory):
 
 
 def test_shipped_residual_fmu_reproduces_predict_with_its_lqg(shipped):
-    """The shipped residuals of the LQG: FMU = ResidualPolicy.predict·f_max step by step on
-    the reference backend, over two episodes (state reset between them)."""
+    """The shipped residuals of the LQG (and of the LQ preview, its preview channels as FMU
+    inputs): FMU = ResidualPolicy.predict·f_max step by step on the reference backend, over
+    two episodes (state reset between them)."""
     from agents.policies import load_policy
 
     name, env_id, fmu, onnx = shipped
@@ -216,7 +217,8 @@ def test_shipped_residual_fmu_reproduces_predict_with_its_lqg(shipped):
     assert outs == (
         ["actuator_force"] if env_id == ID else ["actuator_force_front", "actuator_force_rear"]
     )
-    assert "residual of lqg, scale 0.5" in md.description
+    base = "lq-preview" if name == "ppo-preview" else "lqg"
+    assert f"residual of {base}, scale 0.5" in md.description
     rel = _check_closed_loop(fmu, onnx, env, factory, stateful=True)
     print(f"{name}: max |FMU - predict·f_max| / f_max = {rel:.3g}")
 
@@ -326,6 +328,16 @@ def test_trained_memoryless_residual_fmu_reproduces_predict(case, tmp_path):
     env = gym.make(ID, **env_kwargs, backend="reference", duration=2.0, track_class=4)
     rel = _check_closed_loop(fmu, onnx if _has_onnxruntime() else None, env, factory, False)
     print(f"{case}: max |FMU - predict·f_max| / f_max = {rel:.3g}")
+
+
+def test_cli_refuses_the_semi_active_policy_saying_why(tmp_path, capsys):
+    """``ppo-semiactive`` commands a damper: one line naming it and why, nothing written."""
+    out = tmp_path / "c.fmu"
+    assert main(["export-policy", "ppo-semiactive", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "ppo-semiactive" in err
+    assert "damper command in [0, 1] (actuator: semi-active)" in err
+    assert not out.exists()
 
 
 def test_cli_refuses_a_semi_active_residual_naming_it(tmp_path, capsys):
