@@ -4,7 +4,7 @@ The loop a user runs after training an agent: the reference model is driven by t
 reference samples are added where the element's force error is largest (or its inputs leave
 the training box), the element is refitted, and the held-out error is printed per round
 (:func:`railgym.vehicles.collect.refine`; ``--env vehicle``: the whole vehicle, both bogies,
-:func:`railgym.vehicles.refine_vehicle.refine_vehicle`). The refined element is written as
+:func:`railgym.vehicles.vehicle.refine.refine_vehicle`). The refined element is written as
 model JSON and used with ``VerticalSuspensionEnv(surrogate=PATH)`` or
 ``VerticalVehicleEnv(surrogate=PATH)``.
 """
@@ -29,9 +29,9 @@ from railgym.vehicles.collect import (
     refine,
     save_vertical_surrogate,
 )
-from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
-from railgym.vehicles.refine_vehicle import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from railgym.vehicles.refinement import RefineOptions
+from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
+from railgym.vehicles.vehicle.refine import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from surrogates import io
 from surrogates.cli_flags import add_deprecated, add_out, add_seed
 
@@ -72,7 +72,7 @@ def observation_map(env: VerticalSuspensionEnv) -> Any:
 
 def vehicle_observation_map(env: VerticalVehicleEnv) -> Any:
     """``raw (27,) → VerticalVehicle-v1 observation`` (float32, normalised like the env, no
-    sensor noise); ``raw`` is :data:`~railgym.vehicles.refine_vehicle.RAW_VEHICLE_OBSERVATION`."""
+    sensor noise); ``raw`` is :data:`~railgym.vehicles.vehicle.refine.RAW_VEHICLE_OBSERVATION`."""
     index = {name: i for i, name in enumerate(RAW_VEHICLE_OBSERVATION)}
     inv = 1.0 / np.asarray(env.obs_scale, dtype=np.float64)
     names = list(env.obs_names)

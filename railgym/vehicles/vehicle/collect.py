@@ -39,16 +39,16 @@ from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.collect_design import band_limited_force
 from railgym.vehicles.element_envelope import design_envelope
 from railgym.vehicles.memory_element import WARMUP, select_memory_element
-from railgym.vehicles.vehicle import (
+from railgym.vehicles.vehicle.model import (
     DEFAULT_DT,
     advance,
     check_variant,
     kernel_params,
-    load_whole_vehicle,
     lpr_arrays,
     new_arrays,
     wheelset_offsets,
 )
+from railgym.vehicles.vehicle.params import load_whole_vehicle
 from railgym.vehicles.vertical import bump_stop_force, load_vehicle
 from surrogates import io
 from surrogates.cli_flags import Parser, add_common, add_out, add_seed, error_status
@@ -261,7 +261,7 @@ def _law_runs(data: dict[str, Any], base: str) -> list[dict[str, Any]]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym collect-vehicle`` (``python -m railgym.vehicles.collect_vehicle``)."""
+    """Arguments of ``railgym collect-vehicle`` (``python -m railgym.vehicles.vehicle.collect``)."""
     parser = Parser(prog="railgym collect-vehicle", description=__doc__.split("\n\n")[0])
     add_out(parser, "model JSON to write", required=True, old=["--output"])
     add_seed(parser, "seed of the folds")

@@ -3,7 +3,7 @@
 As :mod:`railgym.vehicles.vertical.lanes` for the one-bogie model: vehicles are taken
 ``LANES`` at a time, each quantity of the RK4 step is a row of a block's work array and each
 statement a loop over the block's vehicles that LLVM vectorises. The arithmetic per vehicle is
-that of :func:`railgym.vehicles.vehicle._advance_one` operation for operation (the LPR
+that of :func:`railgym.vehicles.vehicle.model._advance_one` operation for operation (the LPR
 evaluation that of :func:`~surrogates.models.lpr.lpr_eval_into` for two inputs), so both
 kernels give bit-identical results (tested). A memory element (three inputs, additive) adds
 the two Maxwell states in rows of their own after those of the static layout (which keeps its
@@ -31,7 +31,7 @@ LANES = 64
 #: batches of fewer vehicles run the per-vehicle kernel (same results)
 LANES_MIN = 8
 _N = 14  # mechanical states
-_DIV = 10.0  # |displacement| (m) above this counts as divergence (``vehicle`` module)
+_DIV = 10.0  # |displacement| (m) above this counts as divergence (``model`` module)
 _BIG = 1.7976931348623157e308  # |v| <= _BIG is False for NaN and ±inf
 
 # rows of a block's work array

@@ -1,5 +1,6 @@
-"""The data of a whole railway vehicle in the vertical plane (:mod:`railgym.vehicles.vehicle`):
-carbody, bending mode, bogies and the one-bogie suspension of each bogie, loaded from YAML."""
+"""The data of a whole railway vehicle in the vertical plane
+(:mod:`railgym.vehicles.vehicle.model`): carbody, bending mode, bogies and the one-bogie
+suspension of each bogie, loaded from YAML."""
 
 from __future__ import annotations
 

@@ -21,20 +21,20 @@ from railgym.vehicles.collect import (
     initial_pairs,
     memory_training_data,
 )
-from railgym.vehicles.collect_vehicle import VEHICLE_DESIGN, collect_vehicle
 from railgym.vehicles.refinement import RefineOptions, refine_rounds
-from railgym.vehicles.vehicle import (
+from railgym.vehicles.vehicle.collect import VEHICLE_DESIGN, collect_vehicle
+from railgym.vehicles.vehicle.lanes import hermite
+from railgym.vehicles.vehicle.model import (
     DEFAULT_DT,
     N_MECH,
     advance,
     check_variant,
-    hermite,
     kernel_params,
-    load_whole_vehicle,
     lpr_arrays,
     new_arrays,
     wheelset_offsets,
 )
+from railgym.vehicles.vehicle.params import load_whole_vehicle
 from surrogates.memory import element_form
 from surrogates.models import SurrogateModel
 
