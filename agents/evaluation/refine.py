@@ -22,6 +22,7 @@ from agents.controllers.registry import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICL
 from agents.policies.loading import load_policy
 from railgym.envs.vehicle import VerticalVehicleEnv
 from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.fmu.collect import refine_fmu
 from railgym.fmu.mapping import fmu_vehicle
 from railgym.vehicles.collect import (
     RAW_OBSERVATION,
@@ -175,8 +176,10 @@ def run(args: argparse.Namespace) -> int:
         # vehicle needs no nonlinear elements of railgym's, so its linear backend serves
         backend = "reference" if args.fmu_map is None else "linear"
         env = VerticalSuspensionEnv(backend=backend, **env_kwargs)
-        loop, observe = refine, observation_map(env)
-        extra = {"fmu_map": args.fmu_map, "fmu": args.fmu, "vehicle": env.cfg.vehicle}
+        observe, extra = observation_map(env), {"vehicle": env.cfg.vehicle}
+        loop = refine
+        if args.fmu_map is not None or args.fmu is not None:
+            loop, extra = refine_fmu, {**extra, "fmu_map": args.fmu_map, "fmu": args.fmu}
     where = "the whole vehicle" if vehicle else "one bogie"
     classes = " ".join(str(c) for c in args.track_class)
     policy = factory(env)
