@@ -570,7 +570,10 @@ def _collect(
         if args.out is None and value is not None:
             parser.error(f"{flag} needs --output (-o/--out): the packaged element is not replaced")
     if args.fmu_map is not None and fmu_runs is None:
-        parser.error("--fmu-map: an FMU's runs are collected by railgym collect")
+        parser.error(
+            "--fmu-map: an FMU is collected by railgym collect (python -m railgym.fmu.collect); "
+            "python -m railgym.vehicles.collect builds on the built-in reference only"
+        )
     seed = 0 if args.seed is None else args.seed
     vehicle = args.vehicle or "manchester"
     try:
