@@ -29,8 +29,8 @@ import numpy as np
 
 from railgym.fmu.mapping import fmu_vehicle, load_mapping
 from railgym.fmu.runner import FMURunner
-from railgym.vehicles import collect as vertical_collect
 from railgym.vehicles.collect import OtherReference, build_parser, refine
+from railgym.vehicles.collect import main as build_main
 from railgym.vehicles.collect_design import CollectionDesign, collect_design
 from railgym.vehicles.vertical import load_vehicle
 from surrogates.models import SurrogateModel
@@ -225,7 +225,7 @@ def fmu_design_runs(
 def main(argv: Sequence[str] | None = None) -> int:
     """``railgym collect``: :func:`railgym.vehicles.collect.main`, ``--fmu-map`` collecting
     on the FMU (:func:`fmu_design_runs`)."""
-    return vertical_collect.main(argv, fmu_runs=fmu_design_runs)
+    return build_main(argv, fmu_runs=fmu_design_runs)
 
 
 if __name__ == "__main__":
