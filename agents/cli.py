@@ -261,8 +261,8 @@ MODULE_COMMANDS = {
         "seeds, held-out evaluation, curve and table of a config",
     ),
     "pretrained": ("agents.policies.pretrained", "ship a benchmarked policy as a pretrained one"),
-    "collect": ("railgym.vehicles.collect", "collect and build a vertical element"),
-    "collect-vehicle": ("railgym.vehicles.collect_vehicle", "build the whole-vehicle element"),
+    "collect": ("railgym.fmu.collect", "collect and build a vertical element"),
+    "collect-vehicle": ("railgym.vehicles.vehicle.collect", "build the whole-vehicle element"),
     "validate": (
         "agents.evaluation.vehicle_validation",
         "surrogate against reference or FMU, per class",

@@ -18,7 +18,7 @@ default thread count, and GFLOP/s from an estimated flop count per env-step:
 The peak is a numba FMA loop over float64 arrays (``a*b+c`` written in place, cache-resident,
 SIMD-vectorised by LLVM) on one thread. The vertical surrogate runs the lane kernel
 (``railgym.vehicles.vertical.lanes``: loops over blocks of sub-envs innermost, vectorised);
-the whole-vehicle surrogate likewise (``railgym.vehicles.vehicle_lanes``); the crash kernels
+the whole-vehicle surrogate likewise (``railgym.vehicles.vehicle.lanes``); the crash kernels
 run one sub-env after another. Large batches spread over threads by ``prange``.
 :func:`packed_share` recompiles a kernel function (the cached one keeps no assembly) and
 counts packed (``…pd``) against scalar (``…sd``) double arithmetic in its assembly.
@@ -115,8 +115,8 @@ def packed_share(fn: Any, args: tuple) -> tuple[int, int]:
 
 def _vehicle_element_args() -> tuple[Any, tuple]:
     """The whole-vehicle lane kernel's element evaluation and arguments for one block."""
-    from railgym.vehicles import vehicle_lanes as vl
     from railgym.vehicles.collect import default_vertical_surrogate
+    from railgym.vehicles.vehicle import lanes as vl
     from railgym.vehicles.vehicle import lpr_arrays
     from surrogates.models.lpr import lpr_scratch
 

@@ -17,7 +17,7 @@ from benchmarks import _timing, measured
 from benchmarks._stepping import per_step_us, rate, split_us, steps, vector_steps
 from benchmarks._timing import interleaved
 from railgym.vehicles.collect import default_vertical_surrogate
-from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
 
 
 def run() -> list[dict]:

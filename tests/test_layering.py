@@ -68,6 +68,31 @@ def test_fmu_does_not_import_envs(path):
     assert not bad, f"{path} imports {bad}"
 
 
+def test_vehicles_import_no_fmu():
+    """The physics sits below the FMU layer: the FMU's part of collection and refinement
+    (``railgym collect --fmu-map``, ``refine`` on an FMU) lives in ``railgym.fmu.collect``,
+    which hands it to the physics' functions."""
+    for path in sorted((ROOT / "railgym" / "vehicles").rglob("*.py")):
+        bad = {n for n in _full_imports(path) if n == "railgym.fmu" or n.startswith("railgym.fmu.")}
+        assert not bad, f"{path} imports {bad}"
+
+
+#: the physics of each model, in a package of its own
+PHYSICS_PACKAGES = {
+    "vertical": ("params", "elements", "kernels", "lanes", "simulate"),
+    "vehicle": ("params", "model", "lanes", "damper", "collect", "refine"),
+    "crash": ("model", "elements", "scenario", "reference", "surrogate"),
+}
+
+
+@pytest.mark.parametrize("model", sorted(PHYSICS_PACKAGES))
+def test_each_model_has_its_physics_package(model):
+    folder = ROOT / "railgym" / "vehicles" / model
+    assert (folder / "__init__.py").is_file()
+    for module in PHYSICS_PACKAGES[model]:
+        assert (folder / f"{module}.py").is_file(), f"railgym/vehicles/{model}/{module}.py"
+
+
 #: one folder per env: its module, batch, frame (and FMU batch, declared arguments, ...)
 ENV_FOLDERS = {
     "vertical": ("env", "batch", "fmu_batch", "render"),
@@ -108,13 +133,14 @@ def test_envs_outside_their_folders_import_no_env_folder():
 
 
 def _full_imports(path: Path) -> set[str]:
-    """The modules ``path`` imports (absolute, full dotted names; in functions too)."""
+    """The modules ``path`` imports (absolute, full dotted names; in functions too), and
+    ``X.name`` for each ``from X import name`` (which may be a module)."""
     names = set()
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.Import):
             names |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names.add(node.module)
+            names |= {node.module} | {f"{node.module}.{a.name}" for a in node.names}
     return names
 
 

@@ -4,7 +4,7 @@ The loop a user runs after training an agent: the reference model is driven by t
 reference samples are added where the element's force error is largest (or its inputs leave
 the training box), the element is refitted, and the held-out error is printed per round
 (:func:`railgym.vehicles.collect.refine`; ``--env vehicle``: the whole vehicle, both bogies,
-:func:`railgym.vehicles.refine_vehicle.refine_vehicle`). The refined element is written as
+:func:`railgym.vehicles.vehicle.refine.refine_vehicle`). The refined element is written as
 model JSON and used with ``VerticalSuspensionEnv(surrogate=PATH)`` or
 ``VerticalVehicleEnv(surrogate=PATH)``.
 """
@@ -22,6 +22,7 @@ from agents.controllers.registry import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICL
 from agents.policies.loading import load_policy
 from railgym.envs.vehicle import VerticalVehicleEnv
 from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.fmu.collect import refine_fmu
 from railgym.fmu.mapping import fmu_vehicle
 from railgym.vehicles.collect import (
     RAW_OBSERVATION,
@@ -29,9 +30,9 @@ from railgym.vehicles.collect import (
     refine,
     save_vertical_surrogate,
 )
-from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
-from railgym.vehicles.refine_vehicle import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from railgym.vehicles.refinement import RefineOptions
+from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
+from railgym.vehicles.vehicle.refine import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from surrogates import io
 from surrogates.cli_flags import add_deprecated, add_out, add_seed
 
@@ -72,7 +73,7 @@ def observation_map(env: VerticalSuspensionEnv) -> Any:
 
 def vehicle_observation_map(env: VerticalVehicleEnv) -> Any:
     """``raw (27,) → VerticalVehicle-v1 observation`` (float32, normalised like the env, no
-    sensor noise); ``raw`` is :data:`~railgym.vehicles.refine_vehicle.RAW_VEHICLE_OBSERVATION`."""
+    sensor noise); ``raw`` is :data:`~railgym.vehicles.vehicle.refine.RAW_VEHICLE_OBSERVATION`."""
     index = {name: i for i, name in enumerate(RAW_VEHICLE_OBSERVATION)}
     inv = 1.0 / np.asarray(env.obs_scale, dtype=np.float64)
     names = list(env.obs_names)
@@ -175,8 +176,10 @@ def run(args: argparse.Namespace) -> int:
         # vehicle needs no nonlinear elements of railgym's, so its linear backend serves
         backend = "reference" if args.fmu_map is None else "linear"
         env = VerticalSuspensionEnv(backend=backend, **env_kwargs)
-        loop, observe = refine, observation_map(env)
-        extra = {"fmu_map": args.fmu_map, "fmu": args.fmu, "vehicle": env.cfg.vehicle}
+        observe, extra = observation_map(env), {"vehicle": env.cfg.vehicle}
+        loop = refine
+        if args.fmu_map is not None or args.fmu is not None:
+            loop, extra = refine_fmu, {**extra, "fmu_map": args.fmu_map, "fmu": args.fmu}
     where = "the whole vehicle" if vehicle else "one bogie"
     classes = " ".join(str(c) for c in args.track_class)
     policy = factory(env)

@@ -29,7 +29,7 @@ from agents._args import duration_s, episodes, error_status, track_class
 from agents.controllers.registry import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
 from railgym.progress import quiet
 from railgym.vehicles.collect import default_vertical_surrogate
-from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
 from surrogates.cli_flags import Parser, add_common, add_seed
 
 __all__ = ["ENVS", "FLOOR", "floor_errors", "main", "record_episodes", "validation_rows"]

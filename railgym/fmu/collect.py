@@ -12,11 +12,16 @@ The secondary-suspension force ``F_s`` is the FMU's ``secondary_force`` output w
 mapping names one, else ``m2·ẍ2 − F_a`` with the carbody mass ``m2`` of the FMU's vehicle
 description (``vehicle=``, else the mapping's ``vehicle:``; one of them is required: railgym's
 own vehicle is never assumed for a user's model).
+
+:func:`refine_fmu` is the policy-aware refinement of :func:`railgym.vehicles.collect.refine`
+with the FMU as the reference, and :func:`main` the ``railgym collect`` command (the parser
+and the build of :mod:`railgym.vehicles.collect`, ``--fmu-map`` collecting here): the
+physics of :mod:`railgym.vehicles` imports nothing of :mod:`railgym.fmu`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +29,22 @@ import numpy as np
 
 from railgym.fmu.mapping import fmu_vehicle, load_mapping
 from railgym.fmu.runner import FMURunner
+from railgym.vehicles.collect import OtherReference, build_parser, refine
+from railgym.vehicles.collect import main as build_main
 from railgym.vehicles.collect_design import CollectionDesign, collect_design
 from railgym.vehicles.vertical import load_vehicle
+from surrogates.models import SurrogateModel
 
-__all__ = ["collect_fmu", "simulate_fmu"]
+__all__ = [
+    "build_parser",
+    "collect_fmu",
+    "fmu_design_runs",
+    "fmu_reference",
+    "main",
+    "refine_fmu",
+    "run_policy_fmu",
+    "simulate_fmu",
+]
 
 
 def simulate_fmu(
@@ -151,3 +168,65 @@ def run_policy_fmu(
         "ood": 0,
         "diverged": diverged,
     }
+
+
+def fmu_reference(fmu_map: str | Path, fmu: str | Path | None, vehicle: Any) -> OtherReference:
+    """The FMU of the mapping file ``fmu_map`` as the reference of
+    :func:`railgym.vehicles.collect.refine`: its design runs (:func:`collect_fmu`) and its
+    closed-loop runs (:func:`run_policy_fmu`)."""
+    return OtherReference(
+        collect=lambda design: collect_fmu(fmu_map, design, fmu, vehicle),
+        runs=lambda veh, law, dt, n_sub: _policy_runs(
+            FMURunner(load_mapping(fmu_map, fmu, "vertical"), dt, n_sub), veh, law, n_sub
+        ),
+    )
+
+
+def _policy_runs(
+    runner: FMURunner, vehicle: Any, law: Any, n_sub: int
+) -> Callable[[np.ndarray, np.ndarray], dict[str, Any]]:
+    """``(z, ż) → run`` of :func:`run_policy_fmu` on ``runner``."""
+    return lambda z, zdot: run_policy_fmu(runner, vehicle, z, zdot, law, n_sub)
+
+
+def refine_fmu(
+    model: SurrogateModel,
+    policy: Any,
+    rounds: int = 3,
+    *,
+    fmu_map: str | Path | None,
+    fmu: str | Path | None = None,
+    vehicle: Any = None,
+    **kwargs: Any,
+) -> tuple[SurrogateModel, list[dict[str, Any]]]:
+    """:func:`railgym.vehicles.collect.refine` with the FMU of the mapping file ``fmu_map``
+    as the reference (``fmu``: the FMU file, default the mapping's ``fmu:``; ``vehicle``:
+    default the mapping's ``vehicle:``); ``kwargs`` are ``refine``'s."""
+    if fmu_map is None:
+        raise ValueError("fmu: an FMU reference needs its mapping file fmu_map")
+    vehicle = fmu_vehicle(fmu_map, vehicle)
+    other = fmu_reference(fmu_map, fmu, vehicle)
+    return refine(model, policy, rounds, vehicle=vehicle, other=other, **kwargs)
+
+
+def fmu_design_runs(
+    fmu_map: str,
+    fmu: str | None,
+    vehicle: Any,
+    design: str | CollectionDesign,
+    progress: Callable[[int, int], None] | None,
+) -> tuple[Any, dict[str, Any]]:
+    """The vehicle of ``railgym collect --fmu-map`` (``--vehicle``, else the mapping's) and
+    the runs of ``design`` on the FMU (:func:`collect_fmu`)."""
+    vehicle = fmu_vehicle(fmu_map, vehicle, "--vehicle ")
+    return vehicle, collect_fmu(fmu_map, design, fmu, vehicle, progress=progress)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``railgym collect``: :func:`railgym.vehicles.collect.main`, ``--fmu-map`` collecting
+    on the FMU (:func:`fmu_design_runs`)."""
+    return build_main(argv, fmu_runs=fmu_design_runs)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -37,7 +37,7 @@ from collections.abc import Callable, Sequence
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -339,42 +339,36 @@ def element_pairs(
     return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
 
 
+#: ``(vehicle, law, dt, n_sub) → ((z, ż) → run)``: closed-loop runs (:func:`_run_policy`'s
+#: record) of a reference other than the built-in one, stepped at ``dt`` (s)
+ReferenceRuns = Callable[[Any, Any, float, int], Callable[[np.ndarray, np.ndarray], Any]]
+
+
+class OtherReference(NamedTuple):
+    """A reference other than the built-in one for :func:`refine` (an FMU's:
+    :func:`railgym.fmu.collect.fmu_reference`)."""
+
+    collect: Callable[[Any], dict[str, Any]]  # design → its runs (as collect_design's)
+    runs: ReferenceRuns
+
+
 def initial_pairs(
-    model: SurrogateModel, vehicle: Any, fmu_map: Any = None, fmu: Any = None
+    model: SurrogateModel, vehicle: Any, collect: Callable[[Any], dict[str, Any]] | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of the packaged recipe of ``model``'s form (memory: :data:`MEMORY_DESIGN`;
-    static: the paper design), run on ``vehicle``'s reference or on the FMU of ``fmu_map``."""
+    static: the paper design), run on ``vehicle``'s reference or by ``collect`` (``design →``
+    runs as :func:`collect_design` returns them, e.g. an FMU's)."""
     form = element_form(getattr(model, "features_", None))
 
-    def collect(design: Any) -> dict[str, Any]:
-        if fmu_map is None:
-            return collect_design(design, vehicle=vehicle)
-        from railgym.fmu.collect import collect_fmu
+    def builtin(design: Any) -> dict[str, Any]:
+        return collect_design(design, vehicle=vehicle)
 
-        return collect_fmu(fmu_map, design, fmu, vehicle)
-
+    run = builtin if collect is None else collect
     if form.form == "maxwell":
-        data = collect(design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE))
+        data = run(design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE))
         return memory_training_data(data, form.tau, form.known_physics, vehicle)
-    data = collect("paper")
+    data = run("paper")
     return data["U"], data["V"]
-
-
-def _reference_runner(
-    reference: str, veh: Any, law: Any, dt: float, n_sub: int, fmu_map: Any, fmu: Any
-) -> Callable[[np.ndarray, np.ndarray], dict[str, Any]]:
-    """``(z, ż) → run`` (:func:`_run_policy`) of the ``reference`` variant under ``law``, or of
-    the FMU of ``fmu_map`` (:mod:`railgym.fmu`) stepped at ``dt`` (s)."""
-    if fmu is not None and fmu_map is None:
-        raise ValueError("fmu: an FMU reference needs its mapping file fmu_map")
-    if fmu_map is None:
-        return lambda z, zd: _run_policy(reference, veh, z, zd, law, None, dt, n_sub)
-    from railgym.fmu.collect import run_policy_fmu
-    from railgym.fmu.mapping import load_mapping
-    from railgym.fmu.runner import FMURunner
-
-    runner = FMURunner(load_mapping(fmu_map, fmu, "vertical"), dt, n_sub)
-    return lambda z, zd: run_policy_fmu(runner, veh, z, zd, law, n_sub)
 
 
 def refine(
@@ -388,8 +382,7 @@ def refine(
     reference: str = "dynamic",
     vehicle: Any = None,
     log: Any = print,
-    fmu_map: Any = None,
-    fmu: Any = None,
+    other: OtherReference | None = None,
 ) -> tuple[SurrogateModel, list[dict[str, Any]]]:
     """Policy-aware refinement: add reference samples where the element is worst, refit.
 
@@ -410,11 +403,11 @@ def refine(
     observe : maps the raw observation (:data:`RAW_OBSERVATION`, SI) to the policy's
         observation (``None``: the raw vector).
     reference : reference variant (``"dynamic"``, or ``"static"`` for a memoryless one).
-    vehicle : the vehicle (name, YAML path or ``VerticalVehicle``; default ``manchester``,
-        with ``fmu_map`` the mapping's ``vehicle:``).
-    log : called with one line per round (``None``: silent). fmu_map, fmu : an FMU as the
-        reference (mapping file, FMU default its ``fmu:``), stepped at ``dt`` of ``reference``;
-        its initial training pairs (``data=None``) are collected from it too.
+    vehicle : the vehicle (name, YAML path or ``VerticalVehicle``; default ``manchester``).
+    log : called with one line per round (``None``: silent).
+    other : a reference in place of the built-in one (an FMU's:
+        :func:`railgym.fmu.collect.refine_fmu`), stepped at ``dt`` of ``reference``; its
+        initial training pairs (``data=None``) are collected from it too.
 
     Returns ``(model, history)``: the refined element and one row per round 0..K with
     ``round``, ``error`` (median held-out relative RMS error of ẍ2), ``ood`` (held-out
@@ -424,10 +417,6 @@ def refine(
     rounds = val.integer(rounds, "rounds", min=0)
     reference = val.choice(reference, "reference", ("dynamic", "static"))
     element_form(getattr(model, "features_", None), model.n_features_in_, "model")
-    if fmu_map is not None:
-        from railgym.fmu.mapping import fmu_vehicle
-
-        vehicle = fmu_vehicle(fmu_map, vehicle)
     vehicle = "manchester" if vehicle is None else vehicle
     veh = load_vehicle(vehicle)
     dt = DEFAULT_DT[reference]
@@ -435,7 +424,7 @@ def refine(
     law = _policy_force(policy, observe, o.f_max)
     v0 = o.speed_or_class()
     if data is None:
-        U, V = initial_pairs(model, vehicle, fmu_map, fmu)
+        U, V = initial_pairs(model, vehicle, None if other is None else other.collect)
     else:
         U, V = np.asarray(data[0]), data[1]
     V = np.asarray(V, dtype=np.float64)
@@ -445,7 +434,11 @@ def refine(
         _, z, zdot = track_time_input(o.track_class, v0, o.duration, dt, s)
         return z, zdot
 
-    reference_run = _reference_runner(reference, veh, law, dt, n_sub, fmu_map, fmu)
+    reference_run = (
+        (lambda z, zd: _run_policy(reference, veh, z, zd, law, None, dt, n_sub))
+        if other is None
+        else other.runs(veh, law, dt, n_sub)
+    )
 
     def pairs(model: SurrogateModel, run: dict[str, Any]) -> list[tuple[Any, Any]]:
         rows = np.arange(0, run["t"].size, every)
@@ -476,7 +469,7 @@ def refine(
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym collect`` (``python -m railgym.vehicles.collect``)."""
+    """Arguments of ``railgym collect`` (``python -m railgym.fmu.collect``)."""
     from surrogates.cli import add_degree_arguments
 
     parser = Parser(prog="railgym collect", description=__doc__, formatter_class=RawHelpFormatter)
@@ -535,17 +528,25 @@ def _candidates(args: argparse.Namespace) -> list[tuple[int, ...]] | None:
     return [degree] if degree else (memory_degrees(top) if top else None)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Regenerate a packaged element (or write one elsewhere)."""
+#: ``(fmu_map, fmu, vehicle, design, progress) → (vehicle, runs)``: the vehicle of an FMU's
+#: mapping and the runs of a design on the FMU (:func:`railgym.fmu.collect.fmu_design_runs`)
+FmuRuns = Callable[[str, Any, Any, Any, Any], tuple[Any, dict[str, Any]]]
+
+
+def main(argv: Sequence[str] | None = None, fmu_runs: FmuRuns | None = None) -> int:
+    """Regenerate a packaged element (or write one elsewhere); ``--fmu-map`` collects by
+    ``fmu_runs`` (``railgym collect``: :func:`railgym.fmu.collect.main`)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return _collect(parser, args)
+        return _collect(parser, args, fmu_runs)
     except Exception as err:
         return error_status(parser.prog, err, args.debug)
 
 
-def _collect(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+def _collect(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, fmu_runs: FmuRuns | None
+) -> int:
     """``railgym collect`` after the parse: check, collect, fit, write."""
     from railgym.progress import quiet, stages
     from surrogates.cli import UsageError
@@ -568,22 +569,23 @@ def _collect(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     for flag, value in given:
         if args.out is None and value is not None:
             parser.error(f"{flag} needs --output (-o/--out): the packaged element is not replaced")
+    if args.fmu_map is not None and fmu_runs is None:
+        parser.error(
+            "--fmu-map: an FMU is collected by railgym collect (python -m railgym.fmu.collect); "
+            "python -m railgym.vehicles.collect builds on the built-in reference only"
+        )
     seed = 0 if args.seed is None else args.seed
     vehicle = args.vehicle or "manchester"
     try:
-        if args.fmu_map is not None:
-            from railgym.fmu.collect import collect_fmu
-            from railgym.fmu.mapping import fmu_vehicle
-
-            vehicle = fmu_vehicle(args.fmu_map, args.vehicle, "--vehicle ")
+        if args.fmu_map is not None and fmu_runs is not None:
             rate = 50.0 if args.features == "static" else MEMORY_SAMPLE_RATE
             with quiet(args.quiet):
-                data = collect_fmu(
+                vehicle, data = fmu_runs(
                     args.fmu_map,
-                    design_with(args.design, None, rate),
                     args.fmu,
-                    vehicle,
-                    progress=stage(progress, "FMU runs"),
+                    args.vehicle,
+                    design_with(args.design, None, rate),
+                    stage(progress, "FMU runs"),
                 )
         veh = load_vehicle(vehicle)
     except (val.FieldError, OSError) as err:

@@ -1,5 +1,5 @@
 """What the two policy-aware refinement loops share (:func:`railgym.vehicles.collect.refine`
-for one bogie, :func:`railgym.vehicles.refine_vehicle.refine_vehicle` for the whole vehicle):
+for one bogie, :func:`railgym.vehicles.vehicle.refine.refine_vehicle` for the whole vehicle):
 their runs (:class:`RefineOptions`), the refit on the worst samples and the held-out score.
 """
 
@@ -22,7 +22,7 @@ __all__ = ["RefineOptions", "holdout_error", "refine_rounds", "refit_worst"]
 @dataclass(frozen=True)
 class RefineOptions:
     """Runs of a policy-aware refinement (:func:`railgym.vehicles.collect.refine` and
-    :func:`railgym.vehicles.refine_vehicle.refine_vehicle`); checked when made.
+    :func:`railgym.vehicles.vehicle.refine.refine_vehicle`); checked when made.
 
     Attributes
     ----------

@@ -14,7 +14,7 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 from railgym.track import class_speed
-from railgym.vehicles.vehicle import N_MECH, _inputs, _rhs, _work, check_variant
+from railgym.vehicles.vehicle.model import N_MECH, _inputs, _rhs, _work, check_variant
 from railgym.vehicles.vertical.elements import rhs
 from surrogates import io
 from surrogates.models.lpr import lpr_scratch

@@ -145,8 +145,8 @@ def test_collect_from_the_fmu_equals_the_built_in_collection(reference_fmu):
 def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, tmp_path):
     """``python -m railgym.vehicles.collect --fmu-map``: the memory element built on the
     reference FMU's paper run is the packaged one (which meets docs/validation.md)."""
+    from railgym.fmu.collect import main as collect_main
     from railgym.vehicles.collect import default_vertical_surrogate
-    from railgym.vehicles.collect import main as collect_main
     from surrogates import io
 
     _, mapping = reference_fmu
@@ -164,6 +164,7 @@ def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, t
 def test_refine_on_the_fmu_equals_refine_on_the_reference(reference_fmu):
     """Policy-aware refinement with the FMU as the reference: the same held-out errors and
     the same refined element as with the built-in dynamic reference."""
+    from railgym.fmu.collect import refine_fmu
     from railgym.vehicles.collect import RefineOptions, collect_vertical, refine
     from surrogates.models.lpr import LegendreRegression
 
@@ -174,7 +175,7 @@ def test_refine_on_the_fmu_equals_refine_on_the_reference(reference_fmu):
     options = RefineOptions(duration=3.0, n_tracks=1, n_holdout=1, n_add=100)
     kw = dict(data=(d["U"], d["V"]), options=options, log=None)
     ref_model, ref_hist = refine(model, law, rounds=1, **kw)
-    fmu_model, fmu_hist = refine(model, law, rounds=1, fmu_map=mapping, fmu=fmu, **kw)
+    fmu_model, fmu_hist = refine_fmu(model, law, rounds=1, fmu_map=mapping, fmu=fmu, **kw)
     assert [h["n_samples"] for h in fmu_hist] == [h["n_samples"] for h in ref_hist]
     for a, b in zip(fmu_hist, ref_hist, strict=True):
         assert a["error"] == pytest.approx(b["error"], rel=1e-8)
@@ -304,7 +305,7 @@ def test_model_exchange_with_fmpys_cvode_converges_to_the_reference(reference_fm
 
 
 def test_collect_and_refine_commands_check_their_fmu_arguments(reference_fmu, capsys):
-    from railgym.vehicles.collect import main as collect_main
+    from railgym.fmu.collect import main as collect_main
 
     fmu, mapping = reference_fmu
     with pytest.raises(SystemExit) as info:  # the packaged element is never replaced

@@ -5,7 +5,7 @@ arrays the kernel of :mod:`railgym.vehicles.vehicle` works on, and a compiled co
 (:func:`control_step`) turns each kernel call into observation, reward, reward terms and the
 counters behind the ``info`` values, whose keys are declared once (:data:`INFO_KEYS`). With
 controllable dampers (``actuator="semi-active"``,
-:class:`~railgym.vehicles.vehicle_damper.VehicleDampers`) the actions are their commands, the
+:class:`~railgym.vehicles.vehicle.damper.VehicleDampers`) the actions are their commands, the
 kernel writes their forces in place of the actuator forces, and their filtered commands are
 observed (last) and in ``info`` with their forces (:data:`SEMI_ACTIVE_INFO_LAYOUT`).
 """
@@ -39,7 +39,7 @@ from railgym.vehicles.vehicle import (
     new_arrays,
     wheelset_offsets,
 )
-from railgym.vehicles.vehicle_damper import DAMPER_COLUMNS, VehicleDampers
+from railgym.vehicles.vehicle.damper import DAMPER_COLUMNS, VehicleDampers
 from railgym.vehicles.vertical import RAISE_MODE, DamperLaw
 
 __all__ = [
@@ -160,7 +160,7 @@ class StepCfg(NamedTuple):
 @njit(cache=True, error_model="numpy")
 def _observe(vehicles, out, params, consts, book, i):
     """Normalised observation of vehicle ``i`` into ``book.obs[i]`` (``vehicles``: the
-    kernel's :class:`~railgym.vehicles.vehicle.Batch`, ``params`` its
+    kernel's :class:`~railgym.vehicles.vehicle.VehicleArrays`, ``params`` its
     :class:`~railgym.vehicles.vehicle.Params`): the channels of ``observation``, then the
     preview samples (heights, then rates) at ``consts.preview_frac`` of the front wheelset's
     distance ahead of the rear one, then with dampers their filtered commands ``u_0, u_1``
@@ -212,7 +212,7 @@ def control_step(kind, vehicles, params, element, lpr, out, book, consts, damper
     """One control step of every vehicle: actuator forces ``book.action · f_max`` (N), the
     kernel (:func:`~railgym.vehicles.vehicle.advance` of ``kind`` on ``vehicles``, with the
     vehicle's ``params``, the suspension ``element`` record and the surrogate ``lpr``), then
-    :func:`book_step`. With ``damper`` (:class:`~railgym.vehicles.vehicle_damper.VehicleDampers`
+    :func:`book_step`. With ``damper`` (:class:`~railgym.vehicles.vehicle.damper.VehicleDampers`
     whose commands are ``book.action``, else ``None``) the kernel writes the dampers' forces
     instead."""
     if damper is None:

@@ -3,7 +3,7 @@
 Carbody bounce, pitch and first bending on two bogies, four wheelsets on a seeded FRA track
 or a measured/user profile (:mod:`railgym.vehicles.vehicle`); one actuator in the secondary
 suspension of each bogie (``actuator="force"``), or a controllable damper at its place whose
-command the agent sets (``actuator="semi-active"``, :mod:`railgym.vehicles.vehicle_damper`).
+command the agent sets (``actuator="semi-active"``, :mod:`railgym.vehicles.vehicle.damper`).
 The secondary elements are the backends of
 ``VerticalSuspension-v1``: ``"surrogate"`` (LPR element, both bogies), ``"reference"``
 (air spring with reservoir, Maxwell damper, bump stops) or ``"linear"``. Observation,
@@ -55,9 +55,9 @@ from railgym.envs.vehicle.batch import (
 from railgym.envs.vertical.env import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_speed
-from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 from railgym.vehicles.element_envelope import OperatingEnvelope
 from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
+from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
 
 __all__ = [
     "ACC_REF",
@@ -357,7 +357,7 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
     meaning of each: docs/envs/vehicle_vertical.md, *Arguments*) and ``render_mode``; the
     checked arguments are :attr:`cfg`. Without ``surrogate=`` the surrogate backend uses the
     whole vehicle's packaged element
-    (:func:`~railgym.vehicles.collect_vehicle.default_vehicle_surrogate`);
+    (:func:`~railgym.vehicles.vehicle.collect.default_vehicle_surrogate`);
     :attr:`default_element` is ``("static", "")`` for ``VerticalVehicle-v0``,
     :attr:`element_grid` is set for ``VerticalVehicle-v2``.
 

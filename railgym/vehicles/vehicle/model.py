@@ -32,7 +32,7 @@ states ``[s_0, s_1]`` of the two bogies (``ṡ_i = (δ_i − s_i)/τ``, or ``g(�
 the element's nonlinear relaxation law; element inputs ``(δ_i, δ̇_i, δ_i − s_i)``), the
 same element at each bogie (:func:`state_size`). An
 element with the ``"bump_stop"`` known physics adds the vehicle's bump-stop law to ``F̂``.
-With controllable dampers (:mod:`railgym.vehicles.vehicle_damper`) in place of the actuators,
+With controllable dampers (:mod:`railgym.vehicles.vehicle.damper`) in place of the actuators,
 ``F_a,i`` is the damper's force and its states ``[u_0, w_0, u_1, w_1]`` come last
 (``state_size(..., damper=True)``); they take the per-vehicle kernel, not the lane kernel.
 
@@ -53,8 +53,9 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from railgym.vehicles.vehicle_damper import DAMPER_COLUMNS, damper_stage
-from railgym.vehicles.vehicle_lanes import LANES, LANES_MIN, hermite, lanes_block
+from railgym.vehicles.vehicle.damper import DAMPER_COLUMNS, damper_stage
+from railgym.vehicles.vehicle.lanes import LANES, LANES_MIN, hermite, lanes_block
+from railgym.vehicles.vehicle.params import WholeVehicle, mode_shape
 from railgym.vehicles.vertical import DIVERGENCE_DISPLACEMENT, surrogate_arrays
 from railgym.vehicles.vertical.elements import (
     bump_stop_force,
@@ -62,9 +63,6 @@ from railgym.vehicles.vertical.elements import (
     dynamic_element,
     in_contact,
 )
-from railgym.vehicles.whole_vehicle import FLOOR_POINTS as FLOOR_POINTS
-from railgym.vehicles.whole_vehicle import WholeVehicle, mode_shape
-from railgym.vehicles.whole_vehicle import load_whole_vehicle as load_whole_vehicle
 from surrogates.memory import relaxation_rate
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside, lpr_scratch
 from surrogates.models.lpr_grid import lpr_grid_inside
@@ -375,7 +373,7 @@ def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper
     ``dt`` (s) with the actuator forces held; results in ``out`` (:class:`Out`). ``params``:
     :class:`Params`, ``suspension_record``: ``SuspensionParams.record()``, ``lpr``:
     :class:`Lpr`. ``damper``: the controllable dampers
-    (:class:`~railgym.vehicles.vehicle_damper.VehicleDampers`, their commands held) in place
+    (:class:`~railgym.vehicles.vehicle.damper.VehicleDampers`, their commands held) in place
     of the actuators; their forces at the end of the step go into ``arrays.force`` (0 where
     the step diverged).
 
@@ -383,7 +381,7 @@ def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper
     its last finite state, its outputs are zero and ``out.div`` is set. Batches of
     ``PARALLEL_MIN`` vehicles or more run :func:`advance_parallel`, smaller ones
     :func:`advance_serial`; the surrogate variant with ``LANES_MIN`` vehicles or more runs the
-    lane kernel (:mod:`railgym.vehicles.vehicle_lanes`, on all threads from
+    lane kernel (:mod:`railgym.vehicles.vehicle.lanes`, on all threads from
     ``PARALLEL_MIN``). All give bit-identical results. The dampers take
     :func:`advance_serial` only.
     """
@@ -484,7 +482,7 @@ def _lanes_parallel(arrays, n_sub, dt, params, suspension_record, lpr, out):
 def _stage(kind, x, wheels, fa, params, suspension, lpr, work, rates, damper, i):
     """:func:`_rhs` of one RK4 stage of vehicle ``i`` into ``rates`` (returns its
     out-of-domain count); with ``damper`` (else ``None``) the dampers' forces into ``fa`` and
-    their state rates first (:func:`~railgym.vehicles.vehicle_damper.damper_stage`)."""
+    their state rates first (:func:`~railgym.vehicles.vehicle.damper.damper_stage`)."""
     if damper is not None:
         damper_stage(x, params, damper.law, damper.command[i], fa, rates)
     return _rhs(
