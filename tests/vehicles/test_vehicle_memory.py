@@ -17,7 +17,6 @@ from railgym.vehicles.vehicle import (
     advance_serial,
     check_variant,
     kernel_params,
-    load_whole_vehicle,
     lpr_arrays,
     mode_shape,
     new_arrays,
@@ -35,11 +34,6 @@ DT = 2e-3
 SPEED = 40.0
 #: track z(x) = Σ A·sin(2π x/λ + φ): (amplitude m, wavelength m, phase)
 WAVES = ((4e-3, 31.0, 0.3), (2e-3, 9.0, 1.1), (6e-4, 4.3, 2.0))
-
-
-@pytest.fixture(scope="module")
-def vehicle():
-    return load_whole_vehicle()
 
 
 @pytest.fixture(scope="module")
@@ -220,39 +214,16 @@ def test_synthetic_maxwell_element_is_recovered_at_both_bogies(vehicle):
 
 @pytest.mark.parametrize("grid", [False, True], ids=["legendre", "grid"])
 @pytest.mark.parametrize("n", [LANES_MIN + 3, 2 * LANES + 5, PARALLEL_MIN + 37])
-def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle, element, n, grid):
+def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(
+    vehicle, element, n, grid, assert_lanes_match_serial
+):
     """``advance`` (lane kernel) with the memory element equals ``advance_serial`` bit for bit,
     Maxwell states included, through bump-stop contact, inputs outside the box and a
     diverging vehicle; with the Legendre recurrence and with the element's Hermite tables."""
-    off = wheelset_offsets(vehicle, SPEED, DT)
-    n_sub = 25
-    samples = int(off.max()) + 4 * n_sub + 2
-    rng = np.random.default_rng(n)
-    z = rng.uniform(5e-3, 4e-2, (n, 1)) * np.cumsum(rng.standard_normal((n, samples)), axis=1)
-    z[5, 1:] = 50.0  # an impossible step: this vehicle diverges
-    force = rng.uniform(-2e4, 2e4, (n, 2))
-    p = kernel_params(vehicle)
-    e = vehicle.suspension.kernel_params().record()
     lpr = lpr_arrays(element, DT, grid)
     assert lpr.gridded == grid
-    runs = []
-    for step in (advance_serial, advance):
-        bt, out = new_arrays(n, "surrogate", samples, lpr)
-        bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
-        bt.off[:] = off
-        bt.force[:] = force
-        rows = []
-        for _ in range(4):
-            step(check_variant("surrogate"), bt, n_sub, DT, p, e, lpr, out)
-            bt.k[:] += n_sub
-            rows += [bt.state.copy(), *(a.copy() for a in out)]
-        runs.append(rows)
-    for a, b in zip(*runs, strict=True):
-        np.testing.assert_array_equal(a, b)
-    counts = sum(runs[0][3::5])
-    assert counts[:, 0].sum() > 0 and counts[:, 1].sum() > 0  # contact and extrapolation
-    assert runs[0][-1][5] and not runs[0][-1][4]
-    assert np.abs(runs[0][-5][:, N_MECH:]).max() > 1e-3  # the Maxwell states moved
+    rows = assert_lanes_match_serial(vehicle, lpr, n, DT)
+    assert np.abs(rows[-5][:, N_MECH:]).max() > 1e-3  # the Maxwell states moved
 
 
 def test_state_without_maxwell_states_is_refused(vehicle, memory):
