@@ -72,6 +72,37 @@ def track(x):
     return z, dz
 
 
+#: steps of the synthetic-element runs
+N_STEPS = 1500
+
+
+def simulate_on_track(vehicle, element):
+    """:data:`N_STEPS` of the surrogate variant with ``element`` on the analytic track."""
+    off = wheelset_offsets(vehicle, SPEED, DT)
+    z, dz = track(SPEED * DT * np.arange(N_STEPS + int(off.max()) + 3))
+    return simulate("surrogate", vehicle, z, SPEED * dz, off, DT, N_STEPS, surrogate=element)
+
+
+def bogie_signals(vehicle, rec):
+    """Per bogie of the record ``rec``, each from rest (a zero sample first): the secondary
+    deflection δ and its rate δ̇ rebuilt from the mechanical states, the kernel's Maxwell state
+    ζ and the element force."""
+    p = kernel_params(vehicle)
+    x = np.concatenate([np.zeros((1, N_MECH + 2)), rec["states"][0]])
+    out = []
+    for i, xi in enumerate((p.a, -p.a)):
+        d = x[:, 3 + 2 * i] - x[:, 0] - xi * x[:, 1] - p.phi_a * x[:, 2]
+        dd = x[:, 10 + 2 * i] - x[:, 7] - xi * x[:, 8] - p.phi_a * x[:, 9]
+        out.append((d, dd, d - x[:, N_MECH + i], np.concatenate([[0.0], rec["fs"][0, :, i]])))
+    return out
+
+
+def assert_same_floor_acc(rec, again):
+    """The floor accelerations of two records agree within 1 % (RMS relative, per point)."""
+    a, b = again["acc"][0, :, :3], rec["acc"][0, :, :3]
+    assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
+
+
 def numpy_rk4(vehicle, element, force, n_steps):
     """Independent RK4 of the equations in ``railgym.vehicles.vehicle``'s docstring with the
     element evaluated by ``element.predict`` (+ bump stops), its Maxwell state per bogie,
@@ -175,22 +206,13 @@ def test_synthetic_maxwell_element_is_recovered_at_both_bogies(vehicle):
     deflection) recovers the law's coefficients and reproduces the floor accelerations."""
     tau = 0.01
     truth, coefs = synthetic_element(tau)
-    off = wheelset_offsets(vehicle, SPEED, DT)
-    n_steps = 1500
-    m = n_steps + int(off.max()) + 3
-    z, dz = track(SPEED * DT * np.arange(m))
-    rec = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=truth)
+    rec = simulate_on_track(vehicle, truth)
     assert rec["states"].shape[2] == N_MECH + 2
-    p = kernel_params(vehicle)
-    x = np.concatenate([np.zeros((1, N_MECH + 2)), rec["states"][0]])
-    t = np.arange(n_steps + 1) * DT
+    t = np.arange(N_STEPS + 1) * DT
     runs = []
-    for i, xi in enumerate((p.a, -p.a)):
-        d = x[:, 3 + 2 * i] - x[:, 0] - xi * x[:, 1] - p.phi_a * x[:, 2]
-        dd = x[:, 10 + 2 * i] - x[:, 7] - xi * x[:, 8] - p.phi_a * x[:, 9]
-        zeta = d - x[:, N_MECH + i]  # the kernel's state, against the rebuilt one
+    for d, dd, zeta, force in bogie_signals(vehicle, rec):
+        # the kernel's state, against the rebuilt one
         np.testing.assert_allclose(maxwell_state(d, t, tau), zeta, atol=0.01 * np.abs(zeta).max())
-        force = np.concatenate([[0.0], rec["fs"][0, :, i]])
         runs.append(
             {"t": t, "delta": d, "delta_dot": dd, "force": force, "rows": np.arange(t.size)}
         )
@@ -207,9 +229,7 @@ def test_synthetic_maxwell_element_is_recovered_at_both_bogies(vehicle):
         for j, h in enumerate((1e-3, 1e-2, 1e-4))
     ]
     np.testing.assert_allclose(slopes, coefs, rtol=0.01)
-    again = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=fitted)
-    a, b = again["acc"][0, :, :3], rec["acc"][0, :, :3]
-    assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
+    assert_same_floor_acc(rec, simulate_on_track(vehicle, fitted))
 
 
 @pytest.mark.parametrize("grid", [False, True], ids=["legendre", "grid"])
@@ -324,23 +344,13 @@ def test_synthetic_relaxation_law_is_recovered_at_both_bogies(vehicle):
         "known_physics": [],
         "relaxation": {"zeta": law[0].tolist(), "rate": law[1].tolist()},
     }
-    off = wheelset_offsets(vehicle, SPEED, DT)
-    n_steps = 1500
-    m = n_steps + int(off.max()) + 3
-    z, dz = track(SPEED * DT * np.arange(m))
-    rec = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=truth)
-    p = kernel_params(vehicle)
-    x = np.concatenate([np.zeros((1, N_MECH + 2)), rec["states"][0]])
-    t = np.arange(n_steps + 1) * DT
+    rec = simulate_on_track(vehicle, truth)
+    t = np.arange(N_STEPS + 1) * DT
     runs = []
-    for i, xi in enumerate((p.a, -p.a)):
-        d = x[:, 3 + 2 * i] - x[:, 0] - xi * x[:, 1] - p.phi_a * x[:, 2]
-        dd = x[:, 10 + 2 * i] - x[:, 7] - xi * x[:, 8] - p.phi_a * x[:, 9]
-        zeta = d - x[:, N_MECH + i]
+    for d, dd, zeta, force in bogie_signals(vehicle, rec):
         assert zeta.max() > 2 * law_params[2] and zeta.min() < -2 * law_params[3]  # past knees
         rows = np.arange(25, t.size)
-        force = np.concatenate([[0.0], rec["fs"][0, :, i]])[rows]
-        runs.append({"t": t, "delta": d, "delta_dot": dd, "rows": rows, "force": force})
+        runs.append({"t": t, "delta": d, "delta_dot": dd, "rows": rows, "force": force[rows]})
     fit = fit_relaxation(runs, degrees=(1, 1, 1), start=(8e-3, 8e-3, 3e-4, 3e-4, 0.5))
     np.testing.assert_allclose(fit.params[:4], law_params[:4], rtol=0.03)
     # few samples lie far past the knees: the blow-off ratio is the least determined
@@ -358,9 +368,7 @@ def test_synthetic_relaxation_law_is_recovered_at_both_bogies(vehicle):
         "relaxation": {"zeta": list(fit.law[0]), "rate": list(fit.law[1])},
     }
     fitted.features_["tau"] = shortest_time_constant(fit.law)
-    again = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=fitted)
-    a, b = again["acc"][0, :, :3], rec["acc"][0, :, :3]
-    assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
+    assert_same_floor_acc(rec, simulate_on_track(vehicle, fitted))
 
 
 @pytest.mark.slow
