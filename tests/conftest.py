@@ -1,5 +1,5 @@
-"""Fixtures shared by several test files: env copies, seeded actions, rollout comparison, a small
-fitted LPR of the linear suspension and the bad-input error check."""
+"""Fixtures shared by several test files: env copies (and their rollouts), seeded actions,
+rollout comparison, a small fitted LPR of the linear suspension and the bad-input error check."""
 
 from __future__ import annotations
 
@@ -61,6 +61,24 @@ def assert_same_rollouts() -> Callable[[list, list], None]:
                 np.testing.assert_array_equal(u, v)
 
     return check
+
+
+@pytest.fixture
+def continue_copies(copy_env: Callable[[Any], Any]) -> Callable[..., tuple[list, list, Any]]:
+    """``run_both(env, run, seed, before, after)``: ``env.reset(seed=seed)``, ``run(env,
+    before)``, then a copy of ``env`` (each way of :func:`copy_env`) and ``run(env, after)``,
+    ``run(copy, after)``; returns the two rollouts and the copy. ``run(env, actions)`` steps
+    ``env`` with each action and returns the rows to compare."""
+
+    def run_both(
+        env: Any, run: Callable[[Any, list], list], seed: int, before: list, after: list
+    ) -> tuple[list, list, Any]:
+        env.reset(seed=seed)
+        run(env, before)
+        twin = copy_env(env)
+        return run(env, after), run(twin, after), twin
+
+    return run_both
 
 
 @pytest.fixture
