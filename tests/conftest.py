@@ -1,14 +1,17 @@
 """Fixtures shared by several test files: env copies (and their rollouts), seeded actions,
-rollout comparison, a small fitted LPR of the linear suspension and the bad-input error check."""
+rollout comparison, a small fitted LPR of the linear suspension, the bad-input error check and
+the example scripts as modules."""
 
 from __future__ import annotations
 
 import copy
+import importlib.util
 import pickle
 import re
 from collections.abc import Callable
 from importlib.resources import files
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import cloudpickle
@@ -79,6 +82,21 @@ def continue_copies(copy_env: Callable[[Any], Any]) -> Callable[..., tuple[list,
         return run(env, after), run(twin, after), twin
 
     return run_both
+
+
+@pytest.fixture(scope="session")
+def load_example() -> Callable[[str], ModuleType]:
+    """``load(name)``: the script ``examples/<name>.py`` imported as a module (not run)."""
+
+    def load(name: str) -> ModuleType:
+        path = Path(__file__).resolve().parents[1] / "examples" / f"{name}.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return load
 
 
 @pytest.fixture
