@@ -13,12 +13,11 @@ import numpy as np
 import pytest
 
 from agents.cli import main
+from tests.markers import needs_cc
 
 pytest.importorskip("stable_baselines3")
 fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
-pytestmark = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
+pytestmark = needs_cc
 ID = "railgym/VerticalSuspension-v1"
 BLOCKS = {
     "ppo": {

@@ -11,7 +11,6 @@ names resolve as in ``railgym evaluate``; what cannot be exported is one line an
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -21,12 +20,11 @@ import numpy as np
 import pytest
 
 from agents.cli import main
+from tests.markers import needs_cc
 
 pytest.importorskip("stable_baselines3")
 fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
-pytestmark = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
+pytestmark = needs_cc
 ID = "railgym/VerticalSuspension-v1"
 VID = "railgym/VerticalVehicle-v1"
 ROOT = Path(__file__).resolve().parents[2]

@@ -19,13 +19,11 @@ from surrogates.fmi.export import CFLAGS, fmi_platform
 from surrogates.fmi.model_description import fmi_names
 from surrogates.models.kriging import Kriging
 from surrogates.models.lpr import LegendreRegression
+from tests.markers import needs_cc
 
 fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
 from fmpy.validation import validate_fmu  # noqa: E402
 
-needs_cc = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
 N_POINTS = 10_000
 RTOL = 1e-12
 
