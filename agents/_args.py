@@ -20,6 +20,7 @@ __all__ = [
     "MAX_EPISODES",
     "VEHICLE_DURATION_S",
     "add_parallel_arguments",
+    "add_track_classes",
     "bounded_int",
     "bounded_real",
     "check_parallel",
@@ -185,6 +186,13 @@ def one_line_warnings(prog: str) -> Iterator[None]:
         yield
     finally:
         warnings.formatwarning = before
+
+
+def add_track_classes(
+    parser: argparse.ArgumentParser, default: list[int], help: str = "FRA track classes 1..6"
+) -> None:
+    """``--track-class C [C …]``: FRA track classes (1 to 6), ``default`` when not given."""
+    parser.add_argument("--track-class", type=track_class, nargs="+", default=default, help=help)
 
 
 def add_parallel_arguments(

@@ -112,10 +112,14 @@ def closed_loop(
 
 
 def env_episode(policy: Any, seed: int = 0, **env_kwargs: Any) -> dict[str, Any]:
-    """One ``backend="reference"`` episode of ``policy`` (an object with SB3's ``predict``):
-    ``carbody_acc`` (m/s²) and ``force`` (N) per step, the track ``z, zdot`` and the env's
-    ``dt``, ``n_sub``."""
-    env = gym.make(ID, backend="reference", **env_kwargs)
+    """One ``backend="reference"`` episode of ``policy`` (:func:`run_episode`)."""
+    return run_episode(gym.make(ID, backend="reference", **env_kwargs), policy, seed)
+
+
+def run_episode(env: gym.Env, policy: Any, seed: int = 0) -> dict[str, Any]:
+    """One episode of ``policy`` (an object with SB3's ``predict``) in the vertical ``env``
+    from ``reset(seed=seed)``, then ``env`` is closed: ``carbody_acc`` (m/s²) and ``force`` (N)
+    per step, the track ``z, zdot`` and the env's ``dt``, ``n_sub``."""
     obs, _ = env.reset(seed=seed)
     base: Any = env.unwrapped
     z, zdot = base.track()

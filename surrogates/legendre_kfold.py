@@ -121,40 +121,30 @@ class SharedFolds:
         fits every candidate and reports why.
         """
         with threadpool_limits(limits=1, user_api="blas"):
-            return cls._prepare(models, U, V, folds)
-
-    @classmethod
-    def _prepare(
-        cls,
-        models: Sequence[Any],
-        U: np.ndarray,
-        V: np.ndarray,
-        folds: Sequence[np.ndarray],
-    ) -> SharedFolds | None:
-        n, d = U.shape
-        trains = [np.setdiff1d(np.arange(n), f, assume_unique=True) for f in folds]
-        n_train = min(t.size for t in trains)
-        terms: dict[tuple[int, ...], int] = {}
-        cands: list[_Candidate | None] = []
-        for model in models:
-            cand = _candidate(model, d, n_train)
-            if cand is not None:
-                for e in map(tuple, cand.exponents.tolist()):
-                    terms.setdefault(e, len(terms))
-                cand.columns = np.array(
-                    [terms[e] for e in map(tuple, cand.exponents.tolist())], dtype=np.int64
-                )
-            cands.append(cand)
-        if not terms:
-            return None
-        E = np.array(list(terms), dtype=np.int64)
-        shared = []
-        for fold, train in zip(folds, trains, strict=True):
-            f = _factorise(U, V, fold, train, E)
-            if f is None:
+            n, d = U.shape
+            trains = [np.setdiff1d(np.arange(n), f, assume_unique=True) for f in folds]
+            n_train = min(t.size for t in trains)
+            terms: dict[tuple[int, ...], int] = {}
+            cands: list[_Candidate | None] = []
+            for model in models:
+                cand = _candidate(model, d, n_train)
+                if cand is not None:
+                    for e in map(tuple, cand.exponents.tolist()):
+                        terms.setdefault(e, len(terms))
+                    cand.columns = np.array(
+                        [terms[e] for e in map(tuple, cand.exponents.tolist())], dtype=np.int64
+                    )
+                cands.append(cand)
+            if not terms:
                 return None
-            shared.append(f)
-        return cls(n, shared, cands)
+            E = np.array(list(terms), dtype=np.int64)
+            shared = []
+            for fold, train in zip(folds, trains, strict=True):
+                f = _factorise(U, V, fold, train, E)
+                if f is None:
+                    return None
+                shared.append(f)
+            return cls(n, shared, cands)
 
     def predictions(self, i: int) -> np.ndarray | None:
         """Pooled held-out predictions (n,) of candidate ``i``; ``None`` when the loop has to

@@ -1,14 +1,17 @@
-"""Fixtures shared by several test files: env copies, seeded actions, rollout comparison, a small
-fitted LPR of the linear suspension and the bad-input error check."""
+"""Fixtures shared by several test files: env copies (and their rollouts), seeded actions,
+rollout comparison, a small fitted LPR of the linear suspension, the bad-input error check and
+the example scripts as modules."""
 
 from __future__ import annotations
 
 import copy
+import importlib.util
 import pickle
 import re
 from collections.abc import Callable
 from importlib.resources import files
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import cloudpickle
@@ -61,6 +64,39 @@ def assert_same_rollouts() -> Callable[[list, list], None]:
                 np.testing.assert_array_equal(u, v)
 
     return check
+
+
+@pytest.fixture
+def continue_copies(copy_env: Callable[[Any], Any]) -> Callable[..., tuple[list, list, Any]]:
+    """``run_both(env, run, seed, before, after)``: ``env.reset(seed=seed)``, ``run(env,
+    before)``, then a copy of ``env`` (each way of :func:`copy_env`) and ``run(env, after)``,
+    ``run(copy, after)``; returns the two rollouts and the copy. ``run(env, actions)`` steps
+    ``env`` with each action and returns the rows to compare."""
+
+    def run_both(
+        env: Any, run: Callable[[Any, list], list], seed: int, before: list, after: list
+    ) -> tuple[list, list, Any]:
+        env.reset(seed=seed)
+        run(env, before)
+        twin = copy_env(env)
+        return run(env, after), run(twin, after), twin
+
+    return run_both
+
+
+@pytest.fixture(scope="session")
+def load_example() -> Callable[[str], ModuleType]:
+    """``load(name)``: the script ``examples/<name>.py`` imported as a module (not run)."""
+
+    def load(name: str) -> ModuleType:
+        path = Path(__file__).resolve().parents[1] / "examples" / f"{name}.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return load
 
 
 @pytest.fixture

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv, VectorWrapper
 
+from agents._predict import SB3Predict
 from railgym import _checks as val
 
 __all__ = ["MAX_HOLD", "ActionHold", "HeldPolicy", "check_hold"]
@@ -79,7 +80,7 @@ class ActionHold(VectorWrapper):
         return obs, total, terminated, truncated, info
 
 
-class HeldPolicy:
+class HeldPolicy(SB3Predict):
     """``policy``'s action every ``hold``-th :meth:`predict` call, the held one in between.
 
     Parameters
@@ -91,18 +92,12 @@ class HeldPolicy:
     def __init__(self, policy: Any, hold: int) -> None:
         self.policy, self.hold = policy, check_hold(hold, "hold")
         self._calls = 0
-        self._last: tuple[Any, Any] | None = None
+        self._last: Any = None
 
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[Any, Any]:
-        """The policy's ``(action, state)`` at calls 0, hold, 2·hold, …, else the held one
-        (``state`` and ``episode_start`` are not used: feed-forward policies only)."""
-        if self._last is None or self._calls % self.hold == 0:
-            self._last = self.policy.predict(observation, deterministic=deterministic)
+    def predict_action(self, observation: Any, episode_start: Any, deterministic: bool) -> Any:
+        """The policy's action at calls 0, hold, 2·hold, …, else the held one
+        (``episode_start`` is not used: feed-forward policies only)."""
+        if self._calls % self.hold == 0:
+            self._last, _ = self.policy.predict(observation, deterministic=deterministic)
         self._calls += 1
         return self._last

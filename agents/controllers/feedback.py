@@ -8,10 +8,12 @@ from typing import Any
 
 import numpy as np
 
+from agents._predict import SB3Predict
+
 __all__ = ["ObservationController"]
 
 
-class ObservationController:
+class ObservationController(SB3Predict):
     """Plumbing of every observation-feedback baseline (vertical and crash): the env check, the
     physical observation and stable-baselines3's ``predict`` shape rules.
 
@@ -38,17 +40,13 @@ class ObservationController:
         (n, n_obs)."""
         raise NotImplementedError
 
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, None]:
+    def predict_action(
+        self, observation: Any, episode_start: Any, deterministic: bool
+    ) -> np.ndarray:
         """Action clipped to [−1, 1], float32: (n_act,) for one obs, (n, n_act) for a batch.
 
-        ``state``, ``episode_start`` and ``deterministic`` exist for SB3 compatibility; the
-        controllers are memoryless and deterministic.
+        ``episode_start`` and ``deterministic`` exist for SB3 compatibility; the controllers
+        are memoryless and deterministic.
         """
         obs = np.asarray(observation, dtype=np.float64)
         n_obs = len(self.obs_names)
@@ -60,4 +58,4 @@ class ObservationController:
             raise ValueError("observation has non-finite values (NaN or inf)")
         u = np.clip(self.action(np.atleast_2d(obs) * self.obs_scale), -1.0, 1.0)
         u = u.astype(np.float32)
-        return (u[0] if obs.ndim == 1 else u), None
+        return u[0] if obs.ndim == 1 else u

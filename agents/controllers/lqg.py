@@ -117,15 +117,12 @@ class LQGMixin:
         self.x_pred = np.zeros((n, self.kf.phi.shape[0]))
         self.u_prev = np.zeros((n, self.n_act))
 
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, None]:
-        """As :meth:`agents.controllers.feedback.ObservationController.predict`; ``episode_start``
-        (bool per sub-env) puts those estimates back at rest before this observation."""
+    def predict_action(
+        self, observation: Any, episode_start: Any, deterministic: bool
+    ) -> np.ndarray:
+        """As :meth:`agents.controllers.feedback.ObservationController.predict_action`;
+        ``episode_start`` (bool per sub-env) puts those estimates back at rest before this
+        observation."""
         n = 1 if np.ndim(observation) == 1 else int(np.shape(observation)[0])
         if getattr(self, "x_pred", None) is None or self.x_pred.shape[0] != n:
             self._start(n)
@@ -133,7 +130,7 @@ class LQGMixin:
             rows = np.flatnonzero(np.broadcast_to(np.asarray(episode_start, bool), (n,)))
             self.x_pred[rows] = 0.0
             self.u_prev[rows] = 0.0
-        return super().predict(observation, state, episode_start, deterministic)  # type: ignore[misc]
+        return super().predict_action(observation, episode_start, deterministic)  # type: ignore[misc]
 
     def feedforward(self, x: np.ndarray) -> np.ndarray:
         """Force added to the LQR's (n, n_act), N, from the physical observation: none here

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv, VectorWrapper
 
+from agents._predict import SB3Predict
 from railgym import _checks as val
 
 __all__ = ["MAX_SCALE", "ResidualPolicy", "ResidualVectorEnv", "check_scale", "residual_action"]
@@ -110,7 +111,7 @@ class ResidualVectorEnv(VectorWrapper):
         return obs, reward, terminated, truncated, info
 
 
-class ResidualPolicy:
+class ResidualPolicy(SB3Predict):
     """``policy``'s action added to ``controller``'s (module docstring).
 
     Parameters
@@ -128,15 +129,11 @@ class ResidualPolicy:
         self.scale = check_scale(scale, "scale")
         self.bounds = bounds
 
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, None]:
-        """The summed action and ``None`` (feed-forward policies only)."""
+    def predict_action(
+        self, observation: Any, episode_start: Any, deterministic: bool
+    ) -> np.ndarray:
+        """The summed action (feed-forward policies only)."""
         base, _ = self.controller.predict(observation, episode_start=episode_start)
         agent, _ = self.policy.predict(observation, deterministic=deterministic)
         base = np.reshape(base, np.shape(agent))
-        return residual_action(base, agent, self.scale, *self.bounds), None
+        return residual_action(base, agent, self.scale, *self.bounds)

@@ -56,6 +56,7 @@ from agents._args import (
     MAX_EPISODES,
     VEHICLE_DURATION_S,
     add_parallel_arguments,
+    add_track_classes,
     backend_kwargs,
     check_parallel,
     check_speed_kmh,
@@ -64,7 +65,6 @@ from agents._args import (
     episodes,
     seed_number,
     speed_kmh,
-    track_class,
     vehicle_cases,
     vertical_cases,
     with_policy_kwargs,
@@ -384,13 +384,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "are designed for (default: the packaged one; with --backend fmu the mapping's "
         "vehicle:)",
     )
-    parser.add_argument(
-        "--track-class",
-        type=track_class,
-        nargs="+",
-        default=[4, 6],
-        help="vertical, vehicle: FRA track classes 1..6",
-    )
+    add_track_classes(parser, [4, 6], "vertical, vehicle: FRA track classes 1..6")
     parser.add_argument(
         "--episodes",
         type=episodes,

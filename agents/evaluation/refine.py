@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import bounded_int, duration_s, track_class
+from agents._args import add_track_classes, bounded_int, duration_s
 from agents.controllers.registry import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICLE_ID
 from agents.policies.loading import load_policy
 from railgym.envs.vehicle import VerticalVehicleEnv
@@ -119,13 +119,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_deprecated(parser, element, "--model")
     parser.add_argument("--rounds", type=bounded_int(0, 50), default=3, help="rounds K per class")
-    parser.add_argument(
-        "--track-class",
-        type=track_class,
-        nargs="+",
-        default=[5],
-        help="FRA track classes 1..6, refined for in turn (K rounds each)",
-    )
+    add_track_classes(parser, [5], "FRA track classes 1..6, refined for in turn (K rounds each)")
     parser.add_argument("--duration", type=duration_s, default=10.0, help="s per track")
     parser.add_argument("--tracks", type=bounded_int(1, 100), default=2, help="tracks per round")
     parser.add_argument(

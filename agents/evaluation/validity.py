@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import bounded_real, duration_s, episodes, error_status, track_class
+from agents._args import add_track_classes, bounded_real, duration_s, episodes, error_status
 from agents.evaluation.vehicle_validation import ENVS, SEED, record_episodes
 from railgym.progress import quiet
 from railgym.track import class_speed
@@ -149,13 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
     """Arguments of ``railgym validity`` (``python -m agents.evaluation.validity``)."""
     parser = Parser(prog="railgym validity", description=__doc__.split("\n\n")[0])
     parser.add_argument("--env", choices=sorted(ENVS), default=None, help="the env (default: both)")
-    parser.add_argument(
-        "--track-class",
-        type=track_class,
-        nargs="+",
-        default=[3, 4, 5, 6],
-        help="FRA track classes 1..6",
-    )
+    add_track_classes(parser, [3, 4, 5, 6])
     parser.add_argument(
         "--factor",
         type=bounded_real("speed factor", "× the class's maximum speed", 2.0),

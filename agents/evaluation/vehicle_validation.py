@@ -25,7 +25,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import duration_s, episodes, error_status, track_class
+from agents._args import add_track_classes, duration_s, episodes, error_status
 from agents.controllers.registry import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
 from railgym.progress import quiet
 from railgym.vehicles.collect import default_vertical_surrogate
@@ -174,13 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="packaged element (vehicle: the whole vehicle's default; maxwell, static: the "
         "one-bogie elements) or JSON (default: the env's packaged one)",
     )
-    parser.add_argument(
-        "--track-class",
-        type=track_class,
-        nargs="+",
-        default=[3, 4, 5, 6],
-        help="FRA track classes 1..6",
-    )
+    add_track_classes(parser, [3, 4, 5, 6])
     parser.add_argument(
         "--controller", nargs="+", default=["passive"], help="closed-loop controllers"
     )

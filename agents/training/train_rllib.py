@@ -60,6 +60,7 @@ import numpy as np
 
 from agents._args import error_status
 from agents._extras import extra_error, report_missing
+from agents._predict import SB3Predict
 from agents.policies.policy_io import RLLIB_MODULE_PATH, refuse_untrusted, sha256
 from agents.training.train_rllib_args import MAX_ITERATIONS, build_parser
 from railgym import _checks as val
@@ -220,7 +221,7 @@ def build_algo_config(cfg: RLlibConfig) -> PPOConfig:
     )
 
 
-class RLlibPolicy:
+class RLlibPolicy(SB3Predict):
     """SB3-style ``predict`` on an RLlib ``RLModule``: the deterministic action of its
     action distribution (the mean for a Gaussian), clipped to the action space."""
 
@@ -229,20 +230,16 @@ class RLlibPolicy:
         self.low, self.high = action_space.low, action_space.high
         self.dist = module.get_inference_action_dist_cls()
 
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, None]:
+    def predict_action(
+        self, observation: Any, episode_start: Any, deterministic: bool
+    ) -> np.ndarray:
         """Actions (n, n_act) for observations (n, n_obs); stochastic unless ``deterministic``."""
         obs = torch.as_tensor(np.asarray(observation, np.float32))
         with torch.no_grad():
             out = self.module.forward_inference({"obs": obs})
             dist = self.dist.from_logits(out["action_dist_inputs"])
             action = (dist.to_deterministic() if deterministic else dist).sample().numpy()
-        return np.clip(action, self.low, self.high).astype(np.float32), None
+        return np.clip(action, self.low, self.high).astype(np.float32)
 
 
 def write_checkpoint_manifest(checkpoint: Path) -> Path:

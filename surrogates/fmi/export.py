@@ -6,7 +6,8 @@ The FMU (a zip archive) holds::
     sources/element.c              generic FMI 2.0 implementation (surrogates/fmi/c/element.c)
     sources/lpr.h, lpr_element.h   the Legendre evaluation and the element built on it
     sources/element_data.h         generated: coefficients, exponents, training box, policy
-    sources/fmi2*.h                FMI 2.0.1 standard headers (2-clause BSD, Modelica Association)
+    sources/fmi2*.h                FMI 2.0.1 standard headers (2-clause BSD, Modelica Association;
+                                   surrogates/fmi/c/third_party)
     sources/fmi2_common.h          the FMI functions shared by every FMU of surrogates and railgym
     binaries/<platform>/<id>.<ext> shared library built here with the system C compiler
     resources/element.json         the saved model document the FMU was generated from
@@ -47,8 +48,10 @@ from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression
 
 KINDS = ("me", "cs", "both")
-#: shipped in every FMU: the FMI 2.0.1 standard headers and the FMI functions all our FMUs share
-HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h", "fmi2_common.h")
+#: the FMI 2.0.1 standard headers, unchanged (third-party: ``c/third_party``)
+STANDARD_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+#: shipped in every FMU: the standard headers and the FMI functions all our FMUs share
+HEADERS = (*STANDARD_HEADERS, "fmi2_common.h")
 SOURCE_FILES = ("element.c",)
 #: compiler flags; no floating-point contraction, so the C arithmetic matches numpy's
 CFLAGS = ("-shared", "-fPIC", "-O2", "-std=c99", "-ffp-contract=off")
@@ -303,8 +306,12 @@ def _document_text(
 
 
 def template(name: str) -> str:
-    """Text of a shipped C file of ``surrogates/fmi/c``."""
-    return (resources.files("surrogates.fmi") / "c" / name).read_text()
+    """Text of a shipped C file of ``surrogates/fmi/c`` (a standard header: of its
+    ``third_party`` folder)."""
+    folder = resources.files("surrogates.fmi") / "c"
+    if name in STANDARD_HEADERS:
+        folder = folder / "third_party"
+    return (folder / name).read_text()
 
 
 def guid_of(text: str) -> str:

@@ -97,7 +97,7 @@ def test_config_rejects_a_bad_action_hold(bad):
         load_config({"railgym/TrainCrash-v1": block})
 
 
-def test_trained_zip_is_evaluated_with_its_hold(tmp_path):
+def test_trained_zip_is_evaluated_with_its_hold(tmp_path, tiny_ppo_block):
     """A zip trained with ``action_hold: 3`` loads (by path) as a policy that changes its action
     only every third env step, equal to the network's action there; the FMU export refuses it."""
     pytest.importorskip("stable_baselines3")
@@ -106,21 +106,13 @@ def test_trained_zip_is_evaluated_with_its_hold(tmp_path):
     from agents.policy_fmu import export_policy
     from agents.train import train
 
-    block = {
-        "algo": "ppo",
-        "n_timesteps": 64,
-        "n_envs": 2,
-        "seed": 0,
-        "action_hold": 3,
-        "env_kwargs": KW,
-        "eval_freq": 10**6,
-        "n_eval_episodes": 1,
-        "checkpoint_freq": 10**6,
-        "n_steps": 32,
-        "batch_size": 64,
-        "n_epochs": 1,
-        "policy_kwargs": {"net_arch": [8], "log_std_init": 0.0},
-    }
+    block = tiny_ppo_block(
+        n_timesteps=64,
+        n_steps=32,
+        action_hold=3,
+        env_kwargs=KW,
+        policy_kwargs={"net_arch": [8], "log_std_init": 0.0},
+    )
     out = train({CRASH_ID: block}, tmp_path / "held", progress=False)
     factory, kwargs, _ = load_policy(str(out / "model.zip"), CRASH_ID)
     env = TrainCrashVectorEnv(num_envs=1, **{**kwargs, "backend": "reference"})

@@ -13,12 +13,11 @@ import numpy as np
 import pytest
 
 from agents.cli import main
+from tests.markers import needs_cc
 
 pytest.importorskip("stable_baselines3")
 fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
-pytestmark = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
+pytestmark = needs_cc
 ID = "railgym/VerticalSuspension-v1"
 BLOCKS = {
     "ppo": {
@@ -156,18 +155,9 @@ def test_export_policy_refuses_a_zip_not_in_the_manifest(trained, tmp_path, caps
     assert "manifest.json" in capsys.readouterr().err and not out.exists()
 
 
-def _closed_loop_example():
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[2] / "examples" / "fmu_closed_loop.py"
-    spec = importlib.util.spec_from_file_location("fmu_closed_loop", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_controller_fmu_with_reference_fmu_reproduces_the_reference_episode(trained, tmp_path):
+def test_controller_fmu_with_reference_fmu_reproduces_the_reference_episode(
+    trained, tmp_path, load_example
+):
     """FMPy as master: controller FMU + vehicle FMU = the env's reference episode under the
     same policy (docs/fmi.md, the engineer's loop)."""
     from agents.evaluate import load_policy
@@ -175,7 +165,7 @@ def test_controller_fmu_with_reference_fmu_reproduces_the_reference_episode(trai
     from railgym.fmu.reference import export_reference_fmu
 
     run, _ = trained
-    ex = _closed_loop_example()
+    ex = load_example("fmu_closed_loop")
     vehicle, _ = export_reference_fmu(tmp_path / "vehicle.fmu", kind="cs")
     controller, _ = export_policy(run / "model.zip", tmp_path / "controller.fmu")
     factory, env_kwargs, _ = load_policy(str(run / "model.zip"), ID)

@@ -11,7 +11,6 @@ names resolve as in ``railgym evaluate``; what cannot be exported is one line an
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -21,12 +20,11 @@ import numpy as np
 import pytest
 
 from agents.cli import main
+from tests.markers import needs_cc
 
 pytest.importorskip("stable_baselines3")
 fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
-pytestmark = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
+pytestmark = needs_cc
 ID = "railgym/VerticalSuspension-v1"
 VID = "railgym/VerticalVehicle-v1"
 ROOT = Path(__file__).resolve().parents[2]
@@ -248,25 +246,13 @@ def test_cli_refuses_the_crash_policy_saying_why(tmp_path):
     assert not out.exists()
 
 
-def test_crash_zip_without_hold_is_refused_not_an_attribute_error(tmp_path, capsys):
+def test_crash_zip_without_hold_is_refused_not_an_attribute_error(tmp_path, capsys, tiny_ppo_block):
     """A crash policy that decides every step (``action_hold`` 1): the same clear refusal
     (it used to end in ``AttributeError: 'CrashParams' object has no attribute 'f_max'``)."""
     from agents.train import train
 
-    block = {
-        "algo": "ppo",
-        "n_timesteps": 64,
-        "n_envs": 2,
-        "seed": 0,
-        "env_kwargs": {"scenario": "envelope", "control_dt": 0.005, "backend": "reference"},
-        "eval_freq": 10**6,
-        "n_eval_episodes": 1,
-        "checkpoint_freq": 10**6,
-        "n_steps": 32,
-        "batch_size": 64,
-        "n_epochs": 1,
-        "policy_kwargs": {"net_arch": [8]},
-    }
+    crash = {"scenario": "envelope", "control_dt": 0.005, "backend": "reference"}
+    block = tiny_ppo_block(n_timesteps=64, n_steps=32, env_kwargs=crash)
     run = train({"railgym/TrainCrash-v1": block}, tmp_path / "crash", progress=False)
     out = tmp_path / "c.fmu"
     assert main(["export-policy", str(run / "model.zip"), "-o", str(out)]) == 2

@@ -190,7 +190,7 @@ def test_crash_env_has_no_residual_controller():
         load_config({"railgym/TrainCrash-v1": BLOCK})
 
 
-def test_trained_residual_zip_loads_as_controller_plus_network(tmp_path):
+def test_trained_residual_zip_loads_as_controller_plus_network(tmp_path, tiny_ppo_block):
     """A tiny residual run: training with ``observation: full`` and an ``lqg`` base is one
     error naming ``residual``; with sensors the saved zip loads (by path) as the LQG plus the
     network, and the FMU export holds that LQG (its training case's design)."""
@@ -199,20 +199,8 @@ def test_trained_residual_zip_loads_as_controller_plus_network(tmp_path):
     from agents.policy_fmu import export_policy
     from agents.train import train
 
-    block = {
-        **BLOCK,
-        "n_envs": 2,
-        "seed": 0,
-        "residual_scale": 0.5,
-        "env_kwargs": {"backend": "linear", "duration": 1.0, "observation": "full"},
-        "eval_freq": 10**6,
-        "n_eval_episodes": 1,
-        "checkpoint_freq": 10**6,
-        "n_steps": 32,
-        "batch_size": 64,
-        "n_epochs": 1,
-        "policy_kwargs": {"net_arch": [8]},
-    }
+    full = {"backend": "linear", "duration": 1.0, "observation": "full"}
+    block = tiny_ppo_block(**BLOCK, n_steps=32, residual_scale=0.5, env_kwargs=full)
     with pytest.raises(val.FieldError, match="residual lqg: observation must be 'sensors'"):
         train({ENV_ID: block}, tmp_path / "full", progress=False)
     block["env_kwargs"] = {**block["env_kwargs"], "observation": "sensors"}

@@ -27,42 +27,24 @@ def _velocity(env: gym.Env) -> float:
 
 
 @pytest.mark.parametrize("backend", ["linear", "reference", "surrogate"])
-def test_make_and_make_vec_agree_step_for_step(backend):
+def test_make_and_make_vec_agree_step_for_step(backend, semi_active_vector_equals_singles):
     """``gym.make`` and the native vector env of ``gym.make_vec`` give the same observations,
     rewards and damper forces (sub-env ``i`` seeded ``s + i``), the damper command last."""
-    n, kw = 3, {"backend": backend, "duration": 0.3, **SEMI}
-    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
-    singles = [gym.make(ENV_ID, **kw) for _ in range(n)]
-    assert venv.single_action_space == gym.spaces.Box(0.0, 1.0, (1,), np.float32)
-    obs_v, _ = venv.reset(seed=4)
-    np.testing.assert_array_equal(
-        obs_v, np.stack([e.reset(seed=4 + i)[0] for i, e in enumerate(singles)])
-    )
-    rng = np.random.default_rng(1)
-    for _ in range(30):
-        act = rng.uniform(0.0, 1.0, (n, 1)).astype(np.float32)
-        obs_v, rew_v, _, _, info_v = venv.step(act)
-        for i, env in enumerate(singles):
-            obs, rew, _, _, info = env.step(act[i])
-            np.testing.assert_array_equal(obs_v[i], obs)
-            assert rew_v[i] == rew
-            assert info_v["damper_force"][i] == info["damper_force"] == info["actuator_force"]
-            assert info_v["damper_command"][i] == info["damper_command"]
-    assert np.abs(info_v["damper_force"]).max() > 10.0  # the damper works
+    kw = {"backend": backend, "duration": 0.3, **SEMI}
+    keys = ("damper_force", "damper_command", "actuator_force")
+    infos = semi_active_vector_equals_singles(ENV_ID, kw, 1, keys)
+    for info_v in infos:
+        np.testing.assert_array_equal(info_v["damper_force"], info_v["actuator_force"])
+    assert np.abs(infos[-1]["damper_force"]).max() > 10.0  # the damper works
 
 
-def test_damper_only_dissipates():
+def test_damper_only_dissipates(random_commands):
     """Over an episode of random commands every step's damper power ``F·v`` is ≥ 0 and the
     dissipated energy ``Σ F·v·dt`` is positive."""
     env = gym.make(ENV_ID, backend="reference", duration=4.0, **SEMI)
-    env.reset(seed=2)
-    rng = np.random.default_rng(3)
-    powers, done = [], False
-    while not done:
-        _, _, term, trunc, info = env.step(rng.uniform(0, 1, 1).astype(np.float32))
-        powers.append(info["damper_force"] * _velocity(env))
-        done = term or trunc
-    powers = np.array(powers)
+    powers = np.array(
+        [info["damper_force"] * _velocity(env) for _, info in random_commands(env, 1)]
+    )
     assert len(powers) == 400 and powers.min() >= 0.0
     energy = powers.sum() * env.unwrapped.cfg.control_dt
     assert energy > 1.0  # J over 4 s

@@ -69,20 +69,16 @@ def test_spaces_and_channels():
     assert force.action_space.low.tolist() == [-1.0, -1.0]
 
 
-def test_dampers_only_dissipate_at_both_bogies():
+def test_dampers_only_dissipate_at_both_bogies(random_commands):
     """Random commands over 4 s on class 4: every step's power ``F_i·v_i`` is ≥ 0 at both
     bogies, each damper dissipates energy, and it follows its commands (filtered command in
     [0, 1], observed last)."""
     env = gym.make(ENV_ID, backend="reference", track_class=4, duration=4.0, **SEMI)
-    env.reset(seed=2)
-    rng = np.random.default_rng(3)
-    powers, done = [], False
-    while not done:
-        obs, _, term, trunc, info = env.step(rng.uniform(0, 1, 2).astype(np.float32))
+    powers = []
+    for obs, info in random_commands(env, 2):
         powers.append(info["damper_force"] * _rates(env))
         np.testing.assert_array_equal(obs[-2:], info["damper_command"].astype(np.float32))
         np.testing.assert_array_equal(info["damper_force"], info["actuator_force"])
-        done = term or trunc
     powers = np.array(powers)
     assert powers.shape == (400, 2) and powers.min() >= 0.0
     energy = powers.sum(axis=0) * env.unwrapped.cfg.control_dt
@@ -90,28 +86,13 @@ def test_dampers_only_dissipate_at_both_bogies():
 
 
 @pytest.mark.parametrize("backend", ["linear", "reference", "surrogate"])
-def test_make_and_make_vec_agree_step_for_step(backend):
+def test_make_and_make_vec_agree_step_for_step(backend, semi_active_vector_equals_singles):
     """The native vector env equals single envs sub-env by sub-env (seeded ``s + i``), with
     track preview and the dampers combined."""
-    n, kw = 3, {"backend": backend, "duration": 0.3, "preview": 2.0, **SEMI}
-    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
-    singles = [gym.make(ENV_ID, **kw) for _ in range(n)]
-    assert venv.single_action_space == gym.spaces.Box(0.0, 1.0, (2,), np.float32)
-    obs_v, _ = venv.reset(seed=4)
-    np.testing.assert_array_equal(
-        obs_v, np.stack([e.reset(seed=4 + i)[0] for i, e in enumerate(singles)])
-    )
-    rng = np.random.default_rng(1)
-    for _ in range(30):
-        act = rng.uniform(0.0, 1.0, (n, 2)).astype(np.float32)
-        obs_v, rew_v, _, _, info_v = venv.step(act)
-        for i, env in enumerate(singles):
-            obs, rew, _, _, info = env.step(act[i])
-            np.testing.assert_array_equal(obs_v[i], obs)
-            assert rew_v[i] == rew
-            for key in ("damper_force", "damper_command", "actuator_force", "carbody_acc"):
-                np.testing.assert_array_equal(info_v[key][i], info[key])
-    assert np.abs(info_v["damper_force"]).max() > 10.0  # the dampers work
+    kw = {"backend": backend, "duration": 0.3, "preview": 2.0, **SEMI}
+    keys = ("damper_force", "damper_command", "actuator_force", "carbody_acc")
+    infos = semi_active_vector_equals_singles(ENV_ID, kw, 2, keys)
+    assert np.abs(infos[-1]["damper_force"]).max() > 10.0  # the dampers work
 
 
 def _floor_acc(backend: str) -> np.ndarray:

@@ -35,14 +35,12 @@ def _run(env, actions):
 
 @pytest.mark.parametrize("mid", [0, 17])
 def test_single_env_copy_continues_bit_identically(
-    copy_env, mid, random_actions, assert_same_rollouts
+    continue_copies, mid, random_actions, assert_same_rollouts
 ):
     env = VerticalVehicleEnv(backend="reference", duration=0.3, sensor_noise=0.05)
-    env.reset(seed=4)
-    _run(env, random_actions(mid, (2,), seed=1))
-    twin = copy_env(env)
+    before = random_actions(mid, (2,), seed=1)
     acts = random_actions(30 - mid, (2,), seed=2)  # to the end of the episode (comfort figures)
-    a, b = _run(env, acts), _run(twin, acts)
+    a, b, twin = continue_copies(env, _run, 4, before, acts)
     assert a[-1][3] and len(a[-1]) == 10  # truncated: the last step carries the comfort figures
     assert_same_rollouts(a, b)
     assert twin.sim.arrays.z is not env.sim.arrays.z and twin.sim.reward is twin.sim.book.rew
@@ -52,15 +50,14 @@ def test_single_env_copy_continues_bit_identically(
 
 @pytest.mark.parametrize("mid", [0, 12])
 def test_vector_env_copy_continues_bit_identically(
-    copy_env, mid, random_actions, assert_same_rollouts
+    continue_copies, mid, random_actions, assert_same_rollouts
 ):
     kw = {"backend": "surrogate", "duration": 0.2, "sensor_noise": 0.05, "speed": (30.0, 50.0)}
     venv = VerticalVehicleVectorEnv(num_envs=3, **kw)
-    venv.reset(seed=9)
-    _run(venv, random_actions(mid, (3, 2), seed=3))
-    twin = copy_env(venv)
+    before = random_actions(mid, (3, 2), seed=3)
     acts = random_actions(45, (3, 2), seed=4)  # crosses two autoresets
-    assert_same_rollouts(_run(venv, acts), _run(twin, acts))
+    a, b, _ = continue_copies(venv, _run, 9, before, acts)
+    assert_same_rollouts(a, b)
 
 
 def test_reward_terms_sum_to_the_reward_and_follow_the_definition(random_actions):

@@ -36,28 +36,25 @@ def _run(env, actions):
 
 @pytest.mark.parametrize("mid", [0, 37])
 def test_single_env_copy_continues_bit_identically(
-    copy_env, mid, random_actions, assert_same_rollouts
+    continue_copies, mid, random_actions, assert_same_rollouts
 ):
     env = VerticalSuspensionEnv(duration=0.6, sensor_noise=0.05)
-    env.reset(seed=4)
-    _run(env, random_actions(mid, (1,), seed=1))
-    twin = copy_env(env)
+    before = random_actions(mid, (1,), seed=1)
     acts = random_actions(23, (1,), seed=2)  # runs to the end of the 60-step episode (mid=37)
-    a, b = _run(env, acts), _run(twin, acts)
+    a, b, twin = continue_copies(env, _run, 4, before, acts)
     assert_same_rollouts(a, b)
     assert twin.sim.z is not env.sim.z and twin.sim.obs is twin.sim.res.obs
 
 
 @pytest.mark.parametrize("mid", [0, 25])
 def test_vector_env_copy_continues_bit_identically(
-    copy_env, mid, random_actions, assert_same_rollouts
+    continue_copies, mid, random_actions, assert_same_rollouts
 ):
     venv = VerticalSuspensionVectorEnv(num_envs=3, duration=0.3, sensor_noise=0.05)
-    venv.reset(seed=9)
-    _run(venv, random_actions(mid, (3, 1), seed=3))
-    twin = copy_env(venv)
+    before = random_actions(mid, (3, 1), seed=3)
     acts = random_actions(45, (3, 1), seed=4)  # crosses an autoreset
-    assert_same_rollouts(_run(venv, acts), _run(twin, acts))
+    a, b, _ = continue_copies(venv, _run, 9, before, acts)
+    assert_same_rollouts(a, b)
 
 
 def test_reward_terms_sum_to_the_reward_and_follow_the_definition(random_actions):

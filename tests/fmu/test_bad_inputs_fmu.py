@@ -18,11 +18,10 @@ from agents.cli import main
 from railgym.fmu.mapping import FMUError
 from railgym.fmu.reference import export_reference_fmu
 from surrogates.fmi.export import compile_sources, fmi_platform
+from tests.markers import needs_cc
 
 pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
-pytestmark = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
+pytestmark = needs_cc
 ID = "railgym/VerticalSuspension-v1"
 
 

@@ -26,12 +26,10 @@ from railgym.fmu.expression import Derivatives, ExpressionError, compile_express
 from railgym.fmu.mapping import FMUError, load_mapping
 from railgym.fmu.reference import export_reference_fmu
 from railgym.fmu.runner import FMURunner
+from tests.markers import needs_cc
 
 pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
 ID = "railgym/VerticalSuspension-v1"
-needs_cc = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
 
 #: variable values of the parser table (names as FMI writes them)
 VALUES = {"x1": 0.3, "x2": 0.1, "v1": 2.0, "v2": -1.0, "a2": 9.0, "z_mm": 12.0}

@@ -8,7 +8,6 @@ episode on ``backend="fmu"`` with it (co-simulation and model exchange) reproduc
 from __future__ import annotations
 
 import dataclasses
-import shutil
 
 import gymnasium as gym
 import numpy as np
@@ -16,21 +15,25 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 from agents.cli import main
+from tests.markers import needs_cc
 
 fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
-pytestmark = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
+pytestmark = needs_cc
 
 ID = "railgym/VerticalSuspension-v1"
+
+
+def _export_by_cli(out, env: str):
+    """``(fmu, mapping)`` of the reference model of ``env`` (ME and CS) exported to ``out``
+    by ``railgym export-reference-fmu``."""
+    assert main(["export-reference-fmu", "--env", env, "-o", str(out)]) == 0
+    return out, out.with_suffix(".yaml")
 
 
 @pytest.fixture(scope="module")
 def reference_fmu(tmp_path_factory):
     """``(fmu, mapping)`` of the exported vertical reference (ME and CS), by the CLI."""
-    out = tmp_path_factory.mktemp("ref") / "vehicle.fmu"
-    assert main(["export-reference-fmu", "--env", "vertical", "-o", str(out)]) == 0
-    return out, out.with_suffix(".yaml")
+    return _export_by_cli(tmp_path_factory.mktemp("ref") / "vehicle.fmu", "vertical")
 
 
 def _episode(env, actions, seed=3):
@@ -232,9 +235,7 @@ VEHICLE_ID = "railgym/VerticalVehicle-v1"
 @pytest.fixture(scope="module")
 def vehicle_fmu(tmp_path_factory):
     """``(fmu, mapping)`` of the exported whole-vehicle reference (ME and CS), by the CLI."""
-    out = tmp_path_factory.mktemp("veh") / "whole.fmu"
-    assert main(["export-reference-fmu", "--env", "vehicle", "-o", str(out)]) == 0
-    return out, out.with_suffix(".yaml")
+    return _export_by_cli(tmp_path_factory.mktemp("veh") / "whole.fmu", "vehicle")
 
 
 @pytest.mark.parametrize("fmi_type, tol", [("CoSimulation", 5e-6), ("ModelExchange", 1e-12)])

@@ -169,11 +169,11 @@ print("stepped")
 """
 
 
-@pytest.mark.parametrize("close", ["close", "exit"])
-def test_the_process_exits_cleanly_with_fmu_envs(user_fmu: tuple[Path, Path], close: str) -> None:
-    fmu, path = user_fmu
-    done = subprocess.run(
-        [sys.executable, "-c", EXIT_SCRIPT, str(fmu), str(path), close],
+def _fresh_python(script: str, *args: str) -> subprocess.CompletedProcess[str]:
+    """``python -c script args…`` in a fresh process from the repository root (faulthandler
+    on, 300 s at most); its exit status and output, whatever the status."""
+    return subprocess.run(
+        [sys.executable, "-c", script, *args],
         capture_output=True,
         text=True,
         cwd=ROOT,
@@ -181,6 +181,12 @@ def test_the_process_exits_cleanly_with_fmu_envs(user_fmu: tuple[Path, Path], cl
         timeout=300,
         check=False,
     )
+
+
+@pytest.mark.parametrize("close", ["close", "exit"])
+def test_the_process_exits_cleanly_with_fmu_envs(user_fmu: tuple[Path, Path], close: str) -> None:
+    fmu, path = user_fmu
+    done = _fresh_python(EXIT_SCRIPT, str(fmu), str(path), close)
     assert "stepped" in done.stdout, done.stderr[-3000:]
     assert "corrupted" not in done.stderr, done.stderr[-3000:]
     assert done.returncode == 0, done.stderr[-3000:]
@@ -230,22 +236,7 @@ def test_an_fmu_logging_after_a_runner_is_freed_does_not_crash(
 ) -> None:
     mapping = tmp_path / "map.yaml"
     mapping.write_text(SMOKE_MAPPING)
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            LOGGER_SCRIPT,
-            str(user_c_fmu),
-            str(mapping),
-            str(tmp_path / "e.fmu"),
-        ],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env={**os.environ, "PYTHONFAULTHANDLER": "1"},
-        timeout=300,
-        check=False,
-    )
+    done = _fresh_python(LOGGER_SCRIPT, str(user_c_fmu), str(mapping), str(tmp_path / "e.fmu"))
     assert done.returncode == 0, done.stderr[-3000:]
     assert "logged" in done.stdout and "refused" in done.stdout
     # FMPy's own instance's message reaches FMPy's printer (not a freed runner's logger)

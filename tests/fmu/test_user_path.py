@@ -78,7 +78,7 @@ def test_the_element_recovers_the_users_secondary_law(project):
 
 
 @pytest.mark.parametrize("project", ["user_c_fmu"], indirect=True)
-def test_the_users_path_from_fmu_to_controller(project):
+def test_the_users_path_from_fmu_to_controller(project, load_example):
     folder = project
     _collect(folder)
     # validate: surrogate env against the FMU env
@@ -116,30 +116,14 @@ def test_the_users_path_from_fmu_to_controller(project):
 
     factory, env_kwargs, _ = load_policy(str(zip_path))
     env = gym.make(ID, backend="fmu", fmu_map=str(folder / "map.yaml"), duration=2.0)
-    ref = _env_episode(env, factory(env))
+    ref = load_example("fmu_closed_loop").run_episode(env, factory(env), seed=3)
     got = _master_loop(folder / "controller.fmu", _fmu_of(folder), ref)
-    err = np.sqrt(np.mean((got - ref["acc"]) ** 2) / np.mean(ref["acc"] ** 2))
+    err = np.sqrt(np.mean((got - ref["carbody_acc"]) ** 2) / np.mean(ref["carbody_acc"] ** 2))
     assert err < 0.01
 
 
 def _fmu_of(folder: Path) -> Path:
     return Path(yaml.safe_load((folder / "map.yaml").read_text())["fmu"])
-
-
-def _env_episode(env, policy) -> dict:
-    obs, _ = env.reset(seed=3)
-    z, zdot = env.unwrapped.track()
-    acc, force = [], []
-    while True:
-        action, _ = policy.predict(obs, deterministic=True)
-        obs, _, term, trunc, info = env.step(np.asarray(action, np.float32))
-        acc.append(info["carbody_acc"])
-        force.append(info["actuator_force"])
-        if term or trunc:
-            break
-    cfg = env.unwrapped.cfg
-    env.close()
-    return {"acc": np.array(acc), "force": np.array(force), "z": z, "zdot": zdot, "cfg": cfg}
 
 
 def _master_loop(controller: Path, vehicle: Path, ref: dict) -> np.ndarray:
@@ -165,13 +149,12 @@ def _master_loop(controller: Path, vehicle: Path, ref: dict) -> np.ndarray:
 
     car, cv = slave(vehicle, "car")
     ctrl, kv = slave(controller, "controller")
-    cfg, z, zdot = ref["cfg"], ref["z"], ref["zdot"]
-    n_sub, dt = cfg.n_sub, cfg.dt
+    z, zdot, n_sub, dt = ref["z"], ref["zdot"], ref["n_sub"], ref["dt"]
     names = ["x1", "v1", "x2", "v2", "a2"]
     x1, v1, x2, v2, a2 = car.getReal([cv[n] for n in names])
     v1s = [v1]  # the bogie velocity samples since the reset
     acc = []
-    for n in range(ref["acc"].size):
+    for n in range(ref["carbody_acc"].size):
         if len(v1s) == 1:
             a1 = 0.0
         elif len(v1s) == 2:

@@ -4,7 +4,8 @@ Two FMI 2.0 co-simulation FMUs of the same car, built at test time into a tempor
 
 * ``user_c_fmu``: hand-written C (``user_models/quarter_car.c`` and its
   ``quarter_car.modelDescription.xml`` template), compiled with the system C compiler
-  (``$CC``, ``cc`` or ``gcc``) against the FMI 2.0 standard headers of ``surrogates/fmi/c``;
+  (``$CC``, ``cc`` or ``gcc``) against the FMI 2.0 standard headers of
+  ``surrogates/fmi/c/third_party``;
 * ``user_py_fmu``: a pythonfmu 0.7.0 slave (``user_models/quarter_car_py.py``), built with
   ``python -m pythonfmu build``.
 
@@ -54,7 +55,7 @@ __all__ = [
 ]
 
 MODELS = Path(__file__).parent / "user_models"
-FMI2_HEADERS = Path(__file__).parents[2] / "surrogates" / "fmi" / "c"
+FMI2_HEADERS = Path(__file__).parents[2] / "surrogates" / "fmi" / "c" / "third_party"
 INPUTS = ("zr", "zr_dot", "Fact")
 OUTPUTS = ("x1", "v1", "x2", "v2", "a2")
 

@@ -189,38 +189,48 @@ FILE_ROWS: list[tuple[str, bytes, str]] = [
 ]
 
 
-@pytest.mark.parametrize(("raw", "text"), [r[1:] for r in FILE_ROWS], ids=[r[0] for r in FILE_ROWS])
-def test_bad_model_file_bytes(tmp_path: Path, raw: bytes, text: str) -> None:
-    path = tmp_path / "m.json"
-    path.write_bytes(raw)
-    with pytest.raises(ModelFieldError) as exc:
-        io.load(path)
-    assert text in str(exc.value) and str(path) in str(exc.value)
-
-
 CSV_ROWS: list[tuple[str, bytes, str]] = [
     ("duplicate-header", b"du,F,F\n1,2,3\n", "line 1: duplicate column name(s) ['F']"),
     ("non-utf8", b"du,F\n1,2\n3,\xff\n", "line 3: not UTF-8"),
     ("long-field", b"du,F\n1," + b"7" * 200_000 + b"\n", "line 2"),
     ("nul-byte", b"du,F\n1,2\x00\n", "line 2"),
     ("non-numeric", b"du,F\n1,abc\n", "column 'F' line 2: 'abc' is not a number"),
+    ("time-non-numeric", b"t,du,F\n0,1,x\n", "'x' is not a number"),
     ("long-number", b"du,F\n1," + b"1" * 70 + b"\n", "column 'F' line 2"),
     ("infinite", b"du,F\n1,inf\n", "column 'F' line 2: value is inf"),
     ("nan", b"du,F\n1,2\nnan,3\n", "column 'du' line 3"),
+    ("time-nan", b"t,du,F\n0,1,nan\n", "column 'F' line 2"),
     ("fields", b"du,F\n1,2\n1\n", "line 3 has 1 fields"),
+    ("time-fields", b"t,du,F\n0,1,2\n1,2\n", "line 3 has 2 fields"),
     ("missing-column", b"du,G\n1,2\n", "missing column(s) ['F']"),
+    ("time-missing-column", b"t,du\n0,1\n", "missing column"),
     ("empty", b"", "empty file"),
     ("no-rows", b"du,F\n", "no data rows"),
+    ("time-no-rows", b"t,du,F\n", "no data rows"),
     ("multiline-quoted", b'du,F\n1,2\n"3\n4",5\n', "column 'du' line 4"),
 ]
 
+#: reader → (file name, read, the error it raises)
+READERS: dict[str, tuple[str, Callable[[Path], object], type[ValueError]]] = {
+    "model": ("m.json", io.load, ModelFieldError),
+    "csv": ("d.csv", lambda path: io.read_csv(path, columns=["du", "F"]), ValueError),
+}
+BYTE_ROWS = [("model", *r) for r in FILE_ROWS] + [("csv", *r) for r in CSV_ROWS]
 
-@pytest.mark.parametrize(("raw", "text"), [r[1:] for r in CSV_ROWS], ids=[r[0] for r in CSV_ROWS])
-def test_bad_csv(tmp_path: Path, raw: bytes, text: str) -> None:
-    path = tmp_path / "d.csv"
+
+@pytest.mark.parametrize(
+    ("reader", "raw", "text"),
+    [(r[0], *r[2:]) for r in BYTE_ROWS],
+    ids=[f"{r[0]}-{r[1]}" for r in BYTE_ROWS],
+)
+def test_bad_file_bytes(tmp_path: Path, reader: str, raw: bytes, text: str) -> None:
+    """A model file (``io.load``) or a data table (``io.read_csv``) of these bytes raises the
+    reader's error, naming the file and the fault."""
+    name, read, error = READERS[reader]
+    path = tmp_path / name
     path.write_bytes(raw)
-    with pytest.raises(ValueError) as exc:
-        io.read_csv(path, columns=["du", "F"])
+    with pytest.raises(error) as exc:
+        read(path)
     assert text in str(exc.value) and str(path) in str(exc.value)
 
 

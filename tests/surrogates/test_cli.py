@@ -20,33 +20,31 @@ def _write_csv(path, n=300, seed=0):
     return np.column_stack([du, dv]), force
 
 
+def _build_args(tmp_path, *extra):
+    return [
+        "build",
+        str(tmp_path / "d.csv"),
+        "--inputs",
+        "du",
+        "dv",
+        "--output",
+        "F",
+        "-o",
+        str(tmp_path / "m.json"),
+        "--m",
+        "61",
+        "--sampling",
+        "greedy",
+        "--quiet",
+        "--overwrite",
+        *extra,
+    ]
+
+
 def test_build_command_writes_a_loadable_model(tmp_path, capsys):
     U, F = _write_csv(tmp_path / "d.csv")
-    out, rep = tmp_path / "m.json", tmp_path / "r.json"
-    code = main(
-        [
-            "build",
-            str(tmp_path / "d.csv"),
-            "--inputs",
-            "du",
-            "dv",
-            "--output",
-            "F",
-            "-o",
-            str(out),
-            "--m",
-            "61",
-            "--sampling",
-            "greedy",
-            "--units",
-            "du=m",
-            "dv=m/s",
-            "F=N",
-            "--report",
-            str(rep),
-            "--quiet",
-        ]
-    )
+    out, rep = tmp_path / "m.json", tmp_path / "r.json"  # the -o of _build_args
+    code = main(_build_args(tmp_path, "--units", "du=m", "dv=m/s", "F=N", "--report", str(rep)))
     assert code == 0
     model = io.load(out)
     lo, hi = model.domain_
@@ -177,27 +175,6 @@ def test_demo_help_lists_the_files_it_writes(capsys):
         cli.main(["demo", "--help"])
     out = capsys.readouterr().out
     assert all(name in out for name in cli.DEMO_FILES) and "run again" in out
-
-
-def _build_args(tmp_path, *extra):
-    return [
-        "build",
-        str(tmp_path / "d.csv"),
-        "--inputs",
-        "du",
-        "dv",
-        "--output",
-        "F",
-        "-o",
-        str(tmp_path / "m.json"),
-        "--m",
-        "61",
-        "--sampling",
-        "greedy",
-        "--quiet",
-        "--overwrite",
-        *extra,
-    ]
 
 
 def test_build_degree_options_fix_or_widen_the_search(tmp_path, capsys):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import shutil
 import subprocess
@@ -20,13 +19,11 @@ from surrogates.fmi.export import CFLAGS, fmi_platform
 from surrogates.fmi.model_description import fmi_names
 from surrogates.models.kriging import Kriging
 from surrogates.models.lpr import LegendreRegression
+from tests.markers import needs_cc
 
 fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
 from fmpy.validation import validate_fmu  # noqa: E402
 
-needs_cc = pytest.mark.skipif(
-    shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler"
-)
 N_POINTS = 10_000
 RTOL = 1e-12
 
@@ -213,16 +210,8 @@ def test_fmi_names_are_unique_c_identifiers(names):
     assert all(re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", n) for n in out)
 
 
-def _example():
-    path = Path(__file__).resolve().parents[2] / "examples" / "fmu_cosimulation.py"
-    spec = importlib.util.spec_from_file_location("fmu_cosimulation", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @needs_cc
-def test_cosimulation_with_fmpy_converges_to_the_native_embedded_run(tmp_path):
+def test_cosimulation_with_fmpy_converges_to_the_native_embedded_run(tmp_path, load_example):
     """FMPy hosts the packaged vertical element as a CS slave coupled with the vehicle.
 
     Zero-order-hold (Jacobi) coupling is first order in the communication step H: the error
@@ -233,7 +222,9 @@ def test_cosimulation_with_fmpy_converges_to_the_native_embedded_run(tmp_path):
 
     model = default_vertical_surrogate("static")  # the FMU element is memoryless
     fmu = export_fmu(model, tmp_path / "vertical.fmu", kind="cs")
-    rows = _example().coupling_errors(fmu, model, steps=(8, 4, 2), duration=2.0)
+    rows = load_example("fmu_cosimulation").coupling_errors(
+        fmu, model, steps=(8, 4, 2), duration=2.0
+    )
     for name in ("x2", "a2"):
         errors = np.array([r[name] for r in rows])
         ratios = errors[:-1] / errors[1:]

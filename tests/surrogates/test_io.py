@@ -58,23 +58,6 @@ def test_read_csv(tmp_path):
     np.testing.assert_array_equal(cols["F"], [5.0, 6.0])
 
 
-@pytest.mark.parametrize(
-    "text, message",
-    [
-        ("t,du\n0,1\n", "missing column"),
-        ("t,du,F\n0,1,nan\n", "column 'F' line 2"),
-        ("t,du,F\n0,1,x\n", "'x' is not a number"),
-        ("t,du,F\n0,1,2\n1,2\n", "line 3 has 2 fields"),
-        ("t,du,F\n", "no data rows"),
-    ],
-)
-def test_read_csv_errors(tmp_path, text, message):
-    path = tmp_path / "d.csv"
-    path.write_text(text)
-    with pytest.raises(ValueError, match=message):
-        io.read_csv(path, columns=["du", "F"])
-
-
 @pytest.mark.parametrize("umask", [0o022, 0o077, 0o002])
 def test_written_files_follow_the_umask(tmp_path, fitted, umask):
     """Atomic writes go through mkstemp (mode 0600); the result must have the mode a plain

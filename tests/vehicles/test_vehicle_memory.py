@@ -17,7 +17,6 @@ from railgym.vehicles.vehicle import (
     advance_serial,
     check_variant,
     kernel_params,
-    load_whole_vehicle,
     lpr_arrays,
     mode_shape,
     new_arrays,
@@ -35,11 +34,6 @@ DT = 2e-3
 SPEED = 40.0
 #: track z(x) = Σ A·sin(2π x/λ + φ): (amplitude m, wavelength m, phase)
 WAVES = ((4e-3, 31.0, 0.3), (2e-3, 9.0, 1.1), (6e-4, 4.3, 2.0))
-
-
-@pytest.fixture(scope="module")
-def vehicle():
-    return load_whole_vehicle()
 
 
 @pytest.fixture(scope="module")
@@ -76,6 +70,37 @@ def track(x):
     z = sum(a * np.sin(2 * np.pi * x / lam + ph) for a, lam, ph in WAVES)
     dz = sum(a * 2 * np.pi / lam * np.cos(2 * np.pi * x / lam + ph) for a, lam, ph in WAVES)
     return z, dz
+
+
+#: steps of the synthetic-element runs
+N_STEPS = 1500
+
+
+def simulate_on_track(vehicle, element):
+    """:data:`N_STEPS` of the surrogate variant with ``element`` on the analytic track."""
+    off = wheelset_offsets(vehicle, SPEED, DT)
+    z, dz = track(SPEED * DT * np.arange(N_STEPS + int(off.max()) + 3))
+    return simulate("surrogate", vehicle, z, SPEED * dz, off, DT, N_STEPS, surrogate=element)
+
+
+def bogie_signals(vehicle, rec):
+    """Per bogie of the record ``rec``, each from rest (a zero sample first): the secondary
+    deflection δ and its rate δ̇ rebuilt from the mechanical states, the kernel's Maxwell state
+    ζ and the element force."""
+    p = kernel_params(vehicle)
+    x = np.concatenate([np.zeros((1, N_MECH + 2)), rec["states"][0]])
+    out = []
+    for i, xi in enumerate((p.a, -p.a)):
+        d = x[:, 3 + 2 * i] - x[:, 0] - xi * x[:, 1] - p.phi_a * x[:, 2]
+        dd = x[:, 10 + 2 * i] - x[:, 7] - xi * x[:, 8] - p.phi_a * x[:, 9]
+        out.append((d, dd, d - x[:, N_MECH + i], np.concatenate([[0.0], rec["fs"][0, :, i]])))
+    return out
+
+
+def assert_same_floor_acc(rec, again):
+    """The floor accelerations of two records agree within 1 % (RMS relative, per point)."""
+    a, b = again["acc"][0, :, :3], rec["acc"][0, :, :3]
+    assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
 
 
 def numpy_rk4(vehicle, element, force, n_steps):
@@ -181,22 +206,13 @@ def test_synthetic_maxwell_element_is_recovered_at_both_bogies(vehicle):
     deflection) recovers the law's coefficients and reproduces the floor accelerations."""
     tau = 0.01
     truth, coefs = synthetic_element(tau)
-    off = wheelset_offsets(vehicle, SPEED, DT)
-    n_steps = 1500
-    m = n_steps + int(off.max()) + 3
-    z, dz = track(SPEED * DT * np.arange(m))
-    rec = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=truth)
+    rec = simulate_on_track(vehicle, truth)
     assert rec["states"].shape[2] == N_MECH + 2
-    p = kernel_params(vehicle)
-    x = np.concatenate([np.zeros((1, N_MECH + 2)), rec["states"][0]])
-    t = np.arange(n_steps + 1) * DT
+    t = np.arange(N_STEPS + 1) * DT
     runs = []
-    for i, xi in enumerate((p.a, -p.a)):
-        d = x[:, 3 + 2 * i] - x[:, 0] - xi * x[:, 1] - p.phi_a * x[:, 2]
-        dd = x[:, 10 + 2 * i] - x[:, 7] - xi * x[:, 8] - p.phi_a * x[:, 9]
-        zeta = d - x[:, N_MECH + i]  # the kernel's state, against the rebuilt one
+    for d, dd, zeta, force in bogie_signals(vehicle, rec):
+        # the kernel's state, against the rebuilt one
         np.testing.assert_allclose(maxwell_state(d, t, tau), zeta, atol=0.01 * np.abs(zeta).max())
-        force = np.concatenate([[0.0], rec["fs"][0, :, i]])
         runs.append(
             {"t": t, "delta": d, "delta_dot": dd, "force": force, "rows": np.arange(t.size)}
         )
@@ -213,46 +229,21 @@ def test_synthetic_maxwell_element_is_recovered_at_both_bogies(vehicle):
         for j, h in enumerate((1e-3, 1e-2, 1e-4))
     ]
     np.testing.assert_allclose(slopes, coefs, rtol=0.01)
-    again = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=fitted)
-    a, b = again["acc"][0, :, :3], rec["acc"][0, :, :3]
-    assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
+    assert_same_floor_acc(rec, simulate_on_track(vehicle, fitted))
 
 
 @pytest.mark.parametrize("grid", [False, True], ids=["legendre", "grid"])
 @pytest.mark.parametrize("n", [LANES_MIN + 3, 2 * LANES + 5, PARALLEL_MIN + 37])
-def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(vehicle, element, n, grid):
+def test_lane_kernel_with_a_memory_element_equals_the_per_vehicle_kernel(
+    vehicle, element, n, grid, assert_lanes_match_serial
+):
     """``advance`` (lane kernel) with the memory element equals ``advance_serial`` bit for bit,
     Maxwell states included, through bump-stop contact, inputs outside the box and a
     diverging vehicle; with the Legendre recurrence and with the element's Hermite tables."""
-    off = wheelset_offsets(vehicle, SPEED, DT)
-    n_sub = 25
-    samples = int(off.max()) + 4 * n_sub + 2
-    rng = np.random.default_rng(n)
-    z = rng.uniform(5e-3, 4e-2, (n, 1)) * np.cumsum(rng.standard_normal((n, samples)), axis=1)
-    z[5, 1:] = 50.0  # an impossible step: this vehicle diverges
-    force = rng.uniform(-2e4, 2e4, (n, 2))
-    p = kernel_params(vehicle)
-    e = vehicle.suspension.kernel_params().record()
     lpr = lpr_arrays(element, DT, grid)
     assert lpr.gridded == grid
-    runs = []
-    for step in (advance_serial, advance):
-        bt, out = new_arrays(n, "surrogate", samples, lpr)
-        bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
-        bt.off[:] = off
-        bt.force[:] = force
-        rows = []
-        for _ in range(4):
-            step(check_variant("surrogate"), bt, n_sub, DT, p, e, lpr, out)
-            bt.k[:] += n_sub
-            rows += [bt.state.copy(), *(a.copy() for a in out)]
-        runs.append(rows)
-    for a, b in zip(*runs, strict=True):
-        np.testing.assert_array_equal(a, b)
-    counts = sum(runs[0][3::5])
-    assert counts[:, 0].sum() > 0 and counts[:, 1].sum() > 0  # contact and extrapolation
-    assert runs[0][-1][5] and not runs[0][-1][4]
-    assert np.abs(runs[0][-5][:, N_MECH:]).max() > 1e-3  # the Maxwell states moved
+    rows = assert_lanes_match_serial(vehicle, lpr, n, DT)
+    assert np.abs(rows[-5][:, N_MECH:]).max() > 1e-3  # the Maxwell states moved
 
 
 def test_state_without_maxwell_states_is_refused(vehicle, memory):
@@ -353,23 +344,13 @@ def test_synthetic_relaxation_law_is_recovered_at_both_bogies(vehicle):
         "known_physics": [],
         "relaxation": {"zeta": law[0].tolist(), "rate": law[1].tolist()},
     }
-    off = wheelset_offsets(vehicle, SPEED, DT)
-    n_steps = 1500
-    m = n_steps + int(off.max()) + 3
-    z, dz = track(SPEED * DT * np.arange(m))
-    rec = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=truth)
-    p = kernel_params(vehicle)
-    x = np.concatenate([np.zeros((1, N_MECH + 2)), rec["states"][0]])
-    t = np.arange(n_steps + 1) * DT
+    rec = simulate_on_track(vehicle, truth)
+    t = np.arange(N_STEPS + 1) * DT
     runs = []
-    for i, xi in enumerate((p.a, -p.a)):
-        d = x[:, 3 + 2 * i] - x[:, 0] - xi * x[:, 1] - p.phi_a * x[:, 2]
-        dd = x[:, 10 + 2 * i] - x[:, 7] - xi * x[:, 8] - p.phi_a * x[:, 9]
-        zeta = d - x[:, N_MECH + i]
+    for d, dd, zeta, force in bogie_signals(vehicle, rec):
         assert zeta.max() > 2 * law_params[2] and zeta.min() < -2 * law_params[3]  # past knees
         rows = np.arange(25, t.size)
-        force = np.concatenate([[0.0], rec["fs"][0, :, i]])[rows]
-        runs.append({"t": t, "delta": d, "delta_dot": dd, "rows": rows, "force": force})
+        runs.append({"t": t, "delta": d, "delta_dot": dd, "rows": rows, "force": force[rows]})
     fit = fit_relaxation(runs, degrees=(1, 1, 1), start=(8e-3, 8e-3, 3e-4, 3e-4, 0.5))
     np.testing.assert_allclose(fit.params[:4], law_params[:4], rtol=0.03)
     # few samples lie far past the knees: the blow-off ratio is the least determined
@@ -387,9 +368,7 @@ def test_synthetic_relaxation_law_is_recovered_at_both_bogies(vehicle):
         "relaxation": {"zeta": list(fit.law[0]), "rate": list(fit.law[1])},
     }
     fitted.features_["tau"] = shortest_time_constant(fit.law)
-    again = simulate("surrogate", vehicle, z, SPEED * dz, off, DT, n_steps, surrogate=fitted)
-    a, b = again["acc"][0, :, :3], rec["acc"][0, :, :3]
-    assert np.all(np.sqrt(np.sum((a - b) ** 2, axis=0) / np.sum(b**2, axis=0)) < 0.01)
+    assert_same_floor_acc(rec, simulate_on_track(vehicle, fitted))
 
 
 @pytest.mark.slow

@@ -12,13 +12,11 @@ from railgym.vehicles.vehicle import (
     N_MECH,
     PARALLEL_MIN,
     WholeVehicle,
-    advance,
     advance_parallel,
     advance_serial,
     check_variant,
     kernel_params,
     linear_state_space,
-    load_whole_vehicle,
     lpr_arrays,
     new_arrays,
     simulate,
@@ -104,11 +102,6 @@ def steady_phasor(y, t, w):
     basis = np.stack([np.cos(w * t), -np.sin(w * t)], axis=1)
     coef, *_ = np.linalg.lstsq(basis, y, rcond=None)
     return coef[0] + 1j * coef[1]
-
-
-@pytest.fixture(scope="module")
-def vehicle():
-    return load_whole_vehicle()
 
 
 def test_loaded_parameters_follow_the_benchmark(vehicle):
@@ -243,34 +236,10 @@ def test_parallel_kernel_is_bit_identical_to_serial(vehicle, variant):
 
 
 @pytest.mark.parametrize("n", [LANES_MIN + 3, 2 * LANES + 5, PARALLEL_MIN + 37])
-def test_lane_kernel_is_bit_identical_to_the_per_vehicle_kernel(vehicle, n):
+def test_lane_kernel_is_bit_identical_to_the_per_vehicle_kernel(
+    vehicle, n, assert_lanes_match_serial
+):
     """``advance`` of the surrogate variant (the lane kernel, serial below ``PARALLEL_MIN``,
     on all threads above) equals ``advance_serial`` (one vehicle after another) bit for bit,
     through bump-stop contact, element inputs outside the box and divergence."""
-    off = wheelset_offsets(vehicle, SPEED, DT)
-    n_sub = 25
-    samples = int(off.max()) + 4 * n_sub + 2
-    rng = np.random.default_rng(n)
-    z = rng.uniform(5e-3, 4e-2, (n, 1)) * np.cumsum(rng.standard_normal((n, samples)), axis=1)
-    z[5, 1:] = 50.0  # an impossible step: this vehicle diverges
-    force = rng.uniform(-2e4, 2e4, (n, 2))
-    p = kernel_params(vehicle)
-    e = vehicle.suspension.kernel_params().record()
-    lpr = lpr_arrays(default_vertical_surrogate("static"))
-    runs = []
-    for step in (advance_serial, advance):
-        bt, out = new_arrays(n, "surrogate", samples)
-        bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
-        bt.off[:] = off
-        bt.force[:] = force
-        rows = []
-        for _ in range(4):
-            step(check_variant("surrogate"), bt, n_sub, DT, p, e, lpr, out)
-            bt.k[:] += n_sub
-            rows += [bt.state.copy(), *(a.copy() for a in out)]
-        runs.append(rows)
-    for a, b in zip(*runs, strict=True):
-        np.testing.assert_array_equal(a, b)
-    counts = sum(runs[0][3::5])
-    assert counts[:, 0].sum() > 0 and counts[:, 1].sum() > 0  # contact and extrapolation
-    assert runs[0][-1][5] and not runs[0][-1][4]
+    assert_lanes_match_serial(vehicle, lpr_arrays(default_vertical_surrogate("static")), n, DT)
