@@ -1,41 +1,4 @@
 """Deprecated path of :mod:`railgym.envs.crash.step`; kept for one version."""
 
-from railgym.envs.crash.step import (
-    DECEL_REF_G,
-    DIVERGENCE_PENALTY,
-    ENV_START,
-    F_STOP,
-    INTRUSION_REF,
-    PEAK_REF_G,
-    STATE_LIMIT,
-    STATE_START,
-    TIME_REF,
-    V_STOP,
-    Criteria,
-    EnvConsts,
-    advance_reference,
-    advance_surrogate,
-    advance_surrogate_parallel,
-    crush_limits,
-    plain,
-)
-
-__all__ = [
-    "Criteria",
-    "DECEL_REF_G",
-    "DIVERGENCE_PENALTY",
-    "ENV_START",
-    "EnvConsts",
-    "F_STOP",
-    "INTRUSION_REF",
-    "PEAK_REF_G",
-    "STATE_LIMIT",
-    "STATE_START",
-    "TIME_REF",
-    "V_STOP",
-    "advance_reference",
-    "advance_surrogate",
-    "advance_surrogate_parallel",
-    "crush_limits",
-    "plain",
-]
+from railgym.envs.crash.step import *  # noqa: F403
+from railgym.envs.crash.step import __all__  # noqa: F401

@@ -1,13 +1,4 @@
 """Deprecated path of :mod:`railgym.vehicles.vehicle.damper`; kept for one version."""
 
-from railgym.vehicles.vehicle.damper import (
-    DAMPER_COLUMNS,
-    VehicleDampers,
-    damper_stage,
-)
-
-__all__ = [
-    "DAMPER_COLUMNS",
-    "VehicleDampers",
-    "damper_stage",
-]
+from railgym.vehicles.vehicle.damper import *  # noqa: F403
+from railgym.vehicles.vehicle.damper import __all__  # noqa: F401

@@ -1,15 +1,4 @@
 """Deprecated path of :mod:`railgym.vehicles.vehicle.lanes`; kept for one version."""
 
-from railgym.vehicles.vehicle.lanes import (
-    LANES,
-    LANES_MIN,
-    hermite,
-    lanes_block,
-)
-
-__all__ = [
-    "LANES",
-    "LANES_MIN",
-    "hermite",
-    "lanes_block",
-]
+from railgym.vehicles.vehicle.lanes import *  # noqa: F403
+from railgym.vehicles.vehicle.lanes import __all__  # noqa: F401

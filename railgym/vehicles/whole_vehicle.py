@@ -1,17 +1,4 @@
 """Deprecated path of :mod:`railgym.vehicles.vehicle.params`; kept for one version."""
 
-from railgym.vehicles.vehicle.params import (
-    BETA_L,
-    FLOOR_POINTS,
-    WholeVehicle,
-    load_whole_vehicle,
-    mode_shape,
-)
-
-__all__ = [
-    "BETA_L",
-    "FLOOR_POINTS",
-    "WholeVehicle",
-    "load_whole_vehicle",
-    "mode_shape",
-]
+from railgym.vehicles.vehicle.params import *  # noqa: F403
+from railgym.vehicles.vehicle.params import __all__  # noqa: F401

@@ -5,40 +5,5 @@ its batch (:mod:`.batch`) with the compiled step (:mod:`.step`) and the buffer l
 The package re-exports the env's public names (``railgym.envs.crash`` was one module).
 """
 
-from railgym.envs.crash.env import (
-    BACKENDS,
-    DEFAULT_WEIGHTS,
-    INFO_FIELDS,
-    MAX_NUM_ENVS,
-    OPTIONS,
-    REWARD_TERMS,
-    CrashBatch,
-    CrashParams,
-    TrainCrashEnv,
-    TrainCrashEnvV0,
-    TrainCrashVectorEnv,
-    TrainCrashVectorEnvV0,
-    default_surrogate,
-    env_surrogate,
-    make_model,
-    nominal_force,
-)
-
-__all__ = [
-    "BACKENDS",
-    "CrashBatch",
-    "CrashParams",
-    "DEFAULT_WEIGHTS",
-    "INFO_FIELDS",
-    "MAX_NUM_ENVS",
-    "OPTIONS",
-    "REWARD_TERMS",
-    "TrainCrashEnv",
-    "TrainCrashEnvV0",
-    "TrainCrashVectorEnv",
-    "TrainCrashVectorEnvV0",
-    "default_surrogate",
-    "env_surrogate",
-    "make_model",
-    "nominal_force",
-]
+from railgym.envs.crash.env import *  # noqa: F403
+from railgym.envs.crash.env import __all__  # noqa: F401

@@ -47,11 +47,13 @@ from railgym.vehicles.crash.surrogate import NoUnloadingError
 
 __all__ = [
     "BACKENDS",
-    "DEFAULT_WEIGHTS",
-    "INFO_FIELDS",
-    "REWARD_TERMS",
     "CrashBatch",
     "CrashParams",
+    "DEFAULT_WEIGHTS",
+    "INFO_FIELDS",
+    "MAX_NUM_ENVS",
+    "OPTIONS",
+    "REWARD_TERMS",
     "TrainCrashEnv",
     "TrainCrashEnvV0",
     "TrainCrashVectorEnv",

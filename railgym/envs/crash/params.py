@@ -26,13 +26,15 @@ from railgym.vehicles.crash import (
 from railgym.vehicles.crash.criteria import ONSET_G, WINDOW
 
 __all__ = [
+    "A_SCALE_G",
     "BACKENDS",
+    "CrashParams",
     "DEFAULT_WEIGHTS",
     "MAX_CONTROL_DT",
     "MAX_DURATION",
     "MAX_WEIGHT",
     "MIN_CONTROL_DT",
-    "CrashParams",
+    "X_SCALE",
     "nominal_force",
 ]
 
