@@ -235,6 +235,52 @@ def test_parallel_kernel_is_bit_identical_to_serial(vehicle, variant):
         np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.parametrize("law", ["exact", "element"])
+def test_parallel_kernel_with_dampers_is_bit_identical_to_serial(vehicle, law):
+    """With controllable dampers (their law taken apart and rebuilt inside the ``prange``),
+    ``advance`` on a batch above the parallel threshold reproduces ``advance_serial`` bit for
+    bit; the dampers move (their states and forces are not zero)."""
+    from railgym.vehicles.semi_active import load_damper
+    from railgym.vehicles.semi_active_element import load_damper_element
+    from railgym.vehicles.vehicle.damper import VehicleDampers
+    from railgym.vehicles.vehicle.model import advance_parallel_dampers
+    from railgym.vehicles.vertical import damper_law
+
+    params = load_damper()
+    kernel_law = damper_law(params, load_damper_element() if law == "element" else None)
+    off = wheelset_offsets(vehicle, SPEED, DT)
+    n, n_sub = PARALLEL_MIN + 21, 20
+    samples = int(off.max()) + 3 * n_sub + 2
+    rng = np.random.default_rng(5)
+    z = 1e-3 * np.cumsum(rng.standard_normal((n, samples)), axis=1)
+    command = rng.uniform(0.0, 1.0, (n, 2))
+    p = kernel_params(vehicle)
+    e = vehicle.suspension.kernel_params().record()
+    lpr = lpr_arrays(None)
+    runs = []
+    for step in (advance_serial, advance_parallel_dampers):
+        bt, out = new_arrays(n, "dynamic", samples, damper=True)
+        bt.z[:], bt.zdot[:] = z, np.gradient(z, DT, axis=1)
+        bt.off[:] = off
+        for _ in range(3):
+            step(
+                check_variant("dynamic"),
+                bt,
+                n_sub,
+                DT,
+                p,
+                e,
+                lpr,
+                out,
+                VehicleDampers(kernel_law, command),
+            )
+            bt.k[:] += n_sub
+        runs.append((bt.state, bt.force, out.acc, out.div))
+    assert np.abs(runs[0][0][:, -4:]).max() > 0 and np.abs(runs[0][1]).max() > 0
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 @pytest.mark.parametrize("n", [LANES_MIN + 3, 2 * LANES + 5, PARALLEL_MIN + 37])
 def test_lane_kernel_is_bit_identical_to_the_per_vehicle_kernel(
     vehicle, n, assert_lanes_match_serial

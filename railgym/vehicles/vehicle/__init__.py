@@ -44,7 +44,6 @@ from railgym.vehicles.vehicle.model import (
     linear_state_space,
     lpr_arrays,
     new_arrays,
-    simulate,
     state_size,
     wheelset_offsets,
 )
@@ -55,6 +54,7 @@ from railgym.vehicles.vehicle.params import (
     load_whole_vehicle,
     mode_shape,
 )
+from railgym.vehicles.vehicle.simulate import simulate
 
 __all__ = [
     "BETA_L",

@@ -53,11 +53,14 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from railgym.vehicles.vehicle.damper import DAMPER_COLUMNS, damper_stage
+from railgym.vehicles.semi_active import DamperParams
+from railgym.vehicles.semi_active_element import DamperElementArrays
+from railgym.vehicles.vehicle.damper import DAMPER_COLUMNS, VehicleDampers, damper_stage
 from railgym.vehicles.vehicle.lanes import LANES, LANES_MIN, hermite, lanes_block
 from railgym.vehicles.vehicle.params import WholeVehicle, mode_shape
 from railgym.vehicles.vertical import DIVERGENCE_DISPLACEMENT, surrogate_arrays
 from railgym.vehicles.vertical.elements import (
+    DamperLaw,
     bump_stop_force,
     damper_force,
     dynamic_element,
@@ -382,13 +385,17 @@ def advance(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper
     ``PARALLEL_MIN`` vehicles or more run :func:`advance_parallel`, smaller ones
     :func:`advance_serial`; the surrogate variant with ``LANES_MIN`` vehicles or more runs the
     lane kernel (:mod:`railgym.vehicles.vehicle.lanes`, on all threads from
-    ``PARALLEL_MIN``). All give bit-identical results. The dampers take
-    :func:`advance_serial` only.
+    ``PARALLEL_MIN``). All give bit-identical results. The dampers take the per-vehicle
+    kernel (:func:`advance_serial`, or :func:`advance_parallel_dampers` from ``PARALLEL_MIN``).
     """
     n = arrays.state.shape[0]
     d = lpr.lo.shape[0]
     lanes = kind == 3 and (d == 2 or (d == 3 and lpr.additive)) and n >= LANES_MIN
-    if damper is not None:  # numba's parallel lowering refuses the damper's nested law
+    if damper is not None and n >= PARALLEL_MIN:
+        advance_parallel_dampers(
+            kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper
+        )
+    elif damper is not None:
         advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper)
     elif lanes:
         _check_track(kind, arrays, n_sub, lpr)
@@ -465,6 +472,44 @@ def advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, ou
         for i in range(chunk * n // chunks, (chunk + 1) * n // chunks):
             susp = suspension_record[0]
             _advance_one(kind, arrays, i, n_sub, dt, params, susp, lpr, out, work, damper)
+
+
+@njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
+def advance_parallel_dampers(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper):
+    """:func:`advance_parallel` with the controllable dampers ``damper``
+    (:class:`~railgym.vehicles.vehicle.damper.VehicleDampers`). Their law is taken apart here
+    and built again inside the loop: numba's parallel lowering cannot capture a NamedTuple
+    that nests NamedTuples."""
+    _check_track(kind, arrays, n_sub, lpr, damper)
+    law, command = damper.law, damper.command
+    q, e = law.params, law.element
+    c_a, c_b, f_a, f_b, x_y, sigma, sharp, eta = (
+        q.c_a,
+        q.c_b,
+        q.f_a,
+        q.f_b,
+        q.x_y,
+        q.sigma,
+        q.n,
+        q.eta,
+    )
+    coef, lo, up, scale, degree, length = e.coef, e.lo, e.up, e.scale, e.degree, e.length
+    kind_of_law = law.law
+    n = arrays.state.shape[0]
+    chunks = min(n, PARALLEL_CHUNKS)
+    for chunk in prange(chunks):
+        own = VehicleDampers(
+            DamperLaw(
+                kind_of_law,
+                DamperParams(c_a, c_b, f_a, f_b, x_y, sigma, sharp, eta),
+                DamperElementArrays(coef, lo, up, scale, degree, length),
+            ),
+            command,
+        )
+        work = _work(arrays.state.shape[1], lpr)
+        for i in range(chunk * n // chunks, (chunk + 1) * n // chunks):
+            susp = suspension_record[0]
+            _advance_one(kind, arrays, i, n_sub, dt, params, susp, lpr, out, work, own)
 
 
 @njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
@@ -581,65 +626,6 @@ def new_arrays(
     )
     out = Out(np.zeros((n, 5)), np.zeros((n, 2)), np.zeros((n, 2), np.int64), np.zeros(n, np.bool_))
     return arrays, out
-
-
-def simulate(
-    variant: str,
-    vehicle: WholeVehicle,
-    z: Any,
-    zdot: Any,
-    offsets: Any,
-    dt: float,
-    n_steps: int,
-    sample_every: int = 1,
-    surrogate: Any = None,
-    flexible: bool = True,
-) -> dict[str, np.ndarray]:
-    """Simulate vehicles over sampled track inputs (passive; for tests and data).
-
-    Parameters
-    ----------
-    z, zdot : (n, M) track height (m) and rate (m/s) on the rear wheelset's grid ``k·dt``.
-    offsets : (n, 4) or (4,) wheelset sample offsets (:func:`wheelset_offsets`).
-    n_steps : number of recorded intervals of ``sample_every`` RK4 steps of ``dt`` (s).
-
-    Returns
-    -------
-    dict
-        ``acc`` (n, n_steps, 5) floor points front/centre/rear and bogies, m/s²;
-        ``states`` (n, n_steps, s); ``fs`` (n, n_steps, 2) N; ``contacts``, ``out_of_domain``
-        (n,) totals; ``diverged`` (n,) bool.
-    """
-    kind = check_variant(variant)
-    z = np.atleast_2d(np.asarray(z, dtype=float))
-    zdot = np.atleast_2d(np.asarray(zdot, dtype=float))
-    n = z.shape[0]
-    lpr = lpr_arrays(surrogate if variant == "surrogate" else None, float(dt))
-    arrays, out = new_arrays(n, variant, z.shape[1], lpr)
-    arrays.z[:] = z
-    arrays.zdot[:] = zdot
-    arrays.off[:] = np.broadcast_to(np.asarray(offsets, dtype=float), (n, 4))
-    params = kernel_params(vehicle, flexible)
-    suspension_record = vehicle.suspension.kernel_params().record()
-    acc = np.zeros((n, n_steps, 5))
-    states = np.zeros((n, n_steps, arrays.state.shape[1]))
-    fs = np.zeros((n, n_steps, 2))
-    totals = np.zeros((n, 2), np.int64)
-    div = np.zeros(n, np.bool_)
-    for m in range(n_steps):
-        advance(kind, arrays, sample_every, float(dt), params, suspension_record, lpr, out)
-        arrays.k[:] += sample_every
-        acc[:, m], states[:, m], fs[:, m] = out.acc, arrays.state, out.fs
-        totals += out.count
-        div |= out.div
-    return {
-        "acc": acc,
-        "states": states,
-        "fs": fs,
-        "contacts": totals[:, 0],
-        "out_of_domain": totals[:, 1],
-        "diverged": div,
-    }
 
 
 def linear_state_space(
