@@ -35,7 +35,9 @@ from railgym.fmu.reference import export_reference_fmu
 #: FMU of its reference)
 ENVS: dict[str, str | None] = {
     "railgym/VerticalSuspension-v1": "vertical",
+    "railgym/VerticalSuspension-v2": "vertical",
     "railgym/VerticalVehicle-v1": "vehicle",
+    "railgym/VerticalVehicle-v2": "vehicle",
     "railgym/TrainCrash-v1": None,
 }
 N_VEC = 1024
@@ -59,7 +61,7 @@ def fmu_env(env_id: str, tmp: Path) -> tuple[gym.vector.VectorEnv | None, str]:
     why = fmu_unavailable()
     if why is not None:
         return None, why
-    fmu, mapping = export_reference_fmu(tmp / f"{kind}.fmu", env=kind)
+    fmu, mapping = export_reference_fmu(tmp / f"{env_id.split('/')[1]}.fmu", env=kind)
     venv = gym.make_vec(
         env_id, num_envs=FMU_ENVS, vectorization_mode=_MODE, backend="fmu", fmu=fmu, fmu_map=mapping
     )
@@ -132,7 +134,7 @@ def run() -> list[dict]:
             finally:
                 for env in envs:
                     env.close()
-            rows += ratio_rows(env_id.split("/")[1].split("-")[0], rates, note, used)
+            rows += ratio_rows(env_id.split("/")[1], rates, note, used)
     finally:
         numba.set_num_threads(threads)
         shutil.rmtree(tmp, ignore_errors=True)
