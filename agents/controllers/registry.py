@@ -130,13 +130,12 @@ VEHICLE_CONTROLLERS = _both_actuators(VEHICLE_FORCE_CONTROLLERS)
 CONTROLLERS_OF = {ENV_ID: CONTROLLERS, VEHICLE_ID: VEHICLE_CONTROLLERS}
 
 
+_BY_FAMILY = {env_family(key): table for key, table in CONTROLLERS_OF.items()}
+
+
 def controllers_of(env_id: str) -> dict[str, Entry]:
     """The controllers of :data:`CONTROLLERS_OF` for any version of ``env_id`` (empty: none)."""
-    family = env_family(env_id)
-    for key, table in CONTROLLERS_OF.items():
-        if env_family(key) == family:
-            return table
-    return {}
+    return _BY_FAMILY.get(env_family(env_id), {})
 
 
 def build_controller(env_id: str, name: str, env: Any) -> Any:

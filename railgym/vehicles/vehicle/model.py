@@ -449,29 +449,38 @@ def _work(n_states, lpr):
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper=None):
-    """:func:`advance` on one thread: :func:`_advance_one` for each vehicle in turn."""
-    _check_track(kind, arrays, n_sub, lpr, damper)
+def _advance_range(
+    kind, arrays, first, last, n_sub, dt, params, suspension_record, lpr, out, damper
+):
+    """:func:`_advance_one` for the vehicles ``first`` ≤ i < ``last``, with one scratch. The
+    record is indexed here: one indexed in a ``prange`` body is passed to numba's gufunc by
+    value, which its lowering refuses."""
     work = _work(arrays.state.shape[1], lpr)
     susp = suspension_record[0]
-    for i in range(arrays.state.shape[0]):
+    for i in range(first, last):
         _advance_one(kind, arrays, i, n_sub, dt, params, susp, lpr, out, work, damper)
 
 
-@njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
-def advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper=None):
-    """:func:`advance` on all numba threads: ``prange`` over chunks of vehicles, each chunk with
-    its own scratch running the same :func:`_advance_one` as :func:`advance_serial`."""
+@njit(cache=True, error_model="numpy", _nrt=True)
+def advance_serial(kind, arrays, n_sub, dt, params, suspension_record, lpr, out, damper=None):
+    """:func:`advance` on one thread: :func:`_advance_one` for each vehicle in turn."""
     _check_track(kind, arrays, n_sub, lpr, damper)
     n = arrays.state.shape[0]
+    _advance_range(kind, arrays, 0, n, n_sub, dt, params, suspension_record, lpr, out, damper)
+
+
+@njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
+def advance_parallel(kind, arrays, n_sub, dt, params, suspension_record, lpr, out):
+    """:func:`advance` on all numba threads: ``prange`` over chunks of vehicles, each chunk
+    running :func:`_advance_range` as :func:`advance_serial` does."""
+    _check_track(kind, arrays, n_sub, lpr)
+    n = arrays.state.shape[0]
     chunks = min(n, PARALLEL_CHUNKS)
-    for chunk in prange(chunks):
-        work = _work(arrays.state.shape[1], lpr)
-        # the record is indexed inside the loop: a record hoisted out of a prange is passed to
-        # numba's gufunc by value, which its lowering refuses
-        for i in range(chunk * n // chunks, (chunk + 1) * n // chunks):
-            susp = suspension_record[0]
-            _advance_one(kind, arrays, i, n_sub, dt, params, susp, lpr, out, work, damper)
+    for c in prange(chunks):
+        first, last = c * n // chunks, (c + 1) * n // chunks
+        _advance_range(
+            kind, arrays, first, last, n_sub, dt, params, suspension_record, lpr, out, None
+        )
 
 
 @njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
@@ -481,35 +490,17 @@ def advance_parallel_dampers(kind, arrays, n_sub, dt, params, suspension_record,
     and built again inside the loop: numba's parallel lowering cannot capture a NamedTuple
     that nests NamedTuples."""
     _check_track(kind, arrays, n_sub, lpr, damper)
-    law, command = damper.law, damper.command
-    q, e = law.params, law.element
-    c_a, c_b, f_a, f_b, x_y, sigma, sharp, eta = (
-        q.c_a,
-        q.c_b,
-        q.f_a,
-        q.f_b,
-        q.x_y,
-        q.sigma,
-        q.n,
-        q.eta,
-    )
-    coef, lo, up, scale, degree, length = e.coef, e.lo, e.up, e.scale, e.degree, e.length
-    kind_of_law = law.law
+    law_kind, command = damper.law.law, damper.command
+    q, e = damper.law.params[:], damper.law.element[:]
     n = arrays.state.shape[0]
     chunks = min(n, PARALLEL_CHUNKS)
-    for chunk in prange(chunks):
-        own = VehicleDampers(
-            DamperLaw(
-                kind_of_law,
-                DamperParams(c_a, c_b, f_a, f_b, x_y, sigma, sharp, eta),
-                DamperElementArrays(coef, lo, up, scale, degree, length),
-            ),
-            command,
+    for c in prange(chunks):
+        law = DamperLaw(law_kind, DamperParams(*q), DamperElementArrays(*e))
+        first, last = c * n // chunks, (c + 1) * n // chunks
+        own = VehicleDampers(law, command)
+        _advance_range(
+            kind, arrays, first, last, n_sub, dt, params, suspension_record, lpr, out, own
         )
-        work = _work(arrays.state.shape[1], lpr)
-        for i in range(chunk * n // chunks, (chunk + 1) * n // chunks):
-            susp = suspension_record[0]
-            _advance_one(kind, arrays, i, n_sub, dt, params, susp, lpr, out, work, own)
 
 
 @njit(cache=True, error_model="numpy", parallel=True, _nrt=True)
