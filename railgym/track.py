@@ -32,6 +32,7 @@ __all__ = [
     "class_parameters",
     "class_speed",
     "fra_profile",
+    "fra_profile_window",
     "fra_profile_with_slope",
     "fra_psd",
     "load_fra_table",
@@ -370,6 +371,39 @@ def fra_profile_with_slope(
         p, kind, (lo, hi), dx, n, np.random.default_rng(val.random_seed(seed, "seed"))
     )
     return np.arange(n) * dx, z[:n].copy(), dzdx[:n].copy()
+
+
+def fra_profile_window(
+    track_class: int,
+    length: float,
+    dx: float,
+    seed: int | np.random.Generator | None,
+    start: int,
+    count: int,
+    band: tuple[float, float] = (1.0, 100.0),
+    *,
+    kind: Kind = "vertical",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Samples ``start .. start + count - 1`` of :func:`fra_profile_with_slope`'s ``(z,
+    dzdx)`` (m, dimensionless), bit for bit the same values (arguments as there); the whole
+    period is synthesised again (two inverse FFTs) and the window copied out."""
+    p = class_parameters(track_class)
+    _check_kind(kind)
+    length = val.positive(length, "length")
+    dx = val.positive(dx, "dx")
+    lo, hi = _check_band(band)
+    if not dx < 0.5 * lo:
+        raise ValueError(f"dx must be below half the shortest wavelength {lo} m, got {dx}")
+    if not dx <= length:
+        raise ValueError(f"length must be at least dx, got {length}")
+    n = math.floor(length / dx + 1e-9) + 1
+    start, count = int(start), int(count)
+    if start < 0 or count < 1 or start + count > n:
+        raise ValueError(f"window {start}..{start + count - 1} is outside the samples 0..{n - 1}")
+    z, dzdx = _synthesise(
+        p, kind, (lo, hi), dx, n, np.random.default_rng(val.random_seed(seed, "seed"))
+    )
+    return z[start : start + count].copy(), dzdx[start : start + count].copy()
 
 
 def fra_profile(

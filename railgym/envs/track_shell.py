@@ -72,13 +72,14 @@ def track_window(
         return None
     window = int((WINDOW_SHARE * TRACK_BYTES - n * fixed_bytes) // (16 * n))
     if window < min_samples:
-        need = n * (16 * min_samples + fixed_bytes) / WINDOW_SHARE
+        need = n * (16 * min_samples + fixed_bytes)
         raise val.FieldError(
             "num_envs",
-            f"of {n} needs {need / 2**30:.1f} GiB of {what} even with the tracks held in "
-            f"windows of {min_samples} samples ({n_samples} samples per episode); the limit is "
-            f"{TRACK_BYTES / 2**30:g} GiB: use fewer sub-envs, a shorter duration or control_dt, "
-            "or a larger dt",
+            f"of {n} needs {need / 2**30:.2f} GiB of {what} even with the tracks held in "
+            f"windows of {min_samples} samples ({n_samples} samples per episode); chunked, they "
+            f"may take {WINDOW_SHARE * TRACK_BYTES / 2**30:.2f} GiB ({WINDOW_SHARE:.0%} of the "
+            f"{TRACK_BYTES / 2**30:g} GiB limit, the rest left to the other arrays): use fewer "
+            "sub-envs or a shorter duration",
         )
     return window
 

@@ -548,16 +548,18 @@ class VerticalBatch:
         return np.sqrt(self.acc_sq / np.maximum(self.steps, 1))
 
     def render_state(self, i: int) -> dict[str, Any]:
-        """What :func:`railgym.envs.vertical.render.render_vertical` draws for vehicle ``i``."""
-        kk = min(int(self.k[i]), self.z.shape[1] - 1)
+        """What :func:`railgym.envs.vertical.render.render_vertical` draws for vehicle ``i``
+        (in chunked mode the track is drawn again for it)."""
+        z = self.z[i] if self.window is None else self.track_arrays(i)[0]
+        kk = min(int(self.base[i] + self.k[i]), z.shape[0] - 1)
         dx = self.speed[i] * self.cfg.dt
-        lo, hi = max(kk - int(10.0 / dx), 0), min(kk + int(10.0 / dx), self.z.shape[1] - 1)
+        lo, hi = max(kk - int(10.0 / dx), 0), min(kk + int(10.0 / dx), z.shape[0] - 1)
         return {
             "x1": float(self.state[i, 0]),
             "x2": float(self.state[i, 2]),
-            "z": float(self.z[i, kk]),
+            "z": float(z[kk]),
             "track_x": (np.arange(lo, hi + 1) - kk) * dx,
-            "track_z": self.z[i, lo : hi + 1],
+            "track_z": z[lo : hi + 1],
             "time": float(self.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.duration,
             "force_a": float(self.force[i]),
