@@ -32,10 +32,12 @@ __all__ = [
     "class_parameters",
     "class_speed",
     "fra_profile",
+    "fra_profile_window",
     "fra_profile_with_slope",
     "fra_psd",
     "load_fra_table",
     "track_time_input",
+    "track_time_window",
 ]
 
 #: s, the default episode of the track envs (their ``duration``) and of the reference FMUs'
@@ -252,6 +254,50 @@ def _bin_power(
     return width * (_psd(nodes, p, kind) @ _GL_W)
 
 
+class _Plan(NamedTuple):
+    """What a synthesis does not draw: the FFT length, the harmonics ``k_lo..k_hi`` (slice
+    ``ks``), their scaled amplitudes ``0.5·N·a_k`` (m), the wheelbase factor (or None) and
+    ``iΩ_k`` (rad/m); read-only arrays, cached per grid."""
+
+    n_fft: int
+    ks: slice
+    scaled: np.ndarray
+    shift_factor: np.ndarray | None
+    i_omega: np.ndarray
+
+
+@lru_cache(maxsize=64)
+def _plan(
+    p: TrackClassParameters,
+    kind: str,
+    band: tuple[float, float],
+    dx: float,
+    n_needed: int,
+    shift: float,
+) -> _Plan:
+    """The phase-independent part of :func:`_synthesise` (cached: an env redraws a window of
+    the same grid many times)."""
+    n_min = max(n_needed, math.ceil(_MIN_PERIODS * band[1] / dx))
+    if n_min > MAX_SAMPLES:
+        raise ValueError(
+            f"the track needs {n_min} samples (length or duration·speed, band, dx or dt), over "
+            f"the limit of {MAX_SAMPLES}; shorten the duration or raise the shortest wavelength"
+        )
+    n_fft = 1 << (n_min - 1).bit_length()
+    period = n_fft * dx
+    d_omega = 2.0 * math.pi / period
+    k_lo = math.ceil(period / band[1] - 1e-9)
+    k_hi = math.floor(period / band[0] + 1e-9)
+    omega = np.arange(k_lo, k_hi + 1) * d_omega
+    amp = np.sqrt(2.0 * _bin_power(omega, d_omega, p, kind, band))
+    factor = 0.5 * (1.0 + np.exp(1j * omega * shift)) if shift > 0.0 else None
+    plan = _Plan(n_fft, slice(k_lo, k_hi + 1), 0.5 * n_fft * amp, factor, 1j * omega)
+    for a in (plan.scaled, plan.shift_factor, plan.i_omega):
+        if a is not None:
+            a.setflags(write=False)
+    return plan
+
+
 def _synthesise(
     p: TrackClassParameters,
     kind: str,
@@ -266,28 +312,16 @@ def _synthesise(
     With ``shift`` > 0 (m) returns the mean of the profile at x and x + shift, done exactly as a
     per-harmonic phase factor (1 + exp(iΩ_k·shift))/2.
     """
-    n_min = max(n_needed, math.ceil(_MIN_PERIODS * band[1] / dx))
-    if n_min > MAX_SAMPLES:
-        raise ValueError(
-            f"the track needs {n_min} samples (length or duration·speed, band, dx or dt), over "
-            f"the limit of {MAX_SAMPLES}; shorten the duration or raise the shortest wavelength"
-        )
-    n_fft = 1 << (n_min - 1).bit_length()
-    period = n_fft * dx
-    d_omega = 2.0 * math.pi / period
-    k_lo = math.ceil(period / band[1] - 1e-9)
-    k_hi = math.floor(period / band[0] + 1e-9)
-    kk = np.arange(k_lo, k_hi + 1)
-    omega = kk * d_omega
-    amp = np.sqrt(2.0 * _bin_power(omega, d_omega, p, kind, band))
-    phase = rng.uniform(0.0, 2.0 * math.pi, size=kk.size)
-    coef = np.zeros(n_fft // 2 + 1, dtype=np.complex128)
-    coef[kk] = 0.5 * n_fft * amp * np.exp(1j * phase)
-    if shift > 0.0:
-        coef[kk] *= 0.5 * (1.0 + np.exp(1j * omega * shift))
-    z = np.fft.irfft(coef, n=n_fft)
-    coef[kk] *= 1j * omega
-    dzdx = np.fft.irfft(coef, n=n_fft)
+    plan = _plan(p, kind, band, dx, n_needed, shift)
+    ks = plan.ks
+    phase = rng.uniform(0.0, 2.0 * math.pi, size=plan.scaled.size)
+    coef = np.zeros(plan.n_fft // 2 + 1, dtype=np.complex128)
+    coef[ks] = plan.scaled * np.exp(1j * phase)
+    if plan.shift_factor is not None:
+        coef[ks] *= plan.shift_factor
+    z = np.fft.irfft(coef, n=plan.n_fft)
+    coef[ks] *= plan.i_omega
+    dzdx = np.fft.irfft(coef, n=plan.n_fft)
     return z, dzdx
 
 
@@ -339,6 +373,39 @@ def fra_profile_with_slope(
     return np.arange(n) * dx, z[:n].copy(), dzdx[:n].copy()
 
 
+def fra_profile_window(
+    track_class: int,
+    length: float,
+    dx: float,
+    seed: int | np.random.Generator | None,
+    start: int,
+    count: int,
+    band: tuple[float, float] = (1.0, 100.0),
+    *,
+    kind: Kind = "vertical",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Samples ``start .. start + count - 1`` of :func:`fra_profile_with_slope`'s ``(z,
+    dzdx)`` (m, dimensionless), bit for bit the same values (arguments as there); the whole
+    period is synthesised again (two inverse FFTs) and the window copied out."""
+    p = class_parameters(track_class)
+    _check_kind(kind)
+    length = val.positive(length, "length")
+    dx = val.positive(dx, "dx")
+    lo, hi = _check_band(band)
+    if not dx < 0.5 * lo:
+        raise ValueError(f"dx must be below half the shortest wavelength {lo} m, got {dx}")
+    if not dx <= length:
+        raise ValueError(f"length must be at least dx, got {length}")
+    n = math.floor(length / dx + 1e-9) + 1
+    start, count = int(start), int(count)
+    if start < 0 or count < 1 or start + count > n:
+        raise ValueError(f"window {start}..{start + count - 1} is outside the samples 0..{n - 1}")
+    z, dzdx = _synthesise(
+        p, kind, (lo, hi), dx, n, np.random.default_rng(val.random_seed(seed, "seed"))
+    )
+    return z[start : start + count].copy(), dzdx[start : start + count].copy()
+
+
 def fra_profile(
     track_class: int,
     length: float,
@@ -388,6 +455,37 @@ def track_time_input(
     wavelength the sum is evaluated on a finer internal grid (dt/m) and every m-th value kept,
     so nothing is interpolated (the sampled signal then aliases, as a measured one would).
     """
+    grid = _time_grid(track_class, speed, duration, dt, band, wheelbase, kind)
+    z, dzdx = _synthesise(
+        *grid.args, np.random.default_rng(val.random_seed(seed, "seed")), grid.shift
+    )
+    last = grid.n_steps * grid.sub + 1
+    t = np.arange(grid.n_steps + 1) * dt
+    return TrackInput(t, z[: last : grid.sub].copy(), grid.speed * dzdx[: last : grid.sub])
+
+
+class _TimeGrid(NamedTuple):
+    """The checked grid of :func:`track_time_input`: ``args`` of :func:`_synthesise` before
+    the generator, the wheelbase ``shift`` (m), control steps ``n_steps``, internal samples
+    per time step ``sub`` and the speed (m/s)."""
+
+    args: tuple[TrackClassParameters, str, tuple[float, float], float, int]
+    shift: float
+    n_steps: int
+    sub: int
+    speed: float
+
+
+def _time_grid(
+    track_class: int,
+    speed: float,
+    duration: float,
+    dt: float,
+    band: tuple[float, float],
+    wheelbase: float | None,
+    kind: str,
+) -> _TimeGrid:
+    """Check the arguments of :func:`track_time_input` and derive its internal grid."""
     p = class_parameters(track_class)
     _check_kind(kind)
     speed = val.positive(speed, "speed")
@@ -402,9 +500,41 @@ def track_time_input(
     sub = math.floor(2.0 * step / lo) + 1  # internal samples per time step, keeps dx < lo/2
     dx = step / sub
     n_needed = n_steps * sub + 1 + math.ceil(shift / dx)
+    return _TimeGrid((p, kind, (lo, hi), dx, n_needed), shift, n_steps, sub, speed)
+
+
+def track_time_window(
+    track_class: int,
+    speed: float,
+    duration: float,
+    dt: float,
+    seed: int | np.random.Generator | None,
+    start: int,
+    count: int,
+    band: tuple[float, float] = (1.0, 100.0),
+    wheelbase: float | None = None,
+    *,
+    kind: Kind = "vertical",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Samples ``start .. start + count - 1`` of :func:`track_time_input`'s ``(z, zdot)``
+    (m, m/s), bit for bit the same values (arguments as there; the window must lie in
+    ``0 .. floor(duration/dt)``).
+
+    Notes
+    -----
+    The whole period is synthesised again (two inverse FFTs; the amplitudes are cached per
+    grid) and the window copied out, so a window costs as much as a whole track and its
+    values do not depend on where the windows start.
+    """
+    grid = _time_grid(track_class, speed, duration, dt, band, wheelbase, kind)
+    start, count = int(start), int(count)
+    if start < 0 or count < 1 or start + count > grid.n_steps + 1:
+        raise ValueError(
+            f"window {start}..{start + count - 1} is outside the samples 0..{grid.n_steps}"
+        )
     z, dzdx = _synthesise(
-        p, kind, (lo, hi), dx, n_needed, np.random.default_rng(val.random_seed(seed, "seed")), shift
+        *grid.args, np.random.default_rng(val.random_seed(seed, "seed")), grid.shift
     )
-    last = n_steps * sub + 1
-    t = np.arange(n_steps + 1) * dt
-    return TrackInput(t, z[:last:sub].copy(), speed * dzdx[:last:sub])
+    sub = grid.sub
+    window = slice(start * sub, (start + count - 1) * sub + 1, sub)
+    return z[window].copy(), grid.speed * dzdx[window]

@@ -180,7 +180,12 @@ ROWS = [
     ("num_envs float", lambda p: _venv(num_envs=2.0), T, "num_envs"),
     ("num_envs string", lambda p: _venv(num_envs="4"), T, "num_envs"),
     ("num_envs 1e6", lambda p: _venv(num_envs=10**6), V, "num_envs"),
-    ("num_envs x duration memory", lambda p: _venv(num_envs=60000, duration=600.0), V, "num_envs"),
+    (
+        "num_envs x control step memory",
+        lambda p: _venv(num_envs=60000, duration=600.0, control_dt=0.1, dt=1e-4),
+        V,
+        "num_envs",
+    ),
     # --- actions
     ("action string", lambda p: _step("abc"), T, "action"),
     ("action string array", lambda p: _step(np.array(["0.1"])), T, "action"),

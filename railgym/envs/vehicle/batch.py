@@ -23,9 +23,9 @@ from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward, weigh
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import TRACK_BYTES, reward_sections
+from railgym.envs.track_shell import reward_sections, track_window
 from railgym.profile import profile_time_input
-from railgym.track import fra_profile_with_slope
+from railgym.track import fra_profile_window, fra_profile_with_slope
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
 from railgym.vehicles.vehicle import (
     Lpr,
@@ -56,6 +56,9 @@ __all__ = [
     "control_step",
     "episode_comfort",
 ]
+
+#: tests only: force chunked mode with windows of this many samples (None: by memory)
+_FORCED_WINDOW: int | None = None
 
 #: reference floor acceleration of the reward, m/s²: passive mean-square over the three
 #: floor points on the training case (class 5, 144 km/h, reference backend) is ≈ ACC_REF²
@@ -168,14 +171,16 @@ def _observe(vehicles, out, params, consts, book, i):
     x = vehicles.state[i]
     o = book.obs[i]
     inv = consts.inv_scale
-    kk = min(float(vehicles.k[i]), vehicles.z.shape[1] - 1 - vehicles.off[i, 0])
+    start = vehicles.start[i]
+    kk = min(float(vehicles.k[i]), start + vehicles.z.shape[1] - 1 - vehicles.off[i, 0])
     if consts.full:
         for j in range(14):
             o[j] = x[j] * inv[j]
         for j in range(5):
             o[14 + j] = out.acc[i, j] * inv[14 + j]
         for j in range(4):
-            zw, zdw = hermite(vehicles.z[i], vehicles.zdot[i], kk + vehicles.off[i, j], consts.dt)
+            pos = kk + vehicles.off[i, j]
+            zw, zdw = hermite(vehicles.z[i], vehicles.zdot[i], pos, consts.dt, start)
             o[19 + j] = zw * inv[19 + j]
             o[23 + j] = zdw * inv[23 + j]
         n_obs = 27
@@ -192,7 +197,7 @@ def _observe(vehicles, out, params, consts, book, i):
     n_p = consts.preview_frac.shape[0]
     for j in range(n_p):
         pos = kk + vehicles.off[i, 0] * consts.preview_frac[j]
-        zp, zdp = hermite(vehicles.z[i], vehicles.zdot[i], pos, consts.dt)
+        zp, zdp = hermite(vehicles.z[i], vehicles.zdot[i], pos, consts.dt, start)
         o[n_obs + j] = zp * inv[n_obs + j]
         o[n_obs + n_p + j] = zdp * inv[n_obs + n_p + j]
     if consts.semi_active:
@@ -331,18 +336,24 @@ class VehicleBatch:
         self.lpr = element_lpr(lpr)  # the LPR fields (a Kriging is refused)
         self.span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)  # m
         self.v_min = v_min
-        self.n_samples = cfg.n_steps * cfg.n_sub + math.ceil(self.span / (v_min * cfg.dt)) + 2
-        size = n * (16 * self.n_samples + 24 * cfg.n_steps)
-        if size > TRACK_BYTES:
-            raise val.FieldError(
-                "num_envs",
-                f"× duration/dt needs {size / 2**30:.1f} GiB of track and record arrays "
-                f"(num_envs={n}, {self.n_samples} samples each); the limit is "
-                f"{TRACK_BYTES / 2**30:g} GiB",
-            )
-        self.arrays, self.out = new_arrays(
-            n, cfg.variant, self.n_samples, self.lpr, damper is not None
+        reach = math.ceil(self.span / (v_min * cfg.dt))  # samples from rear to front wheelset
+        #: samples of an episode's track (rear wheelset's time grid, front wheelset ahead)
+        self.n_samples = cfg.n_steps * cfg.n_sub + reach + 2
+        #: samples held per vehicle in chunked mode (None: the whole episode)
+        self.window = track_window(
+            n,
+            self.n_samples,
+            24 * cfg.n_steps,
+            cfg.n_sub + reach + 2,
+            "track and record arrays",
+            _FORCED_WINDOW,
         )
+        held = self.n_samples if self.window is None else self.window
+        self.arrays, self.out = new_arrays(n, cfg.variant, held, self.lpr, damper is not None)
+        #: what a window is drawn again from: the seed of each FRA episode and the profile
+        #: of each measured one (chunked mode only)
+        self._seeds = np.zeros(n, np.int64)
+        self._profiles: list[Any] = [None] * n
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)
@@ -454,26 +465,82 @@ class VehicleBatch:
                 "speed", f"{v} m/s is below the {self.v_min} m/s the env was made for"
             )
         m = self.n_samples
+        self.speed[i], self.track_class[i] = v, track_class
+        self.measured[i] = profile is not None
         if profile is None:
             seed = int(rng.integers(2**63 - 1))
             dx = v * cfg.dt
             check_band_speed(cfg.band, v, cfg.dt)
-            _, z, slope = fra_profile_with_slope(track_class, (m - 1) * dx, dx, seed, cfg.band)
-            self.arrays.z[i], self.arrays.zdot[i] = z[:m], v * slope[:m]
-        else:
+            if self.window is None:
+                _, z, slope = fra_profile_with_slope(track_class, (m - 1) * dx, dx, seed, cfg.band)
+                self.arrays.z[i], self.arrays.zdot[i] = z[:m], v * slope[:m]
+        if self.window is not None:
+            self._seeds[i] = 0 if profile is not None else seed
+            self._profiles[i] = profile
+            self._fill(i, 0)
+        elif profile is not None:
             self.arrays.z[i], self.arrays.zdot[i] = profile_time_input(
                 profile, v, cfg.dt, m, length=v * cfg.n_steps * cfg.control_dt + self.span
             )
         self.arrays.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
-        self.speed[i], self.track_class[i] = v, track_class
-        self.measured[i] = profile is not None
         self.arrays.force[i] = 0.0
         self.reset_state(i)
+
+    def _fill(self, i: int, start: int) -> None:
+        """Chunked mode: vehicle ``i``'s window from episode sample ``start`` on (the
+        episode's track drawn again, bit for bit the whole arrays' values)."""
+        cfg, arrays = self.cfg, self.arrays
+        held, m = arrays.z.shape[1], self.n_samples
+        v, profile = float(self.speed[i]), self._profiles[i]
+        if profile is None:
+            dx = v * cfg.dt
+            z, slope = fra_profile_window(
+                int(self.track_class[i]),
+                (m - 1) * dx,
+                dx,
+                int(self._seeds[i]),
+                start,
+                held,
+                cfg.band,
+            )
+            arrays.z[i], arrays.zdot[i] = z, v * slope
+        else:
+            z, zdot = profile_time_input(
+                profile, v, cfg.dt, m, length=v * cfg.n_steps * cfg.control_dt + self.span
+            )
+            arrays.z[i], arrays.zdot[i] = z[start : start + held], zdot[start : start + held]
+        arrays.start[i] = start
+
+    def _cover_step(self) -> None:
+        """Chunked mode: move the window of every vehicle whose next control step (front
+        wheelset ``k + n_sub + off[0]``) would run past it to start at its current sample
+        ``k``, or to end at the episode's last sample."""
+        arrays, held = self.arrays, self.arrays.z.shape[1]
+        ahead = arrays.k - arrays.start + self.cfg.n_sub + arrays.off[:, 0]
+        late = np.flatnonzero((ahead > held - 1) & (arrays.start < self.n_samples - held))
+        for i in late:
+            self._fill(i, min(int(arrays.k[i]), self.n_samples - held))
+
+    def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Vehicle ``i``'s whole episode track ``(z, zdot)`` on the rear wheelset's time grid
+        (m, m/s): copies of the held arrays, or in chunked mode drawn again."""
+        cfg, m, v = self.cfg, self.n_samples, float(self.speed[i])
+        if self.window is None:
+            return self.arrays.z[i].copy(), self.arrays.zdot[i].copy()
+        if self._profiles[i] is not None:
+            length = v * cfg.n_steps * cfg.control_dt + self.span
+            return profile_time_input(self._profiles[i], v, cfg.dt, m, length=length)
+        dx = v * cfg.dt
+        track_class, seed = int(self.track_class[i]), int(self._seeds[i])
+        _, z, slope = fra_profile_with_slope(track_class, (m - 1) * dx, dx, seed, cfg.band)
+        return z[:m], v * slope[:m]
 
     def reset_state(self, i: int) -> None:
         """Vehicle ``i`` at rest at the start of its track, counters cleared; its
         ``outside_envelope`` set for the episode (a ``UserWarning`` the first time)."""
         arrays, book, out = self.arrays, self.book, self.out
+        if self.window is not None and arrays.start[i] != 0:
+            self._fill(i, 0)
         arrays.state[i] = 0.0
         arrays.k[i] = book.steps[i] = book.contacts[i] = book.ood[i] = 0
         book.acc_sq[i] = book.rms[i] = book.rec[i] = book.zi[i] = book.rew[i] = book.terms[i] = 0.0
@@ -494,7 +561,10 @@ class VehicleBatch:
         self.book.action[...] = actions
 
     def advance(self) -> None:
-        """One control step of every vehicle with the stored actions (one compiled call)."""
+        """One control step of every vehicle with the stored actions (one compiled call; in
+        chunked mode the windows the step would run past are moved first)."""
+        if self.window is not None:
+            self._cover_step()
         self._step(*self._args)
         # the step had an element evaluation (any RK4 stage, either bogie) outside the box
         np.greater(self.out.count[:, 1], 0, out=self.outside)
@@ -552,7 +622,8 @@ class VehicleBatch:
 
     def render_state(self, i: int) -> dict[str, Any]:
         """What :func:`railgym.envs.vehicle.render.render_vehicle` draws for vehicle ``i``:
-        positions from the carbody centre (m), heights (m), forces (N)."""
+        positions from the carbody centre (m), heights (m), forces (N); in chunked mode the
+        track is drawn again for it."""
         arrays, v = self.arrays, self.vehicle
         dx = self.speed[i] * self.cfg.dt
         kk = int(arrays.k[i])
@@ -560,19 +631,20 @@ class VehicleBatch:
         half = 0.75 * v.carbody_length
         xs = np.linspace(-half, half, 301)
         grid = np.arange(self.n_samples)
+        z = arrays.z[i] if self.window is None else self.track_arrays(i)[0]
         x = arrays.state[i]
         xb = np.linspace(-0.5 * v.carbody_length, 0.5 * v.carbody_length, 41)
         bend = mode_shape(xb, v.carbody_length) * x[2] if self.cfg.flexible else 0.0
         return {
             "track_x": xs,
-            "track_z": np.interp((centre + xs) / dx, grid, arrays.z[i]),
+            "track_z": np.interp((centre + xs) / dx, grid, z),
             "body_x": xb,
             "body_z": x[0] + xb * x[1] + bend,
             "bogie_x": v.floor_positions[[0, 2]],
             "bogie_z": x[[3, 5]].copy(),
             "bogie_pitch": x[[4, 6]].copy(),
             "wheel_x": v.wheelset_positions,
-            "wheel_z": np.interp(kk + arrays.off[i], grid, arrays.z[i]),
+            "wheel_z": np.interp(kk + arrays.off[i], grid, z),
             "force": arrays.force[i].copy(),
             "f_max": self.cfg.f_max,
             "time": float(self.book.steps[i] * self.cfg.control_dt),

@@ -61,17 +61,21 @@ class FMUVehicleBatch(FMUInstances, VehicleBatch):
         the substeps' midpoints (4, n_sub), as the kernel interpolates them."""
         arrays, dt, n_sub = self.arrays, self.cfg.dt, self.cfg.n_sub
         z, zd, off, k = arrays.z[i], arrays.zdot[i], arrays.off[i], int(arrays.k[i])
+        s = int(arrays.start[i])
         w, wd = np.empty((4, n_sub + 1)), np.empty((4, n_sub + 1))
         wm, wdm = np.empty((4, n_sub)), np.empty((4, n_sub))
         for j in range(4):
             for m in range(n_sub + 1):
-                w[j, m], wd[j, m] = hermite(z, zd, float(k + m) + off[j], dt)
+                w[j, m], wd[j, m] = hermite(z, zd, float(k + m) + off[j], dt, s)
             for m in range(n_sub):
-                wm[j, m], wdm[j, m] = hermite(z, zd, (float(k + m) + 0.5) + off[j], dt)
+                wm[j, m], wdm[j, m] = hermite(z, zd, (float(k + m) + 0.5) + off[j], dt, s)
         return w, wd, wm, wdm
 
     def advance(self) -> None:
-        """One control step of every FMU with the stored actions, then the bookkeeping."""
+        """One control step of every FMU with the stored actions, then the bookkeeping (chunked
+        mode: the track windows moved first, as the compiled batch does)."""
+        if self.window is not None:
+            self._cover_step()
         arrays, out, book, c, p, e = (
             self.arrays,
             self.out,

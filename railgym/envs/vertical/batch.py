@@ -18,7 +18,6 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from railgym import _checks as val
 from railgym.envs.compiled import (
     DIVERGENCE_PENALTY,
     OBS_LIMIT,
@@ -27,9 +26,9 @@ from railgym.envs.compiled import (
     weigh,
 )
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import TRACK_BYTES, reward_sections
+from railgym.envs.track_shell import reward_sections, track_window
 from railgym.profile import profile_time_input
-from railgym.track import track_time_input
+from railgym.track import track_time_input, track_time_window
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
 from railgym.vehicles.vertical import (
     RAISE_MODE,
@@ -57,6 +56,9 @@ __all__ = [
     "VerticalBatch",
     "control_step",
 ]
+
+#: tests only: force chunked mode with windows of this many samples (None: by memory)
+_FORCED_WINDOW: int | None = None
 
 #: reference carbody acceleration of the reward, m/s²: passive RMS on the training case
 #: (class 5, 144 km/h, dynamic reference), so that a passive step's reward is about −1
@@ -286,16 +288,20 @@ class VerticalBatch:
         semi_active = damper is not None
         self._info_keys = INFO_KEYS + (SEMI_ACTIVE_INFO_KEYS if semi_active else ())
         self._info_names = [key for key, _ in self._info_keys]
-        n_samples = cfg.n_steps * cfg.n_sub + 1
-        if n * n_samples * 16 > TRACK_BYTES:
-            raise val.FieldError(
-                "num_envs",
-                f"× duration/dt needs {n * n_samples * 16 / 2**30:.1f} GiB of track arrays "
-                f"(num_envs={n}, {n_samples} samples each); the limit is "
-                f"{TRACK_BYTES / 2**30:g} GiB",
-            )
-        self.z = np.zeros((n, n_samples))
-        self.zdot = np.zeros((n, n_samples))
+        #: samples of an episode's track, t_k = k·dt
+        self.n_samples = n_samples = cfg.n_steps * cfg.n_sub + 1
+        #: samples held per vehicle in chunked mode (None: the whole episode)
+        self.window = track_window(n, n_samples, 0, cfg.n_sub + 1, "track arrays", _FORCED_WINDOW)
+        held = n_samples if self.window is None else self.window
+        #: the track samples held, ``base + 0 .. base + held - 1`` of each episode (m, m/s)
+        self.z = np.zeros((n, held))
+        self.zdot = np.zeros((n, held))
+        #: int64 (n,) episode sample of the windows' first column (0 outside chunked mode)
+        self.base = np.zeros(n, np.int64)
+        #: what a window is drawn again from: the seed of each FRA episode and the profile
+        #: of each measured one (chunked mode only)
+        self._seeds = np.zeros(n, np.int64)
+        self._profiles: list[Any] = [None] * n
         self.state = initial_state(cfg.variant, n, lpr, semi_active)
         self.action = np.zeros((n, 1))
         self.force = np.zeros(n)
@@ -374,6 +380,14 @@ class VerticalBatch:
         the given ``(x, z)`` (m) from its first point on."""
         cfg = self.cfg
         track_class, speed, profile = episode
+        self.track_class[i], self.speed[i] = track_class, speed
+        self.measured[i] = profile is not None
+        if self.window is not None:
+            self._seeds[i] = 0 if profile is not None else int(rng.integers(2**63 - 1))
+            self._profiles[i] = profile
+            self._fill(i, 0)
+            self.reset_state(i)
+            return
         if profile is None:
             seed = int(rng.integers(2**63 - 1))
             _, z, zdot = track_time_input(
@@ -386,15 +400,69 @@ class VerticalBatch:
                 wheelbase=cfg.wheelbase,
             )
         else:
-            z, zdot = profile_time_input(profile, speed, cfg.dt, self.z.shape[1])
+            z, zdot = profile_time_input(profile, speed, cfg.dt, self.n_samples)
         self.z[i], self.zdot[i] = z, zdot
-        self.track_class[i], self.speed[i] = track_class, speed
-        self.measured[i] = profile is not None
         self.reset_state(i)
+
+    def _fill(self, i: int, start: int) -> None:
+        """Chunked mode: vehicle ``i``'s window from episode sample ``start`` on (the
+        episode's track drawn again, bit for bit the full arrays' values)."""
+        cfg, held = self.cfg, self.z.shape[1]
+        speed, profile = float(self.speed[i]), self._profiles[i]
+        if profile is None:
+            z, zdot = track_time_window(
+                int(self.track_class[i]),
+                speed,
+                cfg.duration,
+                cfg.dt,
+                int(self._seeds[i]),
+                start,
+                held,
+                band=cfg.band,
+                wheelbase=cfg.wheelbase,
+            )
+        else:
+            z, zdot = profile_time_input(profile, speed, cfg.dt, self.n_samples)
+            z, zdot = z[start : start + held], zdot[start : start + held]
+        self.z[i], self.zdot[i] = z, zdot
+        self.base[i] = start
+
+    def _cover_step(self) -> None:
+        """Chunked mode: move the window of every vehicle that the next control step would
+        run past (``k + n_sub`` beyond its last sample) to start at its current sample, or to
+        end at the episode's last sample; ``k`` stays the index into the window."""
+        held, n_sub = self.z.shape[1], self.cfg.n_sub
+        late = np.flatnonzero((self.k + n_sub > held - 1) & (self.base < self.n_samples - held))
+        for i in late:
+            at = int(self.base[i] + self.k[i])
+            start = min(at, self.n_samples - held)
+            self._fill(i, start)
+            self.k[i] = at - start
+
+    def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Vehicle ``i``'s whole episode track ``(z, zdot)`` (m, m/s): copies of the held
+        arrays, or in chunked mode drawn again."""
+        cfg = self.cfg
+        if self.window is None:
+            return self.z[i].copy(), self.zdot[i].copy()
+        if self._profiles[i] is not None:
+            return profile_time_input(self._profiles[i], self.speed[i], cfg.dt, self.n_samples)
+        _, z, zdot = track_time_input(
+            int(self.track_class[i]),
+            float(self.speed[i]),
+            cfg.duration,
+            cfg.dt,
+            int(self._seeds[i]),
+            band=cfg.band,
+            wheelbase=cfg.wheelbase,
+        )
+        return z, zdot
 
     def reset_state(self, i: int) -> None:
         """Vehicle ``i`` at rest at the start of its track, counters cleared; its
         ``outside_envelope`` set for the episode (a ``UserWarning`` the first time)."""
+        if self.window is not None and self.base[i] != 0:
+            self._fill(i, 0)
         self.state[i] = 0.0
         self.k[i] = self.steps[i] = self.contacts[i] = self.ood[i] = 0
         self.acc[i] = self.force[i] = self.fs[i] = self.acc_sq[i] = self.rew[i] = 0.0
@@ -427,7 +495,10 @@ class VerticalBatch:
         self.action[...] = actions
 
     def advance(self) -> None:
-        """One control step of every vehicle with the stored actions (one compiled call)."""
+        """One control step of every vehicle with the stored actions (one compiled call; in
+        chunked mode the windows the step would run past are moved first)."""
+        if self.window is not None:
+            self._cover_step()
         self._step(*self._args)
 
     def flags(self) -> dict[str, np.ndarray]:
@@ -489,16 +560,18 @@ class VerticalBatch:
         return np.sqrt(self.acc_sq / np.maximum(self.steps, 1))
 
     def render_state(self, i: int) -> dict[str, Any]:
-        """What :func:`railgym.envs.vertical.render.render_vertical` draws for vehicle ``i``."""
-        kk = min(int(self.k[i]), self.z.shape[1] - 1)
+        """What :func:`railgym.envs.vertical.render.render_vertical` draws for vehicle ``i``
+        (in chunked mode the track is drawn again for it)."""
+        z = self.z[i] if self.window is None else self.track_arrays(i)[0]
+        kk = min(int(self.base[i] + self.k[i]), z.shape[0] - 1)
         dx = self.speed[i] * self.cfg.dt
-        lo, hi = max(kk - int(10.0 / dx), 0), min(kk + int(10.0 / dx), self.z.shape[1] - 1)
+        lo, hi = max(kk - int(10.0 / dx), 0), min(kk + int(10.0 / dx), z.shape[0] - 1)
         return {
             "x1": float(self.state[i, 0]),
             "x2": float(self.state[i, 2]),
-            "z": float(self.z[i, kk]),
+            "z": float(z[kk]),
             "track_x": (np.arange(lo, hi + 1) - kk) * dx,
-            "track_z": self.z[i, lo : hi + 1],
+            "track_z": z[lo : hi + 1],
             "time": float(self.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.duration,
             "force_a": float(self.force[i]),

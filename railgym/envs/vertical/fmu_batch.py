@@ -41,7 +41,10 @@ class FMUBatch(FMUInstances, VerticalBatch):
         self._cols = {k: keys.index(k) for k in keys}
 
     def advance(self) -> None:
-        """One control step of every FMU with the stored actions."""
+        """One control step of every FMU with the stored actions (chunked mode: the windows
+        moved first, as the compiled batch does)."""
+        if self.window is not None:
+            self._cover_step()
         c, p = self._cols, self.params
         n_sub = self.cfg.n_sub
         for i, run in enumerate(self.runners):

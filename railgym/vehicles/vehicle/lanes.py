@@ -52,10 +52,14 @@ _ROWS_MEMORY = 142
 
 
 @njit(cache=True, error_model="numpy")
-def hermite(z: np.ndarray, zd: np.ndarray, pos: float, dt: float) -> tuple[float, float]:
-    """Cubic Hermite value and rate of the sampled track at fractional index ``pos``."""
+def hermite(
+    z: np.ndarray, zd: np.ndarray, pos: float, dt: float, start: int = 0
+) -> tuple[float, float]:
+    """Cubic Hermite value and rate (m, m/s) of the sampled track at fractional index ``pos``
+    of the episode's track; ``z[0]`` is its sample ``start`` (a window of it)."""
     i0 = int(math.floor(pos))
     u = pos - i0
+    i0 -= start
     if u == 0.0:
         return z[i0], zd[i0]
     z0, z1 = z[i0], z[i0 + 1]
@@ -81,7 +85,7 @@ def _inputs(block, arrays, i0, n_lanes, pos, dt, row):
         base = arrays.k[i] + pos
         z, zd = arrays.z[i], arrays.zdot[i]
         for j in range(4):
-            v, r = hermite(z, zd, base + arrays.off[i, j], dt)
+            v, r = hermite(z, zd, base + arrays.off[i, j], dt, arrays.start[i])
             block[row + 2 * j, l] = v
             block[row + 2 * j + 1, l] = r
 

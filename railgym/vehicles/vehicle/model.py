@@ -142,6 +142,7 @@ class VehicleArrays(NamedTuple):
     k: np.ndarray  # (n,) int64 current sample index
     off: np.ndarray  # (n, 4) fractional sample offset of each wheelset
     force: np.ndarray  # (n, 2) actuator forces at the front / rear bogie, N
+    start: np.ndarray  # (n,) int64 sample index of column 0 of z and zdot (a window of the track)
 
 
 class Out(NamedTuple):
@@ -334,11 +335,11 @@ def _rhs(
 
 
 @njit(cache=True, error_model="numpy")
-def _inputs(z, zdot, offsets, pos, dt, wheels):
-    """Wheel inputs ``wheels`` (4, 2) of one vehicle (track ``z, zdot``, wheelset
-    ``offsets``) at fractional sample index ``pos``."""
+def _inputs(z, zdot, offsets, pos, dt, wheels, start):
+    """Wheel inputs ``wheels`` (4, 2) of one vehicle (track ``z, zdot`` from sample
+    ``start`` on, wheelset ``offsets``) at fractional sample index ``pos``."""
     for j in range(4):
-        wheels[j, 0], wheels[j, 1] = hermite(z, zdot, pos + offsets[j], dt)
+        wheels[j, 0], wheels[j, 1] = hermite(z, zdot, pos + offsets[j], dt, start)
 
 
 @njit(cache=True, error_model="numpy")
@@ -424,7 +425,8 @@ def _check_track(kind, arrays, n_sub, lpr, damper=None):
             raise ValueError("the dampers need their 4 last states and (n, 2) commands")
     last = arrays.z.shape[1] - 1
     for i in range(arrays.state.shape[0]):
-        if arrays.k[i] < 0 or arrays.k[i] + n_sub + arrays.off[i, 0] > last:
+        k = arrays.k[i] - arrays.start[i]
+        if k < 0 or k + n_sub + arrays.off[i, 0] > last:
             raise ValueError("track index out of range: the profile is too short")
 
 
@@ -539,24 +541,24 @@ def _advance_one(kind, arrays, i, n_sub, dt, params, suspension, lpr, out, work,
         fa = arrays.force[i]
     else:
         fa = work.fa
-    z, zd, off = arrays.z[i], arrays.zdot[i], arrays.off[i]
+    z, zd, off, start = arrays.z[i], arrays.zdot[i], arrays.off[i], arrays.start[i]
     for j in range(s):
         x[j] = arrays.state[i, j]
     contact = 0
     ood = 0
     div = False
-    _inputs(z, zd, off, float(kk), dt, w)  # then carried from the end of each substep
+    _inputs(z, zd, off, float(kk), dt, w, start)  # then carried from the end of each substep
     for m in range(n_sub):
         t0 = float(kk + m)
         ood += _stage(kind, x, w, fa, params, suspension, lpr, work, r1, damper, i)
-        _inputs(z, zd, off, t0 + 0.5, dt, wm)
+        _inputs(z, zd, off, t0 + 0.5, dt, wm, start)
         for j in range(s):
             xt[j] = x[j] + 0.5 * dt * r1[j]
         ood += _stage(kind, xt, wm, fa, params, suspension, lpr, work, r2, damper, i)
         for j in range(s):
             xt[j] = x[j] + 0.5 * dt * r2[j]
         ood += _stage(kind, xt, wm, fa, params, suspension, lpr, work, r3, damper, i)
-        _inputs(z, zd, off, t0 + 1.0, dt, w)
+        _inputs(z, zd, off, t0 + 1.0, dt, w, start)
         for j in range(s):
             xt[j] = x[j] + dt * r3[j]
         ood += _stage(kind, xt, w, fa, params, suspension, lpr, work, r4, damper, i)
@@ -614,6 +616,7 @@ def new_arrays(
         np.zeros(n, np.int64),
         np.zeros((n, 4)),
         np.zeros((n, 2)),
+        np.zeros(n, np.int64),
     )
     out = Out(np.zeros((n, 5)), np.zeros((n, 2)), np.zeros((n, 2), np.int64), np.zeros(n, np.bool_))
     return arrays, out

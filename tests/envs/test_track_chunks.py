@@ -1,0 +1,236 @@
+"""Chunked track mode (issue 32, item 5): a vector env whose whole-episode tracks do not fit
+holds a window of each track and draws the next window again from the episode's seed, bit for
+bit the values of the whole arrays; memory per sub-env does not grow with the episode."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import railgym.envs.vehicle.batch as vehicle_batch
+import railgym.envs.vertical.batch as vertical_batch
+from railgym.envs.track_shell import TRACK_BYTES
+from railgym.track import (
+    fra_profile_window,
+    fra_profile_with_slope,
+    track_time_input,
+    track_time_window,
+)
+from tests.markers import needs_cc
+
+
+def _arrays(obj: Any, seen: set[int], depth: int = 0) -> Iterator[np.ndarray]:
+    """The numpy arrays ``obj`` holds (attributes, tuples, lists, dicts), each owner once."""
+    if isinstance(obj, np.ndarray):
+        owner = obj
+        while isinstance(owner.base, np.ndarray):
+            owner = owner.base
+        if id(owner) not in seen:
+            seen.add(id(owner))
+            yield owner
+        return
+    if depth > 4:
+        return
+    if isinstance(obj, dict):
+        items = list(obj.values())
+    elif isinstance(obj, tuple | list):
+        items = list(obj)
+    elif type(obj).__module__.startswith("railgym") and hasattr(obj, "__dict__"):
+        items = list(vars(obj).values())
+    else:
+        return
+    for item in items:
+        yield from _arrays(item, seen, depth + 1)
+
+
+def batch_bytes(sim: Any) -> int:
+    """Bytes of all the numpy arrays a batch holds."""
+    return sum(a.nbytes for a in _arrays(sim, set()))
+
+
+def test_track_time_window_matches_whole_track() -> None:
+    _, z, zdot = track_time_input(5, 70.0, 2.0, 1e-3, 3, wheelbase=2.5)
+    for start, count in ((0, 10), (500, 1501), (1990, 11)):
+        wz, wzd = track_time_window(5, 70.0, 2.0, 1e-3, 3, start, count, wheelbase=2.5)
+        np.testing.assert_array_equal(wz, z[start : start + count])
+        np.testing.assert_array_equal(wzd, zdot[start : start + count])
+    with pytest.raises(ValueError, match="outside the samples"):
+        track_time_window(5, 70.0, 2.0, 1e-3, 3, 1990, 12)
+    _, z, slope = fra_profile_with_slope(4, 300.0, 0.05, 8)
+    wz, ws = fra_profile_window(4, 300.0, 0.05, 8, 2345, 2000)
+    np.testing.assert_array_equal(wz, z[2345:4345])
+    np.testing.assert_array_equal(ws, slope[2345:4345])
+
+
+def _rollout(env_id: str, n: int, steps: int, kw: dict[str, Any]) -> tuple[list, Any]:
+    """Observations, rewards, flags, the carbody acceleration and time of ``steps`` seeded
+    random steps of ``n`` sub-envs, and the batch."""
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    obs, _ = venv.reset(seed=11)
+    out = [obs]
+    rng = np.random.default_rng(2)
+    low, high = venv.single_action_space.low, venv.single_action_space.high
+    for _ in range(steps):
+        act = rng.uniform(low, high, (n, low.size)).astype(np.float32)
+        obs, rew, term, trunc, info = venv.step(act)
+        out += [obs, rew, term, trunc, info["carbody_acc"], info["time"]]
+        if "comfort" in info:
+            out += [info["_comfort"], info["comfort"]["a_w"], info["comfort"]["Wz"]]
+    return out, venv.unwrapped.sim
+
+
+VERTICAL_CASES = [
+    ("railgym/VerticalSuspension-v2", {}),
+    ("railgym/VerticalSuspension-v2", {"backend": "reference", "speed": 30.0}),
+    ("railgym/VerticalSuspension-v1", {"backend": "linear", "observation": "full"}),
+    ("railgym/VerticalSuspension-v2", {"actuator": "semi-active"}),
+    (
+        "railgym/VerticalSuspension-v2",
+        {"profile": (np.linspace(0.0, 80.0, 801), 1e-3 * np.sin(np.linspace(0.0, 40.0, 801)))},
+    ),
+]
+
+
+@pytest.mark.filterwarnings("ignore:VerticalSuspension. the surrogate element")
+@pytest.mark.parametrize(("env_id", "kw"), VERTICAL_CASES)
+def test_vertical_chunked_equals_whole(
+    monkeypatch: pytest.MonkeyPatch, env_id: str, kw: dict[str, Any]
+) -> None:
+    """Windows of 37 samples (3 control steps of 10 substeps) reproduce the whole tracks bit
+    for bit over 2.5 episodes of 1 s, autoreset included."""
+    kw = {"duration": 1.0, **kw}
+    whole, sim = _rollout(env_id, 3, 250, kw)
+    assert sim.window is None
+    monkeypatch.setattr(vertical_batch, "_FORCED_WINDOW", 37)
+    chunked, sim_c = _rollout(env_id, 3, 250, kw)
+    assert sim_c.window == 37 and sim_c.z.shape == (3, 37)
+    assert len(whole) == len(chunked)
+    for a, b in zip(whole, chunked, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for i in range(3):
+        z, zdot = sim.track_arrays(i)
+        zc, zdotc = sim_c.track_arrays(i)
+        np.testing.assert_array_equal(z, zc)
+        np.testing.assert_array_equal(zdot, zdotc)
+        at = int(sim_c.base[i])
+        np.testing.assert_array_equal(sim_c.z[i], z[at : at + 37])
+        assert int(sim_c.base[i] + sim_c.k[i]) == int(sim.k[i])
+        state, state_c = sim.render_state(i), sim_c.render_state(i)
+        np.testing.assert_array_equal(state["track_z"], state_c["track_z"])
+        assert state["z"] == state_c["z"]
+
+
+def test_vertical_chunked_runs_past_the_end_as_whole(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The last window ends at the episode's last sample: stepping the batch past the end
+    raises as it does with whole tracks."""
+    monkeypatch.setattr(vertical_batch, "_FORCED_WINDOW", 25)
+    venv = gym.make_vec(
+        "railgym/VerticalSuspension-v2",
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        duration=0.2,
+    )
+    venv.reset(seed=0)
+    sim = venv.unwrapped.sim
+    for _ in range(20):
+        sim.advance()
+    assert int(sim.base[0]) + sim.z.shape[1] == sim.n_samples
+    with pytest.raises(ValueError, match="track index out of range"):
+        sim.advance()
+
+
+@pytest.mark.parametrize(
+    "env_id", ["railgym/VerticalSuspension-v1", "railgym/VerticalSuspension-v2"]
+)
+def test_vertical_16384_envs_fit(env_id: str) -> None:
+    """16384 sub-envs of 20-s episodes hold at most 1 GiB of arrays, the tracks in windows."""
+    venv = gym.make_vec(env_id, num_envs=16384, vectorization_mode="vector_entry_point")
+    sim = venv.unwrapped.sim
+    assert sim.window is not None and sim.window < sim.n_samples
+    assert batch_bytes(sim) <= TRACK_BYTES
+
+
+PROFILE = (np.linspace(0.0, 120.0, 1201), 1e-3 * np.sin(np.linspace(0.0, 60.0, 1201)))
+VEHICLE_CASES = [
+    ("railgym/VerticalVehicle-v2", 3, {"speed": (10.0, 25.0)}),
+    ("railgym/VerticalVehicle-v2", 8, {"speed": (10.0, 40.0), "preview": 21.56}),
+    ("railgym/VerticalVehicle-v2", 3, {"backend": "reference", "speed": 12.0}),
+    ("railgym/VerticalVehicle-v1", 3, {"observation": "full", "speed": (10.0, 20.0)}),
+    ("railgym/VerticalVehicle-v2", 3, {"actuator": "semi-active", "speed": (10.0, 25.0)}),
+    ("railgym/VerticalVehicle-v2", 3, {"profile": PROFILE, "speed": 10.0}),
+]
+
+
+@pytest.mark.filterwarnings("ignore:VerticalVehicle. the surrogate element")
+@pytest.mark.parametrize(("env_id", "n", "kw"), VEHICLE_CASES)
+def test_vehicle_chunked_equals_whole(
+    monkeypatch: pytest.MonkeyPatch, env_id: str, n: int, kw: dict[str, Any]
+) -> None:
+    """The shortest windows (one control step plus the front wheelset's reach at 10 m/s)
+    reproduce the whole tracks bit for bit over 2.5 episodes of 1 s, autoreset, preview and
+    the end-of-episode comfort figures included; the windows move (at 10 m/s every step)."""
+    kw = {"duration": 1.0, **kw}
+    whole, sim = _rollout(env_id, n, 250, kw)
+    assert sim.window is None
+    monkeypatch.setattr(vehicle_batch, "_FORCED_WINDOW", 1)
+    chunked, sim_c = _rollout(env_id, n, 250, kw)
+    held = sim_c.window
+    assert held is not None and held < sim_c.n_samples and sim_c.arrays.z.shape == (n, held)
+    for a, b in zip(whole, chunked, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert np.any(sim_c.arrays.start > 0)
+    for i in range(n):
+        z, zdot = sim.track_arrays(i)
+        zc, zdotc = sim_c.track_arrays(i)
+        np.testing.assert_array_equal(z, zc)
+        np.testing.assert_array_equal(zdot, zdotc)
+        at = int(sim_c.arrays.start[i])
+        np.testing.assert_array_equal(sim_c.arrays.z[i], z[at : at + held])
+        np.testing.assert_array_equal(sim_c.arrays.k[i], sim.arrays.k[i])
+    state, state_c = sim.render_state(0), sim_c.render_state(0)
+    for key in ("track_z", "wheel_z"):
+        np.testing.assert_array_equal(state[key], state_c[key])
+
+
+@pytest.mark.parametrize("env_id", ["railgym/VerticalVehicle-v1", "railgym/VerticalVehicle-v2"])
+def test_vehicle_chunked_memory(env_id: str) -> None:
+    """8192 sub-envs of 20-s episodes (refused before chunked mode) fit in 1 GiB; 16384 do
+    not: the floor-acceleration record of the comfort figures (24 bytes per control step)
+    alone takes 0.73 GiB there, and the track windows must reach the front wheelset."""
+    venv = gym.make_vec(env_id, num_envs=8192, vectorization_mode="vector_entry_point")
+    sim = venv.unwrapped.sim
+    assert sim.window is not None and sim.window < sim.n_samples
+    assert batch_bytes(sim) <= TRACK_BYTES
+    with pytest.raises(ValueError, match="num_envs.*record arrays even with the tracks held"):
+        gym.make_vec(env_id, num_envs=16384, vectorization_mode="vector_entry_point")
+
+
+@needs_cc
+@pytest.mark.parametrize(
+    ("env", "env_id", "module", "forced"),
+    [
+        ("vertical", "railgym/VerticalSuspension-v1", vertical_batch, 37),
+        ("vehicle", "railgym/VerticalVehicle-v1", vehicle_batch, 1),
+    ],
+)
+def test_fmu_backend_chunked_equals_whole(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Any, env: str, env_id: str, module: Any, forced: int
+) -> None:
+    """``backend="fmu"`` (the exported reference, co-simulation) reads the same windows."""
+    pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
+    from railgym.fmu.reference import export_reference_fmu
+
+    fmu, mapping = export_reference_fmu(tmp_path / f"{env}.fmu", env)
+    kw = {"backend": "fmu", "fmu": fmu, "fmu_map": mapping, "duration": 0.3}
+    if env == "vehicle":
+        kw["speed"] = 10.0
+    whole, _ = _rollout(env_id, 2, 40, kw)
+    monkeypatch.setattr(module, "_FORCED_WINDOW", forced)
+    chunked, sim_c = _rollout(env_id, 2, 40, kw)
+    assert sim_c.window is not None and type(sim_c).__name__.startswith("FMU")
+    for a, b in zip(whole, chunked, strict=True):
+        np.testing.assert_array_equal(a, b)
