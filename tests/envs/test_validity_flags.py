@@ -63,20 +63,20 @@ def _replay_vehicle(sim, x0: np.ndarray, k0: int, fa: np.ndarray) -> tuple[int, 
     lpr, p, susp, dt = sim.lpr, sim.params, sim.elem[0], sim.cfg.dt
     kind = check_variant("surrogate")
     a = sim.arrays
-    z, zd, off = a.z[0], a.zdot[0], a.off[0]
+    z, zd, off, start = a.z[0], a.zdot[0], a.off[0], int(a.start[0])
     wk = _work(x0.size, lpr)
     r = [np.empty(x0.size) for _ in range(4)]
     w, wm = np.empty((4, 2)), np.empty((4, 2))
     x, count = x0.copy(), 0
-    _inputs(z, zd, off, float(k0), dt, w)
+    _inputs(z, zd, off, float(k0), dt, w, start)
     for m in range(sim.cfg.n_sub):
         t0 = float(k0 + m)
         stages = [x.copy()]
         _rhs(kind, stages[0], w, fa, p, susp, lpr, wk.u, wk.rt, wk.lw, r[0], wk.fs)
-        _inputs(z, zd, off, t0 + 0.5, dt, wm)
+        _inputs(z, zd, off, t0 + 0.5, dt, wm, start)
         for j, (h, wheels) in enumerate(((0.5, wm), (0.5, wm), (1.0, w))):
             if j == 2:
-                _inputs(z, zd, off, t0 + 1.0, dt, w)
+                _inputs(z, zd, off, t0 + 1.0, dt, w, start)
             xs = x + h * dt * r[j]
             _rhs(kind, xs, wheels, fa, p, susp, lpr, wk.u, wk.rt, wk.lw, r[j + 1], wk.fs)
             stages.append(xs)
