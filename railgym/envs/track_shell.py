@@ -6,9 +6,12 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 from gymnasium import spaces
 
@@ -34,6 +37,7 @@ __all__ = [
     "check_element_vehicle",
     "check_speed_limit",
     "element_arrays",
+    "move_windows",
     "reward_sections",
     "track_window",
 ]
@@ -82,6 +86,21 @@ def track_window(
             "sub-envs or a shorter duration",
         )
     return window
+
+
+def move_windows(rows: np.ndarray, move: Callable[[int], None]) -> None:
+    """``move(i)`` for each sub-env ``i`` in ``rows`` (chunked mode: draw its window again),
+    on numba's number of threads: a move is two inverse FFTs of the episode, during which
+    numpy releases the GIL, and moves write only their own rows, so the result does not
+    depend on the threads."""
+    threads = min(numba.get_num_threads(), len(rows))
+    if threads <= 1:
+        for i in rows:
+            move(int(i))
+        return
+    with ThreadPoolExecutor(threads) as pool:
+        for _ in pool.map(move, [int(i) for i in rows]):
+            pass
 
 
 def reward_sections(acc_weighting: str, control_dt: float) -> np.ndarray:

@@ -26,7 +26,7 @@ from railgym.envs.compiled import (
     weigh,
 )
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import reward_sections, track_window
+from railgym.envs.track_shell import move_windows, reward_sections, track_window
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input, track_time_window
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -433,11 +433,14 @@ class VerticalBatch:
         end at the episode's last sample; ``k`` stays the index into the window."""
         held, n_sub = self.z.shape[1], self.cfg.n_sub
         late = np.flatnonzero((self.k + n_sub > held - 1) & (self.base < self.n_samples - held))
-        for i in late:
+
+        def move(i: int) -> None:
             at = int(self.base[i] + self.k[i])
             start = min(at, self.n_samples - held)
             self._fill(i, start)
             self.k[i] = at - start
+
+        move_windows(late, move)
 
     def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s whole episode track ``(z, zdot)`` (m, m/s): copies of the held
