@@ -50,8 +50,9 @@ ACC_WEIGHTINGS = ("none", "Wk")
 MAX_NUM_ENVS = 65536
 #: largest track arrays of all sub-envs together, bytes
 TRACK_BYTES = 2**30
-#: share of :data:`TRACK_BYTES` that the track windows of a chunked batch take (the rest is
-#: left to the batch's other per-env arrays)
+#: share of :data:`TRACK_BYTES` that the track windows of a chunked batch take, together with
+#: the arrays its caller counts in ``chunk_bytes`` of :func:`track_window` (the rest is left to
+#: the batch's other per-env arrays)
 WINDOW_SHARE = 0.75
 
 
@@ -62,28 +63,30 @@ def track_window(
     min_samples: int,
     what: str,
     forced: int | None = None,
+    chunk_bytes: int | None = None,
 ) -> int | None:
     """Track samples each of ``n`` sub-envs holds at once: ``None`` when all ``n_samples``
     of an episode fit (16 bytes each, plus ``fixed_bytes`` per env that grow with the
     episode, within :data:`TRACK_BYTES` together), else the length of a window (chunked
-    mode: the windows take :data:`WINDOW_SHARE` of the limit). ``forced`` (tests): a window
-    of that many samples whenever it is shorter than the episode. FieldError naming
-    ``num_envs`` when even a window of ``min_samples`` does not fit (``what`` names the
-    arrays in the message)."""
+    mode: the windows and ``chunk_bytes`` per env, the arrays a chunked batch holds besides
+    its windows (default ``fixed_bytes``), take :data:`WINDOW_SHARE` of the limit).
+    ``forced`` (tests): a window of that many samples whenever it is shorter than the
+    episode. FieldError naming ``num_envs`` when even a window of ``min_samples`` does not
+    fit (``what`` names the arrays in the message)."""
     if forced is not None:
         return max(forced, min_samples) if max(forced, min_samples) < n_samples else None
     if n * (16 * n_samples + fixed_bytes) <= TRACK_BYTES:
         return None
-    window = int((WINDOW_SHARE * TRACK_BYTES - n * fixed_bytes) // (16 * n))
+    per_env = fixed_bytes if chunk_bytes is None else chunk_bytes
+    window = int((WINDOW_SHARE * TRACK_BYTES - n * per_env) // (16 * n))
     if window < min_samples:
-        need = n * (16 * min_samples + fixed_bytes)
+        need = n * (16 * min_samples + per_env)
         raise val.FieldError(
             "num_envs",
             f"of {n} needs {need / 2**30:.2f} GiB of {what} even with the tracks held in "
             f"windows of {min_samples} samples ({n_samples} samples per episode); chunked, they "
             f"may take {WINDOW_SHARE * TRACK_BYTES / 2**30:.2f} GiB ({WINDOW_SHARE:.0%} of the "
-            f"{TRACK_BYTES / 2**30:g} GiB limit, the rest left to the other arrays): use fewer "
-            "sub-envs or a shorter duration",
+            f"{TRACK_BYTES / 2**30:g} GiB limit): use fewer sub-envs or a shorter duration",
         )
     return window
 

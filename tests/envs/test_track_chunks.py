@@ -11,9 +11,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+import railgym.envs.track_shell as track_shell
 import railgym.envs.vehicle.batch as vehicle_batch
 import railgym.envs.vertical.batch as vertical_batch
-from railgym.envs.track_shell import TRACK_BYTES
+from railgym.envs.track_shell import TRACK_BYTES, WINDOW_SHARE
 from railgym.track import (
     fra_profile_window,
     fra_profile_with_slope,
@@ -66,12 +67,16 @@ def test_track_time_window_matches_whole_track() -> None:
     np.testing.assert_array_equal(ws, slope[2345:4345])
 
 
-def _rollout(env_id: str, n: int, steps: int, kw: dict[str, Any]) -> tuple[list, Any]:
-    """Observations, rewards, flags, the carbody acceleration and time of ``steps`` seeded
-    random steps of ``n`` sub-envs, and the batch."""
+COMFORT_KEYS = ("a_w", "a_ZP95_Wb", "Wz")
+
+
+def _rollout(env_id: str, n: int, steps: int, kw: dict[str, Any]) -> tuple[list, list, Any]:
+    """Observations, rewards, flags, the carbody acceleration, time and the ended episodes'
+    mask of ``steps`` seeded random steps of ``n`` sub-envs; the end-of-episode comfort
+    figures of those steps (``COMFORT_KEYS``, in order); the batch."""
     venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kw)
     obs, _ = venv.reset(seed=11)
-    out = [obs]
+    out, comfort = [obs], []
     rng = np.random.default_rng(2)
     low, high = venv.single_action_space.low, venv.single_action_space.high
     for _ in range(steps):
@@ -79,8 +84,9 @@ def _rollout(env_id: str, n: int, steps: int, kw: dict[str, Any]) -> tuple[list,
         obs, rew, term, trunc, info = venv.step(act)
         out += [obs, rew, term, trunc, info["carbody_acc"], info["time"]]
         if "comfort" in info:
-            out += [info["_comfort"], info["comfort"]["a_w"], info["comfort"]["Wz"]]
-    return out, venv.unwrapped.sim
+            out.append(info["_comfort"])
+            comfort += [info["comfort"][k] for k in COMFORT_KEYS]
+    return out, comfort, venv.unwrapped.sim
 
 
 VERTICAL_CASES = [
@@ -103,13 +109,13 @@ def test_vertical_chunked_equals_whole(
     """Windows of 37 samples (3 control steps of 10 substeps) reproduce the whole tracks bit
     for bit over 2.5 episodes of 1 s, autoreset included."""
     kw = {"duration": 1.0, **kw}
-    whole, sim = _rollout(env_id, 3, 250, kw)
+    whole, comfort, sim = _rollout(env_id, 3, 250, kw)
     assert sim.window is None
     monkeypatch.setattr(vertical_batch, "_FORCED_WINDOW", 37)
-    chunked, sim_c = _rollout(env_id, 3, 250, kw)
+    chunked, comfort_c, sim_c = _rollout(env_id, 3, 250, kw)
     assert sim_c.window == 37 and sim_c.z.shape == (3, 37)
     assert len(whole) == len(chunked)
-    for a, b in zip(whole, chunked, strict=True):
+    for a, b in zip(whole + comfort, chunked + comfort_c, strict=True):
         np.testing.assert_array_equal(a, b)
     for i in range(3):
         z, zdot = sim.track_arrays(i)
@@ -171,17 +177,28 @@ def test_vehicle_chunked_equals_whole(
     monkeypatch: pytest.MonkeyPatch, env_id: str, n: int, kw: dict[str, Any]
 ) -> None:
     """The shortest windows (one control step plus the front wheelset's reach at 10 m/s)
-    reproduce the whole tracks bit for bit over 2.5 episodes of 1 s, autoreset, preview and
-    the end-of-episode comfort figures included; the windows move (at 10 m/s every step)."""
+    reproduce the whole tracks bit for bit over 2.5 episodes of 1 s, autoreset and preview
+    included; the windows move (at 10 m/s every step). The end-of-episode comfort figures
+    come from the float32 record of chunked mode, computed in float64: each sample is rounded
+    by at most 2⁻²⁴ (6e-8) relative, and the figures (r.m.s. of linearly filtered samples, the
+    95th percentile of windowed r.m.s., Sperling's Wz, a root of weighted spectral sums) move
+    by at most that order relative; rtol 1e-6 leaves room for the rounding
+    of the filters' and spectra's sums to add up over the 100 samples, while a wrong or stale
+    sample would not pass."""
     kw = {"duration": 1.0, **kw}
-    whole, sim = _rollout(env_id, n, 250, kw)
-    assert sim.window is None
+    whole, comfort, sim = _rollout(env_id, n, 250, kw)
+    assert sim.window is None and sim.book.rec.dtype == np.float64
     monkeypatch.setattr(vehicle_batch, "_FORCED_WINDOW", 1)
-    chunked, sim_c = _rollout(env_id, n, 250, kw)
+    chunked, comfort_c, sim_c = _rollout(env_id, n, 250, kw)
     held = sim_c.window
     assert held is not None and held < sim_c.n_samples and sim_c.arrays.z.shape == (n, held)
+    assert sim_c.book.rec.dtype == np.float32
     for a, b in zip(whole, chunked, strict=True):
         np.testing.assert_array_equal(a, b)
+    assert len(comfort) == len(comfort_c) > 0
+    for a, b in zip(comfort, comfort_c, strict=True):
+        assert np.any(a > 0)
+        np.testing.assert_allclose(b, a, rtol=1e-6, atol=0.0)
     assert np.any(sim_c.arrays.start > 0)
     for i in range(n):
         z, zdot = sim.track_arrays(i)
@@ -198,15 +215,30 @@ def test_vehicle_chunked_equals_whole(
 
 @pytest.mark.parametrize("env_id", ["railgym/VerticalVehicle-v1", "railgym/VerticalVehicle-v2"])
 def test_vehicle_chunked_memory(env_id: str) -> None:
-    """8192 sub-envs of 20-s episodes (refused before chunked mode) fit in 1 GiB; 16384 do
-    not: the floor-acceleration record of the comfort figures (24 bytes per control step)
-    alone takes 0.73 GiB there, and the track windows must reach the front wheelset."""
-    venv = gym.make_vec(env_id, num_envs=8192, vectorization_mode="vector_entry_point")
+    """16384 sub-envs of 20-s episodes fit in 1 GiB: chunked, the floor-acceleration record
+    of the comfort figures is float32 (12 bytes per control step, 0.37 GiB there), and
+    windows, record and the other per-vehicle arrays take at most 0.75 GiB."""
+    venv = gym.make_vec(env_id, num_envs=16384, vectorization_mode="vector_entry_point")
     sim = venv.unwrapped.sim
     assert sim.window is not None and sim.window < sim.n_samples
-    assert batch_bytes(sim) <= TRACK_BYTES
-    with pytest.raises(ValueError, match="num_envs.*record arrays even with the tracks held"):
-        gym.make_vec(env_id, num_envs=16384, vectorization_mode="vector_entry_point")
+    assert sim.book.rec.dtype == np.float32 and sim.book.rec.shape == (16384, 2000, 3)
+    assert batch_bytes(sim) <= WINDOW_SHARE * TRACK_BYTES
+
+
+def test_vehicle_float32_record_only_chunked(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With the limit set to 4 whole tracks and float64 records, 4 sub-envs hold whole
+    tracks and keep the float64 record (results at sizes allowed before unchanged); 5 are
+    chunked and record float32."""
+    kw = {"vectorization_mode": "vector_entry_point", "duration": 4.0}
+    sim = gym.make_vec("railgym/VerticalVehicle-v2", num_envs=1, **kw).unwrapped.sim
+    assert sim.window is None and sim.book.rec.dtype == np.float64
+    per_env = 16 * sim.n_samples + 24 * sim.cfg.n_steps
+    monkeypatch.setattr(track_shell, "TRACK_BYTES", 4 * per_env)
+    sim = gym.make_vec("railgym/VerticalVehicle-v2", num_envs=4, **kw).unwrapped.sim
+    assert sim.window is None and sim.book.rec.dtype == np.float64
+    sim = gym.make_vec("railgym/VerticalVehicle-v2", num_envs=5, **kw).unwrapped.sim
+    assert sim.window is not None and sim.book.rec.dtype == np.float32
+    assert batch_bytes(sim) <= 4 * per_env
 
 
 @needs_cc
@@ -228,9 +260,11 @@ def test_fmu_backend_chunked_equals_whole(
     kw = {"backend": "fmu", "fmu": fmu, "fmu_map": mapping, "duration": 0.3}
     if env == "vehicle":
         kw["speed"] = 10.0
-    whole, _ = _rollout(env_id, 2, 40, kw)
+    whole, comfort, _ = _rollout(env_id, 2, 40, kw)
     monkeypatch.setattr(module, "_FORCED_WINDOW", forced)
-    chunked, sim_c = _rollout(env_id, 2, 40, kw)
+    chunked, comfort_c, sim_c = _rollout(env_id, 2, 40, kw)
     assert sim_c.window is not None and type(sim_c).__name__.startswith("FMU")
     for a, b in zip(whole, chunked, strict=True):
         np.testing.assert_array_equal(a, b)
+    for a, b in zip(comfort, comfort_c, strict=True):  # the float32 record (vehicle)
+        np.testing.assert_allclose(b, a, rtol=1e-6, atol=0.0)

@@ -132,7 +132,7 @@ class Book(NamedTuple):
     ood: np.ndarray  # (n,) int64 out-of-domain surrogate evaluations
     acc_sq: np.ndarray  # (n, 3) sum of squared floor accelerations
     rms: np.ndarray  # (n, 3) their running r.m.s., m/s²
-    rec: np.ndarray  # (n, n_steps, 3) floor accelerations, m/s²
+    rec: np.ndarray  # (n, n_steps, 3) floor accelerations, m/s² (float32 in chunked mode)
     obs: np.ndarray  # (n, n_obs) normalised observation
     rew: np.ndarray  # (n,) reward
     terms: np.ndarray  # (n, len(REWARD_TERMS)) weighted reward terms, summing to rew
@@ -291,8 +291,10 @@ def episode_comfort(
     is shorter), m/s²; ``Wz``: Sperling ride index (vertical). Both filters start at rest
     (as :func:`~railgym.comfort.weighted_rms` and :func:`~railgym.comfort.a_zp95`).
     Records shorter than ``MIN_COMFORT_SAMPLES`` (an episode ended by divergence at once)
-    give zeros.
+    give zeros. The figures are computed in float64 (a float32 record of chunked mode is
+    cast first).
     """
+    rec = np.asarray(rec, np.float64)
     if rec.shape[0] < MIN_COMFORT_SAMPLES:
         return {k: np.zeros(3) for k in ("a_w", "a_ZP95_Wb", "Wz")}
     window = min(5.0, rec.shape[0] / fs)
@@ -301,6 +303,30 @@ def episode_comfort(
         "a_ZP95_Wb": window_rms_p95(signal.sosfilt(wb.sos, rec, axis=0), fs, window),
         "Wz": np.array([sperling_wz(rec[:, j], fs) for j in range(3)]),
     }
+
+
+def _new_book(
+    n: int, n_steps: int, n_obs: int, sos: np.ndarray, rows: int, rec_dtype: type
+) -> Book:
+    """Zeroed :class:`Book` of ``n`` vehicles: ``n_steps`` control steps recorded as
+    ``rec_dtype``, ``n_obs`` observations, the reward's weighting ``sos`` (n_sec, 6) and
+    ``rows`` info columns."""
+    return Book(
+        steps=np.zeros(n, np.int64),
+        contacts=np.zeros(n, np.int64),
+        ood=np.zeros(n, np.int64),
+        acc_sq=np.zeros((n, 3)),
+        rms=np.zeros((n, 3)),
+        rec=np.zeros((n, n_steps, 3), rec_dtype),
+        obs=np.zeros((n, n_obs)),
+        rew=np.zeros(n),
+        terms=np.zeros((n, len(REWARD_TERMS))),
+        zi=np.zeros((n, 3, sos.shape[0], 2)),
+        action=np.zeros((n, 2)),
+        info=np.zeros((n, rows)),
+        truncated=np.zeros(n, np.bool_),
+        extrapolated=np.zeros(n, np.bool_),
+    )
 
 
 class VehicleBatch:
@@ -339,14 +365,18 @@ class VehicleBatch:
         reach = math.ceil(self.span / (v_min * cfg.dt))  # samples from rear to front wheelset
         #: samples of an episode's track (rear wheelset's time grid, front wheelset ahead)
         self.n_samples = cfg.n_steps * cfg.n_sub + reach + 2
-        #: samples held per vehicle in chunked mode (None: the whole episode)
+        sos = reward_sections(cfg.acc_weighting, cfg.control_dt)
+        rows = INFO_ROW if damper is None else SEMI_ACTIVE_INFO_ROW
+        #: samples held per vehicle in chunked mode (None: the whole episode); chunked, the
+        #: windows, the float32 records and the other per-vehicle arrays share the budget
         self.window = track_window(
             n,
             self.n_samples,
             24 * cfg.n_steps,
             cfg.n_sub + reach + 2,
-            "track and record arrays",
+            "track, record and bookkeeping arrays",
             _FORCED_WINDOW,
+            chunk_bytes=12 * cfg.n_steps + self._vehicle_bytes(len(cfg.obs_names), sos, rows),
         )
         held = self.n_samples if self.window is None else self.window
         self.arrays, self.out = new_arrays(n, cfg.variant, held, self.lpr, damper is not None)
@@ -357,23 +387,10 @@ class VehicleBatch:
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)
-        sos = reward_sections(cfg.acc_weighting, cfg.control_dt)
-        self.book = Book(
-            steps=np.zeros(n, np.int64),
-            contacts=np.zeros(n, np.int64),
-            ood=np.zeros(n, np.int64),
-            acc_sq=np.zeros((n, 3)),
-            rms=np.zeros((n, 3)),
-            rec=np.zeros((n, cfg.n_steps, 3)),
-            obs=np.zeros((n, len(cfg.obs_names))),
-            rew=np.zeros(n),
-            terms=np.zeros((n, len(REWARD_TERMS))),
-            zi=np.zeros((n, 3, sos.shape[0], 2)),
-            action=np.zeros((n, 2)),
-            info=np.zeros((n, INFO_ROW if damper is None else SEMI_ACTIVE_INFO_ROW)),
-            truncated=np.zeros(n, np.bool_),
-            extrapolated=np.zeros(n, np.bool_),
-        )
+        # chunked mode keeps the floor accelerations as float32 (12 bytes per control step);
+        # the comfort figures are computed from them in float64 (episode_comfort)
+        rec_dtype = np.float64 if self.window is None else np.float32
+        self.book = _new_book(n, cfg.n_steps, len(cfg.obs_names), sos, rows, rec_dtype)
         self.step_consts = consts(
             StepCfg,
             cfg,
@@ -395,6 +412,15 @@ class VehicleBatch:
         #: per episode: its class / speed is outside :attr:`envelope` (``outside_envelope``)
         self.off_envelope = np.zeros(n, np.bool_)
         self._link()
+
+    def _vehicle_bytes(self, n_obs: int, sos: np.ndarray, rows: int) -> int:
+        """Bytes per vehicle of the arrays held besides the track and the comfort record:
+        kernel arrays, outputs and bookkeeping (measured on one vehicle) and the batch's own
+        per-vehicle arrays (speed, class, seed, three flags)."""
+        arrays, out = new_arrays(1, self.cfg.variant, 0, self.lpr, self.damper is not None)
+        book = _new_book(1, 0, n_obs, sos, rows, np.float32)
+        held = sum(a.nbytes for a in (*arrays, *out, *book))
+        return held + 3 * 8 + 3 * 1
 
     def _preview_fractions(self) -> np.ndarray:
         """The preview points (``cfg.preview_points``, m) as fractions of the front
