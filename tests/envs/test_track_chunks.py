@@ -4,7 +4,9 @@ bit the values of the whole arrays; memory per sub-env does not grow with the ep
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
+from types import SimpleNamespace
 from typing import Any
 
 import gymnasium as gym
@@ -268,3 +270,44 @@ def test_fmu_backend_chunked_equals_whole(
         np.testing.assert_array_equal(a, b)
     for a, b in zip(comfort, comfort_c, strict=True):  # the float32 record (vehicle)
         np.testing.assert_allclose(b, a, rtol=1e-6, atol=0.0)
+
+
+def test_move_windows_runs_the_moves_concurrently() -> None:
+    """With two threads, two moves run at once (each waits for the other at a barrier; run
+    one after the other they would time out), and every row is moved exactly once."""
+    barrier, moved = threading.Barrier(2, timeout=10.0), []
+
+    def move(i: int) -> None:
+        if i < 2:
+            barrier.wait()
+        moved.append(i)
+
+    fake = SimpleNamespace(get_num_threads=lambda: 2)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(track_shell, "numba", fake)
+        track_shell.move_windows(np.arange(7), move)
+    assert sorted(moved) == list(range(7))
+
+
+@pytest.mark.filterwarnings("ignore:Vertical.*the surrogate element")
+@pytest.mark.parametrize(
+    ("env_id", "module", "window"),
+    [
+        ("railgym/VerticalSuspension-v2", vertical_batch, 37),
+        ("railgym/VerticalVehicle-v2", vehicle_batch, 1),
+    ],
+)
+def test_window_moves_on_threads_equal_serial(
+    monkeypatch: pytest.MonkeyPatch, env_id: str, module: Any, window: int
+) -> None:
+    """The windows moved on 4 threads give the rollout of the serial moves bit for bit."""
+    monkeypatch.setattr(module, "_FORCED_WINDOW", window)
+    runs = []
+    for threads in (1, 4):
+        monkeypatch.setattr(
+            track_shell, "numba", SimpleNamespace(get_num_threads=lambda t=threads: t)
+        )
+        runs.append(_rollout(env_id, 6, 150, {"duration": 1.0}))
+    (serial, comfort, _), (threaded, comfort_t, _) = runs
+    for a, b in zip(serial + comfort, threaded + comfort_t, strict=True):
+        np.testing.assert_array_equal(a, b)

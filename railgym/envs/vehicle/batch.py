@@ -23,7 +23,7 @@ from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward, weigh
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import reward_sections, track_window
+from railgym.envs.track_shell import move_windows, reward_sections, track_window
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_window, fra_profile_with_slope
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -544,8 +544,7 @@ class VehicleBatch:
         arrays, held = self.arrays, self.arrays.z.shape[1]
         ahead = arrays.k - arrays.start + self.cfg.n_sub + arrays.off[:, 0]
         late = np.flatnonzero((ahead > held - 1) & (arrays.start < self.n_samples - held))
-        for i in late:
-            self._fill(i, min(int(arrays.k[i]), self.n_samples - held))
+        move_windows(late, lambda i: self._fill(i, min(int(arrays.k[i]), self.n_samples - held)))
 
     def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s whole episode track ``(z, zdot)`` on the rear wheelset's time grid
