@@ -14,6 +14,10 @@ The batch contract (:class:`Batch`)
     New episode for system ``i``: draw what is random (a track, a scenario) from ``rng``;
     ``episode`` is what the env's :meth:`BatchEnv._episode` returns (e.g. track class and
     speed).
+``reset_many(idx, rngs, episode)`` (optional)
+    :meth:`reset` of the systems ``idx`` (int array) with their generators ``rngs`` (a list
+    in the order of ``idx``): the same result as one reset after another, free to do the
+    work of several at once (the track batches synthesise the tracks on threads).
 ``reset_state(i)``
     System ``i`` back to its initial state on its current episode data, counters cleared.
 ``set_action(actions)``
@@ -431,8 +435,7 @@ class BatchVectorEnv(VectorEnv):
             self._np_random, self._np_random_seed = seeding.np_random(first)
         self._rngs = rngs
         reset = np.flatnonzero(mask)
-        for i in reset:
-            self.sim.reset(i, self._rngs[i], env._episode())
+        self._reset_rows(reset)
         self._prev_done[mask] = False
         self._note_case(reset)
         infos = self._infos()
@@ -445,12 +448,11 @@ class BatchVectorEnv(VectorEnv):
         """Step all sub-envs; those that ended on the previous step are reset instead."""
         if not self._rngs:
             raise RuntimeError("call reset() before step()")
-        sim, env = self.sim, self.single_env
+        sim = self.sim
         sim.set_action(check_actions(actions, self.action_space.shape, *self._bounds, "actions"))
         done = np.flatnonzero(self._prev_done)
-        for i in done:
-            sim.reset(i, self._rngs[i], env._episode())
         if done.size:
+            self._reset_rows(done)
             self._note_case(done)
             was_reset = self._prev_done.copy()
         if done.size and hasattr(sim, "advance_holding"):
@@ -477,6 +479,16 @@ class BatchVectorEnv(VectorEnv):
         if done.size:
             infos["case"], infos["_case"] = self._case_infos(was_reset)
         return sim.observe(self._rngs), reward, terminated, truncated, infos
+
+    def _reset_rows(self, idx: np.ndarray) -> None:
+        """``sim.reset`` of the sub-envs ``idx`` with their generators and the env's episode
+        settings; all at once by ``sim.reset_many`` where the batch has it."""
+        sim, episode = self.sim, self.single_env._episode()
+        if hasattr(sim, "reset_many"):
+            sim.reset_many(idx, [self._rngs[i] for i in idx], episode)
+            return
+        for i in idx:
+            sim.reset(i, self._rngs[i], episode)
 
     def _note_case(self, idx: np.ndarray) -> None:
         """Record the case of the sub-envs ``idx`` just reset (their ``info["case"]``)."""

@@ -295,12 +295,15 @@ def test_move_windows_runs_the_moves_concurrently() -> None:
     [
         ("railgym/VerticalSuspension-v2", vertical_batch, 37),
         ("railgym/VerticalVehicle-v2", vehicle_batch, 1),
+        ("railgym/VerticalSuspension-v2", vertical_batch, None),
+        ("railgym/VerticalVehicle-v2", vehicle_batch, None),
     ],
 )
-def test_window_moves_on_threads_equal_serial(
-    monkeypatch: pytest.MonkeyPatch, env_id: str, module: Any, window: int
+def test_tracks_on_threads_equal_serial(
+    monkeypatch: pytest.MonkeyPatch, env_id: str, module: Any, window: int | None
 ) -> None:
-    """The windows moved on 4 threads give the rollout of the serial moves bit for bit."""
+    """Tracks synthesised on 4 threads (the resets' whole tracks or first windows, the
+    windows' moves) give the rollout of one after another bit for bit."""
     monkeypatch.setattr(module, "_FORCED_WINDOW", window)
     runs = []
     for threads in (1, 4):

@@ -483,34 +483,45 @@ class VehicleBatch:
         """New track for vehicle ``i``; ``episode`` is ``(track_class, (v_min, v_max),
         profile)``: speed drawn uniformly in the range (when not a single value), then a
         seeded FRA profile (``profile=None``) or the given ``(x, z)``; state at rest."""
+        self.reset_many(np.array([i]), [rng], episode)
+
+    def reset_many(
+        self,
+        idx: np.ndarray,
+        rngs: list[np.random.Generator],
+        episode: tuple[int, tuple[float, float], Any],
+    ) -> None:
+        """:meth:`reset` of the vehicles ``idx`` with their ``rngs``: speeds and seeds drawn
+        one after another, the tracks synthesised on numba's threads (each into its own rows,
+        so the values are those of one reset after another)."""
         cfg = self.cfg
         track_class, (lo, hi), profile = episode
-        v = lo if lo == hi else float(rng.uniform(lo, hi))
-        if v < self.v_min:
-            raise val.FieldError(
-                "speed", f"{v} m/s is below the {self.v_min} m/s the env was made for"
-            )
-        m = self.n_samples
-        self.speed[i], self.track_class[i] = v, track_class
-        self.measured[i] = profile is not None
-        if profile is None:
-            seed = int(rng.integers(2**63 - 1))
-            dx = v * cfg.dt
-            check_band_speed(cfg.band, v, cfg.dt)
-            if self.window is None:
-                _, z, slope = fra_profile_with_slope(track_class, (m - 1) * dx, dx, seed, cfg.band)
-                self.arrays.z[i], self.arrays.zdot[i] = z[:m], v * slope[:m]
-        if self.window is not None:
-            self._seeds[i] = 0 if profile is not None else seed
+        for i, rng in zip(idx, rngs, strict=True):
+            v = lo if lo == hi else float(rng.uniform(lo, hi))
+            if v < self.v_min:
+                raise val.FieldError(
+                    "speed", f"{v} m/s is below the {self.v_min} m/s the env was made for"
+                )
+            self.speed[i], self.track_class[i] = v, track_class
+            self.measured[i] = profile is not None
             self._profiles[i] = profile
+            self._seeds[i] = 0
+            if profile is None:
+                self._seeds[i] = int(rng.integers(2**63 - 1))
+                check_band_speed(cfg.band, v, cfg.dt)
+            self.arrays.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
+            self.arrays.force[i] = 0.0
+        move_windows(idx, self._draw_track)
+        for i in idx:
+            self.reset_state(i)
+
+    def _draw_track(self, i: int) -> None:
+        """Vehicle ``i``'s track from its episode's seed or profile: the whole track, or in
+        chunked mode its first window."""
+        if self.window is None:
+            self.arrays.z[i], self.arrays.zdot[i] = self._episode_track(i)
+        else:
             self._fill(i, 0)
-        elif profile is not None:
-            self.arrays.z[i], self.arrays.zdot[i] = profile_time_input(
-                profile, v, cfg.dt, m, length=v * cfg.n_steps * cfg.control_dt + self.span
-            )
-        self.arrays.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
-        self.arrays.force[i] = 0.0
-        self.reset_state(i)
 
     def _fill(self, i: int, start: int) -> None:
         """Chunked mode: vehicle ``i``'s window from episode sample ``start`` on (the
@@ -549,9 +560,14 @@ class VehicleBatch:
     def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s whole episode track ``(z, zdot)`` on the rear wheelset's time grid
         (m, m/s): copies of the held arrays, or in chunked mode drawn again."""
-        cfg, m, v = self.cfg, self.n_samples, float(self.speed[i])
         if self.window is None:
             return self.arrays.z[i].copy(), self.arrays.zdot[i].copy()
+        return self._episode_track(i)
+
+    def _episode_track(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Vehicle ``i``'s whole episode track ``(z, zdot)`` on the rear wheelset's time grid
+        (m, m/s) drawn from its seed or profile."""
+        cfg, m, v = self.cfg, self.n_samples, float(self.speed[i])
         if self._profiles[i] is not None:
             length = v * cfg.n_steps * cfg.control_dt + self.span
             return profile_time_input(self._profiles[i], v, cfg.dt, m, length=length)

@@ -378,31 +378,31 @@ class VerticalBatch:
         """New track for vehicle ``i``, state at rest; ``episode`` is ``(track_class, speed,
         profile)``: a seeded FRA track (seed drawn from ``rng``) for ``profile=None``, else
         the given ``(x, z)`` (m) from its first point on."""
-        cfg = self.cfg
+        self.reset_many(np.array([i]), [rng], episode)
+
+    def reset_many(
+        self, idx: np.ndarray, rngs: list[np.random.Generator], episode: tuple[int, float, Any]
+    ) -> None:
+        """:meth:`reset` of the vehicles ``idx`` with their ``rngs``: the seeds drawn one
+        after another, the tracks synthesised on numba's threads (each into its own rows, so
+        the values are those of one reset after another)."""
         track_class, speed, profile = episode
-        self.track_class[i], self.speed[i] = track_class, speed
-        self.measured[i] = profile is not None
-        if self.window is not None:
+        for i, rng in zip(idx, rngs, strict=True):
+            self.track_class[i], self.speed[i] = track_class, speed
+            self.measured[i] = profile is not None
             self._seeds[i] = 0 if profile is not None else int(rng.integers(2**63 - 1))
             self._profiles[i] = profile
-            self._fill(i, 0)
+        move_windows(idx, self._draw_track)
+        for i in idx:
             self.reset_state(i)
-            return
-        if profile is None:
-            seed = int(rng.integers(2**63 - 1))
-            _, z, zdot = track_time_input(
-                track_class,
-                speed,
-                cfg.duration,
-                cfg.dt,
-                seed,
-                band=cfg.band,
-                wheelbase=cfg.wheelbase,
-            )
+
+    def _draw_track(self, i: int) -> None:
+        """Vehicle ``i``'s track from its episode's seed or profile: the whole track, or in
+        chunked mode its first window."""
+        if self.window is None:
+            self.z[i], self.zdot[i] = self._episode_track(i)
         else:
-            z, zdot = profile_time_input(profile, speed, cfg.dt, self.n_samples)
-        self.z[i], self.zdot[i] = z, zdot
-        self.reset_state(i)
+            self._fill(i, 0)
 
     def _fill(self, i: int, start: int) -> None:
         """Chunked mode: vehicle ``i``'s window from episode sample ``start`` on (the
@@ -445,9 +445,14 @@ class VerticalBatch:
     def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s whole episode track ``(z, zdot)`` (m, m/s): copies of the held
         arrays, or in chunked mode drawn again."""
-        cfg = self.cfg
         if self.window is None:
             return self.z[i].copy(), self.zdot[i].copy()
+        return self._episode_track(i)
+
+    def _episode_track(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Vehicle ``i``'s whole episode track ``(z, zdot)`` (m, m/s) drawn from its seed or
+        profile."""
+        cfg = self.cfg
         if self._profiles[i] is not None:
             return profile_time_input(self._profiles[i], self.speed[i], cfg.dt, self.n_samples)
         _, z, zdot = track_time_input(
