@@ -1,0 +1,59 @@
+"""Whole-episode throughput of the track envs, resets and window moves included.
+
+The other env benchmarks time windows of steps and take their median, so the rare step that
+resets every sub-env (a new track each: two inverse FFTs of the episode's grid) falls out of
+the figure. Here one sample is one whole episode of every sub-env: the 2 000 steps of a 20 s
+episode and the autoreset step that draws the next tracks, zero actions, default settings and
+numba threads. At 16 384 sub-envs the tracks do not fit whole and are held in windows
+(chunked mode, docs/envs/vertical.md), so the sample also holds the window moves. Issue 32's
+target: the throughput from 1 024 to 16 384 sub-envs does not fall (``16 384 / 1 024 ≥ 1``).
+"""
+
+from __future__ import annotations
+
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import railgym  # noqa: F401  (registers the environments)
+from benchmarks import measured, row
+from railgym.progress import bar
+
+ENV_IDS = ("railgym/VerticalSuspension-v2", "railgym/VerticalVehicle-v2")
+SIZES = (1024, 16384)
+#: whole episodes timed per size (each one sample)
+EPISODES = {1024: 3, 16384: 1}
+
+
+def episode_rates(env_id: str, n: int, episodes: int) -> np.ndarray:
+    """Env-steps/s of ``n`` sub-envs of ``env_id``, one sample per whole episode (its steps
+    and the autoreset step after it)."""
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    try:
+        venv.reset(seed=0)
+        steps = venv.unwrapped.sim.cfg.n_steps + 1  # the episode and the step that resets it
+        action = np.zeros(venv.action_space.shape, venv.action_space.dtype)
+        venv.step(action)  # the first step after reset is part of no sample
+        rates = []
+        for _ in bar(range(episodes), desc=f"{env_id} × {n} episodes"):
+            t0 = time.perf_counter()
+            for _ in range(steps):
+                venv.step(action)
+            rates.append(n * steps / (time.perf_counter() - t0))
+        return np.array(rates)
+    finally:
+        venv.close()
+
+
+def run() -> list[dict]:
+    """Rows of measurements (see ``benchmarks/__main__.py``): per env, the env-steps/s over
+    whole episodes at each size and the ratio of the largest to the smallest."""
+    rows = []
+    for env_id in ENV_IDS:
+        rates = {n: episode_rates(env_id, n, EPISODES[n]) for n in SIZES}
+        for n, r in rates.items():
+            rows.append(measured(f"{env_id} × {n}, whole episodes", r / 1e6, "M steps/s"))
+        ratio = float(np.median(rates[SIZES[-1]]) / np.median(rates[SIZES[0]]))
+        rows.append(row(f"  {SIZES[-1]} / {SIZES[0]} sub-envs", ratio, "×", "≥ 1"))
+    return rows
