@@ -357,6 +357,22 @@ def fra_profile_with_slope(
     of two of samples covering both ``length`` and 4 longest wavelengths; each harmonic's
     amplitude carries the PSD integrated over its frequency bin.
     """
+    z, dzdx, dx = _profile(track_class, length, dx, seed, band, kind)
+    n = z.shape[0]
+    return np.arange(n) * dx, z, dzdx
+
+
+def _profile(
+    track_class: int,
+    length: float,
+    dx: float,
+    seed: int | np.random.Generator | None,
+    band: tuple[float, float],
+    kind: str,
+    window: tuple[int, int] | None = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Checked arguments of :func:`fra_profile_with_slope`, then ``(z, dzdx, dx)``: the
+    profile's samples, all or those of ``window = (start, count)`` (copies)."""
     p = class_parameters(track_class)
     _check_kind(kind)
     length = val.positive(length, "length")
@@ -367,10 +383,14 @@ def fra_profile_with_slope(
     if not dx <= length:
         raise ValueError(f"length must be at least dx, got {length}")
     n = math.floor(length / dx + 1e-9) + 1
+    start, count = (0, n) if window is None else (int(window[0]), int(window[1]))
+    if start < 0 or count < 1 or start + count > n:
+        raise ValueError(f"window {start}..{start + count - 1} is outside the samples 0..{n - 1}")
     z, dzdx = _synthesise(
         p, kind, (lo, hi), dx, n, np.random.default_rng(val.random_seed(seed, "seed"))
     )
-    return np.arange(n) * dx, z[:n].copy(), dzdx[:n].copy()
+    cut = slice(start, start + count)
+    return z[cut].copy(), dzdx[cut].copy(), dx
 
 
 def fra_profile_window(
@@ -387,23 +407,8 @@ def fra_profile_window(
     """Samples ``start .. start + count - 1`` of :func:`fra_profile_with_slope`'s ``(z,
     dzdx)`` (m, dimensionless), bit for bit the same values (arguments as there); the whole
     period is synthesised again (two inverse FFTs) and the window copied out."""
-    p = class_parameters(track_class)
-    _check_kind(kind)
-    length = val.positive(length, "length")
-    dx = val.positive(dx, "dx")
-    lo, hi = _check_band(band)
-    if not dx < 0.5 * lo:
-        raise ValueError(f"dx must be below half the shortest wavelength {lo} m, got {dx}")
-    if not dx <= length:
-        raise ValueError(f"length must be at least dx, got {length}")
-    n = math.floor(length / dx + 1e-9) + 1
-    start, count = int(start), int(count)
-    if start < 0 or count < 1 or start + count > n:
-        raise ValueError(f"window {start}..{start + count - 1} is outside the samples 0..{n - 1}")
-    z, dzdx = _synthesise(
-        p, kind, (lo, hi), dx, n, np.random.default_rng(val.random_seed(seed, "seed"))
-    )
-    return z[start : start + count].copy(), dzdx[start : start + count].copy()
+    z, dzdx, _ = _profile(track_class, length, dx, seed, band, kind, (start, count))
+    return z, dzdx
 
 
 def fra_profile(

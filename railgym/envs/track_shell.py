@@ -36,8 +36,8 @@ __all__ = [
     "TrackVectorShell",
     "check_element_vehicle",
     "check_speed_limit",
+    "draw_tracks",
     "element_arrays",
-    "move_windows",
     "reward_sections",
     "track_window",
 ]
@@ -91,11 +91,11 @@ def track_window(
     return window
 
 
-def move_windows(rows: np.ndarray, move: Callable[[int], None]) -> None:
-    """``move(i)`` for each sub-env ``i`` in ``rows`` (chunked mode: draw its window again),
-    on numba's number of threads: a move is two inverse FFTs of the episode, during which
-    numpy releases the GIL, and moves write only their own rows, so the result does not
-    depend on the threads."""
+def draw_tracks(rows: np.ndarray, move: Callable[[int], None]) -> None:
+    """``move(i)`` for each sub-env ``i`` in ``rows`` (draw its track: a reset's, or in
+    chunked mode a window again), on numba's number of threads: a track is two inverse FFTs
+    of the episode, during which numpy releases the GIL, and each call writes only its own
+    rows, so the result does not depend on the threads."""
     threads = min(numba.get_num_threads(), len(rows))
     if threads <= 1:
         for i in rows:

@@ -272,7 +272,7 @@ def test_fmu_backend_chunked_equals_whole(
         np.testing.assert_allclose(b, a, rtol=1e-6, atol=0.0)
 
 
-def test_move_windows_runs_the_moves_concurrently() -> None:
+def test_draw_tracks_runs_concurrently() -> None:
     """With two threads, two moves run at once (each waits for the other at a barrier; run
     one after the other they would time out), and every row is moved exactly once."""
     barrier, moved = threading.Barrier(2, timeout=10.0), []
@@ -285,7 +285,7 @@ def test_move_windows_runs_the_moves_concurrently() -> None:
     fake = SimpleNamespace(get_num_threads=lambda: 2)
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(track_shell, "numba", fake)
-        track_shell.move_windows(np.arange(7), move)
+        track_shell.draw_tracks(np.arange(7), move)
     assert sorted(moved) == list(range(7))
 
 

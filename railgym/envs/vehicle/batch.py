@@ -23,7 +23,7 @@ from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward, weigh
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import move_windows, reward_sections, track_window
+from railgym.envs.track_shell import draw_tracks, reward_sections, track_window
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_window, fra_profile_with_slope
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -380,8 +380,8 @@ class VehicleBatch:
         )
         held = self.n_samples if self.window is None else self.window
         self.arrays, self.out = new_arrays(n, cfg.variant, held, self.lpr, damper is not None)
-        #: what a window is drawn again from: the seed of each FRA episode and the profile
-        #: of each measured one (chunked mode only)
+        #: what a track is drawn from: the seed of each FRA episode and the profile of each
+        #: measured one
         self._seeds = np.zeros(n, np.int64)
         self._profiles: list[Any] = [None] * n
         fs = 1.0 / cfg.control_dt
@@ -511,7 +511,7 @@ class VehicleBatch:
                 check_band_speed(cfg.band, v, cfg.dt)
             self.arrays.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
             self.arrays.force[i] = 0.0
-        move_windows(idx, self._draw_track)
+        draw_tracks(idx, self._draw_track)
         for i in idx:
             self.reset_state(i)
 
@@ -555,7 +555,7 @@ class VehicleBatch:
         arrays, held = self.arrays, self.arrays.z.shape[1]
         ahead = arrays.k - arrays.start + self.cfg.n_sub + arrays.off[:, 0]
         late = np.flatnonzero((ahead > held - 1) & (arrays.start < self.n_samples - held))
-        move_windows(late, lambda i: self._fill(i, min(int(arrays.k[i]), self.n_samples - held)))
+        draw_tracks(late, lambda i: self._fill(i, min(int(arrays.k[i]), self.n_samples - held)))
 
     def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s whole episode track ``(z, zdot)`` on the rear wheelset's time grid

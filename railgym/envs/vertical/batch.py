@@ -26,7 +26,7 @@ from railgym.envs.compiled import (
     weigh,
 )
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import move_windows, reward_sections, track_window
+from railgym.envs.track_shell import draw_tracks, reward_sections, track_window
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input, track_time_window
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -298,8 +298,8 @@ class VerticalBatch:
         self.zdot = np.zeros((n, held))
         #: int64 (n,) episode sample of the windows' first column (0 outside chunked mode)
         self.base = np.zeros(n, np.int64)
-        #: what a window is drawn again from: the seed of each FRA episode and the profile
-        #: of each measured one (chunked mode only)
+        #: what a track is drawn from: the seed of each FRA episode and the profile of each
+        #: measured one
         self._seeds = np.zeros(n, np.int64)
         self._profiles: list[Any] = [None] * n
         self.state = initial_state(cfg.variant, n, lpr, semi_active)
@@ -392,7 +392,7 @@ class VerticalBatch:
             self.measured[i] = profile is not None
             self._seeds[i] = 0 if profile is not None else int(rng.integers(2**63 - 1))
             self._profiles[i] = profile
-        move_windows(idx, self._draw_track)
+        draw_tracks(idx, self._draw_track)
         for i in idx:
             self.reset_state(i)
 
@@ -440,7 +440,7 @@ class VerticalBatch:
             self._fill(i, start)
             self.k[i] = at - start
 
-        move_windows(late, move)
+        draw_tracks(late, move)
 
     def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s whole episode track ``(z, zdot)`` (m, m/s): copies of the held
