@@ -23,6 +23,7 @@ from railgym.track import (
     track_time_input,
     track_time_window,
 )
+from tests.fmu.user_fmu import user_c_fmu  # noqa: F401, F811  (fixture)
 from tests.markers import needs_cc
 
 
@@ -313,4 +314,27 @@ def test_tracks_on_threads_equal_serial(
         runs.append(_rollout(env_id, 6, 150, {"duration": 1.0}))
     (serial, comfort, _), (threaded, comfort_t, _) = runs
     for a, b in zip(serial + comfort, threaded + comfort_t, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_users_fmu_chunked_equals_whole(
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Any,
+    user_c_fmu: Any,  # noqa: F811
+) -> None:
+    """The user's own FMU (the hand-written C quarter car of ``tests/fmu/user_fmu.py``: other
+    masses, variable names and outputs) behind ``backend="fmu"`` reads the same windows."""
+    import yaml
+
+    from tests.fmu.user_fmu import USER_MAPPING_YAML, USER_VEHICLE_YAML
+
+    (tmp_path / "my_car.yaml").write_text(USER_VEHICLE_YAML)
+    mapping = {**yaml.safe_load(USER_MAPPING_YAML), "fmu": str(user_c_fmu)}
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump({**mapping, "vehicle": "my_car.yaml"}))
+    kw = {"backend": "fmu", "fmu_map": str(tmp_path / "map.yaml"), "duration": 0.3}
+    whole, _, _ = _rollout("railgym/VerticalSuspension-v1", 2, 40, kw)
+    monkeypatch.setattr(vertical_batch, "_FORCED_WINDOW", 11)
+    chunked, _, sim_c = _rollout("railgym/VerticalSuspension-v1", 2, 40, kw)
+    assert sim_c.window == 11 and np.any(sim_c.base > 0)
+    for a, b in zip(whole, chunked, strict=True):
         np.testing.assert_array_equal(a, b)
