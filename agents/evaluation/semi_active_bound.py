@@ -376,9 +376,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the bound on every (class, seed) and print the tables."""
-    args = build_parser().parse_args(argv)
-    if args.duration <= DISCARD_S:
-        raise SystemExit(f"--duration must exceed the settling time {DISCARD_S:g} s")
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not args.duration > DISCARD_S:
+        parser.error(f"--duration must exceed the settling time {DISCARD_S:g} s")
+    for flag, value in (("--screen-eval", args.screen_eval), ("--max-eval", args.max_eval)):
+        if value < 1:
+            parser.error(f"{flag} must be at least 1, got {value}")
     t0 = time.perf_counter()
     cases = [(tc, s) for tc in args.track_class for s in args.seeds]
     results = []
