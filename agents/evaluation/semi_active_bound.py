@@ -91,7 +91,7 @@ def closed_loop(
     while True:
         action, _ = ctrl.predict(obs, deterministic=True)
         obs, _, term, trunc, info = venv.step(np.asarray(action, np.float32).reshape(1, 1))
-        commands.append(float(sim.action[0, 0]))
+        commands.append(float(sim.actions[0, 0]))
         acc.append(float(info["carbody_acc"][0]))
         if term[0]:
             raise RuntimeError(f"{policy}: the episode diverged")

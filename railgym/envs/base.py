@@ -20,8 +20,9 @@ The batch contract (:class:`Batch`)
     work of several at once (the track batches synthesise the tracks on threads).
 ``reset_state(i)``
     System ``i`` back to its initial state on its current episode data, counters cleared.
-``set_action(actions)``
-    Store the validated, clipped actions (n, *action_shape) float64.
+``actions``
+    The (n, *action_shape) float64 actions of the next :meth:`advance`; the shells write the
+    validated, clipped actions into it.
 ``advance()``
     One control step of every system; afterwards ``reward`` (n,) is the step reward,
     ``reward_terms(i=None)`` the weighted terms that sum to it, ``info(i=None)`` the env's
@@ -32,8 +33,9 @@ The batch contract (:class:`Batch`)
     :meth:`advance` of every system but those of the (n,) bool mask ``hold``, which keep the
     state, observation, ``info`` and reward their reset left; without it the shell advances
     all and restores the held ones with ``reset_state``.
-``observe(rngs)``
-    Observations (n, *obs_shape) float32, any sensor noise drawn from the per-system ``rngs``.
+``observe(rngs, i=None)``
+    Observations (n, *obs_shape) float32, any sensor noise drawn from the per-system ``rngs``;
+    with ``i``, system ``i``'s alone (*obs_shape), its noise drawn from ``rngs[0]``.
 ``render_state(i)``
     What the env's frame function draws for system ``i``.
 ``close()`` (optional)
@@ -105,16 +107,15 @@ class Batch(Protocol):
 
     n: int
     reward: np.ndarray
+    actions: np.ndarray
 
     def reset(self, i: int, rng: np.random.Generator, episode: tuple) -> None: ...
 
     def reset_state(self, i: int) -> None: ...
 
-    def set_action(self, actions: np.ndarray) -> None: ...
-
     def advance(self) -> None: ...
 
-    def observe(self, rngs: list[np.random.Generator]) -> np.ndarray: ...
+    def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray: ...
 
     def info(self, i: int | None = None) -> dict[str, Any]: ...
 
@@ -250,7 +251,6 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         self._flat_bounds = (self._bounds[0].ravel().tolist(), self._bounds[1].ravel().tolist())
         self._shape = action_space.shape
         self._small = len(self._shape) == 1 and self._shape[0] <= _SMALL
-        self._action = np.zeros((1, *action_space.shape))
         self._rng1: list[np.random.Generator] = []
         self._started = False
         self._own_case = tuple(getattr(self, a) for a in self._case_attrs)
@@ -338,16 +338,15 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
             k: v[0].item() if v.ndim == 1 else v[0].copy()
             for k, v in self._case_arrays(self.sim, _ONE).items()
         }
-        return self.sim.observe(self._rng1)[0], info
+        return self.sim.observe(self._rng1, 0), info
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Advance one control step; the action is clipped to the action space."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
-        sim, buf = self.sim, self._action
-        if not (self._small and _check_small(action, self._shape, self._flat_bounds, buf)):
-            buf[0] = check_actions(action, self._shape, *self._bounds)
-        sim.set_action(buf)
+        sim = self.sim
+        if not (self._small and _check_small(action, self._shape, self._flat_bounds, sim.actions)):
+            sim.actions[0] = check_actions(action, self._shape, *self._bounds)
         sim.advance()
         info = self._info()
         info["reward_terms"] = sim.reward_terms(0)
@@ -358,7 +357,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         truncated = not terminated and bool(sim.truncated()[0])
         if terminated or truncated:
             self._started = False
-        return sim.observe(self._rng1)[0], float(sim.reward[0]), terminated, truncated, info
+        return sim.observe(self._rng1, 0), float(sim.reward[0]), terminated, truncated, info
 
     def _info(self) -> dict[str, Any]:
         return self.sim.info(0)
@@ -449,7 +448,7 @@ class BatchVectorEnv(VectorEnv):
         if not self._rngs:
             raise RuntimeError("call reset() before step()")
         sim = self.sim
-        sim.set_action(check_actions(actions, self.action_space.shape, *self._bounds, "actions"))
+        sim.actions[...] = check_actions(actions, self.action_space.shape, *self._bounds, "actions")
         done = np.flatnonzero(self._prev_done)
         if done.size:
             self._reset_rows(done)

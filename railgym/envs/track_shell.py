@@ -38,6 +38,7 @@ __all__ = [
     "check_speed_limit",
     "draw_tracks",
     "element_arrays",
+    "noisy_obs",
     "reward_sections",
     "track_window",
 ]
@@ -104,6 +105,19 @@ def draw_tracks(rows: np.ndarray, move: Callable[[int], None]) -> None:
     with ThreadPoolExecutor(threads) as pool:
         for _ in pool.map(move, [int(i) for i in rows]):
             pass
+
+
+def noisy_obs(
+    obs: np.ndarray, noise: float, rngs: list[np.random.Generator], i: int | None = None
+) -> np.ndarray:
+    """The observations ``obs`` (n, n_obs) as float32 with Gaussian sensor noise of standard
+    deviation ``noise`` (in units of the normalised channels) drawn from the per-env ``rngs``;
+    with ``i`` row ``i`` alone (n_obs,), its noise from ``rngs[0]``."""
+    rows = obs if i is None else obs[i]
+    if noise > 0:
+        draws = [g.standard_normal(obs.shape[1]) for g in rngs]
+        rows = rows + noise * (np.stack(draws) if i is None else draws[0])
+    return rows.astype(np.float32)
 
 
 def reward_sections(acc_weighting: str, control_dt: float) -> np.ndarray:

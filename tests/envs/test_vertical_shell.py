@@ -15,6 +15,7 @@ from scipy import signal
 
 from railgym.comfort import WeightingFilter
 from railgym.envs.base import _check_small, check_actions
+from railgym.envs.track_shell import noisy_obs
 from railgym.envs.vertical import (
     ACC_REF,
     INFO_KEYS,
@@ -55,6 +56,19 @@ def test_vector_env_copy_continues_bit_identically(
     acts = random_actions(45, (3, 1), seed=4)  # crosses an autoreset
     a, b, _ = continue_copies(venv, _run, 9, before, acts)
     assert_same_rollouts(a, b)
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.05])
+def test_one_row_of_the_observations_is_that_row_of_all(noise):
+    """The single env's path (``observe(rngs, i)``) gives bit for bit the row ``i`` of the
+    vector env's path, the noise drawn from the same generator state."""
+    obs = np.random.default_rng(0).normal(size=(3, 5))
+    rngs = [np.random.default_rng(s) for s in (7, 8, 9)]
+    every = noisy_obs(obs, noise, rngs)
+    one = noisy_obs(obs, noise, [np.random.default_rng(8)], 1)
+    assert one.dtype == every.dtype == np.float32 and one.shape == (5,)
+    np.testing.assert_array_equal(one, every[1])
+    assert (noise == 0.0) == bool(np.all(one == obs[1].astype(np.float32)))
 
 
 def test_reward_terms_sum_to_the_reward_and_follow_the_definition(random_actions):

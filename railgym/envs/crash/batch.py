@@ -91,7 +91,8 @@ class CrashBatch:
             tension_k=types.tension_stiffness[kind] if surrogate else np.zeros(0),
             info=columns,
         )
-        self._actions = np.zeros((n, self.n_zones))
+        #: float64 (n, zones) the actions of the next step (the batch contract)
+        self.actions = np.zeros((n, self.n_zones))
         self._all = np.ones(n, np.bool_)
         self._one = np.zeros(n, np.bool_)  # the train of reset_state
         self._bind()
@@ -143,7 +144,7 @@ class CrashBatch:
             parallel = self.n >= PARALLEL_MIN
             kernel = advance_surrogate_parallel if parallel else advance_surrogate
         # resolved once: numba's per-call typing of the nested tuples costs more than a reset
-        example = (*self._args, self._actions, self._all, False)
+        example = (*self._args, self.actions, self._all, False)
         self._kernel = compiled_entry(kernel, example)
         self._init_kernel = compiled_entry(init_kernel, example)
         self._flags = {"crash_over": self.over, "diverged": self.div}
@@ -202,22 +203,18 @@ class CrashBatch:
         payload = self.payload[i] if self.payload[i].any() else None
         self.model.reset(self.state, self.out, i, float(self.speed[i]), payload)
         self._one[i] = True
-        self._init_kernel(*self._args, self._actions, self._one, True)
+        self._init_kernel(*self._args, self.actions, self._one, True)
         self._one[i] = False
-
-    def set_action(self, actions: np.ndarray) -> None:
-        """Store the clipped actions (n, zones)."""
-        self._actions[:] = actions
 
     def advance(self) -> None:
         """One control step of every train with the stored actions."""
-        self._kernel(*self._args, self._actions, self._all, False)
+        self._kernel(*self._args, self.actions, self._all, False)
 
     def advance_holding(self, hold: np.ndarray) -> None:
         """:meth:`advance` of every train but those of the (n,) bool mask ``hold`` (just
         reset: they stay at first contact, observation, ``info`` and reward as the reset
         left them)."""
-        self._kernel(*self._args, self._actions, ~hold, False)
+        self._kernel(*self._args, self.actions, ~hold, False)
 
     def flags(self) -> dict[str, np.ndarray]:
         """Events that end the episode: ``crash_over`` (no zone loaded or closing: every car
@@ -228,9 +225,10 @@ class CrashBatch:
         """True where the episode reached ``max_duration``."""
         return self.steps >= self.cfg.n_steps
 
-    def observe(self, rngs: list[np.random.Generator]) -> np.ndarray:
-        """Observations (n, n_obs), float32 (no sensor noise)."""
-        return self.obs.astype(np.float32)
+    def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray:
+        """Observations (n, n_obs), float32 (no sensor noise); with ``i`` train ``i``'s
+        (n_obs,)."""
+        return (self.obs if i is None else self.obs[i]).astype(np.float32)
 
     def info(self, i: int | None = None) -> dict[str, Any]:
         """``info`` of train ``i`` (floats, bools and 1-D arrays) or of all (arrays, first axis

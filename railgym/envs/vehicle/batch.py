@@ -23,7 +23,7 @@ from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward, weigh
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import draw_tracks, reward_sections, track_window
+from railgym.envs.track_shell import draw_tracks, noisy_obs, reward_sections, track_window
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_window, fra_profile_with_slope
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -432,6 +432,8 @@ class VehicleBatch:
     def _link(self) -> None:
         """Views and the compiled entry point (re-made after a copy: not picklable)."""
         self.reward = self.book.rew
+        #: float64 (n, 2) the actions of the next step (the batch contract)
+        self.actions = self.book.action
         self.extrapolated = self.book.extrapolated
         #: the per-vehicle arrays of the scalar info keys (``time`` is computed)
         self._info_scalars = {
@@ -596,13 +598,9 @@ class VehicleBatch:
             int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
         )
 
-    def set_action(self, actions: np.ndarray) -> None:
-        """Store the clipped actions (n, 2); :meth:`advance` applies ``action · f_max`` (N), or
-        with dampers takes them as their commands."""
-        self.book.action[...] = actions
-
     def advance(self) -> None:
-        """One control step of every vehicle with the stored actions (one compiled call; in
+        """One control step of every vehicle with :attr:`actions` (``action · f_max``, N, or
+        with dampers their commands; one compiled call; in
         chunked mode the windows the step would run past are moved first)."""
         if self.window is not None:
             self._cover_step()
@@ -648,13 +646,10 @@ class VehicleBatch:
             return {"acceleration": acc, "deflection": defl, "force": force, "divergence": div}
         return {key: self.book.terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
 
-    def observe(self, rngs: list[np.random.Generator]) -> np.ndarray:
-        """Observations (n, n_obs) float32, plus sensor noise from the per-env ``rngs``."""
-        obs = self.book.obs
-        if self.cfg.sensor_noise > 0:
-            noise = np.stack([g.standard_normal(obs.shape[1]) for g in rngs])
-            return (obs + self.cfg.sensor_noise * noise).astype(np.float32)
-        return obs.astype(np.float32)
+    def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray:
+        """Observations (n, n_obs) float32, plus sensor noise from the per-env ``rngs``; with
+        ``i`` vehicle ``i``'s (n_obs,), its noise from ``rngs[0]``."""
+        return noisy_obs(self.book.obs, self.cfg.sensor_noise, rngs, i)
 
     def comfort(self, i: int) -> dict[str, np.ndarray]:
         """:func:`episode_comfort` of vehicle ``i``'s record so far."""

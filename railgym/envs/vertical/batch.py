@@ -26,7 +26,7 @@ from railgym.envs.compiled import (
     weigh,
 )
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import draw_tracks, reward_sections, track_window
+from railgym.envs.track_shell import draw_tracks, noisy_obs, reward_sections, track_window
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input, track_time_window
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -303,7 +303,8 @@ class VerticalBatch:
         self._seeds = np.zeros(n, np.int64)
         self._profiles: list[Any] = [None] * n
         self.state = initial_state(cfg.variant, n, lpr, semi_active)
-        self.action = np.zeros((n, 1))
+        #: float64 (n, 1) the actions of the next step (the batch contract)
+        self.actions = np.zeros((n, 1))
         self.force = np.zeros(n)
         self.out = step_outputs(n)
         ints = {k: np.zeros(n, np.int64) for k in ("k", "steps", "contacts", "ood")}
@@ -353,7 +354,7 @@ class VerticalBatch:
             self.state,
             self.z,
             self.zdot,
-            self.action,
+            self.actions,
             self.force,
             self.params_record,
             self.lpr,
@@ -497,13 +498,9 @@ class VerticalBatch:
             int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
         )
 
-    def set_action(self, actions: np.ndarray) -> None:
-        """Store the clipped actions (n, 1); :meth:`advance` applies ``action · f_max`` (N), or
-        with a damper takes them as its command."""
-        self.action[...] = actions
-
     def advance(self) -> None:
-        """One control step of every vehicle with the stored actions (one compiled call; in
+        """One control step of every vehicle with :attr:`actions` (``action · f_max``, N, or with
+        a damper its command; one compiled call; in
         chunked mode the windows the step would run past are moved first)."""
         if self.window is not None:
             self._cover_step()
@@ -539,9 +536,10 @@ class VerticalBatch:
             if damper:
                 info["damper_force"], info["damper_command"] = damper
             return info
-        out = {key: self.info_rows[:, j].copy() for j, key in enumerate(names)}
+        cols = self.info_rows.T.copy()  # one copy; each key a contiguous row of it
+        out = dict(zip(names, cols, strict=True))
         for j, kind in _CAST_INFO:
-            out[names[j]] = out[names[j]].astype(_DTYPES[kind])
+            out[names[j]] = cols[j].astype(_DTYPES[kind])
         return out
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:
@@ -550,14 +548,12 @@ class VerticalBatch:
         if i is not None:  # a dict display: the single env builds this every step
             acc, defl, force, div = self.terms[i].tolist()
             return {"acceleration": acc, "deflection": defl, "force": force, "divergence": div}
-        return {key: self.terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
+        return dict(zip(REWARD_TERMS, self.terms.T.copy(), strict=True))
 
-    def observe(self, rngs: list[np.random.Generator]) -> np.ndarray:
-        """Observations (n, n_obs) float32, plus sensor noise drawn from the per-env ``rngs``."""
-        if self.cfg.sensor_noise > 0:
-            noise = np.stack([g.standard_normal(self.obs.shape[1]) for g in rngs])
-            return (self.obs + self.cfg.sensor_noise * noise).astype(np.float32)
-        return self.obs.astype(np.float32)
+    def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray:
+        """Observations (n, n_obs) float32, plus sensor noise drawn from the per-env ``rngs``;
+        with ``i`` vehicle ``i``'s (n_obs,), its noise from ``rngs[0]``."""
+        return noisy_obs(self.obs, self.cfg.sensor_noise, rngs, i)
 
     def time(self) -> np.ndarray:
         """Simulated time of each vehicle, s."""

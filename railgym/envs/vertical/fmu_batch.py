@@ -48,7 +48,7 @@ class FMUBatch(FMUInstances, VerticalBatch):
         c, p = self._cols, self.params
         n_sub = self.cfg.n_sub
         for i, run in enumerate(self.runners):
-            self.force[i] = self.action[i, 0] * self.cfg.f_max
+            self.force[i] = self.actions[i, 0] * self.cfg.f_max
             k = int(self.k[i])
             y = run.advance(
                 self.z[i : i + 1, k : k + n_sub + 1],
