@@ -56,4 +56,11 @@ def register_envs() -> None:
     """Register every railgym environment once (idempotent)."""
     for env_id, (entry, vector_entry) in ENVS.items():
         if env_id not in registry:
-            register(id=env_id, entry_point=entry, vector_entry_point=vector_entry)
+            # no OrderEnforcing wrapper: the envs refuse a step before reset themselves
+            # (railgym.envs.base.ResetNeeded, a gymnasium ResetNeeded)
+            register(
+                id=env_id,
+                entry_point=entry,
+                vector_entry_point=vector_entry,
+                order_enforce=False,
+            )

@@ -29,6 +29,10 @@ The batch contract (:class:`Batch`)
     ``info`` layout (declared once by the batch) — both as Python numbers of system ``i`` or,
     for ``i=None``, as (n,) array copies —, ``flags()`` a dict of (n,) bool arrays of events
     (``diverged``; every flag terminates the episode) and ``truncated()`` (n,) bool.
+``outcome(i)`` (optional)
+    ``(reward, terminated, truncated, info)`` of system ``i`` after :meth:`advance`, as the
+    single env's step returns them (``info`` with ``reward_terms`` and the flags set): what the
+    shell otherwise assembles from the five reads above, in one.
 ``advance_holding(hold)`` (optional)
     :meth:`advance` of every system but those of the (n,) bool mask ``hold``, which keep the
     state, observation, ``info`` and reward their reset left; without it the shell advances
@@ -99,7 +103,13 @@ from gymnasium.vector.utils import batch_space
 from railgym import _checks as val
 from railgym.envs.vector import reset_plan
 
-__all__ = ["Batch", "BatchEnv", "BatchVectorEnv", "check_actions", "step_grid"]
+__all__ = ["Batch", "BatchEnv", "BatchVectorEnv", "ResetNeeded", "check_actions", "step_grid"]
+
+
+class ResetNeeded(gym.error.ResetNeeded, RuntimeError):
+    """A step before the first ``reset()`` or after the episode ended (gymnasium's
+    ``ResetNeeded``, also a ``RuntimeError``): the envs enforce the order themselves, so
+    ``gym.make`` adds no ``OrderEnforcing`` wrapper."""
 
 
 class Batch(Protocol):
@@ -252,6 +262,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         self._shape = action_space.shape
         self._small = len(self._shape) == 1 and self._shape[0] <= _SMALL
         self._rng1: list[np.random.Generator] = []
+        self._one_read = hasattr(sim, "outcome")
         self._started = False
         self._own_case = tuple(getattr(self, a) for a in self._case_attrs)
         self._own_episode = self._episode()
@@ -343,11 +354,23 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Advance one control step; the action is clipped to the action space."""
         if not self._started:
-            raise RuntimeError("call reset() before step()")
+            raise ResetNeeded("call reset() before step() (the first, and after an episode ended)")
         sim = self.sim
         if not (self._small and _check_small(action, self._shape, self._flat_bounds, sim.actions)):
             sim.actions[0] = check_actions(action, self._shape, *self._bounds)
         sim.advance()
+        if self._one_read:
+            reward, terminated, truncated, info = sim.outcome(0)  # type: ignore[attr-defined]
+        else:
+            reward, terminated, truncated, info = self._outcome()
+        if terminated or truncated:
+            self._started = False
+        return sim.observe(self._rng1, 0), reward, terminated, truncated, info
+
+    def _outcome(self) -> tuple[float, bool, bool, dict[str, Any]]:
+        """``(reward, terminated, truncated, info)`` of the step, assembled from the batch's
+        reads (the batch contract)."""
+        sim = self.sim
         info = self._info()
         info["reward_terms"] = sim.reward_terms(0)
         terminated = False
@@ -355,9 +378,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
             if v[0]:
                 info[k] = terminated = True
         truncated = not terminated and bool(sim.truncated()[0])
-        if terminated or truncated:
-            self._started = False
-        return sim.observe(self._rng1, 0), float(sim.reward[0]), terminated, truncated, info
+        return float(sim.reward[0]), terminated, truncated, info
 
     def _info(self) -> dict[str, Any]:
         return self.sim.info(0)
@@ -446,7 +467,7 @@ class BatchVectorEnv(VectorEnv):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step all sub-envs; those that ended on the previous step are reset instead."""
         if not self._rngs:
-            raise RuntimeError("call reset() before step()")
+            raise ResetNeeded("call reset() before step()")
         sim = self.sim
         sim.actions[...] = check_actions(actions, self.action_space.shape, *self._bounds, "actions")
         done = np.flatnonzero(self._prev_done)

@@ -36,21 +36,18 @@ from railgym.vehicles.vertical import (
     LprArrays,
     SuspensionParams,
     VerticalVehicle,
-    advance_dynamic,
-    advance_linear,
     advance_semi_active,
-    advance_static,
-    advance_surrogate,
     initial_state,
     step_outputs,
 )
-from railgym.vehicles.vertical.kernels import check_variant
+from railgym.vehicles.vertical.kernels import advance_kind, check_variant, scalar_work
 
 __all__ = [
     "ACC_REF",
     "DIVERGENCE_PENALTY",
     "INFO_KEYS",
     "OBS_LIMIT",
+    "OUTCOME",
     "REWARD_TERMS",
     "SEMI_ACTIVE_INFO_KEYS",
     "VerticalBatch",
@@ -98,8 +95,8 @@ class StepCfg(NamedTuple):
 
 class StepResult(NamedTuple):
     """Outputs of :func:`post_step` per vehicle: observation (n, n_obs), reward (n,), its
-    terms (n, len(REWARD_TERMS)), the info values (n, len(INFO_KEYS)), and the truncated and
-    extrapolated flags (n,)."""
+    terms (n, len(REWARD_TERMS)), the outcome and info values (n, N_OUTCOME + len(INFO_KEYS),
+    :data:`OUTCOME` then :data:`INFO_COLUMN`), and the truncated and extrapolated flags (n,)."""
 
     obs: np.ndarray
     reward: np.ndarray
@@ -108,6 +105,17 @@ class StepResult(NamedTuple):
     truncated: np.ndarray
     extrapolated: np.ndarray
 
+
+#: columns of :attr:`StepResult.terms`, the keys of ``info["reward_terms"]``
+REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
+#: the first columns of :attr:`StepResult.info`: the step's outcome (reward, its terms, the
+#: diverged, extrapolated and truncated flags as 1.0 / 0.0), copies for the single env's one
+#: read (:meth:`VerticalBatch.outcome`); the info keys follow
+OUTCOME = ("reward", *REWARD_TERMS, "diverged", "extrapolated", "truncated")
+N_OUTCOME = len(OUTCOME)
+_O_REWARD, _O_TERMS, _O_DIV, _O_EXT, _O_TRUNC = (
+    OUTCOME.index(k) for k in ("reward", REWARD_TERMS[0], "diverged", "extrapolated", "truncated")
+)
 
 #: the ``info`` layout of the single and the vector env, declared once: key, Python type of
 #: the single env's value (the vector env's arrays are float64, int64 and bool)
@@ -127,8 +135,11 @@ SEMI_ACTIVE_INFO_KEYS = (
     ("damper_command", float),  # its filtered command u at the end of the step
 )
 _INFO = [key for key, _ in INFO_KEYS]
-#: column of each info key in :attr:`StepResult.info`; the compiled step writes them by name
-INFO_COLUMN = {key: j for j, key in enumerate(_INFO + [k for k, _ in SEMI_ACTIVE_INFO_KEYS])}
+#: column of each info key in :attr:`StepResult.info` (after :data:`OUTCOME`); the compiled
+#: step writes them by name
+INFO_COLUMN = {
+    key: N_OUTCOME + j for j, key in enumerate(_INFO + [k for k, _ in SEMI_ACTIVE_INFO_KEYS])
+}
 I_TIME, I_ACC, I_RMS, I_FORCE = (
     INFO_COLUMN[k] for k in ("time", "carbody_acc", "rms_carbody_acc", "actuator_force")
 )
@@ -141,10 +152,9 @@ I_DAMPER_FORCE, I_DAMPER_COMMAND = (INFO_COLUMN[k] for k in ("damper_force", "da
 _CAST_INFO = tuple((j, kind) for j, (_, kind) in enumerate(INFO_KEYS) if kind is not float)
 _DTYPES = {int: np.int64, bool: np.bool_}
 
-_LINEAR, _STATIC, _DYNAMIC = (check_variant(v) for v in ("linear", "static", "dynamic"))
-
-#: columns of :attr:`StepResult.terms`, the keys of ``info["reward_terms"]``
-REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
+_LINEAR, _STATIC, _DYNAMIC, _SURROGATE = (
+    check_variant(v) for v in ("linear", "static", "dynamic", "surrogate")
+)
 
 
 @njit(cache=True)
@@ -224,6 +234,12 @@ def post_step(state, z, zdot, out, force, counters, result, consts):
         result.truncated[i] = counters.steps[i] >= consts.n_steps
         if consts.flag_ood:
             result.extrapolated[i] = out.count[i, 1] > 0
+        result.info[i, _O_REWARD] = result.reward[i]
+        for j in range(len(REWARD_TERMS)):
+            result.info[i, _O_TERMS + j] = result.terms[i, j]
+        result.info[i, _O_DIV] = 1.0 if out.div[i] else 0.0
+        result.info[i, _O_EXT] = 1.0 if result.extrapolated[i] else 0.0
+        result.info[i, _O_TRUNC] = 1.0 if result.truncated[i] else 0.0
 
 
 # Without the runtime's reference counting: the arrays come from the batch, which owns them
@@ -232,31 +248,54 @@ def post_step(state, z, zdot, out, force, counters, result, consts):
 # arrays are still allocated and freed by the runtime (tests/envs/test_vehicle_shell.py checks the
 # balance).
 @njit(cache=True, _nrt=False)
-def control_step(state, z, zdot, action, force, params, lpr, damper, out, counters, result, consts):
+def control_step(
+    state, z, zdot, action, force, params, lpr, damper, out, counters, result, consts, work
+):
     """One control step of every vehicle: actuator forces ``action[:, 0] · f_max`` (N), the
     kernel of variant ``consts.kind`` (arguments as
-    :func:`~railgym.vehicles.vertical.advance_linear` with ``k0 = counters.k``), then
+    :func:`~railgym.vehicles.vertical.advance_linear` with ``k0 = counters.k``; ``work``
+    the batch's :class:`~railgym.vehicles.vertical.kernels.ScalarWork`), then
     :func:`post_step`. With a ``damper`` (:class:`~railgym.vehicles.vertical.DamperLaw`,
     else ``None``) ``action[:, 0]`` is its command and ``force`` receives its force (N)."""
     k, n_sub, dt, kind = counters.k, consts.n_sub, consts.dt, consts.kind
     if damper is not None:
         command = action[:, 0]
         advance_semi_active(
-            kind, state, z, zdot, k, n_sub, dt, command, params, lpr, damper, out, force
+            kind, state, z, zdot, k, n_sub, dt, command, params, lpr, damper, out, force, work
         )
         post_step(state, z, zdot, out, force, counters, result, consts)
         return
     for i in range(state.shape[0]):
         force[i] = action[i, 0] * consts.f_max
+    # each variant's number as a constant, so that its kernel is compiled for it alone
     if kind == _LINEAR:
-        advance_linear(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
+        advance_kind(_LINEAR, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
     elif kind == _STATIC:
-        advance_static(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
+        advance_kind(_STATIC, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
     elif kind == _DYNAMIC:
-        advance_dynamic(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
+        advance_kind(_DYNAMIC, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
     else:
-        advance_surrogate(state, z, zdot, k, n_sub, dt, force, params, lpr, out)
+        advance_kind(_SURROGATE, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
     post_step(state, z, zdot, out, force, counters, result, consts)
+
+
+def _info_dict(values: list[float]) -> dict[str, Any]:
+    """The single env's ``info`` from the values of its :data:`INFO_COLUMN` columns (a
+    literal: the fastest to build, once per step)."""
+    t, acc, ood, contacts, outside, envelope, rms, force, *damper = values
+    info = {
+        "time": t,
+        "carbody_acc": acc,
+        "out_of_domain": int(ood),
+        "bump_stop_contacts": int(contacts),
+        "outside_element": outside != 0.0,
+        "outside_envelope": envelope != 0.0,
+        "rms_carbody_acc": rms,
+        "actuator_force": force,
+    }
+    if damper:
+        info["damper_force"], info["damper_command"] = damper
+    return info
 
 
 class VerticalBatch:
@@ -303,6 +342,7 @@ class VerticalBatch:
         self._seeds = np.zeros(n, np.int64)
         self._profiles: list[Any] = [None] * n
         self.state = initial_state(cfg.variant, n, lpr, semi_active)
+        self.work = scalar_work(self.state.shape[1], lpr)
         #: float64 (n, 1) the actions of the next step (the batch contract)
         self.actions = np.zeros((n, 1))
         self.force = np.zeros(n)
@@ -334,7 +374,7 @@ class VerticalBatch:
             obs=np.zeros((n, len(cfg.obs_names))),
             reward=np.zeros(n),
             terms=np.zeros((n, len(REWARD_TERMS))),
-            info=np.zeros((n, len(self._info_keys))),
+            info=np.zeros((n, N_OUTCOME + len(self._info_keys))),
             truncated=np.zeros(n, np.bool_),
             extrapolated=np.zeros(n, np.bool_),
         )
@@ -363,6 +403,7 @@ class VerticalBatch:
             self.cnt,
             self.res,
             self.step_consts,
+            self.work,
         )
         self._step = compiled_entry(control_step, self._args)
 
@@ -518,29 +559,35 @@ class VerticalBatch:
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_KEYS` (with a damper also :data:`SEMI_ACTIVE_INFO_KEYS`) of vehicle
         ``i`` (Python numbers), or of all ((n,) arrays)."""
+        if i is not None:
+            return _info_dict(self.info_rows[i, N_OUTCOME:].tolist())
         names = self._info_names
-        if i is not None:  # the single env builds this every step: one literal, the fastest
-            t, acc, ood, contacts, outside, envelope, rms, force, *damper = self.info_rows[
-                i
-            ].tolist()
-            info = {
-                "time": t,
-                "carbody_acc": acc,
-                "out_of_domain": int(ood),
-                "bump_stop_contacts": int(contacts),
-                "outside_element": outside != 0.0,
-                "outside_envelope": envelope != 0.0,
-                "rms_carbody_acc": rms,
-                "actuator_force": force,
-            }
-            if damper:
-                info["damper_force"], info["damper_command"] = damper
-            return info
-        cols = self.info_rows.T.copy()  # one copy; each key a contiguous row of it
+        cols = self.info_rows[:, N_OUTCOME:].T.copy()  # one copy; each key a contiguous row
         out = dict(zip(names, cols, strict=True))
         for j, kind in _CAST_INFO:
             out[names[j]] = cols[j].astype(_DTYPES[kind])
         return out
+
+    def outcome(self, i: int) -> tuple[float, bool, bool, dict[str, Any]]:
+        """``(reward, terminated, truncated, info)`` of vehicle ``i`` as the single env's step
+        returns them (the batch contract), from one read of its row: ``info`` with
+        ``reward_terms`` and each flag set this step (``diverged``, ``extrapolated``)."""
+        reward, acc, defl, force, div, diverged, extrapolated, truncated, *values = self.info_rows[
+            i
+        ].tolist()
+        info = _info_dict(values)
+        info["reward_terms"] = {
+            "acceleration": acc,
+            "deflection": defl,
+            "force": force,
+            "divergence": div,
+        }
+        terminated = False
+        if diverged:
+            info["diverged"] = terminated = True
+        if extrapolated:
+            info["extrapolated"] = terminated = True
+        return reward, terminated, not terminated and truncated != 0.0, info
 
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:
         """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to

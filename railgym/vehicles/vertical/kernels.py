@@ -46,6 +46,7 @@ __all__ = [
     "KERNELS",
     "RAISE_MODE",
     "STATE_SIZE",
+    "ScalarWork",
     "StepOutputs",
     "VARIANTS",
     "advance_dynamic",
@@ -56,6 +57,7 @@ __all__ = [
     "check_variant",
     "damper_law",
     "initial_state",
+    "scalar_work",
     "state_size",
     "step_outputs",
     "surrogate_arrays",
@@ -84,6 +86,23 @@ class StepOutputs(NamedTuple):
     div: np.ndarray  #: bool (n,): diverged during this step (state frozen)
 
 
+class ScalarWork(NamedTuple):
+    """Work arrays of the scalar path (:func:`advance_kind` with fewer than ``LANES_MIN``
+    vehicles, :func:`advance_semi_active`), made once by a caller that steps many times
+    (:func:`scalar_work`) instead of on every call."""
+
+    buf: np.ndarray  #: float64 (6, s): state, stage state and the four stage rates
+    u: np.ndarray  #: float64 (d,): the element's inputs
+    lw: np.ndarray  #: the element's :func:`~surrogates.models.lpr.lpr_scratch`
+
+
+def scalar_work(s: int, lpr: LprArrays) -> ScalarWork:
+    """:class:`ScalarWork` for states of ``s`` columns and the element ``lpr``."""
+    return ScalarWork(
+        np.empty((6, s)), np.empty(lpr.lo.shape[0]), lpr_scratch(lpr.exps, lpr.lo, lpr.up)
+    )
+
+
 def step_outputs(n: int) -> StepOutputs:
     """Zeroed :class:`StepOutputs` for ``n`` envs."""
     return StepOutputs(
@@ -92,11 +111,12 @@ def step_outputs(n: int) -> StepOutputs:
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def advance_kind(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
+def advance_kind(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, work=None):
     """RK4 core shared by the four ``advance_<variant>`` kernels (see :func:`advance_linear`):
     the lane kernel (:mod:`~railgym.vehicles.vertical.lanes`) for an additive LPR surrogate
     element and at least ``LANES_MIN`` vehicles (on all threads from ``PARALLEL_MIN``), else
-    :func:`_advance_scalar` (the same results; the only path of a Kriging element)."""
+    :func:`_advance_scalar` (the same results; the only path of a Kriging element), in the
+    :class:`ScalarWork` ``work`` when given."""
     d = lpr.lo.shape[0]
     n = state.shape[0]
     lanes = kind == 3 and lpr.additive and (d == 2 or d == 3)
@@ -105,7 +125,7 @@ def advance_kind(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     elif lanes and n >= LANES_MIN:
         advance_lanes(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
     else:
-        _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+        _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, work=work)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -120,9 +140,12 @@ def _stage(kind, x, zc, zdc, fa, p, lpr, dmp, u, lw, dx):
 
 
 @njit(cache=True, error_model="numpy", _nrt=True)
-def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, dmp=None, f_d=None):
+def _advance_scalar(
+    kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, dmp=None, f_d=None, work=None
+):
     """RK4 of one vehicle after another (see :func:`advance_linear`); with a damper ``dmp``
-    as :func:`advance_semi_active` (``force_a`` the commands, damper forces into ``f_d``)."""
+    as :func:`advance_semi_active` (``force_a`` the commands, damper forces into ``f_d``);
+    ``work``: a :class:`ScalarWork` of ``state``'s columns and ``lpr`` (else allocated)."""
     q = p[0]
     n, s = state.shape
     if kind == 3 and lpr.tau > 0.0 and s < 5:
@@ -131,10 +154,13 @@ def _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, d
         own = 7 if kind == 2 else (5 if kind == 3 and lpr.tau > 0.0 else 4)
         if s != own + DAMPER_STATES:
             raise ValueError("a controllable damper needs its 2 states (u, w) after the variant's")
-    buf = np.empty((6, s))  # one allocation: state, stage state, the four stage rates
+    if work is None:
+        buf = np.empty((6, s))  # one allocation: state, stage state, the four stage rates
+        u = np.empty(lpr.lo.shape[0])
+        lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
+    else:
+        buf, u, lw = work
     x, xt, r1, r2, r3, r4 = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
-    u = np.empty(lpr.lo.shape[0])
-    lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     h6 = dt / 6.0
     dt8 = 0.125 * dt  # cubic Hermite midpoint of the track samples (package docstring)
     c3 = 1.5 / dt
@@ -256,15 +282,18 @@ def advance_surrogate(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
 
 
 @njit(cache=True, error_model="numpy")
-def advance_semi_active(kind, state, z, zdot, k0, n_sub, dt, command, p, lpr, damper, out, f_d):
+def advance_semi_active(
+    kind, state, z, zdot, k0, n_sub, dt, command, p, lpr, damper, out, f_d, work=None
+):
     """:func:`advance_linear` of variant number ``kind`` (:func:`check_variant`) with the
     controllable damper ``damper`` between bogie and carbody in place of the actuator.
 
     ``command`` (n,) in [0, 1] is held over the step; the damper's states ``(u, w)`` are
     ``state[:, -2:]`` (:func:`state_size` with ``damper=True``) and its force (N, on the carbody,
     bogie −F) at the end of the step goes into ``f_d`` (n,), 0 where the step diverged.
+    ``work``: :class:`ScalarWork` (:func:`scalar_work`), else allocated on each call.
     """
-    _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, command, p, lpr, out, damper, f_d)
+    _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, command, p, lpr, out, damper, f_d, work)
 
 
 KERNELS = {
