@@ -391,6 +391,8 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def render(self) -> np.ndarray | None:
         """RGB frame (H, W, 3) when ``render_mode="rgb_array"``."""
+        if not self._rng1:
+            raise ResetNeeded("call reset() before render()")
         if self.render_mode is None:
             gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
             return None
