@@ -1,11 +1,13 @@
-"""Whole-episode throughput of the track envs, resets and window moves included.
+"""Whole-episode throughput of the envs, resets and window moves included.
 
 The other env benchmarks time windows of steps and take their median, so the rare step that
 resets every sub-env (a new track each: two inverse FFTs of the episode's grid) falls out of
 the figure. Here one sample is one whole episode of every sub-env: the 2 000 steps of a 20 s
 episode and the autoreset step that draws the next tracks, zero actions, default settings and
 numba threads. At 16 384 sub-envs the tracks do not fit whole and are held in windows
-(chunked mode, docs/envs/vertical.md), so the sample also holds the window moves. Issue 32's
+(chunked mode, docs/envs/vertical.md), so the sample also holds the window moves. A crash
+sample is ``max_duration``'s steps (and one), in which every train's passive crash ends
+(``crash_over``, about 0.46 s) and is reset several times. Issue 32's
 target: the throughput from 1 024 to 16 384 sub-envs does not fall (``16 384 / 1 024 ≥ 1``).
 """
 
@@ -20,7 +22,7 @@ import railgym  # noqa: F401  (registers the environments)
 from benchmarks import measured, row
 from railgym.progress import bar
 
-ENV_IDS = ("railgym/VerticalSuspension-v2", "railgym/VerticalVehicle-v2")
+ENV_IDS = ("railgym/VerticalSuspension-v2", "railgym/VerticalVehicle-v2", "railgym/TrainCrash-v1")
 SIZES = (1024, 16384)
 #: whole episodes timed per size (each one sample)
 EPISODES = {1024: 3, 16384: 1}
@@ -28,11 +30,11 @@ EPISODES = {1024: 3, 16384: 1}
 
 def episode_rates(env_id: str, n: int, episodes: int) -> np.ndarray:
     """Env-steps/s of ``n`` sub-envs of ``env_id``, one sample per whole episode (its steps
-    and the autoreset step after it)."""
+    and the autoreset step after it; for the crash, ``max_duration``'s steps)."""
     venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
     try:
         venv.reset(seed=0)
-        steps = venv.unwrapped.sim.cfg.n_steps + 1  # the episode and the step that resets it
+        steps = venv.unwrapped.sim.cfg.n_steps + 1  # an episode and the step that resets it
         action = np.zeros(venv.action_space.shape, venv.action_space.dtype)
         venv.step(action)  # the first step after reset is part of no sample
         rates = []

@@ -16,6 +16,7 @@ from railgym.vehicles.crash import (
     simulate_surrogate,
     zone_force,
 )
+from tests.envs.test_track_chunks import batch_bytes
 
 ENV_ID = "railgym/TrainCrash-v1"
 
@@ -152,6 +153,21 @@ def test_large_vector_env_on_all_threads_equals_single_envs():
             np.testing.assert_array_equal(obs_v[i], o)
             assert rew_v[i] == r and term_v[i] == te and trunc_v[i] == tr
             done[i] = te or tr
+
+
+def test_16384_sub_envs_fit_in_1_gib_and_reset_all_at_once():
+    """Issue 32's size: 16384 trains hold well under 1 GiB of arrays; a reset of all of them
+    (one compiled call for their first-contact outputs) gives each the single env's start."""
+    n = 16384
+    venv = gym.make_vec(
+        ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", speed_jitter=0.2
+    )
+    obs, _ = venv.reset(seed=11)
+    assert batch_bytes(venv.unwrapped.sim) <= 2**30
+    for i in (0, 9000, n - 1):
+        np.testing.assert_array_equal(obs[i], TrainCrashEnv(speed_jitter=0.2).reset(seed=11 + i)[0])
+    assert len(np.unique(venv.unwrapped.sim.speed)) > n // 2  # each train its own speed
+    venv.close()
 
 
 def test_bad_actions_raise_and_large_actions_are_clipped():

@@ -195,16 +195,33 @@ class CrashBatch:
 
     def reset(self, i: int, rng: np.random.Generator, episode: tuple[Any, Any]) -> None:
         """Train ``i`` at first contact on a new episode (:meth:`draw`)."""
-        self.speed[i], self.payload[i] = self.draw(rng, episode)
-        self.reset_state(i)
+        self.reset_many(np.array([i]), [rng], episode)
+
+    def reset_many(
+        self, idx: np.ndarray, rngs: list[np.random.Generator], episode: tuple[Any, Any]
+    ) -> None:
+        """:meth:`reset` of the trains ``idx``, each with its generator of ``rngs``; their
+        observations, ``info`` and rewards from one compiled call."""
+        for i, rng in zip(idx.tolist(), rngs, strict=True):
+            self.speed[i], self.payload[i] = self.draw(rng, episode)
+            self._place(i)
+        self._init_rows(idx)
 
     def reset_state(self, i: int) -> None:
         """Train ``i`` back at first contact at its episode's speed and payload."""
+        self._place(i)
+        self._init_rows(np.array([i]))
+
+    def _place(self, i: int) -> None:
+        """State of train ``i`` at first contact at its episode's speed and payload."""
         payload = self.payload[i] if self.payload[i].any() else None
         self.model.reset(self.state, self.out, i, float(self.speed[i]), payload)
-        self._one[i] = True
+
+    def _init_rows(self, idx: np.ndarray) -> None:
+        """Observation, ``info`` and reward of the trains ``idx`` at first contact."""
+        self._one[idx] = True
         self._init_kernel(*self._args, self.actions, self._one, True)
-        self._one[i] = False
+        self._one[idx] = False
 
     def advance(self) -> None:
         """One control step of every train with the stored actions."""

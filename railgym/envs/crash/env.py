@@ -65,7 +65,7 @@ __all__ = [
 ]
 
 #: most sub-envs of the vector env
-MAX_NUM_ENVS = 4096
+MAX_NUM_ENVS = 65536
 #: the reset options (impact conditions, in the scenario file's units)
 OPTIONS = ("speed_kmh", "payload_t")
 
