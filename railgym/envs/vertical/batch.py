@@ -592,9 +592,8 @@ class VerticalBatch:
     def reward_terms(self, i: int | None = None) -> dict[str, Any]:
         """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to
         the reward."""
-        if i is not None:  # a dict display: the single env builds this every step
-            acc, defl, force, div = self.terms[i].tolist()
-            return {"acceleration": acc, "deflection": defl, "force": force, "divergence": div}
+        if i is not None:  # the single env's step reads them with the outcome (outcome(i))
+            return dict(zip(REWARD_TERMS, self.terms[i].tolist(), strict=True))
         return dict(zip(REWARD_TERMS, self.terms.T.copy(), strict=True))
 
     def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray:
