@@ -12,7 +12,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from railgym import _checks as val
-from railgym.envs.vertical import LIMITS
+from railgym.envs.vertical.env import LIMITS
 from surrogates.checks import bounded_int, seed_number
 from surrogates.cli_flags import error_status
 

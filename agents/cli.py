@@ -50,7 +50,7 @@ from agents.controllers.classical import Passive, Skyhook
 from agents.evaluation.speed import backend_speeds, format_speeds
 from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
-from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 from railgym.progress import quiet, stages
 from railgym.report import REPORT_FILES, make_report
 from railgym.report.output import prepare_output_dir

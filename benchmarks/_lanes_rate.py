@@ -13,13 +13,9 @@ from benchmarks import _timing
 from benchmarks._timing import windows
 from railgym.track import track_time_input
 from railgym.vehicles.collect import default_vertical_surrogate
-from railgym.vehicles.vertical import (
-    initial_state,
-    load_vehicle,
-    step_outputs,
-    surrogate_arrays,
-)
+from railgym.vehicles.vertical.kernels import initial_state, step_outputs, surrogate_arrays
 from railgym.vehicles.vertical.lanes import advance_lanes
+from railgym.vehicles.vertical.params import load_vehicle
 
 
 def rate(n: int = 1024, n_sub: int = 10, dt: float = 1e-3) -> np.ndarray:

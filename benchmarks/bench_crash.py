@@ -20,12 +20,10 @@ import railgym  # noqa: F401  (registers the environments)
 from benchmarks import measured
 from benchmarks._stepping import per_step_us, rate, steps, vector_steps
 from benchmarks._timing import interleaved, windows
-from railgym.vehicles.crash import (
-    build_crash_surrogate,
-    load_scenario,
-    simulate_reference,
-    simulate_surrogate,
-)
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.scenario import load_scenario
+from railgym.vehicles.crash.surrogate import build_crash_surrogate
+from railgym.vehicles.crash.surrogate_model import simulate_surrogate
 
 N_VEC = 1024
 

@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents.speed import fmu_unavailable
+from agents.evaluation.speed import fmu_unavailable
 from benchmarks import measured, row
 from benchmarks._stepping import rate, steps, vector_steps
 from benchmarks._timing import interleaved

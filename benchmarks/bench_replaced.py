@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents.speed import fmu_unavailable
+from agents.evaluation.speed import fmu_unavailable
 from benchmarks import measured, row
 from benchmarks._stepping import rate, vector_steps
 from benchmarks._timing import interleaved

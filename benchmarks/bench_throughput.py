@@ -54,7 +54,7 @@ def vertical_flop(n_sub: int = 10) -> float:
     right-hand side 6 flop per Legendre recurrence step of each input (degree − 1 steps) and
     ~60 flop for the rest."""
     from railgym.vehicles.collect import default_vertical_surrogate
-    from railgym.vehicles.vertical import surrogate_arrays
+    from railgym.vehicles.vertical.kernels import surrogate_arrays
 
     table = surrogate_arrays(default_vertical_surrogate()).table
     degrees = [int(np.flatnonzero(r).max()) if r.any() else 0 for r in table]
@@ -117,7 +117,7 @@ def _vehicle_element_args() -> tuple[Any, tuple]:
     """The whole-vehicle lane kernel's element evaluation and arguments for one block."""
     from railgym.vehicles.collect import default_vertical_surrogate
     from railgym.vehicles.vehicle import lanes as vl
-    from railgym.vehicles.vehicle import lpr_arrays
+    from railgym.vehicles.vehicle.model import lpr_arrays
     from surrogates.models.lpr import lpr_scratch
 
     lpr = lpr_arrays(default_vertical_surrogate("static"))
@@ -130,7 +130,8 @@ def _vehicle_element_args() -> tuple[Any, tuple]:
 def _lane_element_args() -> tuple[Any, tuple]:
     """The vertical lane kernel's element evaluation and arguments for one block."""
     from railgym.vehicles.collect import default_vertical_surrogate
-    from railgym.vehicles.vertical import lanes, surrogate_arrays
+    from railgym.vehicles.vertical import lanes
+    from railgym.vehicles.vertical.kernels import surrogate_arrays
     from surrogates.models.lpr import lpr_scratch
 
     lpr = surrogate_arrays(default_vertical_surrogate())

@@ -20,7 +20,8 @@ from benchmarks._stepping import per_step_us, rate, split_us, steps, vector_step
 from benchmarks._timing import interleaved
 from railgym.track import track_time_input
 from railgym.vehicles.collect import default_vertical_surrogate
-from railgym.vehicles.vertical import load_vehicle, simulate
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 
 
 def run() -> list[dict]:

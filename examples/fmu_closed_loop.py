@@ -149,8 +149,8 @@ def rms_difference(a: np.ndarray, ref: np.ndarray) -> float:
 
 def main(argv: list[str]) -> int:
     """``python examples/fmu_closed_loop.py POLICY.zip``: export both FMUs, co-simulate."""
-    from agents.policies import load_policy
-    from agents.policy_fmu import export_policy
+    from agents.policies.loading import load_policy
+    from agents.policies.policy_fmu import export_policy
     from railgym.fmu.reference import export_reference_fmu
 
     if len(argv) != 1:

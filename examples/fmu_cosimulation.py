@@ -3,7 +3,7 @@
 The paper runs its surrogate element inside Simpack/Simulink by co-simulation. Here FMPy hosts
 the exported element (``surrogates export-fmu``) as an FMI 2.0 co-simulation slave, and the
 bogie + carbody of :mod:`railgym.vehicles.vertical` is the other subsystem, integrated by
-railgym's own RK4 kernel (:func:`~railgym.vehicles.vertical.advance_linear` with the linear
+railgym's own RK4 kernel (:func:`~railgym.vehicles.vertical.kernels.advance_linear` with the linear
 secondary suspension switched off, ``k2 = c2 = 0``, so that the FMU's force enters as the
 force between bogie and carbody). Explicit (Jacobi) coupling with zero-order hold, at every
 communication point ``t_n = n·H``:
@@ -29,14 +29,9 @@ from typing import Any
 import numpy as np
 
 from railgym.track import track_time_input
-from railgym.vehicles.vertical import (
-    VerticalVehicle,
-    advance_linear,
-    load_vehicle,
-    simulate,
-    step_outputs,
-    surrogate_arrays,
-)
+from railgym.vehicles.vertical.kernels import advance_linear, step_outputs, surrogate_arrays
+from railgym.vehicles.vertical.params import VerticalVehicle, load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 
 
 def cosimulate(

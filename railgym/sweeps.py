@@ -11,7 +11,7 @@ carries its own seed; the results are the same for any number of workers.
 * :func:`vertical_sweep` — comfort indices of recorded runs over track classes × speeds ×
   seeds, the seeds spawned from one root seed.
 
-Controller evaluations (they need the Gymnasium envs) are in :mod:`agents.sweeps`.
+Controller evaluations (they need the Gymnasium envs) are in :mod:`agents.evaluation.sweeps`.
 """
 
 from __future__ import annotations
@@ -31,7 +31,9 @@ from railgym.vehicles.collect_design import (
     design_named,
     run_record,
 )
-from railgym.vehicles.vertical import DEFAULT_DT, VARIANTS, load_vehicle, simulate
+from railgym.vehicles.vertical.kernels import DEFAULT_DT, VARIANTS
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 
 
 class CollectionTask(NamedTuple):

@@ -20,7 +20,7 @@ import pytest
 import yaml
 from hypothesis import settings
 
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import LegendreRegression
 
 # Tests assert results, never timings: no per-example deadline, so that a loaded CPU (CI, or

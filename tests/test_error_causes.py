@@ -138,7 +138,7 @@ def test_a_unit_conversion_that_overflows_names_file_line_and_column(tmp_path):
 
 # --- YAML files ----------------------------------------------------------------------------
 def test_a_training_yaml_with_the_env_id_twice_is_refused(tmp_path):
-    from agents.train_config import load_config
+    from agents.training.train_config import load_config
 
     block = "  algo: ppo\n  policy: MlpPolicy\n  n_timesteps: 100\n"
     path = tmp_path / "twice.yaml"
@@ -150,7 +150,7 @@ def test_a_training_yaml_with_the_env_id_twice_is_refused(tmp_path):
 
 
 def test_a_vehicle_yaml_with_a_field_twice_is_refused(tmp_path):
-    from railgym.vehicles.vertical import load_vehicle
+    from railgym.vehicles.vertical.params import load_vehicle
 
     path = tmp_path / "v.yaml"
     path.write_text("vehicle:\n  m1: 1.0\n  m1: 2.0\n")
@@ -163,7 +163,7 @@ def test_a_vehicle_yaml_with_a_field_twice_is_refused(tmp_path):
 # --- counts and seeds ----------------------------------------------------------------------
 @pytest.mark.parametrize("steps", ["1" + "0" * 30, "10000000000"])
 def test_train_timesteps_has_an_upper_bound(capsys, steps):
-    from agents.train import main
+    from agents.training.train import main
 
     with pytest.raises(SystemExit) as info:
         main(["ppo_vertical", "--timesteps", steps])
@@ -172,7 +172,7 @@ def test_train_timesteps_has_an_upper_bound(capsys, steps):
 
 
 def test_a_config_with_too_many_timesteps_names_the_field():
-    from agents.train_config import load_config
+    from agents.training.train_config import load_config
 
     config = {"railgym/VerticalSuspension-v1": {"algo": "ppo", "policy": "MlpPolicy"}}
     config["railgym/VerticalSuspension-v1"]["n_timesteps"] = 10**12
@@ -237,7 +237,7 @@ def test_evaluate_with_an_empty_address_blames_the_address(capsys):
 
 @pytest.mark.parametrize("name", ["Skyhook", "Groundhook", "Passive", "LQR"])
 def test_a_vertical_controller_on_the_crash_env_names_the_env(name):
-    from agents import controllers
+    from agents.controllers import classical as controllers
 
     with pytest.raises(ValueError, match=r"env must be a railgym VerticalSuspension env"):
         getattr(controllers, name)(gym.make("railgym/TrainCrash-v1"))
@@ -245,7 +245,7 @@ def test_a_vertical_controller_on_the_crash_env_names_the_env(name):
 
 @pytest.mark.parametrize("name", ["Skyhook", "Groundhook"])
 def test_a_velocity_feedback_on_the_whole_vehicle_names_the_env(name):
-    from agents import controllers
+    from agents.controllers import classical as controllers
 
     with pytest.raises(ValueError, match=r"bogie and carbody velocities observed\), got Vert"):
         getattr(controllers, name)(gym.make(VEHICLE))

@@ -45,15 +45,15 @@ def run_without(blocked: str, *argv: str, cwd: Path) -> subprocess.CompletedProc
         ),
         (
             "ray",
-            ("agents.train_rllib", "config.yaml"),
-            "python -m agents.train_rllib: error: RLlib training needs the 'rllib' extra (no "
-            "module named 'ray'): pip install 'railgym[rllib]' in its own virtual environment",
+            ("agents.training.train_rllib", "config.yaml"),
+            "python -m agents.training.train_rllib: error: RLlib training needs the 'rllib' extra "
+            "(no module named 'ray'): pip install 'railgym[rllib]' in its own virtual environment",
         ),
         (
             "stable_baselines3",
-            ("agents.train", "config.yaml"),
-            "python -m agents.train: error: training needs the 'agents' extra (no module named "
-            "'stable_baselines3'): pip install 'railgym[agents]'",
+            ("agents.training.train", "config.yaml"),
+            "python -m agents.training.train: error: training needs the 'agents' extra (no module "
+            "named 'stable_baselines3'): pip install 'railgym[agents]'",
         ),
     ],
 )
@@ -70,7 +70,8 @@ def test_import_of_a_module_without_its_extra_is_an_import_error():
     such as ``railgym evaluate`` of an RLlib checkpoint can catch it."""
     code = (
         BLOCKED_RUN.split("sys.argv = ")[0]
-        + "try:\n    import agents.train_rllib\nexcept ImportError as err:\n    print(err)\n"
+        + "try:\n    import agents.training.train_rllib\n"
+        + "except ImportError as err:\n    print(err)\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code, "ray"],

@@ -17,7 +17,8 @@ from railgym.parallel import choose_backend, ray_available, run_tasks, spawn_see
 from railgym.sweeps import collect_sweep, vertical_run, vertical_sweep, vertical_tasks
 from railgym.track import track_time_input
 from railgym.vehicles.collect_design import CollectionDesign, collect_design
-from railgym.vehicles.vertical import load_vehicle, simulate
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 
 #: a short seeded design: 2 classes × 2 seeds, passive and excited
 SMALL = CollectionDesign(track_classes=(4, 6), speed_factors=(1.0,), seeds=(0, 3), duration=2.0)

@@ -10,7 +10,7 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 from railgym.envs.crash.step import crush_limits
-from railgym.vehicles.crash import load_scenario
+from railgym.vehicles.crash.scenario import load_scenario
 
 
 def _run_crash(env) -> tuple[dict, float, int]:
@@ -155,7 +155,7 @@ def test_the_vector_env_warns_once(tmp_path):
 
 def _packaged(name):
     from railgym.vehicles.collect import build_vertical_surrogate, default_vertical_surrogate
-    from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+    from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
 
     if name == "built":  # from the project's data on the packaged vehicle
         return build_vertical_surrogate()[0]

@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from railgym.envs.crash import TrainCrashVectorEnv
-from railgym.envs.vertical import VerticalSuspensionVectorEnv
+from railgym.envs.crash.env import TrainCrashVectorEnv
+from railgym.envs.vertical.env import VerticalSuspensionVectorEnv
 from railgym.track import class_speed
-from railgym.vehicles.crash import load_scenario
+from railgym.vehicles.crash.scenario import load_scenario
 
 pytestmark = pytest.mark.slow
 

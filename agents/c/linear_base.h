@@ -1,5 +1,5 @@
 /*
- * The classical base of a residual policy (agents/residual_export.py) as a linear discrete
+ * The classical base of a residual policy (agents/policies/residual_export.py) as a linear discrete
  * state-space controller, included by policy_element.h when PL_RESIDUAL is 1. Per control
  * step, on the env's float32 observation o (the network's input):
  *

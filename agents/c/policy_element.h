@@ -8,7 +8,7 @@
  *   a     = min(max(a, low), high)                the policy's and the env's clipping
  *   F_k   = a_k * f_max                           N
  *
- * A residual policy (PL_RESIDUAL 1, agents/residual.py) adds the network's action to its
+ * A residual policy (PL_RESIDUAL 1, agents/controllers/residual.py) adds the network's action to its
  * classical base's (linear_base.h, on the same o): a_k = (float)clip(b_k + PL_RSCALE * a_k,
  * -1, 1) with b the base's float32 action, then F_k = a_k * f_max; the base's state is
  * updated at fmi2DoStep from the inputs of the communication point.

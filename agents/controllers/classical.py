@@ -39,9 +39,9 @@ from agents.controllers.control_base import (
     vehicle_lqr_gain,
     vertical_lqr_gain,
 )
-from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
-from railgym.envs.vertical import ACC_REF
-from railgym.vehicles.vertical import linear_model
+from railgym.envs.vehicle.env import ACC_REF as VEHICLE_ACC_REF
+from railgym.envs.vertical.env import ACC_REF
+from railgym.vehicles.vertical.params import linear_model
 
 __all__ = [
     "DEFAULT_C_GND",
@@ -243,7 +243,7 @@ class ModalSkyhook(VehicleController):
 class VehicleLQR(LQDesign, VehicleController):
     """LQR on the full linear whole-vehicle model (needs ``observation="full"``).
 
-    Model :func:`railgym.vehicles.vehicle.linear_state_space` (14 states, linear secondary,
+    Model :func:`railgym.vehicles.vehicle.model.linear_state_space` (14 states, linear secondary,
     track input as unmodelled disturbance). Minimises the continuous version of the env's
     reward, ``J = ∫ (q_acc·mean_p a_p² + q_defl·mean_i δ_i² + r_force·mean_i F_i²) dt``
     with the floor accelerations ``a = C·x + D·F``: ``Q = q_acc·CᵀC/3 + q_defl·Σ c_iᵀc_i/2``,

@@ -10,10 +10,10 @@ import numpy as np
 from scipy.linalg import solve_continuous_are
 
 from agents.controllers.feedback import ObservationController
-from railgym.envs.vehicle import ACC_REF as VEHICLE_ACC_REF
-from railgym.envs.vertical import ACC_REF
-from railgym.vehicles.vehicle import linear_state_space
-from railgym.vehicles.vertical import SuspensionParams, linear_model
+from railgym.envs.vehicle.env import ACC_REF as VEHICLE_ACC_REF
+from railgym.envs.vertical.env import ACC_REF
+from railgym.vehicles.vehicle.model import linear_state_space
+from railgym.vehicles.vertical.params import SuspensionParams, linear_model
 
 __all__ = [
     "DEFAULT_C_GND",
@@ -154,7 +154,7 @@ def body_velocities(x: np.ndarray, obs_names: tuple[str, ...], params: Any) -> n
 
 
 class LQDesign:
-    """The constructor the LQR and LQG designs share (:class:`~agents.controllers.LQR`,
+    """The constructor the LQR and LQG designs share (:class:`~agents.controllers.classical.LQR`,
     :class:`~agents.controllers.lqg.LQG` and their whole-vehicle variants): ``(env, q_acc, q_defl,
     r_force)`` (weights: :func:`lqr_weights`), the env's observation checked
     (:meth:`_observes`; the error from :attr:`NEEDS`), then :meth:`_design` with the weights.

@@ -20,9 +20,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from agents.controllers.feedback import ObservationController
-from railgym.envs.crash import TrainCrashVectorEnv
-from railgym.vehicles.crash import CrushZone
+from railgym.envs.crash.env import TrainCrashVectorEnv
 from railgym.vehicles.crash.criteria import CrashCriteria, crash_criteria
+from railgym.vehicles.crash.scenario import CrushZone
 
 #: constant absorber action (wall, interface) found by :func:`search_constant` on the
 #: reference over 25–50 km/h, levels −1 … 1 in steps of 0.25 (docs/envs/crash_baselines.md)
@@ -221,7 +221,7 @@ def search_constant(
     The best setting has the lowest mean over the speeds of the worst car's peak deceleration
     among the admissible ones: no more intrusion than passive at any speed and none at speeds
     up to ``intrusion_free_up_to`` (m/s; default 45 km/h), the intrusion targets of issue 11.
-    ``env_kwargs`` go to :class:`~railgym.envs.crash.TrainCrashVectorEnv` (e.g.
+    ``env_kwargs`` go to :class:`~railgym.envs.crash.env.TrainCrashVectorEnv` (e.g.
     ``backend="reference"``); every speed runs all candidates in one vector env.
     """
     speeds = np.asarray(speeds, dtype=np.float64)

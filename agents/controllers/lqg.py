@@ -1,8 +1,8 @@
 """Observer-based LQR (LQG) baselines: a steady-state Kalman filter on the linear model, fed by
-the env's sensor observation, and the full-state LQR gain of :mod:`agents.controllers` on the
-estimate. :class:`LQG` is for ``railgym/VerticalSuspension-v1`` (one bogie), :class:`VehicleLQG`
-for ``railgym/VerticalVehicle-v1`` (two actuators); both are re-exported by
-:mod:`agents.controllers` and run as ``lqg`` in ``railgym evaluate``.
+the env's sensor observation, and the full-state LQR gain of :mod:`agents.controllers.classical`
+on the estimate. :class:`LQG` is for ``railgym/VerticalSuspension-v1`` (one bogie),
+:class:`VehicleLQG` for ``railgym/VerticalVehicle-v1`` (two actuators); both run as ``lqg`` in
+``railgym evaluate``.
 
 Filter model (continuous, then sampled at ``control_dt`` with the actuator force held, as the
 env applies it): the linear vehicle of the LQR plus, per wheel input, a shaping filter whose
@@ -35,8 +35,8 @@ from agents.controllers.control_base import (
     vertical_lqr_gain,
 )
 from railgym.track import class_parameters
-from railgym.vehicles.vehicle import linear_state_space
-from railgym.vehicles.vertical import P_C1, P_K1, P_M1
+from railgym.vehicles.vehicle.model import linear_state_space
+from railgym.vehicles.vertical.params import P_C1, P_K1, P_M1
 
 __all__ = ["LQG", "MIN_SENSOR_NOISE", "KalmanFilter", "VehicleLQG", "fra_shaping"]
 
@@ -176,9 +176,9 @@ class LQG(LQGMixin, LQDesign, Controller):
     """LQG for ``railgym/VerticalSuspension-v1`` with the sensor observation (carbody and bogie
     accelerations, deflection and its rate, carbody velocity: ``observation="sensors"``).
 
-    Filter states ``[x1, v1, x2, v2, z, y]``: :func:`railgym.vehicles.vertical.linear_model`
+    Filter states ``[x1, v1, x2, v2, z, y]``: :func:`railgym.vehicles.vertical.params.linear_model`
     with the track force ``k1·z + c1·ż`` and the class's shaping filter at the env's speed
-    (:func:`fra_shaping`); gain: :class:`agents.controllers.LQR`'s ``K`` (the env's reward
+    (:func:`fra_shaping`); gain: :class:`agents.controllers.classical.LQR`'s ``K`` (the env's reward
     weights, or ``q_acc``, ``q_defl``, ``r_force``). The wheelbase filter of the env
     (``wheelbase=``) is not modelled.
     """
@@ -225,10 +225,11 @@ class VehicleLQG(LQGMixin, LQDesign, VehicleController):
     bogie accelerations, the two secondary deflections and their rates, the carbody velocity
     over each bogie: ``observation="sensors"``).
 
-    Filter states: the 14 of :func:`railgym.vehicles.vehicle.linear_state_space` and a shaping
+    Filter states: the 14 of :func:`railgym.vehicles.vehicle.model.linear_state_space` and a shaping
     filter (:func:`fra_shaping`, 2 states) per wheelset, the four taken as independent (the
-    delay between wheelsets is not modelled); gain: :class:`agents.controllers.VehicleLQR`'s
-    ``K``. Designed for the env's track class at its speed (the middle of a speed range).
+    delay between wheelsets is not modelled); gain:
+    :class:`agents.controllers.classical.VehicleLQR`'s ``K``. Designed for the env's track class at
+    its speed (the middle of a speed range).
     """
 
     NEEDS = ("sensors", "VehicleLQG", "with 'full', use VehicleLQR")

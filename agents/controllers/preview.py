@@ -9,16 +9,16 @@ track into the LQ design as augmented states:
   ahead of the rear wheelset, ``m = 0..r−1`` (``T`` = ``control_dt``, ``v`` the design
   speed), read from the preview channels by cubic Hermite interpolation in space. Each step
   the register shifts by one sample; the track entering at its head is unknown (zero mean).
-* **Plant.** The 14 states of :func:`railgym.vehicles.vehicle.linear_state_space` sampled at
+* **Plant.** The 14 states of :func:`railgym.vehicles.vehicle.model.linear_state_space` sampled at
   ``T``, the force held (as the env applies it). A wheelset inside the register (sample index
   ``p_j = s_j/(v·T) ≤ r − 1``, ``s_j`` its distance ahead of the rear wheelset) sees the
   register's track, Hermite-interpolated at ``p_j`` and ``p_j + 1`` and held first-order over
   the step; the wheelsets beyond it are unknown disturbances.
-* **Gains.** Cost per step: :class:`~agents.controllers.VehicleLQR`'s weights ``(Q, N, R)``
-  times ``T``; the register block ``K_ξ`` of the DARE gain of the augmented model (plant +
-  register, :func:`preview_gain`) is the preview feed-forward. The feedback on the vehicle
-  states stays the continuous LQR gain of :class:`VehicleLQR` (the one ``lqr`` and ``lqg``
-  use), so a controller on an env without preview is :class:`VehicleLQR` (``lqr-preview``)
+* **Gains.** Cost per step: :class:`~agents.controllers.classical.VehicleLQR`'s weights
+  ``(Q, N, R)`` times ``T``; the register block ``K_ξ`` of the DARE gain of the augmented
+  model (plant + register, :func:`preview_gain`) is the preview feed-forward. The feedback on
+  the vehicle states stays the continuous LQR gain of :class:`VehicleLQR` (the one ``lqr`` and
+  ``lqg`` use), so a controller on an env without preview is :class:`VehicleLQR` (``lqr-preview``)
   or :class:`~agents.controllers.lqg.VehicleLQG` (``lq-preview``), action for action.
 
 ``F = −K·x̂ − K_ξ·ξ``, clipped to ±f_max (the filter of ``lq-preview`` is told the clipped
@@ -36,7 +36,7 @@ from scipy.linalg import expm, solve_discrete_are
 
 from agents.controllers.control_base import VehicleController, vehicle_lqr_gain, vehicle_lqr_weights
 from agents.controllers.lqg import VehicleLQG, design_speed
-from railgym.vehicles.vehicle import linear_state_space
+from railgym.vehicles.vehicle.model import linear_state_space
 
 __all__ = [
     "LQGPreview",
@@ -63,7 +63,7 @@ class PreviewDesign(NamedTuple):
 
 def _track_rows(pos: np.ndarray, n: int, step: float) -> np.ndarray:
     """Rows (2m, 2n) of the cubic Hermite interpolation (as the kernel's
-    :func:`~railgym.vehicles.vehicle.hermite`) of samples ``[z_0, ż_0, z_1, ż_1, …]`` on the
+    :func:`~railgym.vehicles.vehicle.lanes.hermite`) of samples ``[z_0, ż_0, z_1, ż_1, …]`` on the
     grid ``0..n−1`` (``n ≥ 2``, ``step`` seconds apart: the derivative per index is
     ``ż·step``) at the fractional indices ``pos`` (m,) in ``[0, n − 1]``: ``(z, ż)`` there."""
     out = np.zeros((2 * len(pos), 2 * n))
@@ -188,7 +188,7 @@ class _PreviewFeedForward:
 
 
 class LQRPreview(_PreviewFeedForward, VehicleController):
-    """:class:`~agents.controllers.VehicleLQR` (its gain ``K`` on the 14 states of
+    """:class:`~agents.controllers.classical.VehicleLQR` (its gain ``K`` on the 14 states of
     ``observation="full"``) plus the preview feed-forward (module docstring); without preview
     its actions are :class:`VehicleLQR`'s."""
 

@@ -68,7 +68,7 @@ class ResidualVectorEnv(VectorWrapper):
     ----------
     env : a Gymnasium vector env of a railgym vertical env.
     controller : object with stable-baselines3's ``predict(obs, episode_start=…)`` built on
-        ``env`` (e.g. :class:`agents.controllers.LQG`).
+        ``env`` (e.g. :class:`agents.controllers.lqg.LQG`).
     scale : weight of the agent's action, in (0, :data:`MAX_SCALE`].
     """
 

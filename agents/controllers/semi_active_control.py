@@ -30,8 +30,8 @@ They read what the force-mode baselines read: the skyhook family the bogie and c
 velocities (sensors: ``carbody_vel`` and ``ẋ1 = ẋ2 + deflection_rate``; full: ``v1``, ``v2``;
 whole vehicle: ``carbody_vel_front``, ``deflection_rate_front`` …, or the full state), the LQG
 the sensor channels, and all the deflection rate ``v``. Gains: those of the force-mode
-skyhook and groundhook (:func:`agents.controllers.default_c_sky`,
-:func:`~agents.controllers.default_c_gnd`), scaled to the vehicle.
+skyhook and groundhook (:func:`agents.controllers.classical.default_c_sky`,
+:func:`~agents.controllers.classical.default_c_gnd`), scaled to the vehicle.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from agents.controllers.control_base import (
 )
 from agents.controllers.lqg import LQG, LQGMixin, VehicleLQG
 from railgym.envs.damper_params import damper_channels
-from railgym.envs.vehicle import OBSERVATIONS as VEHICLE_OBSERVATIONS
+from railgym.envs.vehicle.env import OBSERVATIONS as VEHICLE_OBSERVATIONS
 from railgym.vehicles.semi_active import DamperParams
 
 __all__ = [
@@ -173,7 +173,7 @@ class ConstantCommand(_SemiActive):
 class DamperSkyhook(_SemiActive):
     """Continuous semi-active skyhook: the demand ``−c_sky·ẋ2`` through the damper's inverse.
 
-    Default ``c_sky``: :func:`agents.controllers.default_c_sky` (the force-mode skyhook's
+    Default ``c_sky``: :func:`agents.controllers.classical.default_c_sky` (the force-mode skyhook's
     damping ratio 0.2 of the bounce mode; 47 kN·s/m on the Manchester vehicle).
     """
 
@@ -200,9 +200,9 @@ class OnOffSkyhook(DamperSkyhook):
 
 class DamperGroundhook(_SemiActive):
     """Semi-active groundhook: the demand ``+c_gnd·ẋ1`` on the carbody (the reaction of a
-    damper from the bogie to the ground, :class:`agents.controllers.Groundhook`) through the
-    damper's inverse. Default ``c_gnd``: :func:`agents.controllers.default_c_gnd`
-    (40 kN·s/m on the Manchester vehicle)."""
+    damper from the bogie to the ground, :class:`agents.controllers.classical.Groundhook`)
+    through the damper's inverse. Default ``c_gnd``:
+    :func:`agents.controllers.classical.default_c_gnd` (40 kN·s/m on the Manchester vehicle)."""
 
     needs_velocities = True
 

@@ -31,7 +31,7 @@ from agents.evaluation.crash_report import (
     envelope_rows,
     envelope_summary,
 )
-from railgym.envs.crash import TrainCrashVectorEnv
+from railgym.envs.crash.env import TrainCrashVectorEnv
 from railgym.progress import quiet
 from surrogates.cli_flags import Parser, add_common, error_status
 

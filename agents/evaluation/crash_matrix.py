@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.crash_baselines import FixedActions, rollout
-from railgym.envs.crash import TrainCrashVectorEnv
-from railgym.vehicles.crash import CrashSurrogate
+from railgym.envs.crash.env import TrainCrashVectorEnv
+from railgym.vehicles.crash.surrogate import CrashSurrogate
 
 __all__ = [
     "MATRIX_ACTIONS",

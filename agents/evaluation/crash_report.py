@@ -22,9 +22,9 @@ from agents.controllers.crash_baselines import FixedActions, rollout, search_con
 from agents.controllers.registry import BASELINES, CRASH_ID, crash_factories
 from agents.evaluation.crash_matrix import constant_action_cases, matrix_table, random_action_cases
 from agents.policies.loading import load_policy
-from railgym.envs.crash import TrainCrashVectorEnv, default_surrogate, env_surrogate
+from railgym.envs.crash.env import TrainCrashVectorEnv, default_surrogate, env_surrogate
 from railgym.progress import bar, quiet
-from railgym.vehicles.crash import load_scenario
+from railgym.vehicles.crash.scenario import load_scenario
 from surrogates.cli_flags import Parser, add_common
 
 #: envelope speeds of the tables, km/h
@@ -56,7 +56,7 @@ def surrogate_error_rows(
     ``fit="nominal"``: one set of elements fitted on the scenario's nominal-speed reference
     run; ``"per-speed"``: elements fitted on a reference run at each speed; ``"envelope"``:
     the env's default, the packaged elements fitted over the envelope
-    (:func:`railgym.envs.crash.env_surrogate`).
+    (:func:`railgym.envs.crash.env.env_surrogate`).
     """
     if fit not in FITS:
         raise ValueError(f"fit must be one of {FITS}, got {fit!r}")

@@ -73,7 +73,6 @@ from agents.controllers.registry import (
     BASELINES,
     COMPARISON,
     CONTROLLERS,
-    CONTROLLERS_OF,
     CRASH_ID,
     ENV_ID,
     FORCE_CONTROLLERS,
@@ -88,44 +87,24 @@ from agents.evaluation.contacts import Score, contact_note, more_contacts
 from agents.evaluation.gap import run_gap
 from agents.evaluation.metrics import VEHICLE, VERTICAL, Metric
 from agents.evaluation.runs import (
-    VEHICLE_COMFORT,
-    VehicleTask,
     evaluate_vehicle,
-    run_policy,
-    run_vehicle_policy,
 )
 from agents.evaluation.sweeps import evaluate_sweep
 from agents.policies.loading import load_policy, trained_actuator
-from agents.policies.policy_io import RLLIB_MODULE_PATH
 from agents.policies.pretrained import PRETRAINED
 from railgym import _checks as val
 from railgym.progress import bar
 from surrogates.cli_flags import add_deprecated
 
 __all__ = [
-    "CONTROLLERS",
-    "CONTROLLERS_OF",
-    "CRASH_ID",
-    "ENV_ID",
-    "MAX_EPISODES",
-    "RLLIB_MODULE_PATH",
-    "VEHICLE_COMFORT",
-    "VEHICLE_CONTROLLERS",
-    "VEHICLE_ID",
-    "VehicleTask",
     "actuator_kwargs",
     "add_arguments",
     "evaluate_crash",
     "evaluate_envelope",
-    "evaluate_vehicle",
     "format_crash_rows",
     "format_rows",
     "format_vehicle_rows",
-    "load_policy",
     "run",
-    "run_policy",
-    "run_vehicle_policy",
-    "trained_actuator",
 ]
 
 

@@ -52,7 +52,7 @@ from agents.evaluation.runs import evaluate_vehicle
 from agents.evaluation.sweeps import evaluate_sweep
 from agents.policies.loading import load_policy
 from railgym import _checks as val
-from railgym.envs.crash import TrainCrashVectorEnv
+from railgym.envs.crash.env import TrainCrashVectorEnv
 
 __all__ = ["format_gap", "gap_crash", "gap_vehicle", "gap_vertical", "relative_gap", "run_gap"]
 

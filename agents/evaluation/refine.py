@@ -20,8 +20,8 @@ import numpy as np
 from agents._args import add_track_classes, bounded_int, duration_s
 from agents.controllers.registry import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICLE_ID
 from agents.policies.loading import load_policy
-from railgym.envs.vehicle import VerticalVehicleEnv
-from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.envs.vehicle.env import VerticalVehicleEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 from railgym.fmu.collect import refine_fmu
 from railgym.fmu.mapping import fmu_vehicle
 from railgym.vehicles.collect import (

@@ -6,7 +6,7 @@ backend) a causal controller, whatever it is, produces one command sequence
 RMS carbody acceleration, m/s², as :func:`agents.evaluation.runs.run_policy` computes it)
 bounds what any controller can reach on that track. :class:`CommandProblem` searches it with
 full knowledge of the track: the carbody acceleration of a command sequence is simulated by the
-env's own kernel (:func:`~railgym.vehicles.vertical.advance_semi_active`, the step the env
+env's own kernel (:func:`~railgym.vehicles.vertical.kernels.advance_semi_active`, the step the env
 runs), its Jacobian with respect to every command by forward differences in lanes of that
 kernel (lane ``j`` perturbs command ``j`` and starts from the unperturbed state at step ``j``:
 ``N(N+1)/2`` lane-steps), and ``min a_w`` over the box [0, 1]^N by L-BFGS-B
@@ -38,7 +38,7 @@ from agents.controllers.registry import ENV_ID
 from agents.policies.loading import load_policy
 from railgym.comfort import WeightingFilter, weighted_rms
 from railgym.progress import bar
-from railgym.vehicles.vertical import StepOutputs, advance_semi_active, step_outputs
+from railgym.vehicles.vertical.kernels import StepOutputs, advance_semi_active, step_outputs
 
 __all__ = [
     "DISCARD_S",

@@ -26,7 +26,7 @@ from typing import Any, NamedTuple
 import numba
 import numpy as np
 
-from railgym.envs.vertical import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
 
 __all__ = ["FMU_ENVS", "MODES", "SpeedRow", "backend_speeds", "fmu_unavailable", "format_speeds"]
 

@@ -100,7 +100,7 @@ def trained_actuator(policy: str, env_id: str = ENV_ID) -> str | None:
     if path.suffix != ".zip" or not path.is_file():
         return None
     source = find_source(path)
-    if source.kind == "agents.train":
+    if source.kind == "agents.training.train":
         from agents.training.train_config import load_config
 
         env_kwargs = load_config(source.config).env_kwargs
@@ -166,7 +166,7 @@ def _network(path: Path, source: PolicySource, env_id: str) -> _Network:
     (agents.training.train), else from the zip's data entry (rl-zoo3 or a bare zip)."""
     from agents.training.train_config import ACTIVATIONS, ALGOS, hyperparameters, load_config
 
-    if source.kind == "agents.train":
+    if source.kind == "agents.training.train":
         cfg = load_config(source.config)
         hyper = hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)
         net_kwargs = dict(hyper.get("policy_kwargs") or {})
@@ -230,7 +230,7 @@ def _sb3_policy(
         probe.action_space,
     )
     probe.close()
-    run = (source.config.parent if source.kind == "agents.train" else path.parent).name
+    run = (source.config.parent if source.kind == "agents.training.train" else path.parent).name
     final = path.parent.name == run and path.stem in ("model", env_id.replace("/", "-"))
     label = run if final else f"{run}/{path.stem}"
     if network.hold > 1:  # trained to decide every `hold` steps: one held phase per factory call

@@ -56,7 +56,7 @@ _CLASS = re.compile(r"<class '([\w.]+)'>")
 
 
 class PolicySource(NamedTuple):
-    """Where the settings of a zip come from: ``kind`` (``"agents.train"``, ``"rl-zoo3"``
+    """Where the settings of a zip come from: ``kind`` (``"agents.training.train"``, ``"rl-zoo3"``
     or ``"zip"``), the ``config`` file (``None`` for a bare zip), the ``env_id`` it was
     trained on (``None``: unknown) and its ``env_kwargs``."""
 
@@ -117,7 +117,7 @@ def find_source(path: Path) -> PolicySource:
     folder = path.resolve().parent
     for d in [folder, *folder.parents][: LEVELS + 1]:
         if (d / "config.yaml").is_file():
-            return PolicySource("agents.train", d / "config.yaml", None, {})
+            return PolicySource("agents.training.train", d / "config.yaml", None, {})
         zoo = _zoo_folder(d)
         if zoo is not None:
             args = read_zoo_yaml(zoo / "args.yml")

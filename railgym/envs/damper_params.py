@@ -25,7 +25,7 @@ from railgym.envs.base import caller_level
 from railgym.envs.params import Params, derived, param
 from railgym.vehicles.semi_active import DamperParams, load_damper
 from railgym.vehicles.semi_active_element import DamperElement, load_damper_element
-from railgym.vehicles.vertical import DamperLaw
+from railgym.vehicles.vertical.elements import DamperLaw
 from railgym.vehicles.vertical.kernels import damper_law
 
 __all__ = [

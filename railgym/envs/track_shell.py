@@ -23,7 +23,8 @@ from railgym.track import class_speed
 from railgym.vehicles.collect import default_vertical_surrogate
 from railgym.vehicles.element_envelope import OperatingEnvelope, element_envelope
 from railgym.vehicles.element_plausibility import implausible_element_warning
-from railgym.vehicles.vertical import LprArrays, surrogate_arrays
+from railgym.vehicles.vertical.elements import LprArrays
+from railgym.vehicles.vertical.kernels import surrogate_arrays
 from surrogates import io
 
 __all__ = [
@@ -166,7 +167,7 @@ def element_arrays(
     (:mod:`railgym.vehicles.element_plausibility`). The warnings name the user's line
     (:func:`~railgym.envs.base.caller_level`). ``grid``: an additive LPR element is
     evaluated by its Hermite tables inside the box
-    (:func:`~railgym.vehicles.vertical.surrogate_arrays`).
+    (:func:`~railgym.vehicles.vertical.kernels.surrogate_arrays`).
     """
     given = surrogate
     if backend != "surrogate":

@@ -3,7 +3,7 @@
 :func:`collect_fmu` runs a data-collection design (:mod:`railgym.vehicles.collect_design`:
 the paper's passive run, or the envelope of classes, speeds and actuator excitation) on the
 FMU of a mapping file instead of the built-in reference; the result feeds
-:func:`railgym.vehicles.collect.build_memory_surrogate` (``data=``) like the built-in one::
+:func:`railgym.vehicles.memory_element.build_memory_surrogate` (``data=``) like the built-in one::
 
     data = collect_fmu("vehicle.yaml")
     model, selection, _ = build_memory_surrogate(data=data)
@@ -32,7 +32,7 @@ from railgym.fmu.runner import FMURunner
 from railgym.vehicles.collect import OtherReference, build_parser, refine
 from railgym.vehicles.collect import main as build_main
 from railgym.vehicles.collect_design import CollectionDesign, collect_design
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates.models import SurrogateModel
 
 __all__ = [
@@ -54,7 +54,7 @@ def simulate_fmu(
     force ``force_a`` (N, (n,) held over each step): the record of
     :func:`railgym.vehicles.vertical.simulate` at every step (``t, x1, v1, x2, v2, a1, a2,
     F_s`` SI, ``contacts``: steps with the deflection beyond the free travel of the
-    :class:`~railgym.vehicles.vertical.VerticalVehicle` ``vehicle``, whose ``m2`` gives
+    :class:`~railgym.vehicles.vertical.params.VerticalVehicle` ``vehicle``, whose ``m2`` gives
     ``F_s`` when the FMU has no ``secondary_force``)."""
     p = vehicle.kernel_params()
     n = z.size - 1

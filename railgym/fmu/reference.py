@@ -21,10 +21,11 @@ import yaml
 
 from railgym.fmu.description import Variable, describe
 from railgym.track import EPISODE_DURATION
-from railgym.vehicles.vehicle import DEFAULT_DT as VEHICLE_DT
-from railgym.vehicles.vehicle import kernel_params as vehicle_params
-from railgym.vehicles.vehicle import load_whole_vehicle
-from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle
+from railgym.vehicles.vehicle.model import DEFAULT_DT as VEHICLE_DT
+from railgym.vehicles.vehicle.model import kernel_params as vehicle_params
+from railgym.vehicles.vehicle.params import load_whole_vehicle
+from railgym.vehicles.vertical.kernels import DEFAULT_DT
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates.fmi.export import guid_of, identifier, write_fmu
 
 __all__ = ["ENVS", "KINDS", "export_reference_fmu", "reference_mapping"]

@@ -32,15 +32,13 @@ from railgym.report.published import PAPER
 from railgym.report.validation import CLASSES
 from railgym.track import track_time_input
 from railgym.vehicles.collect import TRAINING_CASE, collect_vertical
-from railgym.vehicles.crash import (
-    CrashScenario,
-    build_crash_surrogate,
-    crash_errors,
-    load_scenario,
-    simulate_reference,
-    simulate_surrogate,
-)
-from railgym.vehicles.vertical import DEFAULT_DT, VerticalVehicle, load_vehicle, simulate
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
+from railgym.vehicles.crash.surrogate import build_crash_surrogate, crash_errors
+from railgym.vehicles.crash.surrogate_model import simulate_surrogate
+from railgym.vehicles.vertical.kernels import DEFAULT_DT
+from railgym.vehicles.vertical.params import VerticalVehicle, load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 from surrogates.builder import BuildReport, build
 from surrogates.metrics import average_absolute_error
 from surrogates.selection import candidate_label

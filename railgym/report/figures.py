@@ -9,7 +9,7 @@ import numpy as np
 
 from railgym.report.compute import Artifacts, Plan
 from railgym.report.tables import LABEL, QUANTITIES
-from railgym.vehicles.crash import crash_training_data
+from railgym.vehicles.crash.surrogate import crash_training_data
 
 __all__ = ["FIGURE_FILES", "write_figures"]
 

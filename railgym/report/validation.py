@@ -6,9 +6,10 @@ of the matrix is ``default_rng(SEED_BASE + k).integers(2**63 − 1)``, the same 
 env's episode seeds; the packaged elements train on track seed 0), under three force laws:
 
 * ``passive``: no actuator force;
-* ``skyhook``: ``F_a = −c_sky·ẋ2`` with the skyhook gain of ``agents.controllers.Skyhook``;
+* ``skyhook``: ``F_a = −c_sky·ẋ2`` with the skyhook gain of
+  ``agents.controllers.classical.Skyhook``;
 * ``LQR``: ``F_a = −K·x`` on the linearised vehicle with the env's reward weights in SI
-  (the design of ``agents.controllers.LQR``).
+  (the design of ``agents.controllers.classical.LQR``).
 
 Each law acts on the state of the model it drives (as a controller trained on the surrogate
 then runs on the reference), at the env's control step, clipped to ``±f_max``. The scores are
@@ -29,17 +30,15 @@ from scipy.linalg import solve_continuous_are
 from railgym.parallel import run_tasks
 from railgym.report.published import PAPER
 from railgym.track import class_speed, track_time_input
-from railgym.vehicles.vertical import (
+from railgym.vehicles.vertical.kernels import (
     DEFAULT_DT,
     KERNELS,
-    VerticalVehicle,
     initial_state,
-    linear_model,
-    load_vehicle,
-    simulate,
     step_outputs,
     surrogate_arrays,
 )
+from railgym.vehicles.vertical.params import VerticalVehicle, linear_model, load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 from surrogates.metrics import average_absolute_error
 
 __all__ = [
@@ -55,9 +54,9 @@ __all__ = [
 CLASSES = (3, 4, 5, 6)
 #: seed base of the unseen tracks
 SEED_BASE = 2000
-#: skyhook gain, N·s/m (``agents.controllers.DEFAULT_C_SKY``)
+#: skyhook gain, N·s/m (``agents.controllers.classical.DEFAULT_C_SKY``)
 C_SKY = 4.7e4
-#: acceleration scale of the env's reward, m/s² (``railgym.envs.vertical.ACC_REF``)
+#: acceleration scale of the env's reward, m/s² (``railgym.envs.vertical.env.ACC_REF``)
 ACC_REF = 0.75
 
 #: issue-10 targets: (class, controller, statistic, bound as a fraction)

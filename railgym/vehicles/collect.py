@@ -66,16 +66,16 @@ from railgym.vehicles.memory_element import (
     stage,
 )
 from railgym.vehicles.refinement import RefineOptions, refine_rounds
-from railgym.vehicles.vertical import (
+from railgym.vehicles.vertical.kernels import (
     DEFAULT_DT,
     KERNELS,
     VARIANTS,
     initial_state,
-    load_vehicle,
-    simulate,
     step_outputs,
     surrogate_arrays,
 )
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 from surrogates import io
 from surrogates.builder import BuildReport, build
 from surrogates.cli_flags import (

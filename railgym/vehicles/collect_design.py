@@ -22,7 +22,9 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.track import class_speed, track_time_input
-from railgym.vehicles.vertical import DEFAULT_DT, load_vehicle, simulate
+from railgym.vehicles.vertical.kernels import DEFAULT_DT
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 
 DESIGNS = ("paper", "envelope")
 #: sample rate of the memory element's training data and of the refinement samples, Hz

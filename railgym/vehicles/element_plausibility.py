@@ -118,7 +118,7 @@ def _rate_slope(form: Any) -> float:
 def element_plausibility(model: Any, vehicle: Any) -> Plausibility:
     """Linearisation and training box of the fitted element ``model`` (inputs ``δ, δ̇`` or
     ``δ, δ̇, ζ``, force N) against ``vehicle`` (a
-    :class:`~railgym.vehicles.vertical.VerticalVehicle`, or a whole vehicle with its
+    :class:`~railgym.vehicles.vertical.params.VerticalVehicle`, or a whole vehicle with its
     ``suspension``); the measurements and findings of the module docstring."""
     suspension = getattr(vehicle, "suspension", vehicle)
     k2, c2 = float(suspension.k2), float(suspension.c2)

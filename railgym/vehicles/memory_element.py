@@ -1,6 +1,6 @@
 """The memory element of the vertical suspension (:mod:`surrogates.memory`): its training
 pairs ``(δ, δ̇, ζ) → F_s`` from collected runs, and ``τ`` and the degrees chosen by k-fold CV
-(:func:`build_memory_surrogate`; ``railgym.vehicles.collect`` re-exports it)."""
+(:func:`build_memory_surrogate`, which ``railgym.vehicles.collect`` calls)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,8 @@ from railgym.vehicles.collect_design import (
     collect_design,
     design_named,
 )
-from railgym.vehicles.vertical import bump_stop_force, load_vehicle
+from railgym.vehicles.vertical.elements import bump_stop_force
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates.memory import TauSelection, law_document, maxwell_state, relaxed_state
 from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression

@@ -41,7 +41,7 @@ class CrashSafety(gym.Wrapper):
     env : env whose ``step`` info holds ``decel_g`` (per car, deceleration in g, positive
         when braking) and ``crush_m`` (per zone, m) every step, and ``absorbed_energy_J``
         (per zone, J, cumulative), ``stroke_exceeded`` and ``energy_error`` (relative energy
-        balance residual) — as ``railgym.envs.crash.TrainCrashEnv``. A missing key raises
+        balance residual) — as ``railgym.envs.crash.env.TrainCrashEnv``. A missing key raises
         ``ValueError`` on the first step that needs it.
 
     Notes

@@ -18,7 +18,7 @@ import gymnasium as gym
 import numpy as np
 
 from railgym import _checks as val
-from railgym.envs.vertical import ENV_BACKENDS, VerticalSuspensionEnv
+from railgym.envs.vertical.env import ENV_BACKENDS, VerticalSuspensionEnv
 from surrogates.metrics import average_absolute_error, paper_error
 
 #: carbody channels compared: (info suffix, unit)
@@ -119,7 +119,7 @@ class ReferenceShadow(gym.Wrapper):
 
     Parameters
     ----------
-    env : a :class:`~railgym.envs.vertical.VerticalSuspensionEnv`, possibly wrapped (e.g. by
+    env : a :class:`~railgym.envs.vertical.env.VerticalSuspensionEnv`, possibly wrapped (e.g. by
         ``gym.make``); any other env raises ``ValueError``.
     reference_backend : backend of the shadow env (default ``"reference"``, the
         high-fidelity model).

@@ -38,7 +38,7 @@ VARIANTS = {"paper": 0, "hysteretic": 1}
 
 
 class HystereticLaw(NamedTuple):
-    """Constants of the element law (SI): see ``railgym.vehicles.crash.CrashElement``."""
+    """Constants of the element law (SI): see ``railgym.vehicles.crash.surrogate.CrashElement``."""
 
     variant: str
     unilateral: bool

@@ -11,7 +11,7 @@ import pytest
 
 @pytest.fixture
 def tiny_ppo_block() -> Callable[..., dict[str, Any]]:
-    """``tiny_ppo_block(**overrides)``: the ``agents.train`` config block of a PPO run of
+    """``tiny_ppo_block(**overrides)``: the ``agents.training.train`` config block of a PPO run of
     seconds (128 steps on two envs of VerticalVehicle-v1's linear backend, 1 s episodes, no
     evaluation or checkpoint during the run, an 8-unit network), with ``overrides``."""
 

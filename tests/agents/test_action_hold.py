@@ -1,15 +1,16 @@
-"""Decision interval (agents.action_hold): the held env sums the steps it holds, the held policy
-acts every ``hold`` steps wherever a trained zip is loaded, and configs check the field."""
+"""Decision interval (agents.controllers.action_hold): the held env sums the steps it holds, the
+held policy acts every ``hold`` steps wherever a trained zip is loaded, and configs check the
+field."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from agents.action_hold import ActionHold, HeldPolicy
-from agents.train_config import load_config
+from agents.controllers.action_hold import ActionHold, HeldPolicy
+from agents.training.train_config import load_config
 from railgym import _checks as val
-from railgym.envs.crash import TrainCrashVectorEnv
+from railgym.envs.crash.env import TrainCrashVectorEnv
 
 KW = {"scenario": "envelope", "control_dt": 0.005, "backend": "surrogate"}
 #: two crashes of different length (25 and 50 km/h), payloads fixed
@@ -101,10 +102,11 @@ def test_trained_zip_is_evaluated_with_its_hold(tmp_path, tiny_ppo_block):
     """A zip trained with ``action_hold: 3`` loads (by path) as a policy that changes its action
     only every third env step, equal to the network's action there; the FMU export refuses it."""
     pytest.importorskip("stable_baselines3")
-    from agents.crash_baselines import rollout
-    from agents.policies import CRASH_ID, load_policy
-    from agents.policy_fmu import export_policy
-    from agents.train import train
+    from agents.controllers.crash_baselines import rollout
+    from agents.controllers.registry import CRASH_ID
+    from agents.policies.loading import load_policy
+    from agents.policies.policy_fmu import export_policy
+    from agents.training.train import train
 
     block = tiny_ppo_block(
         n_timesteps=64,

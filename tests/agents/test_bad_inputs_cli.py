@@ -1,5 +1,5 @@
-"""Bad command lines of ``railgym`` and ``python -m agents.train``: each is refused before any
-work with exit status 2, no traceback, and an error line that names the flag or file; in a
+"""Bad command lines of ``railgym`` and ``python -m agents.training.train``: each is refused before
+any work with exit status 2, no traceback, and an error line that names the flag or file; in a
 fresh process, every line on stderr (warnings too) is one ``railgym CMD: …`` line."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from agents.cli import main as railgym_main
 
 pytest.importorskip("stable_baselines3")
 
-from agents.train import main as train_main  # noqa: E402
+from agents.training.train import main as train_main  # noqa: E402
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 TINY = {"algo": "ppo", "n_timesteps": 256, "n_envs": 1, "seed": 0}
@@ -91,7 +91,7 @@ ROWS = [
     ("railgym", "evaluate passive --env crash --address auto", "--address: only for"),
     ("railgym", "evaluate skyhook --workers 0", "--workers"),
     ("railgym", "evaluate skyhook --workers two", "--workers"),
-    # python -m agents.train
+    # python -m agents.training.train
     ("train", "", "config"),
     ("train", "{missing}.yaml", "missing.yaml"),
     ("train", "{nonempty}", "nonempty"),
@@ -180,10 +180,10 @@ FE = "--nodout n --rcforc r --units mm-ms-kg-kN --car-nodes 1 --wall-contact 1 -
 @pytest.mark.parametrize(
     ("module", "argv", "flag"),
     [
-        ("agents.vehicle_validation", "--duration 0", "--duration"),
-        ("agents.vehicle_validation", "--duration 601", "--duration"),
-        ("agents.vehicle_validation", "--track-class 7", "--track-class"),
-        ("agents.vehicle_validation", "--seeds 0", "--seeds"),
+        ("agents.evaluation.vehicle_validation", "--duration 0", "--duration"),
+        ("agents.evaluation.vehicle_validation", "--duration 601", "--duration"),
+        ("agents.evaluation.vehicle_validation", "--track-class 7", "--track-class"),
+        ("agents.evaluation.vehicle_validation", "--seeds 0", "--seeds"),
         ("railgym.vehicles.crash.fe", f"{FE} --interface-contacts 2 --seed -1", "--seed"),
     ],
 )

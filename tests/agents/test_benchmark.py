@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.benchmark import (
+from agents.controllers.registry import VEHICLE_ID
+from agents.evaluation.benchmark import (
     PREVIEW_BASELINES,
     _baseline_kwargs,
     baselines_of,
@@ -14,7 +15,6 @@ from agents.benchmark import (
     main,
     summary_table,
 )
-from agents.policies import VEHICLE_ID
 
 TINY = """\
 railgym/VerticalSuspension-v1:
@@ -98,7 +98,7 @@ def test_the_learning_curve_shows_the_agent_with_one_evaluation_too(tmp_path, n)
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
 
-    from agents.train_config import load_config
+    from agents.training.train_config import load_config
 
     cfg = load_config(yaml.safe_load(TINY))
     _eval_csvs(tmp_path, n)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.crash_baselines import (
+from agents.controllers.crash_baselines import (
     BEST_CONSTANT_ACTION,
     ConstantAbsorber,
     CrashPassive,
@@ -14,16 +14,17 @@ from agents.crash_baselines import (
     rollout,
     search_constant,
 )
-from agents.crash_report import (
+from agents.evaluation.crash_report import (
     ERROR_ACTIONS,
     baseline_rows,
     baseline_table,
     error_table,
     surrogate_error_rows,
 )
-from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv
-from railgym.vehicles.crash import load_scenario, simulate_reference
+from railgym.envs.crash.env import TrainCrashEnv, TrainCrashVectorEnv
 from railgym.vehicles.crash.outputs import result_criteria
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.scenario import load_scenario
 
 KMH = 1 / 3.6
 

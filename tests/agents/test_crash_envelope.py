@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.crash_baselines import CrashPassive, rollout
-from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv
-from railgym.vehicles.crash import CrushZone, load_scenario, parse_scenario
+from agents.controllers.crash_baselines import CrashPassive, rollout
+from railgym.envs.crash.env import TrainCrashEnv, TrainCrashVectorEnv
 from railgym.vehicles.crash.criteria import crash_pulse, moving_average_peak
+from railgym.vehicles.crash.scenario import CrushZone, load_scenario, parse_scenario
 
 KMH = 1 / 3.6
 
@@ -246,7 +246,7 @@ def test_surrogate_energy_check_flags_the_paper_variant_not_the_hysteretic():
 
 
 def test_raise_extrapolation_is_rejected_by_the_crash_models():
-    from railgym.envs.crash import default_surrogate
+    from railgym.envs.crash.env import default_surrogate
 
     sur = copy.deepcopy(default_surrogate(load_scenario("paper")))
     sur.elements["wall"].loading.extrapolation = "raise"
@@ -255,9 +255,9 @@ def test_raise_extrapolation_is_rejected_by_the_crash_models():
 
 
 def test_envelope_evaluation_fixes_speed_and_payload_and_summarises():
-    from agents.controllers import CrashPassive as Passive
-    from agents.controllers import SpeedAdaptive
-    from agents.crash_report import envelope_rows, envelope_summary, envelope_table
+    from agents.controllers.crash_baselines import CrashPassive as Passive
+    from agents.controllers.crash_baselines import SpeedAdaptive
+    from agents.evaluation.crash_report import envelope_rows, envelope_summary, envelope_table
 
     policies = {"passive": Passive, "speed-adaptive": SpeedAdaptive}
     rows = envelope_rows(policies, {"control_dt": 0.005}, (25.0,), ((0.0, 0.0), (2.0, 8.0)))
@@ -300,7 +300,7 @@ def test_shipped_config_return_is_the_targets_objective():
     """``configs/agents/ppo_crash.yaml``'s reward sums over a crash to −0.2 per g of the worst
     car's peak and −0.002 per mm of intrusion (summed over the zones), nothing else: checked at
     50 km/h, where the passive train intrudes."""
-    from agents.train_config import load_config
+    from agents.training.train_config import load_config
 
     kwargs = {**load_config("ppo_crash").env_kwargs, "backend": "reference"}
     env = TrainCrashEnv(**kwargs)

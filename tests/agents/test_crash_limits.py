@@ -1,8 +1,8 @@
-"""Ceilings of constant absorber settings (agents.crash_limits): nested optimisations."""
+"""Ceilings of constant absorber settings (agents.evaluation.crash_limits): nested optimisations."""
 
 import pytest
 
-from agents.crash_limits import ceilings, main
+from agents.evaluation.crash_limits import ceilings, main
 
 
 def test_ceilings_are_nested_and_knowing_the_speed_pays():

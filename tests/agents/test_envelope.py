@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.envelope import Envelope, EnvelopeVectorEnv, check_envelope
-from agents.train import GymVecToSB3, train
-from agents.train_config import load_config
+from agents.training.envelope import Envelope, EnvelopeVectorEnv, check_envelope
+from agents.training.train import GymVecToSB3, train
+from agents.training.train_config import load_config
 from railgym import _checks as val
 from railgym.track import class_speed
 

@@ -13,21 +13,20 @@ import pytest
 import yaml
 
 from agents.cli import main
-from agents.controllers import BogieSkyhook
-from agents.crash_report import envelope_table
-from agents.evaluate import (
-    RLLIB_MODULE_PATH,
-    VEHICLE_ID,
+from agents.controllers.classical import BogieSkyhook
+from agents.controllers.registry import VEHICLE_ID
+from agents.evaluation.crash_report import envelope_table
+from agents.evaluation.evaluate import (
     evaluate_crash,
     evaluate_envelope,
-    evaluate_vehicle,
     format_crash_rows,
     format_rows,
     format_vehicle_rows,
-    load_policy,
 )
-from agents.policy_io import write_manifest
-from agents.sweeps import evaluate_sweep
+from agents.evaluation.runs import evaluate_vehicle
+from agents.evaluation.sweeps import evaluate_sweep
+from agents.policies.loading import load_policy
+from agents.policies.policy_io import RLLIB_MODULE_PATH, write_manifest
 from railgym.track import class_speed
 
 
@@ -142,7 +141,7 @@ def test_envelope_evaluation_of_the_baselines_at_one_speed(capsys):
 
 def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_path, tiny_ppo_block):
     pytest.importorskip("stable_baselines3")
-    from agents.train import train
+    from agents.training.train import train
 
     block = tiny_ppo_block(
         n_timesteps=64,
@@ -161,7 +160,7 @@ def test_envelope_evaluation_runs_a_crash_policy_zip_beside_the_baselines(tmp_pa
 
 def test_vehicle_policy_zip_is_loaded_with_the_manifest(tmp_path, capsys, tiny_ppo_block):
     pytest.importorskip("stable_baselines3")
-    from agents.train import train
+    from agents.training.train import train
 
     block = tiny_ppo_block()
     out = train({VEHICLE_ID: block}, tmp_path / "ppo_vehicle", progress=False)
@@ -267,19 +266,6 @@ def test_rllib_checkpoint_without_the_extra_is_a_clear_error(tmp_path, monkeypat
         load_policy(str(tmp_path / "ckpt"))
 
 
-def test_evaluate_re_exports_the_policies_library():
-    """``agents.evaluate.load_policy(name, env_id)`` and the other library names moved to
-    agents.policies stay reachable from the command's module (a public contract)."""
-    import agents.evaluate as command
-    import agents.policies as library
-
-    assert set(library.__all__) <= set(command.__all__)
-    for name in library.__all__:
-        assert getattr(command, name) is getattr(library, name), name
-    factory, env_kwargs, label = command.load_policy("lqr", command.ENV_ID)
-    assert label == "lqr" and env_kwargs == {"observation": "full"}
-
-
 # ----------------------------------------------------- what the tables say (issue reports)
 def _railgym(*args: str) -> subprocess.CompletedProcess:
     """``railgym ARGS`` in a fresh process."""
@@ -317,14 +303,14 @@ def test_envelope_table_marks_diverged_runs():
 
 
 def test_help_and_docstring_say_which_rows_are_always_added():
-    import agents.evaluate
+    import agents.evaluation.evaluate
 
     proc = _railgym("evaluate", "--help")
     assert proc.returncode == 0
     text = " ".join(proc.stdout.split())
     assert "The comparison rows are always added: passive and skyhook (vertical, vehicle)" in text
     assert "passive (crash), passive, best-constant and speed-adaptive (crash --envelope)" in text
-    doc = " ".join(agents.evaluate.__doc__.split())
+    doc = " ".join(agents.evaluation.evaluate.__doc__.split())
     assert "always adds rows to compare against, whether or not they are named" in doc
 
 

@@ -7,8 +7,9 @@ import math
 import pytest
 
 from agents.cli import main
-from agents.evaluate import load_policy, run_policy
-from agents.gap import format_gap, gap_crash, gap_vehicle, gap_vertical, relative_gap
+from agents.evaluation.gap import format_gap, gap_crash, gap_vehicle, gap_vertical, relative_gap
+from agents.evaluation.runs import run_policy
+from agents.policies.loading import load_policy
 
 
 def test_relative_gap():

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from agents.controllers import LQR
-from agents.lqg import LQG, VehicleLQG, fra_shaping
-from agents.policies import evaluate_vehicle
-from agents.sweeps import evaluate_sweep
-from railgym.envs.vehicle import VerticalVehicleVectorEnv
-from railgym.envs.vertical import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
+from agents.controllers.classical import LQR
+from agents.controllers.lqg import LQG, VehicleLQG, fra_shaping
+from agents.evaluation.runs import evaluate_vehicle
+from agents.evaluation.sweeps import evaluate_sweep
+from railgym.envs.vehicle.env import VerticalVehicleVectorEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
 from railgym.track import fra_psd
 
 
@@ -140,12 +140,3 @@ def test_lqg_needs_the_sensor_observation():
         LQG(VerticalSuspensionEnv(backend="linear", observation="full"))
     with pytest.raises(ValueError, match="observation must be 'sensors'"):
         VehicleLQG(VerticalVehicleVectorEnv(backend="linear", observation="full"))
-
-
-def test_lqg_classes_are_importable_from_agents_controllers():
-    """The public names of issue 23: ``agents.controllers.LQG`` and ``VehicleLQG``."""
-    import agents.controllers
-    import agents.lqg
-
-    assert agents.controllers.LQG is agents.lqg.LQG
-    assert agents.controllers.VehicleLQG is agents.lqg.VehicleLQG

@@ -2,7 +2,7 @@
 
 Round trips on 10⁴ observations: FMU output (through FMPy) and ONNX output (onnxruntime) =
 ``policy.predict(obs, deterministic=True)`` × f_max, for PPO and SAC policies as
-:func:`agents.train.train` writes them (a few hundred steps of training).
+:func:`agents.training.train.train` writes them (a few hundred steps of training).
 """
 
 from __future__ import annotations
@@ -38,8 +38,8 @@ BLOCKS = {
 
 @pytest.fixture(scope="module", params=["ppo", "sac"])
 def trained(request, tmp_path_factory):
-    """(run folder, algo) of a tiny policy trained by agents.train."""
-    from agents.train import train
+    """(run folder, algo) of a tiny policy trained by agents.training.train."""
+    from agents.training.train import train
 
     algo = request.param
     block = {
@@ -63,7 +63,7 @@ def _observations(n: int, seed: int = 0) -> np.ndarray:
 
 
 def _predict_forces(run, obs):
-    from agents.evaluate import load_policy
+    from agents.policies.loading import load_policy
 
     factory, env_kwargs, _ = load_policy(str(run / "model.zip"), ID)
     assert env_kwargs["f_max"] == 6000.0
@@ -160,8 +160,8 @@ def test_controller_fmu_with_reference_fmu_reproduces_the_reference_episode(
 ):
     """FMPy as master: controller FMU + vehicle FMU = the env's reference episode under the
     same policy (docs/fmi.md, the engineer's loop)."""
-    from agents.evaluate import load_policy
-    from agents.policy_fmu import export_policy
+    from agents.policies.loading import load_policy
+    from agents.policies.policy_fmu import export_policy
     from railgym.fmu.reference import export_reference_fmu
 
     run, _ = trained
@@ -197,9 +197,9 @@ def test_whole_vehicle_policy_fmu_has_two_forces_named_like_the_vehicle_fmu(
 ):
     """A VerticalVehicle-v1 policy: 11 observation inputs, two force outputs, each equal to
     predict × f_max; its names are the whole-vehicle reference FMU's outputs and inputs."""
-    from agents.evaluate import load_policy
-    from agents.policy_fmu import export_policy
-    from agents.train import train
+    from agents.policies.loading import load_policy
+    from agents.policies.policy_fmu import export_policy
+    from agents.training.train import train
     from railgym.fmu.reference import VEHICLE_INPUTS, VEHICLE_OUTPUTS
 
     vid = "railgym/VerticalVehicle-v1"

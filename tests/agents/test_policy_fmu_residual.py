@@ -3,7 +3,8 @@ classical base beside the network, its state included.
 
 Closed loop on the env: every step the env's observation goes to the FMU (FMPy, set inputs,
 read the force, ``fmi2DoStep``) and to ``policy.predict(obs, deterministic=True)`` of the
-loaded :class:`agents.residual.ResidualPolicy` (the LQG's Kalman estimate included), whose
+loaded :class:`agents.controllers.residual.ResidualPolicy` (the LQG's Kalman estimate
+included), whose
 action steps the env; the forces agree within 10⁻⁵·f_max over two episodes, the FMU put back
 at rest with ``fmi2Reset`` and the policy with ``episode_start`` between them. Pretrained
 names resolve as in ``railgym evaluate``; what cannot be exported is one line and exit 2.
@@ -188,8 +189,8 @@ def _check_closed_loop(fmu_path, onnx_path, env, factory, stateful: bool) -> flo
 @pytest.fixture(scope="module", params=["ppo-vertical", "ppo-vehicle", "ppo-preview"])
 def shipped(request, tmp_path_factory):
     """(name, env id, FMU, ONNX or None) of a shipped residual policy, exported by name."""
-    from agents.policy_fmu import export_policy
-    from agents.pretrained import PRETRAINED
+    from agents.policies.policy_fmu import export_policy
+    from agents.policies.pretrained import PRETRAINED
 
     name = request.param
     out = tmp_path_factory.mktemp(name)
@@ -202,7 +203,7 @@ def test_shipped_residual_fmu_reproduces_predict_with_its_lqg(shipped):
     """The shipped residuals of the LQG (and of the LQ preview, its preview channels as FMU
     inputs): FMU = ResidualPolicy.predict·f_max step by step on the reference backend, over
     two episodes (state reset between them)."""
-    from agents.policies import load_policy
+    from agents.policies.loading import load_policy
 
     name, env_id, fmu, onnx = shipped
     factory, env_kwargs, label = load_policy(name, env_id)
@@ -249,7 +250,7 @@ def test_cli_refuses_the_crash_policy_saying_why(tmp_path):
 def test_crash_zip_without_hold_is_refused_not_an_attribute_error(tmp_path, capsys, tiny_ppo_block):
     """A crash policy that decides every step (``action_hold`` 1): the same clear refusal
     (it used to end in ``AttributeError: 'CrashParams' object has no attribute 'f_max'``)."""
-    from agents.train import train
+    from agents.training.train import train
 
     crash = {"scenario": "envelope", "control_dt": 0.005, "backend": "reference"}
     block = tiny_ppo_block(n_timesteps=64, n_steps=32, env_kwargs=crash)
@@ -261,7 +262,7 @@ def test_crash_zip_without_hold_is_refused_not_an_attribute_error(tmp_path, caps
     assert not out.exists()
 
 
-#: tiny residual runs of agents.train: (algo, base, observation)
+#: tiny residual runs of agents.training.train: (algo, base, observation)
 TINY = {
     "ppo-lqr": ("ppo", "lqr", "full"),
     "sac-skyhook": ("sac", "skyhook", "sensors"),
@@ -273,8 +274,9 @@ ALGO_BLOCKS = {
 
 
 def _tiny_residual(tmp_path: Path, algo: str, residual: str, observation: str) -> Path:
-    """The run folder of a residual policy trained a few steps by agents.train (f_max 6 kN)."""
-    from agents.train import train
+    """The run folder of a residual policy trained a few steps by agents.training.train
+    (f_max 6 kN)."""
+    from agents.training.train import train
 
     block = {
         "algo": algo,
@@ -303,7 +305,7 @@ def _tiny_residual(tmp_path: Path, algo: str, residual: str, observation: str) -
 def test_trained_memoryless_residual_fmu_reproduces_predict(case, tmp_path):
     """Residuals of the memoryless linear bases (full-state LQR, active skyhook), PPO and
     SAC a few steps trained, f_max 6 kN: FMU and ONNX = predict·f_max over two episodes."""
-    from agents.policies import load_policy
+    from agents.policies.loading import load_policy
 
     run = _tiny_residual(tmp_path, *TINY[case])
     fmu, onnx = tmp_path / "c.fmu", tmp_path / "c.onnx"
@@ -339,8 +341,8 @@ def test_cli_refuses_a_semi_active_residual_naming_it(tmp_path, capsys):
 
 def test_a_base_that_is_not_linear_is_refused_naming_it():
     """``semi-active`` switches; another non-linear law is found by the probe."""
-    from agents.controllers import Skyhook
-    from agents.residual_export import linear_base
+    from agents.controllers.classical import Skyhook
+    from agents.policies.residual_export import linear_base
 
     env = gym.make(ID)
     with pytest.raises(ValueError, match=r"'semi-active' \(Skyhook\).*a switching law"):
@@ -358,7 +360,7 @@ def test_a_base_that_is_not_linear_is_refused_naming_it():
 
 
 def _base_actions(base, obs: np.ndarray) -> np.ndarray:
-    """The equations of :mod:`agents.residual_export` in numpy, from rest, on the env's
+    """The equations of :mod:`agents.policies.residual_export` in numpy, from rest, on the env's
     observations ``obs`` (steps, n_obs): the base's action per step."""
     xp, up, out = np.zeros(base.n_x), np.zeros(base.g.shape[0]), []
     for o in obs:
@@ -384,8 +386,8 @@ def _base_actions(base, obs: np.ndarray) -> np.ndarray:
 def test_every_linear_base_is_its_controller(env_id, name):
     """Each exportable controller of both vertical envs: the exported matrices reproduce its
     ``predict`` (the LQG's estimate carried over 60 steps) on random observations."""
-    from agents.controllers import CONTROLLERS_OF, build_controller
-    from agents.residual_export import linear_base
+    from agents.controllers.registry import CONTROLLERS_OF, build_controller
+    from agents.policies.residual_export import linear_base
 
     env = gym.make(env_id, **CONTROLLERS_OF[env_id][name][2])
     ctrl = build_controller(env_id, name, env)

@@ -1,5 +1,5 @@
-"""``railgym evaluate`` of any SB3 zip: agents.train checkpoints, rl-zoo3 runs, bare zips;
-and agents.train reading rl-zoo3's hyperparameter format (issue 21 item 4)."""
+"""``railgym evaluate`` of any SB3 zip: agents.training.train checkpoints, rl-zoo3 runs, bare zips;
+and agents.training.train reading rl-zoo3's hyperparameter format (issue 21 item 4)."""
 
 from __future__ import annotations
 
@@ -12,15 +12,17 @@ import yaml
 
 import railgym  # noqa: F401  (registers the environments)
 from agents.cli import main
-from agents.evaluate import ENV_ID, evaluate_vehicle, load_policy
-from agents.policy_zip import find_source, read_zoo_yaml, zip_network
+from agents.controllers.registry import ENV_ID
+from agents.evaluation.runs import evaluate_vehicle
+from agents.policies.loading import load_policy
+from agents.policies.policy_zip import find_source, read_zoo_yaml, zip_network
 
 pytest.importorskip("stable_baselines3")
 import torch  # noqa: E402
 from stable_baselines3 import PPO, SAC  # noqa: E402
 
-from agents.train import train  # noqa: E402
-from agents.train_config import load_config  # noqa: E402
+from agents.training.train import train  # noqa: E402
+from agents.training.train_config import load_config  # noqa: E402
 
 RLZOO_FILE = Path(__file__).parents[2] / "railgym" / "configs" / "agents" / "rlzoo_vertical.yml"
 #: rl-zoo3's layout of ``python -m rl_zoo3.train --algo ppo --env ENV -f LOG``
@@ -141,7 +143,7 @@ def test_bare_zip_on_other_env_settings_is_a_clear_error(tmp_path):
 
 def test_agents_train_checkpoint_is_evaluated(tmp_path, tiny_ppo_block):
     """runs/NAME/checkpoints/model_N_steps.zip: the run's config.yaml two folders up, and the
-    checkpoints' own manifest written by agents.train."""
+    checkpoints' own manifest written by agents.training.train."""
     block = tiny_ppo_block(checkpoint_freq=64, n_steps=32)
     out = train({"railgym/VerticalVehicle-v1": block}, tmp_path / "ppo_vehicle", progress=False)
     checkpoint = out / "checkpoints" / "model_64_steps.zip"
@@ -169,7 +171,7 @@ def test_agents_train_reads_the_rlzoo_file_with_algo():
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        ({"normalize": True}, "rl-zoo3's 'normalize' is not supported by agents.train"),
+        ({"normalize": True}, "rl-zoo3's 'normalize' is not supported by agents.training.train"),
         ({"policy_kwargs": "dict(net_arch=[8])"}, "policy_kwargs is a Python expression"),
     ],
 )
@@ -192,7 +194,7 @@ def test_agents_train_command_trains_an_rlzoo_file(tmp_path, capsys):
         "policy_kwargs": {"net_arch": [8]},
     }
     config.write_text(yaml.safe_dump({ENV_ID: block}))
-    from agents.train import main as train_main
+    from agents.training.train import main as train_main
 
     argv = [str(config), "--out", str(tmp_path / "run"), "--no-progress", "--seed", "0"]
     assert train_main([*argv, "--algo", "ppo"]) == 0

@@ -3,17 +3,13 @@
 import numpy as np
 import pytest
 
-from agents.evaluate import (
-    CRASH_ID,
-    ENV_ID,
-    VEHICLE_ID,
-    evaluate_crash,
-    evaluate_vehicle,
-    load_policy,
-)
-from agents.policy_io import check_manifest
-from agents.pretrained import PRETRAINED, pretrained_zip
-from agents.sweeps import evaluate_sweep
+from agents.controllers.registry import CRASH_ID, ENV_ID, VEHICLE_ID
+from agents.evaluation.evaluate import evaluate_crash
+from agents.evaluation.runs import evaluate_vehicle
+from agents.evaluation.sweeps import evaluate_sweep
+from agents.policies.loading import load_policy
+from agents.policies.policy_io import check_manifest
+from agents.policies.pretrained import PRETRAINED, pretrained_zip
 
 #: held-out figures of the shipped policies (docs/results.md, issue 23), reference backend:
 #: a_w (m/s², per floor point on the vehicle) on the track of seed 1000, class 5 at 144 km/h;

@@ -1,6 +1,6 @@
-"""LQ preview control (agents.preview): on an exact discrete linear model with a known delay the
-closed loop is the textbook augmented one, without preview the controllers are lqr and lqg
-action for action, with preview the rear floor point rides better, and the CLI runs it."""
+"""LQ preview control (agents.controllers.preview): on an exact discrete linear model with a known
+delay the closed loop is the textbook augmented one, without preview the controllers are lqr and
+lqg action for action, with preview the rear floor point rides better, and the CLI runs it."""
 
 from __future__ import annotations
 
@@ -10,13 +10,14 @@ import yaml
 from scipy.linalg import expm, solve_discrete_are
 
 from agents.cli import main
-from agents.control_base import vehicle_lqr_gain, vehicle_lqr_weights
-from agents.controllers import VEHICLE_CONTROLLERS, VEHICLE_ID, VehicleLQR, build_controller
-from agents.lqg import VehicleLQG
-from agents.preview import LQGPreview, LQRPreview
-from agents.residual_export import linear_base
-from railgym.envs.vehicle import VerticalVehicleEnv, VerticalVehicleVectorEnv
-from railgym.vehicles.vehicle import linear_state_space
+from agents.controllers.classical import VehicleLQR
+from agents.controllers.control_base import vehicle_lqr_gain, vehicle_lqr_weights
+from agents.controllers.lqg import VehicleLQG
+from agents.controllers.preview import LQGPreview, LQRPreview
+from agents.controllers.registry import VEHICLE_CONTROLLERS, VEHICLE_ID, build_controller
+from agents.policies.residual_export import linear_base
+from railgym.envs.vehicle.env import VerticalVehicleEnv, VerticalVehicleVectorEnv
+from railgym.vehicles.vehicle.model import linear_state_space
 
 SPAN = 2.0 * (9.5 + 1.28)  # front-to-rear wheelset distance of manchester_whole, m
 
@@ -39,7 +40,7 @@ def test_closed_loop_on_an_exact_model_with_a_known_delay_is_the_augmented_one(t
     steps later, the preview grid (20 m, 0.5 m) is the register. The plant is the linear
     model sampled exactly (force held, wheel inputs first-order held between the samples),
     all four wheelsets driven, the front one unknown to the controller. Independently of
-    :mod:`agents.preview`: the register shift, the augmented DARE (scipy on the whole
+    :mod:`agents.controllers.preview`: the register shift, the augmented DARE (scipy on the whole
     system) and the loop ``F = −K·x − K_ξ·ξ`` with the LQR's ``K``; the controller, fed the
     full observation and its preview channels, gives the same forces step for step."""
     path = tmp_path / "whole.yaml"
@@ -203,8 +204,8 @@ def test_cli_evaluates_lq_preview_beside_lqg(capsys):
 
 
 def test_lq_preview_exports_as_a_linear_base():
-    """The residual export's state-space law (agents.residual_export's docstring), evaluated
-    here in numpy, reproduces the controller's actions over 60 random observations: the
+    """The residual export's state-space law (agents.policies.residual_export's docstring),
+    evaluated here in numpy, reproduces the controller's actions over 60 random observations: the
     filter blind to the preview channels, the feed-forward as the observation gain G."""
     env = VerticalVehicleEnv(backend="linear", duration=1.0, preview=8.0)
     ctrl = build_controller(VEHICLE_ID, "lq-preview", env)

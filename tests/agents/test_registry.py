@@ -4,8 +4,6 @@ name, every env family's baselines listed and buildable, the commands reading it
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 import warnings
 
 import pytest
@@ -54,7 +52,7 @@ def test_every_env_family_has_its_baselines_and_they_resolve():
 
 
 def test_crash_baselines_build_on_the_env():
-    from railgym.envs.crash import TrainCrashVectorEnv
+    from railgym.envs.crash.env import TrainCrashVectorEnv
 
     env = TrainCrashVectorEnv(num_envs=1)
     obs, _ = env.reset(seed=0)
@@ -80,28 +78,3 @@ def test_the_commands_read_the_one_registry():
     assert benchmark.SEMI_ACTIVE_BASELINES is registry.SEMI_ACTIVE_BASELINES
     doc = " ".join(evaluate.__doc__.split())
     assert "``passive``, ``best-constant``, ``speed-adaptive``" in doc
-
-
-def test_old_module_paths_are_the_moved_modules():
-    """``agents.X`` of before the rooms is the module itself (monkeypatching works), and the
-    ``python -m agents.X`` entry points run."""
-    import agents.controllers.lqg
-    import agents.evaluate
-    import agents.evaluation.evaluate
-    import agents.lqg
-    import agents.policies
-    import agents.train_config
-    import agents.training.train_config
-    from agents.evaluation.runs import run_policy
-
-    assert agents.evaluate is agents.evaluation.evaluate
-    assert agents.lqg is agents.controllers.lqg
-    assert agents.train_config is agents.training.train_config
-    assert agents.policies.run_policy is run_policy
-    out = subprocess.run(
-        [sys.executable, "-m", "agents.crash_limits", "--help"],
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    assert out.stdout.startswith("usage: railgym crash-limits")

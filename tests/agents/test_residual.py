@@ -1,4 +1,4 @@
-"""Residual policies (agents.residual): the summed action, the controller's state across
+"""Residual policies (agents.controllers.residual): the summed action, the controller's state across
 episode ends in training, the zip loaded as controller + network, and the config checks."""
 
 from __future__ import annotations
@@ -9,11 +9,12 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from agents.envelope import EnvelopeVectorEnv, check_envelope
-from agents.lqg import LQG, VehicleLQG
-from agents.policies import ENV_ID, VEHICLE_ID, run_policy
-from agents.residual import ResidualPolicy, ResidualVectorEnv, residual_action
-from agents.train_config import load_config
+from agents.controllers.lqg import LQG, VehicleLQG
+from agents.controllers.registry import ENV_ID, VEHICLE_ID
+from agents.controllers.residual import ResidualPolicy, ResidualVectorEnv, residual_action
+from agents.evaluation.runs import run_policy
+from agents.training.envelope import EnvelopeVectorEnv, check_envelope
+from agents.training.train_config import load_config
 from railgym import _checks as val
 
 #: 5 control steps per episode on the linear backend
@@ -131,7 +132,7 @@ def test_vehicle_lqg_is_a_residual_base():
 def test_lq_preview_is_a_residual_base_with_zero_residual_its_own_action():
     """``residual: lq-preview`` (ppo_vehicle_preview): a zero agent action applies exactly the
     LQ preview controller's forces, preview channels included."""
-    from agents.controllers import build_controller
+    from agents.controllers.registry import build_controller
 
     kwargs = {"backend": "linear", "duration": 0.05, "preview": 21.56}
     env = _native(VEHICLE_ID, 2, **kwargs)
@@ -152,7 +153,7 @@ def test_lq_preview_is_a_residual_base_with_zero_residual_its_own_action():
 def test_clipped_lqg_is_a_residual_base_clipped_to_the_command_range():
     """``residual: clipped-lqg`` (ppo_vertical_semiactive): the sum is clipped to the damper's
     command range [0, 1], whatever the agent's action."""
-    from agents.controllers import build_controller
+    from agents.controllers.registry import build_controller
 
     env = _native(ENV_ID, 2, **SHORT, actuator="semi-active")
     venv = ResidualVectorEnv(env, build_controller(ENV_ID, "clipped-lqg", env), 2.0)
@@ -195,9 +196,9 @@ def test_trained_residual_zip_loads_as_controller_plus_network(tmp_path, tiny_pp
     error naming ``residual``; with sensors the saved zip loads (by path) as the LQG plus the
     network, and the FMU export holds that LQG (its training case's design)."""
     pytest.importorskip("stable_baselines3")
-    from agents.policies import load_policy
-    from agents.policy_fmu import export_policy
-    from agents.train import train
+    from agents.policies.loading import load_policy
+    from agents.policies.policy_fmu import export_policy
+    from agents.training.train import train
 
     full = {"backend": "linear", "duration": 1.0, "observation": "full"}
     block = tiny_ppo_block(**BLOCK, n_steps=32, residual_scale=0.5, env_kwargs=full)

@@ -1,4 +1,4 @@
-"""agents.train_rllib: RLlib PPO on the native vector env (needs the rllib extra; skipped
+"""agents.training.train_rllib: RLlib PPO on the native vector env (needs the rllib extra; skipped
 without it — the main CI environment has no Ray, .ci/rllib.sh runs these in its own)."""
 
 import csv
@@ -13,8 +13,8 @@ pytest.importorskip(
 import gymnasium as gym  # noqa: E402
 import ray  # noqa: E402
 
-from agents.evaluate import load_policy  # noqa: E402
-from agents.train_rllib import (  # noqa: E402
+from agents.policies.loading import load_policy  # noqa: E402
+from agents.training.train_rllib import (
     RLlibPolicy,
     build_algo_config,
     load_rllib_config,
@@ -79,7 +79,7 @@ def test_checkpoint_round_trip_and_deterministic_action_is_the_mean(local_ray, t
     cfg = load_rllib_config(_config())
     from ray.tune.registry import register_env
 
-    from agents.train_rllib import RLLIB_ENV, native_vector_env
+    from agents.training.train_rllib import RLLIB_ENV, native_vector_env
 
     register_env(RLLIB_ENV, native_vector_env)
     algo = build_algo_config(cfg).build_algo()

@@ -8,13 +8,11 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401  (registers the envs)
-from agents.benchmark import SEMI_ACTIVE_BASELINES, baselines_of, held_out, summary_table
 from agents.cli import main
-from agents.controllers import CONTROLLERS, LQG, Skyhook, default_c_sky
-from agents.evaluate import format_rows, format_vehicle_rows
-from agents.gap import format_gap
-from agents.policies import load_policy, run_policy
-from agents.semi_active_control import (
+from agents.controllers.classical import Skyhook, default_c_sky
+from agents.controllers.lqg import LQG
+from agents.controllers.registry import CONTROLLERS
+from agents.controllers.semi_active_control import (
     SEMI_ACTIVE_CONTROLLERS,
     ClippedLQG,
     DamperSkyhook,
@@ -22,6 +20,11 @@ from agents.semi_active_control import (
     damper_command,
     steady_force,
 )
+from agents.evaluation.benchmark import SEMI_ACTIVE_BASELINES, baselines_of, held_out, summary_table
+from agents.evaluation.evaluate import format_rows, format_vehicle_rows
+from agents.evaluation.gap import format_gap
+from agents.evaluation.runs import run_policy
+from agents.policies.loading import load_policy
 from railgym.vehicles.semi_active import damper_force, load_damper, simulate_damper
 
 ID = "railgym/VerticalSuspension-v1"

@@ -1,7 +1,7 @@
-"""The speed table of ``railgym demo`` (:mod:`agents.speed`): what it measured, positive rates,
-the ratio column, every figure taken from the clock (a fake clock proves the table prints what
-it timed), and the FMU row skipped with a note where it cannot be built. No figure is compared
-with a speed target (speed belongs in ``benchmarks/``)."""
+"""The speed table of ``railgym demo`` (:mod:`agents.evaluation.speed`): what it measured, positive
+rates, the ratio column, every figure taken from the clock (a fake clock proves the table prints
+what it timed), and the FMU row skipped with a note where it cannot be built. No figure is
+compared with a speed target (speed belongs in ``benchmarks/``)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from types import SimpleNamespace
 
 import pytest
 
-from agents import speed
-from agents.speed import SpeedRow, backend_speeds, format_speeds
-from railgym.envs.vertical import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
+from agents.evaluation import speed
+from agents.evaluation.speed import SpeedRow, backend_speeds, format_speeds
+from railgym.envs.vertical.env import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
 from railgym.vehicles.collect import default_vertical_surrogate
 
 #: a table row: mode, label, sub-envs, steps, env-steps/s, × reference

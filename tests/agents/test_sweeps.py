@@ -1,12 +1,14 @@
-"""agents.sweeps: controller evaluations as tasks give the numbers of agents.policies.run_policy."""
+"""agents.evaluation.sweeps: controller evaluations as tasks give the numbers of
+agents.evaluation.runs.run_policy."""
 
 import functools
 
 import pytest
 
-from agents.controllers import Skyhook
-from agents.policies import load_policy, run_policy
-from agents.sweeps import controller_sweep, evaluate_sweep
+from agents.controllers.classical import Skyhook
+from agents.evaluation.runs import run_policy
+from agents.evaluation.sweeps import controller_sweep, evaluate_sweep
+from agents.policies.loading import load_policy
 
 
 def test_evaluate_sweep_on_two_workers_equals_one_and_run_policy():

@@ -1,4 +1,5 @@
-"""agents.train: the SB3 adapter's autoreset semantics, config validation, a short PPO run."""
+"""agents.training.train: the SB3 adapter's autoreset semantics, config validation, a short
+PPO run."""
 
 from __future__ import annotations
 
@@ -18,9 +19,9 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 pytest.importorskip("stable_baselines3")
 
 import railgym  # noqa: E402
-from agents.controllers import Passive  # noqa: E402
-from agents.evaluate import load_policy  # noqa: E402
-from agents.train import GymVecToSB3, evaluate, load_config, main, make_vec, train  # noqa: E402
+from agents.controllers.classical import Passive  # noqa: E402
+from agents.policies.loading import load_policy  # noqa: E402
+from agents.training.train import GymVecToSB3, evaluate, load_config, main, make_vec, train  # noqa: E402
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 CONFIGS = Path(railgym.__file__).parent / "configs" / "agents"
@@ -333,7 +334,7 @@ def test_short_sac_run_with_schedule_reloads(tmp_path, capsys):
     )
 
 
-#: the agents.train configs (``trainer: rllib`` files are agents.train_rllib's,
+#: the agents.training.train configs (``trainer: rllib`` files are agents.training.train_rllib's,
 #: tests/agents/test_rllib.py)
 SB3_CONFIGS = [
     p

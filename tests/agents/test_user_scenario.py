@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from agents.cli import main
-from agents.evaluate import evaluate_crash
+from agents.evaluation.evaluate import evaluate_crash
 from railgym._checks import resolve_yaml
 
 

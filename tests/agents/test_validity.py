@@ -1,5 +1,5 @@
 """The validity flags where the agents report them: ``railgym evaluate``'s tables and the
-measurement of :mod:`agents.validity` (errors against the reference beside the flags)."""
+measurement of :mod:`agents.evaluation.validity` (errors against the reference beside the flags)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,14 @@ import warnings
 import numpy as np
 import pytest
 
-from agents.evaluate import format_rows, format_vehicle_rows
-from agents.policies import run_policy, run_vehicle_policy
-from agents.validity import case_episodes, main, target_holds
-from agents.validity import format_rows as validity_table
+from agents.evaluation.evaluate import format_rows, format_vehicle_rows
+from agents.evaluation.runs import run_policy, run_vehicle_policy
+from agents.evaluation.validity import case_episodes, main, target_holds
+from agents.evaluation.validity import format_rows as validity_table
 
 
 def _passive(env):
-    from agents.controllers import Passive
+    from agents.controllers.classical import Passive
 
     return Passive(env)
 

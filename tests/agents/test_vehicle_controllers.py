@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from agents.controllers import LQR, BogieSkyhook, ModalSkyhook, Passive, VehicleLQR
-from railgym.envs.vehicle import VerticalVehicleEnv, VerticalVehicleVectorEnv
-from railgym.envs.vertical import VerticalSuspensionEnv
+from agents.controllers.classical import LQR, BogieSkyhook, ModalSkyhook, Passive, VehicleLQR
+from railgym.envs.vehicle.env import VerticalVehicleEnv, VerticalVehicleVectorEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 
 
 def test_shapes_single_and_batch_and_v0_unchanged():

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from gymnasium.vector import AsyncVectorEnv, SyncVectorEnv
 
-from railgym.envs.crash import TrainCrashEnv, default_surrogate
-from railgym.envs.vertical import VerticalSuspensionEnv
-from railgym.vehicles.crash import load_scenario
+from railgym.envs.crash.env import TrainCrashEnv, default_surrogate
+from railgym.envs.vertical.env import VerticalSuspensionEnv
+from railgym.vehicles.crash.scenario import load_scenario
 
 N_ENVS, N_STEPS, SEED = 2, 9, 11
 ENVS = ("crash", "vertical")

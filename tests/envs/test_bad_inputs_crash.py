@@ -9,8 +9,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
-from railgym.vehicles.crash import crash_model, load_scenario, parse_scenario
+from railgym.envs.crash.env import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
+from railgym.vehicles.crash.model import crash_model
+from railgym.vehicles.crash.scenario import load_scenario, parse_scenario
 
 OBSTACLE = {
     "type": "obstacle",

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import yaml
 
-from railgym.envs.vehicle import VerticalVehicleEnv, VerticalVehicleVectorEnv
-from railgym.vehicles.vehicle import load_whole_vehicle
+from railgym.envs.vehicle.env import VerticalVehicleEnv, VerticalVehicleVectorEnv
+from railgym.vehicles.vehicle.params import load_whole_vehicle
 
 RAW = yaml.safe_load(
     resources.files("railgym").joinpath("configs", "vehicles", "manchester_whole.yaml").read_text()

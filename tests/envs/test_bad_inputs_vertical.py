@@ -11,8 +11,9 @@ import pytest
 import yaml
 
 from railgym import track
-from railgym.envs.vertical import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
-from railgym.vehicles.vertical import load_vehicle, simulate, vehicle_from_dict
+from railgym.envs.vertical.env import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
+from railgym.vehicles.vertical.params import load_vehicle, vehicle_from_dict
+from railgym.vehicles.vertical.simulate import simulate
 from surrogates import LegendreRegression
 
 RAW = yaml.safe_load(

@@ -6,16 +6,13 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import railgym  # noqa: F401  (registers the environments)
-from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
+from railgym.envs.crash.env import TrainCrashEnv, TrainCrashVectorEnv, default_surrogate
 from railgym.envs.crash.step import STATE_LIMIT
-from railgym.vehicles.crash import (
-    PARALLEL_MIN,
-    absorber_zone_force,
-    load_scenario,
-    simulate_reference,
-    simulate_surrogate,
-    zone_force,
-)
+from railgym.vehicles.crash.outputs import PARALLEL_MIN
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.scenario import load_scenario
+from railgym.vehicles.crash.surrogate_model import simulate_surrogate
+from railgym.vehicles.crash.zone import absorber_zone_force, zone_force
 from tests.envs.test_track_chunks import batch_bytes
 
 ENV_ID = "railgym/TrainCrash-v1"

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 import railgym  # noqa: F401
 from railgym import _checks as val
-from railgym.envs.crash import TrainCrashEnv, TrainCrashVectorEnv
+from railgym.envs.crash.env import TrainCrashEnv, TrainCrashVectorEnv
 from railgym.envs.crash.layout import EPISODE, INFO_FIELDS, REWARD_TERMS, info_layout
 from railgym.envs.crash.params import CrashParams
 from railgym.envs.params import specs, update_docs

@@ -32,9 +32,9 @@ from railgym.envs.params import (
     specs,
     update_docs,
 )
-from railgym.envs.vehicle import LIMITS as VEHICLE_LIMITS
-from railgym.envs.vehicle import VehicleParams, VerticalVehicleEnv, VerticalVehicleVectorEnv
-from railgym.envs.vertical import (
+from railgym.envs.vehicle.env import LIMITS as VEHICLE_LIMITS
+from railgym.envs.vehicle.env import VehicleParams, VerticalVehicleEnv, VerticalVehicleVectorEnv
+from railgym.envs.vertical.env import (
     LIMITS,
     VerticalParams,
     VerticalSuspensionEnv,

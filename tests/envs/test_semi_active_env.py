@@ -11,9 +11,10 @@ import pytest
 
 import railgym  # noqa: F401  (registers the environments)
 from railgym._checks import FieldError
-from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 from railgym.vehicles.semi_active import load_damper, simulate_damper
-from railgym.vehicles.vertical import load_vehicle, simulate
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 SEMI = {"actuator": "semi-active"}

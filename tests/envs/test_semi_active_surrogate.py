@@ -12,7 +12,7 @@ import pytest
 import railgym  # noqa: F401  (registers the environments)
 from railgym._checks import FieldError
 from railgym.vehicles.semi_active_element import load_damper_element
-from railgym.vehicles.vertical import DAMPER_LAWS
+from railgym.vehicles.vertical.elements import DAMPER_LAWS
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 SEMI = {"actuator": "semi-active"}

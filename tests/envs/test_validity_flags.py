@@ -232,7 +232,7 @@ def test_a_measured_profile_is_outside_the_envelope(env_id):
 
 
 def test_reset_on_track_takes_the_other_envs_case():
-    from railgym.envs.vertical import VerticalSuspensionEnv
+    from railgym.envs.vertical.env import VerticalSuspensionEnv
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 import railgym  # noqa: F401
 from railgym.comfort import a_zp95, sperling_wz, weighted_rms
-from railgym.envs.vehicle import VerticalVehicleEnv, VerticalVehicleVectorEnv
+from railgym.envs.vehicle.env import VerticalVehicleEnv, VerticalVehicleVectorEnv
 
 ID = "railgym/VerticalVehicle-v1"
 SHORT = {"backend": "linear", "duration": 0.5}
@@ -219,7 +219,7 @@ def test_wk_weighted_reward_and_rendering():
 
 def test_memory_element_is_the_default_and_static_is_accepted():
     from railgym.vehicles.collect import default_vertical_surrogate
-    from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+    from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
 
     env = gym.make("railgym/VerticalVehicle-v1", backend="surrogate", duration=0.2)
     default = default_vehicle_surrogate()
@@ -241,7 +241,7 @@ def test_one_bogie_env_refuses_an_element_with_a_relaxation_law():
     """The whole vehicle's element carries a nonlinear relaxation law that only the whole
     vehicle's kernels integrate: the one-bogie env refuses it, naming the field."""
     from railgym._checks import FieldError
-    from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
+    from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
 
     with pytest.raises(FieldError, match="surrogate.*relaxation"):
         gym.make("railgym/VerticalSuspension-v1", surrogate=default_vehicle_surrogate())

@@ -12,7 +12,7 @@ import pytest
 from scipy.interpolate import CubicHermiteSpline
 
 import railgym  # noqa: F401
-from railgym.envs.vehicle import PREVIEW_SPACING, VerticalVehicleEnv, VerticalVehicleVectorEnv
+from railgym.envs.vehicle.env import PREVIEW_SPACING, VerticalVehicleEnv, VerticalVehicleVectorEnv
 
 SHORT = {"backend": "linear", "duration": 0.5}
 SPAN = 2.0 * (9.5 + 1.28)  # front-to-rear wheelset distance of manchester_whole, m

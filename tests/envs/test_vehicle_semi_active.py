@@ -1,5 +1,5 @@
 """``VerticalVehicle-v1`` with ``actuator="semi-active"``: a controllable damper per bogie
-(:mod:`railgym.vehicles.vehicle_damper`), its commands the action; the force mode unchanged."""
+(:mod:`railgym.vehicles.vehicle.damper`), its commands the action; the force mode unchanged."""
 
 from __future__ import annotations
 

@@ -11,14 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from railgym.envs.vehicle import (
+from railgym.envs.vehicle.env import (
     ACC_REF,
     INFO_KEYS,
     REWARD_TERMS,
     VerticalVehicleEnv,
     VerticalVehicleVectorEnv,
 )
-from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 
 
 def _run(env, actions):
@@ -160,8 +160,8 @@ def test_single_env_info_arrays_are_fresh_and_match_the_vector_env(random_action
 _FRESH = """
 import numpy as np
 from numba.core.runtime import rtsys
-from railgym.envs.vehicle import VerticalVehicleEnv
-from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.envs.vehicle.env import VerticalVehicleEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 for env, m in ((VerticalVehicleEnv(duration=0.1), 2), (VerticalSuspensionEnv(duration=0.1), 1)):
     env.reset(seed=1)
     before = rtsys.get_allocation_stats()

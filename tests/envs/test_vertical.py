@@ -4,7 +4,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import railgym  # noqa: F401  (registers the environments)
-from railgym.envs.vertical import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 

@@ -16,15 +16,15 @@ from scipy import signal
 from railgym.comfort import WeightingFilter
 from railgym.envs.base import _check_small, check_actions
 from railgym.envs.track_shell import noisy_obs
-from railgym.envs.vertical import (
+from railgym.envs.vertical.batch import REWARD_TERMS
+from railgym.envs.vertical.env import (
     ACC_REF,
     INFO_KEYS,
     LIMITS,
     VerticalSuspensionEnv,
     VerticalSuspensionVectorEnv,
 )
-from railgym.envs.vertical.batch import REWARD_TERMS
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 
 
 def _run(env, actions):

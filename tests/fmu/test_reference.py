@@ -361,10 +361,10 @@ def test_reference_fmus_declare_base_units_and_one_episode_as_default_experiment
 
     from fmpy.validation import validate_fmu
 
-    from railgym.envs.vehicle import VehicleParams
-    from railgym.envs.vertical import VerticalParams
-    from railgym.vehicles.vehicle import DEFAULT_DT as VEHICLE_DT
-    from railgym.vehicles.vertical import DEFAULT_DT
+    from railgym.envs.vehicle.env import VehicleParams
+    from railgym.envs.vertical.env import VerticalParams
+    from railgym.vehicles.vehicle.model import DEFAULT_DT as VEHICLE_DT
+    from railgym.vehicles.vertical.kernels import DEFAULT_DT
 
     fmu = (reference_fmu if which == "vertical" else vehicle_fmu)[0]
     assert validate_fmu(str(fmu)) == []

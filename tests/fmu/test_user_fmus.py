@@ -136,7 +136,7 @@ def test_an_element_collected_from_the_users_fmu_is_plausible(user_c_fmu: Path, 
     from railgym.fmu.collect import collect_fmu
     from railgym.vehicles.collect import build_vertical_surrogate
     from railgym.vehicles.element_plausibility import element_plausibility
-    from railgym.vehicles.vertical import load_vehicle
+    from railgym.vehicles.vertical.params import load_vehicle
 
     car = tmp_path / "my_car.yaml"
     car.write_text(USER_VEHICLE_YAML)

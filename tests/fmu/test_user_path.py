@@ -83,8 +83,8 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     _collect(folder)
     # validate: surrogate env against the FMU env
     table = _run(
-        [sys.executable, "-m", "agents.vehicle_validation", "--env", "vertical", "--element"]
-        + ["element.json", "--backend", "fmu", "--fmu-map", "map.yaml", "--seeds", "2"]
+        [sys.executable, "-m", "agents.evaluation.vehicle_validation", "--env", "vertical"]
+        + ["--element", "element.json", "--backend", "fmu", "--fmu-map", "map.yaml", "--seeds", "2"]
         + ["--track-class", "5", "--duration", "4"],
         folder,
     )
@@ -100,7 +100,7 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     block["eval_env_kwargs"] = {"backend": "fmu", "fmu_map": "map.yaml", "surrogate": None}
     block.pop("checkpoint_freq")
     (folder / "my_ppo.yaml").write_text(yaml.safe_dump(config))
-    _run([sys.executable, "-m", "agents.train", "my_ppo.yaml", "--no-progress"], folder)
+    _run([sys.executable, "-m", "agents.training.train", "my_ppo.yaml", "--no-progress"], folder)
     zip_path = folder / "runs" / "my_ppo" / "model.zip"
     # evaluate and the transfer gap on the FMU; the LQG is designed for this car
     ev = ["railgym", "evaluate", str(zip_path), "lqg", "--backend", "fmu", "--fmu-map"]
@@ -112,7 +112,7 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     assert "largest |gap| of my_ppo" in gap
     # export the residual controller and co-simulate it with the user's FMU
     _run(["railgym", "export-policy", str(zip_path), "-o", "controller.fmu"], folder)
-    from agents.policies import load_policy
+    from agents.policies.loading import load_policy
 
     factory, env_kwargs, _ = load_policy(str(zip_path))
     env = gym.make(ID, backend="fmu", fmu_map=str(folder / "map.yaml"), duration=2.0)
@@ -180,7 +180,7 @@ def _master_loop(controller: Path, vehicle: Path, ref: dict) -> np.ndarray:
 
 def test_the_users_car_is_not_railgyms():
     """The test car differs from the packaged vehicle in every mass and stiffness."""
-    from railgym.vehicles.vertical import load_vehicle
+    from railgym.vehicles.vertical.params import load_vehicle
 
     ours = load_vehicle("manchester")
     assert (USER_CAR.m1, USER_CAR.m2) != (ours.m1, ours.m2)

@@ -15,7 +15,8 @@ from railgym.report import PAPER_LABEL, REPORT_FILES, make_report
 from railgym.report.output import atomic_path, prepare_output_dir, write_text_atomic
 from railgym.report.tables import markdown, table
 from railgym.track import track_time_input
-from railgym.vehicles.vertical import load_vehicle, simulate
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 from surrogates.models.lpr import LegendreRegression
 
 #: bound on the out-of-bag relative RMS error of both models when Kriging beats LPR

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.controllers import LQR, Skyhook
-from railgym.envs.vertical import VerticalSuspensionEnv
+from agents.controllers.classical import LQR, Skyhook
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 from railgym.parallel import ray_available
 from railgym.report.validation import (
     TARGETS,
@@ -20,7 +20,8 @@ from railgym.report.validation import (
 )
 from railgym.track import class_speed, track_time_input
 from railgym.vehicles.collect import default_vertical_surrogate
-from railgym.vehicles.vertical import load_vehicle, simulate
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 from surrogates.memory import element_form
 from surrogates.passive import PassiveLegendreRegression, passivity_check
 
@@ -80,7 +81,7 @@ def test_packaged_element_is_passive_on_three_times_its_box():
     assert np.all(check["min_slope"] >= 0.0), check["min_slope"]
     assert np.all(check["negative_fraction"] == 0.0)
     d = np.linspace(-0.2, 0.2, 4001)
-    from railgym.vehicles.vertical import bump_stop_force
+    from railgym.vehicles.vertical.elements import bump_stop_force
 
     f = np.array([bump_stop_force(x, VEH.kernel_params()) for x in d])
     assert np.all(np.diff(f) >= 0.0)

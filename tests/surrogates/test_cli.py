@@ -143,7 +143,7 @@ def test_demo_runs_twice_as_written_and_keeps_foreign_folders(tmp_path, monkeypa
     """README command 1 (``railgym demo``, default folder) run a second time replaces its own
     plots; a folder holding another file is still refused (exit 2) and left alone."""
     from agents import cli
-    from railgym.envs.vertical import VerticalSuspensionEnv
+    from railgym.envs.vertical.env import VerticalSuspensionEnv
     from railgym.vehicles.collect import build_vertical_surrogate
 
     monkeypatch.setattr(

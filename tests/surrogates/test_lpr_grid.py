@@ -9,8 +9,9 @@ import pytest
 from numba import njit
 
 from railgym.vehicles.collect import default_vertical_surrogate
-from railgym.vehicles.vertical import load_vehicle, surrogate_arrays
 from railgym.vehicles.vertical.elements import rhs
+from railgym.vehicles.vertical.kernels import surrogate_arrays
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates.models.lpr import (
     LegendreRegression,
     additive_table,

@@ -8,7 +8,7 @@ import pytest
 
 import railgym  # noqa: F401  (registers the environments)
 from railgym.vehicles.collect import collect_vertical
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import io
 from surrogates.builder import build
 from surrogates.features import vertical_features_from

@@ -290,7 +290,7 @@ def test_build_refuses_bad_names_and_units(kwargs, message):
 
 
 def test_the_unit_vocabulary_holds_the_env_and_fmu_units(tmp_path):
-    from railgym.envs.vertical import ELEMENT_OUTPUT_UNIT, ELEMENT_UNITS
+    from railgym.envs.track_shell import ELEMENT_OUTPUT_UNIT, ELEMENT_UNITS
     from surrogates.fmi.model_description import BASE_UNITS
 
     assert {*ELEMENT_UNITS, ELEMENT_OUTPUT_UNIT} <= KNOWN_UNITS

@@ -8,17 +8,16 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from railgym.vehicles.vehicle import (
+from railgym.vehicles.vehicle.model import (
     Lpr,
-    WholeVehicle,
     advance,
     advance_serial,
     check_variant,
     kernel_params,
-    load_whole_vehicle,
     new_arrays,
     wheelset_offsets,
 )
+from railgym.vehicles.vehicle.params import WholeVehicle, load_whole_vehicle
 
 #: vehicle speed of the kernel comparison, m/s
 SPEED = 40.0

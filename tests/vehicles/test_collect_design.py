@@ -13,7 +13,7 @@ from railgym.vehicles.collect_design import (
     collect_design,
     design_named,
 )
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 
 SMALL = CollectionDesign(track_classes=(4, 6), speed_factors=(1.0,), seeds=(3,), duration=2.0)
 

@@ -10,13 +10,13 @@ from hypothesis import strategies as st
 from railgym.track import class_speed
 from railgym.vehicles.collect import TRAINING_CASE, default_vertical_surrogate
 from railgym.vehicles.collect_design import ENVELOPE
-from railgym.vehicles.collect_vehicle import VEHICLE_DESIGN, default_vehicle_surrogate
 from railgym.vehicles.element_envelope import (
     OperatingEnvelope,
     design_envelope,
     element_envelope,
     parse_envelope,
 )
+from railgym.vehicles.vehicle.collect import VEHICLE_DESIGN, default_vehicle_surrogate
 
 
 def test_the_packaged_memory_element_declares_its_design():

@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from railgym.vehicles.collect import build_vertical_surrogate, default_vertical_surrogate
-from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
 from railgym.vehicles.element_plausibility import (
     MAX_RATE,
     PLAUSIBLE_RATIO,
@@ -18,8 +17,9 @@ from railgym.vehicles.element_plausibility import (
     element_plausibility,
     implausible_element_warning,
 )
-from railgym.vehicles.vehicle import load_whole_vehicle
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
+from railgym.vehicles.vehicle.params import load_whole_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import LegendreRegression
 
 VEHICLE = load_vehicle("manchester")

@@ -10,9 +10,11 @@ from hypothesis import strategies as st
 
 import railgym  # noqa: F401  (registers the envs)
 from railgym import _checks as val
-from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 from railgym.track import track_time_input
-from railgym.vehicles.vertical import bump_stop_force, load_vehicle, simulate
+from railgym.vehicles.vertical.elements import bump_stop_force
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 from surrogates.models.kriging import Kriging, kriging_eval_into, kriging_scratch
 
 VEH = load_vehicle("manchester")

@@ -1,4 +1,4 @@
-"""Policy-aware refinement on the whole vehicle (railgym.vehicles.refine_vehicle,
+"""Policy-aware refinement on the whole vehicle (railgym.vehicles.vehicle.refine,
 ``railgym refine POLICY --env vehicle``)."""
 
 from __future__ import annotations
@@ -7,12 +7,13 @@ import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.refine import vehicle_observation_map
-from railgym.envs.vehicle import VerticalVehicleEnv
-from railgym.vehicles.collect_vehicle import VehicleDesign, collect_vehicle
-from railgym.vehicles.refine_vehicle import RAW_VEHICLE_OBSERVATION, refine_vehicle
+from agents.evaluation.refine import vehicle_observation_map
+from railgym.envs.vehicle.env import VerticalVehicleEnv
 from railgym.vehicles.refinement import RefineOptions
-from railgym.vehicles.vehicle import N_MECH, hermite
+from railgym.vehicles.vehicle.collect import VehicleDesign, collect_vehicle
+from railgym.vehicles.vehicle.lanes import hermite
+from railgym.vehicles.vehicle.model import N_MECH
+from railgym.vehicles.vehicle.refine import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from surrogates import io
 from surrogates.models.lpr import LegendreRegression
 

@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 from railgym import _checks as val
 from railgym.envs.params import TrackEnvParams
 from railgym.vehicles.semi_active import DamperParams, load_damper, simulate_damper
-from railgym.vehicles.vertical import damper_force as passive_force
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.elements import damper_force as passive_force
+from railgym.vehicles.vertical.params import load_vehicle
 
 DAMPER = load_damper()
 DT = 1e-3

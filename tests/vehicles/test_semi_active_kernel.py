@@ -1,5 +1,5 @@
 """The damper element (:mod:`railgym.vehicles.semi_active_element`) inside the kernels: the
-``"element"`` law of :class:`~railgym.vehicles.vertical.DamperLaw` against an independent
+``"element"`` law of :class:`~railgym.vehicles.vertical.elements.DamperLaw` against an independent
 integration with the fitted model's own ``predict``."""
 
 from __future__ import annotations
@@ -10,19 +10,19 @@ import pytest
 from railgym.track import track_time_input
 from railgym.vehicles.semi_active import load_damper
 from railgym.vehicles.semi_active_element import load_damper_element
-from railgym.vehicles.vehicle import N_MECH, Params, kernel_params
-from railgym.vehicles.vehicle_damper import DAMPER_COLUMNS, damper_stage
-from railgym.vehicles.vertical import (
-    DAMPER_LAWS,
+from railgym.vehicles.vehicle.damper import DAMPER_COLUMNS, damper_stage
+from railgym.vehicles.vehicle.model import N_MECH, Params, kernel_params
+from railgym.vehicles.vehicle.params import load_whole_vehicle
+from railgym.vehicles.vertical.elements import DAMPER_LAWS
+from railgym.vehicles.vertical.kernels import (
     advance_semi_active,
+    check_variant,
     damper_law,
     initial_state,
-    load_vehicle,
     step_outputs,
     surrogate_arrays,
 )
-from railgym.vehicles.vertical.kernels import check_variant
-from railgym.vehicles.whole_vehicle import load_whole_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 
 DAMPER = load_damper("mr_secondary")
 ELEMENT = load_damper_element("mr_secondary")

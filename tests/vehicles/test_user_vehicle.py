@@ -18,15 +18,11 @@ import pytest
 import yaml
 
 import railgym  # noqa: F401  (registers the envs)
-from agents.controllers import DEFAULT_C_GND, DEFAULT_C_SKY, Groundhook, Skyhook
+from agents.controllers.classical import DEFAULT_C_GND, DEFAULT_C_SKY, Groundhook, Skyhook
 from railgym._checks import resolve_yaml
-from railgym.vehicles.collect import memory_training_data
-from railgym.vehicles.vertical import (
-    linear_model,
-    load_vehicle,
-    simulate,
-    vehicle_from_dict,
-)
+from railgym.vehicles.memory_element import memory_training_data
+from railgym.vehicles.vertical.params import linear_model, load_vehicle, vehicle_from_dict
+from railgym.vehicles.vertical.simulate import simulate
 
 #: a user's quarter car (not railgym's Manchester coach)
 USER = {"m1": 1800.0, "m2": 8000.0, "k1": 2.4e6, "c1": 3.0e4, "k2": 4.3e5, "c2": 1.7e4}
@@ -48,7 +44,7 @@ def test_a_vehicle_block_alone_is_a_complete_description(user_file):
     assert (p.m1, p.m2, p.k1, p.c1, p.k2, p.c2) == tuple(USER.values())
     assert p.k_bs == 0.0 and p.k_bs3 == 0.0
     # no bump-stop force anywhere, however far the deflection goes
-    from railgym.vehicles.vertical import bump_stop_force
+    from railgym.vehicles.vertical.elements import bump_stop_force
 
     assert all(bump_stop_force(d, p) == 0.0 for d in (-1.0, -0.07, 0.0, 0.05, 2.0))
 
@@ -179,8 +175,8 @@ def test_collect_from_an_fmu_without_a_vehicle_names_the_flag(reference_fmu, tmp
 
 
 def test_lqr_and_lqg_are_designed_on_the_users_car(user_file):
-    from agents.controllers import LQR
-    from agents.lqg import LQG
+    from agents.controllers.classical import LQR
+    from agents.controllers.lqg import LQG
 
     kw = {"backend": "linear", "vehicle": str(user_file)}
     lqr = LQR(gym.make("railgym/VerticalSuspension-v1", observation="full", **kw))

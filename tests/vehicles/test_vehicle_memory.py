@@ -8,9 +8,11 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401
-from railgym.vehicles.collect import default_vertical_surrogate, memory_training_data
-from railgym.vehicles.collect_vehicle import default_vehicle_surrogate
-from railgym.vehicles.vehicle import (
+from railgym.vehicles.collect import default_vertical_surrogate
+from railgym.vehicles.memory_element import memory_training_data
+from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
+from railgym.vehicles.vehicle.lanes import LANES, LANES_MIN
+from railgym.vehicles.vehicle.model import (
     N_MECH,
     PARALLEL_MIN,
     advance,
@@ -18,14 +20,13 @@ from railgym.vehicles.vehicle import (
     check_variant,
     kernel_params,
     lpr_arrays,
-    mode_shape,
     new_arrays,
-    simulate,
     state_size,
     wheelset_offsets,
 )
-from railgym.vehicles.vehicle_lanes import LANES, LANES_MIN
-from railgym.vehicles.vertical import bump_stop_force
+from railgym.vehicles.vehicle.params import mode_shape
+from railgym.vehicles.vehicle.simulate import simulate
+from railgym.vehicles.vertical.elements import bump_stop_force
 from surrogates.memory import maxwell_state
 from surrogates.models.lpr import LegendreRegression
 
@@ -287,7 +288,7 @@ def test_whole_vehicle_collection_records_each_bogie_of_the_reference(vehicle):
     states and forces of ``simulate`` on the same track; the excited runs push both actuators
     with independent signals of the design's peak; the runs give memory training pairs."""
     from railgym.track import fra_profile_with_slope
-    from railgym.vehicles.collect_vehicle import VehicleDesign, collect_vehicle
+    from railgym.vehicles.vehicle.collect import VehicleDesign, collect_vehicle
 
     design = VehicleDesign(track_classes=(5,), speeds=(40.0,), duration=1.0, sample_rate=50.0)
     data = collect_vehicle(design)
@@ -319,7 +320,7 @@ def test_whole_vehicle_collection_records_each_bogie_of_the_reference(vehicle):
 
 
 def test_vehicle_validation_cli_prints_small_errors_for_the_memory_element(capsys):
-    from agents.vehicle_validation import main
+    from agents.evaluation.vehicle_validation import main
 
     assert main(["--seeds", "2", "--track-class", "5", "--duration", "2"]) == 0
     line = capsys.readouterr().out.splitlines()[-1]
@@ -375,7 +376,7 @@ def test_synthetic_relaxation_law_is_recovered_at_both_bogies(vehicle):
 def test_rebuilding_the_packaged_vehicle_element_gives_the_same_model():
     """The whole vehicle's recipe at the packaged element's degrees (the full degree search is
     the regeneration command): the same relaxation law and the same force map."""
-    from railgym.vehicles.collect_vehicle import build_vehicle_surrogate
+    from railgym.vehicles.vehicle.collect import build_vehicle_surrogate
 
     packaged = default_vehicle_surrogate()
     degree = tuple(packaged.degree)

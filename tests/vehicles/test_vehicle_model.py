@@ -8,10 +8,10 @@ import pytest
 from scipy.optimize import brentq
 
 from railgym.vehicles.collect import default_vertical_surrogate
-from railgym.vehicles.vehicle import (
+from railgym.vehicles.vehicle.lanes import LANES, LANES_MIN
+from railgym.vehicles.vehicle.model import (
     N_MECH,
     PARALLEL_MIN,
-    WholeVehicle,
     advance_parallel,
     advance_serial,
     check_variant,
@@ -19,11 +19,11 @@ from railgym.vehicles.vehicle import (
     linear_state_space,
     lpr_arrays,
     new_arrays,
-    simulate,
     wheelset_offsets,
 )
-from railgym.vehicles.vehicle_lanes import LANES, LANES_MIN
-from railgym.vehicles.vertical import simulate as simulate_v0
+from railgym.vehicles.vehicle.params import WholeVehicle
+from railgym.vehicles.vehicle.simulate import simulate
+from railgym.vehicles.vertical.simulate import simulate as simulate_v0
 
 DT = 1e-3
 SPEED = 40.0
@@ -244,7 +244,7 @@ def test_parallel_kernel_with_dampers_is_bit_identical_to_serial(vehicle, law):
     from railgym.vehicles.semi_active_element import load_damper_element
     from railgym.vehicles.vehicle.damper import VehicleDampers
     from railgym.vehicles.vehicle.model import advance_parallel_dampers
-    from railgym.vehicles.vertical import damper_law
+    from railgym.vehicles.vertical.kernels import damper_law
 
     params = load_damper()
     kernel_law = damper_law(params, load_damper_element() if law == "element" else None)

@@ -16,13 +16,13 @@ from hypothesis import strategies as st
 
 from railgym.track import track_time_input
 from railgym.vehicles.collect import default_vertical_surrogate
-from railgym.vehicles.vertical import (
+from railgym.vehicles.vertical.kernels import (
+    KERNELS,
+    _advance_scalar,
     initial_state,
-    load_vehicle,
     step_outputs,
     surrogate_arrays,
 )
-from railgym.vehicles.vertical.kernels import KERNELS, _advance_scalar
 from railgym.vehicles.vertical.lanes import (
     LANES,
     LANES_MIN,
@@ -30,6 +30,7 @@ from railgym.vehicles.vertical.lanes import (
     advance_lanes,
     advance_lanes_parallel,
 )
+from railgym.vehicles.vertical.params import load_vehicle
 
 P = load_vehicle("manchester").kernel_params().record()
 N_SUB, DT = 10, 1e-3

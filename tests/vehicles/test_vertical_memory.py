@@ -7,16 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 from railgym.track import track_time_input
-from railgym.vehicles.vertical import (
-    KERNELS,
-    load_vehicle,
-    simulate,
-    state_size,
-    step_outputs,
-    surrogate_arrays,
-)
+from railgym.vehicles.vertical.kernels import KERNELS, state_size, step_outputs, surrogate_arrays
+from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.simulate import simulate
 from surrogates import io
 from surrogates.memory import element_form
 from surrogates.models import model_class

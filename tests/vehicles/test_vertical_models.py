@@ -9,20 +9,17 @@ import pytest
 import yaml
 
 from railgym.track import track_time_input
-from railgym.vehicles.vertical import (
+from railgym.vehicles.vertical.elements import damper_force, damper_velocity
+from railgym.vehicles.vertical.kernels import (
     KERNELS,
     STATE_SIZE,
     VARIANTS,
-    damper_force,
-    damper_velocity,
-    element_response,
     initial_state,
-    load_vehicle,
-    simulate,
     step_outputs,
     surrogate_arrays,
-    vehicle_from_dict,
 )
+from railgym.vehicles.vertical.params import load_vehicle, vehicle_from_dict
+from railgym.vehicles.vertical.simulate import element_response, simulate
 from surrogates import LegendreRegression
 
 

@@ -9,7 +9,7 @@ from gymnasium import spaces
 
 import railgym  # noqa: F401  (registers the environments)
 from railgym.comfort import WeightingFilter, sperling_b, weighted_rms
-from railgym.envs.vertical import VerticalSuspensionEnv
+from railgym.envs.vertical.env import VerticalSuspensionEnv
 from railgym.wrappers import CrashSafety, ReferenceShadow, RideComfort
 
 ENV_ID = "railgym/VerticalSuspension-v1"

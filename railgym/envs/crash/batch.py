@@ -31,7 +31,8 @@ from railgym.envs.crash.step import (
     plain,
 )
 from railgym.envs.params import consts
-from railgym.vehicles.crash import PARALLEL_MIN, CrashModel, CrashOutputs
+from railgym.vehicles.crash.model import CrashModel
+from railgym.vehicles.crash.outputs import PARALLEL_MIN, CrashOutputs
 
 __all__ = ["CrashBatch"]
 
@@ -41,7 +42,7 @@ class CrashBatch:
 
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there). It
     holds the arrays and computes the observation, reward, its terms and the ``info``
-    quantities of :class:`~railgym.envs.crash.TrainCrashEnv`. ``reset`` draws the episode's
+    quantities of :class:`~railgym.envs.crash.env.TrainCrashEnv`. ``reset`` draws the episode's
     initial speed and payload (:meth:`draw`); ``reset_state`` restarts the same episode.
     """
 

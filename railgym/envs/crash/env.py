@@ -33,17 +33,11 @@ from railgym.envs.crash.batch import CrashBatch
 from railgym.envs.crash.layout import INFO_FIELDS, REWARD_TERMS
 from railgym.envs.crash.params import BACKENDS, DEFAULT_WEIGHTS, CrashParams, nominal_force
 from railgym.envs.params import checked_keywords
-from railgym.vehicles.crash import (
-    LIMITS,
-    CrashModel,
-    CrashScenario,
-    CrashSurrogate,
-    build_crash_surrogate,
-    crash_model,
-    simulate_reference,
-)
 from railgym.vehicles.crash.elements import packaged_surrogate, packaged_trains
-from railgym.vehicles.crash.surrogate import NoUnloadingError
+from railgym.vehicles.crash.model import CrashModel, crash_model
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.scenario import LIMITS, CrashScenario
+from railgym.vehicles.crash.surrogate import CrashSurrogate, NoUnloadingError, build_crash_surrogate
 
 __all__ = [
     "BACKENDS",
@@ -105,8 +99,8 @@ def _unfittable(scenario: CrashScenario, variant: str, err: ValueError) -> str:
         "uses without surrogate= when no packaged elements fit the train) are fitted on a "
         f"passive reference run of this scenario ({case}), and {why}. Use a packaged train at "
         f"a speed within its envelope (packaged: {packaged}), or give surrogate= elements "
-        "fitted on your own runs (railgym.vehicles.crash.build_crash_surrogate, or python -m "
-        "railgym.vehicles.crash.fe from LS-DYNA output)"
+        "fitted on your own runs (railgym.vehicles.crash.surrogate.build_crash_surrogate, or "
+        "python -m railgym.vehicles.crash.fe from LS-DYNA output)"
     )
 
 

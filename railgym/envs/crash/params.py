@@ -15,15 +15,15 @@ import numpy as np
 from railgym import _checks as val
 from railgym.envs.crash.step import Criteria
 from railgym.envs.params import Params, declared, derived, param
-from railgym.vehicles.crash import (
+from railgym.vehicles.crash.criteria import ONSET_G, WINDOW
+from railgym.vehicles.crash.scenario import (
     LIMITS,
     MAX_SPEED,
-    VARIANTS,
     CrashScenario,
     CrushZone,
     load_scenario,
 )
-from railgym.vehicles.crash.criteria import ONSET_G, WINDOW
+from railgym.vehicles.crash.surrogate import VARIANTS
 
 __all__ = [
     "A_SCALE_G",
@@ -66,7 +66,7 @@ def _scenario(value: Any, name: str) -> CrashScenario:
 
 @declared
 class CrashParams(Params):
-    """The arguments of ``TrainCrash-v1`` (:class:`~railgym.envs.crash.TrainCrashEnv`),
+    """The arguments of ``TrainCrash-v1`` (:class:`~railgym.envs.crash.env.TrainCrashEnv`),
     checked, and what the batch derives from them (SI units).
 
     ``scenario`` becomes the :class:`CrashScenario` with ``n_cars`` and ``speed`` applied;

@@ -20,17 +20,15 @@ from railgym.envs.crash.layout import (
     named_rebuild,
     row_clearer,
 )
-from railgym.vehicles.crash import (
-    CrashOutputs,
-    ReferenceParams,
-    ReferenceState,
+from railgym.vehicles.crash.criteria import zero_crossing
+from railgym.vehicles.crash.outputs import CrashOutputs
+from railgym.vehicles.crash.reference import ReferenceParams, ReferenceState, reference_batch_step
+from railgym.vehicles.crash.surrogate_model import (
     SurrogateParams,
     SurrogateState,
-    reference_batch_step,
     surrogate_batch_step,
     surrogate_batch_step_parallel,
 )
-from railgym.vehicles.crash.criteria import zero_crossing
 
 __all__ = [
     "DECEL_REF_G",

@@ -27,20 +27,20 @@ from railgym.envs.track_shell import draw_tracks, noisy_obs, reward_sections, tr
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_window, fra_profile_with_slope
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
-from railgym.vehicles.vehicle import (
+from railgym.vehicles.vehicle.damper import DAMPER_COLUMNS, VehicleDampers
+from railgym.vehicles.vehicle.lanes import hermite
+from railgym.vehicles.vehicle.model import (
     Lpr,
-    WholeVehicle,
     advance,
     check_variant,
     element_lpr,
-    hermite,
     kernel_params,
-    mode_shape,
     new_arrays,
     wheelset_offsets,
 )
-from railgym.vehicles.vehicle.damper import DAMPER_COLUMNS, VehicleDampers
-from railgym.vehicles.vertical import RAISE_MODE, DamperLaw
+from railgym.vehicles.vehicle.params import WholeVehicle, mode_shape
+from railgym.vehicles.vertical.elements import DamperLaw
+from railgym.vehicles.vertical.kernels import RAISE_MODE
 
 __all__ = [
     "ACC_REF",
@@ -163,8 +163,8 @@ class StepCfg(NamedTuple):
 @njit(cache=True, error_model="numpy")
 def _observe(vehicles, out, params, consts, book, i):
     """Normalised observation of vehicle ``i`` into ``book.obs[i]`` (``vehicles``: the
-    kernel's :class:`~railgym.vehicles.vehicle.VehicleArrays`, ``params`` its
-    :class:`~railgym.vehicles.vehicle.Params`): the channels of ``observation``, then the
+    kernel's :class:`~railgym.vehicles.vehicle.model.VehicleArrays`, ``params`` its
+    :class:`~railgym.vehicles.vehicle.model.Params`): the channels of ``observation``, then the
     preview samples (heights, then rates) at ``consts.preview_frac`` of the front wheelset's
     distance ahead of the rear one, then with dampers their filtered commands ``u_0, u_1``
     (the state's columns −4 and −2)."""
@@ -215,7 +215,7 @@ def _observe(vehicles, out, params, consts, book, i):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def control_step(kind, vehicles, params, element, lpr, out, book, consts, damper):
     """One control step of every vehicle: actuator forces ``book.action · f_max`` (N), the
-    kernel (:func:`~railgym.vehicles.vehicle.advance` of ``kind`` on ``vehicles``, with the
+    kernel (:func:`~railgym.vehicles.vehicle.model.advance` of ``kind`` on ``vehicles``, with the
     vehicle's ``params``, the suspension ``element`` record and the surrogate ``lpr``), then
     :func:`book_step`. With ``damper`` (:class:`~railgym.vehicles.vehicle.damper.VehicleDampers`
     whose commands are ``book.action``, else ``None``) the kernel writes the dampers' forces
@@ -334,7 +334,7 @@ class VehicleBatch:
 
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there).
     It holds the arrays of the kernel and computes observation, reward, its terms and the
-    ``info`` quantities of :class:`~railgym.envs.vehicle.VerticalVehicleEnv`. The track
+    ``info`` quantities of :class:`~railgym.envs.vehicle.env.VerticalVehicleEnv`. The track
     arrays are sized for speeds down to ``v_min`` (m/s). ``envelope``: the operating envelope
     of the surrogate element (``None``: none, or not the surrogate backend), behind
     ``info["outside_envelope"]`` and the warning of the first episode outside it. ``damper``:

@@ -56,8 +56,9 @@ from railgym.envs.vertical.env import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.element_envelope import OperatingEnvelope
-from railgym.vehicles.vehicle import DEFAULT_DT, Params, load_whole_vehicle
 from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
+from railgym.vehicles.vehicle.model import DEFAULT_DT, Params
+from railgym.vehicles.vehicle.params import load_whole_vehicle
 
 __all__ = [
     "ACC_REF",

@@ -23,7 +23,9 @@ from railgym.envs.params import TrackEnvParams
 from railgym.envs.vehicle.batch import VehicleBatch, book_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMUInstances, FMURunner
-from railgym.vehicles.vehicle import Lpr, WholeVehicle, hermite
+from railgym.vehicles.vehicle.lanes import hermite
+from railgym.vehicles.vehicle.model import Lpr
+from railgym.vehicles.vehicle.params import WholeVehicle
 
 __all__ = ["FMUVehicleBatch"]
 

@@ -30,17 +30,17 @@ from railgym.envs.track_shell import draw_tracks, noisy_obs, reward_sections, tr
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input, track_time_window
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
-from railgym.vehicles.vertical import (
+from railgym.vehicles.vertical.elements import DamperLaw, LprArrays
+from railgym.vehicles.vertical.kernels import (
     RAISE_MODE,
-    DamperLaw,
-    LprArrays,
-    SuspensionParams,
-    VerticalVehicle,
+    advance_kind,
     advance_semi_active,
+    check_variant,
     initial_state,
+    scalar_work,
     step_outputs,
 )
-from railgym.vehicles.vertical.kernels import advance_kind, check_variant, scalar_work
+from railgym.vehicles.vertical.params import SuspensionParams, VerticalVehicle
 
 __all__ = [
     "ACC_REF",
@@ -253,9 +253,9 @@ def control_step(
 ):
     """One control step of every vehicle: actuator forces ``action[:, 0] · f_max`` (N), the
     kernel of variant ``consts.kind`` (arguments as
-    :func:`~railgym.vehicles.vertical.advance_linear` with ``k0 = counters.k``; ``work``
+    :func:`~railgym.vehicles.vertical.kernels.advance_linear` with ``k0 = counters.k``; ``work``
     the batch's :class:`~railgym.vehicles.vertical.kernels.ScalarWork`), then
-    :func:`post_step`. With a ``damper`` (:class:`~railgym.vehicles.vertical.DamperLaw`,
+    :func:`post_step`. With a ``damper`` (:class:`~railgym.vehicles.vertical.elements.DamperLaw`,
     else ``None``) ``action[:, 0]`` is its command and ``force`` receives its force (N)."""
     k, n_sub, dt, kind = counters.k, consts.n_sub, consts.dt, consts.kind
     if damper is not None:

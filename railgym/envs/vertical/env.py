@@ -59,7 +59,9 @@ from railgym.envs.vertical.batch import ACC_REF, INFO_KEYS, VerticalBatch
 from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.element_envelope import OperatingEnvelope
-from railgym.vehicles.vertical import DEFAULT_DT, LprArrays, SuspensionParams, load_vehicle
+from railgym.vehicles.vertical.elements import LprArrays
+from railgym.vehicles.vertical.kernels import DEFAULT_DT
+from railgym.vehicles.vertical.params import SuspensionParams, load_vehicle
 
 __all__ = [
     "ACC_REF",

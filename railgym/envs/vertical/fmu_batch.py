@@ -18,7 +18,8 @@ from railgym.envs.params import TrackEnvParams
 from railgym.envs.vertical.batch import VerticalBatch, post_step
 from railgym.fmu.mapping import Mapping
 from railgym.fmu.runner import FMUInstances, FMURunner
-from railgym.vehicles.vertical import LprArrays, VerticalVehicle
+from railgym.vehicles.vertical.elements import LprArrays
+from railgym.vehicles.vertical.params import VerticalVehicle
 
 __all__ = ["FMUBatch"]
 

@@ -2,7 +2,7 @@
  * Secondary-suspension laws of railgym's reference models (railgym/vehicles/vertical/elements.py,
  * statement for statement): damper curve and its inverse, bump stops, the air spring with
  * reservoir and orifice in series with the Maxwell damper. Parameters E (the fields of
- * railgym.vehicles.vertical.SuspensionParams) come from model_data.h.
+ * railgym.vehicles.vertical.params.SuspensionParams) come from model_data.h.
  */
 static double md_ramp(double x, double eps) { return 0.5 * (x + sqrt(x * x + eps * eps)); }
 

@@ -6,7 +6,7 @@
  *
  * States x = [z_c, th_c, q, z_b0, th_b0, z_b1, th_b1, their 7 rates, dp_bag0, dp_res0, y0,
  * dp_bag1, dp_res1, y1]; inputs u = [z_1, zdot_1, ..., z_4, zdot_4 (wheelsets front to rear),
- * F_a0, F_a1 (front, rear bogie)]. Parameters V (railgym.vehicles.vehicle.Params) and E
+ * F_a0, F_a1 (front, rear bogie)]. Parameters V (railgym.vehicles.vehicle.model.Params) and E
  * (SuspensionParams of the suspension) come from model_data.h.
  */
 #include "suspension.h"

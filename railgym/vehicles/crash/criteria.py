@@ -3,7 +3,7 @@
 Inputs are time histories sampled at ``t`` (s, increasing, first contact at ``t[0]``): per car
 the centre-of-mass velocity ``v`` (m/s, positive towards the barrier) and acceleration ``a``
 (m/s², negative when braking), per crush zone the crush (m, compression positive) — the
-arrays of :class:`railgym.vehicles.crash.CrashResult` (``v``, ``a``, ``crush``) or the env's
+arrays of :class:`railgym.vehicles.crash.outputs.CrashResult` (``v``, ``a``, ``crush``) or the env's
 per-step ``CrashOutputs``. Decelerations are returned in g, positive when braking.
 
 Definitions

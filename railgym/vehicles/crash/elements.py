@@ -4,9 +4,10 @@ One element set per train (cars, crush zones, barrier — not the speed) is fitt
 reference runs spanning the envelope: initial speeds :data:`FIT_SPEEDS_KMH` × absorber force
 scales :data:`FIT_SCALES` (constant over the run; the same in every zone, and the soft wall
 with stiff interfaces and the reverse, which crush each zone furthest) × the lightest and
-heaviest payload, pooled into one fit (:func:`~railgym.vehicles.crash.build_crash_surrogate`),
-not refitted per speed; the envelope is fitted on the samples inside plastic flow
-(:func:`~railgym.vehicles.crash.plastic_loading`). The files live in
+heaviest payload, pooled into one fit
+(:func:`~railgym.vehicles.crash.surrogate.build_crash_surrogate`), not refitted per speed; the
+envelope is fitted on the samples inside plastic flow
+(:func:`~railgym.vehicles.crash.surrogate.plastic_loading`). The files live in
 ``railgym/data/crash_elements_<scenario>.json`` with the train's content key
 (:func:`train_key`); ``TrainCrash-v1`` without ``surrogate=`` loads the file whose key
 matches its scenario (:func:`packaged_surrogate`), so every packaged scenario of that train

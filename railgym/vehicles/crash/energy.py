@@ -10,7 +10,7 @@ plastic. :func:`rebound_energy_ratio` compares what an element returns on each u
 with that bound.
 
 :func:`element_force_history` drives a fitted surrogate element
-(:class:`railgym.vehicles.crash.CrashElement`) along a prescribed crush history with the
+(:class:`railgym.vehicles.crash.surrogate.CrashElement`) along a prescribed crush history with the
 kernels' own element law, so both checks apply to the shipped elements.
 :func:`repaired_paper_history` prototypes an energy-consistent ``"paper"`` element (see its
 docstring); it is not used by the crash models.

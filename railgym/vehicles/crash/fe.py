@@ -2,8 +2,9 @@
 
 The paper learns its crash elements (eq. 4) from an LS-DYNA run. Here the run's ASCII output is
 read by :mod:`surrogates.lsdyna` and turned into the time histories railgym's own reference model
-produces, so that :func:`railgym.vehicles.crash.build_crash_surrogate` fits the elements exactly
-as it does on :func:`~railgym.vehicles.crash.simulate_reference` results, and
+produces, so that :func:`railgym.vehicles.crash.surrogate.build_crash_surrogate` fits the
+elements exactly as it does on :func:`~railgym.vehicles.crash.reference.simulate_reference`
+results, and
 ``gym.make("railgym/TrainCrash-v1", surrogate=elements)`` runs on them.
 
 What is taken from the FE output (:func:`crash_result_from_fe`):
@@ -17,8 +18,8 @@ What is taken from the FE output (:func:`crash_result_from_fe`):
   the zone force is ``|F_axis|`` of the contact's master side (the slave side if the file has
   no master line for it), interpolated linearly onto the nodout times.
 
-The crash features follow :func:`~railgym.vehicles.crash.crash_training_data`: the wall element
-sees ``u = x_lead`` (rigid wall at rest) and ``f_1`` the wall force, the interface element
+The crash features follow :func:`~railgym.vehicles.crash.surrogate.crash_training_data`: the wall
+element sees ``u = x_lead`` (rigid wall at rest) and ``f_1`` the wall force, the interface element
 ``u = x_{k+1} − x_k`` (the paper's ``x_1 − x_2`` with railgym's sign, compression positive)
 and ``f_2``, both split into loading and unloading branches by the crush rate. The masses,
 speed and zone layout of the env come from ``scenario``: give the scenario of the FE model.
@@ -27,7 +28,7 @@ speed and zone layout of the env come from ``scenario``: give the scenario of th
 co-simulation FMU (see ``docs/fmi.md``).
 
 :func:`save_crash_surrogate` / :func:`load_crash_surrogate` write and read a
-:class:`~railgym.vehicles.crash.CrashSurrogate` as JSON (each LPR as a
+:class:`~railgym.vehicles.crash.surrogate.CrashSurrogate` as JSON (each LPR as a
 :func:`surrogates.io.model_to_document`). Command line::
 
     railgym crash-fe --nodout nodout --rcforc rcforc --unit-system mm-ms-kg-kN \\

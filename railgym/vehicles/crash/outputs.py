@@ -246,7 +246,7 @@ def zone_absorber_strokes(result: CrashResult) -> np.ndarray:
 def result_criteria(
     result: CrashResult, limits: CriteriaLimits | None = None, **kwargs: float
 ) -> CrashCriteria:
-    """:func:`crash_criteria` of a :class:`~railgym.vehicles.crash.CrashResult` (its cars, not
+    """:func:`crash_criteria` of a :class:`CrashResult` (its cars, not
     the obstacle; ``kwargs``: ``window``, ``onset_g``)."""
     cars = result.scenario.n_cars
     v, a = result.v[:, :cars], result.a[:, :cars]

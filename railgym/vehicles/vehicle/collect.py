@@ -8,7 +8,7 @@ independent band-limited random forces
 (:func:`~railgym.vehicles.collect_design.band_limited_force`), and records each bogie's
 secondary deflection, its rate and force at the integration step. Each bogie of each run is
 one run of the :func:`~railgym.vehicles.collect_design.collect_design` format, so the memory
-features (:func:`~railgym.vehicles.collect.memory_training_data`) and the fit are those of
+features (:func:`~railgym.vehicles.memory_element.memory_training_data`) and the fit are those of
 the one-bogie element. The packaged element ``railgym/data/vehicle_lpr.json`` (the default of
 ``VerticalVehicle-v1``, :func:`default_vehicle_surrogate`) is rebuilt by::
 
@@ -49,7 +49,8 @@ from railgym.vehicles.vehicle.model import (
     wheelset_offsets,
 )
 from railgym.vehicles.vehicle.params import load_whole_vehicle
-from railgym.vehicles.vertical import bump_stop_force, load_vehicle
+from railgym.vehicles.vertical.elements import bump_stop_force
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import io
 from surrogates.cli_flags import Parser, add_common, add_out, add_seed, error_status
 from surrogates.memory import TauSelection, fit_relaxation, shortest_time_constant
@@ -230,7 +231,7 @@ def build_vehicle_surrogate(
     chosen among ``taus`` by CV. ``data``: a :func:`collect_vehicle` result to reuse.
 
     Returns ``(model, selection, data)`` as
-    :func:`~railgym.vehicles.collect.build_memory_surrogate` does (the selection's ``τ`` of a
+    :func:`~railgym.vehicles.memory_element.build_memory_surrogate` does (the selection's ``τ`` of a
     relaxation law is its shortest time constant).
     """
     if data is None:

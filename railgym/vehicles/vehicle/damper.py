@@ -32,7 +32,7 @@ class VehicleDampers(NamedTuple):
     """The dampers of a batch of vehicles as the kernel reads them: the law (the same at both
     bogies) and the commands in [0, 1] held over the control step."""
 
-    law: DamperLaw  #: law kind and parameters (:func:`~railgym.vehicles.vertical.damper_law`)
+    law: DamperLaw  #: law kind and parameters (``damper_law``)
     command: np.ndarray  #: (n, 2) command of the front and rear damper of each vehicle
 
 
@@ -41,7 +41,7 @@ def damper_stage(state, params, law, command, force, rates):
     """Forces of the two dampers (N, on the carbody) into ``force`` (2,) and their state rates
     (1/s) into the last four entries of ``rates``, for the vehicle state ``state`` (its last
     four entries the dampers' ``u, w``), the kernel ``params``
-    (:class:`~railgym.vehicles.vehicle.Params`), the damper ``law`` and ``command`` (2,)."""
+    (:class:`~railgym.vehicles.vehicle.model.Params`), the damper ``law`` and ``command`` (2,)."""
     s = state.shape[0]
     for b in range(2):
         xb = params.a if b == 0 else -params.a

@@ -58,7 +58,6 @@ from railgym.vehicles.semi_active_element import DamperElementArrays
 from railgym.vehicles.vehicle.damper import DAMPER_COLUMNS, VehicleDampers, damper_stage
 from railgym.vehicles.vehicle.lanes import LANES, LANES_MIN, hermite, lanes_block
 from railgym.vehicles.vehicle.params import WholeVehicle, mode_shape
-from railgym.vehicles.vertical import DIVERGENCE_DISPLACEMENT, surrogate_arrays
 from railgym.vehicles.vertical.elements import (
     DamperLaw,
     bump_stop_force,
@@ -66,6 +65,7 @@ from railgym.vehicles.vertical.elements import (
     dynamic_element,
     in_contact,
 )
+from railgym.vehicles.vertical.kernels import DIVERGENCE_DISPLACEMENT, surrogate_arrays
 from surrogates.memory import relaxation_rate
 from surrogates.models.lpr import lpr_additive_inside, lpr_eval_into, lpr_is_outside, lpr_scratch
 from surrogates.models.lpr_grid import lpr_grid_inside
@@ -114,7 +114,8 @@ class Params(NamedTuple):
 
 
 class Lpr(NamedTuple):
-    """Arrays of the LPR surrogate element (:func:`railgym.vehicles.vertical.surrogate_arrays`)."""
+    """Arrays of the LPR surrogate element
+    (:func:`railgym.vehicles.vertical.kernels.surrogate_arrays`)."""
 
     exps: np.ndarray
     coef: np.ndarray
@@ -188,7 +189,8 @@ def lpr_arrays(surrogate: Any = None, dt: float | None = None, grid: bool = Fals
 
 
 def element_lpr(arrays: Any) -> Lpr:
-    """The :class:`Lpr` fields of an element's :class:`~railgym.vehicles.vertical.LprArrays`."""
+    """The :class:`Lpr` fields of an element's
+    :class:`~railgym.vehicles.vertical.elements.LprArrays`."""
     return Lpr(*(getattr(arrays, name) for name in Lpr._fields))
 
 

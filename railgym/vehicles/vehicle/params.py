@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from railgym import _checks as val
-from railgym.vehicles.vertical import VerticalVehicle, load_vehicle
+from railgym.vehicles.vertical.params import VerticalVehicle, load_vehicle
 
 __all__ = ["BETA_L", "FLOOR_POINTS", "WholeVehicle", "load_whole_vehicle", "mode_shape"]
 

@@ -80,8 +80,9 @@ def run_vehicle_policy(
 ) -> dict[str, Any]:
     """One closed-loop run recorded at every integration step of ``DEFAULT_DT`` (s).
 
-    ``track`` is ``(z, zdot, offsets)`` of :class:`~railgym.vehicles.vehicle.VehicleArrays`; the law
-    gets the raw observation (:data:`RAW_VEHICLE_OBSERVATION`) every ``n_sub`` steps. Returns
+    ``track`` is ``(z, zdot, offsets)`` of
+    :class:`~railgym.vehicles.vehicle.model.VehicleArrays`; the law gets the raw observation
+    (:data:`RAW_VEHICLE_OBSERVATION`) every ``n_sub`` steps. Returns
     ``t`` (s), per bogie ``delta`` (m), ``delta_dot`` (m/s), ``force`` (F_s, N) as (2, n + 1)
     arrays, ``acc`` (floor points at the control steps, (n // n_sub, 3), m/s²), ``ood`` and
     ``diverged``.

@@ -38,7 +38,7 @@ def simulate(
     ----------
     z, zdot : (n, M) track height (m) and rate (m/s) on the rear wheelset's grid ``k·dt``.
     offsets : (n, 4) or (4,) wheelset sample offsets
-        (:func:`~railgym.vehicles.vehicle.wheelset_offsets`).
+        (:func:`~railgym.vehicles.vehicle.model.wheelset_offsets`).
     n_steps : number of recorded intervals of ``sample_every`` RK4 steps of ``dt`` (s).
 
     Returns

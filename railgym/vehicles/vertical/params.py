@@ -21,6 +21,12 @@ from railgym import _checks as val
 from surrogates.memory import KNOWN_PHYSICS
 
 __all__ = [
+    "P_C1",
+    "P_C2",
+    "P_K1",
+    "P_K2",
+    "P_M1",
+    "P_M2",
     "AirSpring",
     "BumpStop",
     "Damper",
@@ -37,8 +43,8 @@ __all__ = [
 class SuspensionParams(NamedTuple):
     """Parameters of the compiled vertical kernels, SI (one float per field).
 
-    Built by :meth:`VerticalVehicle.kernel_params`; the ``P_*`` constants of
-    :mod:`railgym.vehicles.vertical` are the field positions, for code that indexes it.
+    Built by :meth:`VerticalVehicle.kernel_params`; the ``P_*`` constants
+    of this module are the field positions, for code that indexes it.
     """
 
     m1: float  #: bogie frame, kg
@@ -79,6 +85,12 @@ class SuspensionParams(NamedTuple):
         return np.array([tuple(self)], SUSPENSION_DTYPE)
 
 
+#: positions of the linear parameters in :class:`SuspensionParams` (for indexing code)
+P_M1, P_M2, P_K1, P_C1, P_K2, P_C2 = (
+    SuspensionParams._fields.index(f) for f in ("m1", "m2", "k1", "c1", "k2", "c2")
+)
+
+
 #: structured dtype of :meth:`SuspensionParams.record`, one float64 field per parameter
 SUSPENSION_DTYPE = np.dtype([(name, np.float64) for name in SuspensionParams._fields])
 
@@ -89,7 +101,7 @@ def linear_model(params: SuspensionParams) -> tuple[np.ndarray, np.ndarray, np.n
     States ``x = [x1, v1, x2, v2]`` (m, m/s) from the static equilibrium, input ``F_a`` (N),
     linear secondary suspension ``k2, c2``; the track force ``f = k1·z + c1·ż`` is the
     disturbance (not returned). ``params`` is :meth:`VerticalVehicle.kernel_params` (the
-    whole vehicle's model is :func:`railgym.vehicles.vehicle.linear_state_space`).
+    whole vehicle's model is :func:`railgym.vehicles.vehicle.model.linear_state_space`).
 
     Returns
     -------

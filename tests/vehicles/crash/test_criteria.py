@@ -10,7 +10,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from railgym.vehicles.crash import CrushZone, load_scenario, simulate_reference
 from railgym.vehicles.crash.criteria import (
     CriteriaLimits,
     G,
@@ -21,6 +20,8 @@ from railgym.vehicles.crash.criteria import (
     peak_deceleration,
 )
 from railgym.vehicles.crash.outputs import result_criteria
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.scenario import CrushZone, load_scenario
 
 
 def _constant_force_crash(mass: float, v0: float, force: float, dt: float, duration: float):

@@ -6,9 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.crash_matrix import constant_action_cases, random_action_cases, worst_errors
-from railgym.envs.crash import TrainCrashEnv, env_surrogate
-from railgym.vehicles.crash import build_crash_surrogate, load_scenario, simulate_reference
+from agents.evaluation.crash_matrix import constant_action_cases, random_action_cases, worst_errors
+from railgym.envs.crash.env import TrainCrashEnv, env_surrogate
 from railgym.vehicles.crash.elements import (
     FIT_PAYLOADS_T,
     FIT_SCALES,
@@ -22,6 +21,9 @@ from railgym.vehicles.crash.elements import (
     validation_matrix,
 )
 from railgym.vehicles.crash.fe import load_crash_surrogate
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.scenario import load_scenario
+from railgym.vehicles.crash.surrogate import build_crash_surrogate
 
 
 def _run(env):

@@ -5,13 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from railgym.vehicles.crash import (
-    VARIANTS,
-    build_crash_surrogate,
-    crash_training_data,
-    simulate_reference,
-    simulate_surrogate,
-)
 from railgym.vehicles.crash.energy import (
     element_force_history,
     element_work,
@@ -19,6 +12,9 @@ from railgym.vehicles.crash.energy import (
     rebound_energy_ratio,
     repaired_paper_history,
 )
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.surrogate import VARIANTS, build_crash_surrogate, crash_training_data
+from railgym.vehicles.crash.surrogate_model import simulate_surrogate
 
 
 @pytest.fixture(scope="module")

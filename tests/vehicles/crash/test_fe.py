@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401  (registers the environments)
-from railgym.vehicles.crash import build_crash_surrogate, simulate_reference
 from railgym.vehicles.crash.fe import (
     crash_result_from_fe,
     crash_surrogate_from_fe,
@@ -15,6 +14,8 @@ from railgym.vehicles.crash.fe import (
     main,
     save_crash_surrogate,
 )
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.surrogate import build_crash_surrogate
 from surrogates import io
 from surrogates.lsdyna import write_nodout, write_rcforc
 
@@ -208,8 +209,8 @@ def test_crash_element_fmu_with_memory_reproduces_the_native_kernel(fe_files, tm
     pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
     from fmpy.validation import validate_fmu
 
-    from railgym.vehicles.crash import simulate_surrogate
     from railgym.vehicles.crash.fe import export_crash_element_fmu
+    from railgym.vehicles.crash.surrogate_model import simulate_surrogate
 
     ref = fe_files[0]
     sur = build_crash_surrogate(ref, variant=variant)

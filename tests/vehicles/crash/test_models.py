@@ -12,24 +12,21 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.polynomial import legendre
 
-from railgym.vehicles.crash import (
-    PARALLEL_MIN,
-    VARIANTS,
-    build_crash_surrogate,
-    crash_errors,
-    crash_model,
-    load_scenario,
-    parse_scenario,
-    reference_time_step,
-    scenario_names,
-    simulate_reference,
+from railgym.vehicles.crash.fe import load_crash_surrogate, save_crash_surrogate
+from railgym.vehicles.crash.model import crash_model
+from railgym.vehicles.crash.outputs import PARALLEL_MIN
+from railgym.vehicles.crash.reference import reference_time_step, simulate_reference
+from railgym.vehicles.crash.scenario import load_scenario, parse_scenario, scenario_names
+from railgym.vehicles.crash.surrogate import VARIANTS, build_crash_surrogate, crash_errors
+from railgym.vehicles.crash.surrogate_model import (
+    LprModels,
+    _legendre_rows,
+    _series_ends,
     simulate_surrogate,
     surrogate_batch_step,
     surrogate_batch_step_parallel,
-    zone_force,
 )
-from railgym.vehicles.crash.fe import load_crash_surrogate, save_crash_surrogate
-from railgym.vehicles.crash.surrogate_model import LprModels, _legendre_rows, _series_ends
+from railgym.vehicles.crash.zone import zone_force
 
 
 @pytest.fixture(scope="module")

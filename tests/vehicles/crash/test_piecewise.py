@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from railgym.vehicles.crash import load_scenario, simulate_reference
 from railgym.vehicles.crash.fe import (
     export_crash_element_fmu,
     load_crash_surrogate,
     save_crash_surrogate,
 )
 from railgym.vehicles.crash.piecewise import PiecewiseEnvelope, fit_piecewise
+from railgym.vehicles.crash.reference import simulate_reference
+from railgym.vehicles.crash.scenario import load_scenario
 from railgym.vehicles.crash.surrogate import build_crash_surrogate
 from railgym.vehicles.crash.surrogate_model import _pack_models, _piece_rows
 from surrogates.selection import factory_for

@@ -6,9 +6,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from railgym.vehicles.crash import load_scenario, plastic_loading, virgin_loading
 from railgym.vehicles.crash.elements import envelope_runs
-from railgym.vehicles.crash.surrogate import build_crash_surrogate
+from railgym.vehicles.crash.scenario import load_scenario
+from railgym.vehicles.crash.surrogate import build_crash_surrogate, plastic_loading, virgin_loading
 from railgym.vehicles.crash.zone import absorber_zone_force
 
 ZONE = load_scenario("paper").interface
