@@ -111,22 +111,9 @@ def test_each_env_has_its_folder(env):
 
 def test_envs_outside_their_folders_import_no_env_folder():
     """The shared modules of railgym/envs (base, params, compiled, track_shell, raster, ...)
-    need no env's folder; the deprecated re-export modules of the old paths are the
-    exception."""
-    shims = {
-        "crash_batch",
-        "crash_layout",
-        "crash_params",
-        "crash_step",
-        "rendering",
-        "vehicle_batch",
-        "vehicle_render",
-        "vertical_batch",
-    }
+    need no env's folder."""
     folders = {f"railgym.envs.{env}" for env in ENV_FOLDERS}
     for path in sorted((ROOT / "railgym" / "envs").glob("*.py")):
-        if path.stem in shims:
-            continue
         names = {n for n in _full_imports(path) if n.startswith("railgym.envs.")}
         bad = {n for n in names if any(n == f or n.startswith(f + ".") for f in folders)}
         assert not bad, f"{path} imports {bad}"
