@@ -4,8 +4,14 @@ Importing the package registers the environments: ``gym.make("railgym/VerticalSu
 The physics (:mod:`railgym.track`, :mod:`railgym.vehicles`) does not use gymnasium.
 """
 
+from importlib.metadata import PackageNotFoundError, version
+
 from railgym.registration import register_envs
 
-__version__ = "0.3.0"
+try:
+    #: the version of the installed distribution ``railgym`` (``pyproject.toml``)
+    __version__ = version("railgym")
+except PackageNotFoundError:  # a source tree on ``sys.path``, not installed
+    __version__ = "0+unknown"
 
 register_envs()

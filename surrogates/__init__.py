@@ -12,8 +12,6 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-__version__ = "0.3.0"
-
 _LAZY = {
     "LegendreRegression": "surrogates.models.lpr",
     "Kriging": "surrogates.models.kriging",
@@ -46,6 +44,13 @@ __all__ = sorted(_LAZY)
 
 
 def __getattr__(name: str) -> Any:
+    if name == "__version__":  # of the distribution ``railgym``, which ships this package
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("railgym")
+        except PackageNotFoundError:  # a source tree on ``sys.path``, not installed
+            return "0+unknown"
     if name in _LAZY:
         return getattr(importlib.import_module(_LAZY[name]), name)
     if name in _SUBMODULES:
@@ -54,4 +59,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(list(globals()) + __all__)
+    return sorted([*globals(), *__all__, "__version__"])
