@@ -16,7 +16,7 @@ python -m pip install --quiet -e ".[rllib,agents]" pytest hypothesis
 python -c "import gymnasium, ray; print('gymnasium', gymnasium.__version__, 'ray', ray.__version__)"
 echo "rllib.sh: environment ready after ${SECONDS} s"
 # the env tests on gymnasium 1.2.2, the Ray backend of the task runner, the RLlib trainer
-python -m pytest -q -p no:cacheprovider tests/envs/test_vertical.py tests/agents/test_rllib.py \
+python -m pytest -q -p no:cacheprovider tests/envs/vertical/test_vertical.py tests/agents/training/test_rllib.py \
     "tests/test_parallel.py::test_ray_backend_equals_serial"
 echo "rllib.sh: tests done after ${SECONDS} s"
 out="$(mktemp -d)"

@@ -210,8 +210,8 @@ def _observe(vehicles, out, params, consts, book, i):
 # Without the runtime's reference counting: the arrays come from the batch, which owns them
 # for the call, so the entry point unboxes them without runtime records and the kernel's
 # counting of every array it passes on (per RK4 stage) is skipped. The kernel's own scratch
-# arrays are still allocated and freed by the runtime (tests/envs/test_vehicle_shell.py checks the
-# balance).
+# arrays are still allocated and freed by the runtime
+# (tests/envs/vehicle/test_vehicle_shell.py checks the balance).
 @njit(cache=True, error_model="numpy", _nrt=False)
 def control_step(kind, vehicles, params, element, lpr, out, book, consts, damper):
     """One control step of every vehicle: actuator forces ``book.action · f_max`` (N), the

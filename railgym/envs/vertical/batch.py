@@ -245,8 +245,8 @@ def post_step(state, z, zdot, out, force, counters, result, consts):
 # Without the runtime's reference counting: the arrays come from the batch, which owns them
 # for the call, so the entry point unboxes them without runtime records and the kernel's
 # counting of every array it passes on (per RK4 stage) is skipped. The kernel's own scratch
-# arrays are still allocated and freed by the runtime (tests/envs/test_vehicle_shell.py checks the
-# balance).
+# arrays are still allocated and freed by the runtime
+# (tests/envs/vehicle/test_vehicle_shell.py checks the balance).
 @njit(cache=True, _nrt=False)
 def control_step(
     state, z, zdot, action, force, params, lpr, damper, out, counters, result, consts, work

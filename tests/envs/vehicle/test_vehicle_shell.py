@@ -182,7 +182,7 @@ def test_a_fresh_process_loads_the_cached_steps_reproduces_them_and_frees_their_
         for _ in range(10):
             obs = env.step(np.full(m, 0.5, np.float32))[0]
         expected.append(obs.tobytes().hex())
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[3]
     run = subprocess.run(
         [sys.executable, "-c", _FRESH],
         capture_output=True,

@@ -21,7 +21,7 @@ from railgym.envs.crash.layout import EPISODE, INFO_FIELDS, REWARD_TERMS, info_l
 from railgym.envs.crash.params import CrashParams
 from railgym.envs.params import specs, update_docs
 
-DOCS = Path(__file__).resolve().parents[2] / "docs" / "envs" / "crash.md"
+DOCS = Path(__file__).resolve().parents[3] / "docs" / "envs" / "crash.md"
 #: keys the env shell adds to the declared ones
 SHELL_KEYS = {"reward_terms", "crash_over", "case"}
 

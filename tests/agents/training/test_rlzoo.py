@@ -10,7 +10,7 @@ import yaml
 
 pytest.importorskip("rl_zoo3", reason="needs rl_zoo3 (pip install 'railgym[zoo]')")
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 CONFIGS = ROOT / "railgym" / "configs" / "agents"
 ENV = "railgym/VerticalSuspension-v1"
 

@@ -335,7 +335,7 @@ def test_short_sac_run_with_schedule_reloads(tmp_path, capsys):
 
 
 #: the agents.training.train configs (``trainer: rllib`` files are agents.training.train_rllib's,
-#: tests/agents/test_rllib.py)
+#: tests/agents/training/test_rllib.py)
 SB3_CONFIGS = [
     p
     for p in sorted(CONFIGS.glob("*.yaml"))

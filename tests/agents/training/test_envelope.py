@@ -73,7 +73,7 @@ def test_vehicle_envelope_and_sb3_adapter():
 
 
 def test_config_envelope_is_checked_and_trains(tmp_path):
-    path = Path(__file__).parents[2] / "railgym" / "configs" / "agents" / "ppo_vertical.yaml"
+    path = Path(__file__).parents[3] / "railgym" / "configs" / "agents" / "ppo_vertical.yaml"
     cfg = yaml.safe_load(path.read_text())
     block = cfg["railgym/VerticalSuspension-v1"]
     assert check_envelope(block["envelope"]).track_class == (4, 5, 6)

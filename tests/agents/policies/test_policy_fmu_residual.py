@@ -28,7 +28,7 @@ fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not install
 pytestmark = needs_cc
 ID = "railgym/VerticalSuspension-v1"
 VID = "railgym/VerticalVehicle-v1"
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 #: |FMU − predict·f_max| / f_max allowed at every step
 TOL = 1e-5
 

@@ -24,7 +24,7 @@ from stable_baselines3 import PPO, SAC  # noqa: E402
 from agents.training.train import train  # noqa: E402
 from agents.training.train_config import load_config  # noqa: E402
 
-RLZOO_FILE = Path(__file__).parents[2] / "railgym" / "configs" / "agents" / "rlzoo_vertical.yml"
+RLZOO_FILE = Path(__file__).parents[3] / "railgym" / "configs" / "agents" / "rlzoo_vertical.yml"
 #: rl-zoo3's layout of ``python -m rl_zoo3.train --algo ppo --env ENV -f LOG``
 ZOO_DIR = "railgym-VerticalSuspension-v1"
 
