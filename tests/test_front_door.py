@@ -12,9 +12,9 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 from railgym._checks import FieldError, FieldTypeError
-from tests.envs import test_bad_inputs_crash as crash_table
-from tests.envs import test_bad_inputs_vehicle as vehicle_table
-from tests.envs import test_bad_inputs_vertical as vertical_table
+from tests.envs.crash import test_bad_inputs_crash as crash_table
+from tests.envs.vehicle import test_bad_inputs_vehicle as vehicle_table
+from tests.envs.vertical import test_bad_inputs_vertical as vertical_table
 
 TABLES = {
     "railgym/VerticalSuspension-v1": vertical_table,
