@@ -57,6 +57,7 @@ def _from_files(nodout, rcforc, **kw):
         car_nodes=NODES,
         wall_contact=1,
         interface_contacts=[2],
+        scenario="paper",
         direction=-1.0,
         **kw,
     )
@@ -70,6 +71,7 @@ def test_fe_files_give_the_reference_time_histories(fe_files):
         car_nodes=NODES,
         wall_contact=1,
         interface_contacts=[2],
+        scenario="paper",
         direction=-1.0,
     )
     np.testing.assert_allclose(res.t, ref.t, rtol=1e-6, atol=1e-12)
@@ -77,7 +79,12 @@ def test_fe_files_give_the_reference_time_histories(fe_files):
     for got, want in ((res.x, ref.x), (res.v, ref.v), (res.force, ref.force)):
         scale = np.ptp(want, axis=0)
         assert np.max(np.abs(got - want) / scale) < 2e-4
-    np.testing.assert_allclose(res.crush[:, 1], res.x[:, 1] - res.x[:, 0])
+    # the zones' own crush: the centre-of-mass distances less the carbodies' shortening, closer
+    # to the reference's crush between the car ends than the distances themselves (measured:
+    # RMS 1.1 mm against 3.3 / 3.8 mm)
+    com = np.column_stack([res.x[:, 0], res.x[:, 1] - res.x[:, 0]])
+    rms, rms_com = (np.sqrt(np.mean((c - ref.crush) ** 2, axis=0)) for c in (res.crush, com))
+    assert np.all(rms < 0.4 * rms_com)
     assert res.body_names == ["lead", "car2"] and res.zone_names == ["wall", "interface_1"]
 
 
@@ -143,6 +150,8 @@ def test_command_line_writes_loadable_elements(fe_files, capsys):
         "2",
         "--direction",
         "-1",
+        "--scenario",
+        "paper",
         "-o",
         str(out),
     ]
