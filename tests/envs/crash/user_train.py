@@ -64,7 +64,7 @@ def _envelope(zone: dict[str, Any], d: np.ndarray) -> np.ndarray:
 
 
 def fe_run(
-    n_cars: int = 3, nodes_per_car: int = 5, dt: float = 2e-5, duration: float = 0.8
+    n_cars: int = 3, nodes_per_car: int = 20, dt: float = 1e-4, duration: float = 0.8
 ) -> dict[str, np.ndarray]:
     """The FE-like run of the user's train into a rigid wall at :data:`SPEED_KMH`.
 
@@ -84,7 +84,6 @@ def fe_run(
     )
     first = np.arange(n_cars) * n
     link = np.array([i for i in range(n * n_cars - 1) if (i + 1) % n != 0])  # node i to i + 1
-    k_link = k_link
     c_link = 2 * DAMPING_RATIO * np.sqrt(k_link * m[link] / 2)
     ku = np.array([1e6 * z["unloading_stiffness_kN_per_mm"] for z in zones])
     x = np.zeros(m.size)
