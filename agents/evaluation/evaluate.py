@@ -407,8 +407,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--scenario",
-        help="crash: scenario YAML (name or path) of the train (default: the policies' own, "
-        "passive: paper)",
+        help="crash: scenario YAML (name or path) of the train: its cars and speed (and "
+        "envelope, with --envelope; default: the policies' own, passive: paper, --envelope: "
+        "envelope)",
     )
     parser.add_argument(
         "--vehicle",
@@ -445,7 +446,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=speed_kmh,
         nargs="+",
         help="vehicle: running speeds, km/h (default: each class's maximum speed); "
-        "crash: impact speeds, km/h (default 40; --envelope: 25 30 35 40 45 50)",
+        "crash: impact speeds, km/h (default: the scenario's speed_kmh; --envelope: six speeds "
+        "over its envelope); given, they override the scenario's and the table's header says so",
     )
     add_deprecated(parser, speed, "--speed")
     parser.add_argument(
