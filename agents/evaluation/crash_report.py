@@ -235,6 +235,11 @@ def envelope_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def _zone_names(n_zones: int) -> list[str]:
+    """``wall, interface_1, …`` of a train of ``n_zones`` zones."""
+    return ["wall"] + [f"interface_{k}" for k in range(1, n_zones)]
+
+
 def _passed(c: Any) -> str:
     """Criteria passed, e.g. ``mean ✓ intrusion ✗``."""
     mean = "✓" if c.passed["mean_decel"].all() else "✗"
@@ -249,8 +254,8 @@ def _pair(x: np.ndarray, fmt: str = "{:.2f}") -> str:
 def baseline_table(rows: list[dict[str, Any]]) -> str:
     """Markdown table of :func:`baseline_rows`."""
     lines = [
-        "| speed km/h | controller | peak g (lead / car2) | 10 ms peak g | pulse mean g "
-        "| intrusion m (wall / interface) | criteria (5 g mean, no intrusion) |",
+        "| speed km/h | controller | peak g (per car) | 10 ms peak g | pulse mean g "
+        "| intrusion m (per zone) | criteria (5 g mean, no intrusion) |",
         "|---|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -278,12 +283,15 @@ def baseline_table(rows: list[dict[str, Any]]) -> str:
 
 
 def error_table(rows: list[dict[str, Any]]) -> str:
-    """Markdown table of :func:`surrogate_error_rows` (relative errors in %)."""
+    """Markdown table of :func:`surrogate_error_rows` (relative errors in %): one crush column
+    per zone (wall, then each interface)."""
+    n_zones = rows[0]["reference"].crush.shape[1] if rows else 2
+    zones = ["wall", "interface"] if n_zones == 2 else _zone_names(n_zones)
+    crush = "".join(f" max crush m {z} ref → sur (error) |" for z in zones)
     lines = [
-        "| speed km/h | action | lead peak g ref → sur (error) | max crush m wall ref → sur "
-        "(error) | max crush m interface ref → sur (error) | intrusion m ref → sur "
-        "(wall / interface) |",
-        "|---|---|---|---|---|---|",
+        f"| speed km/h | action | lead peak g ref → sur (error) |{crush} intrusion m ref → sur "
+        f"({' / '.join(zones)}) |",
+        "|---|---|---|" + "---|" * (n_zones + 1),
     ]
     for r in rows:
         ref, sur = r["reference"], r["surrogate"]
