@@ -119,8 +119,9 @@ def envelope_cases(scenario: Any) -> tuple[list[float], list[tuple[float, float]
     env = sc.envelope
     if env is None:
         raise ValueError(
-            f"--envelope: scenario {sc.name!r} has no impact envelope (its crash.envelope "
-            "field: speed_kmh [low, high], payload_t), which the held-out evaluation runs over"
+            f"scenario {sc.name!r} has no impact envelope (its crash.envelope field: speed_kmh "
+            "[low, high], payload_t), which the held-out evaluation (--envelope, --gap, "
+            "crash-report --envelope, crash-limits) runs over"
         )
     lo, hi = (3.6 * v for v in env.speed)
     speeds = [round(float(v), 6) for v in np.linspace(lo, hi, EVAL_N_SPEEDS if hi > lo else 1)]

@@ -58,7 +58,7 @@ def test_envelope_reads_the_file(tmp_path, capsys):
     args = ["evaluate", "passive", "--env", "crash", "--envelope", "--scenario"]
     assert main([*args, str(bare)]) == 2
     err = capsys.readouterr().err
-    assert "--envelope: scenario 'my_train' has no impact envelope (its crash.envelope" in err
+    assert "scenario 'my_train' has no impact envelope (its crash.envelope" in err
     stopped = write_train(tmp_path, name="stopped", speed_kmh=0)
     assert main([*args, str(stopped)]) == 2
     assert "crash.speed_kmh" in capsys.readouterr().err
