@@ -163,9 +163,9 @@ def carbody_shortening(scenario: CrashScenario, force: np.ndarray) -> np.ndarray
 
     A uniform bar of length ``L`` and rigidity ``EA`` pushed by ``F_f`` at its front and
     ``F_r`` at its rear, decelerated uniformly, carries ``N(s) = F_f − (F_f − F_r) s / L`` at
-    ``s`` behind its front; its centre of mass lies ``L (F_f/3 + F_r/6) / EA`` closer to the
-    rear end than when unloaded, measured from the front, and ``L (F_f/6 + F_r/3) / EA`` from
-    the rear.
+    ``s`` behind its front: the distance from its front end to its centre of mass shrinks by
+    ``L (F_f/3 + F_r/6) / EA``, that from its centre of mass to its rear end by
+    ``L (F_f/6 + F_r/3) / EA``.
     """
     n = scenario.n_cars
     cars = [scenario.lead] + [scenario.passenger] * (n - 1)
