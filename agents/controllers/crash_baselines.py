@@ -65,13 +65,18 @@ class ConstantAbsorber(_CrashController):
     Parameters
     ----------
     env : a TrainCrash env.
-    action : per zone (wall first), or one number for every zone; default
-        :data:`BEST_CONSTANT_ACTION` (the 2-car train's best setting over the envelope).
+    action : per zone (wall first), one number for every zone, or a ``(wall, interface)``
+        pair (every interface the second); default :data:`BEST_CONSTANT_ACTION` (the paper
+        train's best setting over its envelope; on another train that setting, not one
+        searched for it: :func:`search_constant`).
     """
 
     def __init__(self, env: Any, action: Any = BEST_CONSTANT_ACTION) -> None:
         super().__init__(env)
-        a = np.broadcast_to(np.asarray(action, dtype=np.float64), (self.n_zones,)).copy()
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape == (2,) and self.n_zones > 2:
+            a = np.concatenate([a[:1], np.full(self.n_zones - 1, a[1])])
+        a = np.broadcast_to(a, (self.n_zones,)).copy()
         if not np.all(np.isfinite(a)) or np.any(np.abs(a) > 1):
             raise ValueError(f"action must be in [-1, 1] per zone, got {action!r}")
         self.constant = a

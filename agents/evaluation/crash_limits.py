@@ -4,8 +4,9 @@ envelope of ``railgym/TrainCrash-v1`` (reference backend), beside the speed-adap
     railgym crash-limits [--range 0.3 0.5] [--levels 9]
 
 For each absorber range, every constant action per zone on a grid of ``levels`` values in
-[−1, 1] runs at every held-out case (:data:`agents.evaluation.crash_report.EVAL_SPEEDS_KMH` × the
-two payloads). Admissible settings have no more intrusion than passive in the cases they are used
+[−1, 1] runs at every held-out case of the scenario's envelope
+(:func:`agents.evaluation.crash_report.envelope_cases`: six speeds × the lightest and heaviest
+payloads). Admissible settings have no more intrusion than passive in the cases they are used
 for. The mean worst-car peak deceleration (g) over the cases is printed for: passive; the best
 single setting for all cases; the best setting per impact speed (a policy that knows the speed
 at first contact, which the observation ``v_lead`` gives, but not the payload); the best
@@ -26,10 +27,10 @@ import numpy as np
 
 from agents.controllers.crash_baselines import CrashPassive, FixedActions, SpeedAdaptive, rollout
 from agents.evaluation.crash_report import (
-    EVAL_PAYLOADS_T,
-    EVAL_SPEEDS_KMH,
+    envelope_cases,
     envelope_rows,
     envelope_summary,
+    train_line,
 )
 from railgym.envs.crash.env import TrainCrashVectorEnv
 from railgym.progress import quiet
@@ -37,19 +38,26 @@ from surrogates.cli_flags import Parser, add_common, error_status
 
 __all__ = ["ceilings", "main"]
 
-#: env settings of the shipped crash training config (configs/agents/ppo_crash.yaml)
-BASE = {"scenario": "envelope", "control_dt": 0.005, "backend": "reference"}
+#: env settings of the shipped crash training config (configs/agents/ppo_crash.yaml), its
+#: scenario ``envelope`` the default of ``--scenario``
+BASE = {"control_dt": 0.005, "backend": "reference"}
 
 
 def ceilings(
     absorber_range: float = 0.3,
     levels: int = 9,
-    speeds_kmh: Sequence[float] = EVAL_SPEEDS_KMH,
-    payloads_t: Sequence[tuple[float, float]] = EVAL_PAYLOADS_T,
+    speeds_kmh: Sequence[float] | None = None,
+    payloads_t: Sequence[tuple[float, float]] | None = None,
+    scenario: Any = "envelope",
 ) -> dict[str, float]:
     """Mean worst-car peak deceleration (g) over the cases of passive and of the best constant
-    settings: ``one`` for all cases, ``per_speed``, ``per_case`` (see the module docstring)."""
-    kwargs = {**BASE, "absorber_range": absorber_range}
+    settings: ``one`` for all cases, ``per_speed``, ``per_case`` (see the module docstring);
+    the cases of ``scenario``'s envelope (:func:`envelope_cases`) unless given."""
+    kwargs = {**BASE, "absorber_range": absorber_range, "scenario": scenario}
+    if speeds_kmh is None or payloads_t is None:
+        speeds, payloads = envelope_cases(scenario)
+        speeds_kmh = speeds if speeds_kmh is None else speeds_kmh
+        payloads_t = payloads if payloads_t is None else payloads_t
     n_zones = TrainCrashVectorEnv(num_envs=1, **kwargs).single_action_space.shape[0]
     grid = np.linspace(-1.0, 1.0, levels)
     cand = np.array(list(itertools.product(grid, repeat=n_zones)))
@@ -60,7 +68,7 @@ def ceilings(
     for kmh in speeds_kmh:
         for pay in payloads_t:
             env = TrainCrashVectorEnv(num_envs=len(cand), **kwargs)
-            opts = {"speed_kmh": float(kmh), "payload_t": list(pay)}
+            opts = {"speed_kmh": float(kmh), "payload_t": {"lead": pay[0], "passenger": pay[1]}}
             crit = [r.criteria() for r in rollout(env, FixedActions(cand), options=opts)]
             peak[kmh, pay] = np.array([c.peak_decel_g.max() for c in crit])
             intr[kmh, pay] = np.array([c.intrusion_m.max() for c in crit])
@@ -80,11 +88,15 @@ def ceilings(
     }
 
 
-def rule(absorber_range: float = 0.3, absorber_rate: float = 20.0) -> float:
-    """Mean worst-car peak deceleration (g) of the speed-adaptive rule over the held-out cases."""
+def rule(
+    absorber_range: float = 0.3, absorber_rate: float = 20.0, scenario: Any = "envelope"
+) -> float:
+    """Mean worst-car peak deceleration (g) of the speed-adaptive rule over the held-out cases
+    of ``scenario``'s envelope."""
+    settings = {"absorber_range": absorber_range, "absorber_rate": absorber_rate}
     rows = envelope_rows(
         {"passive": CrashPassive, "speed-adaptive": SpeedAdaptive},
-        {**BASE, "absorber_range": absorber_range, "absorber_rate": absorber_rate},
+        {**BASE, **settings, "scenario": scenario},
     )
     return envelope_summary(rows)["speed-adaptive"]["peak_g"]
 
@@ -101,6 +113,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="absorber ranges ±r of the env (absorber_range, 0 < r < 1)",
     )
     parser.add_argument("--levels", type=int, default=9, help="grid values per zone")
+    parser.add_argument(
+        "--scenario",
+        default="envelope",
+        help="crash scenario (name or YAML) with an impact envelope: its cars, zones and "
+        "held-out cases (a grid of --levels values per zone: levels^zones runs per case)",
+    )
     add_common(parser)
     return parser
 
@@ -116,9 +134,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--levels: must be at least 2, got {args.levels}")
     try:
         with quiet(args.quiet):
-            rows = [(r, ceilings(r, args.levels), rule(r), rule(r, 200.0)) for r in args.ranges]
+            title = train_line(args.scenario, "held-out cases of its impact envelope")
+            sc = args.scenario
+            rows = [
+                (r, ceilings(r, args.levels, scenario=sc), rule(r, scenario=sc), rule(r, 200.0, sc))
+                for r in args.ranges
+            ]
     except Exception as err:
         return error_status(parser.prog, err, args.debug)
+    print(title)
     print(
         "| absorber range | passive | best single setting | best per speed | best per case "
         "| speed-adaptive | speed-adaptive, 10× rate |"

@@ -17,14 +17,14 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import error_status, one_line_warnings
+from agents._args import error_status, one_line_warnings, with_policy_kwargs
 from agents.controllers.crash_baselines import FixedActions, rollout, search_constant
 from agents.controllers.registry import BASELINES, CRASH_ID, crash_factories
 from agents.evaluation.crash_matrix import constant_action_cases, matrix_table, random_action_cases
 from agents.policies.loading import load_policy
 from railgym.envs.crash.env import TrainCrashVectorEnv, default_surrogate, env_surrogate
 from railgym.progress import bar, quiet
-from railgym.vehicles.crash.scenario import load_scenario
+from railgym.vehicles.crash.scenario import CrashScenario, load_scenario
 from surrogates.cli_flags import Parser, add_common
 
 #: envelope speeds of the tables, km/h
@@ -61,13 +61,13 @@ def surrogate_error_rows(
     if fit not in FITS:
         raise ValueError(f"fit must be one of {FITS}, got {fit!r}")
     sc = load_scenario(scenario)
-    actions = np.array([[a, a] for a in ERROR_ACTIONS])
+    actions = np.repeat(np.array(ERROR_ACTIONS)[:, None], sc.n_cars, axis=1)  # every zone
     rows = []
     for kmh in bar(list(speeds_kmh), desc=f"surrogate fitted {fit}"):
         if fit == "nominal":
             sur = default_surrogate(sc)
         elif fit == "per-speed":
-            sur = default_surrogate(sc.with_overrides(n_cars=2, speed=kmh / 3.6))
+            sur = default_surrogate(sc.with_overrides(speed=kmh / 3.6))
         else:
             sur = env_surrogate(sc)
         out = {}
@@ -101,31 +101,61 @@ def diverged_lines(runs: list[str]) -> list[str]:
     return ["", f"diverged: {'; '.join(runs)}: {DIVERGED_NOTE}"]
 
 
-#: the held-out evaluation of issue 11: speeds (km/h) and payloads (t: lead, passenger car)
+#: the held-out evaluation of issue 11 (the cases :func:`envelope_cases` draws from the
+#: ``envelope`` scenario): speeds (km/h) and payloads (t: lead, passenger car)
 EVAL_SPEEDS_KMH = (25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
 EVAL_PAYLOADS_T = ((0.0, 0.0), (2.0, 8.0))
+#: held-out speeds per impact envelope
+EVAL_N_SPEEDS = len(EVAL_SPEEDS_KMH)
+
+
+def envelope_cases(scenario: Any) -> tuple[list[float], list[tuple[float, float]]]:
+    """The held-out cases of a scenario's impact envelope (``crash.envelope``):
+    :data:`EVAL_N_SPEEDS` speeds (km/h) evenly over its speed range and its lightest and
+    heaviest payloads ((lead, passenger car) t); the ``envelope`` scenario gives
+    :data:`EVAL_SPEEDS_KMH` × :data:`EVAL_PAYLOADS_T`. ``ValueError`` for a scenario without
+    an envelope."""
+    sc = scenario if isinstance(scenario, CrashScenario) else load_scenario(scenario)
+    env = sc.envelope
+    if env is None:
+        raise ValueError(
+            f"scenario {sc.name!r} has no impact envelope (its crash.envelope field: speed_kmh "
+            "[low, high], payload_t), which the held-out evaluation (--envelope, --gap, "
+            "crash-report --envelope, crash-limits) runs over"
+        )
+    lo, hi = (3.6 * v for v in env.speed)
+    speeds = [round(float(v), 6) for v in np.linspace(lo, hi, EVAL_N_SPEEDS if hi > lo else 1)]
+    payloads = [(env.payload_lead[end] / 1e3, env.payload_passenger[end] / 1e3) for end in (0, 1)]
+    return speeds, list(dict.fromkeys(payloads))
 
 
 def envelope_rows(
     policies: dict[str, Any],
     env_kwargs: dict[str, Any] | None = None,
-    speeds_kmh: Any = EVAL_SPEEDS_KMH,
-    payloads_t: Any = EVAL_PAYLOADS_T,
+    speeds_kmh: Any = None,
+    payloads_t: Any = None,
 ) -> list[dict[str, Any]]:
     """Criteria on the **reference** of each policy (name → factory of an env → object with
-    ``predict``) at each speed (km/h) × payload ((lead, passenger) t), fixed by
+    ``predict``) at each speed (km/h) × payload ((lead, passenger car) t), fixed by
     ``reset(options=...)``; ``env_kwargs`` as the policy was trained with (default: the
-    ``envelope`` scenario); ``diverged``: the env cut the run as diverged."""
+    ``envelope`` scenario); speeds and payloads ``None``: the scenario's
+    :func:`envelope_cases`; ``diverged``: the env cut the run as diverged."""
     kwargs = {"scenario": "envelope", **(env_kwargs or {}), "backend": "reference"}
+    if speeds_kmh is None or payloads_t is None:
+        speeds, payloads = envelope_cases(kwargs["scenario"])
+        speeds_kmh = speeds if speeds_kmh is None else speeds_kmh
+        payloads_t = payloads if payloads_t is None else payloads_t
     rows = []
     cases = [(kmh, payload) for kmh in speeds_kmh for payload in payloads_t]
     for kmh, payload in bar(cases, desc="envelope cases"):
-        options = {"speed_kmh": kmh, "payload_t": list(payload)}
+        lead, passenger = payload
+        options = {"speed_kmh": kmh, "payload_t": {"lead": lead, "passenger": passenger}}
         for name, factory in policies.items():
             env = TrainCrashVectorEnv(num_envs=1, **kwargs)
             run = rollout(env, factory(env), options=options)[0]
             rows.append(
                 {
+                    "scenario": env.cfg.scenario,
                     "controller": name,
                     "speed_kmh": kmh,
                     "payload_t": payload,
@@ -206,6 +236,11 @@ def envelope_table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def _zone_names(n_zones: int) -> list[str]:
+    """``wall, interface_1, …`` of a train of ``n_zones`` zones."""
+    return ["wall"] + [f"interface_{k}" for k in range(1, n_zones)]
+
+
 def _passed(c: Any) -> str:
     """Criteria passed, e.g. ``mean ✓ intrusion ✗``."""
     mean = "✓" if c.passed["mean_decel"].all() else "✗"
@@ -220,8 +255,8 @@ def _pair(x: np.ndarray, fmt: str = "{:.2f}") -> str:
 def baseline_table(rows: list[dict[str, Any]]) -> str:
     """Markdown table of :func:`baseline_rows`."""
     lines = [
-        "| speed km/h | controller | peak g (lead / car2) | 10 ms peak g | pulse mean g "
-        "| intrusion m (wall / interface) | criteria (5 g mean, no intrusion) |",
+        "| speed km/h | controller | peak g (per car) | 10 ms peak g | pulse mean g "
+        "| intrusion m (per zone) | criteria (5 g mean, no intrusion) |",
         "|---|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -249,12 +284,15 @@ def baseline_table(rows: list[dict[str, Any]]) -> str:
 
 
 def error_table(rows: list[dict[str, Any]]) -> str:
-    """Markdown table of :func:`surrogate_error_rows` (relative errors in %)."""
+    """Markdown table of :func:`surrogate_error_rows` (relative errors in %): one crush column
+    per zone (wall, then each interface)."""
+    n_zones = rows[0]["reference"].crush.shape[1] if rows else 2
+    zones = ["wall", "interface"] if n_zones == 2 else _zone_names(n_zones)
+    crush = "".join(f" max crush m {z} ref → sur (error) |" for z in zones)
     lines = [
-        "| speed km/h | action | lead peak g ref → sur (error) | max crush m wall ref → sur "
-        "(error) | max crush m interface ref → sur (error) | intrusion m ref → sur "
-        "(wall / interface) |",
-        "|---|---|---|---|---|---|",
+        f"| speed km/h | action | lead peak g ref → sur (error) |{crush} intrusion m ref → sur "
+        f"({' / '.join(zones)}) |",
+        "|---|---|---|" + "---|" * (n_zones + 1),
     ]
     for r in rows:
         ref, sur = r["reference"], r["surrogate"]
@@ -278,7 +316,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="--envelope: trained policies (SB3 .zip written by railgym train) beside the "
         "baselines",
     )
-    parser.add_argument("--scenario", default="paper", help="crash scenario (name or YAML)")
+    parser.add_argument(
+        "--scenario",
+        help="crash scenario (name or YAML) of every table: its cars, zones and envelope "
+        "(default: paper; --matrix, --envelope: envelope, or the policies' own)",
+    )
     parser.add_argument(
         "--matrix",
         action="store_true",
@@ -302,6 +344,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.policy and not args.envelope:
         parser.error("POLICY_ZIP: only with --envelope")
+    if args.matrix and args.envelope:
+        parser.error("--matrix, --envelope: each prints only its own tables; give one of them")
     try:
         with quiet(args.quiet), one_line_warnings(parser.prog):
             return _report(args)
@@ -313,24 +357,67 @@ def _report(args: argparse.Namespace) -> int:
     """The tables ``args`` ask for, printed."""
     if args.envelope:
         policies = crash_factories(BASELINES[CRASH_ID])
-        env_kwargs: dict[str, Any] = {}
+        env_kwargs: dict[str, Any] = {} if args.scenario is None else {"scenario": args.scenario}
         for path in args.policy:
-            factory, env_kwargs, label = load_policy(path, CRASH_ID, args.trust)
+            factory, trained, label = load_policy(path, CRASH_ID, args.trust)
+            env_kwargs = with_policy_kwargs(trained, env_kwargs, label)
             policies[label] = factory
-        print(envelope_table(envelope_rows(policies, env_kwargs)))
+        rows = envelope_rows(policies, env_kwargs)
+        print(envelope_header(rows))
+        print(envelope_table(rows))
         return 0
     if args.matrix:
-        print(matrix_table(constant_action_cases(), random_action_cases()))
+        scenario = args.scenario or "envelope"
+        print(train_line(scenario, "surrogate against reference"))
+        cases = constant_action_cases(scenario=scenario), random_action_cases(scenario=scenario)
+        print(matrix_table(*cases))
         return 0
+    scenario = args.scenario or "paper"
+    sweep = f"the tables' speeds {SPEEDS_KMH[0]:g}–{SPEEDS_KMH[-1]:g} km/h"
+    print(train_line(scenario, f"{sweep} (not its own speed_kmh)") + "\n")
     speeds = np.array(SPEEDS_KMH) / 3.6
     levels = np.linspace(-1, 1, 9)
-    res = search_constant(speeds, levels=levels, backend="reference", scenario=args.scenario)
+    res = search_constant(speeds, levels=levels, backend="reference", scenario=scenario)
     print(f"best constant action {res.best.tolist()}, mean worst-car peak {res.score:.3f} g\n")
-    print(baseline_table(baseline_rows(scenario=args.scenario)))
+    print(baseline_table(baseline_rows(scenario=scenario)))
     for fit in FITS:
         print(f"\nsurrogate fitted {fit}\n")
-        print(error_table(surrogate_error_rows(scenario=args.scenario, fit=fit)))
+        print(error_table(surrogate_error_rows(scenario=scenario, fit=fit)))
     return 0
+
+
+def train_text(sc: CrashScenario) -> str:
+    """``scenario NAME (N cars, m1 / m2 / … t, speed_kmh V)``: the train a crash table ran."""
+    masses = " / ".join(f"{m / 1e3:g}" for m in sc.car_masses)
+    return f"scenario {sc.name} ({sc.n_cars} cars, {masses} t, speed_kmh {3.6 * sc.speed:g})"
+
+
+def trains_of(rows: list[dict[str, Any]]) -> str:
+    """:func:`train_text` of each train of ``rows`` (their ``scenario``), ``; ``-joined."""
+    return "; ".join(dict.fromkeys(train_text(r["scenario"]) for r in rows))
+
+
+def train_line(scenario: Any, cases: str) -> str:
+    """The line over a crash table of ``scenario`` (a name, path or scenario) and ``cases``."""
+    sc = scenario if isinstance(scenario, CrashScenario) else load_scenario(scenario)
+    return f"TrainCrash-v1, {train_text(sc)}: {cases}"
+
+
+def envelope_header(rows: list[dict[str, Any]], speed_flag: bool = False) -> str:
+    """The line over :func:`envelope_table`: the train(s) and, where ``--speed-kmh`` was given
+    (``speed_flag``), that its speeds override the envelope's."""
+    speeds = ", speeds from --speed-kmh (override the envelope's)" if speed_flag else ""
+    names = {r["scenario"].name for r in rows}
+    best = (
+        ""
+        if names <= {"envelope", "paper"}
+        else "; best-constant: the paper train's setting (wall 0, interfaces −1), not one "
+        "searched for this train"
+    )
+    return (
+        f"TrainCrash-v1, {trains_of(rows)}: held-out cases of its impact envelope on the "
+        f"reference backend{speeds}{best}"
+    )
 
 
 if __name__ == "__main__":

@@ -216,30 +216,38 @@ def format_vehicle_rows(rows: list[dict[str, Any]]) -> str:
 def evaluate_crash(
     policies: Sequence[str],
     backend: str = "reference",
-    speeds_kmh: Sequence[float] = (40.0,),
+    speeds_kmh: Sequence[float] | None = None,
     trust: bool = False,
     env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v1``
     (``trust``: see :func:`load_policy`); ``env_kwargs`` (e.g. the user's ``scenario``,
-    ``surrogate``) are added to each policy's training settings. ``diverged``: the env cut
-    the run where its state diverged (``info["diverged"]``), the indices are those at the cut."""
-    speeds_kmh = [check_speed_kmh(v, "speeds_kmh") for v in val.sequence(speeds_kmh, "speeds_kmh")]
+    ``surrogate``) are added to each policy's training settings; ``speeds_kmh`` ``None``:
+    each env's scenario speed (its ``speed_kmh``). ``diverged``: the env cut the run where its
+    state diverged (``info["diverged"]``), the indices are those at the cut; ``scenario``: the
+    :class:`~railgym.vehicles.crash.scenario.CrashScenario` each row ran."""
+    speeds: list[float | None] = (
+        [None]
+        if speeds_kmh is None
+        else [check_speed_kmh(v, "speeds_kmh") for v in val.sequence(speeds_kmh, "speeds_kmh")]
+    )
     rows = []
     extra = dict(env_kwargs or {})
     loaded = [
         load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")
         for p in val.sequence(policies, "policies")
     ]
-    for v in bar(speeds_kmh, desc="speeds"):
+    for v in bar(speeds, desc="speeds"):
         passive = None
         for factory, env_kwargs, label in loaded:
             # the speed as a reset option: the observation keeps the scales the policy was
             # trained with (an explicit `speed` would rescale an envelope's velocities)
             kwargs = with_policy_kwargs(env_kwargs, backend_kwargs(backend, extra), label)
             env = gym.make(CRASH_ID, backend=backend, **kwargs)
+            scenario = env.unwrapped.cfg.scenario
+            kmh = 3.6 * scenario.speed if v is None else v
             ctrl = factory(env) if factory else None
-            obs, _ = env.reset(seed=0, options={"speed_kmh": v})
+            obs, _ = env.reset(seed=0, options={"speed_kmh": kmh})
             while True:
                 if ctrl is None:
                     action = np.zeros(env.action_space.shape or (), np.float32)
@@ -252,7 +260,8 @@ def evaluate_crash(
             passive = peak if label == "passive" else passive
             rows.append(
                 {
-                    "speed_kmh": v,
+                    "speed_kmh": kmh,
+                    "scenario": scenario,
                     "policy": label,
                     "peak_decel_g": info["peak_decel_g"],
                     "max_crush_m": info["max_crush_m"],
@@ -265,31 +274,54 @@ def evaluate_crash(
 
 
 def evaluate_envelope(
-    policies: Sequence[str], speeds_kmh: Sequence[float] | None = None, trust: bool = False
+    policies: Sequence[str],
+    speeds_kmh: Sequence[float] | None = None,
+    trust: bool = False,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """The held-out envelope evaluation of ``TrainCrash-v1`` on the reference backend
     (:func:`agents.evaluation.crash_report.envelope_rows`): the passive absorbers, the best constant
     setting, the speed-adaptive rule and each trained policy ``.zip`` of ``policies`` (the
     baseline names ``passive``, ``best-constant``, ``speed-adaptive`` there are accepted; the
-    three always run) at ``speeds_kmh`` (default the held-out speeds) × the two payloads."""
+    three always run) at ``speeds_kmh`` (default the held-out speeds of the scenario's
+    envelope, :func:`~agents.evaluation.crash_report.envelope_cases`) × its lightest and
+    heaviest payloads; ``env_kwargs`` (the user's ``scenario``) join the policies' training
+    settings (another value than a policy's is an error naming it)."""
     speeds = (
-        crash_report.EVAL_SPEEDS_KMH
+        None
         if speeds_kmh is None
         else [check_speed_kmh(v, "speeds_kmh") for v in val.sequence(speeds_kmh, "speeds_kmh")]
     )
     factories = crash_factories(BASELINES[CRASH_ID])
-    env_kwargs: dict[str, Any] | None = None
+    kwargs = dict(env_kwargs or {})
+    trained: dict[str, Any] | None = None
     for p in val.sequence(policies, "policies"):
         if crash_factories([p]):
             continue
-        factory, kwargs, label = load_policy(p, CRASH_ID, trust)
-        if env_kwargs is not None and kwargs != env_kwargs:
+        factory, settings, label = load_policy(p, CRASH_ID, trust)
+        if trained is not None and settings != trained:
             raise ValueError(
-                f"policy {p}: trained with env settings {kwargs}, another policy with "
-                f"{env_kwargs}; evaluate them in separate runs"
+                f"policy {p}: trained with env settings {settings}, another policy with "
+                f"{trained}; evaluate them in separate runs"
             )
-        env_kwargs, factories[label] = kwargs, factory
-    return crash_report.envelope_rows(factories, env_kwargs, speeds)
+        trained, factories[label] = settings, factory
+        kwargs = with_policy_kwargs(settings, kwargs, label)
+    return crash_report.envelope_rows(factories, kwargs, speeds)
+
+
+def crash_header(rows: list[dict[str, Any]], backend: str, speed_flag: bool) -> str:
+    """The line over :func:`format_crash_rows`: the train(s) the rows ran (scenario, cars,
+    the scenario's speed) and, where ``--speed-kmh`` was given (``speed_flag``), that it
+    overrides that speed."""
+    speeds = (
+        "impact speeds from --speed-kmh (override the scenario's speed_kmh)"
+        if speed_flag
+        else "impact speed: the scenario's speed_kmh"
+    )
+    return (
+        f"TrainCrash-v1, {crash_report.trains_of(rows)}, backend: {backend}; {speeds}; Δpeak: "
+        "reduction of the largest car deceleration vs the passive absorbers"
+    )
 
 
 def format_crash_rows(rows: list[dict[str, Any]]) -> str:
@@ -354,8 +386,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--scenario",
-        help="crash: scenario YAML (name or path) of the train (default: the policies' own, "
-        "passive: paper)",
+        help="crash: scenario YAML (name or path) of the train: its cars and speed (and "
+        "envelope, with --envelope; default: the policies' own, passive: paper, --envelope: "
+        "envelope)",
     )
     parser.add_argument(
         "--vehicle",
@@ -392,7 +425,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=speed_kmh,
         nargs="+",
         help="vehicle: running speeds, km/h (default: each class's maximum speed); "
-        "crash: impact speeds, km/h (default 40; --envelope: 25 30 35 40 45 50)",
+        "crash: impact speeds, km/h (default: the scenario's speed_kmh; --envelope: six speeds "
+        "over its envelope); given, they override the scenario's and the table's header says so",
     )
     add_deprecated(parser, speed, "--speed")
     parser.add_argument(
@@ -500,17 +534,14 @@ def run(args: argparse.Namespace) -> int:
         if args.envelope:
             if args.backend != "reference":
                 raise ValueError("--envelope: evaluates on the reference backend only")
-            rows = evaluate_envelope(args.policy, args.speed, args.trust)
-            print("TrainCrash-v1 envelope scenario, held-out cases on the reference backend")
+            rows = evaluate_envelope(args.policy, args.speed, args.trust, fmu)
+            print(crash_report.envelope_header(rows, args.speed is not None))
             print(crash_report.envelope_table(rows))
             return 0
         first = COMPARISON[CRASH_ID]
         policies = [*first, *(p for p in args.policy if p not in first)]
-        rows = evaluate_crash(policies, args.backend, args.speed or [40.0], args.trust, fmu)
-        print(
-            f"TrainCrash-v1, backend: {args.backend}; Δpeak: reduction of the largest car "
-            "deceleration vs the passive absorbers"
-        )
+        rows = evaluate_crash(policies, args.backend, args.speed, args.trust, fmu)
+        print(crash_header(rows, args.backend, args.speed is not None))
         print(format_crash_rows(rows))
         return 0
     _only_for(args, {"--envelope": args.envelope}, "--env crash")

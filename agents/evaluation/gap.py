@@ -14,10 +14,9 @@ cases, and every task metric is reported on both with its relative gap
 * beside ``a_w`` (vertical, vehicle) the bump-stop contacts (substeps) on both sides, and a
   line under the table for each policy whose ``a_w`` beats a classical controller's of its
   case on the reference side with more contacts there (:mod:`agents.evaluation.contacts`);
-* ``crash`` (``TrainCrash-v1``): per impact speed × payload of the held-out envelope
-  (:data:`agents.evaluation.crash_report.EVAL_SPEEDS_KMH`,
-  :data:`~agents.evaluation.crash_report.EVAL_PAYLOADS_T`), each car's peak and 10 ms moving-average
-  peak deceleration (g), each zone's maximum crush and survival-space intrusion (m)
+* ``crash`` (``TrainCrash-v1``): per impact speed × payload of the held-out envelope of the
+  scenario (:func:`agents.evaluation.crash_report.envelope_cases`), each car's peak and 10 ms
+  moving-average peak deceleration (g), each zone's maximum crush and survival-space intrusion (m)
   (:mod:`railgym.vehicles.crash.criteria`); a run the env cut as diverged (``info["diverged"]``) is
   marked in the column ``diverged`` (the backends cut) and named in a line under the table.
 
@@ -209,8 +208,14 @@ def gap_crash(
     was trained with; cases fixed by ``reset(options=...)`` (default the held-out envelope).
     ``env_kwargs``: e.g. the user's ``scenario`` and ``surrogate`` (to the surrogate side).
     """
-    speeds = crash_report.EVAL_SPEEDS_KMH if speeds_kmh is None else tuple(speeds_kmh)
-    payloads = crash_report.EVAL_PAYLOADS_T if payloads_t is None else tuple(payloads_t)
+    scenario = (env_kwargs or {}).get("scenario", "envelope")
+    speeds, payloads = (
+        crash_report.envelope_cases(scenario)
+        if speeds_kmh is None or payloads_t is None
+        else ([], [])
+    )
+    speeds = speeds if speeds_kmh is None else list(speeds_kmh)
+    payloads = payloads if payloads_t is None else list(payloads_t)
     loaded: list[tuple[Any, dict[str, Any], str]] = []
     for p in val.sequence(policies, "policies"):
         if baseline := crash_factories([p]):
@@ -222,7 +227,8 @@ def gap_crash(
     for kmh in speeds:
         for payload in payloads:
             case = f"{kmh:g} km/h, payload {payload[0]:g}/{payload[1]:g} t"
-            options = {"speed_kmh": kmh, "payload_t": list(payload)}
+            lead, passenger = payload
+            options = {"speed_kmh": kmh, "payload_t": {"lead": lead, "passenger": passenger}}
             for factory, trained, label in loaded:
                 metrics, cut = [], []
                 for b in backends:
@@ -336,9 +342,8 @@ def run_gap(args: argparse.Namespace, actuated: dict[str, Any] | None = None) ->
         rows = gap_crash(
             args.policy, args.speed, trust=args.trust, backends=backends, env_kwargs=models
         )
-        print(
-            f"TrainCrash-v1 {models.get('scenario', 'envelope')} scenario, held-out cases; {what}"
-        )
+        scenario = models.get("scenario", "envelope")
+        print(crash_report.train_line(scenario, f"held-out cases of its envelope; {what}"))
     elif args.env == "vehicle":
         cases = vehicle_cases(args)
         rows = gap_vehicle(args.policy, backends=backends, env_kwargs=models, **cases)

@@ -89,9 +89,9 @@ class CrashParams(Params):
         check=_scenario,
     )
     n_cars: int | None = param(
-        2,
+        None,
         "",
-        "number of cars; `None` = the scenario's",
+        "number of cars; `None` = the scenario's (its `n_cars`)",
         kind="int",
         lo=1,
         hi=LIMITS["n_cars"][1],

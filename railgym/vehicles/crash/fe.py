@@ -21,8 +21,13 @@ What is taken from the FE output (:func:`crash_result_from_fe`):
 The crash features follow :func:`~railgym.vehicles.crash.surrogate.crash_training_data`: the wall
 element sees ``u = x_lead`` (rigid wall at rest) and ``f_1`` the wall force, the interface element
 ``u = x_{k+1} − x_k`` (the paper's ``x_1 − x_2`` with railgym's sign, compression positive)
-and ``f_2``, both split into loading and unloading branches by the crush rate. The masses,
-speed and zone layout of the env come from ``scenario``: give the scenario of the FE model.
+and ``f_2``, both split into loading and unloading branches by the crush rate. A zone's own
+crush (what elements of cars with an elastic carbody learn, ``nodes_per_car > 1``) is that
+centre-of-mass feature less the carbodies' elastic shortening between each car's centre of
+mass and its ends (:func:`carbody_shortening`), so that the elements hold the zone's own
+unloading stiffness, not that of the zone and the carbodies in series. The masses, speed,
+carbodies and zone layout of the env come from ``scenario``: give the scenario of the FE
+model (its ``n_cars`` must match the car nodes).
 
 :func:`export_crash_element_fmu` writes one element, memory included, as an FMI 2.0
 co-simulation FMU (see ``docs/fmi.md``).
@@ -32,8 +37,8 @@ co-simulation FMU (see ``docs/fmi.md``).
 :func:`surrogates.io.model_to_document`). Command line::
 
     railgym crash-fe --nodout nodout --rcforc rcforc --unit-system mm-ms-kg-kN \\
-        --car-nodes 1001 2001 --wall-contact 1 --interface-contacts 2 -o elements.json \\
-        [--fmu-dir fmus/]
+        --scenario my_train.yaml --car-nodes 1001 2001 --wall-contact 1 \\
+        --interface-contacts 2 -o elements.json [--fmu-dir fmus/]
 """
 
 from __future__ import annotations
@@ -60,6 +65,7 @@ from railgym.vehicles.crash.surrogate import (
     build_crash_surrogate,
 )
 from surrogates import io
+from surrogates.checks import bounded_int
 from surrogates.cli_flags import (
     Parser,
     add_common,
@@ -76,6 +82,7 @@ __all__ = [
     "AXES",
     "FORMAT",
     "SCHEMA_VERSION",
+    "carbody_shortening",
     "crash_result_from_fe",
     "crash_surrogate_from_fe",
     "export_crash_element_fmu",
@@ -102,14 +109,24 @@ def _contact_force(
 
 
 def _check_fe_ids(
-    nodes: Mapping[int, TimeHistory], car_nodes: Sequence[int], interface_contacts: Sequence[int]
+    nodes: Mapping[int, TimeHistory],
+    car_nodes: Sequence[int],
+    interface_contacts: Sequence[int],
+    scenario: CrashScenario,
 ) -> tuple[list[int], list[int]]:
-    """``car_nodes`` and ``interface_contacts`` as int lists, checked against each other and
-    against the nodout ``nodes`` (one sample grid for all cars); ``ValueError`` naming them."""
+    """``car_nodes`` and ``interface_contacts`` as int lists, checked against each other, the
+    ``scenario``'s number of cars and the nodout ``nodes`` (one sample grid for all cars);
+    ``ValueError`` naming them."""
     car_nodes = [int(n) for n in car_nodes]
     interface_contacts = [int(c) for c in interface_contacts]
     if len(car_nodes) < 2:
         raise ValueError(f"car_nodes needs one node per car and at least 2 cars, got {car_nodes}")
+    if len(car_nodes) != scenario.n_cars:
+        raise ValueError(
+            f"car_nodes has {len(car_nodes)} nodes (one per car) but scenario "
+            f"{scenario.name!r} has {scenario.n_cars} cars (its crash.n_cars); give the "
+            "scenario of the FE model, or one node per car of it"
+        )
     if len(interface_contacts) != len(car_nodes) - 1:
         raise ValueError(
             f"interface_contacts needs {len(car_nodes) - 1} ids (one per interface), "
@@ -140,6 +157,77 @@ def _fe_window(t: np.ndarray, contact_times: list[np.ndarray], start_time: float
     return keep
 
 
+def carbody_shortening(scenario: CrashScenario, t: np.ndarray, force: np.ndarray) -> np.ndarray:
+    """Elastic shortening (m) of each car between its centre of mass and its front end
+    (column ``2k``) and its rear end (column ``2k + 1``) at the times ``t`` (s) under the zone
+    forces ``force`` ((samples, zones) N, wall first, compression positive).
+
+    Each car is the scenario's carbody (``n_nodes`` lumped masses, row-sum lumping, links
+    ``EA / ℓ`` with damping ratio ``ζ``, as the reference model's), undeformed at ``t[0]``,
+    pushed back at its front node by its front zone and forward at its rear node by the zone
+    behind it (forces linear between the samples); friction proportional to mass decelerates
+    it without deforming it. Quasi-statically a uniform car shortens by
+    ``L (F_f/3 + F_r/6) / EA`` to the front and ``L (F_f/6 + F_r/3) / EA`` to the rear; the
+    integration keeps the stress waves of a fast unloading, which that misses.
+    """
+    n = scenario.n_cars
+    cars = [scenario.lead] + [scenario.passenger] * (n - 1)
+    out = np.zeros((t.size, 2 * n))
+    for k, car in enumerate(cars):
+        front = force[:, k]
+        rear = force[:, k + 1] if k + 1 < n else np.zeros_like(front)
+        m = np.full(car.n_nodes, car.mass / (car.n_nodes - 1))
+        m[[0, -1]] *= 0.5
+        k_link = car.axial_rigidity * (car.n_nodes - 1) / car.length
+        c_link = 2 * car.damping_ratio * np.sqrt(k_link * m[:-1] * m[1:] / (m[:-1] + m[1:]))
+        x = _driven_chain(m, k_link, c_link, t, front, rear)
+        com = x @ m / m.sum()
+        out[:, 2 * k] = com - x[:, 0]
+        out[:, 2 * k + 1] = x[:, -1] - com
+    return out
+
+
+def _driven_chain(
+    m: np.ndarray,
+    k_link: float,
+    c_link: np.ndarray,
+    t: np.ndarray,
+    front: np.ndarray,
+    rear: np.ndarray,
+) -> np.ndarray:
+    """Node displacements (samples, nodes) m of a chain of masses ``m`` (kg) joined by links
+    ``k_link`` (N/m) and ``c_link`` (N s/m), at rest at ``t[0]``, with ``−front`` on its first
+    node and ``+rear`` on its last (N at the times ``t``): velocity Verlet at a tenth of the
+    chain's stable step."""
+    dt_max = 0.2 / np.sqrt(4.0 * k_link / m.min())
+    x, v = np.zeros(m.size), np.zeros(m.size)
+    out = np.zeros((t.size, m.size))
+
+    def accel(x: np.ndarray, v: np.ndarray, ff: float, fr: float) -> np.ndarray:
+        link = k_link * np.diff(x) + c_link * np.diff(v)  # tension of each link
+        f = np.zeros(m.size)
+        f[:-1] += link
+        f[1:] -= link
+        f[0] -= ff
+        f[-1] += fr
+        return f / m
+
+    a = accel(x, v, front[0], rear[0])
+    for i in range(1, t.size):
+        steps = max(1, int(np.ceil((t[i] - t[i - 1]) / dt_max)))
+        h = (t[i] - t[i - 1]) / steps
+        for j in range(1, steps + 1):
+            w = j / steps
+            ff = (1 - w) * front[i - 1] + w * front[i]
+            fr = (1 - w) * rear[i - 1] + w * rear[i]
+            v_half = v + 0.5 * h * a
+            x = x + h * v_half
+            a = accel(x, v_half + 0.5 * h * a, ff, fr)
+            v = v_half + 0.5 * h * a
+        out[i] = x
+    return out
+
+
 def crash_result_from_fe(
     nodes: Mapping[int, TimeHistory],
     contacts: Mapping[tuple[str, int], TimeHistory],
@@ -147,7 +235,7 @@ def crash_result_from_fe(
     car_nodes: Sequence[int],
     wall_contact: int,
     interface_contacts: Sequence[int],
-    scenario: CrashScenario | str | Path = "paper",
+    scenario: CrashScenario | str | Path,
     axis: str = "x",
     direction: float = 1.0,
     start_time: float | None = None,
@@ -161,23 +249,23 @@ def crash_result_from_fe(
     car_nodes : node id of each car, lead car first (``n_cars`` ids).
     wall_contact : contact id of the wall (or obstacle) contact.
     interface_contacts : contact id of each car interface, front to back (``n_cars − 1``).
-    scenario : the scenario of the FE model (masses and zones of the env); its ``n_cars`` is
-        set to ``len(car_nodes)``.
+    scenario : the scenario of the FE model (masses, carbodies and zones of the env); its
+        ``n_cars`` must be ``len(car_nodes)``.
     axis : travel axis of the FE model. direction : +1 if the train travels towards +axis.
     start_time : first contact, s (default the first nodout sample); earlier samples dropped.
 
     Returns
     -------
     :class:`CrashResult` with ``model="reference"`` (the FE run stands in for the reference
-    model), bodies ``lead, car2, …``, zones ``wall, interface_1, …``, no energies.
+    model), bodies ``lead, car2, …``, zones ``wall, interface_1, …`` (``crush``: the
+    centre-of-mass feature less :func:`carbody_shortening`), no energies.
     """
     if axis not in AXES:
         raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
     if direction not in (1, -1, 1.0, -1.0):
         raise ValueError(f"direction must be +1 or -1, got {direction!r}")
-    car_nodes, interface_contacts = _check_fe_ids(nodes, car_nodes, interface_contacts)
     sc = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
-    sc = sc.with_overrides(n_cars=len(car_nodes))
+    car_nodes, interface_contacts = _check_fe_ids(nodes, car_nodes, interface_contacts, sc)
     used = [k for k in contacts if k[1] in (wall_contact, *interface_contacts)]
     keep = _fe_window(nodes[car_nodes[0]].t, [contacts[k].t for k in used], start_time)
     tk = nodes[car_nodes[0]].t[keep]
@@ -188,7 +276,12 @@ def crash_result_from_fe(
     force = np.column_stack(
         [_contact_force(contacts, c, axis, tk) for c in (wall_contact, *interface_contacts)]
     )
-    crush = np.column_stack([x[:, 0], *(x[:, k] - x[:, k - 1] for k in range(1, x.shape[1]))])
+    short = carbody_shortening(sc, tk, force)
+    # crush between the car ends: the centre-of-mass distances less the carbodies' shortening
+    ends = [x[:, 0] - short[:, 0]]
+    for k in range(1, x.shape[1]):
+        ends.append(x[:, k] - x[:, k - 1] - short[:, 2 * k - 1] - short[:, 2 * k])
+    crush = np.column_stack(ends)
     n_zones = force.shape[1]
     return CrashResult(
         t=tk - tk[0],
@@ -218,7 +311,7 @@ def crash_surrogate_from_fe(
     car_nodes: Sequence[int],
     wall_contact: int,
     interface_contacts: Sequence[int],
-    scenario: CrashScenario | str | Path = "paper",
+    scenario: CrashScenario | str | Path,
     fit: CrashFitOptions | None = None,
     axis: str = "x",
     direction: float = 1.0,
@@ -279,6 +372,7 @@ def _element_document(el: CrashElement) -> dict[str, Any]:
             for k, s in el.selection.items()
         },
         "n_samples": el.n_samples,
+        "zone_unloading_stiffness": el.zone_unloading_stiffness,
     }
 
 
@@ -339,6 +433,11 @@ def _element_from_document(d: Any, where: str) -> CrashElement:
         force_range={k: (float(a), float(b)) for k, (a, b) in rng.items()},
         selection={k: SelectionResult(s["method"], s["table"], s["best"]) for k, s in sel.items()},
         n_samples={k: int(v) for k, v in _field(d, "n_samples", where).items()},
+        zone_unloading_stiffness=(
+            None
+            if d.get("zone_unloading_stiffness") is None
+            else _number(d, "zone_unloading_stiffness", where)
+        ),
     )
 
 
@@ -433,7 +532,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--interface-contacts", type=int, nargs="+", required=True, help="contact id per interface"
     )
-    p.add_argument("--scenario", default="paper", help="scenario of the FE model (name or YAML)")
+    p.add_argument(
+        "--scenario",
+        required=True,
+        help="scenario of the FE model (name or YAML): its cars (masses, carbodies, n_cars: one "
+        "--car-nodes node each) and zones",
+    )
+    p.add_argument(
+        "--nodes-per-car",
+        type=bounded_int(1, MAX_NODES),
+        default=1,
+        help=f"masses per car of the surrogate the elements are for (1..{MAX_NODES}; 1: rigid "
+        "cars, the elements then hold the carbodies' elasticity too)",
+    )
     p.add_argument(
         "--variant", choices=["hysteretic", "paper"], default="hysteretic", help="element form"
     )
@@ -475,7 +586,7 @@ def _from_fe(args: argparse.Namespace) -> int:
         wall_contact=args.wall_contact,
         interface_contacts=args.interface_contacts,
         scenario=args.scenario,
-        fit=CrashFitOptions(variant=args.variant, seed=args.seed),
+        fit=CrashFitOptions(variant=args.variant, seed=args.seed, nodes_per_car=args.nodes_per_car),
         axis=args.axis,
         direction=args.direction,
         start_time=args.start_time,
@@ -490,8 +601,9 @@ def _from_fe(args: argparse.Namespace) -> int:
                 raise ValueError(str(exc)) from None
             print(f"{name} element FMU written to {fmu}")
     for name, el in sur.elements.items():
-        ku = el.unloading_stiffness
-        print(f"{name}: degrees {el.degrees}, k_u {ku:.4g} N/m, samples {el.n_samples}")
+        ku, own = el.unloading_stiffness, el.zone_unloading_stiffness
+        zone = "" if own is None else f" (the zone's own, carbodies' shortening removed: {own:.4g})"
+        print(f"{name}: degrees {el.degrees}, k_u {ku:.4g} N/m{zone}, samples {el.n_samples}")
     print(f"elements written to {args.out}")
     return 0
 

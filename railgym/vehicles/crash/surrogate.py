@@ -48,6 +48,7 @@ __all__ = [
     "crash_training_data",
     "plastic_loading",
     "virgin_loading",
+    "zone_unloading_stiffness",
 ]
 
 #: element variants of the surrogate model
@@ -89,6 +90,10 @@ class CrashElement:
         variant's unloading branch, fitted on a narrow set) cannot produce unseen forces.
     selection : 10-fold cross-validation table of each fitted LPR (branch → SelectionResult).
     n_samples : number of training samples of each branch.
+    zone_unloading_stiffness : the zone's own ``k̂_u`` (N/m), on the crush between the car
+        ends (:func:`zone_unloading_stiffness`); with one mass per car ``unloading_stiffness``
+        is that of the zone and the carbodies in series, lower. ``None``: not estimated
+        (elements written before railgym 0.5).
     """
 
     name: str
@@ -102,6 +107,7 @@ class CrashElement:
     force_range: dict[str, tuple[float, float]]
     selection: dict[str, Any]
     n_samples: dict[str, int]
+    zone_unloading_stiffness: float | None = None
 
     @property
     def degrees(self) -> dict[str, int]:
@@ -251,8 +257,14 @@ def _fit_lpr(
 def _unloading_stiffness(
     u: np.ndarray, f: np.ndarray, rate: np.ndarray, series: np.ndarray, name: str = "element"
 ) -> float:
-    """Least-squares slope (N/m) of Δf against Δu over consecutive unloading samples under load
-    (:class:`NoUnloadingError` naming the element ``name`` when there are none)."""
+    """Least-squares slope (N/m) of f against u on the elastic unloading lines: each run of
+    consecutive intervals of unloading under load (u and f falling) is one line with its own
+    intercept (its permanent set), the slope pooled over the lines (:class:`NoUnloadingError`
+    naming the element ``name`` when there are none).
+
+    Fitting the levels of each line, not the slopes of single intervals, keeps the noise of
+    short intervals (a stress wave in a carbody, the digits of an FE file) from biasing it low.
+    """
     du, df = np.diff(u), np.diff(f)
     ok = (rate[1:] < 0) & (rate[:-1] < 0) & (f[1:] > 0) & (f[:-1] > 0) & (du < 0) & (df < 0)
     ok &= series[1:] == series[:-1]
@@ -262,7 +274,27 @@ def _unloading_stiffness(
             f"the training data hold no elastic unloading of the {name} element: k_u cannot be "
             "estimated",
         )
-    return float(np.sum(df[ok] * du[ok]) / np.sum(du[ok] ** 2))
+    idx = np.flatnonzero(ok)  # interval i joins samples i and i + 1
+    line = np.cumsum(np.concatenate(([1], np.diff(idx) != 1)))
+    num = den = 0.0
+    for k in np.unique(line):
+        pts = np.append(idx[line == k], idx[line == k][-1] + 1)
+        uu, ff = u[pts] - u[pts].mean(), f[pts] - f[pts].mean()
+        num, den = num + float(uu @ ff), den + float(uu @ uu)
+    return num / den
+
+
+def zone_unloading_stiffness(references: list[CrashResult]) -> dict[str, float]:
+    """Unloading stiffness ``k̂_u`` (N/m) of each element type on the zones' own crush
+    (``result.crush``, between the car ends), the runs pooled; an element type whose runs
+    hold no elastic unloading is left out."""
+    out = {}
+    for name, ((u, f, rate, _, series), _) in _pooled_training_data(references, "zone").items():
+        try:
+            out[name] = _unloading_stiffness(u, f, rate, series, name)
+        except NoUnloadingError:
+            continue
+    return out
 
 
 def _element_scale(scale: Any, name: str) -> float:
@@ -341,6 +373,8 @@ def build_crash_surrogate(
         name: _fit_element(name, data, run_scale, absorber[name], fit)
         for name, (data, run_scale) in _pooled_training_data(refs, feature).items()
     }
+    for name, ku in zone_unloading_stiffness(refs).items():
+        elements[name].zone_unloading_stiffness = ku
     return CrashSurrogate(
         variant=variant,
         elements=elements,

@@ -58,6 +58,7 @@ def _from_files(nodout, rcforc, **kw):
         car_nodes=NODES,
         wall_contact=1,
         interface_contacts=[2],
+        scenario="paper",
         direction=-1.0,
         **kw,
     )
@@ -71,6 +72,7 @@ def test_fe_files_give_the_reference_time_histories(fe_files):
         car_nodes=NODES,
         wall_contact=1,
         interface_contacts=[2],
+        scenario="paper",
         direction=-1.0,
     )
     np.testing.assert_allclose(res.t, ref.t, rtol=1e-6, atol=1e-12)
@@ -78,7 +80,12 @@ def test_fe_files_give_the_reference_time_histories(fe_files):
     for got, want in ((res.x, ref.x), (res.v, ref.v), (res.force, ref.force)):
         scale = np.ptp(want, axis=0)
         assert np.max(np.abs(got - want) / scale) < 2e-4
-    np.testing.assert_allclose(res.crush[:, 1], res.x[:, 1] - res.x[:, 0])
+    # the zones' own crush: the centre-of-mass distances less the carbodies' shortening (the
+    # scenario's carbody driven by the contact forces), closer to the reference's crush between
+    # the car ends than the distances themselves
+    com = np.column_stack([res.x[:, 0], res.x[:, 1] - res.x[:, 0]])
+    rms, rms_com = (np.sqrt(np.mean((c - ref.crush) ** 2, axis=0)) for c in (res.crush, com))
+    assert np.all(rms < 0.1 * rms_com)
     assert res.body_names == ["lead", "car2"] and res.zone_names == ["wall", "interface_1"]
 
 
@@ -109,6 +116,8 @@ def test_elements_from_fe_output_run_traincrash_like_the_direct_ones(fe_files, t
         assert np.sqrt(np.mean((fa - fb) ** 2)) < 5e-3 * np.max(fa)
         assert np.max(np.abs(fa - fb)) < 0.025 * np.max(fa)
         assert b.unloading_stiffness == pytest.approx(a.unloading_stiffness, rel=0.06)
+        # the zone's own k_u (the scenario's 200 kN/mm): measured −2.9 % (wall), −0.9 %
+        assert b.zone_unloading_stiffness == pytest.approx(200e6, rel=0.05)
     rows_a, ret_a = _episode(direct)
     rows_b, ret_b = _episode(from_fe)
     assert len(rows_b) == pytest.approx(len(rows_a), rel=0.02)
@@ -144,6 +153,8 @@ def test_command_line_writes_loadable_elements(fe_files, capsys):
         "2",
         "--direction",
         "-1",
+        "--scenario",
+        "paper",
         "-o",
         str(out),
     ]
