@@ -190,6 +190,14 @@ def collect_vehicle_fmu(
                             n, dt, design.band, design.f_max, [case[2], i, b]
                         )
                 rec = simulate_vehicle_fmu(runner, z, zdot, offsets, fa, veh, n)
+                if not all(np.isfinite(rec[k]).all() for k in ("delta", "delta_dot", "force")):
+                    raise FMUError(
+                        "fmu",
+                        f"{mapping.fmu}: non-finite outputs in the run of class {case[0]}, "
+                        f"{case[1] * 3.6:g} km/h, seed {case[2]}"
+                        + (", actuators excited" if excited else ""),
+                        full=True,
+                    )
                 runs += _bogie_runs(case, excited, rec, fa, every)
             if progress is not None:
                 progress(i + 1, len(cases))
