@@ -95,6 +95,17 @@ def test_the_mapped_secondary_forces_are_used_as_given(project, tmp_path):
     assert np.all(np.abs(front["force"]) < 1000 * 0.1)
 
 
+def test_a_missing_floor_point_is_named(project, tmp_path):
+    """The centre point separates bounce from bending: without it, one error naming it."""
+    doc = yaml.safe_load(project.read_text())
+    doc["vehicle"] = str(project.parent / "coach.yaml")
+    del doc["outputs"]["acc_centre"]
+    path = tmp_path / "no_centre.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    with pytest.raises(FMUError, match="outputs.acc_centre is missing"):
+        collect_fmu(path, SMALL)
+
+
 def test_the_vehicle_is_never_assumed(project, tmp_path):
     doc = yaml.safe_load(project.read_text())
     del doc["vehicle"]
