@@ -21,17 +21,20 @@ physics of :mod:`railgym.vehicles` imports nothing of :mod:`railgym.fmu`.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from railgym.fmu.mapping import fmu_vehicle, load_mapping
+from railgym.fmu.collect_vehicle import collect_vehicle_fmu
+from railgym.fmu.mapping import fmu_vehicle, load_mapping, mapping_env
 from railgym.fmu.runner import FMURunner
 from railgym.vehicles.collect import OtherReference, build_parser, refine
 from railgym.vehicles.collect import main as build_main
 from railgym.vehicles.collect_design import CollectionDesign, collect_design
+from railgym.vehicles.vehicle.params import load_whole_vehicle
 from railgym.vehicles.vertical.params import load_vehicle
 from surrogates.models import SurrogateModel
 
@@ -89,23 +92,29 @@ def collect_fmu(
     design: str | CollectionDesign = "paper",
     fmu: str | Path | None = None,
     vehicle: Any = None,
-    dt: float = 1e-3,
+    dt: float | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, Any]:
     """:func:`~railgym.vehicles.collect_design.collect_design` of ``design`` on the FMU of
     the mapping file ``fmu_map`` (``fmu``: the FMU file, default the mapping's ``fmu:``),
-    stepped at ``dt`` (s); ``vehicle`` (default the mapping's ``vehicle:``, :func:`fmu_vehicle`)
-    gives ``m2`` when the FMU has no ``secondary_force``, and the free travel of the contact
-    counts. ``progress(i, total)`` after each case of the design."""
+    stepped at ``dt`` (s; default 1 ms, or a whole vehicle's mapping's ``step:``);
+    ``vehicle`` (default the mapping's ``vehicle:``, :func:`fmu_vehicle`) gives ``m2`` when
+    the FMU has no ``secondary_force``, and the free travel of the contact counts.
+    ``progress(i, total)`` after each case of the design.
+
+    An ``env: vehicle`` mapping (the whole vehicle, ``vehicle`` its whole-vehicle file) is
+    collected by :func:`railgym.fmu.collect_vehicle.collect_vehicle_fmu`: one run per bogie."""
     vehicle = fmu_vehicle(fmu_map, vehicle)
+    if mapping_env(fmu_map) == "vehicle":
+        return collect_vehicle_fmu(fmu_map, design, fmu, vehicle, dt, progress)
     veh = load_vehicle(vehicle)
     mapping = load_mapping(fmu_map, fmu, "vertical")
-    runner = FMURunner(mapping, dt, 1)
+    runner = FMURunner(mapping, 1e-3 if dt is None else dt, 1)
     try:
         return collect_design(
             design,
             veh,
-            dt=dt,
+            dt=runner.dt,
             progress=progress,
             run=lambda z, zdot, step, fa: simulate_fmu(runner, z, zdot, fa, veh),
         )
@@ -217,8 +226,14 @@ def fmu_design_runs(
     progress: Callable[[int, int], None] | None,
 ) -> tuple[Any, dict[str, Any]]:
     """The vehicle of ``railgym collect --fmu-map`` (``--vehicle``, else the mapping's) and
-    the runs of ``design`` on the FMU (:func:`collect_fmu`)."""
+    the runs of ``design`` on the FMU (:func:`collect_fmu`). For an ``env: vehicle`` mapping
+    the vehicle is the whole vehicle's one-bogie suspension (its bump stops are the
+    element's known physics), named after the whole-vehicle file."""
     vehicle = fmu_vehicle(fmu_map, vehicle, "--vehicle ")
+    if mapping_env(fmu_map) == "vehicle":
+        whole = load_whole_vehicle(vehicle)
+        data = collect_vehicle_fmu(fmu_map, design, fmu, whole, progress=progress)
+        return dataclasses.replace(whole.suspension, name=whole.name), data
     return vehicle, collect_fmu(fmu_map, design, fmu, vehicle, progress=progress)
 
 

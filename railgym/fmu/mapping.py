@@ -67,6 +67,7 @@ __all__ = [
     "UNITS",
     "fmu_vehicle",
     "load_mapping",
+    "mapping_env",
     "mapping_vehicle",
     "same_vehicle",
 ]
@@ -623,6 +624,19 @@ def _vehicle(value: Any, path: Path, source: str) -> str | None:
         )
     local = path.parent / value
     return str(local) if value.endswith(val.YAML_SUFFIXES) and local.is_file() else value
+
+
+def mapping_env(path: str | Path) -> str:
+    """The mapping file's ``env:`` (:data:`ENV_SIGNALS`'s keys); any other value, or none, is
+    an :class:`FMUError` naming the file. Only this key is read; the whole file is checked
+    by :func:`load_mapping`."""
+    source = str(path)
+    env = _document(Path(path), source).get("env")
+    if env not in ENV_SIGNALS:
+        raise FMUError(
+            "env", f"{source}: env must be one of {sorted(ENV_SIGNALS)}, got {env!r}", full=True
+        )
+    return str(env)
 
 
 def mapping_vehicle(path: str | Path, env: str | None = None) -> str | None:

@@ -496,13 +496,17 @@ def build_parser() -> argparse.ArgumentParser:
         "packaged elements'; another needs -o/--out)",
         default=None,
     )
-    parser.add_argument("--fmu-map", help="collect from this FMU mapping file (docs/fmi.md)")
+    parser.add_argument(
+        "--fmu-map",
+        help="collect from this FMU mapping file (env: vertical or vehicle; docs/fmi.md)",
+    )
     parser.add_argument("--fmu", help="the FMU of --fmu-map (default: the map's fmu:)")
     parser.add_argument(
         "--vehicle",
         help="vehicle YAML (name or path) of the model: masses for the force balance, bump "
         "stops for the element's known physics; with --fmu-map required unless the mapping "
-        "has vehicle: (default without --fmu-map: manchester)",
+        "has vehicle:, the whole-vehicle file for env: vehicle (default without --fmu-map: "
+        "manchester)",
     )
     add_degree_arguments(
         parser,

@@ -45,6 +45,7 @@ __all__ = [
     "USER_MAPPING_YAML",
     "USER_VEHICLE_YAML",
     "UserQuarterCar",
+    "build_c_fmu",
     "build_user_c_fmu",
     "build_user_py_fmu",
     "run_user_fmu",
@@ -217,17 +218,24 @@ def _compiler() -> str | None:
 def build_user_c_fmu(dest: Path) -> Path:
     """Compile ``quarter_car.c`` and zip it with its model description into
     ``dest/quarter_car.fmu``; ``pytest.skip`` without a C compiler."""
+    return build_c_fmu(dest, "quarter_car", "QUARTER_CAR_GUID")
+
+
+def build_c_fmu(dest: Path, stem: str, guid_macro: str) -> Path:
+    """Compile ``user_models/STEM.c`` (its GUID given by ``-DGUID_MACRO``) and zip it with
+    ``STEM.modelDescription.xml`` into ``dest/STEM.fmu``; ``pytest.skip`` without a C
+    compiler."""
     import fmpy  # type: ignore[import-untyped, unused-ignore]
 
     cc = _compiler()
     if cc is None:
-        pytest.skip("no C compiler ($CC, cc or gcc) to build the user's C FMU")
-    source = MODELS / "quarter_car.c"
-    template = (MODELS / "quarter_car.modelDescription.xml").read_text(encoding="utf-8")
+        pytest.skip(f"no C compiler ($CC, cc or gcc) to build the user's C FMU {stem}")
+    source = MODELS / f"{stem}.c"
+    template = (MODELS / f"{stem}.modelDescription.xml").read_text(encoding="utf-8")
     digest = hashlib.sha256(source.read_bytes() + template.encode()).hexdigest()
-    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "quarter_car:" + digest)) + "}"
-    build = dest / "quarter_car_build"
-    lib = build / "binaries" / fmpy.platform / f"quarter_car{fmpy.sharedLibraryExtension}"
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"{stem}:" + digest)) + "}"
+    build = dest / f"{stem}_build"
+    lib = build / "binaries" / fmpy.platform / f"{stem}{fmpy.sharedLibraryExtension}"
     lib.parent.mkdir(parents=True)
     cmd = [
         cc,
@@ -237,7 +245,7 @@ def build_user_c_fmu(dest: Path) -> Path:
         "-std=c99",
         "-ffp-contract=off",
         f"-I{FMI2_HEADERS}",
-        f'-DQUARTER_CAR_GUID="{guid}"',
+        f'-D{guid_macro}="{guid}"',
         "-o",
         str(lib),
         str(source),
@@ -246,11 +254,11 @@ def build_user_c_fmu(dest: Path) -> Path:
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{done.stderr}")
-    fmu = dest / "quarter_car.fmu"
+    fmu = dest / f"{stem}.fmu"
     with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as zf:
         zf.writestr("modelDescription.xml", template.replace("@GUID@", guid))
         zf.write(lib, f"binaries/{fmpy.platform}/{lib.name}")
-        zf.write(source, "sources/quarter_car.c")
+        zf.write(source, f"sources/{stem}.c")
     return fmu
 
 
