@@ -25,10 +25,14 @@ blocking the caller; a failing FMI call raises it with FMPy's message and the FM
 
 The worker thread also loads the FMU's shared library and instantiates it, and it frees the
 instance — ``fmi2Terminate`` → ``fmi2FreeInstance`` → unload the library, once each — at
-:meth:`FMURunner.close` (``env.close()``), when the runner is garbage-collected, or at
-interpreter exit, whichever comes first. An FMU left loaded to the process exit runs its
-library destructors after the interpreter has finalised: pythonfmu 0.7.0 FMUs instantiated
-from a thread then corrupt the heap (exit status 134).
+:meth:`FMURunner.close` (``env.close()``, which returns once they are done), when the runner
+is garbage-collected, or at interpreter exit, whichever comes first. An FMU left loaded to
+the process exit runs its library destructors after the interpreter has finalised:
+pythonfmu 0.7.0 FMUs instantiated from a thread then corrupt the heap (exit status 134).
+
+Every instance of one FMU file in a process shares one unpacked folder, kept to the exit, so
+that the dynamic loader maps one copy of its library (:func:`_unpacked`); an FMU that
+declares ``canBeInstantiatedOnlyOncePerProcess`` gets a folder per instance.
 """
 
 from __future__ import annotations
@@ -106,7 +110,8 @@ class _Worker:
 class _Instance:
     """What one FMU instance holds, released once and in order (:meth:`release`): FMPy's FMU
     object, the worker thread that loaded the shared library and instantiated the FMU, and the
-    folder of the unpacked FMU (the callbacks live for the process: :func:`_callbacks`).
+    folder of the unpacked FMU when it owns it (:func:`_unpacked`; the callbacks live for the
+    process: :func:`_callbacks`).
 
     It holds no reference to its :class:`FMURunner`, so that a ``weakref.finalize`` of the
     runner can release it when the runner is garbage-collected or, at the latest, at
@@ -144,7 +149,8 @@ class _Instance:
     def release(self, timeout: float = 10.0) -> None:
         """Free the instance and unload its library on the worker thread (waiting at most
         ``timeout`` s; not at all when a call was abandoned, then it runs if the call ever
-        returns), end that thread, remove the unpacked files. Runs once; never raises."""
+        returns), end that thread, remove the unpacked files it owns. Runs once; never
+        raises."""
         with self._lock:
             if self._released:
                 return
@@ -577,7 +583,8 @@ class FMURunner:
     def close(self) -> None:
         """Free the FMU instance: ``fmi2Terminate``, ``fmi2FreeInstance``, unload its shared
         library (on the thread that loaded it; skipped when a call is stuck in the FMU), end
-        that thread and remove the unpacked files. Idempotent; later calls raise
+        that thread (the unpacked files of the FMU stay for its next instance, to the
+        interpreter exit: :func:`_unpacked`). Idempotent; later calls raise
         :class:`~railgym.fmu.mapping.FMUError`. Also done when the runner is garbage-collected
         and at interpreter exit, for runners not closed."""
         if self._broken is None:
