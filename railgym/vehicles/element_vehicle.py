@@ -14,7 +14,7 @@ by default.
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, fields
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -84,15 +84,18 @@ def check_element_vehicle(
     """Refuse a user's element (``surrogate``) on a vehicle it was not built for.
 
     ``given``: the user's ``vehicle=`` (``None``: not given); ``model``: the loaded vehicle
-    the env runs (a whole vehicle: its one-bogie ``suspension``, whose ``m2`` is half the
-    carbody); ``default``: the packaged vehicle of ``vehicle=None``; ``env``: the env, for
-    the messages. Raises :class:`~railgym._checks.FieldError` naming ``vehicle``.
+    the env runs (a whole vehicle: its one-bogie ``suspension``, compared but for ``m2``,
+    which is half the whole vehicle's carbody); ``default``: the packaged vehicle of
+    ``vehicle=None``; ``env``: the env, for the messages. Raises
+    :class:`~railgym._checks.FieldError` naming ``vehicle``.
     """
     found = recorded_vehicle(surrogate)
     if found is None:
         return
     recorded, file = found
     runs = getattr(model, "suspension", model)
+    if runs is not model:  # a whole vehicle: m2 is half its carbody, not the element's
+        recorded = replace(recorded, m2=runs.m2)
     if recorded.same_physics(runs):
         return
     name = repr(str(surrogate)) if isinstance(surrogate, str | Path) else "the element"

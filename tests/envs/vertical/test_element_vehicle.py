@@ -89,6 +89,33 @@ def test_on_its_vehicle_the_element_runs(folder: Path, tmp_path_factory) -> None
         env.close()
 
 
+def test_the_whole_vehicle_on_the_elements_suspension_runs_it(folder: Path) -> None:
+    """A whole vehicle whose ``base:`` is the element's vehicle (its m2 is half the carbody,
+    whatever the one-bogie file says); another base is refused."""
+    whole = "base: {}\nwhole_vehicle:\n" + "".join(
+        f"  {k}: {v}\n"
+        for k, v in {
+            "carbody_mass": 3.0e4,
+            "carbody_pitch_inertia": 1.5e6,
+            "carbody_length": 24.0,
+            "bending_frequency": 9.2,
+            "bending_damping": 0.02,
+            "bending_modal_mass": 2.0e4,
+            "bogie_mass": 3600.0,
+            "bogie_pitch_inertia": 2000.0,
+            "bogie_semi_spacing": 8.5,
+            "semi_wheelbase": 1.25,
+        }.items()
+    )
+    (folder / "coach.yaml").write_text(whole.format("my_car.yaml"))
+    env = gym.make("railgym/VerticalVehicle-v2", surrogate="el.json", vehicle="coach.yaml")
+    assert env.unwrapped.cfg.model.suspension.m2 == 1.5e4
+    env.close()
+    (folder / "other.yaml").write_text(whole.format("manchester"))
+    with pytest.raises(ValueError, match=r"'other.yaml' is not the vehicle.*vehicle\.m1"):
+        gym.make("railgym/VerticalVehicle-v2", surrogate="el.json", vehicle="other.yaml")
+
+
 def test_an_element_without_a_record_runs_on_the_vehicle_given(folder: Path) -> None:
     env = gym.make(ID, surrogate="bare.json", vehicle="my_car.yaml")
     assert env.unwrapped.cfg.model.name == "user_quarter_car"
