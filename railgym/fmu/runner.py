@@ -194,7 +194,7 @@ def _unpacked(fmu: Any, once_per_process: bool) -> tuple[str, bool]:
     Every instance of one FMU file shares one folder for the life of the process, so that
     the dynamic loader maps one copy of its shared library, whatever the number of
     instances open, closed and made again: each fresh copy of a pythonfmu 0.7.0 library
-    binds its C++ globals to the first copy's, and two live copies corrupted the heap
+    binds its GNU-unique C++ symbols to the first copy's, and two live copies corrupted the heap
     (docs/fmi.md, *FMU lifetime*). An FMU that ``canBeInstantiatedOnlyOncePerProcess``
     gets a folder (and a copy of its library) of its own per instance, as the standard
     asks."""

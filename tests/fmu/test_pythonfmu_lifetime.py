@@ -1,8 +1,8 @@
 """FMU lifetime with pythonfmu FMUs through ``gym.make``: many make/reset/step/close cycles,
 one or two live instances at a time, in a fresh process that must exit 0.
 
-Each fresh copy of a pythonfmu 0.7.0 shared library binds its C++ globals to the first
-copy's; with a folder (and so a library copy) per instance, two live instances corrupted the
+Each fresh copy of a pythonfmu 0.7.0 shared library binds its GNU-unique C++ symbols to the
+first copy's; with a folder (and so a library copy) per instance, two live instances corrupted the
 heap ("free(): corrupted unsorted chunks", exit status 134) in about one run in five of 40
 cycles. Every instance of one FMU file now shares one unpacked folder: one library copy per
 process, which the test checks in ``/proc/self/maps`` (the abort itself is too rare for a
