@@ -263,6 +263,10 @@ MODULE_COMMANDS = {
     "pretrained": ("agents.policies.pretrained", "ship a benchmarked policy as a pretrained one"),
     "collect": ("railgym.fmu.collect", "collect and build a vertical element"),
     "collect-vehicle": ("railgym.vehicles.vehicle.collect", "build the whole-vehicle element"),
+    "combine": (
+        "railgym.vehicles.components",
+        "an element of a bench-tested damper with the vehicle file's springs and bump stops",
+    ),
     "validate": (
         "agents.evaluation.vehicle_validation",
         "surrogate against reference or FMU, per class",

@@ -55,6 +55,7 @@ __all__ = [
     "FieldError",
     "FieldTypeError",
     "Fields",
+    "Yaml12Loader",
     "boolean",
     "choice",
     "in_range",
@@ -110,7 +111,25 @@ numeric_array = _CHECKS.numeric_array
 random_seed = _CHECKS.random_seed
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
+#: a YAML 1.2 float: a fraction, an exponent or both, signs optional (``2.4e6``, ``1e-3``,
+#: ``-2E+5``, ``.5``); PyYAML's YAML 1.1 resolver reads ``2.4e6`` and ``1e-3`` as strings
+_YAML12_FLOAT = re.compile(
+    r"""^[-+]?(?:[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[0-9][0-9_]*[eE][-+]?[0-9]+
+    |\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?)$""",
+    re.X,
+)
+
+
+class Yaml12Loader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that also reads YAML 1.2 floats (:data:`_YAML12_FLOAT`) as
+    numbers, the base of every YAML loader of railgym."""
+
+
+Yaml12Loader.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
+
+
+class _UniqueKeyLoader(Yaml12Loader):
     """``yaml.SafeLoader`` that refuses a key given twice in one mapping (PyYAML keeps the
     last silently)."""
 
@@ -137,7 +156,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
 
 def load_yaml(text: str, source: str) -> Any:
     """``yaml.safe_load`` whose syntax errors name ``source`` and the line; a key given twice
-    in one mapping is an error too."""
+    in one mapping is an error too, and YAML 1.2 floats (``2.4e6``) are numbers."""
     try:
         return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506  (a SafeLoader)
     except yaml.MarkedYAMLError as exc:

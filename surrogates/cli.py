@@ -19,6 +19,7 @@ from surrogates.builder import build
 from surrogates.checks import MAX_SEED
 from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
 from surrogates.models.checks import MAX_DEGREE
+from surrogates.tables import to_si
 from surrogates.units import KNOWN_UNITS, check_units
 
 
@@ -64,9 +65,10 @@ BUILD_DESCRIPTION = (
     "candidate table of the degree (or kernel) selection and where the model went; stderr: "
     "progress bars (on a terminal), the number of training rows and notes. --quiet prints "
     "the summary alone (with a warning of a winner at the search cap). Units: give one for "
-    "every input and the output (--units, or 'name [unit]' in the header), or none; "
-    "railgym's vertical envs take an element with inputs in m and m/s and output in N, e.g. "
-    "--units du=m dv=m/s F=N."
+    "every input and the output (--units, or 'name [unit]' in the header), or none; the "
+    "data are converted to SI (du [mm] to m, F [kN] to N, as read_table converts, a note on "
+    "stderr) and the element carries the SI units; railgym's vertical envs take an element "
+    "with inputs in m and m/s and output in N, e.g. --units du=m dv=m/s F=N."
 )
 
 
@@ -116,8 +118,9 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="*",
         default=[],
         metavar="NAME=UNIT",
-        help="the unit of every input and the output, e.g. du=m dv=m/s F=N, or none (also "
-        "read from a header 'du [m]'); known units: " + ", ".join(sorted(KNOWN_UNITS)),
+        help="the unit of every input and the output in the data, e.g. du=mm dv=mm/s F=kN, "
+        "or none (also read from a header 'du [mm]'); converted to SI; known units: "
+        + ", ".join(sorted(KNOWN_UNITS)),
     )
     b.add_argument("--report", help="also write the build report as JSON here")
     add_degree_arguments(b)
@@ -224,7 +227,14 @@ def _build(args: argparse.Namespace) -> int:
             raise UsageError("--report and -o name the same file")
         _check_output(args.report, "--report", args.overwrite)
     cols, header_units = io.read_csv_units(args.data, columns=names)
-    units = _units(args, units, header_units)
+    given = _units(args, units, header_units)
+    cols, units, factors = to_si(cols, given, str(args.data))
+    if factors and not args.quiet:
+        print(
+            "converted to SI: "
+            + ", ".join(f"{c} {given[c]} -> {units[c]} (x {f:g})" for c, f in factors.items()),
+            file=sys.stderr,
+        )
     U = np.column_stack([cols[c] for c in args.inputs])
     n = U.shape[0]
     if not args.quiet:

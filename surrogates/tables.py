@@ -98,6 +98,31 @@ def _si(unit: str, column: str, where: str) -> tuple[float, str]:
     return UNITS[u]
 
 
+def to_si(
+    columns: Mapping[str, np.ndarray], units: Mapping[str, str], where: str
+) -> tuple[dict[str, np.ndarray], dict[str, str], dict[str, float]]:
+    """``columns`` converted to SI as :func:`read_table` converts (the factors of
+    :data:`UNITS`): the columns, their SI units and the factors applied (those other than 1).
+
+    A column without a unit, or with a unit :data:`UNITS` does not list (an SI unit such as
+    ``N/m``), is kept as it is; a value that overflows in SI is a ``ValueError`` naming
+    ``where`` and the column.
+    """
+    out, si_units, factors = dict(columns), dict(units), {}
+    for name, unit in units.items():
+        if name not in columns or unit.strip() not in UNITS:
+            continue
+        factor, si = _si(unit, name, where)
+        if factor != 1.0:
+            with np.errstate(over="ignore"):  # reported below, naming the column
+                values = np.asarray(columns[name], dtype=float) * factor
+            if not np.all(np.isfinite(values)):
+                raise ValueError(f"{where}: column {name!r} overflows when converted to SI")
+            out[name], factors[name] = values, factor
+        si_units[name] = si or unit
+    return out, si_units, factors
+
+
 def _header(
     line: str, delimiter: str | None, where: str
 ) -> tuple[list[str], str | None, dict[str, str]]:

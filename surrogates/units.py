@@ -2,8 +2,10 @@
 
 The checks :func:`surrogates.build` and ``surrogates build`` share: input names and an
 output name (:func:`element_names`), and units (:func:`check_units`): a known unit string
-(:data:`KNOWN_UNITS`) for every input and the output, or none. The units are labels: an
-element keeps the units of its data (an env that needs SI refuses an element in mm).
+(:data:`KNOWN_UNITS`) for every input and the output, or none. In :func:`surrogates.build`
+the units are labels: an element keeps the units of its data (an env that needs SI refuses
+an element in mm); ``surrogates build`` converts its table to SI first
+(:func:`surrogates.tables.to_si`).
 """
 
 from __future__ import annotations

@@ -317,6 +317,22 @@ def contact_lines(rows: list[dict[str, Any]], against: str = "reference") -> lis
     ]
 
 
+def _element_of(models: dict[str, Any]) -> str:
+    """The surrogate side of ``--gap`` in words: the ``--surrogate`` file or the packaged
+    element."""
+    element = models.get("surrogate")
+    return "the packaged element" if element is None else f"element {element}"
+
+
+def _reference_of(args: argparse.Namespace) -> str:
+    """The reference side of ``--gap`` in words: the FMU of ``--fmu-map`` or railgym's model
+    of ``--backend`` (``"reference"``, ``"linear"``)."""
+    if args.backend == "fmu":
+        fmu = f"{args.fmu}, " if args.fmu is not None else ""
+        return f"the FMU {fmu}mapping {args.fmu_map}"
+    return "railgym's linear suspension" if args.backend == "linear" else "railgym's model"
+
+
 def run_gap(args: argparse.Namespace, actuated: dict[str, Any] | None = None) -> int:
     """``railgym evaluate POLICY... --gap``: gap rows of the given policies between the
     surrogate and ``--backend`` (default the reference), printed as a table; ``actuated``: the
@@ -327,7 +343,12 @@ def run_gap(args: argparse.Namespace, actuated: dict[str, Any] | None = None) ->
     backends = (SURROGATE, args.backend)
     # --fmu, --fmu-map, --vehicle, --actuator: checked, passed to both
     models = {**env_kwargs_of(args), **(actuated or {})}
-    what = f"surrogate vs {args.backend}; gap = (surrogate − {args.backend}) / |{args.backend}|"
+    on = "" if args.env == "crash" else f" on vehicle {models.get('vehicle', 'the packaged one')}"
+    against = _element_of(models) if args.backend == SURROGATE else _reference_of(args)
+    what = (
+        f"surrogate ({_element_of(models)}) vs {args.backend} ({against}){on}; "
+        f"gap = (surrogate − {args.backend}) / |{args.backend}|"
+    )
     counted = f"; contacts: bump-stop substeps, surrogate / {args.backend}"
     if args.env == "crash":
         if args.backend == "linear":

@@ -36,6 +36,8 @@ from typing import Any, NamedTuple
 
 import yaml
 
+from railgym._checks import Yaml12Loader
+
 __all__ = ["LEVELS", "PolicySource", "find_source", "zip_network"]
 
 #: folders above the zip searched for its run's config
@@ -66,8 +68,9 @@ class PolicySource(NamedTuple):
     env_kwargs: dict[str, Any]
 
 
-class _ZooLoader(yaml.SafeLoader):
-    """Safe YAML loader that also reads rl-zoo3's ordered dicts as plain mappings."""
+class _ZooLoader(Yaml12Loader):
+    """Safe YAML loader (YAML 1.2 floats are numbers) that also reads rl-zoo3's ordered
+    dicts as plain mappings."""
 
 
 def _ordered_dict(loader: yaml.SafeLoader, node: yaml.Node) -> dict[Any, Any]:

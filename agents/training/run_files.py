@@ -16,6 +16,7 @@ import yaml
 
 import railgym
 from agents.training.train_config import RUN_KEY
+from railgym import _checks as val
 from railgym.report.output import write_text_atomic
 
 __all__ = ["read_run", "run_folder", "speed_text", "versions", "write_config", "write_csv"]
@@ -55,7 +56,8 @@ def run_folder(config: Any, out: str | Path | None) -> Path:
 
 def read_run(out: Path) -> dict[str, Any]:
     """The run record of the run folder ``out`` (the ``run:`` section of its config.yaml)."""
-    run: dict[str, Any] = yaml.safe_load((out / "config.yaml").read_text())[RUN_KEY]
+    path = out / "config.yaml"
+    run: dict[str, Any] = val.load_yaml(path.read_text(encoding="utf-8"), str(path))[RUN_KEY]
     return run
 
 

@@ -600,6 +600,7 @@ class TrackEnvParams(Params):
                     )
         elif self.fmu_map is None:
             raise val.FieldError("fmu_map", "is required with backend='fmu' (docs/fmi.md)")
+        given = self.vehicle
         self._set("vehicle", self._vehicle_of_backend())
         self._set("variant", ENV_BACKENDS[self.backend])
         if self.dt is None:
@@ -615,6 +616,10 @@ class TrackEnvParams(Params):
                 raise val.FieldError(
                     "vehicle", f"{self.vehicle!r}: {exc} (backend={self.backend!r})"
                 ) from None
+        if self.backend == "surrogate" and self.surrogate is not None:
+            from railgym.vehicles.element_vehicle import check_element_vehicle
+
+            check_element_vehicle(self.surrogate, given, model, self.DEFAULT_VEHICLE, self.FMU_ENV)
         self._set("model", model)
         self._set("free_travel", free_travel)
         names, scales = self.OBSERVATIONS[self.observation]

@@ -25,10 +25,14 @@ blocking the caller; a failing FMI call raises it with FMPy's message and the FM
 
 The worker thread also loads the FMU's shared library and instantiates it, and it frees the
 instance — ``fmi2Terminate`` → ``fmi2FreeInstance`` → unload the library, once each — at
-:meth:`FMURunner.close` (``env.close()``), when the runner is garbage-collected, or at
-interpreter exit, whichever comes first. An FMU left loaded to the process exit runs its
-library destructors after the interpreter has finalised: pythonfmu 0.7.0 FMUs instantiated
-from a thread then corrupt the heap (exit status 134).
+:meth:`FMURunner.close` (``env.close()``, which returns once they are done), when the runner
+is garbage-collected, or at interpreter exit, whichever comes first. An FMU left loaded to
+the process exit runs its library destructors after the interpreter has finalised:
+pythonfmu 0.7.0 FMUs instantiated from a thread then corrupt the heap (exit status 134).
+
+Every instance of one FMU file in a process shares one unpacked folder, kept to the exit, so
+that the dynamic loader maps one copy of its library (:func:`_unpacked`); an FMU that
+declares ``canBeInstantiatedOnlyOncePerProcess`` gets a folder per instance.
 """
 
 from __future__ import annotations
@@ -36,12 +40,14 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import itertools
+import os
 import queue
 import shutil
 import tempfile
 import threading
 import weakref
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -104,15 +110,17 @@ class _Worker:
 class _Instance:
     """What one FMU instance holds, released once and in order (:meth:`release`): FMPy's FMU
     object, the worker thread that loaded the shared library and instantiated the FMU, and the
-    folder of the unpacked FMU (the callbacks live for the process: :func:`_callbacks`).
+    folder of the unpacked FMU when it owns it (:func:`_unpacked`; the callbacks live for the
+    process: :func:`_callbacks`).
 
     It holds no reference to its :class:`FMURunner`, so that a ``weakref.finalize`` of the
     runner can release it when the runner is garbage-collected or, at the latest, at
     interpreter exit (while the interpreter and the worker thread are still alive).
     """
 
-    def __init__(self) -> None:
-        self.dir = tempfile.mkdtemp(prefix="railgym-fmu-")
+    def __init__(self, folder: str, own: bool) -> None:
+        self.dir = folder  #: the unpacked FMU (:func:`_unpacked`)
+        self.own_dir = own  #: removed at release (else shared, removed at interpreter exit)
         self.worker = _Worker()
         self.fmu: Any = None  #: FMPy's FMU2Slave / FMU2Model, once the library is loaded
         self.loaded = False  #: the shared library is loaded
@@ -141,7 +149,8 @@ class _Instance:
     def release(self, timeout: float = 10.0) -> None:
         """Free the instance and unload its library on the worker thread (waiting at most
         ``timeout`` s; not at all when a call was abandoned, then it runs if the call ever
-        returns), end that thread, remove the unpacked files. Runs once; never raises."""
+        returns), end that thread, remove the unpacked files it owns. Runs once; never
+        raises."""
         with self._lock:
             if self._released:
                 return
@@ -162,7 +171,50 @@ class _Instance:
         if not worker.abandoned and threading.current_thread() is not worker.thread:
             if done.wait(timeout):
                 worker.thread.join(timeout)
-        shutil.rmtree(self.dir, ignore_errors=True)
+        if self.own_dir:
+            shutil.rmtree(self.dir, ignore_errors=True)
+
+
+#: the folder of each FMU file unpacked by this process, by (path, size, modification time)
+_UNPACKED: dict[tuple[str, int, int], str] = {}
+_UNPACK_LOCK = threading.Lock()
+
+
+class _Process:
+    """Owner of the shared unpacked folders: never collected, so their ``weakref.finalize``
+    runs at interpreter exit, after the finalizers of the instances made later."""
+
+
+_PROCESS = _Process()
+
+
+def _unpacked(fmu: Any, once_per_process: bool) -> tuple[str, bool]:
+    """The folder the FMU file ``fmu`` is unpacked to and whether the instance owns it.
+
+    Every instance of one FMU file shares one folder for the life of the process, so that
+    the dynamic loader maps one copy of its shared library, whatever the number of
+    instances open, closed and made again: each fresh copy of a pythonfmu 0.7.0 library
+    binds its GNU-unique C++ symbols to the first copy's, and two live copies corrupted the heap
+    (docs/fmi.md, *FMU lifetime*). An FMU that ``canBeInstantiatedOnlyOncePerProcess``
+    gets a folder (and a copy of its library) of its own per instance, as the standard
+    asks."""
+    from fmpy import extract
+
+    if once_per_process:
+        folder = tempfile.mkdtemp(prefix="railgym-fmu-")
+        extract(str(fmu), unzipdir=folder)
+        return folder, True
+    path = Path(fmu).resolve()
+    st = path.stat()
+    key = (str(path), st.st_size, st.st_mtime_ns)
+    with _UNPACK_LOCK:
+        folder = _UNPACKED.get(key, "")
+        if not os.path.isdir(folder):
+            folder = tempfile.mkdtemp(prefix="railgym-fmu-")
+            extract(str(path), unzipdir=folder)
+            _UNPACKED[key] = folder
+            weakref.finalize(_PROCESS, shutil.rmtree, folder, True)
+    return folder, False
 
 
 #: the log of each live runner's instance, by instance name (:func:`_callbacks`)
@@ -217,7 +269,7 @@ class FMURunner:
     """One FMU instance stepped as the reference model of an env (module docstring)."""
 
     def __init__(self, mapping: Mapping, dt: float, n_sub: int) -> None:
-        from fmpy import extract, read_model_description
+        from fmpy import read_model_description
         from fmpy.fmi2 import FMU2Model, FMU2Slave
 
         self.map = mapping
@@ -239,7 +291,9 @@ class FMURunner:
         cls = FMU2Slave if cs else FMU2Model
         # the instance's lifetime: released by close(), when the runner is collected, or at
         # interpreter exit, whichever comes first (weakref.finalize runs it once)
-        inst = self._inst = _Instance()
+        inst = self._inst = _Instance(
+            *_unpacked(mapping.fmu, unit.canBeInstantiatedOnlyOncePerProcess)
+        )
         self._release = weakref.finalize(self, inst.release)
         self._dir = inst.dir
         self._worker = inst.worker
@@ -248,7 +302,6 @@ class FMURunner:
         weakref.finalize(self, _LOGS.pop, name, None)
 
         def load() -> Any:  # on the worker thread, which also frees the instance
-            extract(str(mapping.fmu), unzipdir=inst.dir)
             fmu = cls(
                 guid=md.guid,
                 unzipDirectory=inst.dir,
@@ -530,7 +583,8 @@ class FMURunner:
     def close(self) -> None:
         """Free the FMU instance: ``fmi2Terminate``, ``fmi2FreeInstance``, unload its shared
         library (on the thread that loaded it; skipped when a call is stuck in the FMU), end
-        that thread and remove the unpacked files. Idempotent; later calls raise
+        that thread (the unpacked files of the FMU stay for its next instance, to the
+        interpreter exit: :func:`_unpacked`). Idempotent; later calls raise
         :class:`~railgym.fmu.mapping.FMUError`. Also done when the runner is garbage-collected
         and at interpreter exit, for runners not closed."""
         if self._broken is None:

@@ -55,6 +55,7 @@ from railgym.vehicles.element_envelope import (
     design_envelope,
     element_envelope,
 )
+from railgym.vehicles.element_vehicle import vehicle_document
 from railgym.vehicles.memory_element import (
     MEMORY_DEGREES,
     MEMORY_DESIGN,
@@ -203,12 +204,15 @@ def save_vertical_surrogate(
     source: str,
     command: str | None = None,
     envelope: Any = None,
+    vehicle: Any = None,
 ) -> Path:
     """Write a vertical element with its feature form, names, units, build report
     (``None``: no report, e.g. a refined element), the command that builds it (default
-    the packaged recipe of its form) and the operating envelope it was built for
+    the packaged recipe of its form), the operating envelope it was built for
     (``metadata.envelope``: an :class:`~railgym.vehicles.element_envelope.OperatingEnvelope`,
-    a data-collection design, or ``None``: the model's own, if it has one)."""
+    a data-collection design, or ``None``: the model's own, if it has one) and the vehicle
+    it was collected on (``metadata.vehicle``, :mod:`railgym.vehicles.element_vehicle`:
+    ``(VerticalVehicle, file)``, or ``None``: the model's own record, if it has one)."""
     feat = getattr(model, "features_", {})
     if envelope is None:
         envelope = element_envelope(model)
@@ -242,8 +246,20 @@ def save_vertical_surrogate(
             "command": command or f"python -m railgym.vehicles.collect --features {form}",
             "report": summary,
             **({} if envelope is None else {"envelope": envelope.document()}),
+            **_vehicle_record(model, vehicle),
         },
     )
+
+
+def _vehicle_record(model: SurrogateModel, vehicle: Any) -> dict[str, Any]:
+    """``{"vehicle": record}`` of :func:`save_vertical_surrogate` (empty without one)."""
+    if vehicle is None:
+        own = (getattr(model, "metadata_", None) or {}).get("vehicle")
+        return {} if own is None else {"vehicle": own}
+    veh, file = vehicle
+    if str(file).endswith(val.YAML_SUFFIXES):
+        file = str(Path(file).resolve())
+    return {"vehicle": vehicle_document(veh, None if file is None else str(file))}
 
 
 @lru_cache(maxsize=2)
@@ -631,7 +647,8 @@ def _collect(
             )
     if args.fmu_map is not None:
         source = f"FMU of {args.fmu_map} (vehicle {veh.name})" + source[source.index(",") :]
-    save_vertical_surrogate(model, report, out, source, envelope=args.design)
+    record = (veh, vehicle)  # metadata.vehicle: the vehicle collected on
+    save_vertical_surrogate(model, report, out, source, envelope=args.design, vehicle=record)
     print(text)
     print(f"written to {out}")
     return 0

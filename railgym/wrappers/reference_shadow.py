@@ -36,10 +36,9 @@ def _shadow_of(
 ) -> Any:
     """A ``backend`` env with every setting of ``base`` (same vehicle, steps, reward);
     ``fmu``: the ``fmu``/``fmu_map`` arguments of ``backend="fmu"``."""
-    if vehicle is None:
-        spec = base.spec
-        vehicle = spec.kwargs.get("vehicle", "manchester") if spec is not None else "manchester"
     cfg = base.cfg
+    if vehicle is None:
+        vehicle = cfg.vehicle  # the vehicle the wrapped env runs (its file, name or object)
     shadow = VerticalSuspensionEnv(
         backend=backend,
         track_class=base.track_class,
@@ -57,12 +56,31 @@ def _shadow_of(
         vehicle=vehicle,
         **fmu,
     )
-    if shadow.vehicle_params != base.vehicle_params:
+    if not shadow.cfg.model.same_physics(cfg.model):
         raise ValueError(
-            f"vehicle {vehicle!r} differs from the wrapped env's vehicle; pass the wrapped "
-            "env's vehicle as vehicle="
+            f"vehicle {vehicle!r} differs from the wrapped env's vehicle {cfg.vehicle!r}; "
+            "pass the wrapped env's vehicle as vehicle="
         )
     return shadow
+
+
+def compared_against(env: VerticalSuspensionEnv) -> str:
+    """What a shadow ``env`` is, in words: the FMU (and its mapping) or railgym's model of
+    the backend, with the vehicle it runs."""
+    cfg = env.cfg
+    vehicle = f"vehicle {cfg.model.name!r} ({cfg.vehicle})"
+    if cfg.backend == "fmu":
+        from railgym.envs.vertical.fmu_batch import FMUBatch
+
+        assert isinstance(env.sim, FMUBatch)
+        mapping = env.sim.mapping
+        return f"the FMU {mapping.fmu} (mapping {mapping.source}), {vehicle}"
+    model = {
+        "reference": "railgym's reference model",
+        "linear": "the linear suspension",
+        "surrogate": "the surrogate element",
+    }
+    return f"{model[cfg.backend]} of {vehicle}"
 
 
 class _TimedAdvance:
@@ -123,8 +141,8 @@ class ReferenceShadow(gym.Wrapper):
         ``gym.make``); any other env raises ``ValueError``.
     reference_backend : backend of the shadow env (default ``"reference"``, the
         high-fidelity model).
-    vehicle : vehicle of the shadow; ``None`` takes it from ``env.spec`` (``gym.make``) or
-        the default. It must have the wrapped env's parameters (checked).
+    vehicle : vehicle of the shadow; ``None``: the wrapped env's (``env.unwrapped.cfg.vehicle``).
+        It must have the wrapped env's parameters, whatever its name (checked).
     fmu, fmu_map : with ``reference_backend="fmu"``: the FMU as the reference and its mapping
         file (``docs/fmi.md``).
 
@@ -163,7 +181,9 @@ class ReferenceShadow(gym.Wrapper):
     ``wall_time_reference_s``: the summed wall time of each side's ``step`` over the
     episode, Python shell included (the wrapped env's inner wrappers too, the shadow has
     none), so not a comparison of the models;
-    ``model_diverged``, ``reference_diverged``; ``backend``, ``reference_backend``.
+    ``model_diverged``, ``reference_diverged``; ``backend``, ``reference_backend``;
+    ``reference``: what the shadow is, in words (the FMU and its mapping, or railgym's model,
+    with the vehicle; also :attr:`compared_against`).
     If the shadow diverges first, it stops and the errors cover the steps before.
     """
 
@@ -189,6 +209,8 @@ class ReferenceShadow(gym.Wrapper):
         self.shadow = _shadow_of(
             base, reference_backend, vehicle, {k: v for k, v in given.items() if v is not None}
         )
+        #: what the wrapped env is compared against, in words (:func:`compared_against`)
+        self.compared_against = compared_against(self.shadow)
         n = base.cfg.n_steps
         self._trace = np.zeros((2, n, 3))  # [model, reference] × step × (x2, v2, ẍ2)
         self._kernel = np.zeros((2, n))  # [model, reference] × step: time in sim.advance, s
@@ -267,6 +289,7 @@ class ReferenceShadow(gym.Wrapper):
         out["reference_diverged"] = self._ref_diverged
         out["backend"] = self.base.backend
         out["reference_backend"] = self.reference_backend
+        out["reference"] = self.compared_against
         return out
 
     def close(self) -> None:

@@ -70,6 +70,9 @@ def test_the_element_recovers_the_users_secondary_law(project):
     assert model.features_["units"] == {"x1-x2": "m", "v1-v2": "m/s", "F_s": "N"}
     doc = json.loads((project / "element.json").read_text())
     assert "user_quarter_car" in doc["metadata"]["source"]
+    record = doc["metadata"]["vehicle"]  # the vehicle the element runs on (else refused)
+    assert record["file"] == str(project / "my_car.yaml")
+    assert record["description"]["vehicle"]["m2"] == 8000.0
     assert doc["metadata"]["envelope"]["track_classes"] == [5]  # the paper design's run
     u = collect_fmu(project / "map.yaml", "paper")["U"]
     law = user_secondary_force(u[:, 0], u[:, 1])

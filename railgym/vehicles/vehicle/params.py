@@ -89,9 +89,20 @@ class WholeVehicle:
 _WHOLE_FIELDS = tuple(f.name for f in fields(WholeVehicle) if f.name not in ("name", "suspension"))
 
 
+def _beside(base: Any, name_or_path: str | Path) -> Any:
+    """``base:`` of a whole-vehicle file: a relative ``.yaml`` path is read beside that file
+    (never from the working folder); a packaged name or an absolute path as given."""
+    text = str(name_or_path)
+    if isinstance(base, str | Path) and str(base).endswith(val.YAML_SUFFIXES):
+        if text.endswith(val.YAML_SUFFIXES):
+            return str(Path(text).parent / base)
+    return base
+
+
 def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVehicle:
     """Load a whole vehicle: a packaged name or the path of a ``.yaml`` file with the
-    sections ``base`` (name or path of the one-bogie vehicle) and ``whole_vehicle``.
+    sections ``base`` (name or path of the one-bogie vehicle; a relative path is read
+    beside the file) and ``whole_vehicle``.
 
     The "name or path" rule is :func:`railgym._checks.resolve_yaml`'s; errors in a file
     name the file and the field.
@@ -99,7 +110,7 @@ def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVe
     text, source = val.resolve_yaml(name_or_path, "vehicle", "railgym", ("configs", "vehicles"))
     try:
         top = val.Fields(val.load_yaml(text, source), "")
-        base = load_vehicle(top.get("base"))
+        base = load_vehicle(_beside(top.get("base"), name_or_path))
         sec = top.section("whole_vehicle")
         values = {name: sec.get(name) for name in _WHOLE_FIELDS}
         sec.done()

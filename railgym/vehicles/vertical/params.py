@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -325,6 +325,12 @@ class VerticalVehicle:
         if not math.isfinite(p0) or not math.isfinite(self.air_spring_stiffness()[1]):
             raise val.FieldError("air_spring", "gives a non-finite static pressure or stiffness")
 
+    def same_physics(self, other: Any) -> bool:
+        """``other`` is a :class:`VerticalVehicle` with this one's parameters and sections,
+        whatever its name (two loads of one file are equal; compare these, not the kernel
+        parameters, whose fields of a missing section are ``nan``)."""
+        return isinstance(other, VerticalVehicle) and replace(other, name=self.name) == self
+
     @property
     def travel(self) -> tuple[float, float]:
         """Free travel in compression and rebound, m (``inf`` where not known)."""
@@ -410,7 +416,9 @@ class VerticalVehicle:
 
         A missing section gives: no bump-stop law (zero stiffness, the free travels of
         :attr:`travel`), a linear static spring, and ``nan`` for the damper and air-spring
-        fields, which only the nonlinear references read (:meth:`require` refuses them).
+        fields, which only the nonlinear references read (:meth:`require` refuses them); it
+        is the one ``math.nan`` object, so that the tuples of two loads of one file compare
+        equal (``==`` on tuples tests identity first).
         """
         b = self.bump_stop or _NO_BUMP_STOP
         s = self.static_spring or StaticSpring(0.0)
@@ -418,7 +426,7 @@ class VerticalVehicle:
         a = self.air_spring or _NO_AIR_SPRING
         free_c, free_r = self.travel
         p0 = self.static_pressure
-        return SuspensionParams(
+        params = SuspensionParams(
             m1=self.m1,
             m2=self.m2,
             k1=self.k1,
@@ -450,6 +458,7 @@ class VerticalVehicle:
             cd_area=a.discharge_coefficient * math.pi * a.orifice_diameter**2 / 4.0,
             dp_lam=a.laminar_pressure,
         )
+        return SuspensionParams(*(math.nan if math.isnan(v) else v for v in params))
 
 
 _SECTIONS: dict[str, type] = {

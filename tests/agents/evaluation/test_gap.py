@@ -95,7 +95,8 @@ def test_cli_gap_prints_both_values_and_a_zero_gap_against_the_same_backend(caps
     _, _, policy, metric, unit, s, r, gap, c_s, _, c_r = line.split()  # contacts: s / r
     assert (policy, metric, unit) == ("skyhook", "a_w", "(m/s²)")
     assert s == r and float(gap) == 0.0 and float(s) > 0 and c_s == c_r
-    assert "surrogate vs surrogate" in out
+    pair = "surrogate (the packaged element) vs surrogate (the packaged element)"
+    assert f"{pair} on vehicle the packaged one" in out
     assert main([*argv, "--backend", "linear"]) == 0
     out = capsys.readouterr().out
     (line,) = [ln for ln in out.splitlines() if ln.startswith("class 4")]

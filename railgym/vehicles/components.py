@@ -1,0 +1,198 @@
+"""An element of one bench-tested component combined with the vehicle file's other ones.
+
+The element of ``VerticalSuspension`` (and of each bogie of ``VerticalVehicle``) is the whole
+secondary force of one bogie, ``F_s(δ, δ̇)`` at the deflection ``δ = x1 − x2`` (m,
+compression positive) and its rate (m/s), in N, compression positive. A damper measured on
+a test bench gives one part of it; the vehicle file gives the others, as the static reference
+model composes them (:func:`railgym.vehicles.vertical.elements.rhs`)::
+
+    F_s(δ, δ̇) = k2·δ·(1 + progression·δ²) + n·F_bench(δ, δ̇)   [+ bump stops, in the kernel]
+
+with ``k2`` of the ``vehicle`` block, ``progression`` of its ``static_spring`` section (0
+without one: a linear spring) and ``n`` dampers per bogie, each along the secondary
+deflection (stroke = δ). The bump-stop law of the vehicle's ``bump_stop`` section is not
+fitted: the element declares it as known physics and the kernel adds it. The element is
+fitted in the static form (:func:`surrogates.build`) on the bench samples with the spring
+added, and saved with the vehicle it was combined with (``metadata.vehicle``), so that it
+runs on that vehicle only (:mod:`railgym.vehicles.element_vehicle`).
+
+The table's columns are read with their units (``du [mm]``, ``dv [mm/s]``, ``F [kN]``, or
+``--units``) and converted to SI (:func:`surrogates.tables.to_si`); units are required.
+
+    railgym combine bench.csv --vehicle my_car.yaml --dampers 2 -o element.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from railgym import _checks as val
+from railgym.vehicles.collect import save_vertical_surrogate
+from railgym.vehicles.vertical import VerticalVehicle, load_vehicle
+from surrogates import build, io
+from surrogates.builder import BuildReport
+from surrogates.cli import add_degree_arguments, check_degrees
+from surrogates.cli_flags import Parser, add_common, add_out, add_seed, error_status
+from surrogates.models import SurrogateModel
+from surrogates.tables import to_si
+
+__all__ = ["combine_damper", "main", "read_bench_table", "spring_force"]
+
+#: the SI units of the bench table's stroke, velocity and force
+SI_UNITS = ("m", "m/s", "N")
+
+
+def spring_force(delta: Any, vehicle: VerticalVehicle) -> np.ndarray:
+    """The vehicle file's secondary spring ``k2·δ·(1 + progression·δ²)`` (N) at ``delta``
+    (m, compression positive)."""
+    d = np.asarray(delta, dtype=float)
+    progression = 0.0 if vehicle.static_spring is None else vehicle.static_spring.progression
+    return vehicle.k2 * d * (1.0 + progression * d * d)
+
+
+def read_bench_table(
+    path: str | Path,
+    columns: Sequence[str] = ("du", "dv", "F"),
+    units: dict[str, str] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Stroke and velocity (n, 2) in m and m/s and force (n,) in N of one damper, from the
+    CSV ``path``: its ``columns`` (stroke, velocity, force), their units from the header
+    (``du [mm]``) or ``units`` (a header unit that ``units`` contradicts is an error),
+    converted to SI. Raises ``ValueError`` naming the file and the column."""
+    cols, header = io.read_csv_units(path, columns=list(columns))
+    given = dict(header)
+    for name, unit in (units or {}).items():
+        if name not in columns:
+            raise ValueError(f"units: {name!r} is not one of the columns {list(columns)}")
+        if given.get(name, unit) != unit:
+            raise ValueError(
+                f"units: {name}={unit} contradicts the header of {path} ({name} [{given[name]}])"
+            )
+        given[name] = unit
+    missing = [c for c in columns if c not in given]
+    if missing:
+        raise ValueError(
+            f"{path}: no unit for column(s) {missing}: give them in the header ('du [mm]') or "
+            "with --units (the vehicle's spring is added in SI, so the table's units must be "
+            "known)"
+        )
+    si, si_units, _ = to_si(cols, given, str(path))
+    for name, want in zip(columns, SI_UNITS, strict=True):
+        if si_units[name] != want:
+            raise ValueError(
+                f"{path}: column {name!r} is in {given[name]!r}, which is not a unit of "
+                f"{want} (stroke: length, velocity: length/time, force: force)"
+            )
+    u = np.column_stack([si[columns[0]], si[columns[1]]])
+    return u, np.asarray(si[columns[2]], dtype=float)
+
+
+def combine_damper(
+    u: Any,
+    force: Any,
+    vehicle: Any,
+    dampers: int = 2,
+    m: int = 101,
+    seed: int = 0,
+    candidates: Sequence[Any] | None = None,
+) -> tuple[SurrogateModel, BuildReport, VerticalVehicle]:
+    """The element of the vehicle's secondary suspension with the bench-tested damper.
+
+    Parameters
+    ----------
+    u : stroke and velocity of one damper (n, 2), m and m/s, compression positive.
+    force : its force (n,), N, compression positive.
+    vehicle : the vehicle (name, YAML path or :class:`VerticalVehicle`) whose spring (and
+        bump stops, as known physics) the element adds.
+    dampers : dampers per bogie (each along the secondary deflection).
+    m, seed, candidates : as :func:`surrogates.build` (training samples, their seed, degrees).
+
+    Returns
+    -------
+    model, report, vehicle
+        the static element ``F_s(δ, δ̇)`` (module docstring; ``features_`` with the bump-stop
+        law as known physics where the vehicle has bump stops), its build report, and the
+        loaded vehicle.
+    """
+    veh = load_vehicle(vehicle)
+    n = val.integer(dampers, "dampers", min=1, max=64)
+    u = val.numeric_array(u, "u")
+    if u.ndim != 2 or u.shape[1] != 2:
+        raise val.FieldError("u", f"must be (n, 2): stroke and velocity, got shape {u.shape}")
+    force = val.numeric_array(force, "force", shape=(u.shape[0],))
+    total = spring_force(u[:, 0], veh) + n * force
+    model, report = build(u, total, m=min(m, u.shape[0]), seed=seed, candidates=candidates)
+    known = ["bump_stop"] if veh.bump_stop is not None else []
+    model.features_ = {"form": "static", "tau": None, "known_physics": known}
+    return model, report, veh
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Arguments of ``railgym combine`` (``python -m railgym.vehicles.components``)."""
+    parser = Parser(prog="railgym combine", description=__doc__.split("\n\n")[0])
+    parser.add_argument("data", help="CSV of one damper's bench test (stroke, velocity, force)")
+    parser.add_argument("--vehicle", required=True, help="vehicle YAML (name or path)")
+    parser.add_argument("--dampers", type=int, default=2, help="dampers per bogie (default 2)")
+    parser.add_argument(
+        "--columns",
+        nargs=3,
+        default=["du", "dv", "F"],
+        metavar=("STROKE", "VELOCITY", "FORCE"),
+        help="the table's columns (default du dv F)",
+    )
+    parser.add_argument(
+        "--units",
+        nargs="*",
+        default=[],
+        metavar="NAME=UNIT",
+        help="units of the columns (e.g. du=mm dv=mm/s F=kN), else from the header 'du [mm]'",
+    )
+    parser.add_argument("--m", type=int, default=101, help="training samples (default 101)")
+    add_degree_arguments(parser)
+    add_out(parser, "element JSON to write", required=True)
+    add_seed(parser, "seed of the training samples")
+    add_common(parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``railgym combine``: fit and write the combined element; exit status 2 on bad input."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    if out.exists() and not args.overwrite:
+        parser.error(f"--out {out}: exists; pass --overwrite to replace it")
+    try:
+        units = dict(pair.split("=", 1) for pair in args.units if "=" in pair)
+        if len(units) != len(args.units):
+            raise ValueError(f"--units: expected NAME=UNIT pairs, got {args.units}")
+        u, force = read_bench_table(args.data, args.columns, units)
+        degree = check_degrees(args.degree, "--degree", 2)
+        top = check_degrees(args.max_degree, "--max-degree", 2)
+        cands = [degree] if degree else None
+        if top is not None:
+            cands = list(itertools.product(range(1, top[0] + 1), range(1, top[1] + 1)))
+        model, report, veh = combine_damper(
+            u, force, args.vehicle, args.dampers, m=args.m, seed=args.seed, candidates=cands
+        )
+        source = (
+            f"bench test {args.data} ({args.dampers} dampers per bogie) combined with the "
+            f"spring{' and bump stops' if veh.bump_stop else ''} of vehicle {veh.name}"
+        )
+        command = f"railgym combine {args.data} --vehicle {args.vehicle} --dampers {args.dampers}"
+        save_vertical_surrogate(model, report, out, source, command, vehicle=(veh, args.vehicle))
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
+    print(report.format("N", table=not args.quiet))
+    print(f"written to {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
