@@ -34,7 +34,7 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.vehicles.collect import save_vertical_surrogate
-from railgym.vehicles.vertical import VerticalVehicle, load_vehicle
+from railgym.vehicles.vertical.params import VerticalVehicle, load_vehicle
 from surrogates import build, io
 from surrogates.builder import BuildReport
 from surrogates.cli import add_degree_arguments, check_degrees

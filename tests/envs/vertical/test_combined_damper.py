@@ -15,7 +15,7 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 from railgym.vehicles.components import combine_damper, spring_force
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import io
 from tests.fmu.user_fmu import USER_CAR, USER_MAPPING_YAML, USER_VEHICLE_YAML, user_secondary_force
 

@@ -14,7 +14,7 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 from railgym.vehicles.collect import save_vertical_surrogate
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import build, io
 from tests.fmu.user_fmu import USER_MAPPING_YAML, USER_VEHICLE_YAML, user_secondary_force
 
