@@ -19,6 +19,11 @@ ENVS = {
         "railgym.envs.vertical.env:VerticalSuspensionEnvV2",
         "railgym.envs.vertical.env:VerticalSuspensionVectorEnvV2",
     ),
+    # v3: the track streamed inside the compiled step (docs: Version history)
+    "railgym/VerticalSuspension-v3": (
+        "railgym.envs.vertical.env:VerticalSuspensionEnvV3",
+        "railgym.envs.vertical.env:VerticalSuspensionVectorEnvV3",
+    ),
     # v0: the static packaged element by default; v1: the memory element (docs: Version history)
     "railgym/VerticalVehicle-v0": (
         "railgym.envs.vehicle.env:VerticalVehicleEnvV0",

@@ -26,6 +26,8 @@ FIGURES: dict[tuple[str, str], tuple[int, float, float]] = {
     ("railgym/VerticalSuspension-v1", "reference"): (2000, -2563.622377679609, 6558.676906824112),
     ("railgym/VerticalSuspension-v2", "surrogate"): (2000, -2525.5788506032027, 6518.390561133623),
     ("railgym/VerticalSuspension-v2", "reference"): (2000, -2563.622377679609, 6558.676906824112),
+    ("railgym/VerticalSuspension-v3", "surrogate"): (2000, -2492.658045217547, 6412.041153401136),
+    ("railgym/VerticalSuspension-v3", "reference"): (2000, -2512.2437897890973, 6432.992582514882),
     ("railgym/VerticalVehicle-v0", "surrogate"): (2000, -3174.296289179717, 10816.840341687202),
     ("railgym/VerticalVehicle-v0", "reference"): (2000, -3316.370003421834, 10794.997714400291),
     ("railgym/VerticalVehicle-v1", "surrogate"): (2000, -3309.0886829455762, 10783.883130550385),
