@@ -45,6 +45,9 @@ __all__ = [
     "LP_FACTOR",
     "N_STATES",
     "StreamFilter",
+    "StreamState",
+    "new_stream_state",
+    "set_stream",
     "seed_stream",
     "stream_filter",
     "stream_profile",
@@ -80,6 +83,34 @@ class StreamFilter(NamedTuple):
     cz: np.ndarray
     cs: np.ndarray
     chol: np.ndarray
+
+
+class StreamState(NamedTuple):
+    """Per-track generator state and filter of ``n`` streamed tracks (the rows of
+    :class:`StreamFilter`'s arrays for each track's class, band, step and speed)."""
+
+    x: np.ndarray  #: float64 (n, 4) shaping-filter state
+    rng: np.ndarray  #: uint64 (n,) splitmix64 state
+    phi: np.ndarray  #: float64 (n, 4, 4) transition
+    gain: np.ndarray  #: float64 (n, 4) impulse input, m
+    cz: np.ndarray  #: float64 (n, 4) height row
+    cs: np.ndarray  #: float64 (n, 4) rate row: the slope row times the speed (m/s)
+
+
+def new_stream_state(n: int) -> StreamState:
+    """Zeroed :class:`StreamState` of ``n`` tracks."""
+    f = np.zeros
+    m = N_STATES
+    return StreamState(f((n, m)), f(n, np.uint64), f((n, m, m)), f((n, m)), f((n, m)), f((n, m)))
+
+
+def set_stream(
+    gen: StreamState, idx: np.ndarray, f: StreamFilter, speed: float, seeds: np.ndarray
+) -> None:
+    """Tracks ``idx`` of ``gen`` given the filter ``f`` at ``speed`` (m/s: rates in m/s) and
+    their streams seeded with ``seeds`` (non-negative ints, :func:`seed_stream`)."""
+    gen.phi[idx], gen.gain[idx], gen.cz[idx], gen.cs[idx] = f.phi, f.gain, f.cz, f.cs * speed
+    gen.rng[idx] = [seed_stream(s) for s in seeds]
 
 
 def _continuous(
@@ -207,9 +238,10 @@ def _normal(rng, i):
 
 
 @njit(cache=True)
-def stream_start(x, rng, i, chol):
-    """State ``x[i]`` drawn from the stationary distribution (``chol``: its Cholesky factor),
-    with normals of track ``i``'s stream ``rng[i]``."""
+def stream_start(gen, i, chol):
+    """Track ``i``'s state drawn from the stationary distribution (``chol``: its Cholesky
+    factor) with normals of its stream (``gen``: :class:`StreamState`)."""
+    x, rng = gen.x, gen.rng
     n = x.shape[1]
     xi = np.empty(n)
     for j in range(n):
@@ -222,11 +254,11 @@ def stream_start(x, rng, i, chol):
 
 
 @njit(cache=True)
-def stream_samples(x, rng, i, phi, gain, cz, cs, z, zd, j0, j1):
-    """Samples ``j0 .. j1 - 1`` of track ``i`` into ``z[i]`` (m) and ``zd[i]`` (``cs``-row
-    units: the slope, or with ``cs`` scaled by the speed the rate in m/s), advancing its state
-    ``x[i]`` (4,) one step ds per sample (``phi``, ``gain``, ``cz``, ``cs``: rows ``i`` of
-    the per-track :class:`StreamFilter` arrays)."""
+def stream_samples(gen, i, z, zd, j0, j1):
+    """Samples ``j0 .. j1 - 1`` of track ``i`` of ``gen`` (:class:`StreamState`) into
+    ``z[i]`` (m) and ``zd[i]`` (m/s, or the slope for a unit speed), its state advanced one
+    step ds per sample."""
+    x, rng, phi, gain, cz, cs = gen
     x0, x1, x2, x3 = x[i, 0], x[i, 1], x[i, 2], x[i, 3]
     for j in range(j0, j1):
         z[i, j] = cz[i, 0] * x0 + cz[i, 1] * x1 + cz[i, 2] * x2 + cz[i, 3] * x3
@@ -259,13 +291,13 @@ def slide_window(z, zd, start, end, i, lo, hi):
 
 
 @njit(cache=True)
-def stream_cover(x, rng, i, phi, gain, cz, cs, z, zd, start, end, lo, hi):
+def stream_cover(gen, i, z, zd, start, end, lo, hi):
     """Window row ``i`` holding track samples ``lo .. hi - 1`` (:func:`slide_window`), the
     samples from ``end[i]`` to ``hi - 1`` generated (:func:`stream_samples`)."""
     slide_window(z, zd, start, end, i, lo, hi)
     if hi > end[i]:
         s = start[i]
-        stream_samples(x, rng, i, phi, gain, cz, cs, z, zd, end[i] - s, hi - s)
+        stream_samples(gen, i, z, zd, end[i] - s, hi - s)
         end[i] = hi
 
 
@@ -290,10 +322,9 @@ def stream_profile(
     f = stream_filter(track_class, band, dx)
     n = math.floor(length / dx + 1e-9) + 1
     rng = np.random.default_rng(val.random_seed(seed, "seed"))
-    state = np.array([seed_stream(int(rng.integers(2**63 - 1)))])
-    x = np.zeros((1, N_STATES))
+    gen = new_stream_state(1)
+    set_stream(gen, np.zeros(1, np.int64), f, 1.0, [int(rng.integers(2**63 - 1))])
     z, s = np.empty((1, n)), np.empty((1, n))
-    stream_start(x, state, 0, f.chol)
-    rows = [a[None] for a in (f.phi, f.gain, f.cz, f.cs)]
-    stream_samples(x, state, 0, *rows, z, s, 0, n)
+    stream_start(gen, 0, f.chol)
+    stream_samples(gen, 0, z, s, 0, n)
     return np.arange(n) * dx, z[0], s[0]

@@ -392,8 +392,7 @@ class VerticalBatch:
         its start."""
         if src.z.shape != self.z.shape:
             raise ValueError(
-                f"other env's track has {src.z.shape[1]} samples, this env needs "
-                f"{self.z.shape[1]}"
+                f"other env's track has {src.z.shape[1]} samples, this env needs {self.z.shape[1]}"
             )
         np.copyto(self.z, src.z)
         np.copyto(self.zdot, src.zdot)

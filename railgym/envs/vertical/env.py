@@ -370,9 +370,7 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, TrackVectorShell):
     ) -> None:
         args = VerticalParams.arguments_from(locals())
         num_envs, single = self._single(num_envs, render_mode, args)
-        sim = _batch(
-            num_envs, self.cfg, single.sim.lpr, single.sim.envelope, single.stream_track
-        )
+        sim = _batch(num_envs, self.cfg, single.sim.lpr, single.sim.envelope, single.stream_track)
         self._init_vector(single, sim, num_envs)
 
 

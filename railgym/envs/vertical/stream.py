@@ -24,8 +24,9 @@ from railgym.envs.compiled import compiled_entry
 from railgym.envs.vertical.batch import VerticalBatch, control_step
 from railgym.profile import profile_time_input
 from railgym.track_stream import (
-    N_STATES,
+    new_stream_state,
     seed_stream,
+    set_stream,
     slide_window,
     stream_cover,
     stream_filter,
@@ -38,14 +39,9 @@ __all__ = ["StreamArrays", "VerticalStreamBatch", "stream_step", "window_width"]
 
 
 class StreamArrays(NamedTuple):
-    """Per-vehicle generator and windows of :func:`stream_step` (``n`` vehicles)."""
+    """Per-vehicle windows of :func:`stream_step` (``n`` vehicles; their streams, of the
+    leading wheelset's track, a :class:`~railgym.track_stream.StreamState`)."""
 
-    x: np.ndarray  #: float64 (n, 4) shaping-filter state
-    rng: np.ndarray  #: uint64 (n,) splitmix64 state
-    phi: np.ndarray  #: float64 (n, 4, 4) transition of the episode's filter
-    gain: np.ndarray  #: float64 (n, 4) its impulse input, m
-    cz: np.ndarray  #: float64 (n, 4) height row
-    cs: np.ndarray  #: float64 (n, 4) rate row (slope row × speed), m/s
     start: np.ndarray  #: int64 (n,) episode sample of the input window's first column
     end: np.ndarray  #: int64 (n,) episode samples held up to (exclusive)
     measured: np.ndarray  #: bool (n,) a measured profile: the window is filled by the batch
@@ -62,19 +58,19 @@ def window_width(n_sub: int) -> int:
 
 
 @njit(cache=True)
-def _fill(g, z, zd, k, n_sub, dt, i):
+def _fill(gen, g, z, zd, k, n_sub, dt, i):
     """Vehicle ``i``'s window holding its samples ``e .. e + n_sub`` (``e``: episode sample
     of ``k[i]``), the new ones generated; ``k[i]`` then indexes sample ``e``."""
     e = g.start[i] + k[i]
     hi = e + n_sub + 1
     d = g.shift[i]
     if d == 0.0:
-        stream_cover(g.x, g.rng, i, g.phi, g.gain, g.cz, g.cs, z, zd, g.start, g.end, e, hi)
+        stream_cover(gen, i, z, zd, g.start, g.end, e, hi)
     else:
         slide_window(z, zd, g.start, g.end, i, e, hi)
         rhi = int(math.floor(hi - 1 + d)) + 2
         rz, rzd, rs = g.raw_z, g.raw_zd, g.raw_start
-        stream_cover(g.x, g.rng, i, g.phi, g.gain, g.cz, g.cs, rz, rzd, rs, g.raw_end, e, rhi)
+        stream_cover(gen, i, rz, rzd, rs, g.raw_end, e, rhi)
         s = g.start[i]
         for j in range(g.end[i], hi):
             zl, zdl = hermite(rz[i], rzd[i], j + d, dt, rs[i])
@@ -85,45 +81,45 @@ def _fill(g, z, zd, k, n_sub, dt, i):
 
 
 @njit(cache=True, parallel=True)
-def _fill_parallel(g, z, zd, k, n_sub, dt):
+def _fill_parallel(gen, g, z, zd, k, n_sub, dt):
     for i in prange(z.shape[0]):
         if not g.measured[i]:
-            _fill(g, z, zd, k, n_sub, dt, i)
+            _fill(gen, g, z, zd, k, n_sub, dt, i)
 
 
 @njit(cache=True)
-def fill_windows(g, z, zd, k, n_sub, dt):
+def fill_windows(gen, g, z, zd, k, n_sub, dt):
     """:func:`_fill` of every vehicle not on a measured profile (on all threads from
     ``PARALLEL_MIN`` vehicles; each vehicle's stream is its own, so the values do not depend
     on the threads)."""
     if z.shape[0] >= PARALLEL_MIN:
-        _fill_parallel(g, z, zd, k, n_sub, dt)
+        _fill_parallel(gen, g, z, zd, k, n_sub, dt)
         return
     for i in range(z.shape[0]):
         if not g.measured[i]:
-            _fill(g, z, zd, k, n_sub, dt, i)
+            _fill(gen, g, z, zd, k, n_sub, dt, i)
 
 
 @njit(cache=True, _nrt=False)
 def stream_step(
-    g, state, z, zdot, action, force, params, lpr, damper, out, counters, result, consts, work
+    gen, g, state, z, zdot, action, force, params, lpr, damper, out, counters, result, consts, work
 ):
     """:func:`fill_windows` for the step, then
     :func:`~railgym.envs.vertical.batch.control_step` (arguments as there)."""
-    fill_windows(g, z, zdot, counters.k, consts.n_sub, consts.dt)
+    fill_windows(gen, g, z, zdot, counters.k, consts.n_sub, consts.dt)
     control_step(
         state, z, zdot, action, force, params, lpr, damper, out, counters, result, consts, work
     )
 
 
 @njit(cache=True)
-def _start_track(g, z, zd, k, dt, i, chol):
+def _start_track(gen, g, z, zd, k, dt, i, chol):
     """Vehicle ``i``'s stream started (stationary state), its window cleared and sample 0
     generated."""
-    stream_start(g.x, g.rng, i, chol)
+    stream_start(gen, i, chol)
     g.start[i] = g.end[i] = g.raw_start[i] = g.raw_end[i] = 0
     k[i] = 0
-    _fill(g, z, zd, k, 0, dt, i)
+    _fill(gen, g, z, zd, k, 0, dt, i)
 
 
 class VerticalStreamBatch(VerticalBatch):
@@ -137,32 +133,26 @@ class VerticalStreamBatch(VerticalBatch):
         self.z, self.zdot = np.zeros((n, w)), np.zeros((n, w))
         self.base = np.zeros(n, np.int64)
         self._measured_tracks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        self.gen = self._new_arrays(n, 1)
+        self.gen = new_stream_state(n)
+        self.win = self._new_arrays(n, 1)
 
     def _new_arrays(self, n: int, raw: int) -> StreamArrays:
         """Zeroed :class:`StreamArrays` of ``n`` vehicles with raw windows of ``raw``
         columns."""
         f = np.zeros
+        ints = [f(n, np.int64) for _ in range(4)]
         return StreamArrays(
-            f((n, N_STATES)),
-            f(n, np.uint64),
-            f((n, N_STATES, N_STATES)),
-            f((n, N_STATES)),
-            f((n, N_STATES)),
-            f((n, N_STATES)),
-            f(n, np.int64),
-            f(n, np.int64),
+            *ints[:2],
             f(n, np.bool_),
             f(n),
             f((n, raw)),
             f((n, raw)),
-            f(n, np.int64),
-            f(n, np.int64),
+            *ints[2:],
         )
 
     def _link(self) -> None:
         super()._link()
-        self._args = (self.gen, *self._args)
+        self._args = (self.gen, self.win, *self._args)
         self._step = compiled_entry(stream_step, self._args)
 
     def _raw_columns(self, speed: float) -> int:
@@ -179,10 +169,10 @@ class VerticalStreamBatch(VerticalBatch):
         """:meth:`VerticalBatch.reset_many` with streamed tracks: each FRA episode's stream
         seeded from ``rng`` as the earlier versions seed their tracks."""
         track_class, speed, profile = episode
-        cfg, g = self.cfg, self.gen
+        cfg, g = self.cfg, self.win
         raw = self._raw_columns(speed)
         if raw > g.raw_z.shape[1]:  # a lower speed than any before: wider raw windows
-            self.gen = g = g._replace(raw_z=np.zeros((self.n, raw)), raw_zd=np.zeros((self.n, raw)))
+            self.win = g = g._replace(raw_z=np.zeros((self.n, raw)), raw_zd=np.zeros((self.n, raw)))
             self._link()
         for i, rng in zip(idx, rngs, strict=True):
             self.track_class[i], self.speed[i] = track_class, speed
@@ -192,34 +182,33 @@ class VerticalStreamBatch(VerticalBatch):
             self._measured_tracks.pop(int(i), None)
         if profile is None:
             f = stream_filter(track_class, cfg.band, speed * cfg.dt)
-            g.phi[idx], g.gain[idx], g.cz[idx], g.cs[idx] = f.phi, f.gain, f.cz, f.cs * speed
+            set_stream(self.gen, idx, f, speed, self._seeds[idx])
             g.shift[idx] = 0.0 if cfg.wheelbase is None else cfg.wheelbase / (speed * cfg.dt)
-            g.rng[idx] = [seed_stream(s) for s in self._seeds[idx]]
         for i in idx:
             self.reset_state(int(i))
 
     def reset_state(self, i: int) -> None:
         """Vehicle ``i`` at rest at the start of its episode's track (the stream started
         again from its seed)."""
-        g, cfg = self.gen, self.cfg
+        g, cfg = self.win, self.cfg
         if self._profiles[i] is not None:
             z, zdot = profile_time_input(self._profiles[i], self.speed[i], cfg.dt, self.n_samples)
             self._measured_tracks[i] = (z, zdot)
             g.start[i] = g.end[i] = self.k[i] = 0
             self._copy_measured(i)
         else:
-            g.rng[i] = seed_stream(self._seeds[i])
+            self.gen.rng[i] = seed_stream(self._seeds[i])
             f = stream_filter(int(self.track_class[i]), cfg.band, self.speed[i] * cfg.dt)
-            _start_track(g, self.z, self.zdot, self.k, cfg.dt, i, f.chol)
+            _start_track(self.gen, g, self.z, self.zdot, self.k, cfg.dt, i, f.chol)
         super().reset_state(i)
 
     def _copy_measured(self, i: int) -> None:
         """Vehicle ``i``'s window on its measured profile: samples ``e .. e + n_sub``."""
         z, zdot = self._measured_tracks[i]
-        e = int(self.gen.start[i] + self.k[i])
+        e = int(self.win.start[i] + self.k[i])
         m = min(self.z.shape[1], z.shape[0] - e)
         self.z[i, :m], self.zdot[i, :m] = z[e : e + m], zdot[e : e + m]
-        self.gen.start[i], self.gen.end[i], self.k[i] = e, e + m, 0
+        self.win.start[i], self.win.end[i], self.k[i] = e, e + m, 0
 
     def advance(self) -> None:
         """One control step of every vehicle (one compiled call: the windows filled, then the
@@ -230,7 +219,7 @@ class VerticalStreamBatch(VerticalBatch):
 
     def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s held window ``(z, zdot)`` (m, m/s), from the current sample on."""
-        k, end = int(self.k[i]), int(self.gen.end[i] - self.gen.start[i])
+        k, end = int(self.k[i]), int(self.win.end[i] - self.win.start[i])
         return self.z[i, k:end].copy(), self.zdot[i, k:end].copy()
 
     def copy_track(self, src: VerticalBatch) -> None:
@@ -238,12 +227,12 @@ class VerticalStreamBatch(VerticalBatch):
         profile: the same track), at rest at its start."""
         if not isinstance(src, VerticalStreamBatch):
             raise ValueError("the other env must stream its track too (both -v3)")
-        s, g = src.gen, self.gen
+        s, g = src.win, self.win
         self.track_class[0], self.speed[0] = src.track_class[0], src.speed[0]
         self.measured[0] = g.measured[0] = src.measured[0]
         self._seeds[0], self._profiles[0] = src._seeds[0], src._profiles[0]
-        for name in ("phi", "gain", "cz", "cs", "shift"):
-            getattr(g, name)[0] = getattr(s, name)[0]
+        for a, b in zip((*self.gen[2:], g.shift), (*src.gen[2:], s.shift), strict=True):
+            a[0] = b[0]
         self.reset_state(0)
 
     def render_state(self, i: int) -> dict[str, Any]:
