@@ -38,6 +38,11 @@ ENVS = {
         "railgym.envs.vehicle.env:VerticalVehicleEnvV2",
         "railgym.envs.vehicle.env:VerticalVehicleVectorEnvV2",
     ),
+    # v3: the track streamed, the comfort figures online (docs: Version history)
+    "railgym/VerticalVehicle-v3": (
+        "railgym.envs.vehicle.env:VerticalVehicleEnvV3",
+        "railgym.envs.vehicle.env:VerticalVehicleVectorEnvV3",
+    ),
     # v0: one mass per car, global LPR elements; v1: elastic cars, piecewise elements
     "railgym/TrainCrash-v0": (
         "railgym.envs.crash.env:TrainCrashEnvV0",
