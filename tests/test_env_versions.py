@@ -34,6 +34,8 @@ FIGURES: dict[tuple[str, str], tuple[int, float, float]] = {
     ("railgym/VerticalVehicle-v1", "reference"): (2000, -3316.370003421834, 10794.997714400291),
     ("railgym/VerticalVehicle-v2", "surrogate"): (2000, -3309.088706069216, 10783.883181810379),
     ("railgym/VerticalVehicle-v2", "reference"): (2000, -3316.370003421834, 10794.997714400291),
+    ("railgym/VerticalVehicle-v3", "surrogate"): (2000, -3491.6591782330624, 11001.653448581696),
+    ("railgym/VerticalVehicle-v3", "reference"): (2000, -3500.165321847752, 11016.929182052612),
     ("railgym/TrainCrash-v0", "surrogate"): (458, -203.9223247835869, 3201.7601475715637),
     ("railgym/TrainCrash-v0", "reference"): (451, -198.0368619824061, 3158.0491943359375),
     ("railgym/TrainCrash-v1", "surrogate"): (452, -198.59731228180547, 3164.5626471042633),
