@@ -30,6 +30,7 @@ stationary from its first sample.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import lru_cache
 from typing import NamedTuple
 
@@ -105,7 +106,7 @@ def new_stream_state(n: int) -> StreamState:
 
 
 def set_stream(
-    gen: StreamState, idx: np.ndarray, f: StreamFilter, speed: float, seeds: np.ndarray
+    gen: StreamState, idx: np.ndarray, f: StreamFilter, speed: float, seeds: Sequence[int]
 ) -> None:
     """Tracks ``idx`` of ``gen`` given the filter ``f`` at ``speed`` (m/s: rates in m/s) and
     their streams seeded with ``seeds`` (non-negative ints, :func:`seed_stream`)."""

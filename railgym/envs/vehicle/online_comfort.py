@@ -96,8 +96,11 @@ def new_comfort(n: int, control_dt: float, duration: float) -> tuple[ComfortArra
         int(round(EN12299_WINDOW * fs)),
     )
     n_blocks = max(int(round(duration * fs)) // cfg.n_win, 1)
+    zk, zb, zs = (np.zeros((n, N_POINTS, s.shape[0], 2)) for s in cfg[:3])
     c = ComfortArrays(
-        *(np.zeros((n, N_POINTS, s.shape[0], 2)) for s in cfg[:3]),
+        zk,
+        zb,
+        zs,
         np.zeros((n, 3, N_POINTS)),
         np.zeros((n, N_POINTS)),
         np.zeros((n, n_blocks, N_POINTS)),
