@@ -92,3 +92,17 @@ def test_measured_profile_rides_as_on_v2() -> None:
     for (o2, r2), (o3, r3) in zip(*out, strict=True):
         np.testing.assert_array_equal(o2, o3)
         assert r2 == r3
+
+
+def test_parallel_fill_gives_the_single_envs_numbers() -> None:
+    """From PARALLEL_MIN sub-envs the windows are filled on numba's threads: the last sub-env
+    still steps as the single env of its seed."""
+    n = 260
+    venv = gym.make_vec(ENV, num_envs=n, vectorization_mode="vector_entry_point")
+    venv.reset(seed=50)
+    single = gym.make(ENV)
+    single.reset(seed=50 + n - 1)
+    for _ in range(40):
+        o, *_ = venv.step(np.full((n, 2), 0.1, np.float32))
+        so, *_ = single.step(np.full(2, 0.1, np.float32))
+    np.testing.assert_array_equal(o[-1], so)

@@ -128,3 +128,17 @@ def test_65536_sub_envs_are_accepted() -> None:
     obs, reward, *_ = venv.step(np.zeros((n, 1), np.float32))
     assert obs.shape == (n, 5) and np.all(np.isfinite(reward))
     assert batch_bytes(venv.unwrapped.sim) / n <= 64 * 1024
+
+
+def test_parallel_fill_gives_the_single_envs_numbers() -> None:
+    """From PARALLEL_MIN sub-envs the windows are filled on numba's threads: the last sub-env
+    still steps as the single env of its seed."""
+    n = 300
+    venv = gym.make_vec(ENV, num_envs=n, vectorization_mode="vector_entry_point")
+    venv.reset(seed=40)
+    single = gym.make(ENV)
+    single.reset(seed=40 + n - 1)
+    for _ in range(60):
+        o, *_ = venv.step(np.full((n, 1), -0.2, np.float32))
+        so, *_ = single.step(np.full(1, -0.2, np.float32))
+    np.testing.assert_array_equal(o[-1], so)
