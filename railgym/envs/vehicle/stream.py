@@ -19,7 +19,9 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from railgym import _checks as val
 from railgym.envs.compiled import compiled_entry
+from railgym.envs.track_shell import TRACK_BYTES
 from railgym.envs.vehicle.batch import MIN_COMFORT_SAMPLES, VehicleBatch, control_step
 from railgym.envs.vehicle.online_comfort import comfort_figures, comfort_step, new_comfort
 from railgym.profile import profile_time_input
@@ -108,7 +110,15 @@ class VehicleStreamBatch(VehicleBatch):
         self.on_profile = np.zeros(n, np.bool_)
         self.online, self.online_cfg = new_comfort(n, cfg.control_dt, cfg.duration)
         self._measured_tracks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        return 2 * (self.reach + cfg.n_sub + 4), 0, np.float64
+        width = 2 * (self.reach + cfg.n_sub + 4)
+        if 16 * width * n > TRACK_BYTES:
+            raise val.FieldError(
+                "num_envs",
+                f"of {n} needs {16 * width * n / 2**30:.2f} GiB of track windows ({width} "
+                f"samples each: twice the wheelset span at {self.v_min:g} m/s), over the "
+                f"{TRACK_BYTES / 2**30:g} GiB limit: use fewer sub-envs or a higher lowest speed",
+            )
+        return width, 0, np.float64
 
     def _link(self) -> None:
         super()._link()

@@ -318,8 +318,10 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
         return render_vertical(state)
 
     def track(self) -> tuple[np.ndarray, np.ndarray]:
-        """Copies of the current track input ``(z, zdot)`` on the grid ``k·dt``, m and m/s."""
-        return self.sim.z[0].copy(), self.sim.zdot[0].copy()
+        """Copies of the current track input ``(z, zdot)`` on the grid ``k·dt``, m and m/s: the
+        whole episode's, or with a streamed track (v3) the held window from the current
+        sample on."""
+        return self.sim.track_arrays(0)
 
     def reset_on_track(self, other: VerticalSuspensionEnv) -> None:
         """Put this env at rest at the start of ``other``'s current track (same grid needed);

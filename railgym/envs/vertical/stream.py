@@ -20,7 +20,9 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit, prange
 
+from railgym import _checks as val
 from railgym.envs.compiled import compiled_entry
+from railgym.envs.track_shell import TRACK_BYTES
 from railgym.envs.vertical.batch import VerticalBatch, control_step
 from railgym.profile import profile_time_input
 from railgym.track_stream import (
@@ -172,6 +174,14 @@ class VerticalStreamBatch(VerticalBatch):
         cfg, g = self.cfg, self.win
         raw = self._raw_columns(speed)
         if raw > g.raw_z.shape[1]:  # a lower speed than any before: wider raw windows
+            if 16 * raw * self.n > TRACK_BYTES:
+                raise val.FieldError(
+                    "speed",
+                    f"{speed:g} m/s needs windows of {raw} samples ahead of the trailing "
+                    f"wheelset (wheelbase {cfg.wheelbase:g} m, dt {cfg.dt:g} s), "
+                    f"{16 * raw * self.n / 2**30:.2f} GiB for {self.n} sub-envs, over the "
+                    f"{TRACK_BYTES / 2**30:g} GiB limit: raise the speed or use fewer sub-envs",
+                )
             self.win = g = g._replace(raw_z=np.zeros((self.n, raw)), raw_zd=np.zeros((self.n, raw)))
             self._link()
         for i, rng in zip(idx, rngs, strict=True):

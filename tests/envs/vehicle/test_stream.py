@@ -16,6 +16,7 @@ import pytest
 from scipy import signal
 
 import railgym  # noqa: F401
+import railgym._checks
 from railgym.comfort import WeightingFilter
 from railgym.envs.vehicle.batch import episode_comfort
 from railgym.envs.vehicle.online_comfort import comfort_figures, comfort_step, new_comfort
@@ -106,3 +107,8 @@ def test_parallel_fill_gives_the_single_envs_numbers() -> None:
         o, *_ = venv.step(np.full((n, 2), 0.1, np.float32))
         so, *_ = single.step(np.full(2, 0.1, np.float32))
     np.testing.assert_array_equal(o[-1], so)
+
+
+def test_too_wide_windows_are_refused_naming_num_envs() -> None:
+    with pytest.raises(railgym._checks.FieldError, match="num_envs"):
+        gym.make_vec(ENV, num_envs=4096, vectorization_mode="vector_entry_point", speed=1.0)

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401
+import railgym._checks
 from railgym.track_stream import stream_profile
 from tests.envs.test_track_chunks import batch_bytes
 
@@ -142,3 +143,11 @@ def test_parallel_fill_gives_the_single_envs_numbers() -> None:
         o, *_ = venv.step(np.full((n, 1), -0.2, np.float32))
         so, *_ = single.step(np.full(1, -0.2, np.float32))
     np.testing.assert_array_equal(o[-1], so)
+
+
+def test_too_wide_wheelbase_windows_are_refused_naming_speed() -> None:
+    venv = gym.make_vec(
+        ENV, num_envs=1024, vectorization_mode="vector_entry_point", speed=1.0, wheelbase=50.0
+    )
+    with pytest.raises(railgym._checks.FieldError, match="speed"):
+        venv.reset(seed=0)
