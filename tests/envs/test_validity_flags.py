@@ -19,7 +19,7 @@ from railgym.vehicles.vertical.elements import rhs
 from surrogates import io
 from surrogates.models.lpr import lpr_scratch
 
-VERTICAL, VEHICLE = "railgym/VerticalSuspension-v2", "railgym/VerticalVehicle-v2"
+VERTICAL, VEHICLE = "railgym/VerticalSuspension-v3", "railgym/VerticalVehicle-v3"
 #: an actuator force that drives the deflection out of the packaged elements' boxes, N
 F_BIG = 60000.0
 
