@@ -176,7 +176,7 @@ _M2 = np.uint64(0x94D049BB133111EB)
 _S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _uniform(rng, i):
     """Next splitmix64 value of stream ``rng[i]`` as a float in (0, 1]."""
     s = rng[i] + _GOLDEN
@@ -212,7 +212,7 @@ _ZIG_R = 3.442619855899
 _S32, _MASK = np.uint64(32), np.uint64(127)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _normal(rng, i):
     """Next standard normal of track ``i`` (ziggurat on the high 32 bits of one splitmix64
     value; the tails and wedges, about 2 % of the draws, take more)."""
@@ -254,7 +254,7 @@ def stream_start(gen, i, chol):
         x[i, r] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stream_samples(gen, i, z, zd, j0, j1):
     """Samples ``j0 .. j1 - 1`` of track ``i`` of ``gen`` (:class:`StreamState`) into
     ``z[i]`` (m) and ``zd[i]`` (m/s, or the slope for a unit speed), its state advanced one
@@ -276,7 +276,7 @@ def stream_samples(gen, i, z, zd, j0, j1):
     x[i, 0], x[i, 1], x[i, 2], x[i, 3] = x0, x1, x2, x3
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def slide_window(z, zd, start, end, i, lo, hi):
     """Window row ``i`` (``z[i, 0]`` is track sample ``start[i]``, samples up to ``end[i] - 1``
     held) moved to start at sample ``lo`` when sample ``hi - 1`` lies beyond it (the held
@@ -291,7 +291,7 @@ def slide_window(z, zd, start, end, i, lo, hi):
     end[i] = max(end[i], lo)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stream_cover(gen, i, z, zd, start, end, lo, hi):
     """Window row ``i`` holding track samples ``lo .. hi - 1`` (:func:`slide_window`), the
     samples from ``end[i]`` to ``hi - 1`` generated (:func:`stream_samples`)."""

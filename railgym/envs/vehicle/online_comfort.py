@@ -108,7 +108,7 @@ def new_comfort(n: int, control_dt: float, duration: float) -> tuple[ComfortArra
     return c, cfg
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def comfort_step(c, cc, acc, steps, i):
     """Vehicle ``i``'s floor accelerations ``acc[i, :3]`` (m/s²) of its control step number
     ``steps[i]`` (counted from 1) into its online figures."""

@@ -37,7 +37,7 @@ from railgym.vehicles.vertical.kernels import PARALLEL_MIN
 __all__ = ["VehicleStreamBatch", "stream_step"]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _fill(gen, v, end, n_sub, i):
     """Vehicle ``i``'s window (``v``: the kernel's
     :class:`~railgym.vehicles.vehicle.VehicleArrays`) holding its samples from ``k`` to the

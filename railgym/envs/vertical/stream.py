@@ -59,7 +59,7 @@ def window_width(n_sub: int) -> int:
     return 4 * (n_sub + 1)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _fill(gen, g, z, zd, k, n_sub, dt, i):
     """Vehicle ``i``'s window holding its samples ``e .. e + n_sub`` (``e``: episode sample
     of ``k[i]``), the new ones generated; ``k[i]`` then indexes sample ``e``."""
@@ -89,7 +89,7 @@ def _fill_parallel(gen, g, z, zd, k, n_sub, dt):
             _fill(gen, g, z, zd, k, n_sub, dt, i)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def fill_windows(gen, g, z, zd, k, n_sub, dt):
     """:func:`_fill` of every vehicle not on a measured profile (on all threads from
     ``PARALLEL_MIN`` vehicles; each vehicle's stream is its own, so the values do not depend
