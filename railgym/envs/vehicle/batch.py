@@ -416,8 +416,7 @@ class VehicleBatch:
             chunk_bytes=12 * cfg.n_steps + self._vehicle_bytes(len(cfg.obs_names), sos, rows),
         )
         held = self.n_samples if self.window is None else self.window
-        # chunked mode keeps the floor accelerations as float32 (12 bytes per control step);
-        # the comfort figures are computed from them in float64 (episode_comfort)
+        # chunked: the floor accelerations as float32 (the figures in float64, episode_comfort)
         return held, cfg.n_steps, np.float64 if self.window is None else np.float32
 
     def _vehicle_bytes(self, n_obs: int, sos: np.ndarray, rows: int) -> int:
@@ -664,8 +663,7 @@ class VehicleBatch:
         return episode_comfort(self.book.rec[i, :m], 1.0 / self.cfg.control_dt, self.wk, self.wb)
 
     def _render_track(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        """Vehicle ``i``'s track heights (m) that :meth:`render_state` draws and their sample
-        indices."""
+        """Vehicle ``i``'s track heights (m) that :meth:`render_state` draws, their indices."""
         z = self.arrays.z[i] if self.window is None else self.track_arrays(i)[0]
         return z, np.arange(self.n_samples)
 
