@@ -38,6 +38,8 @@ ENVS: dict[str, str | None] = {
     "railgym/VerticalSuspension-v2": "vertical",
     "railgym/VerticalVehicle-v1": "vehicle",
     "railgym/VerticalVehicle-v2": "vehicle",
+    "railgym/VerticalSuspension-v3": "vertical",
+    "railgym/VerticalVehicle-v3": "vehicle",
     "railgym/TrainCrash-v1": None,
 }
 N_VEC = 1024

@@ -67,6 +67,8 @@ FLOP_PER_STEP: dict[str, float | None] = {
     "railgym/VerticalSuspension-v2": None,  # Hermite tables: no polynomial flop count
     "railgym/VerticalVehicle-v1": 12e3,
     "railgym/VerticalVehicle-v2": None,
+    "railgym/VerticalSuspension-v3": None,  # v2 and the streamed track
+    "railgym/VerticalVehicle-v3": None,
     "railgym/TrainCrash-v1": 0.6e3,
 }
 

@@ -33,8 +33,11 @@ def run() -> list[dict]:
     for backend in ("surrogate", "reference", "linear"):
         envs[backend] = gym.make("railgym/VerticalSuspension-v1", backend=backend)
         fns[backend] = steps(envs[backend], lambda k: zero)
-    envs["v2"] = gym.make("railgym/VerticalSuspension-v2")
-    fns["v2"] = steps(envs["v2"], lambda k: zero)
+    for version in ("v2", "v3"):
+        envs[version] = gym.make(f"railgym/VerticalSuspension-{version}")
+        fns[version] = steps(envs[version], lambda k: zero)
+    envs["v3 reference"] = gym.make("railgym/VerticalSuspension-v3", backend="reference")
+    fns["v3 reference"] = steps(envs["v3 reference"], lambda k: zero)
     static = default_vertical_surrogate("static")
     fns["static"] = steps(
         gym.make("railgym/VerticalSuspension-v1", surrogate=static), lambda k: zero
@@ -67,6 +70,16 @@ def run() -> list[dict]:
         measured("  ratio to CartPole (v2)", t["v2"] / t["cart"], "×", "≤ 1.3"),
         measured("  of which the compiled call", compiled, "µs", context="own windows"),
         measured("  of which the Python shell", shell, "µs", context="own windows"),
+        measured("VerticalSuspension-v3 step", t["v3"], "µs", context="streamed track"),
+        measured("  ratio to CartPole (v3)", t["v3"] / t["cart"], "×", "≤ 1.3"),
+        measured("  v3 / v2 step", t["v3"] / t["v2"], "×", context="the track generated per step"),
+        measured(
+            "  v3 surrogate / reference step",
+            t["v3"] / t["v3 reference"],
+            "×",
+            "≤ 1.0",
+            context="single env",
+        ),
         measured(
             "VerticalSuspension step (static element)", t["static"], "µs", context="paper's F(δ, δ̇)"
         ),

@@ -19,6 +19,11 @@ ENVS = {
         "railgym.envs.vertical.env:VerticalSuspensionEnvV2",
         "railgym.envs.vertical.env:VerticalSuspensionVectorEnvV2",
     ),
+    # v3: the track streamed inside the compiled step (docs: Version history)
+    "railgym/VerticalSuspension-v3": (
+        "railgym.envs.vertical.env:VerticalSuspensionEnvV3",
+        "railgym.envs.vertical.env:VerticalSuspensionVectorEnvV3",
+    ),
     # v0: the static packaged element by default; v1: the memory element (docs: Version history)
     "railgym/VerticalVehicle-v0": (
         "railgym.envs.vehicle.env:VerticalVehicleEnvV0",
@@ -32,6 +37,11 @@ ENVS = {
     "railgym/VerticalVehicle-v2": (
         "railgym.envs.vehicle.env:VerticalVehicleEnvV2",
         "railgym.envs.vehicle.env:VerticalVehicleVectorEnvV2",
+    ),
+    # v3: the track streamed, the comfort figures online (docs: Version history)
+    "railgym/VerticalVehicle-v3": (
+        "railgym.envs.vehicle.env:VerticalVehicleEnvV3",
+        "railgym.envs.vehicle.env:VerticalVehicleVectorEnvV3",
     ),
     # v0: one mass per car, global LPR elements; v1: elastic cars, piecewise elements
     "railgym/TrainCrash-v0": (

@@ -362,23 +362,13 @@ class VehicleBatch:
         self.lpr = element_lpr(lpr)  # the LPR fields (a Kriging is refused)
         self.span = 2.0 * (vehicle.bogie_semi_spacing + vehicle.semi_wheelbase)  # m
         self.v_min = v_min
-        reach = math.ceil(self.span / (v_min * cfg.dt))  # samples from rear to front wheelset
+        #: samples from the rear to the front wheelset at ``v_min``
+        self.reach = math.ceil(self.span / (v_min * cfg.dt))
         #: samples of an episode's track (rear wheelset's time grid, front wheelset ahead)
-        self.n_samples = cfg.n_steps * cfg.n_sub + reach + 2
+        self.n_samples = cfg.n_steps * cfg.n_sub + self.reach + 2
         sos = reward_sections(cfg.acc_weighting, cfg.control_dt)
         rows = INFO_ROW if damper is None else SEMI_ACTIVE_INFO_ROW
-        #: samples held per vehicle in chunked mode (None: the whole episode); chunked, the
-        #: windows, the float32 records and the other per-vehicle arrays share the budget
-        self.window = track_window(
-            n,
-            self.n_samples,
-            24 * cfg.n_steps,
-            cfg.n_sub + reach + 2,
-            "track, record and bookkeeping arrays",
-            _FORCED_WINDOW,
-            chunk_bytes=12 * cfg.n_steps + self._vehicle_bytes(len(cfg.obs_names), sos, rows),
-        )
-        held = self.n_samples if self.window is None else self.window
+        held, rec_steps, rec_dtype = self._storage(n, sos, rows)
         self.arrays, self.out = new_arrays(n, cfg.variant, held, self.lpr, damper is not None)
         #: what a track is drawn from: the seed of each FRA episode and the profile of each
         #: measured one
@@ -387,10 +377,7 @@ class VehicleBatch:
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)
-        # chunked mode keeps the floor accelerations as float32 (12 bytes per control step);
-        # the comfort figures are computed from them in float64 (episode_comfort)
-        rec_dtype = np.float64 if self.window is None else np.float32
-        self.book = _new_book(n, cfg.n_steps, len(cfg.obs_names), sos, rows, rec_dtype)
+        self.book = _new_book(n, rec_steps, len(cfg.obs_names), sos, rows, rec_dtype)
         self.step_consts = consts(
             StepCfg,
             cfg,
@@ -412,6 +399,25 @@ class VehicleBatch:
         #: per episode: its class / speed is outside :attr:`envelope` (``outside_envelope``)
         self.off_envelope = np.zeros(n, np.bool_)
         self._link()
+
+    def _storage(self, n: int, sos: np.ndarray, rows: int) -> tuple[int, int, type]:
+        """Track samples held per vehicle (:attr:`window`: None when the whole episode), and
+        the control steps and dtype of the comfort record."""
+        cfg = self.cfg
+        #: samples held per vehicle in chunked mode (None: the whole episode); chunked, the
+        #: windows, the float32 records and the other per-vehicle arrays share the budget
+        self.window = track_window(
+            n,
+            self.n_samples,
+            24 * cfg.n_steps,
+            cfg.n_sub + self.reach + 2,
+            "track, record and bookkeeping arrays",
+            _FORCED_WINDOW,
+            chunk_bytes=12 * cfg.n_steps + self._vehicle_bytes(len(cfg.obs_names), sos, rows),
+        )
+        held = self.n_samples if self.window is None else self.window
+        # chunked: the floor accelerations as float32 (the figures in float64, episode_comfort)
+        return held, cfg.n_steps, np.float64 if self.window is None else np.float32
 
     def _vehicle_bytes(self, n_obs: int, sos: np.ndarray, rows: int) -> int:
         """Bytes per vehicle of the arrays held besides the track and the comfort record:
@@ -656,6 +662,11 @@ class VehicleBatch:
         m = max(int(self.book.steps[i]), 1)
         return episode_comfort(self.book.rec[i, :m], 1.0 / self.cfg.control_dt, self.wk, self.wb)
 
+    def _render_track(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Vehicle ``i``'s track heights (m) that :meth:`render_state` draws, their indices."""
+        z = self.arrays.z[i] if self.window is None else self.track_arrays(i)[0]
+        return z, np.arange(self.n_samples)
+
     def render_state(self, i: int) -> dict[str, Any]:
         """What :func:`railgym.envs.vehicle.render.render_vehicle` draws for vehicle ``i``:
         positions from the carbody centre (m), heights (m), forces (N); in chunked mode the
@@ -666,8 +677,7 @@ class VehicleBatch:
         centre = kk * dx - v.wheelset_positions[-1]  # track position of the carbody centre
         half = 0.75 * v.carbody_length
         xs = np.linspace(-half, half, 301)
-        grid = np.arange(self.n_samples)
-        z = arrays.z[i] if self.window is None else self.track_arrays(i)[0]
+        z, grid = self._render_track(i)
         x = arrays.state[i]
         xb = np.linspace(-0.5 * v.carbody_length, 0.5 * v.carbody_length, 41)
         bend = mode_shape(xb, v.carbody_length) * x[2] if self.cfg.flexible else 0.0

@@ -52,6 +52,7 @@ from railgym.envs.vehicle.batch import (
     check_band_speed,
     episode_comfort,
 )
+from railgym.envs.vehicle.stream import VehicleStreamBatch
 from railgym.envs.vertical.env import LIMITS as _VERTICAL_LIMITS
 from railgym.profile import load_profile
 from railgym.track import class_speed
@@ -77,9 +78,11 @@ __all__ = [
     "VerticalVehicleEnv",
     "VerticalVehicleEnvV0",
     "VerticalVehicleEnvV2",
+    "VerticalVehicleEnvV3",
     "VerticalVehicleVectorEnv",
     "VerticalVehicleVectorEnvV0",
     "VerticalVehicleVectorEnvV2",
+    "VerticalVehicleVectorEnvV3",
     "episode_comfort",
     "preview_points",
 ]
@@ -277,15 +280,23 @@ LIMITS = {**_VERTICAL_LIMITS, **limits(VehicleParams)}
 
 
 def _batch(
-    n: int, cfg: VehicleParams, lpr: Any, v_min: float, envelope: OperatingEnvelope | None = None
+    n: int,
+    cfg: VehicleParams,
+    lpr: Any,
+    v_min: float,
+    envelope: OperatingEnvelope | None = None,
+    stream: bool = False,
 ) -> VehicleBatch:
     """The batch of ``n`` vehicles: the compiled kernel (``envelope``: the element's, behind
     ``info["outside_envelope"]``; the dampers of
     :func:`~railgym.envs.damper_params.damper_law_of`), or FMU instances for
-    ``backend="fmu"`` (``cfg.fmu``, ``cfg.fmu_map``: :mod:`railgym.fmu.mapping`)."""
+    ``backend="fmu"`` (``cfg.fmu``, ``cfg.fmu_map``: :mod:`railgym.fmu.mapping`).
+    ``stream``: the track streamed and the comfort figures online
+    (:class:`~railgym.envs.vehicle.stream.VehicleStreamBatch`; not for the FMU)."""
     check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
-        return VehicleBatch(n, cfg, cfg.model, lpr, v_min, envelope, damper_law_of(cfg))
+        batch = VehicleStreamBatch if stream else VehicleBatch
+        return batch(n, cfg, cfg.model, lpr, v_min, envelope, damper_law_of(cfg))
     from railgym.envs.vehicle.fmu_batch import FMUVehicleBatch
     from railgym.fmu.mapping import load_mapping
 
@@ -368,6 +379,8 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
     """
 
     params_class = VehicleParams
+    #: the track streamed and the comfort figures online (``VerticalVehicle-v3``)
+    stream_track = False
     n_actuators = 2
     cfg: VehicleParams
     _case_attrs = ("track_class", "speeds", "profile", "_speed_arg")
@@ -410,7 +423,7 @@ class VerticalVehicleEnv(_VehicleAccessors, TrackEnvShell):
         self.vehicle = cfg.model
         v_min = min(self.speeds[0], SIZING_SPEED)
         low = 0.0 if cfg.actuator == "semi-active" else -1.0
-        self._start(_batch(1, cfg, lpr, v_min, envelope), render_mode, low)
+        self._start(_batch(1, cfg, lpr, v_min, envelope, self.stream_track), render_mode, low)
 
     def _default_surrogate(self) -> Any:
         """The whole vehicle's packaged element (v0: :attr:`default_element`)."""
@@ -508,7 +521,8 @@ class VerticalVehicleVectorEnv(_VehicleAccessors, TrackVectorShell):
         num_envs, single = self._single(num_envs, render_mode, args)
         one = single.sim
         self.vehicle = one.vehicle
-        sim = _batch(num_envs, self.cfg, one.lpr, one.v_min, one.envelope)
+        stream = self.single_class.stream_track
+        sim = _batch(num_envs, self.cfg, one.lpr, one.v_min, one.envelope, stream)
         self._init_vector(single, sim, num_envs)
 
     def step(
@@ -552,3 +566,19 @@ class VerticalVehicleVectorEnvV2(VerticalVehicleVectorEnv):
     """Native vector version of :class:`VerticalVehicleEnvV2`."""
 
     single_class = VerticalVehicleEnvV2
+
+
+class VerticalVehicleEnvV3(VerticalVehicleEnvV2):
+    """``VerticalVehicle-v3``: the track streamed, generated inside the compiled step by a
+    shaping filter (:mod:`railgym.track_stream`), and the end-of-episode comfort figures
+    accumulated online (:mod:`railgym.envs.vehicle.online_comfort`): memory per vehicle
+    independent of ``duration``; everything else as :class:`VerticalVehicleEnvV2`
+    (docs/envs/vehicle_vertical.md, *Version history*)."""
+
+    stream_track = True
+
+
+class VerticalVehicleVectorEnvV3(VerticalVehicleVectorEnv):
+    """Native vector version of :class:`VerticalVehicleEnvV3`."""
+
+    single_class = VerticalVehicleEnvV3

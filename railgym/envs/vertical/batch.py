@@ -328,15 +328,8 @@ class VerticalBatch:
         self._info_keys = INFO_KEYS + (SEMI_ACTIVE_INFO_KEYS if semi_active else ())
         self._info_names = [key for key, _ in self._info_keys]
         #: samples of an episode's track, t_k = k·dt
-        self.n_samples = n_samples = cfg.n_steps * cfg.n_sub + 1
-        #: samples held per vehicle in chunked mode (None: the whole episode)
-        self.window = track_window(n, n_samples, 0, cfg.n_sub + 1, "track arrays", _FORCED_WINDOW)
-        held = n_samples if self.window is None else self.window
-        #: the track samples held, ``base + 0 .. base + held - 1`` of each episode (m, m/s)
-        self.z = np.zeros((n, held))
-        self.zdot = np.zeros((n, held))
-        #: int64 (n,) episode sample of the windows' first column (0 outside chunked mode)
-        self.base = np.zeros(n, np.int64)
+        self.n_samples = cfg.n_steps * cfg.n_sub + 1
+        self._track_storage(n)
         #: what a track is drawn from: the seed of each FRA episode and the profile of each
         #: measured one
         self._seeds = np.zeros(n, np.int64)
@@ -379,6 +372,34 @@ class VerticalBatch:
             extrapolated=np.zeros(n, np.bool_),
         )
         self._link()
+
+    def _track_storage(self, n: int) -> None:
+        """The track arrays of ``n`` vehicles: the whole episodes, or windows (chunked mode)."""
+        cfg = self.cfg
+        #: samples held per vehicle in chunked mode (None: the whole episode)
+        self.window = track_window(
+            n, self.n_samples, 0, cfg.n_sub + 1, "track arrays", _FORCED_WINDOW
+        )
+        held = self.n_samples if self.window is None else self.window
+        #: the track samples held, ``base + 0 .. base + held - 1`` of each episode (m, m/s)
+        self.z = np.zeros((n, held))
+        self.zdot = np.zeros((n, held))
+        #: int64 (n,) episode sample of the windows' first column (0 outside chunked mode)
+        self.base = np.zeros(n, np.int64)
+
+    def copy_track(self, src: VerticalBatch) -> None:
+        """Vehicle 0's episode set to ``src``'s vehicle 0's (same grid needed), at rest at
+        its start."""
+        if src.z.shape != self.z.shape:
+            raise ValueError(
+                f"other env's track has {src.z.shape[1]} samples, this env needs {self.z.shape[1]}"
+            )
+        np.copyto(self.z, src.z)
+        np.copyto(self.zdot, src.zdot)
+        np.copyto(self.track_class, src.track_class)
+        np.copyto(self.speed, src.speed)
+        np.copyto(self.measured, src.measured)
+        self.reset_state(0)
 
     def _link(self) -> None:
         """Short names of the arrays, the flags and the compiled entry point of
@@ -613,7 +634,11 @@ class VerticalBatch:
         """What :func:`railgym.envs.vertical.render.render_vertical` draws for vehicle ``i``
         (in chunked mode the track is drawn again for it)."""
         z = self.z[i] if self.window is None else self.track_arrays(i)[0]
-        kk = min(int(self.base[i] + self.k[i]), z.shape[0] - 1)
+        return self._render(i, z, min(int(self.base[i] + self.k[i]), z.shape[0] - 1))
+
+    def _render(self, i: int, z: np.ndarray, kk: int) -> dict[str, Any]:
+        """:meth:`render_state` of vehicle ``i`` on the track samples ``z`` (m), ``kk`` its
+        current one."""
         dx = self.speed[i] * self.cfg.dt
         lo, hi = max(kk - int(10.0 / dx), 0), min(kk + int(10.0 / dx), z.shape[0] - 1)
         return {

@@ -56,6 +56,7 @@ from railgym.envs.track_shell import (
     element_arrays,
 )
 from railgym.envs.vertical.batch import ACC_REF, INFO_KEYS, VerticalBatch
+from railgym.envs.vertical.stream import VerticalStreamBatch
 from railgym.profile import load_profile
 from railgym.track import class_speed
 from railgym.vehicles.element_envelope import OperatingEnvelope
@@ -79,9 +80,11 @@ __all__ = [
     "VerticalSuspensionEnv",
     "VerticalSuspensionEnvV0",
     "VerticalSuspensionEnvV2",
+    "VerticalSuspensionEnvV3",
     "VerticalSuspensionVectorEnv",
     "VerticalSuspensionVectorEnvV0",
     "VerticalSuspensionVectorEnvV2",
+    "VerticalSuspensionVectorEnvV3",
     "check_speed",
     "check_speed_limit",
 ]
@@ -180,16 +183,22 @@ LIMITS = {
 
 
 def _batch(
-    n: int, cfg: VerticalParams, lpr: LprArrays, envelope: OperatingEnvelope | None = None
+    n: int,
+    cfg: VerticalParams,
+    lpr: LprArrays,
+    envelope: OperatingEnvelope | None = None,
+    stream: bool = False,
 ) -> VerticalBatch:
     """The batch of ``n`` vehicles: compiled kernels (``envelope``: the element's, behind
     ``info["outside_envelope"]``; the damper of
     :func:`~railgym.envs.damper_params.damper_law_of`), or FMU instances for
     ``backend="fmu"`` (``cfg.fmu``: the FMU file, ``cfg.fmu_map``: its mapping file,
-    :mod:`railgym.fmu.mapping`)."""
+    :mod:`railgym.fmu.mapping`). ``stream``: the track streamed
+    (:class:`~railgym.envs.vertical.stream.VerticalStreamBatch`; not for the FMU)."""
     check_element_vehicle(cfg.backend, lpr, cfg.model)
     if cfg.backend != "fmu":
-        return VerticalBatch(n, cfg, cfg.model, lpr, envelope, damper_law_of(cfg))
+        batch = VerticalStreamBatch if stream else VerticalBatch
+        return batch(n, cfg, cfg.model, lpr, envelope, damper_law_of(cfg))
     from railgym.envs.vertical.fmu_batch import FMUBatch
     from railgym.fmu.mapping import load_mapping
 
@@ -247,6 +256,8 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
 
     params_class = VerticalParams
     n_actuators = 1
+    #: the track generated inside the compiled step (``VerticalSuspension-v3``)
+    stream_track = False
     cfg: VerticalParams
     _case_attrs = ("track_class", "speed", "profile", "_speed_arg")
 
@@ -286,7 +297,7 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
             cfg.backend, surrogate, cfg.dt, True, vehicle=given, grid=self.element_grid
         )
         low = 0.0 if cfg.actuator == "semi-active" else -1.0
-        self._start(_batch(1, cfg, lpr, envelope), render_mode, low)
+        self._start(_batch(1, cfg, lpr, envelope, self.stream_track), render_mode, low)
 
     def _apply_options(self, options: dict[str, Any]) -> None:
         """``track_class``, ``speed`` and ``profile`` (kept for later episodes; a new class
@@ -309,23 +320,15 @@ class VerticalSuspensionEnv(_VerticalAccessors, TrackEnvShell):
         return render_vertical(state)
 
     def track(self) -> tuple[np.ndarray, np.ndarray]:
-        """Copies of the current track input ``(z, zdot)`` on the grid ``k·dt``, m and m/s."""
-        return self.sim.z[0].copy(), self.sim.zdot[0].copy()
+        """Copies of the current track input ``(z, zdot)`` on the grid ``k·dt``, m and m/s: the
+        whole episode's, or with a streamed track (v3) the held window from the current
+        sample on."""
+        return self.sim.track_arrays(0)
 
     def reset_on_track(self, other: VerticalSuspensionEnv) -> None:
         """Put this env at rest at the start of ``other``'s current track (same grid needed);
         its generator and options are not changed."""
-        src, dst = other.sim, self.sim
-        if src.z.shape != dst.z.shape:
-            raise ValueError(
-                f"other env's track has {src.z.shape[1]} samples, this env needs {dst.z.shape[1]}"
-            )
-        np.copyto(dst.z, src.z)
-        np.copyto(dst.zdot, src.zdot)
-        np.copyto(dst.track_class, src.track_class)
-        np.copyto(dst.speed, src.speed)
-        np.copyto(dst.measured, src.measured)
-        dst.reset_state(0)
+        self.sim.copy_track(other.sim)
         self._started = True
 
 
@@ -371,7 +374,7 @@ class VerticalSuspensionVectorEnv(_VerticalAccessors, TrackVectorShell):
     ) -> None:
         args = VerticalParams.arguments_from(locals())
         num_envs, single = self._single(num_envs, render_mode, args)
-        sim = _batch(num_envs, self.cfg, single.sim.lpr, single.sim.envelope)
+        sim = _batch(num_envs, self.cfg, single.sim.lpr, single.sim.envelope, single.stream_track)
         self._init_vector(single, sim, num_envs)
 
 
@@ -401,3 +404,18 @@ class VerticalSuspensionVectorEnvV2(VerticalSuspensionVectorEnv):
     """Native vector version of :class:`VerticalSuspensionEnvV2`."""
 
     single_class = VerticalSuspensionEnvV2
+
+
+class VerticalSuspensionEnvV3(VerticalSuspensionEnvV2):
+    """``VerticalSuspension-v3``: the track streamed, generated inside the compiled step by a
+    shaping filter (:mod:`railgym.track_stream`, memory per vehicle independent of
+    ``duration``); everything else as :class:`VerticalSuspensionEnvV2` (docs/envs/vertical.md,
+    *Version history*)."""
+
+    stream_track = True
+
+
+class VerticalSuspensionVectorEnvV3(VerticalSuspensionVectorEnv):
+    """Native vector version of :class:`VerticalSuspensionEnvV3`."""
+
+    single_class = VerticalSuspensionEnvV3
