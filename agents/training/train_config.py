@@ -308,7 +308,10 @@ def _env_block(config: str | Path | dict[str, Any]) -> tuple[str, dict[str, Any]
     env_id = ids[0]
     if env_id not in gym.registry:
         raise val.FieldError(
-            "env id", f"env id {env_id!r} is not a registered Gymnasium env", full=True
+            "env id",
+            f"{source}: env id {env_id!r} is not a registered Gymnasium env (the config's "
+            "top-level key)",
+            full=True,
         )
     block = config[env_id]
     if not isinstance(block, dict):

@@ -334,7 +334,7 @@ class TrackEnvShell(BatchEnv):
         ``profile`` raise."""
         unknown = set(options) - {"track_class", "speed", "profile"}
         if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}")
+            raise ValueError(f"options: unknown reset option(s) {sorted(unknown)}")
         tc = options.get("track_class", self.track_class)
         sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
         return tc, sp
