@@ -114,10 +114,11 @@ class DamperArgs(Params):
             raise val.FieldError(
                 "actuator", "'semi-active' is not available with backend='fmu'", full=False
             )
-        self._set("damper_params", load_damper(self.damper))
+        params = load_damper(self.damper)
+        self._set("damper_params", params)
         if backend == "surrogate":
             element = _damper_element(self.damper, self.damper_element)
-            check_element_damper(element, self.damper, self.damper_params)
+            check_element_damper(element, self.damper, params)
             self._set("damper_model", element)
         elif self.damper_element is not None:
             warnings.warn(
@@ -174,7 +175,7 @@ def check_element_damper(element: DamperElement, damper: Any, params: DamperPara
     ``params``; an element that records neither is used with a warning naming both."""
     built = element.report.get("damper_params")
     if isinstance(built, dict) and set(built) == set(DamperParams._fields):
-        built_for: DamperParams | None = DamperParams(**{k: float(v) for k, v in built.items()})
+        built_for: DamperParams = DamperParams(**{k: float(v) for k, v in built.items()})
     elif (resources.files("railgym") / "configs" / "dampers" / f"{element.damper}.yaml").is_file():
         built_for = load_damper(element.damper)
     else:

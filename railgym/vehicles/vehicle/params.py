@@ -73,6 +73,32 @@ class WholeVehicle:
                 f"must lie within the carbody (2·a < carbody_length = {self.carbody_length} m), "
                 f"got {self.bogie_semi_spacing!r}",
             )
+        self._check_geometry()
+
+    def _check_geometry(self) -> None:
+        """Refuse what cannot describe a vehicle: bogies that overlap (b ≥ a), wheelsets
+        beyond the carbody's ends (a + b > L/2), a pitch inertia no body of this mass and
+        length has (above m·(L/2)², all the mass at the ends)."""
+        a, b, length = self.bogie_semi_spacing, self.semi_wheelbase, self.carbody_length
+        if b >= a:
+            raise val.FieldError(
+                "whole_vehicle.semi_wheelbase",
+                f"({b!r} m) must be less than bogie_semi_spacing ({a!r} m): the bogies' inner "
+                "wheelsets would overlap",
+            )
+        if a + b > 0.5 * length:
+            raise val.FieldError(
+                "whole_vehicle.semi_wheelbase",
+                f"({b!r} m): the outer wheelsets at ±(a + b) = ±{a + b:g} m lie beyond the "
+                f"carbody's ends (carbody_length / 2 = {0.5 * length:g} m)",
+            )
+        top = self.carbody_mass * (0.5 * length) ** 2
+        if self.carbody_pitch_inertia > top:
+            raise val.FieldError(
+                "whole_vehicle.carbody_pitch_inertia",
+                f"({self.carbody_pitch_inertia:g} kg·m²) exceeds carbody_mass·(carbody_length/2)²"
+                f" = {top:g} kg·m², the most a body of that mass and length can have",
+            )
 
     @property
     def wheelset_positions(self) -> np.ndarray:
