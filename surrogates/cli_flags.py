@@ -102,7 +102,8 @@ class Parser(argparse.ArgumentParser):
     def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
         """An empty value (``--out ""``, an unset shell variable) is refused naming the
         flag: no flag takes one (``Path("")`` would be the working directory)."""
-        if arg_string == "":
+        nested = action.nargs in (argparse.PARSER, argparse.REMAINDER)  # a subcommand's own
+        if arg_string == "" and not nested:
             raise argparse.ArgumentError(action, "is empty; give a value")
         return super()._get_value(action, arg_string)
 

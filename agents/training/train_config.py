@@ -290,6 +290,7 @@ def hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[st
 def _env_block(config: str | Path | dict[str, Any]) -> tuple[str, dict[str, Any]]:
     """The env id and its settings of a config (file, packaged name or dict): exactly one
     top-level key, a registered env, an SB3 (not RLlib) run."""
+    source = "config"
     if isinstance(config, str | Path):
         text, source = val.resolve_yaml(config, "config", "railgym", ("configs", "agents"))
         config = val.load_yaml(text, source)

@@ -33,7 +33,7 @@ import numpy as np
 import pytest
 
 from agents._extras import MissingExtraError
-from agents.cli import MODULE_COMMANDS
+from agents.cli import MODULE_COMMANDS, build_parser, module_parser
 from agents.cli import main as railgym_main
 from agents.cli_table import command_parsers, flag_rows
 from surrogates.cli_flags import DEPRECATED
@@ -52,7 +52,7 @@ BASE: dict[str, list[tuple[str, list[str]]]] = {
     "train": [("config", ["{cfg}"])],
     "train-rllib": [("config", ["{cfg}"])],
     "benchmark": [("config", ["{cfg}"])],
-    "pretrained": [("name", ["fuzz"]), ("benchmark_dir", ["{tmp}/no_benchmark"])],
+    "pretrained": [("name", ["ppo-vertical"]), ("benchmark_dir", ["{tmp}/no_benchmark"])],
     "collect": [("--out", ["{out}/out.json"])],
     "collect-vehicle": [("--out", ["{out}/out.json"])],
     "crash-elements": [("--out", ["{out}/out.json"])],
@@ -183,9 +183,16 @@ def argv_of(case: Case, places: dict[str, str]) -> list[str]:
 
 
 def _names(case: Case, err: str) -> bool:
-    """Whether the one-line error ``err`` names the case's flag (or the file it was given)."""
+    """Whether the one-line error ``err`` names the case's flag, the file it was given, or
+    the option-like value that argparse took for an option (``--units -inf``:
+    ``unrecognized arguments: -inf``)."""
     value = str(case.bad.value)
-    return any(n in err for n in names_of(case.action)) or ("/" in value and value in err)
+    option_like = value.startswith("-") and f"unrecognized arguments: {value}" in err
+    return (
+        any(n in err for n in names_of(case.action))
+        or ("/" in value and value in err)
+        or (option_like)
+    )
 
 
 @functools.cache
@@ -194,20 +201,34 @@ def parsers() -> dict[str, argparse.ArgumentParser]:
     return command_parsers()
 
 
+@functools.cache
+def door(name: str) -> argparse.ArgumentParser:
+    """The parser ``railgym NAME …`` reads with: ``railgym``'s own, or a module command's."""
+    return module_parser(name) if name in MODULE_COMMANDS else build_parser()
+
+
+def _error_line(stderr: str) -> str:
+    """The error line of ``stderr`` (the last; the usage above it lists every flag)."""
+    lines = stderr.strip().splitlines()
+    return lines[-1] if lines else ""
+
+
 def parse_only(case: Case, argv: list[str]) -> tuple[str | None, bool]:
-    """Tier 1: ``(failure, accepted)`` of the case's command line through the subcommand's
-    parser."""
-    parser = parsers()[case.command]
+    """Tier 1: ``(failure, accepted)`` of the case's command line through the parser that
+    ``railgym`` hands it to (its own for a built-in subcommand, the module's otherwise)."""
+    name = argv[0]
+    parser, rest = door(name), (argv[1:] if name in MODULE_COMMANDS else argv)
     err = io.StringIO()
     try:
         with redirect_stderr(err), redirect_stdout(io.StringIO()), warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            parser.parse_args(argv[len(case.command.split()) :])
+            parser.parse_args(rest)
     except SystemExit as exc:
         if exc.code != 2:
             return f"parser exit status {exc.code}: {err.getvalue()!r}", False
-        if not _names(case, err.getvalue()):
-            return f"parser error does not name the flag: {err.getvalue()!r}", False
+        line = _error_line(err.getvalue())
+        if not _names(case, line):
+            return f"parser error does not name the flag: {line!r}", False
         return None, False
     except Exception as exc:  # noqa: BLE001  (what the fuzzer looks for)
         return f"traceback in the parser: {type(exc).__name__}: {exc}", False
@@ -229,7 +250,7 @@ def run_main(case: Case, argv: list[str], seconds: float) -> str | None:
         return "not refused before the job started" if refuse else None
     except Exception as exc:  # noqa: BLE001
         return f"traceback: {type(exc).__name__}: {exc}"
-    text = err.getvalue()
+    text = _error_line(err.getvalue())
     if status == 2 and (_names(case, text) or not refuse):
         return None
     if status == 0 and not refuse:
