@@ -14,7 +14,14 @@ import numpy as np
 from railgym import _checks as val
 from railgym.vehicles.vertical import VerticalVehicle, load_vehicle
 
-__all__ = ["BETA_L", "FLOOR_POINTS", "WholeVehicle", "load_whole_vehicle", "mode_shape"]
+__all__ = [
+    "BETA_L",
+    "FLOOR_POINTS",
+    "WholeVehicle",
+    "check_geometry",
+    "load_whole_vehicle",
+    "mode_shape",
+]
 
 #: floor points where the carbody acceleration is reported: over the front bogie, centre,
 #: over the rear bogie (multiples of the bogie semi-spacing ``a``)
@@ -73,32 +80,6 @@ class WholeVehicle:
                 f"must lie within the carbody (2·a < carbody_length = {self.carbody_length} m), "
                 f"got {self.bogie_semi_spacing!r}",
             )
-        self._check_geometry()
-
-    def _check_geometry(self) -> None:
-        """Refuse what cannot describe a vehicle: bogies that overlap (b ≥ a), wheelsets
-        beyond the carbody's ends (a + b > L/2), a pitch inertia no body of this mass and
-        length has (above m·(L/2)², all the mass at the ends)."""
-        a, b, length = self.bogie_semi_spacing, self.semi_wheelbase, self.carbody_length
-        if b >= a:
-            raise val.FieldError(
-                "whole_vehicle.semi_wheelbase",
-                f"({b!r} m) must be less than bogie_semi_spacing ({a!r} m): the bogies' inner "
-                "wheelsets would overlap",
-            )
-        if a + b > 0.5 * length:
-            raise val.FieldError(
-                "whole_vehicle.semi_wheelbase",
-                f"({b!r} m): the outer wheelsets at ±(a + b) = ±{a + b:g} m lie beyond the "
-                f"carbody's ends (carbody_length / 2 = {0.5 * length:g} m)",
-            )
-        top = self.carbody_mass * (0.5 * length) ** 2
-        if self.carbody_pitch_inertia > top:
-            raise val.FieldError(
-                "whole_vehicle.carbody_pitch_inertia",
-                f"({self.carbody_pitch_inertia:g} kg·m²) exceeds carbody_mass·(carbody_length/2)²"
-                f" = {top:g} kg·m², the most a body of that mass and length can have",
-            )
 
     @property
     def wheelset_positions(self) -> np.ndarray:
@@ -113,6 +94,34 @@ class WholeVehicle:
 
 
 _WHOLE_FIELDS = tuple(f.name for f in fields(WholeVehicle) if f.name not in ("name", "suspension"))
+
+
+def check_geometry(vehicle: WholeVehicle) -> None:
+    """Refuse what cannot describe a vehicle (a file's, :func:`load_whole_vehicle`): bogies
+    that overlap (b ≥ a), wheelsets beyond the carbody's ends (a + b > L/2), a pitch inertia
+    no body of this mass and length has (above m·(L/2)², all the mass at the ends). Limits
+    made in code (a = b = 0 to compare with the one-bogie model) are not refused."""
+    a, b, length = vehicle.bogie_semi_spacing, vehicle.semi_wheelbase, vehicle.carbody_length
+    if b >= a:
+        raise val.FieldError(
+            "whole_vehicle.semi_wheelbase",
+            f"({b!r} m) must be less than bogie_semi_spacing ({a!r} m): the bogies' inner "
+            "wheelsets would overlap",
+        )
+    if a + b > 0.5 * length:
+        raise val.FieldError(
+            "whole_vehicle.semi_wheelbase",
+            f"({b!r} m): the outer wheelsets at ±(a + b) = ±{a + b:g} m lie beyond the "
+            f"carbody's ends (carbody_length / 2 = {0.5 * length:g} m)",
+        )
+    top = vehicle.carbody_mass * (0.5 * length) ** 2
+    if vehicle.carbody_pitch_inertia > top:
+        raise val.FieldError(
+            "whole_vehicle.carbody_pitch_inertia",
+            f"({vehicle.carbody_pitch_inertia:g} kg·m²) exceeds carbody_mass·"
+            f"(carbody_length/2)² = {top:g} kg·m², the most a body of that mass and length "
+            "can have",
+        )
 
 
 def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVehicle:
@@ -132,7 +141,9 @@ def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVe
         top.done()
         mass = val.positive(values["carbody_mass"], "whole_vehicle.carbody_mass")
         suspension = replace(base, m2=0.5 * mass)
-        return WholeVehicle(name=str(name_or_path), suspension=suspension, **values)
+        whole = WholeVehicle(name=str(name_or_path), suspension=suspension, **values)
+        check_geometry(whole)
+        return whole
     except val.FieldError as exc:
         if str(exc).startswith(source):
             raise
