@@ -179,9 +179,13 @@ def resolve_yaml(arg: Any, field: str, package: str, folder: tuple[str, ...]) ->
     if not isinstance(arg, str | Path):
         raise FieldTypeError(field, f"must be a name or a YAML path, got {arg!r}")
     text = str(arg)
+    if not text:
+        raise FieldError(field, "is empty; give a packaged name or a YAML path")
     base = resources.files(package).joinpath(*folder)
     if text.endswith(YAML_SUFFIXES):
         path = Path(text)
+        if path.is_dir():
+            raise FieldError(field, f"{field} {text!r} is a folder, expected a file", full=True)
         if not path.is_file():
             raise FieldError(field, f"{field} file {text!r} does not exist", full=True)
         try:
@@ -190,6 +194,12 @@ def resolve_yaml(arg: Any, field: str, package: str, folder: tuple[str, ...]) ->
             raise FieldError(field, f"file {text!r} cannot be read: {exc}") from None
     names = sorted(p.name[:-5] for p in base.iterdir() if p.name.endswith(".yaml"))
     if not _NAME.fullmatch(text) or text not in names:
+        if Path(text).is_dir():
+            raise FieldError(
+                field,
+                f"{field} {text!r} is a folder, expected a YAML file or a packaged name",
+                full=True,
+            )
         raise FieldError(
             field,
             f"unknown {field} {text!r}: not a packaged name {names}, and a file path must "

@@ -105,7 +105,7 @@ _SPERLING_BAND = (0.5, 30.0)
 
 
 def _params(kind: str) -> _Params:
-    if kind not in _PARAMS:
+    if not isinstance(kind, str) or kind not in _PARAMS:
         raise ValueError(f"kind must be one of {sorted(_PARAMS)}, got {kind!r}")
     return _PARAMS[kind]
 

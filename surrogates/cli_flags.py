@@ -91,12 +91,21 @@ class RawHelpFormatter(_DefaultsMixin, argparse.RawDescriptionHelpFormatter):
 
 class Parser(argparse.ArgumentParser):
     """An ``ArgumentParser`` with :class:`HelpFormatter` that prints one warning line per
-    deprecated spelling used, after the parse (none with ``--quiet``), and requires an
-    option with old spellings (:data:`REQUIRED`) given in any of them."""
+    deprecated spelling used, after the parse (none with ``--quiet``), requires an
+    option with old spellings (:data:`REQUIRED`) given in any of them and refuses an empty
+    value."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("formatter_class", HelpFormatter)
         super().__init__(*args, **kwargs)
+
+    def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
+        """An empty value (``--out ""``, an unset shell variable) is refused naming the
+        flag: no flag takes one (``Path("")`` would be the working directory)."""
+        nested = action.nargs in (argparse.PARSER, argparse.REMAINDER)  # a subcommand's own
+        if arg_string == "" and not nested:
+            raise argparse.ArgumentError(action, "is empty; give a value")
+        return super()._get_value(action, arg_string)
 
     def parse_known_args(  # type: ignore[override]
         self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None

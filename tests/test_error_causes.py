@@ -230,9 +230,10 @@ def test_refine_out_into_a_missing_folder_fails_before_any_round(tmp_path, capsy
 def test_evaluate_with_an_empty_address_blames_the_address(capsys):
     from agents.cli import main
 
-    code = main(["evaluate", "passive", "--address", ""])
-    err = capsys.readouterr().err
-    assert code == 2 and "--address: empty" in err and "--workers" not in err
+    with pytest.raises(SystemExit) as exc:  # refused by the parser (issue 44: no empty value)
+        main(["evaluate", "passive", "--address", ""])
+    line = capsys.readouterr().err.strip().splitlines()[-1]  # after the usage
+    assert exc.value.code == 2 and "--address: is empty" in line and "--workers" not in line
 
 
 @pytest.mark.parametrize("name", ["Skyhook", "Groundhook", "Passive", "LQR"])

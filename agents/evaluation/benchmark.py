@@ -381,12 +381,14 @@ def benchmark(
     episodes: int = 10,
     out: str | Path | None = None,
     overwrite: bool = False,
-    first_seed: int = 0,
+    first_seed: int | None = None,
     address: str | None = None,
 ) -> Path:
-    """Run the protocol (module docstring); returns the output folder."""
+    """Run the protocol (module docstring); returns the output folder. ``first_seed``
+    ``None``: the config's ``seed`` (a value the file gives is not replaced by a default)."""
     cfg = load_config(config)
     seeds = val.integer(seeds, "seeds", min=1, max=1000)
+    first_seed = cfg.seed if first_seed is None else first_seed
     first_seed = val.integer(first_seed, "first_seed", min=0, max=MAX_SEED - seeds)
     episodes = val.integer(episodes, "episodes", min=1, max=1000)
     if timesteps is not None:
@@ -396,7 +398,11 @@ def benchmark(
     block = cfg.to_yaml_dict()
     seed_list = list(range(first_seed, first_seed + seeds))
     tasks = [SeedTask(block, str(out / f"seed_{s}"), s, timesteps, episodes) for s in seed_list]
-    print(f"training {seeds} seeds of {cfg.env_id} ({cfg.algo}) …", file=sys.stderr)
+    print(
+        f"training {seeds} seeds of {cfg.env_id} ({cfg.algo}): {first_seed} … "
+        f"{first_seed + seeds - 1} …",
+        file=sys.stderr,
+    )
     rows: list[dict[str, Any]] = []
     for part in run_tasks(_run_seed, tasks, workers, address):
         rows.extend(part)
@@ -432,7 +438,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("config", help="agents.training.train config: YAML file or packaged name")
     parser.add_argument("--seeds", type=bounded_int(1, 1000), default=3, help="training seeds")
     seed = parser.add_argument(
-        "--seed", type=seed_number, default=0, help="first training seed (then +1, +2, ...)"
+        "--seed",
+        type=seed_number,
+        default=None,
+        help="first training seed (then +1, +2, ...); default: the config's seed",
     )
     add_deprecated(parser, seed, "--first-seed")
     parser.add_argument("--timesteps", type=bounded_int(1), help="override n_timesteps")

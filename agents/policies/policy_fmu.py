@@ -477,7 +477,8 @@ def export_policy(
     outs = [path] + ([Path(onnx)] if onnx is not None else [])
     for out, suffix in zip(outs, (".fmu", ".onnx"), strict=False):
         if out.suffix != suffix:
-            raise ValueError(f"output {str(out)!r} must end in {suffix}")
+            flag = "-o/--out" if suffix == ".fmu" else "--onnx"
+            raise ValueError(f"{flag} {str(out)!r}: the output must end in {suffix}")
         if out.exists() and not overwrite:
             raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
     zip_path, cfg_path, name = _policy_zip(policy)

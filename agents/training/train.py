@@ -417,6 +417,13 @@ class _EvalCallback(BaseCallback):
         self.timing.eval_s += time.perf_counter() - t0
 
 
+def _replaced(flag: str, given: int, key: str, value: int, show: bool) -> None:
+    """The note on stderr (not with ``--quiet``) that the flag's value replaces the config's
+    other one: an explicit value wins, never silently."""
+    if show and given != value:
+        print(f"note: {flag} {given} replaces the config's {key}: {value}", file=sys.stderr)
+
+
 def train(
     config: str | Path | dict[str, Any],
     out: str | Path | None = None,
@@ -437,9 +444,13 @@ def train(
     cfg = load_config(config, algo)
     out = run_folder(config, out)
     if total_timesteps is not None:
-        cfg.n_timesteps = val.integer(total_timesteps, "total_timesteps", 1, MAX_TIMESTEPS)
+        given = val.integer(total_timesteps, "total_timesteps", 1, MAX_TIMESTEPS)
+        _replaced("--timesteps", given, "n_timesteps", cfg.n_timesteps, progress)
+        cfg.n_timesteps = given
     if seed is not None:
-        cfg.seed = val.integer(seed, "seed", min=0, max=MAX_SEED)
+        given = val.integer(seed, "seed", min=0, max=MAX_SEED)
+        _replaced("--seed", given, "seed", cfg.seed, progress)
+        cfg.seed = given
     torch.set_num_threads(cfg.n_threads)
     set_random_seed(cfg.seed)
     mode = cfg.vectorization_mode

@@ -290,6 +290,7 @@ def hyperparameters(algo: type[BaseAlgorithm], hyper: dict[str, Any]) -> dict[st
 def _env_block(config: str | Path | dict[str, Any]) -> tuple[str, dict[str, Any]]:
     """The env id and its settings of a config (file, packaged name or dict): exactly one
     top-level key, a registered env, an SB3 (not RLlib) run."""
+    source = "config"
     if isinstance(config, str | Path):
         text, source = val.resolve_yaml(config, "config", "railgym", ("configs", "agents"))
         config = val.load_yaml(text, source)
@@ -308,7 +309,10 @@ def _env_block(config: str | Path | dict[str, Any]) -> tuple[str, dict[str, Any]
     env_id = ids[0]
     if env_id not in gym.registry:
         raise val.FieldError(
-            "env id", f"env id {env_id!r} is not a registered Gymnasium env", full=True
+            "env id",
+            f"{source}: env id {env_id!r} is not a registered Gymnasium env (the config's "
+            "top-level key)",
+            full=True,
         )
     block = config[env_id]
     if not isinstance(block, dict):

@@ -101,7 +101,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from railgym import _checks as val
-from railgym.envs.vector import reset_plan
+from railgym.envs.vector import reset_options, reset_plan
 
 __all__ = ["Batch", "BatchEnv", "BatchVectorEnv", "ResetNeeded", "check_actions", "step_grid"]
 
@@ -277,7 +277,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
     def _apply_options(self, options: dict[str, Any]) -> None:
         """Validate and store ``reset`` options; the default accepts none."""
         if options:
-            raise ValueError(f"unknown reset option(s) {sorted(options)}")
+            raise ValueError(f"options: unknown reset option(s) {sorted(options)}")
 
     def _case(self, sim: Batch, idx: np.ndarray) -> dict[str, np.ndarray]:
         """``info["case"]`` of the systems ``idx`` of ``sim`` (this env's batch or its vector
@@ -340,7 +340,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         """New episode; ``options``: ``hold`` and those of the env's ``_apply_options``;
         ``info["case"]``: the episode's case (see the module docstring)."""
         super().reset(seed=seed)
-        self._take_options(dict(options or {}), seed is not None)
+        self._take_options(reset_options(options), seed is not None)
         self.sim.reset(0, self.np_random, self._episode())
         self._rng1 = [self.np_random]
         self._started = True

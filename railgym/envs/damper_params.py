@@ -34,6 +34,7 @@ __all__ = [
     "DEFAULT_DAMPER",
     "DamperArgs",
     "damper_channels",
+    "check_element_damper",
     "damper_law_of",
 ]
 
@@ -113,9 +114,12 @@ class DamperArgs(Params):
             raise val.FieldError(
                 "actuator", "'semi-active' is not available with backend='fmu'", full=False
             )
-        self._set("damper_params", load_damper(self.damper))
+        params = load_damper(self.damper)
+        self._set("damper_params", params)
         if backend == "surrogate":
-            self._set("damper_model", _damper_element(self.damper, self.damper_element))
+            element = _damper_element(self.damper, self.damper_element)
+            check_element_damper(element, self.damper, params)
+            self._set("damper_model", element)
         elif self.damper_element is not None:
             warnings.warn(
                 f"damper_element is ignored by backend={backend!r} (only "
@@ -153,6 +157,8 @@ def _damper_element(damper: Any, element: Any) -> DamperElement:
         raise val.FieldTypeError(
             "damper_element", f"must be a packaged name or a .json path, got {element!r}"
         )
+    if Path(element).is_dir():
+        raise val.FieldError("damper_element", f"{str(element)!r} is a folder, expected a file")
     if str(element).endswith(".json"):
         try:
             return load_damper_element(element)
@@ -161,6 +167,38 @@ def _damper_element(damper: Any, element: Any) -> DamperElement:
     if not _is_packaged_element(str(element)):
         raise val.FieldError("damper_element", f"no packaged element {str(element)!r}")
     return _packaged_element(str(element))
+
+
+def check_element_damper(element: DamperElement, damper: Any, params: DamperParams) -> None:
+    """Refuse an element built for another damper than ``damper`` (its loaded ``params``):
+    the damper the element records (its parameters, or a packaged damper's name) must have
+    ``params``; an element that records neither is used with a warning naming both."""
+    built = element.report.get("damper_params")
+    if isinstance(built, dict) and set(built) == set(DamperParams._fields):
+        built_for: DamperParams = DamperParams(**{k: float(v) for k, v in built.items()})
+    elif (resources.files("railgym") / "configs" / "dampers" / f"{element.damper}.yaml").is_file():
+        built_for = load_damper(element.damper)
+    else:
+        warnings.warn(
+            f"damper_element: built for damper {element.damper!r}, whose parameters it does "
+            f"not record; it runs for damper={str(damper)!r} unchecked",
+            UserWarning,
+            stacklevel=caller_level(),
+        )
+        return
+    if not np.allclose(built_for, params, rtol=1e-9, atol=0.0):
+        diff = ", ".join(
+            f"{k} {a:g} (given {b:g})"
+            for k, a, b in zip(DamperParams._fields, built_for, params, strict=True)
+            if not np.isclose(a, b, rtol=1e-9, atol=0.0)
+        )
+        raise val.FieldError(
+            "damper_element",
+            f"was built for damper {element.damper!r} ({diff}), not for damper="
+            f"{str(damper)!r}: build the element of this damper (python -m "
+            "railgym.vehicles.semi_active_element --damper DAMPER --out ELEMENT.json) or use "
+            "backend='reference'",
+        )
 
 
 def _is_packaged_element(name: str) -> bool:

@@ -229,17 +229,25 @@ ELEMENT_UNITS = ("m", "m/s", "m")
 ELEMENT_OUTPUT_UNIT = "N"
 
 
+def unnamed(inputs: list[str], output: Any, units: dict[str, Any]) -> bool:
+    """Whether the features are those ``surrogates.io.save`` writes for a model without
+    names: inputs ``u1 … ud``, output ``v``, no units."""
+    return inputs == [f"u{i + 1}" for i in range(len(inputs))] and output == "v" and not units
+
+
 def _check_element_units(surrogate: Any, d: int) -> None:
     """A model with named inputs (``features_``: read from a file, or from
     ``surrogates.build(..., inputs=, units=)``) must give the units the kernel assumes:
     deflection m, velocity m/s (and the Maxwell state m) in, force N out; an element fitted on
-    another problem, or in mm or kN, is refused (the error names the fix). A model fitted in
-    this session without names carries no units and is taken as SI."""
+    another problem, or in mm or kN, is refused (the error names the fix). A model without
+    names (fitted by ``surrogates.build(U, V)``) carries no units and is taken as SI, in
+    memory and after ``surrogates.io.save`` → ``load`` alike (the file holds the placeholder
+    names ``u1 … ud``, ``v`` and no units: :func:`unnamed`)."""
     features = getattr(surrogate, "features_", None) or {}
     units, names = features.get("units") or {}, list(features.get("inputs") or [])
-    if len(names) != d:  # no names: a model fitted in this session
-        return
     output = features.get("output")
+    if len(names) != d or unnamed(names, output, units):
+        return
     wanted = [*zip(names[:d], ELEMENT_UNITS[:d], strict=True), (output, ELEMENT_OUTPUT_UNIT)]
     for name, unit in wanted:
         got = units.get(name)
@@ -335,7 +343,7 @@ class TrackEnvShell(BatchEnv):
         ``profile`` raise."""
         unknown = set(options) - {"track_class", "speed", "profile"}
         if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}")
+            raise ValueError(f"options: unknown reset option(s) {sorted(unknown)}")
         tc = options.get("track_class", self.track_class)
         sp = options.get("speed", self._speed_arg if "track_class" not in options else None)
         return tc, sp

@@ -7,6 +7,20 @@ from typing import Any
 import numpy as np
 from gymnasium.utils import seeding
 
+from railgym import _checks as val
+
+
+def reset_options(options: Any) -> dict[str, Any]:
+    """A copy of ``reset(options=...)``: ``None`` or a mapping of option names (strings);
+    anything else is a ``FieldTypeError`` naming ``options``."""
+    if options is None:
+        return {}
+    options = dict(val.mapping(options, "options"))
+    for key in options:
+        if not isinstance(key, str):
+            raise val.FieldTypeError("options", f"keys must be option names, got {key!r}")
+    return options
+
 
 def reset_plan(
     n: int,
@@ -22,7 +36,7 @@ def reset_plan(
 
     Returns ``(mask, rngs, options without reset_mask)``.
     """
-    options = dict(options or {})
+    options = reset_options(options)
     mask = options.pop("reset_mask", None)
     if mask is None:
         mask = np.ones(n, np.bool_)

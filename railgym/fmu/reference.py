@@ -15,10 +15,11 @@ from __future__ import annotations
 import json
 from importlib import resources
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import yaml
 
+from railgym import _checks as val
 from railgym.fmu.description import Variable, describe
 from railgym.track import EPISODE_DURATION
 from railgym.vehicles.vehicle.model import DEFAULT_DT as VEHICLE_DT
@@ -170,10 +171,22 @@ def _whole_name(vehicle: str) -> str:
     return "manchester_whole" if vehicle == "manchester" else str(vehicle)
 
 
+def _require(suspension: Any, what: str, vehicle: str) -> None:
+    """A FieldError naming the first section of the dynamic reference model (damper, air
+    spring) that ``suspension`` lacks: the FMU's C constants would be undefined."""
+    try:
+        suspension.require(("damper", "air_spring"), what)
+    except val.FieldError as exc:
+        raise val.FieldError(exc.field, f"vehicle {str(vehicle)!r}: {exc}", full=True) from None
+
+
 def _reference_model(env: str, vehicle: str, flexible: bool) -> _ReferenceModel:
     """The reference model of ``env`` (``vehicle``, ``flexible`` as the env's)."""
+    what = "the reference FMU (export-reference-fmu)"
     if env == "vertical":
-        elem = load_vehicle(vehicle).kernel_params()._asdict()
+        veh = load_vehicle(vehicle)
+        _require(veh, what, vehicle)
+        elem = veh.kernel_params()._asdict()
         return _ReferenceModel(
             {"E": elem},
             "vertical_model.h",
@@ -183,6 +196,7 @@ def _reference_model(env: str, vehicle: str, flexible: bool) -> _ReferenceModel:
             "damper, bump stops), VerticalSuspension-v1 backend='reference'",
         )
     whole = load_whole_vehicle(_whole_name(vehicle))
+    _require(whole.suspension, what, vehicle)
     return _ReferenceModel(
         {
             "E": whole.suspension.kernel_params()._asdict(),

@@ -585,6 +585,8 @@ def _collect(
         parser.error(str(err))
     progress = stages()
     data = None
+    if args.fmu is not None and args.fmu_map is None:
+        parser.error("--fmu: only with --fmu-map (the FMU of that mapping file)")
     given = (("--fmu-map", args.fmu_map), ("--vehicle", args.vehicle), ("--seed", args.seed))
     for flag, value in given:
         if args.out is None and value is not None:

@@ -446,6 +446,7 @@ def build_damper_element(
         "oob_nrms": rep.oob_nrms,
         "at_cap": rep.scores.at_cap(),
         "training_time_s": time.perf_counter() - t0,
+        "damper_params": {k: float(v) for k, v in damper._asdict().items()},
     }
     return DamperElement(model, ell, float(damper.eta), name, report)
 

@@ -37,6 +37,27 @@ def _control_rate(env: gym.Env) -> float:
     return 1.0 / float(control_dt)
 
 
+#: highest sample rate of ``fs``, Hz (the weighting filters are designed up to it)
+MAX_FS = 1e6
+
+
+def _sample_rate(env: gym.Env, fs: Any) -> float:
+    """``fs`` (Hz), else the env's control rate; a given ``fs`` must be the control rate of
+    an env that has one (a FieldError naming ``fs`` otherwise: the statistics would be those
+    of another rate)."""
+    if fs is None:
+        return _control_rate(env)
+    fs = val.positive(fs, "fs", MAX_FS)
+    control_dt = getattr(getattr(env.unwrapped, "cfg", None), "control_dt", None)
+    if control_dt is not None and not math.isclose(fs * float(control_dt), 1.0, rel_tol=1e-9):
+        raise val.FieldError(
+            "fs",
+            f"({fs:g} Hz) is not the env's control rate 1/control_dt = "
+            f"{1.0 / float(control_dt):g} Hz; leave fs out (it is read from the env)",
+        )
+    return fs
+
+
 class RideComfort(gym.Wrapper):
     """ISO 2631-1 and Sperling ride comfort of the acceleration in ``info[acc_key]``.
 
@@ -88,7 +109,7 @@ class RideComfort(gym.Wrapper):
         point: int | None = None,
     ) -> None:
         super().__init__(env)
-        fs = _control_rate(env) if fs is None else val.positive(fs, "fs")
+        fs = _sample_rate(env, fs)
         reward_weight = val.non_negative(reward_weight, "reward_weight")
         acc_ref = val.positive(acc_ref, "acc_ref")
         tau, discard = val.positive(tau, "tau"), val.non_negative(discard, "discard")

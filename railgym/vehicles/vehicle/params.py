@@ -14,7 +14,14 @@ import numpy as np
 from railgym import _checks as val
 from railgym.vehicles.vertical.params import VerticalVehicle, load_vehicle
 
-__all__ = ["BETA_L", "FLOOR_POINTS", "WholeVehicle", "load_whole_vehicle", "mode_shape"]
+__all__ = [
+    "BETA_L",
+    "FLOOR_POINTS",
+    "WholeVehicle",
+    "check_geometry",
+    "load_whole_vehicle",
+    "mode_shape",
+]
 
 #: floor points where the carbody acceleration is reported: over the front bogie, centre,
 #: over the rear bogie (multiples of the bogie semi-spacing ``a``)
@@ -99,6 +106,34 @@ def _beside(base: Any, name_or_path: str | Path) -> Any:
     return base
 
 
+def check_geometry(vehicle: WholeVehicle) -> None:
+    """Refuse what cannot describe a vehicle (a file's, :func:`load_whole_vehicle`): bogies
+    that overlap (b ≥ a), wheelsets beyond the carbody's ends (a + b > L/2), a pitch inertia
+    no body of this mass and length has (above m·(L/2)², all the mass at the ends). Limits
+    made in code (a = b = 0 to compare with the one-bogie model) are not refused."""
+    a, b, length = vehicle.bogie_semi_spacing, vehicle.semi_wheelbase, vehicle.carbody_length
+    if b >= a:
+        raise val.FieldError(
+            "whole_vehicle.semi_wheelbase",
+            f"({b!r} m) must be less than bogie_semi_spacing ({a!r} m): the bogies' inner "
+            "wheelsets would overlap",
+        )
+    if a + b > 0.5 * length:
+        raise val.FieldError(
+            "whole_vehicle.semi_wheelbase",
+            f"({b!r} m): the outer wheelsets at ±(a + b) = ±{a + b:g} m lie beyond the "
+            f"carbody's ends (carbody_length / 2 = {0.5 * length:g} m)",
+        )
+    top = vehicle.carbody_mass * (0.5 * length) ** 2
+    if vehicle.carbody_pitch_inertia > top:
+        raise val.FieldError(
+            "whole_vehicle.carbody_pitch_inertia",
+            f"({vehicle.carbody_pitch_inertia:g} kg·m²) exceeds carbody_mass·"
+            f"(carbody_length/2)² = {top:g} kg·m², the most a body of that mass and length "
+            "can have",
+        )
+
+
 def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVehicle:
     """Load a whole vehicle: a packaged name or the path of a ``.yaml`` file with the
     sections ``base`` (name or path of the one-bogie vehicle; a relative path is read
@@ -117,7 +152,9 @@ def load_whole_vehicle(name_or_path: str | Path = "manchester_whole") -> WholeVe
         top.done()
         mass = val.positive(values["carbody_mass"], "whole_vehicle.carbody_mass")
         suspension = replace(base, m2=0.5 * mass)
-        return WholeVehicle(name=str(name_or_path), suspension=suspension, **values)
+        whole = WholeVehicle(name=str(name_or_path), suspension=suspension, **values)
+        check_geometry(whole)
+        return whole
     except val.FieldError as exc:
         if str(exc).startswith(source):
             raise
