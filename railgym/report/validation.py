@@ -54,7 +54,7 @@ __all__ = [
 CLASSES = (3, 4, 5, 6)
 #: seed base of the unseen tracks
 SEED_BASE = 2000
-#: skyhook gain, N·s/m (``agents.controllers.classical.DEFAULT_C_SKY``)
+#: skyhook gain, N·s/m (``agents.controllers.control_base.DEFAULT_C_SKY``)
 C_SKY = 4.7e4
 #: acceleration scale of the env's reward, m/s² (``railgym.envs.vertical.env.ACC_REF``)
 ACC_REF = 0.75
