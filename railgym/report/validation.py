@@ -195,18 +195,17 @@ def _cell(c: _Cell) -> list[tuple[str, str, tuple[float, ...]]]:
     dt = DEFAULT_DT["dynamic"]
     veh, n_sub = c.vehicle, c.n_sub
     _, z, zdot = track_time_input(c.cls, class_speed(c.cls), c.duration, dt, c.seed)
+
+    def run(variant: str, law: ForceLaw | None, element: Any) -> Any:
+        if law is None:
+            return _passive(variant, veh, z, zdot, element, n_sub, dt)
+        return _closed_loop(variant, veh, z, zdot, law, element, n_sub, dt, c.f_max)
+
     rows = []
     for cname, law in c.controllers.items():
-        if law is None:
-            ref = _passive("dynamic", veh, z, zdot, None, n_sub, dt)
-        else:
-            ref = _closed_loop("dynamic", veh, z, zdot, law, None, n_sub, dt, c.f_max)
+        ref = run("dynamic", law, None)
         for ename, element in c.elements.items():
-            if law is None:
-                sur = _passive("surrogate", veh, z, zdot, element, n_sub, dt)
-            else:
-                sur = _closed_loop("surrogate", veh, z, zdot, law, element, n_sub, dt, c.f_max)
-            rows.append((ename, cname, _errors(sur, ref)))
+            rows.append((ename, cname, _errors(run("surrogate", law, element), ref)))
     return rows
 
 
