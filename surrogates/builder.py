@@ -150,33 +150,19 @@ def build(
     V = as_outputs(V, U.shape[0])
     n = U.shape[0]
     m = _check_plan(U, V, kind, m, sampling, selection, k)
-    named = inputs is not None or output is not None or units is not None
     in_names, out_name = element_names(U.shape[1], inputs, output)
     unit_map = check_units(units, in_names, out_name)
     cands = list(candidates) if candidates is not None else default_candidates(kind, U.shape[1])
     make = _checked_factory(kind, cands, extrapolation, model_params)
-
-    def stage(name: str) -> Callable[[int, int], None] | None:
-        return (lambda i, total: progress(name, i, total)) if progress else None
-
     with timer() as t_total:
-        train_idx, oob_idx = select(U, m, method=sampling, seed=seed, progress=stage("sampling"))
-        Ut, Vt = U[train_idx], V[train_idx]
-        if selection == "oob":
-            result = select_oob(make, cands, Ut, Vt, U[oob_idx], V[oob_idx], stage("selection"))
-        else:
-            result = select_kfold(make, cands, Ut, Vt, k=k, seed=seed, progress=stage("selection"))
+        plan = (m, sampling, selection, seed, k)
+        train_idx, oob_idx, result = _sample_and_select(U, V, make, cands, plan, progress)
         with timer() as t_fit:
-            model = make(result.best).fit(Ut, Vt)
-    if named:  # the static form, as io.load reads a file without a form
-        model.features_ = {
-            "inputs": in_names,
-            "output": out_name,
-            "units": unit_map,
-            "form": "static",
-            "tau": None,
-            "known_physics": [],
-        }
+            model = make(result.best).fit(U[train_idx], V[train_idx])
+    if inputs is not None or output is not None or units is not None:
+        # the static form, as io.load reads a file without a form
+        model.features_ = {"inputs": in_names, "output": out_name, "units": unit_map}
+        model.features_.update(form="static", tau=None, known_physics=[])
     err, err_kind, nrms = _oob_errors(model, U[oob_idx], V[oob_idx])
     report = BuildReport(
         kind=kind,
@@ -196,6 +182,30 @@ def build(
         oob_idx=oob_idx,
     )
     return model, report
+
+
+def _sample_and_select(
+    U: np.ndarray,
+    V: np.ndarray,
+    make: Factory,
+    cands: list[Any],
+    plan: tuple[int, str, str, int | None, int],
+    progress: Callable[[str, int, int], None] | None,
+) -> tuple[np.ndarray, np.ndarray, SelectionResult]:
+    """The training and out-of-bag indices of the ``(m, sampling, selection, seed, k)`` plan
+    and the candidates' scores on them (:func:`build`)."""
+    m, sampling, selection, seed, k = plan
+
+    def stage(name: str) -> Callable[[int, int], None] | None:
+        return (lambda i, total: progress(name, i, total)) if progress else None
+
+    train_idx, oob_idx = select(U, m, method=sampling, seed=seed, progress=stage("sampling"))
+    Ut, Vt = U[train_idx], V[train_idx]
+    if selection == "oob":
+        result = select_oob(make, cands, Ut, Vt, U[oob_idx], V[oob_idx], stage("selection"))
+    else:
+        result = select_kfold(make, cands, Ut, Vt, k=k, seed=seed, progress=stage("selection"))
+    return train_idx, oob_idx, result
 
 
 def _check_plan(

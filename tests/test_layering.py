@@ -87,10 +87,14 @@ PHYSICS_PACKAGES = {
 
 @pytest.mark.parametrize("model", sorted(PHYSICS_PACKAGES))
 def test_each_model_has_its_physics_package(model):
-    folder = ROOT / "railgym" / "vehicles" / model
+    _assert_package(ROOT / "railgym" / "vehicles" / model, PHYSICS_PACKAGES[model])
+
+
+def _assert_package(folder, modules):
     assert (folder / "__init__.py").is_file()
-    for module in PHYSICS_PACKAGES[model]:
-        assert (folder / f"{module}.py").is_file(), f"railgym/vehicles/{model}/{module}.py"
+    for module in modules:
+        path = folder / f"{module}.py"
+        assert path.is_file(), path.relative_to(ROOT).as_posix()
 
 
 #: one folder per env: its module, batch, frame (and FMU batch, declared arguments, ...)
@@ -103,10 +107,7 @@ ENV_FOLDERS = {
 
 @pytest.mark.parametrize("env", sorted(ENV_FOLDERS))
 def test_each_env_has_its_folder(env):
-    folder = ROOT / "railgym" / "envs" / env
-    assert (folder / "__init__.py").is_file()
-    for module in ENV_FOLDERS[env]:
-        assert (folder / f"{module}.py").is_file(), f"railgym/envs/{env}/{module}.py"
+    _assert_package(ROOT / "railgym" / "envs" / env, ENV_FOLDERS[env])
 
 
 def test_envs_outside_their_folders_import_no_env_folder():

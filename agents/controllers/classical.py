@@ -27,8 +27,6 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.control_base import (
-    DEFAULT_C_GND,
-    DEFAULT_C_SKY,
     Controller,
     LQDesign,
     VehicleController,
@@ -41,11 +39,8 @@ from agents.controllers.control_base import (
 )
 from railgym.envs.vehicle.env import ACC_REF as VEHICLE_ACC_REF
 from railgym.envs.vertical.env import ACC_REF
-from railgym.vehicles.vertical.params import linear_model
 
 __all__ = [
-    "DEFAULT_C_GND",
-    "DEFAULT_C_SKY",
     "LQR",
     "BogieSkyhook",
     "Groundhook",
@@ -53,11 +48,6 @@ __all__ = [
     "Passive",
     "Skyhook",
     "VehicleLQR",
-    "default_c_gnd",
-    "default_c_sky",
-    "linear_model",
-    "vehicle_lqr_gain",
-    "vertical_lqr_gain",
 ]
 
 

@@ -30,8 +30,8 @@ They read what the force-mode baselines read: the skyhook family the bogie and c
 velocities (sensors: ``carbody_vel`` and ``ẋ1 = ẋ2 + deflection_rate``; full: ``v1``, ``v2``;
 whole vehicle: ``carbody_vel_front``, ``deflection_rate_front`` …, or the full state), the LQG
 the sensor channels, and all the deflection rate ``v``. Gains: those of the force-mode
-skyhook and groundhook (:func:`agents.controllers.classical.default_c_sky`,
-:func:`~agents.controllers.classical.default_c_gnd`), scaled to the vehicle.
+skyhook and groundhook (:func:`agents.controllers.control_base.default_c_sky`,
+:func:`~agents.controllers.control_base.default_c_gnd`), scaled to the vehicle.
 """
 
 from __future__ import annotations
@@ -173,8 +173,8 @@ class ConstantCommand(_SemiActive):
 class DamperSkyhook(_SemiActive):
     """Continuous semi-active skyhook: the demand ``−c_sky·ẋ2`` through the damper's inverse.
 
-    Default ``c_sky``: :func:`agents.controllers.classical.default_c_sky` (the force-mode skyhook's
-    damping ratio 0.2 of the bounce mode; 47 kN·s/m on the Manchester vehicle).
+    Default ``c_sky``: :func:`agents.controllers.control_base.default_c_sky` (the force-mode
+    skyhook's damping ratio 0.2 of the bounce mode; 47 kN·s/m on the Manchester vehicle).
     """
 
     needs_velocities = True
@@ -202,7 +202,7 @@ class DamperGroundhook(_SemiActive):
     """Semi-active groundhook: the demand ``+c_gnd·ẋ1`` on the carbody (the reaction of a
     damper from the bogie to the ground, :class:`agents.controllers.classical.Groundhook`)
     through the damper's inverse. Default ``c_gnd``:
-    :func:`agents.controllers.classical.default_c_gnd` (40 kN·s/m on the Manchester vehicle)."""
+    :func:`agents.controllers.control_base.default_c_gnd` (40 kN·s/m on the Manchester vehicle)."""
 
     needs_velocities = True
 

@@ -53,11 +53,8 @@ from agents._args import (
     seed_number,
 )
 from agents.controllers.registry import (
-    BASELINES,
     CRASH_ID,
     ENV_ID,
-    PREVIEW_BASELINES,
-    SEMI_ACTIVE_BASELINES,
     VEHICLE_ID,
     baselines_of,
     crash_factories,
@@ -75,11 +72,7 @@ from railgym.report.output import prepare_output_dir, write_text_atomic
 from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
 
 __all__ = [
-    "BASELINES",
     "HELD_OUT",
-    "PREVIEW_BASELINES",
-    "SEMI_ACTIVE_BASELINES",
-    "baselines_of",
     "benchmark",
     "main",
 ]

@@ -25,6 +25,7 @@ __all__ = [
     "VEHICLE_COMFORT",
     "VehicleTask",
     "evaluate_vehicle",
+    "loaded_policy",
     "run_policy",
     "run_vehicle_policy",
     "with_aliases",
@@ -154,14 +155,18 @@ def run_vehicle_policy(
     }
 
 
+def loaded_policy(
+    policy: str, trust: bool, env_kwargs: dict[str, Any], env_id: str = ENV_ID
+) -> tuple[Any, dict[str, Any]]:
+    """The factory of a controller or saved policy (:func:`load_policy`, in the worker that
+    runs the task) and ``env_kwargs`` with the env keywords the policy needs."""
+    factory, needed, _ = load_policy(policy, env_id, trust)
+    return factory, with_policy_kwargs(needed, env_kwargs, policy)
+
+
 def _run_vehicle_task(task: VehicleTask) -> dict[str, Any]:
-    factory, env_kwargs, _ = load_policy(task.policy, VEHICLE_ID, task.trust)
-    return run_vehicle_policy(
-        factory,
-        with_policy_kwargs(env_kwargs, task.env_kwargs, task.policy),
-        task.episodes,
-        task.seed,
-    )
+    factory, env_kwargs = loaded_policy(task.policy, task.trust, task.env_kwargs, VEHICLE_ID)
+    return run_vehicle_policy(factory, env_kwargs, task.episodes, task.seed)
 
 
 def evaluate_vehicle(

@@ -16,8 +16,8 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
-from agents._args import MAX_EPISODES, with_policy_kwargs
-from agents.evaluation.runs import run_policy
+from agents._args import MAX_EPISODES
+from agents.evaluation.runs import loaded_policy, run_policy
 from agents.policies.loading import load_policy
 from railgym import _checks as val
 from railgym.parallel import run_tasks
@@ -47,13 +47,8 @@ def _run_controller(task: ControllerTask) -> dict[str, float]:
 
 
 def _run_policy(task: PolicyTask) -> dict[str, float]:
-    factory, env_kwargs, _ = load_policy(task.policy, trust=task.trust)
-    return run_policy(
-        factory,
-        with_policy_kwargs(env_kwargs, task.env_kwargs, task.policy),
-        task.episodes,
-        task.seed,
-    )
+    factory, env_kwargs = loaded_policy(task.policy, task.trust, task.env_kwargs)
+    return run_policy(factory, env_kwargs, task.episodes, task.seed)
 
 
 def controller_sweep(

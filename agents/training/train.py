@@ -88,6 +88,7 @@ from agents.training.train_config import (
     MAX_SEED,
     MAX_TIMESTEPS,
     VECTORIZATION_MODES,
+    TrainConfig,
     hyperparameters,
     load_config,
 )
@@ -457,23 +458,14 @@ def train(
     venv = make_vec(cfg.env_id, cfg.n_envs, cfg.env_kwargs, mode)
     if cfg.envelope is not None:
         venv = EnvelopeVectorEnv(venv, check_envelope(cfg.envelope), cfg.seed)
-    if cfg.residual is not None:
-        venv = ResidualVectorEnv(
-            venv, build_controller(cfg.env_id, cfg.residual, venv), cfg.residual_scale
-        )
-    if cfg.action_hold > 1:
-        venv = ActionHold(venv, cfg.action_hold)
+    venv = _residual_and_hold(venv, cfg, venv)
     env = VecMonitor(GymVecToSB3(venv))
     opened: list[Any] = [env]
     try:  # evaluation env, model and output folder before anything is written
         eval_kwargs = {**cfg.env_kwargs, **cfg.eval_env_kwargs}
         eval_venv = make_vec(cfg.env_id, cfg.n_eval_episodes, eval_kwargs, mode, "eval_env_kwargs")
         opened.append(eval_venv)
-        if cfg.residual is not None:
-            base = build_controller(cfg.env_id, cfg.residual, venv)  # the training case
-            eval_venv = ResidualVectorEnv(eval_venv, base, cfg.residual_scale)
-        if cfg.action_hold > 1:
-            eval_venv = ActionHold(eval_venv, cfg.action_hold)
+        eval_venv = _residual_and_hold(eval_venv, cfg, venv)  # the training case's base
         hyper = {"device": "cpu", **hyperparameters(ALGOS[cfg.algo], cfg.hyperparameters)}
         try:
             model = ALGOS[cfg.algo](cfg.policy, env, seed=cfg.seed, **hyper)
@@ -497,6 +489,34 @@ def train(
     ]
     if progress:
         callbacks.append(_ProgressBar())
+    run.update(_learn(model, cfg, callbacks, timing))
+    with atomic_path(out / "model.zip") as tmp:
+        model.save(tmp)
+    write_manifest(out)
+    if (out / "checkpoints").is_dir():
+        write_manifest(out / "checkpoints")
+    env.close()
+    eval_venv.close()
+    write_config(out, cfg, run)
+    return out
+
+
+def _residual_and_hold(venv: Any, cfg: TrainConfig, base: Any) -> Any:
+    """``venv`` with the config's residual controller (designed on ``base``, the training
+    vector env) and action hold, where the config asks for them."""
+    if cfg.residual is not None:
+        controller = build_controller(cfg.env_id, cfg.residual, base)
+        venv = ResidualVectorEnv(venv, controller, cfg.residual_scale)
+    if cfg.action_hold > 1:
+        venv = ActionHold(venv, cfg.action_hold)
+    return venv
+
+
+def _learn(
+    model: Any, cfg: TrainConfig, callbacks: list[BaseCallback], timing: _Timing
+) -> dict[str, Any]:
+    """Train ``model`` for the config's timesteps on its env threads; the run's times (s) and
+    speeds (steps/s)."""
     t0, cpu0 = time.perf_counter(), time.process_time()
     threads = numba.get_num_threads()
     numba.set_num_threads(min(cfg.env_threads, numba.config.NUMBA_NUM_THREADS))
@@ -505,27 +525,18 @@ def train(
     finally:
         numba.set_num_threads(threads)
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
-    with atomic_path(out / "model.zip") as tmp:
-        model.save(tmp)
-    write_manifest(out)
-    if (out / "checkpoints").is_dir():
-        write_manifest(out / "checkpoints")
-    env.close()
-    eval_venv.close()
     steps = int(model.num_timesteps)
-    run.update(
-        wall_s=round(wall, 1),
-        steps_per_s=_rate(steps, wall),
-        timesteps=steps,
-        cpu_s=round(cpu, 1),
-        rollout_s=round(timing.rollout_s, 1),
-        rollout_steps_per_s=_rate(steps, timing.rollout_s),
-        update_s=round(timing.update_s, 1),
-        update_steps_per_s=_rate(steps, timing.update_s),
-        eval_s=round(timing.eval_s, 1),
-    )
-    write_config(out, cfg, run)
-    return out
+    return {
+        "wall_s": round(wall, 1),
+        "steps_per_s": _rate(steps, wall),
+        "timesteps": steps,
+        "cpu_s": round(cpu, 1),
+        "rollout_s": round(timing.rollout_s, 1),
+        "rollout_steps_per_s": _rate(steps, timing.rollout_s),
+        "update_s": round(timing.update_s, 1),
+        "update_steps_per_s": _rate(steps, timing.update_s),
+        "eval_s": round(timing.eval_s, 1),
+    }
 
 
 def build_parser() -> argparse.ArgumentParser:

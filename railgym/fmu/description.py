@@ -69,13 +69,7 @@ def describe(
         Variable(f"der({s.name})", _der_unit(s.unit), f"time derivative of {s.name}")
         for s in states
     ]
-    units = sorted({v.unit for v in (*inputs, *outputs, *states, *derivs) if v.unit})
-    for u in units:
-        if u not in MODEL_BASE_UNITS:
-            names = [v.name for v in (*inputs, *outputs, *states) if v.unit == u]
-            raise ValueError(
-                f"unit {u!r} of {names} has no SI base units: add it to MODEL_BASE_UNITS"
-            )
+    units = _units(inputs, outputs, states, derivs)
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(model_identifier)} '
@@ -93,6 +87,33 @@ def describe(
         stop_time=stop_time,
         step_size=step_size,
     )
+    lines += _variable_lines(inputs, outputs, states, derivs)
+    lines.append("</fmiModelDescription>")
+    return "\n".join(lines) + "\n"
+
+
+def _units(*groups: Sequence[Variable]) -> list[str]:
+    """The units of the variables in ``groups``, sorted; ``ValueError`` naming the variables
+    (of every group but the last, the derivatives) of a unit not in :data:`MODEL_BASE_UNITS`."""
+    units = sorted({v.unit for group in groups for v in group if v.unit})
+    for u in units:
+        if u not in MODEL_BASE_UNITS:
+            names = [v.name for group in groups[:-1] for v in group if v.unit == u]
+            raise ValueError(
+                f"unit {u!r} of {names} has no SI base units: add it to MODEL_BASE_UNITS"
+            )
+    return units
+
+
+def _variable_lines(
+    inputs: Sequence[Variable],
+    outputs: Sequence[Variable],
+    states: Sequence[Variable],
+    derivs: Sequence[Variable],
+) -> list[str]:
+    """The ``ScalarVariable`` lines (value references in the order of the arguments), the end
+    of ``ModelVariables`` and the ``ModelStructure`` line."""
+    lines: list[str] = []
     vr = 0
     for var in inputs:
         lines.append(_real(var, vr, "input", "", ' start="0.0"'))
@@ -119,8 +140,7 @@ def describe(
         f"  <ModelStructure><Outputs>{outs}</Outputs>{deriv_block}"
         f"<InitialUnknowns>{outs}{ders}</InitialUnknowns></ModelStructure>"
     )
-    lines.append("</fmiModelDescription>")
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def _der_unit(unit: str) -> str:

@@ -54,7 +54,7 @@ __all__ = [
 CLASSES = (3, 4, 5, 6)
 #: seed base of the unseen tracks
 SEED_BASE = 2000
-#: skyhook gain, N·s/m (``agents.controllers.classical.DEFAULT_C_SKY``)
+#: skyhook gain, N·s/m (``agents.controllers.control_base.DEFAULT_C_SKY``)
 C_SKY = 4.7e4
 #: acceleration scale of the env's reward, m/s² (``railgym.envs.vertical.env.ACC_REF``)
 ACC_REF = 0.75
@@ -195,18 +195,17 @@ def _cell(c: _Cell) -> list[tuple[str, str, tuple[float, ...]]]:
     dt = DEFAULT_DT["dynamic"]
     veh, n_sub = c.vehicle, c.n_sub
     _, z, zdot = track_time_input(c.cls, class_speed(c.cls), c.duration, dt, c.seed)
+
+    def run(variant: str, law: ForceLaw | None, element: Any) -> Any:
+        if law is None:
+            return _passive(variant, veh, z, zdot, element, n_sub, dt)
+        return _closed_loop(variant, veh, z, zdot, law, element, n_sub, dt, c.f_max)
+
     rows = []
     for cname, law in c.controllers.items():
-        if law is None:
-            ref = _passive("dynamic", veh, z, zdot, None, n_sub, dt)
-        else:
-            ref = _closed_loop("dynamic", veh, z, zdot, law, None, n_sub, dt, c.f_max)
+        ref = run("dynamic", law, None)
         for ename, element in c.elements.items():
-            if law is None:
-                sur = _passive("surrogate", veh, z, zdot, element, n_sub, dt)
-            else:
-                sur = _closed_loop("surrogate", veh, z, zdot, law, element, n_sub, dt, c.f_max)
-            rows.append((ename, cname, _errors(sur, ref)))
+            rows.append((ename, cname, _errors(run("surrogate", law, element), ref)))
     return rows
 
 

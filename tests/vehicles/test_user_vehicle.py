@@ -18,7 +18,8 @@ import pytest
 import yaml
 
 import railgym  # noqa: F401  (registers the envs)
-from agents.controllers.classical import DEFAULT_C_GND, DEFAULT_C_SKY, Groundhook, Skyhook
+from agents.controllers.classical import Groundhook, Skyhook
+from agents.controllers.control_base import DEFAULT_C_GND, DEFAULT_C_SKY
 from railgym._checks import resolve_yaml
 from railgym.vehicles.memory_element import memory_training_data
 from railgym.vehicles.vertical.params import linear_model, load_vehicle, vehicle_from_dict

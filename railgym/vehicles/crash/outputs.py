@@ -219,6 +219,8 @@ def recorded_result(
 
 
 def sub_steps(sample_dt: float, dt_max: float) -> tuple[float, int]:
+    if not (math.isfinite(dt_max) and dt_max > 0):
+        raise ValueError(f"dt must be a positive finite number (s), got {dt_max!r}")
     n_sub = max(1, math.ceil(sample_dt / dt_max - 1e-9))
     return sample_dt / n_sub, n_sub
 

@@ -689,23 +689,12 @@ def simulate_surrogate(
     scenario = load_scenario(scenario) if isinstance(scenario, str | Path) else scenario
     scenario = scenario.with_overrides(n_cars=n_cars, speed=speed)
     check_run(duration, sample_dt)
-    if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a positive finite number (s), got {dt!r}")
     dt, n_sub = sub_steps(sample_dt, dt)
     sy = surrogate_system(scenario, surrogate)
     state, out, rec = one_train(sy, new_surrogate_state, duration, sample_dt, energies=False)
-    stop = StopRule(stop_when_over, v_stop, f_stop)
-    t0 = time.perf_counter()
+    stop, t0 = StopRule(stop_when_over, v_stop, f_stop), time.perf_counter()
     n = _record_surrogate(state, out, sy.params, dt, n_sub, stop, rec)
-    wall = time.perf_counter() - t0
+    wall, model = time.perf_counter() - t0, f"surrogate:{surrogate.variant}"
     return recorded_result(
-        rec,
-        n,
-        sample_dt,
-        sy,
-        energy={},
-        dt=dt,
-        wall_time=wall,
-        scenario=scenario,
-        model=f"surrogate:{surrogate.variant}",
+        rec, n, sample_dt, sy, energy={}, dt=dt, wall_time=wall, scenario=scenario, model=model
     )

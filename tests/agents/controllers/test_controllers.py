@@ -8,9 +8,9 @@ import pytest
 from scipy.linalg import expm, solve_continuous_lyapunov
 
 import railgym  # noqa: F401  (registers the envs)
-from agents.controllers.classical import LQR, Groundhook, Passive, Skyhook, linear_model
+from agents.controllers.classical import LQR, Groundhook, Passive, Skyhook
 from railgym.envs.vertical.env import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
-from railgym.vehicles.vertical.params import load_vehicle
+from railgym.vehicles.vertical.params import linear_model, load_vehicle
 from railgym.vehicles.vertical.simulate import simulate
 
 SEEDS = 4

@@ -9,9 +9,10 @@ import pytest
 
 import railgym  # noqa: F401  (registers the envs)
 from agents.cli import main
-from agents.controllers.classical import Skyhook, default_c_sky
+from agents.controllers.classical import Skyhook
+from agents.controllers.control_base import default_c_sky
 from agents.controllers.lqg import LQG
-from agents.controllers.registry import CONTROLLERS
+from agents.controllers.registry import CONTROLLERS, SEMI_ACTIVE_BASELINES, baselines_of
 from agents.controllers.semi_active_control import (
     SEMI_ACTIVE_CONTROLLERS,
     ClippedLQG,
@@ -20,7 +21,7 @@ from agents.controllers.semi_active_control import (
     damper_command,
     steady_force,
 )
-from agents.evaluation.benchmark import SEMI_ACTIVE_BASELINES, baselines_of, held_out, summary_table
+from agents.evaluation.benchmark import held_out, summary_table
 from agents.evaluation.evaluate import format_rows, format_vehicle_rows
 from agents.evaluation.gap import format_gap
 from agents.evaluation.runs import run_policy

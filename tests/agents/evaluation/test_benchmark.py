@@ -6,11 +6,9 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.controllers.registry import VEHICLE_ID
+from agents.controllers.registry import PREVIEW_BASELINES, VEHICLE_ID, baselines_of
 from agents.evaluation.benchmark import (
-    PREVIEW_BASELINES,
     _baseline_kwargs,
-    baselines_of,
     curve_figure,
     main,
     summary_table,
