@@ -226,6 +226,7 @@ def save_vertical_surrogate(
             "tau_scores": [{**r, "degree": candidate_label(r["degree"])} for r in report.table],
             "chosen": {"tau": report.best[0], "degree": candidate_label(report.best[1])},
             "at_cap": report.best_result().at_cap(),
+            **_search_summary(report),
         }
     return io.save(
         model,
@@ -244,6 +245,22 @@ def save_vertical_surrogate(
             **({} if envelope is None else {"envelope": envelope.document()}),
         },
     )
+
+
+def _search_summary(report: TauSelection) -> dict[str, Any]:
+    """The data-driven choice of a :class:`TauSelection` for the model file's report."""
+    out: dict[str, Any] = {"memory_states": report.states}
+    if report.decision:
+        out["decision"] = report.decision
+    if report.search is not None:
+        out["tau_search"] = report.search.describe()
+    if report.guess is not None:
+        out["linear_fit"] = {k: float(v) for k, v in report.guess._asdict().items()}
+    if report.static is not None:
+        out["static"] = {**report.static, "degree": candidate_label(report.static["degree"])}
+    if report.warnings:
+        out["warnings"] = list(report.warnings)
+    return out
 
 
 @lru_cache(maxsize=2)
@@ -470,11 +487,15 @@ def refine(
 
 def build_parser() -> argparse.ArgumentParser:
     """Arguments of ``railgym collect`` (``python -m railgym.fmu.collect``)."""
-    from surrogates.cli import add_degree_arguments
+    from surrogates.cli import add_degree_arguments, add_memory_arguments
 
     parser = Parser(prog="railgym collect", description=__doc__, formatter_class=RawHelpFormatter)
     parser.add_argument(
-        "--features", choices=sorted(PACKAGED), default="maxwell", help="the element's form"
+        "--features",
+        choices=sorted(PACKAGED),
+        help="the element's form: maxwell (one memory state, k-fold recipe) or static (the "
+        "paper's GA recipe); default: the k-fold recipe with the memory states the data ask "
+        "for (--memory-states), maxwell when regenerating the packaged file (no -o/--out)",
     )
     parser.add_argument(
         "--design",
@@ -509,6 +530,7 @@ def build_parser() -> argparse.ArgumentParser:
         "; static default 16 per input; maxwell: the grid of each input (from 12, 12, 14 in "
         "steps of 2) up to N, default 16 16 20",
     )
+    add_memory_arguments(parser)
     add_common(parser)
     return parser
 
@@ -551,8 +573,15 @@ def _collect(
     from railgym.progress import quiet, stages
     from surrogates.cli import UsageError
 
+    if args.features == "static" and (args.tau is not None or args.memory_states is not None):
+        parser.error("--tau, --memory-states: for the k-fold memory recipe, not --features static")
+    if args.features == "maxwell" and args.memory_states == 0:
+        parser.error("--memory-states 0 contradicts --features maxwell (one memory state)")
+    if args.features is None and args.out is None:
+        args.features = "maxwell"  # regenerating the packaged memory element
+    states = 1 if args.features == "maxwell" else args.memory_states
     if args.design is None:
-        args.design = MEMORY_DESIGN if args.features == "maxwell" else "paper"
+        args.design = "paper" if args.features == "static" else MEMORY_DESIGN
     if args.out is not None:  # checked before the minutes of work
         target = Path(args.out)
         if target.exists() and not args.overwrite:
@@ -618,12 +647,16 @@ def _collect(
                 progress=progress,
                 data=data,
                 vehicle=veh,
+                tau=args.tau,
+                memory_states=states,
             )
             text = report.format()
             target = "F_s - F_bump" if veh.known_physics else "F_s"
+            memory = model.features_["form"] == "maxwell"
+            state = "the Maxwell state" if memory else "no memory state"
             source = (
                 f"railgym dynamic reference ({veh.name}), {where}, 200 Hz; passive LPR on "
-                f"{target} with the Maxwell state"
+                f"{target} with {state}"
             )
     if args.fmu_map is not None:
         source = f"FMU of {args.fmu_map} (vehicle {veh.name})" + source[source.index(",") :]
