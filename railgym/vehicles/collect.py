@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
+import warnings
 from collections.abc import Callable, Sequence
 from functools import lru_cache
 from importlib import resources
@@ -566,6 +567,45 @@ def main(argv: Sequence[str] | None = None, fmu_runs: FmuRuns | None = None) -> 
         return error_status(parser.prog, err, args.debug)
 
 
+def _memory_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int | None:
+    """The number of memory states of ``--features`` / ``--memory-states`` (``None``: from the
+    data); ``--features`` set to ``maxwell`` when regenerating the packaged file; a
+    contradiction exits 2 naming the flags."""
+    if args.features == "static" and (args.tau is not None or args.memory_states is not None):
+        parser.error("--tau, --memory-states: for the k-fold memory recipe, not --features static")
+    if args.features == "maxwell" and args.memory_states == 0:
+        parser.error("--memory-states 0 contradicts --features maxwell (one memory state)")
+    if args.features is None and args.out is None:
+        args.features = "maxwell"  # regenerating the packaged memory element
+    return 1 if args.features == "maxwell" else args.memory_states
+
+
+def _build_memory(
+    args: argparse.Namespace,
+    cands: Any,
+    seed: int,
+    progress: Any,
+    data: dict[str, Any] | None,
+    veh: Any,
+    states: int | None,
+) -> tuple[SurrogateModel, TauSelection]:
+    """The k-fold memory element of ``railgym collect`` (:func:`build_memory_surrogate`);
+    the edge warning of the τ search is a line of the printed report, not a Python warning."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
+        model, report, _ = build_memory_surrogate(
+            design=args.design,
+            degrees=cands or MEMORY_DEGREES,
+            seed=seed,
+            progress=progress,
+            data=data,
+            vehicle=veh,
+            tau=args.tau,
+            memory_states=states,
+        )
+    return model, report
+
+
 def _collect(
     parser: argparse.ArgumentParser, args: argparse.Namespace, fmu_runs: FmuRuns | None
 ) -> int:
@@ -573,13 +613,7 @@ def _collect(
     from railgym.progress import quiet, stages
     from surrogates.cli import UsageError
 
-    if args.features == "static" and (args.tau is not None or args.memory_states is not None):
-        parser.error("--tau, --memory-states: for the k-fold memory recipe, not --features static")
-    if args.features == "maxwell" and args.memory_states == 0:
-        parser.error("--memory-states 0 contradicts --features maxwell (one memory state)")
-    if args.features is None and args.out is None:
-        args.features = "maxwell"  # regenerating the packaged memory element
-    states = 1 if args.features == "maxwell" else args.memory_states
+    states = _memory_flags(parser, args)
     if args.design is None:
         args.design = "paper" if args.features == "static" else MEMORY_DESIGN
     if args.out is not None:  # checked before the minutes of work
@@ -640,16 +674,7 @@ def _collect(
             text = report.format("N")
             source = f"railgym dynamic reference ({veh.name}), {where}, 50 Hz, M = {args.m} (GA)"
         else:
-            model, report, _ = build_memory_surrogate(
-                design=args.design,
-                degrees=cands or MEMORY_DEGREES,
-                seed=seed,
-                progress=progress,
-                data=data,
-                vehicle=veh,
-                tau=args.tau,
-                memory_states=states,
-            )
+            model, report = _build_memory(args, cands, seed, progress, data, veh, states)
             text = report.format()
             target = "F_s - F_bump" if veh.known_physics else "F_s"
             memory = model.features_["form"] == "maxwell"

@@ -286,7 +286,7 @@ def choose_memory_element(
         U = U[:, :2]
         out.best, out.warnings = (None, out.static["degree"]), []
     for text in out.warnings:
-        warnings.warn(text, UserWarning, stacklevel=3)
+        warnings.warn(text.removeprefix("warning: "), UserWarning, stacklevel=3)
     model = cls(degree=out.best[1]).fit(U, V)
     form = {"form": "maxwell", "tau": best} if out.states else {"form": "static", "tau": None}
     model.features_ = {**form, "known_physics": list(known)}

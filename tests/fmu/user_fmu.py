@@ -214,20 +214,21 @@ def _compiler() -> str | None:
     return None
 
 
-def build_user_c_fmu(dest: Path) -> Path:
-    """Compile ``quarter_car.c`` and zip it with its model description into
-    ``dest/quarter_car.fmu``; ``pytest.skip`` without a C compiler."""
+def build_user_c_fmu(dest: Path, model: str = "quarter_car") -> Path:
+    """Compile ``user_models/MODEL.c`` (its GUID macro ``MODEL_GUID`` in capitals) and zip
+    it with its model description into ``dest/MODEL.fmu``; ``pytest.skip`` without a C
+    compiler. ``model``: ``quarter_car`` or ``air_spring_car``."""
     import fmpy  # type: ignore[import-untyped, unused-ignore]
 
     cc = _compiler()
     if cc is None:
         pytest.skip("no C compiler ($CC, cc or gcc) to build the user's C FMU")
-    source = MODELS / "quarter_car.c"
-    template = (MODELS / "quarter_car.modelDescription.xml").read_text(encoding="utf-8")
+    source = MODELS / f"{model}.c"
+    template = (MODELS / f"{model}.modelDescription.xml").read_text(encoding="utf-8")
     digest = hashlib.sha256(source.read_bytes() + template.encode()).hexdigest()
-    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "quarter_car:" + digest)) + "}"
-    build = dest / "quarter_car_build"
-    lib = build / "binaries" / fmpy.platform / f"quarter_car{fmpy.sharedLibraryExtension}"
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"{model}:" + digest)) + "}"
+    build = dest / f"{model}_build"
+    lib = build / "binaries" / fmpy.platform / f"{model}{fmpy.sharedLibraryExtension}"
     lib.parent.mkdir(parents=True)
     cmd = [
         cc,
@@ -237,7 +238,7 @@ def build_user_c_fmu(dest: Path) -> Path:
         "-std=c99",
         "-ffp-contract=off",
         f"-I{FMI2_HEADERS}",
-        f'-DQUARTER_CAR_GUID="{guid}"',
+        f'-D{model.upper()}_GUID="{guid}"',
         "-o",
         str(lib),
         str(source),
@@ -246,11 +247,11 @@ def build_user_c_fmu(dest: Path) -> Path:
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{done.stderr}")
-    fmu = dest / "quarter_car.fmu"
+    fmu = dest / f"{model}.fmu"
     with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as zf:
         zf.writestr("modelDescription.xml", template.replace("@GUID@", guid))
         zf.write(lib, f"binaries/{fmpy.platform}/{lib.name}")
-        zf.write(source, "sources/quarter_car.c")
+        zf.write(source, f"sources/{model}.c")
     return fmu
 
 

@@ -91,3 +91,15 @@ def test_bad_memory_flags_exit_2_naming_the_flag(argv, match, tmp_path, capsys):
         collect_main([*argv, "-o", str(tmp_path / "el.json")])
     assert done.value.code == 2
     assert match in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "kw, match", [({"tau": (0.2, 0.01)}, "tau LO HI"), ({"memory_states": 3}, "memory_states")]
+)
+def test_the_python_api_checks_tau_and_states_before_any_work(kw, match, tmp_path):
+    from railgym.fmu.collect import build_fmu_element
+
+    with pytest.raises(ValueError, match=match):
+        build_fmu_element(tmp_path / "no_such_map.yaml", **kw)
+    with pytest.raises(ValueError, match=match):
+        build_memory_surrogate(data={"runs": []}, **kw)
