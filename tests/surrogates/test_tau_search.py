@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from surrogates.memory import maxwell_state
 from surrogates.tau_search import (
@@ -117,3 +119,21 @@ def test_memory_states():
     for bad in (2, -1, 1.0, True):
         with pytest.raises(ValueError, match="memory_states"):
             memory_states(bad)
+
+
+@given(
+    st.lists(st.floats(1e-4, 10.0, allow_nan=False, allow_infinity=False), min_size=1, max_size=8)
+)
+def test_every_valid_spelling_is_one_search(values):
+    if len(values) != 2 and len(set(values)) != len(values):
+        with pytest.raises(ValueError, match="distinct"):
+            tau_search(values, "--tau")
+        return
+    if len(values) == 2 and not values[0] < values[1]:
+        with pytest.raises(ValueError, match="LO < HI"):
+            tau_search(values, "--tau")
+        return
+    s = tau_search(values, "--tau")
+    assert (s.lo, s.hi) == (min(values), max(values))
+    assert s.values == (None if len(values) == 2 else tuple(sorted(values)))
+    assert tau_search(s) is s
