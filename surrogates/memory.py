@@ -386,8 +386,9 @@ class TauSelection:
     also holds the ``search`` (:class:`~surrogates.tau_search.TauSearch`), the linear
     first guess ``guess`` (:class:`~surrogates.tau_search.LinearMemory`), the memoryless
     score ``static`` (``{"degree", "rms", "nrms"}``) with its degree scores
-    ``static_result``, the number of memory ``states`` chosen, the ``decision`` in words and
-    the ``warnings`` (a choice at the edge of a search range)."""
+    ``static_result``, the coupled map's score ``coupled`` (``{"tau", "degree", "rms",
+    "nrms"}``, a total degree), the number of memory ``states`` chosen, the ``decision`` in
+    words and the ``warnings`` (a choice at the edge of a search range)."""
 
     table: list[dict[str, Any]] = field(default_factory=list)
     best: tuple[float | None, Any] = (np.nan, None)
@@ -396,6 +397,7 @@ class TauSelection:
     guess: Any = None
     static: dict[str, Any] | None = None
     static_result: SelectionResult | None = None
+    coupled: dict[str, Any] | None = None
     states: int = 1
     decision: str = ""
     warnings: list[str] = field(default_factory=list)
@@ -421,6 +423,13 @@ class TauSelection:
             s = self.static
             lines.append(
                 f"{'static':>9} {s['degree']!s:>10} {s['rms']:12.4g} {s['nrms']:10.3g}{mark}"
+            )
+        if self.coupled is not None:
+            c = self.coupled
+            mark = "  <- best" if self.best == (c["tau"], c["degree"]) else ""
+            lines.append(
+                f"{1e3 * c['tau']:9.3g} {'coupled ' + str(c['degree']):>10} {c['rms']:12.4g} "
+                f"{c['nrms']:10.3g}{mark}"
             )
         if self.guess is not None:
             g = self.guess

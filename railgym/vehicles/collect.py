@@ -257,8 +257,9 @@ def _search_summary(report: TauSelection) -> dict[str, Any]:
         out["tau_search"] = report.search.describe()
     if report.guess is not None:
         out["linear_fit"] = {k: float(v) for k, v in report.guess._asdict().items()}
-    if report.static is not None:
-        out["static"] = {**report.static, "degree": candidate_label(report.static["degree"])}
+    for name in ("static", "coupled"):
+        if (score := getattr(report, name)) is not None:
+            out[name] = {**score, "degree": candidate_label(score["degree"])}
     if report.warnings:
         out["warnings"] = list(report.warnings)
     return out
@@ -589,7 +590,8 @@ def _build_memory(
     veh: Any,
     states: int | None,
 ) -> tuple[SurrogateModel, TauSelection]:
-    """The k-fold memory element of ``railgym collect`` (:func:`build_memory_surrogate`);
+    """The k-fold memory element of ``railgym collect`` (:func:`build_memory_surrogate`;
+    the coupled map considered without ``--features`` and ``--degree``/``--max-degree``);
     the edge warning of the τ search is a line of the printed report, not a Python warning."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
@@ -602,6 +604,7 @@ def _build_memory(
             vehicle=veh,
             tau=args.tau,
             memory_states=states,
+            coupled=None if args.features is None and not cands else False,
         )
     return model, report
 

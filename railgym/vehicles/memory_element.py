@@ -8,6 +8,7 @@ import dataclasses
 import itertools
 import warnings
 from collections.abc import Callable, Iterable, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -29,6 +30,7 @@ from surrogates.selection import SelectionResult, select_kfold
 __all__ = [
     "MEMORY_DEGREES",
     "MEMORY_DESIGN",
+    "COUPLED_DEGREES",
     "MEMORY_GAIN",
     "WARMUP",
     "build_memory_surrogate",
@@ -42,8 +44,11 @@ __all__ = [
 ]
 
 #: relative k-fold RMS gain of the memory form over the memoryless one above which the data
-#: "show memory" (the default number of memory states is then 1)
+#: "show memory" (the default number of memory states is then 1), and of the coupled map
+#: over the additive one above which the coupled map is taken
 MEMORY_GAIN = 0.05
+#: total degrees of the coupled map (LPR with interactions) scored at the chosen τ
+COUPLED_DEGREES = (4, 6, 8)
 #: degree tuples (δ, δ̇, ζ) tried by default for the memory element: ζ needs high degrees
 #: (the controlled runs' error falls with it), capped at 20 for the cost of the recurrences
 MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
@@ -151,6 +156,7 @@ def build_memory_surrogate(
     progress: Callable[[str, int, int], None] | None = None,
     data: dict[str, Any] | None = None,
     memory_states: int | None = None,
+    coupled: bool | None = False,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
     """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ``, the degrees and the number of memory
     states chosen from the data (:func:`choose_memory_element`).
@@ -174,6 +180,9 @@ def build_memory_surrogate(
     data : training data already collected (a :func:`collect_design` result, e.g. from an
         FMU by :func:`railgym.fmu.collect.collect_fmu`) instead of running ``design``.
     memory_states : 0 (memoryless), 1 (one Maxwell state) or ``None``: decided from the data.
+    coupled : ``None``: the map of a memory element is the coupled LPR (every tensor term up
+        to a total degree among :data:`COUPLED_DEGREES`, unconstrained) when it lowers the
+        k-fold RMS by :data:`MEMORY_GAIN` against the additive one; ``False``: additive only.
 
     Returns
     -------
@@ -191,7 +200,7 @@ def build_memory_surrogate(
         )
     cls = PassiveLegendreRegression if passive else LegendreRegression
     model, selection = choose_memory_element(
-        data, search, states, degrees, cls, known_physics, vehicle, k, seed, progress
+        data, search, states, degrees, cls, known_physics, vehicle, k, seed, progress, coupled
     )
     return model, selection, data
 
@@ -224,6 +233,7 @@ def choose_memory_element(
     k: int,
     seed: int,
     progress: Callable[[str, int, int], None] | None = None,
+    coupled: bool | None = False,
 ) -> tuple[SurrogateModel, TauSelection]:
     """The element of class ``cls`` on collected ``data`` with ``τ``, degrees and number of
     memory states chosen by ``k``-fold CV (folds shuffled by ``seed``).
@@ -233,6 +243,7 @@ def choose_memory_element(
     of the CV error in ``log τ`` over ``search`` (a :class:`~surrogates.tau_search.TauSearch`;
     each ``τ`` scored by its best degree among ``degrees``). ``states``: 0, 1 or ``None``
     (1 when the memory form's CV error is :data:`MEMORY_GAIN` below the memoryless form's).
+    ``coupled``: see :func:`build_memory_surrogate` (:func:`_coupled_map`).
     A ``τ`` at the edge of ``search`` is a ``UserWarning`` naming ``--tau``. The training
     pairs go to ``data["U_memory"], data["V_memory"]``. Other arguments as
     :func:`build_memory_surrogate`."""
@@ -241,57 +252,88 @@ def choose_memory_element(
     runs = element_runs(data, known, vehicle)
     out = TauSelection(search=search, states=1 if states is None else states)
     out.guess = ts.fit_linear_memory(runs, search.lo, search.hi)
+
+    def kfold(tau: float, make: Callable[..., Any], grid: Sequence[Any], what: str) -> Any:
+        U, V = memory_training_data(data, tau, runs=runs)
+        where = stage(progress, f"{what} at tau {1e3 * tau:.4g} ms")
+        return select_kfold(make, grid, U, V, k=k, seed=seed, progress=where)
+
     fits: dict[float, SelectionResult] = {}
 
-    def score(tau: float, grid: Sequence[Any] | None = None) -> float:
-        grid = [_probe_degree(degrees)] if grid is None else grid
-        U, V = memory_training_data(data, tau, runs=runs)
-        fits[tau] = select_kfold(
-            lambda deg: cls(degree=deg),
-            grid,
-            U,
-            V,
-            k=k,
-            seed=seed,
-            progress=stage(
-                progress, f"{'degrees' if len(grid) > 1 else 'search'} at tau {1e3 * tau:.4g} ms"
-            ),
-        )
+    def score(tau: float) -> float:
+        fits[tau] = kfold(tau, lambda deg: cls(degree=deg), [_probe_degree(degrees)], "search")
         return _best(fits[tau])["rms"]
 
-    best = out.guess.tau
+    found = None
     if states != 0:
         found = ts.search_tau(score, search, out.guess.tau)
-        best = found.best
-        score(best, degrees)  # the degree search at the chosen τ
+        fits[found.best] = kfold(found.best, lambda deg: cls(degree=deg), degrees, "degrees")
         for tau, _ in found.scores:
             out.table.append({"tau": tau, **_best(fits[tau])})
             out.results.append(fits[tau])
-        out.best = (best, _best(fits[best])["degree"])
-        if found.edge is not None:
-            out.warnings.append(
-                f"warning: tau = {1e3 * best:.4g} ms is at the {found.edge} end of the search "
-                f"({search.describe()}); widen it (--tau LO HI on the command line, "
-                "tau=(lo, hi) in Python)"
-            )
-    U, V = memory_training_data(data, best, runs=runs)
+        out.best = (found.best, _best(fits[found.best])["degree"])
     if states != 1:
+        U, V = memory_training_data(data, out.guess.tau, runs=runs)
         sres = select_kfold(
             lambda deg: cls(degree=deg), _static_degrees(degrees), U[:, :2], V, k=k, seed=seed
         )
         out.static_result, out.static = sres, _best(sres)
     _decide(out, states)
+    make: Callable[..., SurrogateModel] = cls
+    if out.states and coupled is None:
+        found, take = _coupled_map(out, found, kfold, search)
+        make = partial(LegendreRegression, interactions=True) if take else cls
+    best = out.guess.tau if found is None else found.best
+    U, V = memory_training_data(data, best, runs=runs)
     if out.states == 0:
         assert out.static is not None
-        U = U[:, :2]
-        out.best, out.warnings = (None, out.static["degree"]), []
+        U, out.best = U[:, :2], (None, out.static["degree"])
+    elif found is not None and found.edge is not None:
+        out.warnings.append(
+            f"warning: tau = {1e3 * best:.4g} ms is at the {found.edge} end of the search "
+            f"({search.describe()}); widen it (--tau LO HI on the command line, "
+            "tau=(lo, hi) in Python)"
+        )
     for text in out.warnings:
         warnings.warn(text.removeprefix("warning: "), UserWarning, stacklevel=3)
-    model = cls(degree=out.best[1]).fit(U, V)
+    model = make(degree=out.best[1]).fit(U, V)
     form = {"form": "maxwell", "tau": best} if out.states else {"form": "static", "tau": None}
     model.features_ = {**form, "known_physics": list(known)}
     data["U_memory"], data["V_memory"] = U, V
     return model, out
+
+
+def _coupled_map(
+    out: TauSelection, found: Any, kfold: Callable[..., Any], search: Any
+) -> tuple[Any, bool]:
+    """The coupled LPR (total degrees :data:`COUPLED_DEGREES`) with its own τ search from
+    the additive map's ``found`` (``kfold(tau, make, grid, what)`` scores): its score goes to
+    ``out.coupled``; taken (``out.best`` its ``τ`` and total degree) when its k-fold RMS is
+    :data:`MEMORY_GAIN` below the additive map's. Returns the search result of the map taken
+    and whether it is the coupled one."""
+    fits: dict[float, Any] = {}
+
+    def score(tau: float) -> float:
+        fits[tau] = kfold(
+            tau,
+            lambda d: LegendreRegression(degree=d, interactions=True),
+            COUPLED_DEGREES,
+            "coupled",
+        )
+        return float(_best(fits[tau])["rms"])
+
+    cfound = ts.search_tau(score, search, found.best)
+    out.coupled = {"tau": cfound.best, **_best(fits[cfound.best])}
+    gain = 1.0 - out.coupled["rms"] / min(r["rms"] for r in out.table)
+    take = gain > MEMORY_GAIN
+    out.decision += (
+        f"; map: {'coupled' if take else 'additive'} (the coupled LPR, total degree "
+        f"{out.coupled['degree']} at tau {1e3 * cfound.best:.4g} ms, changes the k-fold RMS "
+        f"by {-100 * gain:+.1f} %, threshold -{100 * MEMORY_GAIN:g} %)"
+    )
+    if take:
+        out.best = (cfound.best, out.coupled["degree"])
+    return (cfound if take else found), take
 
 
 def _decide(out: TauSelection, states: int | None) -> None:

@@ -4,6 +4,7 @@ grid (4, 8, 16 ms), the chosen τ is within 20 % of the true one; a τ at the ed
 search warns with the flag that widens it; the number of memory states follows the data;
 bad ``--tau`` / ``--memory-states`` values exit 2 naming the flag."""
 
+import numpy as np
 import pytest
 
 from railgym.fmu.collect import main as collect_main
@@ -16,15 +17,20 @@ DEGREES = [(3, 3, 3), (3, 3, 5), (5, 5, 5)]
 K3 = 2.0e7  # N/m³, progressive term of the static spring
 
 
-def nonlinear_data(tau, memory=True, seed=0):
+def nonlinear_data(tau, memory=True, seed=0, coupling=0.0, noise=0.0):
     """``collect_design``-like data (full-length ``force``) of a progressive spring
     ``K3·δ³`` added to the standard linear solid of :func:`sls_runs` (``memory=False``: a
-    spring and a dashpot only, no memory)."""
+    spring and a dashpot only, no memory); ``coupling`` (N/m²) adds a term in ``δ·ζ`` (a
+    pressure that depends on the deflection and the gas state together), ``noise`` (N) a
+    seeded white measurement noise."""
     runs = []
+    rng = np.random.default_rng(seed + 100)
     for r in sls_runs(tau, seed=seed):
         d, dd = r["delta"], r["delta_dot"]
         force = r["full"] if memory else 3.6e5 * d + 8.0e3 * dd
-        runs.append({**r, "force": force + K3 * d**3})
+        zeta = (r["full"] - 500.0 - 3.6e5 * d - 2.0e3 * dd) / 4.7e5  # the law's own state
+        force = force + K3 * d**3 + coupling * d * zeta + noise * rng.standard_normal(d.size)
+        runs.append({**r, "force": force})
     return {"runs": runs}
 
 
@@ -71,6 +77,21 @@ def test_a_memoryless_law_gets_a_memoryless_element(tmp_path):
         model1, sel1, _ = build(data, memory_states=1)
     assert sel1.states == 1 and sel1.decision == "memory states: 1 (given)"
     assert model1.features_["form"] == "maxwell"
+
+
+def test_the_coupled_map_is_taken_where_the_data_couple_deflection_and_state():
+    """A term in δ·ζ (the bellows pressure of an air spring depends on both) is beyond an
+    additive map: with ``coupled=None`` the coupled LPR is scored and taken; an additive law
+    keeps the additive (passive) map."""
+    model, sel, _ = build(nonlinear_data(64e-3, coupling=1.0e7), coupled=None)
+    assert "map: coupled" in sel.decision and model.interactions
+    assert sel.coupled["rms"] < 0.5 * min(r["rms"] for r in sel.table)
+    assert sel.best == (sel.best[0], sel.coupled["degree"])
+    assert sel.best[0] == pytest.approx(64e-3, rel=0.2)
+    model, sel, _ = build(nonlinear_data(64e-3, noise=200.0), coupled=None)
+    assert "map: additive" in sel.decision and not model.interactions
+    _, sel, _ = build(nonlinear_data(64e-3, coupling=1.0e7))  # default: additive only
+    assert sel.coupled is None and "map:" not in sel.decision
 
 
 @pytest.mark.parametrize(
