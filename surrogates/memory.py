@@ -387,8 +387,9 @@ class TauSelection:
     first guess ``guess`` (:class:`~surrogates.tau_search.LinearMemory`), the memoryless
     score ``static`` (``{"degree", "rms", "nrms"}``) with its degree scores
     ``static_result``, the coupled map's score ``coupled`` (``{"tau", "degree", "rms",
-    "nrms"}``, a total degree), the number of memory ``states`` chosen, the ``decision`` in
-    words and the ``warnings`` (a choice at the edge of a search range)."""
+    "nrms"}``, a total degree) with its degree scores ``coupled_result``, the number of
+    memory ``states`` chosen, the ``decision`` in words and the ``warnings`` (a choice at the
+    edge of a search range)."""
 
     table: list[dict[str, Any]] = field(default_factory=list)
     best: tuple[float | None, Any] = (np.nan, None)
@@ -398,6 +399,7 @@ class TauSelection:
     static: dict[str, Any] | None = None
     static_result: SelectionResult | None = None
     coupled: dict[str, Any] | None = None
+    coupled_result: SelectionResult | None = None
     states: int = 1
     decision: str = ""
     warnings: list[str] = field(default_factory=list)
@@ -406,7 +408,10 @@ class TauSelection:
         """The degree scores of the chosen element (the best ``τ``, or the memoryless one)."""
         if self.states == 0 and self.static_result is not None:
             return self.static_result
-        return self.results[[r["tau"] for r in self.table].index(self.best[0])]
+        taus = [r["tau"] for r in self.table]
+        if self.best[0] not in taus and self.coupled_result is not None:
+            return self.coupled_result  # the coupled map, at its own τ
+        return self.results[taus.index(self.best[0])]
 
     def format(self) -> str:
         """The score table as aligned text, then the linear guess, the decision and the
@@ -442,7 +447,8 @@ class TauSelection:
         if self.decision:
             lines.append(self.decision)
         lines.extend(self.warnings)
-        cap = self.best_result().at_cap() if self.results or self.static_result else []
+        additive = isinstance(self.best[1], tuple)  # --max-degree does not set a total degree
+        cap = self.best_result().at_cap() if additive else []
         if cap:
             lines.append(
                 f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "

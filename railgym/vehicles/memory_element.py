@@ -306,24 +306,24 @@ def choose_memory_element(
 def _coupled_map(
     out: TauSelection, found: Any, kfold: Callable[..., Any], search: Any
 ) -> tuple[Any, bool]:
-    """The coupled LPR (total degrees :data:`COUPLED_DEGREES`) with its own τ search from
-    the additive map's ``found`` (``kfold(tau, make, grid, what)`` scores): its score goes to
-    ``out.coupled``; taken (``out.best`` its ``τ`` and total degree) when its k-fold RMS is
-    :data:`MEMORY_GAIN` below the additive map's. Returns the search result of the map taken
-    and whether it is the coupled one."""
+    """The coupled LPR with its own τ search (at the middle of :data:`COUPLED_DEGREES`) from
+    the additive map's ``found``, then its total degree among them (``kfold(tau, make,
+    grid, what)`` scores): its score goes to ``out.coupled``; taken (``out.best`` its ``τ``
+    and total degree) when its k-fold RMS is :data:`MEMORY_GAIN` below the additive map's.
+    Returns the search result of the map taken and whether it is the coupled one."""
     fits: dict[float, Any] = {}
 
+    def make(degree: int) -> SurrogateModel:
+        return LegendreRegression(degree=degree, interactions=True)
+
     def score(tau: float) -> float:
-        fits[tau] = kfold(
-            tau,
-            lambda d: LegendreRegression(degree=d, interactions=True),
-            COUPLED_DEGREES,
-            "coupled",
-        )
+        fits[tau] = kfold(tau, make, [COUPLED_DEGREES[len(COUPLED_DEGREES) // 2]], "coupled")
         return float(_best(fits[tau])["rms"])
 
     cfound = ts.search_tau(score, search, found.best)
+    fits[cfound.best] = kfold(cfound.best, make, COUPLED_DEGREES, "coupled degrees")
     out.coupled = {"tau": cfound.best, **_best(fits[cfound.best])}
+    out.coupled_result = fits[cfound.best]
     gain = 1.0 - out.coupled["rms"] / min(r["rms"] for r in out.table)
     take = gain > MEMORY_GAIN
     out.decision += (

@@ -88,6 +88,7 @@ def test_the_coupled_map_is_taken_where_the_data_couple_deflection_and_state():
     assert sel.coupled["rms"] < 0.5 * min(r["rms"] for r in sel.table)
     assert sel.best == (sel.best[0], sel.coupled["degree"])
     assert sel.best[0] == pytest.approx(64e-3, rel=0.2)
+    assert sel.best_result() is sel.coupled_result and "coupled" in sel.format()
     model, sel, _ = build(nonlinear_data(64e-3, noise=200.0), coupled=None)
     assert "map: additive" in sel.decision and not model.interactions
     _, sel, _ = build(nonlinear_data(64e-3, coupling=1.0e7))  # default: additive only
