@@ -207,8 +207,8 @@ def _memory_states(text: str) -> int:
 
 
 def add_memory_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--tau`` (one value, a range ``LO HI`` or three or more values, s) and
-    ``--memory-states N`` of a memory element; each checked when parsed."""
+    """``--tau`` (one value, a range ``LO HI`` or three or more values, s),
+    ``--memory-states N`` and ``--coupled`` of a memory element; each checked when parsed."""
     from surrogates.tau_search import DEFAULT_TAU_RANGE
 
     lo, hi = DEFAULT_TAU_RANGE
@@ -228,6 +228,13 @@ def add_memory_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="memory states of the element: 0 (memoryless) or 1 (one Maxwell state); "
         "default: from the data (1 when it lowers the k-fold error)",
+    )
+    parser.add_argument(
+        "--coupled",
+        action="store_true",
+        help="also score the coupled map (LPR with interactions, unconstrained, its own tau "
+        "search) and take it when it lowers the k-fold error by 5 %%; check it with railgym "
+        "validate (it can diverge where the passive additive map does not)",
     )
 
 

@@ -240,13 +240,12 @@ def build_fmu_element(
     :func:`~railgym.vehicles.memory_element.build_memory_surrogate` on them, ``tau`` (the
     ``--tau`` values: ``None``, one value, ``(lo, hi)`` or three or more values, s) and
     ``memory_states`` (0, 1, ``None``: from the data) checked as the flags are; ``kwargs``
-    go to ``build_memory_surrogate`` (``degrees``, ``seed``, ``progress``, ``coupled``:
-    default ``None``, the coupled map when the data ask for it, ...). Returns
+    go to ``build_memory_surrogate`` (``degrees``, ``seed``, ``progress``, ``coupled``,
+    ...). Returns
     ``(model, selection, data)``."""
     search, states = tau_search(tau, "tau"), check_states(memory_states, "memory_states")
     vehicle = fmu_vehicle(fmu_map, vehicle)
     data = collect_fmu(fmu_map, design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE), fmu, vehicle)
-    kwargs.setdefault("coupled", None)
     return build_memory_surrogate(
         data=data, vehicle=vehicle, tau=search, memory_states=states, **kwargs
     )

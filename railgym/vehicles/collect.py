@@ -572,8 +572,11 @@ def _memory_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
     """The number of memory states of ``--features`` / ``--memory-states`` (``None``: from the
     data); ``--features`` set to ``maxwell`` when regenerating the packaged file; a
     contradiction exits 2 naming the flags."""
-    if args.features == "static" and (args.tau is not None or args.memory_states is not None):
-        parser.error("--tau, --memory-states: for the k-fold memory recipe, not --features static")
+    memory = (args.tau, args.memory_states, args.coupled or None)
+    if args.features == "static" and any(v is not None for v in memory):
+        parser.error(
+            "--tau, --memory-states, --coupled: for the k-fold memory recipe, not --features static"
+        )
     if args.features == "maxwell" and args.memory_states == 0:
         parser.error("--memory-states 0 contradicts --features maxwell (one memory state)")
     if args.features is None and args.out is None:
@@ -591,7 +594,7 @@ def _build_memory(
     states: int | None,
 ) -> tuple[SurrogateModel, TauSelection]:
     """The k-fold memory element of ``railgym collect`` (:func:`build_memory_surrogate`;
-    the coupled map considered without ``--features`` and ``--degree``/``--max-degree``);
+    the coupled map scored with ``--coupled``);
     the edge warning of the τ search is a line of the printed report, not a Python warning."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
@@ -604,7 +607,7 @@ def _build_memory(
             vehicle=veh,
             tau=args.tau,
             memory_states=states,
-            coupled=None if args.features is None and not cands else False,
+            coupled=None if args.coupled else False,
         )
     return model, report
 

@@ -181,8 +181,9 @@ def build_memory_surrogate(
         FMU by :func:`railgym.fmu.collect.collect_fmu`) instead of running ``design``.
     memory_states : 0 (memoryless), 1 (one Maxwell state) or ``None``: decided from the data.
     coupled : ``None``: the map of a memory element is the coupled LPR (every tensor term up
-        to a total degree among :data:`COUPLED_DEGREES`, unconstrained) when it lowers the
-        k-fold RMS by :data:`MEMORY_GAIN` against the additive one; ``False``: additive only.
+        to a total degree among :data:`COUPLED_DEGREES`, unconstrained: it can diverge where
+        the passive additive map does not) when it lowers the k-fold RMS by
+        :data:`MEMORY_GAIN` against the additive one; ``False`` (default): additive only.
 
     Returns
     -------

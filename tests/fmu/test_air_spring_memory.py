@@ -46,6 +46,7 @@ def test_default_element_of_the_air_spring_car(tmp_path):
     cmd = [sys.executable, "-m", "railgym.fmu.collect", "--fmu-map", "map.yaml", "-o", "el.json"]
     text = _run(cmd, tmp_path)
     assert "memory states: 1 (from the data" in text and "warning: tau" not in text
+    assert "map:" not in text  # the additive passive map; the coupled one only with --coupled
     report = json.loads((tmp_path / "el.json").read_text())["metadata"]["report"]
     tau = report["chosen"]["tau"]
     assert 0.045 < tau < 0.09  # s: the pipe's relaxation, laminar 46 ms, longer when turbulent

@@ -105,6 +105,7 @@ def test_the_coupled_map_is_taken_where_the_data_couple_deflection_and_state():
         (["--memory-states", "2"], "--memory-states"),
         (["--memory-states", "x"], "--memory-states"),
         (["--features", "static", "--tau", "0.01", "0.1"], "--tau, --memory-states"),
+        (["--features", "static", "--coupled"], "--coupled: for the k-fold"),
         (["--features", "maxwell", "--memory-states", "0"], "--memory-states 0"),
     ],
 )
