@@ -236,18 +236,14 @@ def choose_memory_element(
     progress: Callable[[str, int, int], None] | None = None,
     coupled: bool | None = False,
 ) -> tuple[SurrogateModel, TauSelection]:
-    """The element of class ``cls`` on collected ``data`` with ``τ``, degrees and number of
-    memory states chosen by ``k``-fold CV (folds shuffled by ``seed``).
-
-    ``τ``: a first guess from the linear one-state fit
-    (:func:`~surrogates.tau_search.fit_linear_memory`), refined by a bounded minimisation
-    of the CV error in ``log τ`` over ``search`` (a :class:`~surrogates.tau_search.TauSearch`;
-    each ``τ`` scored by its best degree among ``degrees``). ``states``: 0, 1 or ``None``
-    (1 when the memory form's CV error is :data:`MEMORY_GAIN` below the memoryless form's).
-    ``coupled``: see :func:`build_memory_surrogate` (:func:`_coupled_map`).
-    A ``τ`` at the edge of ``search`` is a ``UserWarning`` naming ``--tau``. The training
-    pairs go to ``data["U_memory"], data["V_memory"]``. Other arguments as
-    :func:`build_memory_surrogate`."""
+    """The element of class ``cls`` on ``data``: ``τ`` (a first guess by
+    :func:`~surrogates.tau_search.fit_linear_memory`, refined by a bounded minimisation of
+    the ``k``-fold CV error in ``log τ`` over the :class:`~surrogates.tau_search.TauSearch`
+    ``search`` at the largest degree, then the degrees; candidate values each with every
+    degree), the number of memory ``states`` (``None``: 1 when it lowers the CV error by
+    :data:`MEMORY_GAIN`) and ``coupled`` (:func:`_coupled_map`). A ``τ`` at the edge of
+    ``search`` is a ``UserWarning`` naming ``--tau``. Pairs go to ``data["U_memory"],
+    data["V_memory"]``. Arguments as :func:`build_memory_surrogate`."""
     degrees = list(degrees)
     known = load_vehicle(vehicle).check_known_physics(known_physics)
     runs = element_runs(data, known, vehicle)
@@ -261,14 +257,18 @@ def choose_memory_element(
 
     fits: dict[float, SelectionResult] = {}
 
+    # candidate values: each with the whole degree grid; a range: at the probe degree
+    grid = degrees if search.values is not None else [_probe_degree(degrees)]
+
     def score(tau: float) -> float:
-        fits[tau] = kfold(tau, lambda deg: cls(degree=deg), [_probe_degree(degrees)], "search")
+        fits[tau] = kfold(tau, lambda deg: cls(degree=deg), grid, "search")
         return _best(fits[tau])["rms"]
 
     found = None
     if states != 0:
         found = ts.search_tau(score, search, out.guess.tau)
-        fits[found.best] = kfold(found.best, lambda deg: cls(degree=deg), degrees, "degrees")
+        if search.values is None:
+            fits[found.best] = kfold(found.best, lambda deg: cls(degree=deg), degrees, "degrees")
         for tau, _ in found.scores:
             out.table.append({"tau": tau, **_best(fits[tau])})
             out.results.append(fits[tau])
