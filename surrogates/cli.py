@@ -176,6 +176,71 @@ def add_degree_arguments(parser: argparse.ArgumentParser, note: str = "") -> Non
     )
 
 
+class _TauAction(argparse.Action):
+    """``--tau``: the values checked by :func:`surrogates.tau_search.tau_search` when parsed
+    (a bad one exits 2 naming ``--tau``); stored as a ``TauSearch``."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        from surrogates.tau_search import tau_search
+
+        try:
+            setattr(namespace, self.dest, tau_search(list(values), "--tau"))
+        except ValueError as err:
+            parser.error(str(err))
+
+
+def _memory_states(text: str) -> int:
+    """``--memory-states``: checked by :func:`surrogates.tau_search.memory_states`."""
+    from surrogates.tau_search import memory_states
+
+    try:
+        number = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be 0 or 1, got {text!r}") from None
+    try:
+        return memory_states(number, "--memory-states")  # type: ignore[return-value]
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err).removeprefix("--memory-states ")) from None
+
+
+def add_memory_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--tau`` (one value, a range ``LO HI`` or three or more values, s),
+    ``--memory-states N`` and ``--coupled`` of a memory element; each checked when parsed."""
+    from surrogates.tau_search import DEFAULT_TAU_RANGE
+
+    lo, hi = DEFAULT_TAU_RANGE
+    parser.add_argument(
+        "--tau",
+        nargs="+",
+        type=float,
+        action=_TauAction,
+        metavar="S",
+        help="Maxwell time constant(s) searched, s: one value (that tau), two (a range LO HI, "
+        "searched continuously from the linear fit's guess by k-fold CV) or three or more "
+        f"(those values); default: the range {lo:g} {hi:g}",
+    )
+    parser.add_argument(
+        "--memory-states",
+        type=_memory_states,
+        metavar="N",
+        help="memory states of the element: 0 (memoryless) or 1 (one Maxwell state); "
+        "default: from the data (1 when it lowers the k-fold error)",
+    )
+    parser.add_argument(
+        "--coupled",
+        action="store_true",
+        help="also score the coupled map (LPR with interactions, unconstrained, its own tau "
+        "search) and take it when it lowers the k-fold error by 5 %%; check it with railgym "
+        "validate (it can diverge where the passive additive map does not)",
+    )
+
+
 def check_degrees(values: list[int] | None, flag: str, n_inputs: int) -> tuple[int, ...] | None:
     """The ``--degree``/``--max-degree`` values as one degree per input (or ``None``)."""
     if values is None:

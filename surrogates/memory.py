@@ -379,18 +379,43 @@ def memory_features(
 @dataclass
 class TauSelection:
     """k-fold scores of every ``τ``: ``table`` rows ``{"tau", "degree", "rms", "nrms"}``
-    (the best degree of each ``τ``); ``best`` the ``(τ, degree)`` with the lowest ``rms``."""
+    (the best degree of each ``τ``, ascending ``τ``); ``best`` the ``(τ, degree)`` chosen
+    (``τ`` ``None`` for a memoryless element, ``states == 0``).
+
+    A data-driven choice (:func:`railgym.vehicles.memory_element.choose_memory_element`)
+    also holds the ``search`` (:class:`~surrogates.tau_search.TauSearch`), the linear
+    first guess ``guess`` (:class:`~surrogates.tau_search.LinearMemory`), the memoryless
+    score ``static`` (``{"degree", "rms", "nrms"}``) with its degree scores
+    ``static_result``, the coupled map's score ``coupled`` (``{"tau", "degree", "rms",
+    "nrms"}``, a total degree) with its degree scores ``coupled_result``, the number of
+    memory ``states`` chosen, the ``decision`` in words and the ``warnings`` (a choice at the
+    edge of a search range)."""
 
     table: list[dict[str, Any]] = field(default_factory=list)
-    best: tuple[float, Any] = (np.nan, None)
+    best: tuple[float | None, Any] = (np.nan, None)
     results: list[SelectionResult] = field(default_factory=list)
+    search: Any = None
+    guess: Any = None
+    static: dict[str, Any] | None = None
+    static_result: SelectionResult | None = None
+    coupled: dict[str, Any] | None = None
+    coupled_result: SelectionResult | None = None
+    states: int = 1
+    decision: str = ""
+    warnings: list[str] = field(default_factory=list)
 
     def best_result(self) -> SelectionResult:
-        """The degree scores of the best ``τ``."""
-        return self.results[[r["tau"] for r in self.table].index(self.best[0])]
+        """The degree scores of the chosen element (the best ``τ``, or the memoryless one)."""
+        if self.states == 0 and self.static_result is not None:
+            return self.static_result
+        taus = [r["tau"] for r in self.table]
+        if self.best[0] not in taus and self.coupled_result is not None:
+            return self.coupled_result  # the coupled map, at its own τ
+        return self.results[taus.index(self.best[0])]
 
     def format(self) -> str:
-        """The score table as aligned text; a last line flags a degree at the search cap."""
+        """The score table as aligned text, then the linear guess, the decision and the
+        warnings; a last line flags a degree at the search cap."""
         lines = [f"{'tau [ms]':>9} {'degree':>10} {'rms':>12} {'rel. rms':>10}"]
         for row in self.table:
             mark = "  <- best" if (row["tau"], row["degree"]) == self.best else ""
@@ -398,7 +423,32 @@ class TauSelection:
                 f"{1e3 * row['tau']:9.3g} {row['degree']!s:>10} {row['rms']:12.4g} "
                 f"{row['nrms']:10.3g}{mark}"
             )
-        cap = self.best_result().at_cap() if self.results else []
+        if self.static is not None:
+            mark = "  <- best" if self.states == 0 else ""
+            s = self.static
+            lines.append(
+                f"{'static':>9} {s['degree']!s:>10} {s['rms']:12.4g} {s['nrms']:10.3g}{mark}"
+            )
+        if self.coupled is not None:
+            c = self.coupled
+            mark = "  <- best" if self.best == (c["tau"], c["degree"]) else ""
+            lines.append(
+                f"{1e3 * c['tau']:9.3g} {'coupled ' + str(c['degree']):>10} {c['rms']:12.4g} "
+                f"{c['nrms']:10.3g}{mark}"
+            )
+        if self.guess is not None:
+            g = self.guess
+            f_peak, phi = g.loss_peak()
+            lines.append(
+                f"linear fit: tau {1e3 * g.tau:.3g} ms, k0 {g.k0:.4g} N/m, k1 {g.k1:.4g} N/m, "
+                f"c {g.c:.4g} N s/m; loss-angle peak {phi:.1f} deg at {f_peak:.2g} Hz; "
+                f"residual {g.rms:.4g} N (no memory: {g.rms_static:.4g} N)"
+            )
+        if self.decision:
+            lines.append(self.decision)
+        lines.extend(self.warnings)
+        additive = isinstance(self.best[1], tuple)  # --max-degree does not set a total degree
+        cap = self.best_result().at_cap() if additive else []
         if cap:
             lines.append(
                 f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "

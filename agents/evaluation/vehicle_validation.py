@@ -113,8 +113,9 @@ def validation_rows(
     seed: int = SEED,
 ) -> list[dict[str, Any]]:
     """One row per element × class × controller: ``median``, ``p90``, ``max`` (points,) in
-    %, and ``errors`` (n_seeds, points); ``env_name``, ``reference`` and ``seed`` as
-    :func:`floor_errors`'s."""
+    % over the tracks where neither run diverged (NaN when none ran through), ``diverged``
+    the number of the other tracks, and ``errors`` (n_seeds, points; inf where a run
+    diverged); ``env_name``, ``reference`` and ``seed`` as :func:`floor_errors`'s."""
     rows = []
     for name, element in elements.items():
         for c in classes:
@@ -122,36 +123,57 @@ def validation_rows(
                 e = 100.0 * floor_errors(
                     element, c, n_seeds, ctl, duration, seed, env_name, reference
                 )
+                ran = np.all(np.isfinite(e), axis=1)
                 rows.append(
                     {
                         "element": name,
                         "class": c,
                         "controller": ctl,
-                        "median": np.median(e, axis=0),
-                        "p90": np.percentile(e, 90, axis=0),
-                        "max": e.max(axis=0),
+                        **_stats(e[ran], e.shape[1]),
+                        "diverged": int(np.count_nonzero(~ran)),
                         "errors": e,
                     }
                 )
     return rows
 
 
+def _stats(e: np.ndarray, n_points: int) -> dict[str, np.ndarray]:
+    """``median``, ``p90``, ``max`` (n_points,) of the errors ``e`` (tracks, points); NaN
+    without a track."""
+    if e.shape[0] == 0:
+        nan = np.full(n_points, np.nan)
+        return {"median": nan, "p90": nan, "max": nan}
+    return {"median": np.median(e, axis=0), "p90": np.percentile(e, 90, axis=0), "max": e.max(0)}
+
+
+#: the line under the table that says what its cells are
+LEGEND = (
+    "cells: relative RMS error of the carbody acceleration, %, median / 90th percentile / "
+    "max over the tracks where neither run diverged; diverged: tracks where the surrogate "
+    "or the high-fidelity run diverged (not in the cells), of the tracks run"
+)
+
+
 def format_rows(rows: Sequence[Mapping[str, Any]]) -> str:
-    """Markdown table of :func:`validation_rows` (points: those of the rows' env)."""
+    """Markdown table of :func:`validation_rows` (points: those of the rows' env), a
+    ``diverged`` column and the :data:`LEGEND` under it."""
     n = len(rows[0]["median"]) if rows else len(FLOOR)
     points = FLOOR if n == len(FLOOR) else ENVS["vertical"][2]
     lines = [
-        "| element | class | controller | " + " | ".join(points) + " |",
-        "|---|---|---|" + "---|" * len(points),
+        "| element | class | controller | " + " | ".join(points) + " | diverged |",
+        "|---|---|---|" + "---|" * (len(points) + 1),
     ]
     for r in rows:
         cells = [
-            f"{r['median'][j]:.1f} / {r['p90'][j]:.1f} / {r['max'][j]:.1f}"
+            "—"
+            if np.isnan(r["median"][j])
+            else f"{r['median'][j]:.1f} / {r['p90'][j]:.1f} / {r['max'][j]:.1f}"
             for j in range(len(points))
         ]
-        row = [str(r["element"]), str(r["class"]), str(r["controller"]), *cells]
+        diverged = f"{r.get('diverged', 0)} of {len(r['errors'])}"
+        row = [str(r["element"]), str(r["class"]), str(r["controller"]), *cells, diverged]
         lines.append("| " + " | ".join(row) + " |")
-    return "\n".join(lines)
+    return "\n".join([*lines, "", LEGEND])
 
 
 def _packaged(name: str) -> Any:

@@ -33,12 +33,16 @@ from railgym.fmu.mapping import fmu_vehicle, load_mapping, mapping_env
 from railgym.fmu.runner import FMURunner
 from railgym.vehicles.collect import OtherReference, build_parser, refine
 from railgym.vehicles.collect import main as build_main
-from railgym.vehicles.collect_design import CollectionDesign, collect_design
+from railgym.vehicles.collect_design import MEMORY_SAMPLE_RATE, CollectionDesign, collect_design
+from railgym.vehicles.memory_element import MEMORY_DESIGN, build_memory_surrogate, design_with
 from railgym.vehicles.vehicle.params import load_whole_vehicle
 from railgym.vehicles.vertical.params import load_vehicle
 from surrogates.models import SurrogateModel
+from surrogates.tau_search import memory_states as check_states
+from surrogates.tau_search import tau_search
 
 __all__ = [
+    "build_fmu_element",
     "build_parser",
     "collect_fmu",
     "fmu_design_runs",
@@ -235,6 +239,31 @@ def fmu_design_runs(
         data = collect_vehicle_fmu(fmu_map, design, fmu, whole, progress=progress)
         return dataclasses.replace(whole.suspension, name=whole.name), data
     return vehicle, collect_fmu(fmu_map, design, fmu, vehicle, progress=progress)
+
+
+def build_fmu_element(
+    fmu_map: str | Path,
+    *,
+    fmu: str | Path | None = None,
+    vehicle: Any = None,
+    tau: Any = None,
+    memory_states: int | None = None,
+    **kwargs: Any,
+) -> tuple[SurrogateModel, Any, dict[str, Any]]:
+    """``railgym collect --fmu-map`` in Python: the envelope design's runs on the FMU
+    (:func:`collect_fmu`, at the memory element's sample rate) and
+    :func:`~railgym.vehicles.memory_element.build_memory_surrogate` on them, ``tau`` (the
+    ``--tau`` values: ``None``, one value, ``(lo, hi)`` or three or more values, s) and
+    ``memory_states`` (0, 1, ``None``: from the data) checked as the flags are; ``kwargs``
+    go to ``build_memory_surrogate`` (``degrees``, ``seed``, ``progress``, ``coupled``,
+    ...). Returns
+    ``(model, selection, data)``."""
+    search, states = tau_search(tau, "tau"), check_states(memory_states, "memory_states")
+    vehicle = fmu_vehicle(fmu_map, vehicle)
+    data = collect_fmu(fmu_map, design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE), fmu, vehicle)
+    return build_memory_surrogate(
+        data=data, vehicle=vehicle, tau=search, memory_states=states, **kwargs
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
+import warnings
 from collections.abc import Callable, Sequence
 from functools import lru_cache
 from importlib import resources
@@ -230,6 +231,7 @@ def save_vertical_surrogate(
             "tau_scores": [{**r, "degree": candidate_label(r["degree"])} for r in report.table],
             "chosen": {"tau": report.best[0], "degree": candidate_label(report.best[1])},
             "at_cap": report.best_result().at_cap(),
+            **_search_summary(report),
         }
     return io.save(
         model,
@@ -260,6 +262,23 @@ def _vehicle_record(model: SurrogateModel, vehicle: Any) -> dict[str, Any]:
     if str(file).endswith(val.YAML_SUFFIXES):
         file = str(Path(file).resolve())
     return {"vehicle": vehicle_document(veh, None if file is None else str(file))}
+
+
+def _search_summary(report: TauSelection) -> dict[str, Any]:
+    """The data-driven choice of a :class:`TauSelection` for the model file's report."""
+    out: dict[str, Any] = {"memory_states": report.states}
+    if report.decision:
+        out["decision"] = report.decision
+    if report.search is not None:
+        out["tau_search"] = report.search.describe()
+    if report.guess is not None:
+        out["linear_fit"] = {k: float(v) for k, v in report.guess._asdict().items()}
+    for name in ("static", "coupled"):
+        if (score := getattr(report, name)) is not None:
+            out[name] = {**score, "degree": candidate_label(score["degree"])}
+    if report.warnings:
+        out["warnings"] = list(report.warnings)
+    return out
 
 
 @lru_cache(maxsize=2)
@@ -486,11 +505,15 @@ def refine(
 
 def build_parser() -> argparse.ArgumentParser:
     """Arguments of ``railgym collect`` (``python -m railgym.fmu.collect``)."""
-    from surrogates.cli import add_degree_arguments
+    from surrogates.cli import add_degree_arguments, add_memory_arguments
 
     parser = Parser(prog="railgym collect", description=__doc__, formatter_class=RawHelpFormatter)
     parser.add_argument(
-        "--features", choices=sorted(PACKAGED), default="maxwell", help="the element's form"
+        "--features",
+        choices=sorted(PACKAGED),
+        help="the element's form: maxwell (one memory state, k-fold recipe) or static (the "
+        "paper's GA recipe); default: the k-fold recipe with the memory states the data ask "
+        "for (--memory-states), maxwell when regenerating the packaged file (no -o/--out)",
     )
     parser.add_argument(
         "--design",
@@ -529,6 +552,7 @@ def build_parser() -> argparse.ArgumentParser:
         "; static default 16 per input; maxwell: the grid of each input (from 12, 12, 14 in "
         "steps of 2) up to N, default 16 16 20",
     )
+    add_memory_arguments(parser)
     add_common(parser)
     return parser
 
@@ -564,6 +588,50 @@ def main(argv: Sequence[str] | None = None, fmu_runs: FmuRuns | None = None) -> 
         return error_status(parser.prog, err, args.debug)
 
 
+def _memory_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int | None:
+    """The number of memory states of ``--features`` / ``--memory-states`` (``None``: from the
+    data); ``--features`` set to ``maxwell`` when regenerating the packaged file; a
+    contradiction exits 2 naming the flags."""
+    memory = (args.tau, args.memory_states, args.coupled or None)
+    if args.features == "static" and any(v is not None for v in memory):
+        parser.error(
+            "--tau, --memory-states, --coupled: for the k-fold memory recipe, not --features static"
+        )
+    if args.features == "maxwell" and args.memory_states == 0:
+        parser.error("--memory-states 0 contradicts --features maxwell (one memory state)")
+    if args.features is None and args.out is None:
+        args.features = "maxwell"  # regenerating the packaged memory element
+    return 1 if args.features == "maxwell" else args.memory_states
+
+
+def _build_memory(
+    args: argparse.Namespace,
+    cands: Any,
+    seed: int,
+    progress: Any,
+    data: dict[str, Any] | None,
+    veh: Any,
+    states: int | None,
+) -> tuple[SurrogateModel, TauSelection]:
+    """The k-fold memory element of ``railgym collect`` (:func:`build_memory_surrogate`;
+    the coupled map scored with ``--coupled``);
+    the edge warning of the τ search is a line of the printed report, not a Python warning."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
+        model, report, _ = build_memory_surrogate(
+            design=args.design,
+            degrees=cands or MEMORY_DEGREES,
+            seed=seed,
+            progress=progress,
+            data=data,
+            vehicle=veh,
+            tau=args.tau,
+            memory_states=states,
+            coupled=None if args.coupled else False,
+        )
+    return model, report
+
+
 def _collect(
     parser: argparse.ArgumentParser, args: argparse.Namespace, fmu_runs: FmuRuns | None
 ) -> int:
@@ -571,8 +639,9 @@ def _collect(
     from railgym.progress import quiet, stages
     from surrogates.cli import UsageError
 
+    states = _memory_flags(parser, args)
     if args.design is None:
-        args.design = MEMORY_DESIGN if args.features == "maxwell" else "paper"
+        args.design = "paper" if args.features == "static" else MEMORY_DESIGN
     if args.out is not None:  # checked before the minutes of work
         target = Path(args.out)
         if target.exists() and not args.overwrite:
@@ -633,19 +702,14 @@ def _collect(
             text = report.format("N")
             source = f"railgym dynamic reference ({veh.name}), {where}, 50 Hz, M = {args.m} (GA)"
         else:
-            model, report, _ = build_memory_surrogate(
-                design=args.design,
-                degrees=cands or MEMORY_DEGREES,
-                seed=seed,
-                progress=progress,
-                data=data,
-                vehicle=veh,
-            )
+            model, report = _build_memory(args, cands, seed, progress, data, veh, states)
             text = report.format()
             target = "F_s - F_bump" if veh.known_physics else "F_s"
+            memory = model.features_["form"] == "maxwell"
+            state = "the Maxwell state" if memory else "no memory state"
             source = (
                 f"railgym dynamic reference ({veh.name}), {where}, 200 Hz; passive LPR on "
-                f"{target} with the Maxwell state"
+                f"{target} with {state}"
             )
     if args.fmu_map is not None:
         source = f"FMU of {args.fmu_map} (vehicle {veh.name})" + source[source.index(",") :]

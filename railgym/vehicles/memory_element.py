@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import warnings
 from collections.abc import Callable, Iterable, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -19,27 +21,35 @@ from railgym.vehicles.collect_design import (
 )
 from railgym.vehicles.vertical.elements import bump_stop_force
 from railgym.vehicles.vertical.params import load_vehicle
+from surrogates import tau_search as ts
 from surrogates.memory import TauSelection, law_document, maxwell_state, relaxed_state
 from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression
 from surrogates.passive import PassiveLegendreRegression
-from surrogates.selection import select_kfold
+from surrogates.selection import SelectionResult, select_kfold
 
 __all__ = [
     "MEMORY_DEGREES",
     "MEMORY_DESIGN",
-    "MEMORY_TAUS",
+    "COUPLED_DEGREES",
+    "MEMORY_GAIN",
     "WARMUP",
     "build_memory_surrogate",
+    "choose_memory_element",
     "design_with",
+    "element_runs",
     "memory_degrees",
     "memory_training_data",
     "select_memory_element",
     "stage",
 ]
 
-#: Maxwell time constants tried by default, s
-MEMORY_TAUS = (4e-3, 8e-3, 16e-3)
+#: relative k-fold RMS gain of the memory form over the memoryless one above which the data
+#: "show memory" (the default number of memory states is then 1), and of the coupled map
+#: over the additive one above which the coupled map is taken
+MEMORY_GAIN = 0.05
+#: total degrees of the coupled map (LPR with interactions) scored at the chosen τ
+COUPLED_DEGREES = (4, 6, 8)
 #: degree tuples (δ, δ̇, ζ) tried by default for the memory element: ζ needs high degrees
 #: (the controlled runs' error falls with it), capped at 20 for the cost of the recurrences
 MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
@@ -84,44 +94,58 @@ def memory_degrees(max_degree: Sequence[int]) -> list[tuple[int, ...]]:
     )
 
 
+def element_runs(
+    data: dict[str, Any], known_physics: Iterable[str] | None = None, vehicle: Any = "manchester"
+) -> list[dict[str, Any]]:
+    """The runs of a :func:`collect_design` result as the element is fitted on them: full
+    histories ``t, delta, delta_dot``, the sample indices ``rows`` after :data:`WARMUP` and
+    ``force`` (N) at those rows, less the bump-stop law with ``"bump_stop"`` in
+    ``known_physics`` (default: the vehicle's own)."""
+    veh = load_vehicle(vehicle)
+    known, p = veh.check_known_physics(known_physics), veh.kernel_params()
+    out = []
+    for r in data["runs"]:
+        rows = r["rows"][r["t"][r["rows"]] >= WARMUP]
+        force = r["force"][rows]
+        if "bump_stop" in known:
+            force = force - np.array([bump_stop_force(x, p) for x in r["delta"][rows]])
+        out.append({**r, "rows": rows, "force": force})
+    return out
+
+
 def memory_training_data(
     data: dict[str, Any],
     tau: float,
     known_physics: Iterable[str] | None = None,
     vehicle: Any = "manchester",
     relaxation: Any = None,
+    runs: list[dict[str, Any]] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of the memory element from a :func:`collect_design` result.
 
     ``ζ = δ − s`` is built from each run's full-rate history (:func:`maxwell_state`, or
     :func:`~surrogates.memory.relaxed_state` with a nonlinear ``relaxation`` law; relaxed
-    start) and taken at the run's ``rows`` after :data:`WARMUP`; with ``"bump_stop"`` in
-    ``known_physics`` (default: the vehicle's own) the output is
-    ``F_s − F_bump(δ)``.
+    start) and taken at the rows of :func:`element_runs` (``runs``: those already built).
 
     Returns ``U`` (n, 3) = (δ, δ̇, ζ) in m, m/s, m and ``V`` (n,) in N.
     """
-    veh = load_vehicle(vehicle)
-    known, p = veh.check_known_physics(known_physics), veh.kernel_params()
+    if runs is None:
+        runs = element_runs(data, known_physics, vehicle)
     Us, Vs = [], []
-    for r in data["runs"]:
-        rows = r["rows"][r["t"][r["rows"]] >= WARMUP]
+    for r in runs:
         d = r["delta"]
         if relaxation is None:
             zeta = maxwell_state(d, r["t"], tau)
         else:
             zeta = relaxed_state(d, r["t"], relaxation)
-        force = r["force"][rows]
-        if "bump_stop" in known:
-            force = force - np.array([bump_stop_force(x, p) for x in d[rows]])
-        Us.append(np.column_stack([d, r["delta_dot"], zeta])[rows])
-        Vs.append(force)
+        Us.append(np.column_stack([d, r["delta_dot"], zeta])[r["rows"]])
+        Vs.append(r["force"])
     return np.concatenate(Us), np.concatenate(Vs)
 
 
 def build_memory_surrogate(
     design: str | CollectionDesign = MEMORY_DESIGN,
-    taus: Sequence[float] = MEMORY_TAUS,
+    tau: Any = None,
     degrees: Iterable[Any] = MEMORY_DEGREES,
     passive: bool = True,
     known_physics: Sequence[str] | None = None,
@@ -132,14 +156,19 @@ def build_memory_surrogate(
     vehicle: Any = "manchester",
     progress: Callable[[str, int, int], None] | None = None,
     data: dict[str, Any] | None = None,
+    memory_states: int | None = None,
+    coupled: bool | None = False,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
-    """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ`` and the degrees chosen by k-fold CV.
+    """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ``, the degrees and the number of memory
+    states chosen from the data (:func:`choose_memory_element`).
 
     Parameters
     ----------
     design : ``"paper"``, ``"envelope"`` (default, :data:`MEMORY_DESIGN`) or a
         ``CollectionDesign``.
-    taus : candidate Maxwell time constants, s. degrees : candidate degree tuples.
+    tau : where ``τ`` is searched (s; :func:`surrogates.tau_search.tau_search`): ``None``
+        the default continuous range, one value, a range ``(lo, hi)`` or three or more values.
+    degrees : candidate degree tuples.
     passive : fit :class:`~surrogates.passive.PassiveLegendreRegression` (non-negative
         slopes in every input) instead of the unconstrained LPR.
     known_physics : ``("bump_stop",)`` adds the vehicle's bump-stop law in the kernel;
@@ -151,14 +180,20 @@ def build_memory_surrogate(
     progress : optional ``callback(stage, i, total)`` (reference runs, degree search per τ).
     data : training data already collected (a :func:`collect_design` result, e.g. from an
         FMU by :func:`railgym.fmu.collect.collect_fmu`) instead of running ``design``.
+    memory_states : 0 (memoryless), 1 (one Maxwell state) or ``None``: decided from the data.
+    coupled : ``None``: the map of a memory element is the coupled LPR (every tensor term up
+        to a total degree among :data:`COUPLED_DEGREES`, unconstrained: it can diverge where
+        the passive additive map does not) when it lowers the k-fold RMS by
+        :data:`MEMORY_GAIN` against the additive one; ``False`` (default): additive only.
 
     Returns
     -------
     (model, selection, data) : the fitted element with its ``features_`` (form, τ, known
     physics), the :class:`~surrogates.memory.TauSelection` (score of the best degree of each
-    ``τ``; ``results`` the full tables) and the :func:`collect_design` data with the
-    training pairs ``U_memory``, ``V_memory``.
+    ``τ`` tried, the decision; ``results`` the full tables) and the :func:`collect_design`
+    data with the training pairs ``U_memory``, ``V_memory``.
     """
+    search, states = ts.tau_search(tau, "tau"), ts.memory_states(memory_states, "memory_states")
     if data is None:
         data = collect_design(
             design_with(design, duration, sample_rate),
@@ -166,10 +201,156 @@ def build_memory_surrogate(
             progress=stage(progress, "reference runs"),
         )
     cls = PassiveLegendreRegression if passive else LegendreRegression
-    model, selection = select_memory_element(
-        data, taus, degrees, cls, known_physics, vehicle, k, seed, progress
+    model, selection = choose_memory_element(
+        data, search, states, degrees, cls, known_physics, vehicle, k, seed, progress, coupled
     )
     return model, selection, data
+
+
+def _static_degrees(degrees: Sequence[Any]) -> list[Any]:
+    """Degrees of the memoryless form (δ, δ̇) from the memory form's candidates."""
+    return sorted({tuple(d[:2]) if isinstance(d, tuple | list) else d for d in degrees})
+
+
+def _probe_degree(degrees: Sequence[Any]) -> Any:
+    """The degree that scores each ``τ`` of the search: the largest of each input."""
+    if all(isinstance(d, tuple | list) for d in degrees):
+        return tuple(int(v) for v in np.max(np.asarray(degrees), axis=0))
+    return max(degrees)
+
+
+def _best(res: SelectionResult) -> dict[str, Any]:
+    row = next(r for r in res.table if r["candidate"] == res.best)
+    return {"degree": res.best, "rms": row["rms"], "nrms": row["nrms"]}
+
+
+def choose_memory_element(
+    data: dict[str, Any],
+    search: Any,
+    states: int | None,
+    degrees: Iterable[Any],
+    cls: Callable[..., SurrogateModel],
+    known_physics: Sequence[str] | None,
+    vehicle: Any,
+    k: int,
+    seed: int,
+    progress: Callable[[str, int, int], None] | None = None,
+    coupled: bool | None = False,
+) -> tuple[SurrogateModel, TauSelection]:
+    """The element of class ``cls`` on ``data``: ``τ`` (a first guess by
+    :func:`~surrogates.tau_search.fit_linear_memory`, refined by a bounded minimisation of
+    the ``k``-fold CV error in ``log τ`` over the :class:`~surrogates.tau_search.TauSearch`
+    ``search`` at the largest degree, then the degrees; candidate values each with every
+    degree), the number of memory ``states`` (``None``: 1 when it lowers the CV error by
+    :data:`MEMORY_GAIN`) and ``coupled`` (:func:`_coupled_map`). A ``τ`` at the edge of
+    ``search`` is a ``UserWarning`` naming ``--tau``. Pairs go to ``data["U_memory"],
+    data["V_memory"]``. Arguments as :func:`build_memory_surrogate`."""
+    degrees = list(degrees)
+    known = load_vehicle(vehicle).check_known_physics(known_physics)
+    runs = element_runs(data, known, vehicle)
+    out = TauSelection(search=search, states=1 if states is None else states)
+    out.guess = ts.fit_linear_memory(runs, search.lo, search.hi)
+
+    def kfold(tau: float, make: Callable[..., Any], grid: Sequence[Any], what: str) -> Any:
+        U, V = memory_training_data(data, tau, runs=runs)
+        where = stage(progress, f"{what} at tau {1e3 * tau:.4g} ms")
+        return select_kfold(make, grid, U, V, k=k, seed=seed, progress=where)
+
+    fits: dict[float, SelectionResult] = {}
+
+    # candidate values: each with the whole degree grid; a range: at the probe degree
+    grid = degrees if search.values is not None else [_probe_degree(degrees)]
+
+    def score(tau: float) -> float:
+        fits[tau] = kfold(tau, lambda deg: cls(degree=deg), grid, "search")
+        return _best(fits[tau])["rms"]
+
+    found = None
+    if states != 0:
+        found = ts.search_tau(score, search, out.guess.tau)
+        if search.values is None:
+            fits[found.best] = kfold(found.best, lambda deg: cls(degree=deg), degrees, "degrees")
+        for tau, _ in found.scores:
+            out.table.append({"tau": tau, **_best(fits[tau])})
+            out.results.append(fits[tau])
+        out.best = (found.best, _best(fits[found.best])["degree"])
+    if states != 1:
+        U, V = memory_training_data(data, out.guess.tau, runs=runs)
+        sres = select_kfold(
+            lambda deg: cls(degree=deg), _static_degrees(degrees), U[:, :2], V, k=k, seed=seed
+        )
+        out.static_result, out.static = sres, _best(sres)
+    _decide(out, states)
+    make: Callable[..., SurrogateModel] = cls
+    if out.states and coupled is None:
+        found, take = _coupled_map(out, found, kfold, search)
+        make = partial(LegendreRegression, interactions=True) if take else cls
+    best = out.guess.tau if found is None else found.best
+    U, V = memory_training_data(data, best, runs=runs)
+    if out.states == 0:
+        assert out.static is not None
+        U, out.best = U[:, :2], (None, out.static["degree"])
+    elif found is not None and found.edge is not None:
+        out.warnings.append(
+            f"warning: tau = {1e3 * best:.4g} ms is at the {found.edge} end of the search "
+            f"({search.describe()}); widen it (--tau LO HI on the command line, "
+            "tau=(lo, hi) in Python)"
+        )
+    for text in out.warnings:
+        warnings.warn(text.removeprefix("warning: "), UserWarning, stacklevel=3)
+    model = make(degree=out.best[1]).fit(U, V)
+    form = {"form": "maxwell", "tau": best} if out.states else {"form": "static", "tau": None}
+    model.features_ = {**form, "known_physics": list(known)}
+    data["U_memory"], data["V_memory"] = U, V
+    return model, out
+
+
+def _coupled_map(
+    out: TauSelection, found: Any, kfold: Callable[..., Any], search: Any
+) -> tuple[Any, bool]:
+    """The coupled LPR with its own τ search (at the middle of :data:`COUPLED_DEGREES`) from
+    the additive map's ``found``, then its total degree among them (``kfold(tau, make,
+    grid, what)`` scores): its score goes to ``out.coupled``; taken (``out.best`` its ``τ``
+    and total degree) when its k-fold RMS is :data:`MEMORY_GAIN` below the additive map's.
+    Returns the search result of the map taken and whether it is the coupled one."""
+    fits: dict[float, Any] = {}
+
+    def make(degree: int) -> SurrogateModel:
+        return LegendreRegression(degree=degree, interactions=True)
+
+    def score(tau: float) -> float:
+        fits[tau] = kfold(tau, make, [COUPLED_DEGREES[len(COUPLED_DEGREES) // 2]], "coupled")
+        return float(_best(fits[tau])["rms"])
+
+    cfound = ts.search_tau(score, search, found.best)
+    fits[cfound.best] = kfold(cfound.best, make, COUPLED_DEGREES, "coupled degrees")
+    out.coupled = {"tau": cfound.best, **_best(fits[cfound.best])}
+    out.coupled_result = fits[cfound.best]
+    gain = 1.0 - out.coupled["rms"] / min(r["rms"] for r in out.table)
+    take = gain > MEMORY_GAIN
+    out.decision += (
+        f"; map: {'coupled' if take else 'additive'} (the coupled LPR, total degree "
+        f"{out.coupled['degree']} at tau {1e3 * cfound.best:.4g} ms, changes the k-fold RMS "
+        f"by {-100 * gain:+.1f} %, threshold -{100 * MEMORY_GAIN:g} %)"
+    )
+    if take:
+        out.best = (cfound.best, out.coupled["degree"])
+    return (cfound if take else found), take
+
+
+def _decide(out: TauSelection, states: int | None) -> None:
+    """``out.states`` and ``out.decision``: ``states`` as given, or (``None``) 1 when the
+    memory form's k-fold RMS is :data:`MEMORY_GAIN` below the memoryless form's."""
+    if states is not None:
+        out.states, out.decision = states, f"memory states: {states} (given)"
+        return
+    assert out.static is not None
+    gain = 1.0 - min(r["rms"] for r in out.table) / out.static["rms"]
+    out.states = 1 if gain > MEMORY_GAIN else 0
+    out.decision = (
+        f"memory states: {out.states} (from the data: the memory state changes the k-fold "
+        f"RMS by {-100 * gain:+.1f} %, threshold -{100 * MEMORY_GAIN:g} %)"
+    )
 
 
 def select_memory_element(
@@ -194,9 +375,10 @@ def select_memory_element(
     known_physics = load_vehicle(vehicle).check_known_physics(known_physics)
     out = TauSelection()
     pairs = {}
+    runs = element_runs(data, known_physics, vehicle)
     for tau in taus:
         law = None if laws is None else laws[tau]
-        U, V = memory_training_data(data, tau, known_physics, vehicle, law)
+        U, V = memory_training_data(data, tau, relaxation=law, runs=runs)
         res = select_kfold(
             lambda deg: cls(degree=deg),
             degrees,

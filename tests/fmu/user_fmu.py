@@ -215,10 +215,11 @@ def _compiler() -> str | None:
     return None
 
 
-def build_user_c_fmu(dest: Path) -> Path:
-    """Compile ``quarter_car.c`` and zip it with its model description into
-    ``dest/quarter_car.fmu``; ``pytest.skip`` without a C compiler."""
-    return build_c_fmu(dest, "quarter_car", "QUARTER_CAR_GUID")
+def build_user_c_fmu(dest: Path, model: str = "quarter_car") -> Path:
+    """Compile ``user_models/MODEL.c`` (its GUID macro ``MODEL_GUID`` in capitals) and zip
+    it with its model description into ``dest/MODEL.fmu``; ``pytest.skip`` without a C
+    compiler. ``model``: ``quarter_car`` or ``air_spring_car``."""
+    return build_c_fmu(dest, model, f"{model.upper()}_GUID")
 
 
 def build_c_fmu(dest: Path, stem: str, guid_macro: str) -> Path:

@@ -40,7 +40,7 @@ def test_rebuilding_the_packaged_memory_element_gives_the_same_model(packaged):
     chosen = packaged.metadata_["report"]["chosen"]
     assert form == ("maxwell", chosen["tau"], ("bump_stop",), None)
     degree = tuple(packaged.degree)
-    model, sel, data = build_memory_surrogate(taus=(form.tau,), degrees=[degree])
+    model, sel, data = build_memory_surrogate(tau=form.tau, degrees=[degree], memory_states=1)
     assert sel.best == (form.tau, degree)
     U = data["U_memory"]
     # the envelope design: 16 runs of 20 s at 200 Hz, each from the 0.1 s warm-up on

@@ -38,7 +38,7 @@ from railgym.track import fra_profile_with_slope
 from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.collect_design import band_limited_force
 from railgym.vehicles.element_envelope import design_envelope
-from railgym.vehicles.memory_element import WARMUP, select_memory_element
+from railgym.vehicles.memory_element import element_runs, select_memory_element
 from railgym.vehicles.vehicle.model import (
     DEFAULT_DT,
     advance,
@@ -49,8 +49,6 @@ from railgym.vehicles.vehicle.model import (
     wheelset_offsets,
 )
 from railgym.vehicles.vehicle.params import load_whole_vehicle
-from railgym.vehicles.vertical.elements import bump_stop_force
-from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import io
 from surrogates.cli_flags import Parser, add_common, add_out, add_seed, error_status
 from surrogates.memory import TauSelection, fit_relaxation, shortest_time_constant
@@ -238,7 +236,7 @@ def build_vehicle_surrogate(
         data = collect_vehicle(design, vehicle)
     base = load_whole_vehicle(vehicle).suspension.name
     if relaxation:
-        law = fit_relaxation(_law_runs(data, base)).law
+        law = fit_relaxation(element_runs(data, ("bump_stop",), base)).law
         laws: dict[float, Any] = {shortest_time_constant(law): law}
     else:
         laws = {float(tau): None for tau in taus}
@@ -247,18 +245,6 @@ def build_vehicle_surrogate(
         data, list(laws), degrees, cls, ("bump_stop",), base, k, seed, laws=laws
     )
     return model, sel, data
-
-
-def _law_runs(data: dict[str, Any], base: str) -> list[dict[str, Any]]:
-    """The runs of ``data`` as :func:`~surrogates.memory.fit_relaxation` takes them: the
-    samples after ``WARMUP``, force less the bump-stop law (the element's known physics)."""
-    p = load_vehicle(base).kernel_params()
-    out = []
-    for r in data["runs"]:
-        rows = r["rows"][r["t"][r["rows"]] >= WARMUP]
-        bump = np.array([bump_stop_force(x, p) for x in r["delta"][rows]])
-        out.append({**r, "rows": rows, "force": r["force"][rows] - bump})
-    return out
 
 
 def build_parser() -> argparse.ArgumentParser:

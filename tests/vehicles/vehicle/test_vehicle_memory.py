@@ -320,10 +320,12 @@ def test_whole_vehicle_collection_records_each_bogie_of_the_reference(vehicle):
 
 
 def test_vehicle_validation_cli_prints_small_errors_for_the_memory_element(capsys):
-    from agents.evaluation.vehicle_validation import main
+    from agents.evaluation.vehicle_validation import LEGEND, main
 
     assert main(["--seeds", "2", "--track-class", "5", "--duration", "2"]) == 0
-    line = capsys.readouterr().out.splitlines()[-1]
+    out = capsys.readouterr().out
+    line = [row for row in out.splitlines() if row.startswith("|")][-1]
+    assert out.strip().endswith(LEGEND) and line.split("|")[7].strip() == "0 of 2"
     cells = [c.strip() for c in line.split("|")[4:7]]
     medians = [float(c.split("/")[0]) for c in cells]
     assert all(0.0 < v < 15.0 for v in medians), line

@@ -1,0 +1,365 @@
+/*
+ * air_spring_car.c - a quarter car with an air spring, surge pipe and reservoir, as a user
+ * would bring it: an FMI 2.0 co-simulation FMU written by hand without any railgym code.
+ *
+ * Bodies (displacements from the loaded static equilibrium, m, positive upwards):
+ *   x1, v1  bogie share,   m1 = 2 100 kg
+ *   x2, v2  carbody share, m2 = 8 150 kg (its weight is carried by the static gauge
+ *           pressure P0 - p_atm on the effective area, not in the equations)
+ * Primary (track to bogie), linear:   F1 = k1 (zr - x1) + c1 (zr_dot - v1),
+ *   k1 = 2.9e6 N/m, c1 = 2.6e4 N s/m.
+ * Secondary: an air spring (bellows, effective area A = 0.2 m2, volume Vb = Vb0 - A delta,
+ * delta = x1 - x2 > 0 in compression) joined by a surge pipe to a reservoir of volume Vr.
+ * The gas masses mb, mr (kg) are states; each volume is polytropic, p = P0 (rho/rho0)^n,
+ * n = 1.4; the pipe's volume flow Q (bellows to reservoir) obeys
+ *   pb - pr = Rl Q + Rt Q |Q|   (laminar and turbulent losses),   dmb/dt = -rho_m Q,
+ * rho_m the mean gas density of the two volumes. The secondary force is
+ *   Fs = (pb - P0) A;   m1 a1 = F1 - Fs - Fact,   m2 a2 = Fs + Fact.
+ * Linearised: k0 = A^2 n P0/(Vb0 + Vr) = 364 kN/m (static), k_inf = A^2 n P0/Vb0 = 830 kN/m,
+ * relaxation time Rl/(n P0 (1/Vb0 + 1/Vr)) = 45.7 ms, loss-angle peak 23 deg at 2.3 Hz.
+ *
+ * Inputs zr (m), zr_dot (m/s), Fact (N); outputs x1, v1, x2, v2 and a2 (m/s2). fmi2DoStep
+ * integrates with classic RK4 in 4 equal substeps per communication step, the inputs held.
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+
+#ifndef AIR_SPRING_CAR_GUID
+#define AIR_SPRING_CAR_GUID "{5d0e6a52-9a3e-4f1c-8e44-2b7d1c0a5e11}"
+#endif
+
+/* parameters, SI */
+#define M1 2100.0
+#define M2 8150.0
+#define K1 2.9e6
+#define C1 2.6e4
+#define AREA 0.2          /* m^2, effective area of the bellows */
+#define P0 5.0e5          /* Pa, absolute pressure at the static equilibrium */
+#define RHO0 5.95         /* kg/m^3, gas density at P0 */
+#define N_POLY 1.4
+#define VB0 0.03373       /* m^3, bellows volume at the static equilibrium */
+#define VR 0.04320        /* m^3, reservoir */
+#define R_LAM 1.69e6      /* Pa s/m^3, laminar loss of the surge pipe */
+#define R_TURB 2.0e7      /* Pa s^2/m^6, turbulent loss of the surge pipe */
+#define N_SUBSTEPS 4
+#define NX 6
+
+/* value references */
+enum { VR_ZR, VR_ZR_DOT, VR_FACT, VR_X1, VR_V1, VR_X2, VR_V2, VR_A2, N_VR };
+
+typedef struct {
+    fmi2CallbackFunctions cb;
+    char *name;
+    fmi2Boolean logging;
+    double time;
+    double x[NX]; /* x1, v1, x2, v2, mb, mr */
+    double u[3]; /* zr, zr_dot, Fact */
+} QuarterCar;
+
+static void qc_log(QuarterCar *q, fmi2Status status, const char *fmt, ...) {
+    char msg[400];
+    va_list ap;
+    if (q == NULL || q->cb.logger == NULL) return;
+    if (status == fmi2OK && !q->logging) return;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    q->cb.logger(q->cb.componentEnvironment, q->name, status,
+                 status == fmi2OK ? "logAll" : "logStatusError", "%s", msg);
+}
+
+static double pressure(double mass, double volume) {
+    return P0 * pow(mass / (volume * RHO0), N_POLY);
+}
+
+static double secondary_force(const double *x) {
+    return (pressure(x[4], VB0 - AREA * (x[0] - x[2])) - P0) * AREA;
+}
+
+static void rates(const double *x, const double *u, double *dx) {
+    double vb = VB0 - AREA * (x[0] - x[2]);
+    double pb = pressure(x[4], vb), pr = pressure(x[5], VR);
+    double dp = pb - pr;
+    double q = 2.0 * dp / (R_LAM + sqrt(R_LAM * R_LAM + 4.0 * R_TURB * fabs(dp)));
+    double mdot = 0.5 * (x[4] / vb + x[5] / VR) * q;
+    double fs = (pb - P0) * AREA;
+    double f1 = K1 * (u[0] - x[0]) + C1 * (u[1] - x[1]);
+    dx[0] = x[1];
+    dx[1] = (f1 - fs - u[2]) / M1;
+    dx[2] = x[3];
+    dx[3] = (fs + u[2]) / M2;
+    dx[4] = -mdot;
+    dx[5] = mdot;
+}
+
+static void rk4(double *x, const double *u, double h) {
+    double k1[NX], k2[NX], k3[NX], k4[NX], y[NX];
+    int i;
+    rates(x, u, k1);
+    for (i = 0; i < NX; i++) y[i] = x[i] + 0.5 * h * k1[i];
+    rates(y, u, k2);
+    for (i = 0; i < NX; i++) y[i] = x[i] + 0.5 * h * k2[i];
+    rates(y, u, k3);
+    for (i = 0; i < NX; i++) y[i] = x[i] + h * k3[i];
+    rates(y, u, k4);
+    for (i = 0; i < NX; i++) x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+}
+
+static void start_values(QuarterCar *q) {
+    memset(q->x, 0, sizeof q->x);
+    q->x[4] = RHO0 * VB0;
+    q->x[5] = RHO0 * VR;
+    memset(q->u, 0, sizeof q->u);
+    q->time = 0.0;
+}
+
+/* ------------------------------------------------------------------ FMI 2.0 functions */
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[]) {
+    (void)nCategories;
+    (void)categories;
+    ((QuarterCar *)c)->logging = loggingOn;
+    return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation,
+                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
+                              fmi2Boolean loggingOn) {
+    QuarterCar *q;
+    const char *name = instanceName ? instanceName : "air_spring_car";
+    (void)fmuResourceLocation;
+    (void)visible;
+    if (functions == NULL) return NULL;
+    if (functions->allocateMemory == NULL || functions->freeMemory == NULL) {
+        if (functions->logger)
+            functions->logger(functions->componentEnvironment, name, fmi2Error,
+                              "logStatusError",
+                              "fmi2Instantiate: allocateMemory and freeMemory are required");
+        return NULL;
+    }
+    if (fmuType != fmi2CoSimulation) {
+        if (functions->logger)
+            functions->logger(functions->componentEnvironment, name, fmi2Error,
+                              "logStatusError", "air_spring_car is a co-simulation FMU only");
+        return NULL;
+    }
+    if (fmuGUID == NULL || strcmp(fmuGUID, AIR_SPRING_CAR_GUID) != 0) {
+        if (functions->logger)
+            functions->logger(functions->componentEnvironment, name, fmi2Error,
+                              "logStatusError", "GUID %s does not match %s",
+                              fmuGUID ? fmuGUID : "(null)", AIR_SPRING_CAR_GUID);
+        return NULL;
+    }
+    q = (QuarterCar *)functions->allocateMemory(1, sizeof(QuarterCar));
+    if (q == NULL) return NULL;
+    q->cb = *functions;
+    q->name = (char *)functions->allocateMemory(strlen(name) + 1, 1);
+    if (q->name == NULL) {
+        functions->freeMemory(q);
+        return NULL;
+    }
+    strcpy(q->name, name);
+    q->logging = loggingOn;
+    start_values(q);
+    return q;
+}
+
+void fmi2FreeInstance(fmi2Component c) {
+    QuarterCar *q = (QuarterCar *)c;
+    if (q == NULL) return;
+    q->cb.freeMemory(q->name);
+    q->cb.freeMemory(q);
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
+                               fmi2Real tolerance, fmi2Real startTime,
+                               fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    (void)toleranceDefined;
+    (void)tolerance;
+    (void)stopTimeDefined;
+    (void)stopTime;
+    ((QuarterCar *)c)->time = startTime;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
+fmi2Status fmi2Terminate(fmi2Component c) { (void)c; return fmi2OK; }
+
+fmi2Status fmi2Reset(fmi2Component c) {
+    start_values((QuarterCar *)c);
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       fmi2Real value[]) {
+    QuarterCar *q = (QuarterCar *)c;
+    size_t i;
+    for (i = 0; i < nvr; i++) {
+        switch (vr[i]) {
+        case VR_ZR: case VR_ZR_DOT: case VR_FACT: value[i] = q->u[vr[i] - VR_ZR]; break;
+        case VR_X1: case VR_V1: case VR_X2: case VR_V2: value[i] = q->x[vr[i] - VR_X1]; break;
+        case VR_A2:
+            value[i] = (secondary_force(q->x) + q->u[2]) / M2;
+            break;
+        default:
+            qc_log(q, fmi2Error, "fmi2GetReal: no Real variable with value reference %u",
+                   (unsigned)vr[i]);
+            return fmi2Error;
+        }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       const fmi2Real value[]) {
+    QuarterCar *q = (QuarterCar *)c;
+    size_t i;
+    for (i = 0; i < nvr; i++) {
+        if (vr[i] > VR_FACT) {
+            qc_log(q, fmi2Error, "fmi2SetReal: value reference %u is not an input",
+                   (unsigned)vr[i]);
+            return fmi2Error;
+        }
+        q->u[vr[i]] = value[i];
+    }
+    return fmi2OK;
+}
+
+static fmi2Status none_of_type(fmi2Component c, size_t nvr, const char *fn) {
+    if (nvr == 0) return fmi2OK;
+    qc_log((QuarterCar *)c, fmi2Error, "%s: the air-spring car has no such variables", fn);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          fmi2Integer value[]) {
+    (void)vr; (void)value;
+    return none_of_type(c, nvr, "fmi2GetInteger");
+}
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          fmi2Boolean value[]) {
+    (void)vr; (void)value;
+    return none_of_type(c, nvr, "fmi2GetBoolean");
+}
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                         fmi2String value[]) {
+    (void)vr; (void)value;
+    return none_of_type(c, nvr, "fmi2GetString");
+}
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Integer value[]) {
+    (void)vr; (void)value;
+    return none_of_type(c, nvr, "fmi2SetInteger");
+}
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Boolean value[]) {
+    (void)vr; (void)value;
+    return none_of_type(c, nvr, "fmi2SetBoolean");
+}
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                         const fmi2String value[]) {
+    (void)vr; (void)value;
+    return none_of_type(c, nvr, "fmi2SetString");
+}
+
+static fmi2Status not_supported(fmi2Component c, const char *fn) {
+    qc_log((QuarterCar *)c, fmi2Error, "%s is not supported by the air-spring car", fn);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
+    (void)s;
+    return not_supported(c, "fmi2GetFMUstate");
+}
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
+    (void)s;
+    return not_supported(c, "fmi2SetFMUstate");
+}
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) {
+    (void)s;
+    return not_supported(c, "fmi2FreeFMUstate");
+}
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) {
+    (void)s; (void)n;
+    return not_supported(c, "fmi2SerializedFMUstateSize");
+}
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) {
+    (void)s; (void)b; (void)n;
+    return not_supported(c, "fmi2SerializeFMUstate");
+}
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n,
+                                   fmi2FMUstate *s) {
+    (void)b; (void)n; (void)s;
+    return not_supported(c, "fmi2DeSerializeFMUstate");
+}
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vu[],
+                                        size_t nu, const fmi2ValueReference vk[], size_t nk,
+                                        const fmi2Real dvk[], fmi2Real dvu[]) {
+    (void)vu; (void)nu; (void)vk; (void)nk; (void)dvk; (void)dvu;
+    return not_supported(c, "fmi2GetDirectionalDerivative");
+}
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                       size_t nvr, const fmi2Integer order[],
+                                       const fmi2Real value[]) {
+    (void)vr; (void)nvr; (void)order; (void)value;
+    return not_supported(c, "fmi2SetRealInputDerivatives");
+}
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                        size_t nvr, const fmi2Integer order[],
+                                        fmi2Real value[]) {
+    (void)vr; (void)nvr; (void)order; (void)value;
+    return not_supported(c, "fmi2GetRealOutputDerivatives");
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
+                      fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+    QuarterCar *q = (QuarterCar *)c;
+    double h = communicationStepSize / N_SUBSTEPS;
+    int k;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!(communicationStepSize > 0.0)) {
+        qc_log(q, fmi2Error, "fmi2DoStep: communication step %g s is not positive",
+               communicationStepSize);
+        return fmi2Error;
+    }
+    for (k = 0; k < N_SUBSTEPS; k++) rk4(q->x, q->u, h);
+    q->time = currentCommunicationPoint + communicationStepSize;
+    return fmi2OK;
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) { return not_supported(c, "fmi2CancelStep"); }
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    (void)s; (void)value;
+    return not_supported(c, "fmi2GetStatus");
+}
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    QuarterCar *q = (QuarterCar *)c;
+    if (s == fmi2LastSuccessfulTime) {
+        *value = q->time;
+        return fmi2OK;
+    }
+    return not_supported(c, "fmi2GetRealStatus");
+}
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
+    (void)s; (void)value;
+    return not_supported(c, "fmi2GetIntegerStatus");
+}
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
+    (void)s; (void)value;
+    return not_supported(c, "fmi2GetBooleanStatus");
+}
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
+    (void)s; (void)value;
+    return not_supported(c, "fmi2GetStringStatus");
+}
