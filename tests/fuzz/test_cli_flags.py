@@ -63,6 +63,13 @@ BASE: dict[str, list[tuple[str, list[str]]]] = {
         ("--car-nodes", ["1"]),
         ("--wall-contact", ["1"]),
         ("--interface-contacts", ["2"]),
+        ("--scenario", ["paper"]),
+        ("--out", ["{out}/out.json"]),
+    ],
+    "combine": [
+        ("data", ["{csv}"]),
+        ("--vehicle", ["manchester"]),
+        ("--units", ["du=m", "dv=m/s", "F=N"]),
         ("--out", ["{out}/out.json"]),
     ],
     "surrogates build": [
