@@ -171,6 +171,35 @@ def _references() -> list[str]:
     return lines
 
 
+#: how each task's bound is computed and how tight it is (docs/leaderboard.md)
+BOUNDS_NOTE = """## The bounds and how tight they are
+
+- `bogie-payload`: exact. On the linear suspension the Wk-weighted carbody acceleration is
+  affine in the force sequence, so the clairvoyant optimum over the force box is a convex
+  problem; the value stored is a certified lower bound of it (L-BFGS-B's point minus its
+  Frank–Wolfe gap, 4·10⁻⁹ m/s² below the point found on the track checked), so no
+  controller, causal or not, can beat it.
+- `bogie-semi-active`: the best open-loop damper commands found per track by
+  `agents.evaluation.semi_active_bound` (L-BFGS-B with forward-difference gradients from the
+  baselines' commands and constants; 4 gradient evaluations per start, 10 for the best); a
+  local optimum, so an upper estimate of the clairvoyant optimum: a controller could score
+  above 1 by the search's remaining gap.
+- `crash-adaptive`: the best piecewise-constant absorber commands found per case (pieces of
+  50 ms, levels −1 … 1 in steps of 0.25, two coordinate sweeps from every constant setting and
+  every baseline's recorded commands); an upper estimate of the optimum alike. On a small case
+  (two pieces, three levels) it equals the brute-force optimum (tested).
+- `bogie-active`, `vehicle-active`, `vehicle-preview`: the trivial bound 0 m/s². Their
+  clairvoyant optimum on the reference model (air spring, bump stops, force limit) would need
+  the semi-active search over 2000 force steps per 20 s episode (its Jacobian costs
+  N(N+1)/2 ≈ 2·10⁶ lane-steps per evaluation, about 16 times the 5 s semi-active case, hours
+  per track on one core): not computed. Their scores are therefore fractions of a_w removed, not
+  of the achievable headroom.
+
+Every stored bound is also at most every baseline's value on its case (each baseline is a
+feasible command sequence), tested against every stored entry.
+"""
+
+
 def leaderboard_page(entries: Sequence[dict[str, Any]], curves: bool) -> str:
     """The markdown of ``docs/leaderboard.md`` from the stored ``entries``."""
     seeds = sorted({len(e["seeds"]) for e in entries if e["kind"] == "learned"})
@@ -196,6 +225,8 @@ def leaderboard_page(entries: Sequence[dict[str, Any]], curves: bool) -> str:
         "run: the best baseline's value, not a bound).",
         "",
         *_references(),
+        "",
+        BOUNDS_NOTE,
     ]
     if curves:
         lines += ["", "## Learning curves", "", f"![learning curves]({CURVES_PNG})"]
