@@ -280,6 +280,7 @@ MODULE_COMMANDS = {
     "crash-fe": ("railgym.vehicles.crash.fe", "crash elements from LS-DYNA nodout/rcforc"),
     "crash-elements": ("railgym.vehicles.crash.elements", "fit a scenario's crash elements"),
     "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
+    "leaderboard": ("agents.leaderboard.cli", "benchmark tasks: scores, bounds, entries"),
 }
 #: the module with the parser of a module command whose own module needs an extra
 PARSER_MODULES = {"train-rllib": "agents.training.train_rllib_args"}

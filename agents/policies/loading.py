@@ -193,6 +193,10 @@ def _network(path: Path, source: PolicySource, env_id: str) -> _Network:
     return _Network(trained_on, algo, policy_name, net_kwargs, source.env_kwargs, obs_shape)
 
 
+#: (policy, env id) pairs already warned of a version change: the warning is printed once
+_WARNED: set[tuple[str, str]] = set()
+
+
 def _sb3_policy(
     path: Path, env_id: str, trust: bool, pretrained: bool
 ) -> tuple[Any, dict[str, Any], str]:
@@ -205,7 +209,8 @@ def _sb3_policy(
     where = source.config or path
     if env_family(trained_on) != env_family(env_id):
         raise ValueError(f"{where}: the policy was trained on {trained_on}, not {env_id}")
-    if trained_on != env_id and not pretrained:
+    if trained_on != env_id and not pretrained and (str(where), env_id) not in _WARNED:
+        _WARNED.add((str(where), env_id))
         warnings.warn(
             f"{where}: the policy was trained on {trained_on} and runs on {env_id} (same "
             "spaces and reference model; the surrogate differs between versions)",

@@ -32,7 +32,7 @@ WRITES = {
     "surrogates build",
     "surrogates export-fmu",
 }
-PRINTS = {"evaluate", "validate", "validity", "crash-report", "crash-limits"}
+PRINTS = {"evaluate", "validate", "validity", "crash-report", "crash-limits", "leaderboard"}
 #: writes into the installed package, where its NAME says: --overwrite, no -o
 FIXED_PLACE = {"pretrained"}
 #: commands whose result depends on nothing drawn at random
@@ -43,6 +43,7 @@ UNSEEDED = {
     "crash-report",
     "crash-limits",
     "pretrained",
+    "leaderboard",
 }
 
 
