@@ -235,7 +235,7 @@ def case_kwargs(name: str, label: str) -> dict[str, Any]:
     if case.payload != 1.0:
         from dataclasses import replace
 
-        from railgym.vehicles.vertical import load_vehicle
+        from railgym.vehicles.vertical.params import load_vehicle
 
         nominal = load_vehicle("manchester")
         kwargs["vehicle"] = replace(nominal, m2=nominal.m2 * case.payload)

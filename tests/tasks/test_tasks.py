@@ -15,7 +15,7 @@ import railgym  # noqa: F401  (registers the envs)
 from railgym import _checks as val
 from railgym.registration import env_family
 from railgym.tasks import TASKS, case_kwargs, make, normalise, references, score
-from railgym.vehicles.vertical import load_vehicle
+from railgym.vehicles.vertical.params import load_vehicle
 
 
 def _newest(env_id: str) -> str:
