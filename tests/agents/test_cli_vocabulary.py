@@ -29,6 +29,7 @@ WRITES = {
     "collect-vehicle",
     "crash-fe",
     "crash-elements",
+    "combine",
     "surrogates build",
     "surrogates export-fmu",
 }
@@ -102,7 +103,7 @@ def test_no_flag_has_two_meanings(parsers):
         for (a, first), (b, second) in zip(sets, sets[1:], strict=False):
             assert first & second, f"{flag}: {a} {sorted(first)} vs {b} {sorted(second)}"
     # the real numbers behind the check: the common flags are in many commands, one meaning
-    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 14
+    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 15
     assert len(seen["-o"][("out", "_StoreAction", "text", "one")]) == len(WRITES)
 
 
@@ -141,6 +142,8 @@ def test_old_spellings_do_what_the_new_do_and_say_so(parsers, capsys):
         "crash-limits",
         "crash-fe",
         "crash-elements",
+        "combine",
+        "leaderboard",
         "surrogates build",
         "surrogates export-fmu",
     ],
