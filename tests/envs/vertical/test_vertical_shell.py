@@ -198,7 +198,7 @@ def test_packaged_name_wins_over_a_folder_or_file_of_that_name(tmp_path, monkeyp
     (tmp_path / "manchester.yml").mkdir()  # a folder with a YAML suffix: not a file
     ref = load_vehicle("manchester")
     assert load_vehicle("manchester") == ref and ref.m2 == 16000.0
-    with pytest.raises(ValueError, match="vehicle file 'manchester.yml' does not exist"):
+    with pytest.raises(ValueError, match="vehicle 'manchester.yml' is a folder, expected a file"):
         load_vehicle("manchester.yml")
     from importlib import resources
 
