@@ -3,9 +3,9 @@
 - ``railgym demo [-o DIR]``: the main job of the quickstart — build the surrogate element
   from the reference model (paper stages 1–3), run one episode each on the surrogate and the
   reference backend, passive and with skyhook, on the same track (stage 4), print the paper's
-  indices, the env-steps/s of the surrogate, the reference and the reference FMU measured in
-  the same run (:mod:`agents.evaluation.speed`), and write the plots of :data:`DEMO_FILES` (a re-run
-  replaces them).
+  indices, the speed of the surrogate against the reference FMU in the loop and the internal
+  reference measured in the same run (:mod:`agents.evaluation.speed`), and write the plots of
+  :data:`DEMO_FILES` (a re-run replaces them).
 - ``railgym paper [--quick] [-o DIR]``: the paper's tables and figures on our models
   (:func:`railgym.report.make_report`), written as :data:`railgym.report.REPORT_FILES` (a
   re-run replaces them).
@@ -146,7 +146,7 @@ def demo(out: Path, seed: int = 0, overwrite: bool = False) -> int:
         "paper (LPR, M = 101, Simpack source; not directly comparable): "
         "2.44e-06 m, 2.38e-05 m/s, 5.67e-04 m/s²"
     )
-    print("\n5. speed: the surrogate element against the reference model it replaces")
+    print("\n5. speed: the surrogate element against the high-fidelity model it replaces")
     rows, skipped = backend_speeds(model, rounds=SPEED_ROUNDS)
     print(format_speeds(rows, skipped, SPEED_ROUNDS))
     _plots(out, model, report, data, runs)

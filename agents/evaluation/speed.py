@@ -1,7 +1,7 @@
 """What the surrogate element costs against the model it replaces, measured in one run
 (the speed table of ``railgym demo``).
 
-Env-steps per second of ``VerticalSuspension-v1`` on the surrogate backend with the given
+Env-steps per second of :data:`ENV_ID` on the surrogate backend with the given
 element and on the reference backend (the numba model the element replaces), each as a native
 vector env of ``n_envs`` sub-envs (one kernel call per step) and as a single env (whole
 steps, Python shell included); and the FMU-in-the-loop env of the same vehicle (the reference
@@ -12,6 +12,9 @@ compile or load from the cache); then ``rounds`` interleaved rounds time a block
 each env in turn, on one numba thread (a per-core cost); a single env is reset outside the
 timing before a block that would end its episode. Each figure is the median over the rounds;
 the ratios are medians of the per-round ratios, each against the env of the same mode.
+:func:`format_speeds` leads with the comparison the paper makes, the surrogate against the FMU in
+the loop, then the internal reference beside it (the FMU env takes its track from Python: the
+streamed track is the numba envs').
 """
 
 from __future__ import annotations
@@ -26,10 +29,26 @@ from typing import Any, NamedTuple
 import numba
 import numpy as np
 
-from railgym.envs.vertical.env import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
+from railgym.envs.vertical.env import (
+    VerticalSuspensionEnv,
+    VerticalSuspensionEnvV3,
+    VerticalSuspensionVectorEnv,
+    VerticalSuspensionVectorEnvV3,
+)
 
-__all__ = ["FMU_ENVS", "MODES", "SpeedRow", "backend_speeds", "fmu_unavailable", "format_speeds"]
+__all__ = [
+    "COMPARISONS",
+    "ENV_ID",
+    "FMU_ENVS",
+    "MODES",
+    "SpeedRow",
+    "backend_speeds",
+    "fmu_unavailable",
+    "format_speeds",
+]
 
+#: the env every row steps (its newest version)
+ENV_ID = "railgym/VerticalSuspension-v3"
 #: sub-envs of the FMU-in-the-loop env
 FMU_ENVS = 16
 #: how the envs are stepped: native vector envs, single envs
@@ -121,18 +140,20 @@ def _envs(
     )
     for label, kwargs in backends:
         timed.append(
-            _Timed("vector", label, VerticalSuspensionVectorEnv(num_envs=n_envs, **kwargs), n_steps)
+            _Timed(
+                "vector", label, VerticalSuspensionVectorEnvV3(num_envs=n_envs, **kwargs), n_steps
+            )
         )
     if tmp is not None:
         from railgym.fmu.reference import export_reference_fmu
 
         fmu, mapping = export_reference_fmu(tmp / "reference.fmu")
-        venv = VerticalSuspensionVectorEnv(
+        venv = VerticalSuspensionVectorEnvV3(
             num_envs=min(FMU_ENVS, n_envs), backend="fmu", fmu=fmu, fmu_map=mapping
         )
         timed.append(_Timed("vector", "reference FMU", venv, fmu_steps))
     for label, kwargs in backends:
-        timed.append(_Timed("single", label, VerticalSuspensionEnv(**kwargs), single_steps))
+        timed.append(_Timed("single", label, VerticalSuspensionEnvV3(**kwargs), single_steps))
 
 
 def backend_speeds(
@@ -190,20 +211,36 @@ _WHAT = {
 }
 
 
+#: the comparisons the table leads with: (mode, the other model, what is compared)
+COMPARISONS = (
+    ("vector", "reference FMU", "surrogate vs reference FMU in the loop, vector envs"),
+    ("single", "reference", "surrogate vs internal reference, single env"),
+    ("vector", "reference", "surrogate vs internal reference, vector envs"),
+)
+
+
 def format_speeds(rows: list[SpeedRow], skipped: str | None, rounds: int) -> str:
-    """The table printed by ``railgym demo``: lines saying what was measured, one line per
+    """The table printed by ``railgym demo``: the comparisons of :data:`COMPARISONS` (what is
+    compared, the env id, the surrogate's env-steps/s over the other's; the FMU's how-to line
+    in its place where it was skipped), lines saying what was measured, then one line per
     row (mode, sub-envs, steps per round, env-steps/s, ratio to the reference of the same
-    mode) and a summary per mode."""
+    mode)."""
     by = {(r.mode, r.model): r for r in rows}
     fmu = by.get(("vector", "reference FMU"))
     single = by.get(("single", "surrogate"))
+    lines = [f"{'comparison (env-steps/s)':<52} {'env id':<30} {'surrogate ×':>11}"]
+    for mode, model, what in COMPARISONS:
+        if (mode, model) in by:
+            lines.append(f"{what:<52} {ENV_ID:<30} {by[mode, model].surrogate_over:11.3g}")
+        elif model == "reference FMU" and skipped is not None:
+            lines.append(f"surrogate vs reference FMU in the loop: not measured: {skipped}")
     per_round = f"{by['vector', 'surrogate'].n_steps} steps per round of the vector envs" + (
         f" ({fmu.n_steps} of the FMU)" if fmu is not None else ""
     )
     if single is not None:
         per_round += f", {single.n_steps} of the single envs"
-    lines = [
-        f"VerticalSuspension-v1, measured now: {per_round}, median of {rounds} interleaved "
+    lines += [
+        f"measured now on this machine: {per_round}, median of {rounds} interleaved "
         "rounds, 1 numba thread, kernels compiled before timing",
         "surrogate: the element fitted above; reference: the model it replaces; FMU: that "
         "model exported to C (FMI 2.0), stepped through FMPy; vector: a native vector env, "
@@ -216,15 +253,4 @@ def format_speeds(rows: list[SpeedRow], skipped: str | None, rounds: int) -> str
             f"{r.mode:<6} {_WHAT.get(r.model, r.model):<24} {r.n_envs:8d} {r.n_steps:6d} "
             f"{r.steps_per_s:12.4g} {r.vs_reference:12.3g}"
         )
-    if skipped is not None:
-        lines.append(f"reference FMU: not measured: {skipped}")
-    summary = (
-        f"vector envs: the surrogate steps {by['vector', 'surrogate'].vs_reference:.3g} × as "
-        "fast as the reference"
-    )
-    if fmu is not None:
-        summary += f" and {fmu.surrogate_over:.3g} × as fast as the reference FMU in the loop"
-    if single is not None:
-        summary += f"; single env: {single.vs_reference:.3g} × as fast as the reference"
-    lines.append(summary + " (this machine, this run)")
     return "\n".join(lines)

@@ -24,6 +24,20 @@ ROW = re.compile(
 )
 
 
+#: a row of the comparisons the table leads with: what is compared, env id, surrogate ×
+LEAD = re.compile(r"^(surrogate vs [^,]+, (?:vector envs|single env))\s+(railgym/\S+)\s+(\S+)$")
+#: the line that takes the FMU comparison's place where it cannot be measured
+HOW_TO = "surrogate vs reference FMU in the loop: not measured: "
+
+
+def _lead(out: str) -> list[str]:
+    """The header of the comparisons and the lines after it, up to the detailed table."""
+    lines = out.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("comparison (env-steps/s)"))
+    end = next(i for i in range(start, len(lines)) if lines[i].startswith("measured now"))
+    return lines[start:end]
+
+
 def _table(out: str) -> dict[tuple[str, str], tuple[int, int, float, float]]:
     rows = {}
     for line in out.splitlines():
@@ -45,7 +59,24 @@ def test_demo_in_a_fresh_process_prints_the_speed_table(tmp_path):
     )
     out = proc.stdout
     assert proc.returncode == 0, proc.stderr
-    assert "5. speed: the surrogate element against the reference model it replaces" in out
+    assert "5. speed: the surrogate element against the high-fidelity model it replaces" in out
+    lead = _lead(out)
+    assert re.match(r"comparison \(env-steps/s\) +env id +surrogate ×$", lead[0])
+    if speed.fmu_unavailable() is None:  # the first row: the surrogate against the FMU
+        first = LEAD.match(lead[1])
+        assert first is not None, lead[1]
+        assert first.groups()[:2] == (
+            "surrogate vs reference FMU in the loop, vector envs",
+            "railgym/VerticalSuspension-v3",
+        )
+        assert float(first.group(3)) > 1.0  # the FMU in the loop is the slow one
+    else:
+        assert lead[1].startswith(HOW_TO)
+    internal = [LEAD.match(line) for line in lead[2:]]
+    assert [(m.group(1), m.group(2)) for m in internal if m] == [
+        ("surrogate vs internal reference, single env", "railgym/VerticalSuspension-v3"),
+        ("surrogate vs internal reference, vector envs", "railgym/VerticalSuspension-v3"),
+    ]
     # says what it measured: sub-envs (a column), steps, rounds, threads, compilation
     assert re.search(r"200 steps per round .*median of 3 interleaved rounds, 1 numba thread", out)
     assert "500 of the single envs" in out
@@ -64,11 +95,6 @@ def test_demo_in_a_fresh_process_prints_the_speed_table(tmp_path):
     assert rows["vector", "reference (numba)"][3] == rows["single", "reference (numba)"][3] == 1.0
     if ("vector", "reference FMU (FMPy)") in rows:
         assert rows["vector", "reference FMU (FMPy)"][:2] == (speed.FMU_ENVS, 20)
-        assert re.search(r"× as fast as the reference FMU in the loop", out)
-    else:
-        assert "reference FMU: not measured: " in out
-    assert re.search(r"vector envs: the surrogate steps \S+ × as fast as the reference", out)
-    assert re.search(r"single env: \S+ × as fast as the reference \(this machine, this run\)", out)
     # the existing outputs stay: the episode table with its wall-time column, the plots line
     assert re.search(r"surrogate +passive +\S+ +\S+ +\S+ +\d+ +\d+ +\S+", out)
     assert f"plots written to {tmp_path / 'd'}/" in out
@@ -88,8 +114,13 @@ def test_speed_table_skips_the_fmu_row_without_fmpy_or_compiler(monkeypatch):
     ]
     assert skipped is not None and "pip install 'railgym[fmi]'" in skipped
     text = format_speeds(rows, skipped, 1)
-    assert f"reference FMU: not measured: {skipped}" in text
-    assert "FMU in the loop" not in text
+    lead = _lead(text)
+    assert lead[1] == HOW_TO + skipped  # the first row: how to get the FMU comparison
+    assert [LEAD.match(line).group(1) for line in lead[2:]] == [
+        "surrogate vs internal reference, single env",
+        "surrogate vs internal reference, vector envs",
+    ]
+    assert "reference FMU (FMPy)" not in text
     monkeypatch.undo()
     pytest.importorskip("fmpy")
 
@@ -114,18 +145,21 @@ def test_format_speeds_prints_the_rows_and_their_ratios():
         ("vector", "reference FMU (FMPy)"): (16, 20, 5.0e3, 0.0125),
     }
     assert "200 steps per round of the vector envs (20 of the FMU), median of 3 interleaved" in text
-    assert text.splitlines()[-1] == (
-        "vector envs: the surrogate steps 3 × as fast as the reference and 240 × as fast as the "
-        "reference FMU in the loop (this machine, this run)"
-    )
+    assert _lead(text)[1:] == [
+        f"{'surrogate vs reference FMU in the loop, vector envs':<52} {speed.ENV_ID:<30} {240:11d}",
+        f"{'surrogate vs internal reference, vector envs':<52} {speed.ENV_ID:<30} {3:11d}",
+    ]
     single = [SpeedRow("surrogate", 1, 500, 6e4, 1.5, 1.0, "single")]
     single.append(SpeedRow("reference", 1, 500, 4e4, 1.0, 1.5, "single"))
     text = format_speeds(rows + single, None, 3)
     assert _table(text)["single", "surrogate (numba)"] == (1, 500, 6e4, 1.5)
     assert ", 500 of the single envs, median of 3" in text
-    assert text.splitlines()[-1].endswith(
-        "in the loop; single env: 1.5 × as fast as the reference (this machine, this run)"
-    )
+    lead = [LEAD.match(line).groups() for line in _lead(text)[1:]]
+    assert [(what, float(ratio)) for what, _, ratio in lead] == [
+        ("surrogate vs reference FMU in the loop, vector envs", 240.0),
+        ("surrogate vs internal reference, single env", 1.5),
+        ("surrogate vs internal reference, vector envs", 3.0),
+    ]
 
 
 #: seconds per env-step in each round on the fake clock, by (mode, backend)
@@ -197,11 +231,17 @@ def test_speed_table_prints_what_the_clock_measured(monkeypatch, with_fmu):
         assert (n_envs, steps) == (by[mode, model_name].n_envs, by[mode, model_name].n_steps)
         assert printed_rate == pytest.approx(rate, rel=1e-3)
         assert printed_ratio == pytest.approx(vs_ref, rel=1e-3)
-    fmu_part = " and 400 × as fast as the reference FMU in the loop" if with_fmu else ""
-    assert text.splitlines()[-1] == (
-        f"vector envs: the surrogate steps 5 × as fast as the reference{fmu_part}; single env: "
-        "1.25 × as fast as the reference (this machine, this run)"
-    )
+    # the comparisons it leads with: the surrogate over the other, medians of per-round ratios
+    lead = _lead(text)
+    first = [("surrogate vs reference FMU in the loop, vector envs", 400.0)] if with_fmu else []
+    internal = [m.groups() for m in map(LEAD.match, lead[1:]) if m]
+    assert [(what, float(ratio)) for what, _, ratio in internal] == first + [
+        ("surrogate vs internal reference, single env", 1.25),
+        ("surrogate vs internal reference, vector envs", 5.0),
+    ]
+    assert {env_id for _, env_id, _ in internal} == {"railgym/VerticalSuspension-v3"}
+    if not with_fmu:
+        assert lead[1] == HOW_TO + "FMU left out by the test"
 
 
 def test_single_steps_longer_than_an_episode_are_refused():
