@@ -250,3 +250,29 @@ def test_single_steps_longer_than_an_episode_are_refused():
         backend_speeds(
             default_vertical_surrogate("static"), n_envs=8, n_steps=1, single_steps=n + 1
         )
+
+
+def test_demo_without_fmpy_leads_with_how_to_get_it(tmp_path, monkeypatch, capsys):
+    """Without FMPy the demo's first comparison is the line saying how to get it, and the
+    internal reference rows follow with the ratios of the printed table's rates."""
+    from agents import cli
+    from railgym.vehicles.collect import build_vertical_surrogate
+
+    def quick_build(m, **kwargs):  # a smaller, faster build of the same element
+        return build_vertical_surrogate(m=41, sampling="greedy", **kwargs)
+
+    monkeypatch.setattr(cli, "build_vertical_surrogate", quick_build)
+    monkeypatch.setitem(sys.modules, "fmpy", None)  # import fmpy raises ImportError
+    assert cli.main(["demo", "--out", str(tmp_path / "d"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    lead = _lead(out)
+    assert lead[1] == HOW_TO + "FMPy is not installed (pip install 'railgym[fmi]')"
+    ratios = {m.group(1): float(m.group(3)) for m in map(LEAD.match, lead[2:]) if m}
+    rows = _table(out)
+    assert set(rows) == {
+        (m, f"{b} (numba)") for m in ("vector", "single") for b in ("surrogate", "reference")
+    }
+    for mode, what in (("single", "single env"), ("vector", "vector envs")):
+        # the lead ratio is the surrogate row's × reference (both medians of per-round ratios)
+        lead_ratio = ratios[f"surrogate vs internal reference, {what}"]
+        assert lead_ratio == pytest.approx(rows[mode, "surrogate (numba)"][3], rel=2e-3)
