@@ -30,6 +30,7 @@ from pathlib import Path
 
 from agents._args import error_status, one_line_warnings
 from agents.leaderboard.results import FORMATS, RESULTS_DIR, format_table, load_entries, table_rows
+from railgym import _checks as val
 from railgym.progress import quiet
 from railgym.tasks import TASKS
 from surrogates.cli_flags import Parser, add_common
@@ -129,6 +130,8 @@ def _table(args: argparse.Namespace) -> int:
     if args.quick:
         _quick(args.results)
     entries = load_entries(args.results or RESULTS_DIR, args.task)
+    if not entries:
+        raise val.FieldError("results", f"{args.results} holds no entries (TASK/NAME.json)")
     print(format_table(table_rows(entries), args.format))
     return 0
 

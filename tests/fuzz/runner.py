@@ -3,9 +3,11 @@ get, and the check that a refusal names the argument."""
 
 from __future__ import annotations
 
+import os
 import signal
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from types import FrameType
 from typing import Any
 
 import numpy as np
@@ -23,11 +25,30 @@ class Hang(BaseException):
     Exception`` does not turn it into an error line)."""
 
 
+#: seconds the deadline waits again when it falls inside numba's compiler
+COMPILE_GRACE_S = 0.5
+
+
+def _compiling(frame: FrameType | None) -> bool:
+    """Whether ``frame`` or a caller runs numba's compiler: an exception raised there leaves
+    its libraries half built for the rest of the process (later calls fail with "no compiled
+    object yet"), so the deadline waits for the compilation to end."""
+    while frame is not None:
+        if f"{os.sep}numba{os.sep}" in frame.f_code.co_filename:
+            return True
+        frame = frame.f_back
+    return False
+
+
 @contextmanager
 def deadline(seconds: float) -> Iterator[None]:
-    """Raise :class:`Hang` in the block after ``seconds`` (SIGALRM: the main thread only)."""
+    """Raise :class:`Hang` in the block after ``seconds`` (SIGALRM: the main thread only),
+    never inside numba's compiler (it waits for the compilation to end)."""
 
-    def stop(*_: Any) -> None:
+    def stop(_: int, frame: FrameType | None) -> None:
+        if _compiling(frame):
+            signal.setitimer(signal.ITIMER_REAL, COMPILE_GRACE_S)
+            return
         raise Hang(f"no answer within {seconds:g} s")
 
     before = signal.signal(signal.SIGALRM, stop)

@@ -85,7 +85,7 @@ BASE: dict[str, list[tuple[str, list[str]]]] = {
 PARSE_ONLY = {"crash-fe": "needs LS-DYNA results", "pretrained": "writes into the package"}
 #: flags whose value is written (a file or folder) or read as a folder: only an empty value
 #: must be refused there (a folder or a missing path may be correct)
-OUTPUTS = {"out", "report", "benchmark_dir", "fmu_dir"}
+OUTPUTS = {"out", "report", "benchmark_dir", "fmu_dir", "results"}
 #: sampled runs of values that may be correct (tier 2), and the deadlines, s
 SAMPLE = 12
 REFUSE_DEADLINE_S = 8.0
