@@ -11,7 +11,8 @@ Every parser is a :class:`Parser` with :class:`HelpFormatter`: each option's hel
 default. An old spelling (:func:`add_deprecated`) still works, hidden from the help; after the
 parse it is one line ``PROG: warning: option '--old' is deprecated; use '--new'`` on stderr
 (none with ``--quiet``). :func:`error_status` is the exit status and one-line error of a
-failed command.
+failed command, :func:`moved_command` that of a ``python -m`` spelling removed for a
+``railgym`` subcommand.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ __all__ = [
     "add_out",
     "add_seed",
     "error_status",
+    "moved_command",
     "shown_default",
 ]
 
@@ -93,11 +95,13 @@ class Parser(argparse.ArgumentParser):
     """An ``ArgumentParser`` with :class:`HelpFormatter` that prints one warning line per
     deprecated spelling used, after the parse (none with ``--quiet``), requires an
     option with old spellings (:data:`REQUIRED`) given in any of them and refuses an empty
-    value."""
+    value. ``elsewhere``: flags this command does not take, each with the command that does;
+    one of them given is an error naming the flag and that command (never another meaning)."""
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(self, *args: Any, elsewhere: dict[str, str] | None = None, **kwargs: Any) -> None:
         kwargs.setdefault("formatter_class", HelpFormatter)
         super().__init__(*args, **kwargs)
+        self.elsewhere = dict(elsewhere or {})
 
     def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
         """An empty value (``--out ""``, an unset shell variable) is refused naming the
@@ -110,7 +114,14 @@ class Parser(argparse.ArgumentParser):
     def parse_known_args(  # type: ignore[override]
         self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
     ) -> tuple[argparse.Namespace, list[str]]:
-        """``ArgumentParser.parse_known_args``, then the deprecation lines."""
+        """``ArgumentParser.parse_known_args`` (a flag of :attr:`elsewhere` refused first),
+        then the deprecation lines."""
+        for arg in sys.argv[1:] if args is None else args:
+            if arg == "--":
+                break
+            flag = str(arg).split("=", 1)[0]
+            if flag in self.elsewhere:
+                self.error(f"{flag} is not an option of {self.prog}: {self.elsewhere[flag]}")
         ns, rest = super().parse_known_args(args, namespace)
         missing = [
             "/".join(a.option_strings)
@@ -257,3 +268,14 @@ def error_status(prog: str, err: Exception, debug: bool = False) -> int:
         return 2
     print(f"{prog}: {type(err).__name__}: {err} (--debug shows the traceback)", file=sys.stderr)
     return 1
+
+
+def moved_command(module: str, command: str) -> int:
+    """Exit status (2) of ``python -m MODULE`` where ``command`` (``railgym collect``) is the
+    one spelling: one line on stderr naming it; nothing runs, nothing is written."""
+    print(
+        f"python -m {module}: error: this spelling is no longer a command (0.5.0); run `{command}` "
+        "(the same arguments)",
+        file=sys.stderr,
+    )
+    return 2

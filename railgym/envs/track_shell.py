@@ -288,7 +288,7 @@ def check_element_vehicle(backend: str, lpr: LprArrays, vehicle: Any) -> None:
             "surrogate",
             f"the element adds the vehicle's bump-stop law (features.known_physics), but "
             f"vehicle {suspension.name!r} has no bump_stop section: use an element built "
-            "for this vehicle (python -m railgym.vehicles.collect --vehicle ...)",
+            "for this vehicle (railgym collect --vehicle ...)",
         )
 
 

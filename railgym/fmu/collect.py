@@ -273,4 +273,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from surrogates.cli_flags import moved_command
+
+    raise SystemExit(moved_command("railgym.fmu.collect", "railgym collect"))

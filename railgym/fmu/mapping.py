@@ -180,8 +180,8 @@ class Mapping:
     interpolate: bool  #: co-simulation FMU takes input derivatives (canInterpolateInputs)
     solver: str = "rk4"  #: model exchange: ``"rk4"`` or ``"cvode"`` (:data:`SOLVERS`)
     tolerance: float = DEFAULT_TOLERANCE  #: relative tolerance of ``"cvode"``
-    #: ``vehicle:`` of the file: a YAML path (resolved against the mapping file's folder when
-    #: the file is there) or a packaged vehicle name; ``None`` when not given
+    #: ``vehicle:`` of the file: a YAML path (a relative one read beside the mapping file)
+    #: or a packaged vehicle name; ``None`` when not given
     vehicle: str | None = None
 
 
@@ -610,8 +610,9 @@ def load_mapping(path: str | Path, fmu: str | Path | None = None, env: str = "ve
 
 
 def _vehicle(value: Any, path: Path, source: str) -> str | None:
-    """The ``vehicle:`` of the mapping file ``path``: a ``.yaml``/``.yml`` file beside it as
-    its path, else the text as given (a packaged name, or a path the vehicle loader checks);
+    """The ``vehicle:`` of the mapping file ``path``: a relative ``.yaml``/``.yml`` path is
+    the file beside the mapping (never one of the working folder; a missing one is an
+    :class:`FMUError` naming that path), an absolute path or a packaged name as given;
     ``None`` when absent."""
     if value is None:
         return None
@@ -622,8 +623,18 @@ def _vehicle(value: Any, path: Path, source: str) -> str | None:
             f"a packaged vehicle name, got {value!r}",
             full=True,
         )
+    if not value.endswith(val.YAML_SUFFIXES) or Path(value).is_absolute():
+        return value
     local = path.parent / value
-    return str(local) if value.endswith(val.YAML_SUFFIXES) and local.is_file() else value
+    if not local.is_file():
+        raise FMUError(
+            "vehicle",
+            f"{source}: vehicle {value!r} is read beside the mapping file, and {str(local)!r} "
+            "does not exist (give a path relative to the mapping file, an absolute path or a "
+            "packaged vehicle name)",
+            full=True,
+        )
+    return str(local)
 
 
 def mapping_env(path: str | Path) -> str:

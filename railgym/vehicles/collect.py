@@ -245,7 +245,7 @@ def save_vertical_surrogate(
         relaxation=feat.get("relaxation"),
         metadata={
             "source": source,
-            "command": command or f"python -m railgym.vehicles.collect --features {form}",
+            "command": command or f"railgym collect --features {form}",
             "report": summary,
             **({} if envelope is None else {"envelope": envelope.document()}),
             **_vehicle_record(model, vehicle),
@@ -504,7 +504,7 @@ def refine(
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym collect`` (``python -m railgym.fmu.collect``)."""
+    """Arguments of ``railgym collect``."""
     from surrogates.cli import add_degree_arguments, add_memory_arguments
 
     parser = Parser(prog="railgym collect", description=__doc__, formatter_class=RawHelpFormatter)
@@ -662,8 +662,8 @@ def _collect(
             parser.error(f"{flag} needs --output (-o/--out): the packaged element is not replaced")
     if args.fmu_map is not None and fmu_runs is None:
         parser.error(
-            "--fmu-map: an FMU is collected by railgym collect (python -m railgym.fmu.collect); "
-            "python -m railgym.vehicles.collect builds on the built-in reference only"
+            "--fmu-map: an FMU is collected by railgym collect (railgym.fmu.collect.main); "
+            "railgym.vehicles.collect.main builds on the built-in reference only"
         )
     seed = 0 if args.seed is None else args.seed
     vehicle = args.vehicle or "manchester"
@@ -721,4 +721,6 @@ def _collect(
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from surrogates.cli_flags import moved_command
+
+    raise SystemExit(moved_command("railgym.vehicles.collect", "railgym collect"))

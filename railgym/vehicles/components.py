@@ -134,7 +134,7 @@ def combine_damper(
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym combine`` (``python -m railgym.vehicles.components``)."""
+    """Arguments of ``railgym combine``."""
     parser = Parser(prog="railgym combine", description=__doc__.split("\n\n")[0])
     parser.add_argument("data", help="CSV of one damper's bench test (stroke, velocity, force)")
     parser.add_argument("--vehicle", required=True, help="vehicle YAML (name or path)")
@@ -195,4 +195,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from surrogates.cli_flags import moved_command
+
+    raise SystemExit(moved_command("railgym.vehicles.components", "railgym combine"))

@@ -166,6 +166,6 @@ def implausible_element_warning(model: Any, vehicle: Any, name: str) -> str | No
         f"{suspension.name!r}: {'; '.join(p.findings)} ({ratio} at {where}; a plausible "
         f"element has both ratios in {low:g}–{high:g}). It runs, but an element fitted on "
         "another problem, in other units or for another vehicle does not describe this one: "
-        "build one for it (python -m railgym.vehicles.collect --vehicle ...; "
+        "build one for it (railgym collect --vehicle ...; "
         "docs/envs/vertical.md, Element plausibility)."
     )

@@ -268,7 +268,7 @@ def test_railgym_version_names_the_installed_distribution():
     assert done.returncode == 0 and done.stdout.strip() == f"railgym {version('railgym')}"
 
 
-@pytest.mark.parametrize("name", ["train", "benchmark", "collect", "validate", "crash-report"])
+@pytest.mark.parametrize("name", ["train", "benchmark", "pretrained", "validate", "crash-report"])
 def test_module_commands_are_railgym_subcommands(name):
     """``railgym NAME`` runs the module's own parser: the same arguments and help."""
     import subprocess

@@ -43,7 +43,7 @@ def test_default_element_of_the_air_spring_car(tmp_path):
     (tmp_path / "air_car.yaml").write_text(AIR_CAR_YAML)
     mapping = {**yaml.safe_load(USER_MAPPING_YAML), "fmu": str(fmu), "vehicle": "air_car.yaml"}
     (tmp_path / "map.yaml").write_text(yaml.safe_dump(mapping, sort_keys=False))
-    cmd = [sys.executable, "-m", "railgym.fmu.collect", "--fmu-map", "map.yaml", "-o", "el.json"]
+    cmd = [sys.executable, "-m", "agents.cli", "collect", "--fmu-map", "map.yaml", "-o", "el.json"]
     text = _run(cmd, tmp_path)
     assert "memory states: 1 (from the data" in text and "warning: tau" not in text
     assert "map:" not in text  # the additive passive map; the coupled one only with --coupled

@@ -146,7 +146,7 @@ def test_collect_from_the_fmu_equals_the_built_in_collection(reference_fmu):
 
 @pytest.mark.slow
 def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, tmp_path):
-    """``python -m railgym.vehicles.collect --fmu-map``: the memory element built on the
+    """``railgym collect --fmu-map``: the memory element built on the
     reference FMU's paper run is the packaged one (which meets docs/validation.md)."""
     from railgym.fmu.collect import main as collect_main
     from railgym.vehicles.collect import default_vertical_surrogate

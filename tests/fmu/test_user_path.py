@@ -54,7 +54,7 @@ def project(tmp_path_factory, request):
 def _collect(folder: Path) -> Path:
     out = folder / "element.json"
     if not out.exists():
-        cmd = [sys.executable, "-m", "railgym.fmu.collect", "--features", "static"]
+        cmd = [sys.executable, "-m", "agents.cli", "collect", "--features", "static"]
         _run([*cmd, "--fmu-map", "map.yaml", "--output", "element.json", "--quiet"], folder)
     return out
 

@@ -100,7 +100,7 @@ def _unfittable(scenario: CrashScenario, variant: str, err: ValueError) -> str:
         f"passive reference run of this scenario ({case}), and {why}. Use a packaged train at "
         f"a speed within its envelope (packaged: {packaged}), or give surrogate= elements "
         "fitted on your own runs (railgym.vehicles.crash.surrogate.build_crash_surrogate, or "
-        "python -m railgym.vehicles.crash.fe from LS-DYNA output)"
+        "railgym crash-fe from LS-DYNA output)"
     )
 
 

@@ -13,9 +13,9 @@ Pure physics (no gymnasium), one module per concept:
 * :mod:`~railgym.vehicles.crash.criteria` — crash criteria (decelerations, pulses, intrusion);
 * :mod:`~railgym.vehicles.crash.energy` — energy consistency of the elements;
 * :mod:`~railgym.vehicles.crash.fe` — elements from a user's LS-DYNA run, their JSON files
-  (``python -m railgym.vehicles.crash.fe``);
+  (``railgym crash-fe``);
 * :mod:`~railgym.vehicles.crash.elements` — the packaged element sets and their validation
-  matrix (``python -m railgym.vehicles.crash.elements``).
+  matrix (``railgym crash-elements``).
 
 Import each name from its module.
 """

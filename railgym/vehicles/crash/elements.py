@@ -346,7 +346,7 @@ def validation_matrix(
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym crash-elements`` (``python -m railgym.vehicles.crash.elements``)."""
+    """Arguments of ``railgym crash-elements``."""
     parser = Parser(prog="railgym crash-elements", description=__doc__.split("\n")[0])
     parser.add_argument("--scenario", default="paper", help="packaged scenario")
     add_out(
@@ -393,7 +393,7 @@ def _fit(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         "payloads_t": [list(p) for p in FIT_PAYLOADS_T],
         "nodes_per_car": NODES_PER_CAR,
         "degrees": list(PIECE_DEGREES),
-        "command": f"python -m railgym.vehicles.crash.elements --scenario {sc.name} --overwrite"
+        "command": f"railgym crash-elements --scenario {sc.name} --overwrite"
         + (f" --seed {seed}" if seed else ""),
     }
     save_crash_surrogate(sur, out, overwrite=True, metadata=meta)
@@ -402,4 +402,6 @@ def _fit(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from surrogates.cli_flags import moved_command
+
+    raise SystemExit(moved_command("railgym.vehicles.crash.elements", "railgym crash-elements"))

@@ -515,7 +515,7 @@ def export_crash_element_fmu(
 
 # ------------------------------------------------------------------------------ command line
 def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym crash-fe`` (``python -m railgym.vehicles.crash.fe``)."""
+    """Arguments of ``railgym crash-fe``."""
     p = Parser(
         prog="railgym crash-fe",
         description="Crash elements (wall and interface force laws) fitted to an LS-DYNA "
@@ -609,4 +609,6 @@ def _from_fe(args: argparse.Namespace) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from surrogates.cli_flags import moved_command
+
+    raise SystemExit(moved_command("railgym.vehicles.crash.fe", "railgym crash-fe"))

@@ -248,8 +248,13 @@ def build_vehicle_surrogate(
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym collect-vehicle`` (``python -m railgym.vehicles.vehicle.collect``)."""
-    parser = Parser(prog="railgym collect-vehicle", description=__doc__.split("\n\n")[0])
+    """Arguments of ``railgym collect-vehicle``."""
+    fmu = "the element of a whole-vehicle FMU is built by `railgym collect --fmu-map MAP.yaml`"
+    parser = Parser(
+        prog="railgym collect-vehicle",
+        description=__doc__.split("\n\n")[0],
+        elsewhere={"--fmu-map": f"{fmu} (a mapping with env: vehicle)"},
+    )
     add_out(parser, "model JSON to write", required=True, old=["--output"])
     add_seed(parser, "seed of the folds")
     add_common(parser)
@@ -299,4 +304,6 @@ def _collect(out: Path, seed: int, quiet: bool) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from surrogates.cli_flags import moved_command
+
+    raise SystemExit(moved_command("railgym.vehicles.vehicle.collect", "railgym collect-vehicle"))
