@@ -127,3 +127,43 @@ def test_version_warning_printed_once_over_workers(tmp_path, tiny_ppo_block, cap
     assert len(recorded) + stderr.count(text) == 1
     assert stdout.startswith("railgym/VerticalVehicle-v2, backend: linear")
     assert stdout.count(" ppo ") == 2  # both cases ran the policy
+
+
+def test_gap_runs_both_sides_on_the_env_id():
+    from agents.evaluation.gap import gap_vertical
+
+    env_id = "railgym/VerticalSuspension-v3"
+    (row,) = gap_vertical(
+        ["passive"], (6,), episodes=1, seed=7, backends=("linear", "linear"), env_id=env_id
+    )
+    _, a_w = _single_env(env_id)
+    assert row["surrogate"] == row["reference"] == pytest.approx(a_w, rel=1e-9)
+
+
+def _crash_row(out: str) -> list[str]:
+    """Peak deceleration per car (g) of the passive row at 36 km/h of a crash table."""
+    (row,) = [ln.split()[2:4] for ln in out.splitlines() if re.match(r"\s*36 passive ", ln)]
+    return row
+
+
+def _crash_peaks(env_id: str) -> list[str]:
+    """The same from ``gym.make(env_id)`` on the surrogate, run here with zero actions."""
+    env = gym.make(env_id, backend="surrogate")
+    env.reset(seed=0, options={"speed_kmh": 36.0})
+    while True:
+        *_, term, trunc, info = env.step(np.zeros(env.action_space.shape, np.float32))
+        if term or trunc:
+            return [f"{x:.2f}" for x in info["peak_decel_g"]]
+
+
+def test_crash_runs_on_the_env_id_and_its_header_names_it(capsys):
+    argv = ["evaluate", "passive", "--env", "crash", "--speed-kmh", "36", "--backend", "surrogate"]
+    assert main([*argv, "--env-version", "0", "--quiet"]) == 0
+    v0 = capsys.readouterr().out
+    assert v0.startswith("railgym/TrainCrash-v0, ")
+    assert main([*argv, "--quiet"]) == 0
+    v1 = capsys.readouterr().out
+    assert v1.startswith("railgym/TrainCrash-v1, ")
+    assert _crash_row(v0) == _crash_peaks("railgym/TrainCrash-v0")
+    assert _crash_row(v1) == _crash_peaks("railgym/TrainCrash-v1")
+    assert _crash_row(v0) != _crash_row(v1)  # v0: global LPR elements, v1: piecewise
