@@ -29,6 +29,7 @@ __all__ = [
     "check_speed_kmh",
     "duration_s",
     "backend_kwargs",
+    "env_id_flag",
     "env_id_of",
     "env_kwargs_of",
     "with_policy_kwargs",
@@ -267,3 +268,11 @@ def env_id_of(args: argparse.Namespace, defaults: dict[str, str]) -> str:
             f"registered: {versions}"
         )
     return env_id
+
+
+def env_id_flag(args: argparse.Namespace) -> str:
+    """The flag and value that chose the env id (``--env-id ID`` or ``--env-version N``), for
+    an error naming it."""
+    if args.env_version is not None:
+        return f"--env-version {args.env_version}"
+    return f"--env-id {args.env_id}"

@@ -10,6 +10,9 @@ over the held-out impact envelope beside the crash baselines.
     railgym evaluate runs/ppo_crash/model.zip --env crash --envelope
     railgym evaluate clipped-lqg skyhook-onoff groundhook --actuator semi-active
 
+``--env-id ID`` (or ``--env-version N``) runs the episodes on that registered version of the
+env of ``--env`` (default ``-v1``; the table's header names the id).
+
 Without ``--actuator`` the command takes the actuator a trained policy was trained with (its
 run's settings; e.g. ``ppo-semiactive``: the damper), so that its comparison rows run on the
 same actuator; an ``--actuator`` other than a trained policy's is refused.
@@ -62,6 +65,7 @@ from agents._args import (
     check_parallel,
     check_speed_kmh,
     duration_s,
+    env_id_flag,
     env_id_of,
     env_kwargs_of,
     episodes,
@@ -548,7 +552,7 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError("--backend: the crash env has backends reference and surrogate")
         if args.envelope:
             if env_id != CRASH_ID:
-                raise ValueError(f"--env-id {env_id}: --envelope runs {CRASH_ID} only")
+                raise ValueError(f"{env_id_flag(args)}: --envelope runs {CRASH_ID} only")
             if args.backend != "reference":
                 raise ValueError("--envelope: evaluates on the reference backend only")
             rows = evaluate_envelope(args.policy, args.speed, args.trust, fmu)

@@ -37,6 +37,7 @@ import numpy as np
 from agents._args import (
     VEHICLE_DURATION_S,
     backend_kwargs,
+    env_id_flag,
     env_kwargs_of,
     vehicle_cases,
     vertical_cases,
@@ -368,7 +369,7 @@ def run_gap(
     counted = f"; contacts: bump-stop substeps, surrogate / {args.backend}"
     if args.env == "crash":
         if env_id not in (None, CRASH_ID):
-            raise ValueError(f"--env-id {env_id}: --gap on --env crash runs {CRASH_ID} only")
+            raise ValueError(f"{env_id_flag(args)}: --gap on --env crash runs {CRASH_ID} only")
         if args.backend == "linear":
             raise ValueError("--backend: the crash env has backends reference and surrogate")
         for flag, given in {

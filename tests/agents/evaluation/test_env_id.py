@@ -105,7 +105,10 @@ def test_env_id_and_env_version_exclude_each_other(capsys):
     assert "--env-version: not allowed with argument --env-id" in capsys.readouterr().err
     # the crash envelope runs its own env version only: another one is refused, not replaced
     assert main(["evaluate", "passive", "--env", "crash", "--envelope", "--env-version", "0"]) == 2
-    assert "--env-id railgym/TrainCrash-v0: --envelope" in capsys.readouterr().err
+    assert "error: --env-version 0: --envelope runs" in capsys.readouterr().err
+    argv = ["evaluate", "passive", "--env", "crash", "--gap", "--env-id", "railgym/TrainCrash-v0"]
+    assert main(argv) == 2
+    assert "error: --env-id railgym/TrainCrash-v0: --gap on --env crash" in capsys.readouterr().err
 
 
 def test_version_warning_printed_once_over_workers(tmp_path, tiny_ppo_block, capfd):
