@@ -13,12 +13,14 @@ from typing import Any
 
 from railgym import _checks as val
 from railgym.envs.vertical.env import LIMITS
+from railgym.registration import ENVS, env_family
 from surrogates.checks import bounded_int, seed_number
 from surrogates.cli_flags import error_status
 
 __all__ = [
     "MAX_EPISODES",
     "VEHICLE_DURATION_S",
+    "add_env_id",
     "add_parallel_arguments",
     "add_track_classes",
     "bounded_int",
@@ -27,6 +29,8 @@ __all__ = [
     "check_speed_kmh",
     "duration_s",
     "backend_kwargs",
+    "env_id_flag",
+    "env_id_of",
     "env_kwargs_of",
     "with_policy_kwargs",
     "error_status",
@@ -224,3 +228,51 @@ def check_parallel(args: argparse.Namespace) -> None:
         choose_backend(args.workers, args.address)
     except ValueError as err:
         raise ValueError(f"{'--address' if args.address else '--workers'}: {err}") from None
+
+
+def add_env_id(parser: argparse.ArgumentParser, defaults: dict[str, str]) -> None:
+    """``--env-id ID`` or ``--env-version N`` (one of them): the registered version of the env
+    that ``--env`` names (``defaults``: ``--env`` choice → its env id when neither is given)."""
+    shown = ", ".join(f"{env}: {env_id}" for env, env_id in defaults.items())
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument(
+        "--env-id",
+        metavar="ID",
+        help="the registered id of the version of the env of --env that the episodes run on "
+        f"(default: {shown})",
+    )
+    group.add_argument(
+        "--env-version",
+        type=bounded_int(0, 99),
+        metavar="N",
+        help="the version N of the env of --env: its id with -vN (default: as --env-id)",
+    )
+
+
+def env_id_of(args: argparse.Namespace, defaults: dict[str, str]) -> str:
+    """The env id of ``--env-id`` / ``--env-version`` for ``args.env`` (``defaults``: as
+    :func:`add_env_id`'s, also when neither is given); ValueError naming the flag and the
+    registered versions where it is no registered version of that env."""
+    default = defaults[args.env]
+    family = env_family(default)
+    if args.env_id is not None:
+        flag, env_id = "--env-id", args.env_id
+    elif args.env_version is not None:
+        flag, env_id = "--env-version", f"{family}-v{args.env_version}"
+    else:
+        return default
+    if env_id not in ENVS or env_family(env_id) != family:
+        versions = ", ".join(e for e in ENVS if env_family(e) == family)
+        raise ValueError(
+            f"{flag}: {env_id} is no registered version of the env of --env {args.env}; "
+            f"registered: {versions}"
+        )
+    return env_id
+
+
+def env_id_flag(args: argparse.Namespace) -> str:
+    """The flag and value that chose the env id (``--env-id ID`` or ``--env-version N``), for
+    an error naming it."""
+    if args.env_version is not None:
+        return f"--env-version {args.env_version}"
+    return f"--env-id {args.env_id}"

@@ -10,6 +10,9 @@ over the held-out impact envelope beside the crash baselines.
     railgym evaluate runs/ppo_crash/model.zip --env crash --envelope
     railgym evaluate clipped-lqg skyhook-onoff groundhook --actuator semi-active
 
+``--env-id ID`` (or ``--env-version N``) runs the episodes on that registered version of the
+env of ``--env`` (default ``-v1``; the table's header names the id).
+
 Without ``--actuator`` the command takes the actuator a trained policy was trained with (its
 run's settings; e.g. ``ppo-semiactive``: the damper), so that its comparison rows run on the
 same actuator; an ``--actuator`` other than a trained policy's is refused.
@@ -55,12 +58,15 @@ import numpy as np
 from agents._args import (
     MAX_EPISODES,
     VEHICLE_DURATION_S,
+    add_env_id,
     add_parallel_arguments,
     add_track_classes,
     backend_kwargs,
     check_parallel,
     check_speed_kmh,
     duration_s,
+    env_id_flag,
+    env_id_of,
     env_kwargs_of,
     episodes,
     seed_number,
@@ -97,6 +103,7 @@ from railgym.progress import bar
 from surrogates.cli_flags import add_deprecated
 
 __all__ = [
+    "ENV_IDS",
     "actuator_kwargs",
     "add_arguments",
     "evaluate_crash",
@@ -106,6 +113,10 @@ __all__ = [
     "format_vehicle_rows",
     "run",
 ]
+
+
+#: the env id of each ``--env`` without ``--env-id`` / ``--env-version``
+ENV_IDS = {"vertical": ENV_ID, "vehicle": VEHICLE_ID, "crash": CRASH_ID}
 
 
 def _aligned(columns: Sequence[tuple[str, str, int]], cells: list[list[str]]) -> str:
@@ -219,10 +230,12 @@ def evaluate_crash(
     speeds_kmh: Sequence[float] | None = None,
     trust: bool = False,
     env_kwargs: dict[str, Any] | None = None,
+    env_id: str = CRASH_ID,
 ) -> list[dict[str, Any]]:
-    """One row per (speed, policy): episode-end crash-safety indices of ``TrainCrash-v1``
-    (``trust``: see :func:`load_policy`); ``env_kwargs`` (e.g. the user's ``scenario``,
-    ``surrogate``) are added to each policy's training settings; ``speeds_kmh`` ``None``:
+    """One row per (speed, policy): episode-end crash-safety indices of ``env_id`` (a version
+    of ``railgym/TrainCrash``; ``trust``: see :func:`load_policy`); ``env_kwargs`` (e.g. the
+    user's ``scenario``, ``surrogate``) are added to each policy's training settings;
+    ``speeds_kmh`` ``None``:
     each env's scenario speed (its ``speed_kmh``). ``diverged``: the env cut the run where its
     state diverged (``info["diverged"]``), the indices are those at the cut; ``scenario``: the
     :class:`~railgym.vehicles.crash.scenario.CrashScenario` each row ran."""
@@ -234,7 +247,7 @@ def evaluate_crash(
     rows = []
     extra = dict(env_kwargs or {})
     loaded = [
-        load_policy(p, CRASH_ID, trust) if p != "passive" else (None, {}, "passive")
+        load_policy(p, env_id, trust) if p != "passive" else (None, {}, "passive")
         for p in val.sequence(policies, "policies")
     ]
     for v in bar(speeds, desc="speeds"):
@@ -243,7 +256,7 @@ def evaluate_crash(
             # the speed as a reset option: the observation keeps the scales the policy was
             # trained with (an explicit `speed` would rescale an envelope's velocities)
             kwargs = with_policy_kwargs(env_kwargs, backend_kwargs(backend, extra), label)
-            env = gym.make(CRASH_ID, backend=backend, **kwargs)
+            env = gym.make(env_id, backend=backend, **kwargs)
             scenario = env.unwrapped.cfg.scenario
             kmh = 3.6 * scenario.speed if v is None else v
             ctrl = factory(env) if factory else None
@@ -309,17 +322,19 @@ def evaluate_envelope(
     return crash_report.envelope_rows(factories, kwargs, speeds)
 
 
-def crash_header(rows: list[dict[str, Any]], backend: str, speed_flag: bool) -> str:
-    """The line over :func:`format_crash_rows`: the train(s) the rows ran (scenario, cars,
-    the scenario's speed) and, where ``--speed-kmh`` was given (``speed_flag``), that it
-    overrides that speed."""
+def crash_header(
+    rows: list[dict[str, Any]], backend: str, speed_flag: bool, env_id: str = CRASH_ID
+) -> str:
+    """The line over :func:`format_crash_rows`: ``env_id``, the train(s) the rows ran
+    (scenario, cars, the scenario's speed) and, where ``--speed-kmh`` was given
+    (``speed_flag``), that it overrides that speed."""
     speeds = (
         "impact speeds from --speed-kmh (override the scenario's speed_kmh)"
         if speed_flag
         else "impact speed: the scenario's speed_kmh"
     )
     return (
-        f"TrainCrash-v1, {crash_report.trains_of(rows)}, backend: {backend}; {speeds}; Δpeak: "
+        f"{env_id}, {crash_report.trains_of(rows)}, backend: {backend}; {speeds}; Δpeak: "
         "reduction of the largest car deceleration vs the passive absorbers"
     )
 
@@ -408,8 +423,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--env",
         choices=["vertical", "vehicle", "crash"],
         default="vertical",
-        help="the env: VerticalSuspension-v1, VerticalVehicle-v1 or TrainCrash-v1",
+        help="the env: VerticalSuspension, VerticalVehicle or TrainCrash (its version: "
+        "--env-id, --env-version)",
     )
+    add_env_id(parser, ENV_IDS)
     parser.add_argument(
         "--actuator",
         choices=["force", "semi-active"],
@@ -465,12 +482,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def actuator_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+def actuator_kwargs(args: argparse.Namespace, env_id: str | None = None) -> dict[str, Any]:
     """The env keyword of ``--actuator``, or without the flag the actuator the trained
     policies were trained with (``{}`` where none says: the force), so that the comparison
     rows run on the same actuator as the policy; a trained policy of another actuator than
     ``--actuator`` (or than another trained policy) and a classical controller of the other
-    actuator are refused, naming the flag."""
+    actuator are refused, naming the flag; ``env_id``: the env the policies run on (default:
+    that of ``--env`` without ``--env-id``)."""
     if args.env == "crash":
         if args.actuator is not None:
             raise ValueError(
@@ -478,7 +496,7 @@ def actuator_kwargs(args: argparse.Namespace) -> dict[str, Any]:
             )
         return {}
     vehicle = args.env == "vehicle"
-    env_id = VEHICLE_ID if vehicle else ENV_ID
+    env_id = env_id or ENV_IDS[args.env]
     trained = {p: a for p in args.policy if (a := trained_actuator(p, env_id)) is not None}
     for p, a in trained.items():
         if args.actuator is not None and a != args.actuator:
@@ -516,11 +534,12 @@ def _only_for(args: argparse.Namespace, flags: dict[str, bool], envs: str) -> No
 
 def run(args: argparse.Namespace) -> int:
     """``railgym evaluate``: the policies plus passive (and skyhook) for comparison."""
-    actuated = actuator_kwargs(args)
+    env_id = env_id_of(args, ENV_IDS)
+    actuated = actuator_kwargs(args, env_id)
     if args.preview and (args.env != "vehicle" or args.gap):
         raise ValueError("--preview: only for --env vehicle (and not with --gap)")
     if args.gap:
-        return run_gap(args, actuated)
+        return run_gap(args, actuated, env_id)
     parallel = {"--workers": args.workers != 1, "--address": args.address is not None}
     fmu = env_kwargs_of(args)
     if args.env == "crash":
@@ -532,6 +551,8 @@ def run(args: argparse.Namespace) -> int:
         if args.backend == "linear":
             raise ValueError("--backend: the crash env has backends reference and surrogate")
         if args.envelope:
+            if env_id != CRASH_ID:
+                raise ValueError(f"{env_id_flag(args)}: --envelope runs {CRASH_ID} only")
             if args.backend != "reference":
                 raise ValueError("--envelope: evaluates on the reference backend only")
             rows = evaluate_envelope(args.policy, args.speed, args.trust, fmu)
@@ -540,8 +561,8 @@ def run(args: argparse.Namespace) -> int:
             return 0
         first = COMPARISON[CRASH_ID]
         policies = [*first, *(p for p in args.policy if p not in first)]
-        rows = evaluate_crash(policies, args.backend, args.speed, args.trust, fmu)
-        print(crash_header(rows, args.backend, args.speed is not None))
+        rows = evaluate_crash(policies, args.backend, args.speed, args.trust, fmu, env_id)
+        print(crash_header(rows, args.backend, args.speed is not None, env_id))
         print(format_crash_rows(rows))
         return 0
     _only_for(args, {"--envelope": args.envelope}, "--env crash")
@@ -559,10 +580,11 @@ def run(args: argparse.Namespace) -> int:
             policies,
             args.backend,
             env_kwargs={**fmu, **preview, **actuated},
+            env_id=env_id,
             **vehicle_cases(args),
         )
         print(
-            f"VerticalVehicle-v1, backend: {args.backend}{damper}"
+            f"{env_id}, backend: {args.backend}{damper}"
             f"{f', preview {args.preview:g} m' if args.preview else ''}, {args.episodes} "
             "episodes per case "
             f"(seeds {args.seed}+i); per floor point front/centre/rear; Δa_w: reduction of the "
@@ -576,9 +598,11 @@ def run(args: argparse.Namespace) -> int:
         "--env vehicle and crash",
     )
     env_kwargs = {**fmu, **actuated}
-    rows = evaluate_sweep(policies, args.backend, env_kwargs=env_kwargs, **vertical_cases(args))
+    rows = evaluate_sweep(
+        policies, args.backend, env_kwargs=env_kwargs, env_id=env_id, **vertical_cases(args)
+    )
     print(
-        f"backend: {args.backend}{damper}, {args.episodes} episodes per class (seeds "
+        f"{env_id}, backend: {args.backend}{damper}, {args.episodes} episodes per class (seeds "
         f"{args.seed}+i); Δa_w: reduction of the Wk-weighted RMS vs passive; contacts: "
         "bump-stop substeps"
     )

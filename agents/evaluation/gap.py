@@ -37,13 +37,21 @@ import numpy as np
 from agents._args import (
     VEHICLE_DURATION_S,
     backend_kwargs,
+    env_id_flag,
     env_kwargs_of,
     vehicle_cases,
     vertical_cases,
     with_policy_kwargs,
 )
 from agents.controllers.crash_baselines import rollout
-from agents.controllers.registry import CONTROLLERS, CRASH_ID, VEHICLE_CONTROLLERS, crash_factories
+from agents.controllers.registry import (
+    CONTROLLERS,
+    CRASH_ID,
+    ENV_ID,
+    VEHICLE_CONTROLLERS,
+    VEHICLE_ID,
+    crash_factories,
+)
 from agents.evaluation import crash_report
 from agents.evaluation.contacts import Score, contact_note, more_contacts
 from agents.evaluation.metrics import CRASH, VEHICLE, VERTICAL, metrics
@@ -99,9 +107,11 @@ def gap_vertical(
     address: str | None = None,
     backends: tuple[str, str] = (SURROGATE, "reference"),
     env_kwargs: dict[str, Any] | None = None,
+    env_id: str = ENV_ID,
 ) -> list[dict[str, Any]]:
-    """Gap rows of ``VerticalSuspension-v1``: one per (track class, policy), metric ``a_w``,
-    with the bump-stop contacts of both sides (``contacts_surrogate``, ``contacts_reference``).
+    """Gap rows of ``env_id`` (a version of ``railgym/VerticalSuspension``): one per (track
+    class, policy), metric ``a_w``, with the bump-stop contacts of both sides
+    (``contacts_surrogate``, ``contacts_reference``).
 
     ``backends``: the (surrogate, reference) pair compared; ``env_kwargs`` go to both
     (``fmu``, ``fmu_map`` to the ``"fmu"`` backend only); the other arguments as
@@ -118,6 +128,7 @@ def gap_vertical(
             workers,
             address,
             backend_kwargs(b, env_kwargs),
+            env_id,
         )
         for b in backends
     ]
@@ -143,11 +154,13 @@ def gap_vehicle(
     address: str | None = None,
     backends: tuple[str, str] = (SURROGATE, "reference"),
     env_kwargs: dict[str, Any] | None = None,
+    env_id: str = VEHICLE_ID,
 ) -> list[dict[str, Any]]:
-    """Gap rows of ``VerticalVehicle-v1``: per (track class, speed, policy) the metric
-    ``a_w`` at each floor point, each with the case's bump-stop contacts of both sides (as
-    :func:`gap_vertical`); ``env_kwargs`` as :func:`gap_vertical`'s, the other
-    arguments as :func:`agents.evaluation.runs.evaluate_vehicle`."""
+    """Gap rows of ``env_id`` (a version of ``railgym/VerticalVehicle``): per (track class,
+    speed, policy) the metric ``a_w`` at each floor point, each with the case's bump-stop
+    contacts of both sides (as :func:`gap_vertical`); ``env_kwargs`` as
+    :func:`gap_vertical`'s, the other arguments as
+    :func:`agents.evaluation.runs.evaluate_vehicle`."""
     runs = [
         evaluate_vehicle(
             policies,
@@ -161,6 +174,7 @@ def gap_vehicle(
             workers,
             address,
             env_kwargs=backend_kwargs(b, env_kwargs),
+            env_id=env_id,
         )
         for b in backends
     ]
@@ -333,11 +347,14 @@ def _reference_of(args: argparse.Namespace) -> str:
     return "railgym's linear suspension" if args.backend == "linear" else "railgym's model"
 
 
-def run_gap(args: argparse.Namespace, actuated: dict[str, Any] | None = None) -> int:
+def run_gap(
+    args: argparse.Namespace, actuated: dict[str, Any] | None = None, env_id: str | None = None
+) -> int:
     """``railgym evaluate POLICY... --gap``: gap rows of the given policies between the
     surrogate and ``--backend`` (default the reference), printed as a table; ``actuated``: the
     env keyword of ``--actuator`` (:func:`agents.evaluation.evaluate.actuator_kwargs`), to both
-    sides."""
+    sides; ``env_id``: the env of ``--env-id`` (default: the one of ``--env``; the crash gap
+    runs ``railgym/TrainCrash-v1`` only)."""
     if args.envelope:
         raise ValueError("--gap: runs the held-out envelope itself (--env crash), not --envelope")
     backends = (SURROGATE, args.backend)
@@ -351,6 +368,8 @@ def run_gap(args: argparse.Namespace, actuated: dict[str, Any] | None = None) ->
     )
     counted = f"; contacts: bump-stop substeps, surrogate / {args.backend}"
     if args.env == "crash":
+        if env_id not in (None, CRASH_ID):
+            raise ValueError(f"{env_id_flag(args)}: --gap on --env crash runs {CRASH_ID} only")
         if args.backend == "linear":
             raise ValueError("--backend: the crash env has backends reference and surrogate")
         for flag, given in {
@@ -367,20 +386,21 @@ def run_gap(args: argparse.Namespace, actuated: dict[str, Any] | None = None) ->
         print(crash_report.train_line(scenario, f"held-out cases of its envelope; {what}"))
     elif args.env == "vehicle":
         cases = vehicle_cases(args)
-        rows = gap_vehicle(args.policy, backends=backends, env_kwargs=models, **cases)
-        print(
-            f"VerticalVehicle-v1, {args.episodes} episodes per case (seeds {args.seed}+i); {what}"
-            f"{counted}"
+        env_id = env_id or VEHICLE_ID
+        rows = gap_vehicle(
+            args.policy, backends=backends, env_kwargs=models, env_id=env_id, **cases
         )
+        print(f"{env_id}, {args.episodes} episodes per case (seeds {args.seed}+i); {what}{counted}")
     else:
         for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
             if given is not None:
                 raise ValueError(f"{flag}: only for --env vehicle and crash, not --env vertical")
+        env_id = env_id or ENV_ID
         rows = gap_vertical(
-            args.policy, backends=backends, env_kwargs=models, **vertical_cases(args)
+            args.policy, backends=backends, env_kwargs=models, env_id=env_id, **vertical_cases(args)
         )
         print(
-            f"VerticalSuspension-v1, {args.episodes} episodes per track class "
+            f"{env_id}, {args.episodes} episodes per track class "
             f"(seeds {args.seed}+i); {what}{counted}"
         )
     print(format_gap(rows, args.backend))

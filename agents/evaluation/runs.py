@@ -1,8 +1,8 @@
 """Policies run over episodes: the metrics (:mod:`agents.evaluation.metrics`) of one policy
 over ``episodes`` episodes in one native vector env (sub-env ``i`` on the track of
-``seed + i``): :func:`run_policy` (``railgym/VerticalSuspension-v1``),
-:func:`run_vehicle_policy` (``railgym/VerticalVehicle-v1``), and :func:`evaluate_vehicle`,
-the rows of ``railgym evaluate --env vehicle``.
+``seed + i``): :func:`run_policy` (a version of ``railgym/VerticalSuspension``, default -v1),
+:func:`run_vehicle_policy` (of ``railgym/VerticalVehicle``, default -v1), and
+:func:`evaluate_vehicle`, the rows of ``railgym evaluate --env vehicle``.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from agents._args import MAX_EPISODES, VEHICLE_DURATION_S, check_speed_kmh, with_policy_kwargs
 from agents.controllers.registry import ENV_ID, VEHICLE_ID
 from agents.evaluation.metrics import VERTICAL, Metric
-from agents.policies.loading import load_policy
+from agents.policies.loading import load_policy, without_version_warning
 from railgym import _checks as val
 from railgym.comfort import sperling_wz, weighted_rms
 from railgym.parallel import run_tasks
@@ -55,14 +55,15 @@ def _validity(outside_steps: np.ndarray, steps: int, info: dict[str, Any]) -> di
 
 
 def run_policy(
-    factory: Any, env_kwargs: dict[str, Any], episodes: int, seed: int
+    factory: Any, env_kwargs: dict[str, Any], episodes: int, seed: int, env_id: str = ENV_ID
 ) -> dict[str, Any]:
-    """Run ``episodes`` episodes (one per sub-env) of ``railgym/VerticalSuspension-v1`` and
+    """Run ``episodes`` episodes (one per sub-env) of ``env_id`` (a version of
+    ``railgym/VerticalSuspension``) and
     return the means over them of the metrics of :data:`agents.evaluation.metrics.VERTICAL`
     (the Sperling index also under its old key ``wz``), with the env's ``backend`` and the
     validity flags of :func:`_validity`."""
     venv = gym.make_vec(
-        ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point", **env_kwargs
+        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **env_kwargs
     )
     ctrl = factory(venv)
     obs, _ = venv.reset(seed=seed)
@@ -113,12 +114,14 @@ class VehicleTask(NamedTuple):
     env_kwargs: dict[str, Any]
     episodes: int
     seed: int
+    env_id: str = VEHICLE_ID
 
 
 def run_vehicle_policy(
-    factory: Any, env_kwargs: dict[str, Any], episodes: int, seed: int
+    factory: Any, env_kwargs: dict[str, Any], episodes: int, seed: int, env_id: str = VEHICLE_ID
 ) -> dict[str, Any]:
-    """Run ``episodes`` episodes of ``railgym/VerticalVehicle-v1`` (one per sub-env, tracks of
+    """Run ``episodes`` episodes of ``env_id`` (a version of ``railgym/VerticalVehicle``; one
+    per sub-env, tracks of
     seeds ``seed + i``) and return the means over them, each an array (3,) per floor point:
     ``rms_acc`` (RMS floor acceleration, m/s²) and the env's end-of-episode comfort ``a_w``
     (ISO 2631-1 Wk RMS, m/s²), ``a_ZP95_Wb`` (EN 12299, m/s²), ``Wz`` (Sperling); with
@@ -126,7 +129,7 @@ def run_vehicle_policy(
     evaluations outside its box), the env's ``backend`` and the validity flags of
     :func:`_validity`."""
     venv = gym.make_vec(
-        VEHICLE_ID, num_envs=episodes, vectorization_mode="vector_entry_point", **env_kwargs
+        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **env_kwargs
     )
     ctrl = factory(venv)
     obs, _ = venv.reset(seed=seed)
@@ -159,14 +162,16 @@ def loaded_policy(
     policy: str, trust: bool, env_kwargs: dict[str, Any], env_id: str = ENV_ID
 ) -> tuple[Any, dict[str, Any]]:
     """The factory of a controller or saved policy (:func:`load_policy`, in the worker that
-    runs the task) and ``env_kwargs`` with the env keywords the policy needs."""
-    factory, needed, _ = load_policy(policy, env_id, trust)
+    runs the task) and ``env_kwargs`` with the env keywords the policy needs; no version
+    warning (the caller loaded the policy before its tasks and warned once)."""
+    with without_version_warning():
+        factory, needed, _ = load_policy(policy, env_id, trust)
     return factory, with_policy_kwargs(needed, env_kwargs, policy)
 
 
 def _run_vehicle_task(task: VehicleTask) -> dict[str, Any]:
-    factory, env_kwargs = loaded_policy(task.policy, task.trust, task.env_kwargs, VEHICLE_ID)
-    return run_vehicle_policy(factory, env_kwargs, task.episodes, task.seed)
+    factory, env_kwargs = loaded_policy(task.policy, task.trust, task.env_kwargs, task.env_id)
+    return run_vehicle_policy(factory, env_kwargs, task.episodes, task.seed, task.env_id)
 
 
 def evaluate_vehicle(
@@ -181,10 +186,11 @@ def evaluate_vehicle(
     workers: int = 1,
     address: str | None = None,
     env_kwargs: dict[str, Any] | None = None,
+    env_id: str = VEHICLE_ID,
 ) -> list[dict[str, Any]]:
-    """One row per (track class, speed, policy) of :func:`run_vehicle_policy` on
-    ``railgym/VerticalVehicle-v1``, plus ``a_w_reduction_%`` (3,) against the passive row
-    of the same case (NaN without one).
+    """One row per (track class, speed, policy) of :func:`run_vehicle_policy` on ``env_id``
+    (a version of ``railgym/VerticalVehicle``), plus ``a_w_reduction_%`` (3,) against the
+    passive row of the same case (NaN without one).
 
     ``speeds_kmh``: km/h, ``None`` the class's maximum speed; ``duration``: s per episode;
     ``trust``: see :func:`load_policy`; ``workers``, ``address``: see
@@ -203,7 +209,7 @@ def evaluate_vehicle(
         for v in val.sequence(speeds_kmh, "speeds_kmh")
     ]
     policies = [str(p) for p in val.sequence(policies, "policies")]
-    labels = [load_policy(p, VEHICLE_ID, trust)[2] for p in policies]  # bad names fail here
+    labels = [load_policy(p, env_id, trust)[2] for p in policies]  # bad names fail here
     cases = [(tc, v) for tc in track_classes for v in speeds]
     tasks = [
         VehicleTask(
@@ -218,6 +224,7 @@ def evaluate_vehicle(
             },
             episodes,
             seed,
+            env_id,
         )
         for tc, v in cases
         for p in policies

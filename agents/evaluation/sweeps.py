@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 from agents._args import MAX_EPISODES
+from agents.controllers.registry import ENV_ID
 from agents.evaluation.runs import loaded_policy, run_policy
 from agents.policies.loading import load_policy
 from railgym import _checks as val
@@ -40,6 +41,7 @@ class PolicyTask(NamedTuple):
     env_kwargs: dict[str, Any]
     episodes: int
     seed: int
+    env_id: str = ENV_ID
 
 
 def _run_controller(task: ControllerTask) -> dict[str, float]:
@@ -47,8 +49,8 @@ def _run_controller(task: ControllerTask) -> dict[str, float]:
 
 
 def _run_policy(task: PolicyTask) -> dict[str, float]:
-    factory, env_kwargs = loaded_policy(task.policy, task.trust, task.env_kwargs)
-    return run_policy(factory, env_kwargs, task.episodes, task.seed)
+    factory, env_kwargs = loaded_policy(task.policy, task.trust, task.env_kwargs, task.env_id)
+    return run_policy(factory, env_kwargs, task.episodes, task.seed, task.env_id)
 
 
 def controller_sweep(
@@ -78,11 +80,13 @@ def evaluate_sweep(
     workers: int = 1,
     address: str | None = None,
     env_kwargs: dict[str, Any] | None = None,
+    env_id: str = ENV_ID,
 ) -> list[dict[str, Any]]:
     """One row per (track class, policy): mean RMS ẍ2, Wk a_w, Sperling Wz over the episodes of
     :func:`agents.evaluation.runs.run_policy` and ``a_w_reduction_%`` against the passive row of the
     same class (NaN without one), one task per (track class, policy); ``env_kwargs`` are added
-    to every env (e.g. ``fmu``, ``fmu_map``)."""
+    to every env (e.g. ``fmu``, ``fmu_map``); ``env_id``: the version of
+    ``railgym/VerticalSuspension`` the episodes run on."""
     episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
     seed = val.integer(seed, "seed", min=0)
     track_classes = [
@@ -90,14 +94,9 @@ def evaluate_sweep(
         for tc in val.sequence(track_classes, "track_classes")
     ]
     policies = val.sequence(policies, "policies")
-    labels = [load_policy(p, trust=trust)[2] for p in policies]  # bad names fail here
-    tasks = [
-        PolicyTask(
-            p, trust, {"backend": backend, "track_class": tc, **(env_kwargs or {})}, episodes, seed
-        )
-        for tc in track_classes
-        for p in policies
-    ]
+    labels = [load_policy(p, env_id, trust)[2] for p in policies]  # bad names fail here
+    cases = [{"backend": backend, "track_class": tc, **(env_kwargs or {})} for tc in track_classes]
+    tasks = [PolicyTask(p, trust, case, episodes, seed, env_id) for case in cases for p in policies]
     results = iter(run_tasks(_run_policy, tasks, workers, address))
     rows = []
     for tc in track_classes:

@@ -11,6 +11,8 @@ The commands that run these policies are in :mod:`agents.evaluation`.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -34,6 +36,7 @@ __all__ = [
     "design_env_kwargs",
     "load_policy",
     "trained_actuator",
+    "without_version_warning",
 ]
 
 
@@ -195,6 +198,17 @@ def _network(path: Path, source: PolicySource, env_id: str) -> _Network:
 
 #: (policy, env id) pairs already warned of a version change: the warning is printed once
 _WARNED: set[tuple[str, str]] = set()
+#: the version warning of :func:`_sb3_policy` (after the policy's path), as a filter's regex
+_VERSION_WARNING = r".*: the policy was trained on \S+ and runs on "
+
+
+@contextmanager
+def without_version_warning() -> Iterator[None]:
+    """Within the block :func:`load_policy` gives no version warning: for a worker process
+    loading a policy that its caller has loaded (and warned of) already."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=_VERSION_WARNING, category=UserWarning)
+        yield
 
 
 def _sb3_policy(
