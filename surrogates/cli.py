@@ -256,10 +256,18 @@ def _candidates(args: argparse.Namespace, n_inputs: int) -> list[Any] | None:
     """The LPR candidates of ``--degree`` / ``--max-degree`` (``None``: the default search)."""
     if (args.degree or args.max_degree) and args.kind != "lpr":
         raise UsageError("--degree and --max-degree apply to --kind lpr only")
-    degree = check_degrees(args.degree, "--degree", n_inputs)
-    if degree is not None:
-        return [degree]
-    top = check_degrees(args.max_degree, "--max-degree", n_inputs)
+    return degree_candidates(args.degree, args.max_degree, n_inputs)
+
+
+def degree_candidates(
+    degree: list[int] | None, max_degree: list[int] | None, n_inputs: int
+) -> list[Any] | None:
+    """The LPR candidates of the ``--degree`` / ``--max-degree`` values (``None``: the
+    default search); :class:`UsageError` for bad values."""
+    fixed = check_degrees(degree, "--degree", n_inputs)
+    if fixed is not None:
+        return [fixed]
+    top = check_degrees(max_degree, "--max-degree", n_inputs)
     if top is None:
         return None
     if n_inputs > 2 and len(set(top)) == 1:  # equal degrees, as the default for d > 2
@@ -267,16 +275,23 @@ def _candidates(args: argparse.Namespace, n_inputs: int) -> list[Any] | None:
     return list(itertools.product(*(range(1, t + 1) for t in top)))
 
 
-def _build(args: argparse.Namespace) -> int:
-    """The ``build`` command; :class:`UsageError`, ``ValueError`` or ``OSError`` for bad input."""
+def unit_pairs(pairs: Sequence[str]) -> dict[str, str]:
+    """The ``--units NAME=UNIT`` values as ``{name: unit}``; :class:`UsageError` for a
+    malformed pair or a name given twice."""
     units: dict[str, str] = {}
-    for pair in args.units:
+    for pair in pairs:
         name, sep, unit = pair.partition("=")
         if not sep or not name or not unit:
             raise UsageError(f"--units {pair!r}: expected NAME=UNIT, e.g. F=N")
         if name in units:
             raise UsageError(f"--units gives a unit for {name!r} twice")
         units[name] = unit
+    return units
+
+
+def _build(args: argparse.Namespace) -> int:
+    """The ``build`` command; :class:`UsageError`, ``ValueError`` or ``OSError`` for bad input."""
+    units = unit_pairs(args.units)
     names = [*args.inputs, args.target]
     dups = sorted({c for c in names if names.count(c) > 1})
     if dups:

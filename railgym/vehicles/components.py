@@ -25,7 +25,6 @@ The table's columns are read with their units (``du [mm]``, ``dv [mm/s]``, ``F [
 from __future__ import annotations
 
 import argparse
-import itertools
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -37,7 +36,7 @@ from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.vertical.params import VerticalVehicle, load_vehicle
 from surrogates import build, io
 from surrogates.builder import BuildReport
-from surrogates.cli import add_degree_arguments, check_degrees
+from surrogates.cli import add_degree_arguments, degree_candidates, unit_pairs
 from surrogates.cli_flags import Parser, add_common, add_out, add_seed, error_status
 from surrogates.models import SurrogateModel
 from surrogates.tables import to_si
@@ -169,15 +168,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if out.exists() and not args.overwrite:
         parser.error(f"--out {out}: exists; pass --overwrite to replace it")
     try:
-        units = dict(pair.split("=", 1) for pair in args.units if "=" in pair)
-        if len(units) != len(args.units):
-            raise ValueError(f"--units: expected NAME=UNIT pairs, got {args.units}")
-        u, force = read_bench_table(args.data, args.columns, units)
-        degree = check_degrees(args.degree, "--degree", 2)
-        top = check_degrees(args.max_degree, "--max-degree", 2)
-        cands = [degree] if degree else None
-        if top is not None:
-            cands = list(itertools.product(range(1, top[0] + 1), range(1, top[1] + 1)))
+        u, force = read_bench_table(args.data, args.columns, unit_pairs(args.units))
+        cands = degree_candidates(args.degree, args.max_degree, 2)
         model, report, veh = combine_damper(
             u, force, args.vehicle, args.dampers, m=args.m, seed=args.seed, candidates=cands
         )
