@@ -177,14 +177,19 @@ _S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(
 
 
 @njit(cache=True, _nrt=False)
-def _uniform(rng, i):
-    """Next splitmix64 value of stream ``rng[i]`` as a float in (0, 1]."""
+def _splitmix(rng, i):
+    """Next splitmix64 value (uint64) of stream ``rng[i]``, the stream advanced."""
     s = rng[i] + _GOLDEN
     rng[i] = s
     s = (s ^ (s >> _S30)) * _M1
     s = (s ^ (s >> _S27)) * _M2
-    s = s ^ (s >> _S31)
-    return (float(s >> _S11) + 1.0) * (1.0 / 9007199254740992.0)
+    return s ^ (s >> _S31)
+
+
+@njit(cache=True, _nrt=False)
+def _uniform(rng, i):
+    """Next splitmix64 value of stream ``rng[i]`` as a float in (0, 1]."""
+    return (float(_splitmix(rng, i) >> _S11) + 1.0) * (1.0 / 9007199254740992.0)
 
 
 def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -217,12 +222,7 @@ def _normal(rng, i):
     """Next standard normal of track ``i`` (ziggurat on the high 32 bits of one splitmix64
     value; the tails and wedges, about 2 % of the draws, take more)."""
     while True:
-        s = rng[i] + _GOLDEN
-        rng[i] = s
-        s = (s ^ (s >> _S30)) * _M1
-        s = (s ^ (s >> _S27)) * _M2
-        s = s ^ (s >> _S31)
-        hi = s >> _S32
+        hi = _splitmix(rng, i) >> _S32
         iz = int(hi & _MASK)
         hz = int(hi) - 2147483648
         if abs(hz) < _KN[iz]:
