@@ -1,6 +1,7 @@
 /*
  * coach.c - a whole coach as a user would bring it: an FMI 2.0 co-simulation FMU, written by
- * hand without any railgym code (only the FMI 2.0 standard headers).
+ * hand without any railgym code (only the FMI 2.0 standard headers and the user's own glue,
+ * user_fmi2_glue.h).
  *
  * Conventions (the user's own): x along the coach, positive forward, origin at the carbody
  * centre; vertical displacements from the loaded static equilibrium, positive upwards,
@@ -29,8 +30,6 @@
  * 1-3, canInterpolateInputs), zero derivatives when not set; the forces are held.
  */
 #include <math.h>
-#include <stdarg.h>
-#include <stdio.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
@@ -83,18 +82,6 @@ typedef struct {
     double u[NU];           /* inputs at the start of the step (SI: m, m/s, N) */
     double der[N_TRACK][3]; /* track inputs' derivatives of orders 1-3 */
 } Coach;
-
-static void coach_log(Coach *q, fmi2Status status, const char *fmt, ...) {
-    char msg[400];
-    va_list ap;
-    if (q == NULL || q->cb.logger == NULL) return;
-    if (status == fmi2OK && !q->logging) return;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    q->cb.logger(q->cb.componentEnvironment, q->name, status,
-                 status == fmi2OK ? "logAll" : "logStatusError", "%s", msg);
-}
 
 static double secondary_force(double delta, double delta_dot, double u) {
     double w = 0.5 * (1.0 + tanh(delta_dot / V_BLEND));
@@ -162,77 +149,14 @@ static void start_values(Coach *q) {
     q->time = 0.0;
 }
 
-/* ------------------------------------------------------------------ FMI 2.0 functions */
-const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
-const char *fmi2GetVersion(void) { return fmi2Version; }
+#define MODEL_ID "coach"
+#define MODEL_GUID COACH_GUID
+#define MODEL_T Coach
+#define MODEL_LABEL "the coach"
+#include "user_fmi2_glue.h"
 
-fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
-                               const fmi2String categories[]) {
-    (void)nCategories;
-    (void)categories;
-    ((Coach *)c)->logging = loggingOn;
-    return fmi2OK;
-}
-
-fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
-                              fmi2String fmuResourceLocation,
-                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
-                              fmi2Boolean loggingOn) {
-    Coach *q;
-    const char *name = instanceName ? instanceName : "coach";
-    (void)fmuResourceLocation;
-    (void)visible;
-    if (functions == NULL || functions->allocateMemory == NULL ||
-        functions->freeMemory == NULL)
-        return NULL;
-    if (fmuType != fmi2CoSimulation || fmuGUID == NULL || strcmp(fmuGUID, COACH_GUID) != 0) {
-        if (functions->logger)
-            functions->logger(functions->componentEnvironment, name, fmi2Error,
-                              "logStatusError",
-                              "coach: co-simulation only, GUID %s", COACH_GUID);
-        return NULL;
-    }
-    q = (Coach *)functions->allocateMemory(1, sizeof(Coach));
-    if (q == NULL) return NULL;
-    q->cb = *functions;
-    q->name = (char *)functions->allocateMemory(strlen(name) + 1, 1);
-    if (q->name == NULL) {
-        functions->freeMemory(q);
-        return NULL;
-    }
-    strcpy(q->name, name);
-    q->logging = loggingOn;
-    start_values(q);
-    return q;
-}
-
-void fmi2FreeInstance(fmi2Component c) {
-    Coach *q = (Coach *)c;
-    if (q == NULL) return;
-    q->cb.freeMemory(q->name);
-    q->cb.freeMemory(q);
-}
-
-fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
-                               fmi2Real tolerance, fmi2Real startTime,
-                               fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-    (void)toleranceDefined;
-    (void)tolerance;
-    (void)stopTimeDefined;
-    (void)stopTime;
-    ((Coach *)c)->time = startTime;
-    return fmi2OK;
-}
-
-fmi2Status fmi2EnterInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
-fmi2Status fmi2ExitInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
-fmi2Status fmi2Terminate(fmi2Component c) { (void)c; return fmi2OK; }
-
-fmi2Status fmi2Reset(fmi2Component c) {
-    start_values((Coach *)c);
-    return fmi2OK;
-}
-
+/* ------------------------------------------------------------------ FMI 2.0 functions
+ * (the rest, the same in every model of the user's: user_fmi2_glue.h) */
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
     Coach *q = (Coach *)c;
@@ -253,7 +177,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
             int k = pos[body];
             value[i] = kind == 0 ? scale[body] * q->x[k] : kind == 1 ? q->x[7 + k] : dx[7 + k];
         } else {
-            coach_log(q, fmi2Error, "fmi2GetReal: no Real variable with value reference %u", r);
+            model_log(q, fmi2Error, "fmi2GetReal: no Real variable with value reference %u", r);
             return fmi2Error;
         }
     }
@@ -267,7 +191,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     for (i = 0; i < nvr; i++) {
         unsigned r = (unsigned)vr[i];
         if (r > VR_FA2) {
-            coach_log(q, fmi2Error, "fmi2SetReal: value reference %u is not an input", r);
+            model_log(q, fmi2Error, "fmi2SetReal: value reference %u is not an input", r);
             return fmi2Error;
         }
         q->u[r] = r >= VR_FA1 ? 1000.0 * value[i] : value[i];
@@ -276,79 +200,6 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     return fmi2OK;
 }
 
-static fmi2Status none_of_type(fmi2Component c, size_t nvr, const char *fn) {
-    if (nvr == 0) return fmi2OK;
-    coach_log((Coach *)c, fmi2Error, "%s: the coach has no such variables", fn);
-    return fmi2Error;
-}
-
-fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          fmi2Integer value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2GetInteger");
-}
-fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          fmi2Boolean value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2GetBoolean");
-}
-fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                         fmi2String value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2GetString");
-}
-fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Integer value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2SetInteger");
-}
-fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Boolean value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2SetBoolean");
-}
-fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                         const fmi2String value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2SetString");
-}
-
-static fmi2Status not_supported(fmi2Component c, const char *fn) {
-    coach_log((Coach *)c, fmi2Error, "%s is not supported by the coach", fn);
-    return fmi2Error;
-}
-
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)s;
-    return not_supported(c, "fmi2GetFMUstate");
-}
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
-    (void)s;
-    return not_supported(c, "fmi2SetFMUstate");
-}
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)s;
-    return not_supported(c, "fmi2FreeFMUstate");
-}
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) {
-    (void)s; (void)n;
-    return not_supported(c, "fmi2SerializedFMUstateSize");
-}
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) {
-    (void)s; (void)b; (void)n;
-    return not_supported(c, "fmi2SerializeFMUstate");
-}
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n,
-                                   fmi2FMUstate *s) {
-    (void)b; (void)n; (void)s;
-    return not_supported(c, "fmi2DeSerializeFMUstate");
-}
-fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vu[],
-                                        size_t nu, const fmi2ValueReference vk[], size_t nk,
-                                        const fmi2Real dvk[], fmi2Real dvu[]) {
-    (void)vu; (void)nu; (void)vk; (void)nk; (void)dvk; (void)dvu;
-    return not_supported(c, "fmi2GetDirectionalDerivative");
-}
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
                                        size_t nvr, const fmi2Integer order[],
                                        const fmi2Real value[]) {
@@ -356,7 +207,7 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
     size_t i;
     for (i = 0; i < nvr; i++) {
         if (vr[i] >= N_TRACK || order[i] < 1 || order[i] > 3) {
-            coach_log(q, fmi2Error,
+            model_log(q, fmi2Error,
                       "fmi2SetRealInputDerivatives: value reference %u, order %d: only the "
                       "track inputs, orders 1-3", (unsigned)vr[i], (int)order[i]);
             return fmi2Error;
@@ -366,13 +217,6 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
     return fmi2OK;
 }
 
-fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                        size_t nvr, const fmi2Integer order[],
-                                        fmi2Real value[]) {
-    (void)vr; (void)nvr; (void)order; (void)value;
-    return not_supported(c, "fmi2GetRealOutputDerivatives");
-}
-
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
@@ -380,42 +224,11 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
     double h = communicationStepSize / N_SUBSTEPS, u[NU];
     int k;
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!(communicationStepSize > 0.0)) {
-        coach_log(q, fmi2Error, "fmi2DoStep: communication step %g s is not positive",
-                  communicationStepSize);
-        return fmi2Error;
-    }
+    if (!step_size_ok(q, communicationStepSize)) return fmi2Error;
     for (k = 0; k < N_SUBSTEPS; k++) rk4(q, k * h, h);
     inputs_at(q, communicationStepSize, u); /* the inputs at the end of the step */
     memcpy(q->u, u, sizeof u);
     memset(q->der, 0, sizeof q->der);
     q->time = currentCommunicationPoint + communicationStepSize;
     return fmi2OK;
-}
-
-fmi2Status fmi2CancelStep(fmi2Component c) { return not_supported(c, "fmi2CancelStep"); }
-
-fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    (void)s; (void)value;
-    return not_supported(c, "fmi2GetStatus");
-}
-fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    Coach *q = (Coach *)c;
-    if (s == fmi2LastSuccessfulTime) {
-        *value = q->time;
-        return fmi2OK;
-    }
-    return not_supported(c, "fmi2GetRealStatus");
-}
-fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    (void)s; (void)value;
-    return not_supported(c, "fmi2GetIntegerStatus");
-}
-fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    (void)s; (void)value;
-    return not_supported(c, "fmi2GetBooleanStatus");
-}
-fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    (void)s; (void)value;
-    return not_supported(c, "fmi2GetStringStatus");
 }

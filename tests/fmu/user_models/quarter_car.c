@@ -1,6 +1,7 @@
 /*
  * quarter_car.c - a quarter car as a user would bring it: an FMI 2.0 co-simulation FMU,
- * written by hand without any railgym code (only the FMI 2.0 standard headers).
+ * written by hand without any railgym code (only the FMI 2.0 standard headers and the
+ * user's own glue, user_fmi2_glue.h).
  *
  * Bodies (displacements from the loaded static equilibrium, m, positive upwards; gravity
  * is balanced by the static preload of the secondary spring and does not appear):
@@ -24,8 +25,6 @@
  *        -DQUARTER_CAR_GUID="\"{...}\"" -o quarter_car.so quarter_car.c -lm
  */
 #include <math.h>
-#include <stdarg.h>
-#include <stdio.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
@@ -57,18 +56,6 @@ typedef struct {
     double x[4]; /* x1, v1, x2, v2 */
     double u[3]; /* zr, zr_dot, Fact */
 } QuarterCar;
-
-static void qc_log(QuarterCar *q, fmi2Status status, const char *fmt, ...) {
-    char msg[400];
-    va_list ap;
-    if (q == NULL || q->cb.logger == NULL) return;
-    if (status == fmi2OK && !q->logging) return;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    q->cb.logger(q->cb.componentEnvironment, q->name, status,
-                 status == fmi2OK ? "logAll" : "logStatusError", "%s", msg);
-}
 
 static double secondary_force(double delta, double delta_dot) {
     double w = 0.5 * (1.0 + tanh(delta_dot / V_BLEND));
@@ -104,88 +91,14 @@ static void start_values(QuarterCar *q) {
     q->time = 0.0;
 }
 
-/* ------------------------------------------------------------------ FMI 2.0 functions */
-const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
-const char *fmi2GetVersion(void) { return fmi2Version; }
+#define MODEL_ID "quarter_car"
+#define MODEL_GUID QUARTER_CAR_GUID
+#define MODEL_T QuarterCar
+#define MODEL_LABEL "the quarter car"
+#include "user_fmi2_glue.h"
 
-fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
-                               const fmi2String categories[]) {
-    (void)nCategories;
-    (void)categories;
-    ((QuarterCar *)c)->logging = loggingOn;
-    return fmi2OK;
-}
-
-fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
-                              fmi2String fmuResourceLocation,
-                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
-                              fmi2Boolean loggingOn) {
-    QuarterCar *q;
-    const char *name = instanceName ? instanceName : "quarter_car";
-    (void)fmuResourceLocation;
-    (void)visible;
-    if (functions == NULL) return NULL;
-    if (functions->allocateMemory == NULL || functions->freeMemory == NULL) {
-        if (functions->logger)
-            functions->logger(functions->componentEnvironment, name, fmi2Error,
-                              "logStatusError",
-                              "fmi2Instantiate: allocateMemory and freeMemory are required");
-        return NULL;
-    }
-    if (fmuType != fmi2CoSimulation) {
-        if (functions->logger)
-            functions->logger(functions->componentEnvironment, name, fmi2Error,
-                              "logStatusError", "quarter_car is a co-simulation FMU only");
-        return NULL;
-    }
-    if (fmuGUID == NULL || strcmp(fmuGUID, QUARTER_CAR_GUID) != 0) {
-        if (functions->logger)
-            functions->logger(functions->componentEnvironment, name, fmi2Error,
-                              "logStatusError", "GUID %s does not match %s",
-                              fmuGUID ? fmuGUID : "(null)", QUARTER_CAR_GUID);
-        return NULL;
-    }
-    q = (QuarterCar *)functions->allocateMemory(1, sizeof(QuarterCar));
-    if (q == NULL) return NULL;
-    q->cb = *functions;
-    q->name = (char *)functions->allocateMemory(strlen(name) + 1, 1);
-    if (q->name == NULL) {
-        functions->freeMemory(q);
-        return NULL;
-    }
-    strcpy(q->name, name);
-    q->logging = loggingOn;
-    start_values(q);
-    return q;
-}
-
-void fmi2FreeInstance(fmi2Component c) {
-    QuarterCar *q = (QuarterCar *)c;
-    if (q == NULL) return;
-    q->cb.freeMemory(q->name);
-    q->cb.freeMemory(q);
-}
-
-fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
-                               fmi2Real tolerance, fmi2Real startTime,
-                               fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-    (void)toleranceDefined;
-    (void)tolerance;
-    (void)stopTimeDefined;
-    (void)stopTime;
-    ((QuarterCar *)c)->time = startTime;
-    return fmi2OK;
-}
-
-fmi2Status fmi2EnterInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
-fmi2Status fmi2ExitInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
-fmi2Status fmi2Terminate(fmi2Component c) { (void)c; return fmi2OK; }
-
-fmi2Status fmi2Reset(fmi2Component c) {
-    start_values((QuarterCar *)c);
-    return fmi2OK;
-}
-
+/* ------------------------------------------------------------------ FMI 2.0 functions
+ * (the rest, the same in every model of the user's: user_fmi2_glue.h) */
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
     QuarterCar *q = (QuarterCar *)c;
@@ -198,8 +111,8 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
             value[i] = (secondary_force(q->x[0] - q->x[2], q->x[1] - q->x[3]) + q->u[2]) / M2;
             break;
         default:
-            qc_log(q, fmi2Error, "fmi2GetReal: no Real variable with value reference %u",
-                   (unsigned)vr[i]);
+            model_log(q, fmi2Error, "fmi2GetReal: no Real variable with value reference %u",
+                      (unsigned)vr[i]);
             return fmi2Error;
         }
     }
@@ -212,8 +125,8 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     size_t i;
     for (i = 0; i < nvr; i++) {
         if (vr[i] > VR_FACT) {
-            qc_log(q, fmi2Error, "fmi2SetReal: value reference %u is not an input",
-                   (unsigned)vr[i]);
+            model_log(q, fmi2Error, "fmi2SetReal: value reference %u is not an input",
+                      (unsigned)vr[i]);
             return fmi2Error;
         }
         q->u[vr[i]] = value[i];
@@ -221,90 +134,11 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     return fmi2OK;
 }
 
-static fmi2Status none_of_type(fmi2Component c, size_t nvr, const char *fn) {
-    if (nvr == 0) return fmi2OK;
-    qc_log((QuarterCar *)c, fmi2Error, "%s: the quarter car has no such variables", fn);
-    return fmi2Error;
-}
-
-fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          fmi2Integer value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2GetInteger");
-}
-fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          fmi2Boolean value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2GetBoolean");
-}
-fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                         fmi2String value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2GetString");
-}
-fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Integer value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2SetInteger");
-}
-fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                          const fmi2Boolean value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2SetBoolean");
-}
-fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                         const fmi2String value[]) {
-    (void)vr; (void)value;
-    return none_of_type(c, nvr, "fmi2SetString");
-}
-
-static fmi2Status not_supported(fmi2Component c, const char *fn) {
-    qc_log((QuarterCar *)c, fmi2Error, "%s is not supported by the quarter car", fn);
-    return fmi2Error;
-}
-
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)s;
-    return not_supported(c, "fmi2GetFMUstate");
-}
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
-    (void)s;
-    return not_supported(c, "fmi2SetFMUstate");
-}
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)s;
-    return not_supported(c, "fmi2FreeFMUstate");
-}
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) {
-    (void)s; (void)n;
-    return not_supported(c, "fmi2SerializedFMUstateSize");
-}
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) {
-    (void)s; (void)b; (void)n;
-    return not_supported(c, "fmi2SerializeFMUstate");
-}
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n,
-                                   fmi2FMUstate *s) {
-    (void)b; (void)n; (void)s;
-    return not_supported(c, "fmi2DeSerializeFMUstate");
-}
-fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vu[],
-                                        size_t nu, const fmi2ValueReference vk[], size_t nk,
-                                        const fmi2Real dvk[], fmi2Real dvu[]) {
-    (void)vu; (void)nu; (void)vk; (void)nk; (void)dvk; (void)dvu;
-    return not_supported(c, "fmi2GetDirectionalDerivative");
-}
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
                                        size_t nvr, const fmi2Integer order[],
                                        const fmi2Real value[]) {
     (void)vr; (void)nvr; (void)order; (void)value;
     return not_supported(c, "fmi2SetRealInputDerivatives");
-}
-fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                        size_t nvr, const fmi2Integer order[],
-                                        fmi2Real value[]) {
-    (void)vr; (void)nvr; (void)order; (void)value;
-    return not_supported(c, "fmi2GetRealOutputDerivatives");
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
@@ -314,39 +148,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
     double h = communicationStepSize / N_SUBSTEPS;
     int k;
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (!(communicationStepSize > 0.0)) {
-        qc_log(q, fmi2Error, "fmi2DoStep: communication step %g s is not positive",
-               communicationStepSize);
-        return fmi2Error;
-    }
+    if (!step_size_ok(q, communicationStepSize)) return fmi2Error;
     for (k = 0; k < N_SUBSTEPS; k++) rk4(q->x, q->u, h);
     q->time = currentCommunicationPoint + communicationStepSize;
     return fmi2OK;
-}
-
-fmi2Status fmi2CancelStep(fmi2Component c) { return not_supported(c, "fmi2CancelStep"); }
-
-fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    (void)s; (void)value;
-    return not_supported(c, "fmi2GetStatus");
-}
-fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    QuarterCar *q = (QuarterCar *)c;
-    if (s == fmi2LastSuccessfulTime) {
-        *value = q->time;
-        return fmi2OK;
-    }
-    return not_supported(c, "fmi2GetRealStatus");
-}
-fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    (void)s; (void)value;
-    return not_supported(c, "fmi2GetIntegerStatus");
-}
-fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    (void)s; (void)value;
-    return not_supported(c, "fmi2GetBooleanStatus");
-}
-fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    (void)s; (void)value;
-    return not_supported(c, "fmi2GetStringStatus");
 }
