@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -41,6 +41,7 @@ from railgym import _checks as val
 __all__ = [
     "DAMPER_STATES",
     "DamperParams",
+    "checked_history",
     "damper_force",
     "damper_rates",
     "load_damper",
@@ -128,14 +129,21 @@ def simulate_damper(
     -------
     force : (n,) force at each sample, N. states : (n, 2) ``(u, w)`` at each sample.
     """
+    v, c, step = checked_history(velocity, command, dt)
+    return _simulate(v, c, step, params, float(u0), float(w0))
+
+
+def checked_history(velocity: Any, command: Any, dt: Any) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(velocity, command, dt)`` of a damper run checked: a 1-D compression-rate history
+    (m/s), a command in [0, 1] of the same shape, a positive step (s); a bad one raises
+    :class:`~railgym._checks.FieldError` naming it."""
     v = val.numeric_array(velocity, "velocity")
     c = val.numeric_array(command, "command", shape=v.shape)
     if v.ndim != 1:
         raise val.FieldError("velocity", f"must be one-dimensional, got shape {v.shape}")
     if c.size and (c.min() < 0.0 or c.max() > 1.0):
         raise val.FieldError("command", "must lie in [0, 1]")
-    step = val.positive(dt, "dt")
-    return _simulate(v, c, step, params, float(u0), float(w0))
+    return v, c, val.positive(dt, "dt")
 
 
 def load_damper(name_or_path: str | Path = "mr_secondary") -> DamperParams:

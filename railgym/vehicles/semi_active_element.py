@@ -50,7 +50,12 @@ from numba import njit
 
 from railgym import _checks as val
 from railgym.progress import quiet, stages
-from railgym.vehicles.semi_active import DamperParams, load_damper, simulate_damper
+from railgym.vehicles.semi_active import (
+    DamperParams,
+    checked_history,
+    load_damper,
+    simulate_damper,
+)
 from surrogates import io
 from surrogates.builder import build
 from surrogates.checks import is_number
@@ -298,13 +303,7 @@ class DamperElement:
         """The element's force (n,), N, along a compression-rate history (m/s, at
         ``t_k = k·dt``) and a command in [0, 1] held over each step: ``u`` exact, ``m`` by
         RK4 (as :func:`~railgym.vehicles.semi_active.simulate_damper` runs the damper)."""
-        v = val.numeric_array(velocity, "velocity")
-        c = val.numeric_array(command, "command", shape=v.shape)
-        if v.ndim != 1:
-            raise val.FieldError("velocity", f"must be one-dimensional, got shape {v.shape}")
-        if c.size and (c.min() < 0.0 or c.max() > 1.0):
-            raise val.FieldError("command", "must lie in [0, 1]")
-        step = val.positive(dt, "dt")
+        v, c, step = checked_history(velocity, command, dt)
         u = filtered_command(c, step, self.eta, u0)
         return _simulate(v, u, step, self.arrays(), float(m0))
 
