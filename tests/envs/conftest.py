@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
@@ -64,3 +65,49 @@ def random_commands() -> Callable[[Any, int], Iterator[tuple[np.ndarray, dict[st
     commands uniform in [0, 1]^n_act; yields each step's observation and info (the env
     stands at that step while the caller reads it)."""
     return _random_commands
+
+
+def _v3_rides_as_v2(family: str, length: float, n_act: int, n: int, **kw: Any) -> None:
+    """``railgym/FAMILY-v3`` (the streamed track) steps as ``-v2`` for ``n`` steps of a
+    constant command 0.2 on the same measured profile (two sines, ``length`` m, 0.1 m
+    apart): observations and rewards equal to the bit."""
+    x = np.linspace(0.0, length, round(10 * length) + 1)
+    z = 0.004 * np.sin(2 * np.pi * x / 23.0) + 0.002 * np.sin(2 * np.pi * x / 4.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        envs = [gym.make(f"railgym/{family}-{v}", profile=(x, z), **kw) for v in ("v2", "v3")]
+    out = []
+    for env in envs:
+        env.reset(seed=0)
+        out.append([env.step(np.full(n_act, 0.2, np.float32))[:2] for _ in range(n)])
+    for (o2, r2), (o3, r3) in zip(*out, strict=True):
+        np.testing.assert_array_equal(o2, o3)
+        assert r2 == r3
+
+
+@pytest.fixture
+def v3_rides_as_v2() -> Callable[..., None]:
+    """``check(family, length, n_act, n, **kw)``: ``-v3`` steps as ``-v2`` on a measured
+    profile (see :func:`_v3_rides_as_v2`)."""
+    return _v3_rides_as_v2
+
+
+def _last_sub_env_as_single(env_id: str, n: int, seed: int, action: np.ndarray, steps: int) -> None:
+    """The last of ``n`` sub-envs of the native vector env of ``env_id`` (``reset(seed)``)
+    steps as the single env seeded ``seed + n - 1``: the same ``action`` for ``steps`` steps,
+    the last observations equal to the bit."""
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    venv.reset(seed=seed)
+    single = gym.make(env_id)
+    single.reset(seed=seed + n - 1)
+    for _ in range(steps):
+        o, *_ = venv.step(np.tile(action, (n, 1)))
+        so, *_ = single.step(action)
+    np.testing.assert_array_equal(o[-1], so)
+
+
+@pytest.fixture
+def last_sub_env_as_single() -> Callable[..., None]:
+    """``check(env_id, n, seed, action, steps)``: the last sub-env of ``n`` steps as the
+    single env of its seed (see :func:`_last_sub_env_as_single`)."""
+    return _last_sub_env_as_single

@@ -8,7 +8,7 @@ as 20 s ones (≤ 64 kB per sub-env); a measured profile rides as on v2.
 
 from __future__ import annotations
 
-import warnings
+from collections.abc import Callable
 
 import gymnasium as gym
 import numpy as np
@@ -77,36 +77,16 @@ def test_episode_ends_with_comfort_figures() -> None:
         assert np.all((infos["comfort"][key] > 0.0) & np.isfinite(infos["comfort"][key]))
 
 
-def test_measured_profile_rides_as_on_v2() -> None:
-    x = np.linspace(0.0, 400.0, 4001)
-    z = 0.004 * np.sin(2 * np.pi * x / 23.0) + 0.002 * np.sin(2 * np.pi * x / 4.1)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        envs = [
-            gym.make(f"railgym/VerticalVehicle-{v}", profile=(x, z), duration=2.0)
-            for v in ("v2", "v3")
-        ]
-    out = []
-    for env in envs:
-        env.reset(seed=0)
-        out.append([env.step(np.full(2, 0.2, np.float32))[:2] for _ in range(150)])
-    for (o2, r2), (o3, r3) in zip(*out, strict=True):
-        np.testing.assert_array_equal(o2, o3)
-        assert r2 == r3
+def test_measured_profile_rides_as_on_v2(v3_rides_as_v2: Callable[..., None]) -> None:
+    v3_rides_as_v2("VerticalVehicle", 400.0, 2, 150, duration=2.0)
 
 
-def test_parallel_fill_gives_the_single_envs_numbers() -> None:
+def test_parallel_fill_gives_the_single_envs_numbers(
+    last_sub_env_as_single: Callable[..., None],
+) -> None:
     """From PARALLEL_MIN sub-envs the windows are filled on numba's threads: the last sub-env
     still steps as the single env of its seed."""
-    n = 260
-    venv = gym.make_vec(ENV, num_envs=n, vectorization_mode="vector_entry_point")
-    venv.reset(seed=50)
-    single = gym.make(ENV)
-    single.reset(seed=50 + n - 1)
-    for _ in range(40):
-        o, *_ = venv.step(np.full((n, 2), 0.1, np.float32))
-        so, *_ = single.step(np.full(2, 0.1, np.float32))
-    np.testing.assert_array_equal(o[-1], so)
+    last_sub_env_as_single(ENV, 260, 50, np.full(2, 0.1, np.float32), 40)
 
 
 def test_too_wide_windows_are_refused_naming_num_envs() -> None:

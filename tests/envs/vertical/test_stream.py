@@ -9,6 +9,7 @@ profile rides as on v2 (bit for bit), and 65 536 sub-envs are accepted.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 
 import gymnasium as gym
 import numpy as np
@@ -107,19 +108,8 @@ def test_600_s_episode_runs_to_its_end() -> None:
     assert 0.2 < info["rms_carbody_acc"] < 3.0
 
 
-def test_measured_profile_rides_as_on_v2() -> None:
-    x = np.linspace(0.0, 900.0, 9001)
-    z = 0.004 * np.sin(2 * np.pi * x / 23.0) + 0.002 * np.sin(2 * np.pi * x / 4.1)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        envs = [gym.make(f"railgym/VerticalSuspension-{v}", profile=(x, z)) for v in ("v2", "v3")]
-    out = []
-    for env in envs:
-        env.reset(seed=0)
-        out.append([env.step(np.full(1, 0.2, np.float32))[:2] for _ in range(400)])
-    for (o2, r2), (o3, r3) in zip(*out, strict=True):
-        np.testing.assert_array_equal(o2, o3)
-        assert r2 == r3
+def test_measured_profile_rides_as_on_v2(v3_rides_as_v2: Callable[..., None]) -> None:
+    v3_rides_as_v2("VerticalSuspension", 900.0, 1, 400)
 
 
 def test_65536_sub_envs_are_accepted() -> None:
@@ -131,18 +121,12 @@ def test_65536_sub_envs_are_accepted() -> None:
     assert batch_bytes(venv.unwrapped.sim) / n <= 64 * 1024
 
 
-def test_parallel_fill_gives_the_single_envs_numbers() -> None:
+def test_parallel_fill_gives_the_single_envs_numbers(
+    last_sub_env_as_single: Callable[..., None],
+) -> None:
     """From PARALLEL_MIN sub-envs the windows are filled on numba's threads: the last sub-env
     still steps as the single env of its seed."""
-    n = 300
-    venv = gym.make_vec(ENV, num_envs=n, vectorization_mode="vector_entry_point")
-    venv.reset(seed=40)
-    single = gym.make(ENV)
-    single.reset(seed=40 + n - 1)
-    for _ in range(60):
-        o, *_ = venv.step(np.full((n, 1), -0.2, np.float32))
-        so, *_ = single.step(np.full(1, -0.2, np.float32))
-    np.testing.assert_array_equal(o[-1], so)
+    last_sub_env_as_single(ENV, 300, 40, np.full(1, -0.2, np.float32), 60)
 
 
 def test_too_wide_wheelbase_windows_are_refused_naming_speed() -> None:
