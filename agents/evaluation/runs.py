@@ -23,7 +23,7 @@ from railgym.parallel import run_tasks
 
 __all__ = [
     "VEHICLE_COMFORT",
-    "VehicleTask",
+    "PolicyTask",
     "evaluate_vehicle",
     "loaded_policy",
     "run_policy",
@@ -106,15 +106,17 @@ def run_policy(
 VEHICLE_COMFORT = ("a_w", "a_ZP95_Wb", "Wz")
 
 
-class VehicleTask(NamedTuple):
-    """A named controller or saved policy (loaded in the worker) on one vehicle env setting."""
+class PolicyTask(NamedTuple):
+    """A named controller or saved policy (loaded in the worker) on one setting of env
+    ``env_id`` (the task of :func:`evaluate_vehicle` and
+    :func:`agents.evaluation.sweeps.evaluate_sweep`)."""
 
     policy: str
     trust: bool
     env_kwargs: dict[str, Any]
     episodes: int
     seed: int
-    env_id: str = VEHICLE_ID
+    env_id: str
 
 
 def run_vehicle_policy(
@@ -169,7 +171,7 @@ def loaded_policy(
     return factory, with_policy_kwargs(needed, env_kwargs, policy)
 
 
-def _run_vehicle_task(task: VehicleTask) -> dict[str, Any]:
+def _run_vehicle_task(task: PolicyTask) -> dict[str, Any]:
     factory, env_kwargs = loaded_policy(task.policy, task.trust, task.env_kwargs, task.env_id)
     return run_vehicle_policy(factory, env_kwargs, task.episodes, task.seed, task.env_id)
 
@@ -212,7 +214,7 @@ def evaluate_vehicle(
     labels = [load_policy(p, env_id, trust)[2] for p in policies]  # bad names fail here
     cases = [(tc, v) for tc in track_classes for v in speeds]
     tasks = [
-        VehicleTask(
+        PolicyTask(
             p,
             trust,
             {

@@ -18,7 +18,7 @@ from typing import Any, NamedTuple
 
 from agents._args import MAX_EPISODES
 from agents.controllers.registry import ENV_ID
-from agents.evaluation.runs import loaded_policy, run_policy
+from agents.evaluation.runs import PolicyTask, loaded_policy, run_policy
 from agents.policies.loading import load_policy
 from railgym import _checks as val
 from railgym.parallel import run_tasks
@@ -31,17 +31,6 @@ class ControllerTask(NamedTuple):
     env_kwargs: dict[str, Any]
     episodes: int
     seed: int
-
-
-class PolicyTask(NamedTuple):
-    """A named controller or saved policy (loaded in the worker) on one env setting."""
-
-    policy: str
-    trust: bool
-    env_kwargs: dict[str, Any]
-    episodes: int
-    seed: int
-    env_id: str = ENV_ID
 
 
 def _run_controller(task: ControllerTask) -> dict[str, float]:
@@ -110,4 +99,4 @@ def evaluate_sweep(
     return rows
 
 
-__all__ = ["ControllerTask", "PolicyTask", "controller_sweep", "evaluate_sweep"]
+__all__ = ["ControllerTask", "controller_sweep", "evaluate_sweep"]
