@@ -181,43 +181,58 @@ def run() -> list[dict]:
     cart = gym.make_vec("CartPole-v1", num_envs=N_VEC, vectorization_mode="vector_entry_point")
     cart_steps = _Threaded(cart, 100, threads)
     for env_id, flop in FLOP_PER_STEP.items():
-        venv = gym.make_vec(env_id, num_envs=N_VEC, vectorization_mode="vector_entry_point")
-        name = env_id.split("/")[1]
-        fns = {
-            "cart": cart_steps,
-            "one": _Threaded(venv, 10, 1),
-            "all": _Threaded(venv, 10, threads),
-        }
-        w = interleaved(fns)
-        numba.set_num_threads(threads)
-        r_cart, r1, r_all = (rate(fns[k], w[k].seconds) for k in ("cart", "one", "all"))
-        rows += [
-            measured(f"CartPoleVectorEnv ({N_VEC}) (anchor, {name})", r_cart / 1e6, "M steps/s"),
-            measured(f"{name} vector ({N_VEC}), 1 thread", r1 / 1e6, "M steps/s"),
-            measured(f"{name} vector ({N_VEC}), {threads} threads", r_all / 1e6, "M steps/s"),
-        ]
-        if flop is not None:
-            gflops = r1 * flop / 1e9
-            rows.append(
-                measured(
-                    f"  GFLOP/s, 1 thread ({name})",
-                    gflops,
-                    "GFLOP/s",
-                    context=f"{flop:.0f} flop/step est., "
-                    f"{100 * float(np.median(gflops)) / peak:.1f} % of peak",
-                )
-            )
+        rows += _env_rows(env_id, flop, cart_steps, threads, peak)
+    return rows + _kernel_rows()
+
+
+def _env_rows(
+    env_id: str, flop: float | None, cart_steps: _Threaded, threads: int, peak: float
+) -> list[dict]:
+    """One env's vector env-steps/s on 1 and ``threads`` threads against CartPole's
+    (``cart_steps``), measured interleaved; GFLOP/s against the FMA ``peak`` where ``flop``
+    per step is known."""
+    venv = gym.make_vec(env_id, num_envs=N_VEC, vectorization_mode="vector_entry_point")
+    name = env_id.split("/")[1]
+    fns = {
+        "cart": cart_steps,
+        "one": _Threaded(venv, 10, 1),
+        "all": _Threaded(venv, 10, threads),
+    }
+    w = interleaved(fns)
+    numba.set_num_threads(threads)
+    r_cart, r1, r_all = (rate(fns[k], w[k].seconds) for k in ("cart", "one", "all"))
+    rows = [
+        measured(f"CartPoleVectorEnv ({N_VEC}) (anchor, {name})", r_cart / 1e6, "M steps/s"),
+        measured(f"{name} vector ({N_VEC}), 1 thread", r1 / 1e6, "M steps/s"),
+        measured(f"{name} vector ({N_VEC}), {threads} threads", r_all / 1e6, "M steps/s"),
+    ]
+    if flop is not None:
+        gflops = r1 * flop / 1e9
         rows.append(
             measured(
-                f"  share of CartPoleVectorEnv ({name})",
-                100 * r_all / r_cart,
-                "%",
-                TARGET_SHARE.get(name.split("-")[0], ""),
-                f"{threads} threads",
+                f"  GFLOP/s, 1 thread ({name})",
+                gflops,
+                "GFLOP/s",
+                context=f"{flop:.0f} flop/step est., "
+                f"{100 * float(np.median(gflops)) / peak:.1f} % of peak",
             )
         )
+    rows.append(
+        measured(
+            f"  share of CartPoleVectorEnv ({name})",
+            100 * r_all / r_cart,
+            "%",
+            TARGET_SHARE.get(name.split("-")[0], ""),
+            f"{threads} threads",
+        )
+    )
+    return rows
+
+
+def _kernel_rows() -> list[dict]:
+    """The lane kernels' vectorisation gain and packed share of double arithmetic."""
     (on, s_on), (off, s_off) = vectorisation_gain()
-    rows += [
+    rows = [
         row(
             "VerticalSuspension lane kernel, vectorised",
             on / 1e6,

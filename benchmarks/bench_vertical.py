@@ -26,6 +26,11 @@ from railgym.vehicles.vertical.simulate import simulate
 
 def run() -> list[dict]:
     """Rows of measurements (see ``benchmarks/__main__.py``)."""
+    return _single_rows() + _vector_rows() + _run_rows()
+
+
+def _single_rows() -> list[dict]:
+    """Single-env step times against CartPole-v1, measured interleaved."""
     zero = np.zeros(1, np.float32)
     cart = steps(gym.make("CartPole-v1"), lambda k: k % 2)
     fns = {"cart": cart}
@@ -85,6 +90,11 @@ def run() -> list[dict]:
         ),
         measured("  memory / static element step", t["surrogate"] / t["static"], "×", "≤ 1.10"),
     ]
+    return rows
+
+
+def _vector_rows() -> list[dict]:
+    """The vector env's env-steps/s against CartPoleVectorEnv's, measured interleaved."""
     n = 1024
     mode = "vector_entry_point"
     cart_vec = gym.make_vec("CartPole-v1", num_envs=n, vectorization_mode=mode)
@@ -95,13 +105,17 @@ def run() -> list[dict]:
     }
     w = interleaved(vfns)
     r_cart, r = (rate(vfns[k], w[k].seconds) for k in ("cart", "env"))
-    rows += [
+    return [
         measured(
             f"CartPoleVectorEnv ({n}) (anchor)", r_cart / 1e6, "M steps/s", context="same run"
         ),
         measured(f"VerticalSuspension vector ({n}, surrogate)", r / 1e6, "M steps/s"),
         measured("  share of CartPoleVectorEnv", 100 * r / r_cart, "%", "≥ 25"),
     ]
+
+
+def _run_rows() -> list[dict]:
+    """A 20 s run on the surrogate against the dynamic reference."""
     veh = load_vehicle("manchester")
     _, z, zdot = track_time_input(5, 40.0, 20.0, 1e-3, seed=0)
     model = default_vertical_surrogate()
@@ -114,6 +128,7 @@ def run() -> list[dict]:
         }
     )
     paper = "paper T_s: LPR 48.31 s, Simpack 51.03 s"
+    rows = []
     for variant in ("surrogate", "dynamic"):
         rows.append(measured(f"20 s run, {variant}", w[variant].seconds * 1e3, "ms", context=paper))
     ratio = w["dynamic"].seconds / w["surrogate"].seconds
