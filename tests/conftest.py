@@ -66,6 +66,31 @@ def assert_same_rollouts() -> Callable[[list, list], None]:
     return check
 
 
+def _step_rows(*keys: str) -> Callable[[Any, Any], list[list[Any]]]:
+    """``run(env, actions)``: one row per action of ``env.step``'s observation, reward, flags,
+    the info ``keys`` and (where the info has them) the comfort figures."""
+
+    def run(env: Any, actions: Any) -> list[list[Any]]:
+        out = []
+        for a in actions:
+            obs, r, term, trunc, info = env.step(a)
+            row = [obs.copy(), np.copy(r), np.copy(term), np.copy(trunc)]
+            row += [info[k] for k in keys]
+            if "comfort" in info:
+                row += list(info["comfort"].values())
+            out.append(row)
+        return out
+
+    return run
+
+
+@pytest.fixture
+def step_rows() -> Callable[..., Callable[[Any, Any], list[list[Any]]]]:
+    """``step_rows(*keys)``: a ``run(env, actions)`` for :func:`continue_copies` (see
+    :func:`_step_rows`)."""
+    return _step_rows
+
+
 @pytest.fixture
 def continue_copies(copy_env: Callable[[Any], Any]) -> Callable[..., tuple[list, list, Any]]:
     """``run_both(env, run, seed, before, after)``: ``env.reset(seed=seed)``, ``run(env,

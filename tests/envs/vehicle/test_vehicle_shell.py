@@ -21,42 +21,32 @@ from railgym.envs.vehicle.env import (
 from railgym.envs.vertical.env import VerticalSuspensionEnv
 
 
-def _run(env, actions):
-    out = []
-    for a in actions:
-        obs, r, term, trunc, info = env.step(a)
-        row = [obs.copy(), np.copy(r), np.copy(term), np.copy(trunc), info["carbody_acc"]]
-        row += [info["rms_carbody_acc"], info["actuator_force"]]
-        if "comfort" in info:
-            row += list(info["comfort"].values())
-        out.append(row)
-    return out
-
-
 @pytest.mark.parametrize("mid", [0, 17])
 def test_single_env_copy_continues_bit_identically(
-    continue_copies, mid, random_actions, assert_same_rollouts
+    continue_copies, mid, random_actions, assert_same_rollouts, step_rows
 ):
+    run = step_rows("carbody_acc", "rms_carbody_acc", "actuator_force")
     env = VerticalVehicleEnv(backend="reference", duration=0.3, sensor_noise=0.05)
     before = random_actions(mid, (2,), seed=1)
     acts = random_actions(30 - mid, (2,), seed=2)  # to the end of the episode (comfort figures)
-    a, b, twin = continue_copies(env, _run, 4, before, acts)
+    a, b, twin = continue_copies(env, run, 4, before, acts)
     assert a[-1][3] and len(a[-1]) == 10  # truncated: the last step carries the comfort figures
     assert_same_rollouts(a, b)
     assert twin.sim.arrays.z is not env.sim.arrays.z and twin.sim.reward is twin.sim.book.rew
-    assert_same_rollouts(_run(env, []), _run(twin, []))
+    assert_same_rollouts(run(env, []), run(twin, []))
     np.testing.assert_array_equal(env.reset(seed=5)[0], twin.reset(seed=5)[0])
 
 
 @pytest.mark.parametrize("mid", [0, 12])
 def test_vector_env_copy_continues_bit_identically(
-    continue_copies, mid, random_actions, assert_same_rollouts
+    continue_copies, mid, random_actions, assert_same_rollouts, step_rows
 ):
+    run = step_rows("carbody_acc", "rms_carbody_acc", "actuator_force")
     kw = {"backend": "surrogate", "duration": 0.2, "sensor_noise": 0.05, "speed": (30.0, 50.0)}
     venv = VerticalVehicleVectorEnv(num_envs=3, **kw)
     before = random_actions(mid, (3, 2), seed=3)
     acts = random_actions(45, (3, 2), seed=4)  # crosses two autoresets
-    a, b, _ = continue_copies(venv, _run, 9, before, acts)
+    a, b, _ = continue_copies(venv, run, 9, before, acts)
     assert_same_rollouts(a, b)
 
 

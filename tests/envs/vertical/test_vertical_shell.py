@@ -27,34 +27,28 @@ from railgym.envs.vertical.env import (
 from railgym.vehicles.vertical.params import load_vehicle
 
 
-def _run(env, actions):
-    out = []
-    for a in actions:
-        obs, r, term, trunc, info = env.step(a)
-        out.append((obs.copy(), np.copy(r), np.copy(term), np.copy(trunc), info["carbody_acc"]))
-    return out
-
-
 @pytest.mark.parametrize("mid", [0, 37])
 def test_single_env_copy_continues_bit_identically(
-    continue_copies, mid, random_actions, assert_same_rollouts
+    continue_copies, mid, random_actions, assert_same_rollouts, step_rows
 ):
+    run = step_rows("carbody_acc")
     env = VerticalSuspensionEnv(duration=0.6, sensor_noise=0.05)
     before = random_actions(mid, (1,), seed=1)
     acts = random_actions(23, (1,), seed=2)  # runs to the end of the 60-step episode (mid=37)
-    a, b, twin = continue_copies(env, _run, 4, before, acts)
+    a, b, twin = continue_copies(env, run, 4, before, acts)
     assert_same_rollouts(a, b)
     assert twin.sim.z is not env.sim.z and twin.sim.obs is twin.sim.res.obs
 
 
 @pytest.mark.parametrize("mid", [0, 25])
 def test_vector_env_copy_continues_bit_identically(
-    continue_copies, mid, random_actions, assert_same_rollouts
+    continue_copies, mid, random_actions, assert_same_rollouts, step_rows
 ):
+    run = step_rows("carbody_acc")
     venv = VerticalSuspensionVectorEnv(num_envs=3, duration=0.3, sensor_noise=0.05)
     before = random_actions(mid, (3, 1), seed=3)
     acts = random_actions(45, (3, 1), seed=4)  # crosses an autoreset
-    a, b, _ = continue_copies(venv, _run, 9, before, acts)
+    a, b, _ = continue_copies(venv, run, 9, before, acts)
     assert_same_rollouts(a, b)
 
 
