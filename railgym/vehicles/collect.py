@@ -363,10 +363,13 @@ def _run_policy(
 
 
 def element_pairs(
-    model: SurrogateModel, run: dict[str, Any], rows: np.ndarray, vehicle: str
+    model: SurrogateModel, run: dict[str, Any], every: int, vehicle: str
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Training pairs of ``model``'s feature form from a full-rate run at ``rows``."""
+    """Training pairs of ``model``'s feature form from a full-rate run, at every ``every``-th
+    row where the element force is finite."""
     form = element_form(getattr(model, "features_", None))
+    rows = np.arange(0, run["t"].size, every)
+    rows = rows[np.isfinite(run["force"][rows])]
     data = {"runs": [{**run, "rows": rows}]}
     if form.form == "maxwell":
         return memory_training_data(data, form.tau, form.known_physics, vehicle, form.relaxation)
@@ -459,15 +462,10 @@ def refine(
     law = _policy_force(policy, observe, o.f_max)
     v0 = o.speed_or_class()
     if data is None:
-        U, V = initial_pairs(model, vehicle, None if other is None else other.collect)
-    else:
-        U, V = np.asarray(data[0]), data[1]
-    V = np.asarray(V, dtype=np.float64)
+        data = initial_pairs(model, vehicle, None if other is None else other.collect)
 
-    def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
-        s = int(np.random.default_rng((o.seed, *tag)).integers(2**63 - 1))
-        _, z, zdot = track_time_input(o.track_class, v0, o.duration, dt, s)
-        return z, zdot
+    def track(tag: tuple[int, ...]) -> tuple[np.ndarray, ...]:  # (z, ż)
+        return track_time_input(o.track_class, v0, o.duration, dt, o.track_seed(tag))[1:]
 
     reference_run = (
         (lambda z, zd: _run_policy(reference, veh, z, zd, law, None, dt, n_sub))
@@ -476,21 +474,11 @@ def refine(
     )
 
     def pairs(model: SurrogateModel, run: dict[str, Any]) -> list[tuple[Any, Any]]:
-        rows = np.arange(0, run["t"].size, every)
-        rows = rows[np.isfinite(run["force"][rows])]
-        return [element_pairs(model, run, rows, vehicle)]
-
-    def report(r: int, errors: Any, ood: int, n: int) -> tuple[dict[str, Any], str]:
-        error = float(errors)
-        line = (
-            f"round {r}: held-out rel. RMS error of the carbody acceleration "
-            f"{100 * error:.2f} %, out-of-domain evaluations {ood}, samples {n}"
-        )
-        return {"round": r, "error": error, "ood": ood, "n_samples": n}, line
+        return [element_pairs(model, run, every, vehicle)]
 
     return refine_rounds(
         model,
-        (U, V),
+        data,
         rounds,
         o,
         track,
@@ -498,9 +486,19 @@ def refine(
         lambda tr, m: _run_policy("surrogate", veh, *tr, law, m, dt, n_sub),
         pairs,
         "a2",
-        report,
+        _round_report,
         log,
     )
+
+
+def _round_report(r: int, errors: Any, ood: int, n: int) -> tuple[dict[str, Any], str]:
+    """One row of :func:`refine`'s history and its printed line."""
+    error = float(errors)
+    line = (
+        f"round {r}: held-out rel. RMS error of the carbody acceleration "
+        f"{100 * error:.2f} %, out-of-domain evaluations {ood}, samples {n}"
+    )
+    return {"round": r, "error": error, "ood": ood, "n_samples": n}, line
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -604,34 +602,6 @@ def _memory_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
     return 1 if args.features == "maxwell" else args.memory_states
 
 
-def _build_memory(
-    args: argparse.Namespace,
-    cands: Any,
-    seed: int,
-    progress: Any,
-    data: dict[str, Any] | None,
-    veh: Any,
-    states: int | None,
-) -> tuple[SurrogateModel, TauSelection]:
-    """The k-fold memory element of ``railgym collect`` (:func:`build_memory_surrogate`;
-    the coupled map scored with ``--coupled``);
-    the edge warning of the τ search is a line of the printed report, not a Python warning."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
-        model, report, _ = build_memory_surrogate(
-            design=args.design,
-            degrees=cands or MEMORY_DEGREES,
-            seed=seed,
-            progress=progress,
-            data=data,
-            vehicle=veh,
-            tau=args.tau,
-            memory_states=states,
-            coupled=None if args.coupled else False,
-        )
-    return model, report
-
-
 def _collect(
     parser: argparse.ArgumentParser, args: argparse.Namespace, fmu_runs: FmuRuns | None
 ) -> int:
@@ -682,35 +652,8 @@ def _collect(
     except (val.FieldError, OSError) as err:
         parser.exit(2, f"{parser.prog}: error: {err}\n")
     out = args.out or str(Path(__file__).parents[1] / "data" / PACKAGED[args.features])
-    where = (
-        f"FRA class 5, 144 km/h, 20 s, track seed {seed}"
-        if args.design == "paper"
-        else "envelope design (classes 3-6, 0.7/1.0 of class speed, passive + excited)"
-    )
     with quiet(args.quiet):
-        if args.features == "static":
-            model, report, _ = build_vertical_surrogate(
-                m=args.m,
-                seed=seed,
-                track_seed=seed,
-                design=args.design,
-                candidates=cands,
-                progress=progress,
-                data=data,
-                vehicle=veh,
-            )
-            text = report.format("N")
-            source = f"railgym dynamic reference ({veh.name}), {where}, 50 Hz, M = {args.m} (GA)"
-        else:
-            model, report = _build_memory(args, cands, seed, progress, data, veh, states)
-            text = report.format()
-            target = "F_s - F_bump" if veh.known_physics else "F_s"
-            memory = model.features_["form"] == "maxwell"
-            state = "the Maxwell state" if memory else "no memory state"
-            source = (
-                f"railgym dynamic reference ({veh.name}), {where}, 200 Hz; passive LPR on "
-                f"{target} with {state}"
-            )
+        model, report, text, source = _fit(args, cands, seed, progress, data, veh, states)
     if args.fmu_map is not None:
         source = f"FMU of {args.fmu_map} (vehicle {veh.name})" + source[source.index(",") :]
     record = (veh, vehicle)  # metadata.vehicle: the vehicle collected on
@@ -718,6 +661,61 @@ def _collect(
     print(text)
     print(f"written to {out}")
     return 0
+
+
+def _fit(
+    args: argparse.Namespace,
+    cands: Any,
+    seed: int,
+    progress: Any,
+    data: dict[str, Any] | None,
+    veh: Any,
+    states: int | None,
+) -> tuple[SurrogateModel, Any, str, str]:
+    """The element of ``railgym collect`` fitted on ``data`` (``None``: the built-in
+    reference's runs), static or the k-fold memory element (:func:`build_memory_surrogate`):
+    ``(model, report, report text, source line)``."""
+    where = (
+        f"FRA class 5, 144 km/h, 20 s, track seed {seed}"
+        if args.design == "paper"
+        else "envelope design (classes 3-6, 0.7/1.0 of class speed, passive + excited)"
+    )
+    if args.features == "static":
+        model, report, _ = build_vertical_surrogate(
+            m=args.m,
+            seed=seed,
+            track_seed=seed,
+            design=args.design,
+            candidates=cands,
+            progress=progress,
+            data=data,
+            vehicle=veh,
+        )
+        text = report.format("N")
+        source = f"railgym dynamic reference ({veh.name}), {where}, 50 Hz, M = {args.m} (GA)"
+    else:
+        with warnings.catch_warnings():  # the τ search's edge warning: a line of the report
+            warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
+            model, report, _ = build_memory_surrogate(
+                design=args.design,
+                degrees=cands or MEMORY_DEGREES,
+                seed=seed,
+                progress=progress,
+                data=data,
+                vehicle=veh,
+                tau=args.tau,
+                memory_states=states,
+                coupled=None if args.coupled else False,  # --coupled: the coupled map scored
+            )
+        text = report.format()
+        target = "F_s - F_bump" if veh.known_physics else "F_s"
+        memory = model.features_["form"] == "maxwell"
+        state = "the Maxwell state" if memory else "no memory state"
+        source = (
+            f"railgym dynamic reference ({veh.name}), {where}, 200 Hz; passive LPR on "
+            f"{target} with {state}"
+        )
+    return model, report, text, source
 
 
 if __name__ == "__main__":

@@ -60,6 +60,11 @@ class RefineOptions:
             raise ValueError("control_dt and 1/sample_rate must be whole multiples of dt")
         return n_sub, every
 
+    def track_seed(self, tag: tuple[int, ...]) -> int:
+        """The seed of the track ``tag`` (held-out ``(1, i)``, round ``(2, r, i)``) drawn
+        from ``seed``."""
+        return int(np.random.default_rng((self.seed, *tag)).integers(2**63 - 1))
+
     def speed_or_class(self) -> float:
         """Running speed, m/s: ``speed``, or the class's maximum."""
         if self.speed is None:
@@ -123,11 +128,11 @@ def refine_rounds(
     ``options.n_holdout`` fixed tracks ``track((1, i))``; then for each round ``r`` of
     0..``rounds``, from round 1 the ``options.n_add`` worst of the candidate ``pairs(model,
     run)`` of reference runs on ``options.n_tracks`` new tracks ``track((2, r, i))`` added to
-    ``data`` and refitted (:func:`refit_worst`), and the element scored on the held-out
+    ``data = (U, V)`` and refitted (:func:`refit_worst`), and the element scored on the held-out
     tracks (``surrogate(track, model)``, :func:`holdout_error` of ``run[key]``).
     ``report(r, errors, ood, n_samples)`` gives the round's history row and its ``log`` line
     (``log=None``: silent). Returns ``(model, history)``."""
-    U, V = data
+    U, V = np.asarray(data[0]), np.asarray(data[1], dtype=np.float64)
     holdout = [track((1, i)) for i in range(options.n_holdout)]
     refs = [reference(tr) for tr in holdout]
     history = []

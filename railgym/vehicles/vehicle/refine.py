@@ -169,16 +169,13 @@ def refine_vehicle(
     v0 = o.speed_or_class()
     off = wheelset_offsets(veh, v0, dt)
     m = n_steps + int(np.ceil(off.max())) + 2
-    if data is not None:
-        U, V = np.asarray(data[0]), data[1]
-    elif element_form(getattr(model, "features_", None)).relaxation is not None:
-        U, V = _vehicle_pairs(model, vehicle)
-    else:
-        U, V = initial_pairs(model, base)
-    V = np.asarray(V, dtype=np.float64)
+    if data is None and element_form(getattr(model, "features_", None)).relaxation is not None:
+        data = _vehicle_pairs(model, vehicle)
+    elif data is None:
+        data = initial_pairs(model, base)
 
     def track(tag: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        s = int(np.random.default_rng((o.seed, *tag)).integers(2**63 - 1))
+        s = o.track_seed(tag)
         _, z, slope = fra_profile_with_slope(o.track_class, (m - 1) * v0 * dt, v0 * dt, s)
         return z[:m], v0 * slope[:m], off
 
@@ -186,13 +183,9 @@ def refine_vehicle(
         return run_vehicle_policy(variant, veh, tr, law, element, n_steps, n_sub)
 
     def pairs(model: SurrogateModel, ref: dict[str, Any]) -> list[tuple[Any, Any]]:
-        rows = np.arange(0, ref["t"].size, every)
-        out = []
-        for b in range(2):
-            bogie = {k: ref[k][b] for k in ("delta", "delta_dot", "force")}
-            keep = rows[np.isfinite(bogie["force"][rows])]
-            out.append(element_pairs(model, {"t": ref["t"], **bogie}, keep, base))
-        return out
+        keys = ("delta", "delta_dot", "force")
+        bogies = [{"t": ref["t"], **{k: ref[k][b] for k in keys}} for b in range(2)]
+        return [element_pairs(model, bogie, every, base) for bogie in bogies]
 
     def report(r: int, errors: Any, ood: int, n: int) -> tuple[dict[str, Any], str]:
         row = {"round": r, "error": float(errors.max()), "errors": errors, "ood": ood}
@@ -205,7 +198,7 @@ def refine_vehicle(
 
     return refine_rounds(
         model,
-        (U, V),
+        data,
         rounds,
         o,
         track,
