@@ -32,6 +32,7 @@ episode start) to the output ``controller_state_out``, to be fed back at the nex
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -302,20 +303,11 @@ def write_policy_fmu(
     )
 
 
-def write_policy_onnx(p: PolicyNet, path: Path, base: LinearBase | None = None) -> Path:
-    """Write the ONNX graph of :class:`PolicyNet` ``p`` (needs the ``onnx`` extra); with
-    ``base``, of the residual policy whose network ``p`` is (module docstring)."""
-    try:
-        import onnx
-        from onnx import TensorProto, helper, numpy_helper
-    except ImportError as err:
-        raise ValueError(f"--onnx needs the 'onnx' extra (pip install onnx): {err}") from None
-    n_obs, n_act = len(p.obs_names), p.weights[-1].shape[0]
-    inits = []
-
-    def const(name: str, value: np.ndarray) -> str:
-        inits.append(numpy_helper.from_array(np.ascontiguousarray(value), name))
-        return name
+def _network_onnx_nodes(p: PolicyNet, const: Callable[[str, np.ndarray], str]) -> list[Any]:
+    """ONNX nodes of :class:`PolicyNet` ``p`` from the graph input ``observation`` (double)
+    to ``action`` (float32, clipped to ``[max(low, −1), min(high, 1)]``); ``const(name,
+    array)`` adds an initializer."""
+    from onnx import TensorProto, helper
 
     nodes = [
         helper.make_node(
@@ -349,6 +341,25 @@ def write_policy_onnx(p: PolicyNet, path: Path, base: LinearBase | None = None) 
         helper.make_node("Max", [x, const("low", low)], ["lo"]),
         helper.make_node("Min", ["lo", const("high", high)], ["action"]),
     ]
+    return nodes
+
+
+def write_policy_onnx(p: PolicyNet, path: Path, base: LinearBase | None = None) -> Path:
+    """Write the ONNX graph of :class:`PolicyNet` ``p`` (needs the ``onnx`` extra); with
+    ``base``, of the residual policy whose network ``p`` is (module docstring)."""
+    try:
+        import onnx
+        from onnx import TensorProto, helper, numpy_helper
+    except ImportError as err:
+        raise ValueError(f"--onnx needs the 'onnx' extra (pip install onnx): {err}") from None
+    n_obs, n_act = len(p.obs_names), p.weights[-1].shape[0]
+    inits = []
+
+    def const(name: str, value: np.ndarray) -> str:
+        inits.append(numpy_helper.from_array(np.ascontiguousarray(value), name))
+        return name
+
+    nodes = _network_onnx_nodes(p, const)
     action, state_out = "action", None
     if base is not None:  # clip(a_base + scale·a_policy, −1, 1), rounded to float32
         base_nodes, base_action, state_out = base_onnx_nodes(base, const, "x0")
@@ -364,7 +375,7 @@ def write_policy_onnx(p: PolicyNet, path: Path, base: LinearBase | None = None) 
         action = "total32"
     nodes.append(
         helper.make_node(
-            "Mul", [action, const("f_max", np.full(1, p.f_max, f32))], ["actuator_force"]
+            "Mul", [action, const("f_max", np.full(1, p.f_max, np.float32))], ["actuator_force"]
         )
     )
     ins = [helper.make_tensor_value_info("observation", TensorProto.DOUBLE, ["batch", n_obs])]
