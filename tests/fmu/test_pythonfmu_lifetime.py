@@ -11,10 +11,9 @@ short test to catch; ``docs/fmi.md``, *FMU lifetime*, has the 10-run measurement
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -22,7 +21,6 @@ from tests.fmu.user_fmu import USER_MAPPING_YAML, USER_VEHICLE_YAML
 
 pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
 
-ROOT = Path(__file__).parents[2]
 
 CYCLES = """
 import sys
@@ -53,19 +51,13 @@ print("cycles done")
 
 
 @pytest.mark.parametrize("live", [1, 2])
-def test_make_step_close_cycles_exit_cleanly(user_py_fmu: Path, tmp_path: Path, live: int) -> None:
+def test_make_step_close_cycles_exit_cleanly(
+    user_py_fmu: Path, tmp_path: Path, live: int, fresh_python: Callable[..., Any]
+) -> None:
     (tmp_path / "QuarterCar.fmu").symlink_to(user_py_fmu)
     (tmp_path / "map.yaml").write_text(USER_MAPPING_YAML)
     (tmp_path / "car.yaml").write_text(USER_VEHICLE_YAML)
-    done = subprocess.run(
-        [sys.executable, "-c", CYCLES, str(tmp_path), str(live), "8"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env={**os.environ, "PYTHONFAULTHANDLER": "1"},
-        timeout=600,
-        check=False,
-    )
+    done = fresh_python(CYCLES, str(tmp_path), str(live), "8", timeout=600)
     assert "cycles done" in done.stdout, done.stderr[-3000:]
     assert done.returncode == 0, done.stderr[-3000:]
     assert "corrupted" not in done.stderr

@@ -11,11 +11,10 @@ envs, a fresh process each.
 from __future__ import annotations
 
 import gc
-import os
-import subprocess
 import sys
 import threading
 import weakref
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +29,6 @@ from railgym.fmu.runner import FMURunner
 pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")
 
 ID = "railgym/VerticalSuspension-v1"
-ROOT = Path(__file__).parents[2]
 
 #: plain variable names only, so that it loads with any mapping version; the channels are
 #: not the env's physics (deflection := x1), which does not matter for the instance lifetime
@@ -172,24 +170,12 @@ print("stepped")
 """
 
 
-def _fresh_python(script: str, *args: str) -> subprocess.CompletedProcess[str]:
-    """``python -c script args…`` in a fresh process from the repository root (faulthandler
-    on, 300 s at most); its exit status and output, whatever the status."""
-    return subprocess.run(
-        [sys.executable, "-c", script, *args],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env={**os.environ, "PYTHONFAULTHANDLER": "1"},
-        timeout=300,
-        check=False,
-    )
-
-
 @pytest.mark.parametrize("close", ["close", "exit"])
-def test_the_process_exits_cleanly_with_fmu_envs(user_fmu: tuple[Path, Path], close: str) -> None:
+def test_the_process_exits_cleanly_with_fmu_envs(
+    user_fmu: tuple[Path, Path], close: str, fresh_python: Callable[..., Any]
+) -> None:
     fmu, path = user_fmu
-    done = _fresh_python(EXIT_SCRIPT, str(fmu), str(path), close)
+    done = fresh_python(EXIT_SCRIPT, str(fmu), str(path), close)
     assert "stepped" in done.stdout, done.stderr[-3000:]
     assert "corrupted" not in done.stderr, done.stderr[-3000:]
     assert done.returncode == 0, done.stderr[-3000:]
@@ -235,11 +221,11 @@ print("logged")
 
 
 def test_an_fmu_logging_after_a_runner_is_freed_does_not_crash(
-    user_c_fmu: Path, tmp_path: Path
+    user_c_fmu: Path, tmp_path: Path, fresh_python: Callable[..., Any]
 ) -> None:
     mapping = tmp_path / "map.yaml"
     mapping.write_text(SMOKE_MAPPING)
-    done = _fresh_python(LOGGER_SCRIPT, str(user_c_fmu), str(mapping), str(tmp_path / "e.fmu"))
+    done = fresh_python(LOGGER_SCRIPT, str(user_c_fmu), str(mapping), str(tmp_path / "e.fmu"))
     assert done.returncode == 0, done.stderr[-3000:]
     assert "logged" in done.stdout and "refused" in done.stdout
     # FMPy's own instance's message reaches FMPy's printer (not a freed runner's logger)
