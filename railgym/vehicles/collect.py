@@ -60,14 +60,12 @@ from railgym.vehicles.element_vehicle import vehicle_document
 from railgym.vehicles.memory_element import (
     MEMORY_DEGREES,
     MEMORY_DESIGN,
-    WARMUP,
     build_memory_surrogate,
     design_with,
     memory_degrees,
-    memory_training_data,
     stage,
 )
-from railgym.vehicles.refinement import RefineOptions, refine_rounds
+from railgym.vehicles.refinement import RefineOptions, element_pairs, initial_pairs, refine_rounds
 from railgym.vehicles.vertical.kernels import (
     DEFAULT_DT,
     KERNELS,
@@ -362,21 +360,6 @@ def _run_policy(
     }
 
 
-def element_pairs(
-    model: SurrogateModel, run: dict[str, Any], every: int, vehicle: str
-) -> tuple[np.ndarray, np.ndarray]:
-    """Training pairs of ``model``'s feature form from a full-rate run, at every ``every``-th
-    row where the element force is finite."""
-    form = element_form(getattr(model, "features_", None))
-    rows = np.arange(0, run["t"].size, every)
-    rows = rows[np.isfinite(run["force"][rows])]
-    data = {"runs": [{**run, "rows": rows}]}
-    if form.form == "maxwell":
-        return memory_training_data(data, form.tau, form.known_physics, vehicle, form.relaxation)
-    keep = rows[run["t"][rows] >= WARMUP]
-    return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
-
-
 #: ``(vehicle, law, dt, n_sub) → ((z, ż) → run)``: closed-loop runs (:func:`_run_policy`'s
 #: record) of a reference other than the built-in one, stepped at ``dt`` (s)
 ReferenceRuns = Callable[[Any, Any, float, int], Callable[[np.ndarray, np.ndarray], Any]]
@@ -388,25 +371,6 @@ class OtherReference(NamedTuple):
 
     collect: Callable[[Any], dict[str, Any]]  # design → its runs (as collect_design's)
     runs: ReferenceRuns
-
-
-def initial_pairs(
-    model: SurrogateModel, vehicle: Any, collect: Callable[[Any], dict[str, Any]] | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Training pairs of the packaged recipe of ``model``'s form (memory: :data:`MEMORY_DESIGN`;
-    static: the paper design), run on ``vehicle``'s reference or by ``collect`` (``design →``
-    runs as :func:`collect_design` returns them, e.g. an FMU's)."""
-    form = element_form(getattr(model, "features_", None))
-
-    def builtin(design: Any) -> dict[str, Any]:
-        return collect_design(design, vehicle=vehicle)
-
-    run = builtin if collect is None else collect
-    if form.form == "maxwell":
-        data = run(design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE))
-        return memory_training_data(data, form.tau, form.known_physics, vehicle)
-    data = run("paper")
-    return data["U"], data["V"]
 
 
 def refine(

@@ -1,6 +1,7 @@
 """What the two policy-aware refinement loops share (:func:`railgym.vehicles.collect.refine`
 for one bogie, :func:`railgym.vehicles.vehicle.refine.refine_vehicle` for the whole vehicle):
-their runs (:class:`RefineOptions`), the refit on the worst samples and the held-out score.
+their runs (:class:`RefineOptions`), the initial and candidate training pairs, the refit on
+the worst samples and the held-out score.
 """
 
 from __future__ import annotations
@@ -13,10 +14,24 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.track import class_speed
-from railgym.vehicles.collect_design import MEMORY_SAMPLE_RATE
+from railgym.vehicles.collect_design import MEMORY_SAMPLE_RATE, collect_design
+from railgym.vehicles.memory_element import (
+    MEMORY_DESIGN,
+    WARMUP,
+    design_with,
+    memory_training_data,
+)
+from surrogates.memory import element_form
 from surrogates.models import SurrogateModel
 
-__all__ = ["RefineOptions", "holdout_error", "refine_rounds", "refit_worst"]
+__all__ = [
+    "RefineOptions",
+    "element_pairs",
+    "holdout_error",
+    "initial_pairs",
+    "refine_rounds",
+    "refit_worst",
+]
 
 
 @dataclass(frozen=True)
@@ -70,6 +85,40 @@ class RefineOptions:
         if self.speed is None:
             return class_speed(self.track_class)
         return val.positive(self.speed, "speed")
+
+
+def initial_pairs(
+    model: SurrogateModel, vehicle: Any, collect: Callable[[Any], dict[str, Any]] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Training pairs of the packaged recipe of ``model``'s form (memory: :data:`MEMORY_DESIGN`;
+    static: the paper design), run on ``vehicle``'s reference or by ``collect`` (``design →``
+    runs as :func:`collect_design` returns them, e.g. an FMU's)."""
+    form = element_form(getattr(model, "features_", None))
+
+    def builtin(design: Any) -> dict[str, Any]:
+        return collect_design(design, vehicle=vehicle)
+
+    run = builtin if collect is None else collect
+    if form.form == "maxwell":
+        data = run(design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE))
+        return memory_training_data(data, form.tau, form.known_physics, vehicle)
+    data = run("paper")
+    return data["U"], data["V"]
+
+
+def element_pairs(
+    model: SurrogateModel, run: dict[str, Any], every: int, vehicle: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Training pairs of ``model``'s feature form from a full-rate run, at every ``every``-th
+    row where the element force is finite."""
+    form = element_form(getattr(model, "features_", None))
+    rows = np.arange(0, run["t"].size, every)
+    rows = rows[np.isfinite(run["force"][rows])]
+    data = {"runs": [{**run, "rows": rows}]}
+    if form.form == "maxwell":
+        return memory_training_data(data, form.tau, form.known_physics, vehicle, form.relaxation)
+    keep = rows[run["t"][rows] >= WARMUP]
+    return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
 
 
 def refit_worst(

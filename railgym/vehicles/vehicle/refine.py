@@ -16,12 +16,13 @@ import numpy as np
 
 from railgym import _checks as val
 from railgym.track import fra_profile_with_slope
-from railgym.vehicles.collect import (
+from railgym.vehicles.memory_element import memory_training_data
+from railgym.vehicles.refinement import (
+    RefineOptions,
     element_pairs,
     initial_pairs,
-    memory_training_data,
+    refine_rounds,
 )
-from railgym.vehicles.refinement import RefineOptions, refine_rounds
 from railgym.vehicles.vehicle.collect import VEHICLE_DESIGN, collect_vehicle
 from railgym.vehicles.vehicle.lanes import hermite
 from railgym.vehicles.vehicle.model import (
