@@ -261,10 +261,10 @@ MODULE_COMMANDS = {
         "seeds, held-out evaluation, curve and table of a config",
     ),
     "pretrained": ("agents.policies.pretrained", "ship a benchmarked policy as a pretrained one"),
-    "collect": ("railgym.fmu.collect", "collect and build a vertical element"),
-    "collect-vehicle": ("railgym.vehicles.vehicle.collect", "build the whole-vehicle element"),
+    "collect": ("agents.commands.collect", "collect and build a vertical element"),
+    "collect-vehicle": ("agents.commands.collect_vehicle", "build the whole-vehicle element"),
     "combine": (
-        "railgym.vehicles.components",
+        "agents.commands.combine",
         "an element of a bench-tested damper with the vehicle file's springs and bump stops",
     ),
     "validate": (
@@ -277,8 +277,10 @@ MODULE_COMMANDS = {
         "agents.evaluation.crash_limits",
         "ceilings of crash absorber control per range",
     ),
-    "crash-fe": ("railgym.vehicles.crash.fe", "crash elements from LS-DYNA nodout/rcforc"),
-    "crash-elements": ("railgym.vehicles.crash.elements", "fit a scenario's crash elements"),
+    "crash-fe": ("agents.commands.crash_fe", "crash elements from LS-DYNA nodout/rcforc"),
+    "crash-elements": ("agents.commands.crash_elements", "fit a scenario's crash elements"),
+    "damper-element": ("agents.commands.damper_element", "the element of a controllable damper"),
+    "env-tables": ("agents.commands.env_tables", "rewrite the argument tables of docs/envs"),
     "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
     "leaderboard": ("agents.leaderboard.cli", "benchmark tasks: scores, bounds, entries"),
 }
@@ -357,7 +359,11 @@ def build_parser() -> argparse.ArgumentParser:
     ):
         add(sub.add_parser(name, parents=[common], help=what, description=description))
     for name, (module, what) in MODULE_COMMANDS.items():
-        sub.add_parser(name, help=f"{what} (python -m {module})", add_help=False)
+        sub.add_parser(
+            name,
+            help=what if module.startswith("agents.commands.") else f"{what} (python -m {module})",
+            add_help=False,
+        )
     return parser
 
 

@@ -30,12 +30,15 @@ WRITES = {
     "crash-fe",
     "crash-elements",
     "combine",
+    "damper-element",
     "surrogates build",
     "surrogates export-fmu",
 }
 PRINTS = {"evaluate", "validate", "validity", "crash-report", "crash-limits", "leaderboard"}
 #: writes into the installed package, where its NAME says: --overwrite, no -o
 FIXED_PLACE = {"pretrained"}
+#: rewrites files of the source checkout (the docs' generated tables): no -o, no --overwrite
+CHECKOUT = {"env-tables"}
 #: commands whose result depends on nothing drawn at random
 UNSEEDED = {
     "export-reference-fmu",
@@ -45,6 +48,7 @@ UNSEEDED = {
     "crash-limits",
     "pretrained",
     "leaderboard",
+    "env-tables",
 }
 
 
@@ -103,7 +107,7 @@ def test_no_flag_has_two_meanings(parsers):
         for (a, first), (b, second) in zip(sets, sets[1:], strict=False):
             assert first & second, f"{flag}: {a} {sorted(first)} vs {b} {sorted(second)}"
     # the real numbers behind the check: the common flags are in many commands, one meaning
-    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 15
+    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 16
     assert len(seen["-o"][("out", "_StoreAction", "text", "one")]) == len(WRITES)
 
 
@@ -143,6 +147,8 @@ def test_old_spellings_do_what_the_new_do_and_say_so(parsers, capsys):
         "crash-fe",
         "crash-elements",
         "combine",
+        "damper-element",
+        "env-tables",
         "leaderboard",
         "surrogates build",
         "surrogates export-fmu",
@@ -173,14 +179,14 @@ def test_shared_flags_are_where_the_rule_puts_them(parsers):
     """(d) docs/cli.md, *The vocabulary*: every command --quiet and --debug; a command that
     writes -o/--out and --overwrite; a seeded one --seed; --track-class several values;
     speeds in km/h with the unit in the flag."""
-    assert set(parsers) == WRITES | PRINTS | FIXED_PLACE
+    assert set(parsers) == WRITES | PRINTS | FIXED_PLACE | CHECKOUT
     for command, parser in parsers.items():
         flags = _options(parser)
         assert {"--quiet", "--debug"} <= set(flags), command
         writes = {"-o", "--out", "--overwrite"} <= set(flags)
         assert writes == (command in WRITES), command
-        if command in PRINTS:
-            assert not {"-o", "--out"} & set(flags), command
+        if command in PRINTS | CHECKOUT:
+            assert not {"-o", "--out", "--overwrite"} & set(flags), command
         if command in FIXED_PLACE:
             assert "--overwrite" in flags and "-o" not in flags
         assert ("--seed" in flags) == (command not in UNSEEDED), command

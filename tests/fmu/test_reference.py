@@ -148,7 +148,7 @@ def test_collect_from_the_fmu_equals_the_built_in_collection(reference_fmu):
 def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, tmp_path):
     """``railgym collect --fmu-map``: the memory element built on the
     reference FMU's paper run is the packaged one (which meets docs/validation.md)."""
-    from railgym.fmu.collect import main as collect_main
+    from agents.commands.collect import main as collect_main
     from railgym.vehicles.collect import default_vertical_surrogate
     from surrogates import io
 
@@ -306,7 +306,7 @@ def test_model_exchange_with_fmpys_cvode_converges_to_the_reference(reference_fm
 
 
 def test_collect_and_refine_commands_check_their_fmu_arguments(reference_fmu, capsys):
-    from railgym.fmu.collect import main as collect_main
+    from agents.commands.collect import main as collect_main
 
     fmu, mapping = reference_fmu
     with pytest.raises(SystemExit) as info:  # the packaged element is never replaced
