@@ -16,7 +16,7 @@
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
   (:mod:`agents.evaluation.refine`).
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
-  (:mod:`agents.fmu_cli`).
+  (:mod:`agents.commands.export_fmu`).
 - the module commands of :data:`MODULE_COMMANDS` (``railgym train`` = ``python -m
   agents.training.train``, ...): the module's own parser reads the rest of the command line.
 
@@ -44,8 +44,13 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import add_parallel_arguments, check_parallel, error_status, one_line_warnings
 from agents._extras import MissingExtraError, report_missing
+from agents.commands.flags import (
+    add_parallel_arguments,
+    check_parallel,
+    error_status,
+    one_line_warnings,
+)
 from agents.controllers.classical import Passive, Skyhook
 from agents.evaluation.speed import backend_speeds, format_speeds
 from railgym import _checks as val
@@ -285,7 +290,7 @@ MODULE_COMMANDS = {
     "leaderboard": ("agents.leaderboard.cli", "benchmark tasks: scores, bounds, entries"),
 }
 #: the module with the parser of a module command whose own module needs an extra
-PARSER_MODULES = {"train-rllib": "agents.training.train_rllib_args"}
+PARSER_MODULES = {"train-rllib": "agents.commands.train_rllib"}
 
 
 def module_parser(name: str) -> argparse.ArgumentParser:
@@ -338,7 +343,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures", "one holding only these files")
     add_parallel_arguments(p, "", "the validation matrix", "the report does")
-    from agents import fmu_cli
+    from agents.commands import export_fmu
     from agents.evaluation import evaluate, refine
 
     for name, add, what, description in (
@@ -346,15 +351,15 @@ def build_parser() -> argparse.ArgumentParser:
         ("refine", refine.add_arguments, "refine the element for a policy", REFINE),
         (
             "export-reference-fmu",
-            fmu_cli.add_reference_arguments,
+            export_fmu.add_reference_arguments,
             "the reference model as an FMU",
-            fmu_cli.REFERENCE_DESCRIPTION,
+            export_fmu.REFERENCE_DESCRIPTION,
         ),
         (
             "export-policy",
-            fmu_cli.add_policy_arguments,
+            export_fmu.add_policy_arguments,
             "a trained policy as an FMU",
-            fmu_cli.POLICY_DESCRIPTION,
+            export_fmu.POLICY_DESCRIPTION,
         ),
     ):
         add(sub.add_parser(name, parents=[common], help=what, description=description))
@@ -399,12 +404,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return report_missing(err, f"railgym {argv[0]}", argv[0])
         return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
-    from agents import fmu_cli
+    from agents.commands import export_fmu
     from agents.evaluation import evaluate, refine
 
     command = {
-        "export-reference-fmu": fmu_cli.run_reference,
-        "export-policy": fmu_cli.run_policy,
+        "export-reference-fmu": export_fmu.run_reference,
+        "export-policy": export_fmu.run_policy,
         "demo": lambda a: demo(a.out, a.seed, a.overwrite),
         "paper": paper,
         "evaluate": evaluate.run,

@@ -189,7 +189,7 @@ def _collect(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     given = (("--fmu-map", args.fmu_map), ("--vehicle", args.vehicle), ("--seed", args.seed))
     for flag, value in given:
         if args.out is None and value is not None:
-            parser.error(f"{flag} needs --output (-o/--out): the packaged element is not replaced")
+            parser.error(f"{flag} needs -o/--out: the packaged element is not replaced")
     seed = 0 if args.seed is None else args.seed
     vehicle = args.vehicle or "manchester"
     try:

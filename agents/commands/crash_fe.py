@@ -20,7 +20,6 @@ from surrogates.checks import bounded_int
 from surrogates.cli_flags import (
     Parser,
     add_common,
-    add_deprecated,
     add_out,
     add_seed,
     error_status,
@@ -36,10 +35,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--nodout", required=True, help="LS-DYNA ASCII nodout file")
     p.add_argument("--rcforc", required=True, help="LS-DYNA ASCII rcforc file")
-    units = p.add_argument(
+    p.add_argument(
         "--unit-system", required=True, help="unit set of the FE model, e.g. mm-ms-kg-kN"
     )
-    add_deprecated(p, units, "--units")
     p.add_argument("--car-nodes", type=int, nargs="+", required=True, help="node per car")
     p.add_argument("--wall-contact", type=int, required=True, help="wall contact id")
     p.add_argument(

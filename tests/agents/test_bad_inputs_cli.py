@@ -174,7 +174,7 @@ def test_bad_command_line_is_one_clear_error(places, capsys, prog, argv, names):
     assert sorted(p.name for p in Path("nonempty").iterdir()) == ["keep.txt"]  # nothing written
 
 
-FE = "--nodout n --rcforc r --units mm-ms-kg-kN --car-nodes 1 --wall-contact 1 -o e.json"
+FE = "--nodout n --rcforc r --unit-system mm-ms-kg-kN --car-nodes 1 --wall-contact 1 -o e.json"
 
 
 @pytest.mark.parametrize(
