@@ -14,7 +14,7 @@
   held-out impact envelope with ``--envelope``); ``--workers N`` / ``--address ADDR`` run the
   cases in parallel (:mod:`agents.evaluation.evaluate`).
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
-  (:mod:`agents.evaluation.refine`).
+  (:mod:`agents.commands.refine`).
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
   (:mod:`agents.commands.export_fmu`).
 - the module commands of :data:`MODULE_COMMANDS` (``railgym train`` = ``python -m
@@ -343,8 +343,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures", "one holding only these files")
     add_parallel_arguments(p, "", "the validation matrix", "the report does")
-    from agents.commands import export_fmu
-    from agents.evaluation import evaluate, refine
+    from agents.commands import export_fmu, refine
+    from agents.evaluation import evaluate
 
     for name, add, what, description in (
         ("evaluate", evaluate.add_arguments, "comfort indices of policies", EVALUATE),
@@ -401,11 +401,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             module = importlib.import_module(MODULE_COMMANDS[argv[0]][0])
         except MissingExtraError as err:
+            if argv[0] in PARSER_MODULES and {"-h", "--help"} & set(argv[1:]):
+                module_parser(argv[0]).parse_args(["--help"])  # its help needs no extra
             return report_missing(err, f"railgym {argv[0]}", argv[0])
         return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
-    from agents.commands import export_fmu
-    from agents.evaluation import evaluate, refine
+    from agents.commands import export_fmu, refine
+    from agents.evaluation import evaluate
 
     command = {
         "export-reference-fmu": export_fmu.run_reference,

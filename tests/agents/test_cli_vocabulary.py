@@ -166,6 +166,7 @@ def test_the_removed_spellings_are_refused(parsers, capsys):
         "export-reference-fmu",
         "export-policy",
         "train",
+        "train-rllib",
         "benchmark",
         "pretrained",
         "collect",
