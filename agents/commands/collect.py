@@ -164,15 +164,12 @@ def _build_memory(
     return model, report
 
 
-def _collect(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
-    """``railgym collect`` after the parse: check, collect, fit, write."""
-    from railgym.progress import quiet, stages
+def _checked(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Any:
+    """The degree candidates of ``railgym collect`` after checking ``-o/--out`` and the flags
+    that need it, before the minutes of work; a bad one exits 2 naming it."""
     from surrogates.cli import UsageError
 
-    states = _memory_flags(parser, args)
-    if args.design is None:
-        args.design = "paper" if args.features == "static" else MEMORY_DESIGN
-    if args.out is not None:  # checked before the minutes of work
+    if args.out is not None:
         target = Path(args.out)
         if target.exists() and not args.overwrite:
             parser.error(f"--out {target}: exists; pass --overwrite to replace it")
@@ -182,14 +179,25 @@ def _collect(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         cands = _candidates(args)
     except (UsageError, ValueError) as err:
         parser.error(str(err))
-    progress = stages()
-    data = None
     if args.fmu is not None and args.fmu_map is None:
         parser.error("--fmu: only with --fmu-map (the FMU of that mapping file)")
     given = (("--fmu-map", args.fmu_map), ("--vehicle", args.vehicle), ("--seed", args.seed))
     for flag, value in given:
         if args.out is None and value is not None:
             parser.error(f"{flag} needs -o/--out: the packaged element is not replaced")
+    return cands
+
+
+def _collect(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """``railgym collect`` after the parse: check, collect, fit, write."""
+    from railgym.progress import quiet, stages
+
+    states = _memory_flags(parser, args)
+    if args.design is None:
+        args.design = "paper" if args.features == "static" else MEMORY_DESIGN
+    cands = _checked(parser, args)
+    progress = stages()
+    data = None
     seed = 0 if args.seed is None else args.seed
     vehicle = args.vehicle or "manchester"
     try:
