@@ -14,9 +14,9 @@
   held-out impact envelope with ``--envelope``); ``--workers N`` / ``--address ADDR`` run the
   cases in parallel (:mod:`agents.evaluation.evaluate`).
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
-  (:mod:`agents.evaluation.refine`).
+  (:mod:`agents.commands.refine`).
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
-  (:mod:`agents.fmu_cli`).
+  (:mod:`agents.commands.export_fmu`).
 - the module commands of :data:`MODULE_COMMANDS` (``railgym train`` = ``python -m
   agents.training.train``, ...): the module's own parser reads the rest of the command line.
 
@@ -44,8 +44,13 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import add_parallel_arguments, check_parallel, error_status, one_line_warnings
 from agents._extras import MissingExtraError, report_missing
+from agents.commands.flags import (
+    add_parallel_arguments,
+    check_parallel,
+    error_status,
+    one_line_warnings,
+)
 from agents.controllers.classical import Passive, Skyhook
 from agents.evaluation.speed import backend_speeds, format_speeds
 from railgym import _checks as val
@@ -261,10 +266,10 @@ MODULE_COMMANDS = {
         "seeds, held-out evaluation, curve and table of a config",
     ),
     "pretrained": ("agents.policies.pretrained", "ship a benchmarked policy as a pretrained one"),
-    "collect": ("railgym.fmu.collect", "collect and build a vertical element"),
-    "collect-vehicle": ("railgym.vehicles.vehicle.collect", "build the whole-vehicle element"),
+    "collect": ("agents.commands.collect", "collect and build a vertical element"),
+    "collect-vehicle": ("agents.commands.collect_vehicle", "build the whole-vehicle element"),
     "combine": (
-        "railgym.vehicles.components",
+        "agents.commands.combine",
         "an element of a bench-tested damper with the vehicle file's springs and bump stops",
     ),
     "validate": (
@@ -277,13 +282,15 @@ MODULE_COMMANDS = {
         "agents.evaluation.crash_limits",
         "ceilings of crash absorber control per range",
     ),
-    "crash-fe": ("railgym.vehicles.crash.fe", "crash elements from LS-DYNA nodout/rcforc"),
-    "crash-elements": ("railgym.vehicles.crash.elements", "fit a scenario's crash elements"),
+    "crash-fe": ("agents.commands.crash_fe", "crash elements from LS-DYNA nodout/rcforc"),
+    "crash-elements": ("agents.commands.crash_elements", "fit a scenario's crash elements"),
+    "damper-element": ("agents.commands.damper_element", "the element of a controllable damper"),
+    "env-tables": ("agents.commands.env_tables", "rewrite the argument tables of docs/envs"),
     "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
     "leaderboard": ("agents.leaderboard.cli", "benchmark tasks: scores, bounds, entries"),
 }
 #: the module with the parser of a module command whose own module needs an extra
-PARSER_MODULES = {"train-rllib": "agents.training.train_rllib_args"}
+PARSER_MODULES = {"train-rllib": "agents.commands.train_rllib"}
 
 
 def module_parser(name: str) -> argparse.ArgumentParser:
@@ -336,28 +343,32 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures", "one holding only these files")
     add_parallel_arguments(p, "", "the validation matrix", "the report does")
-    from agents import fmu_cli
-    from agents.evaluation import evaluate, refine
+    from agents.commands import export_fmu, refine
+    from agents.evaluation import evaluate
 
     for name, add, what, description in (
         ("evaluate", evaluate.add_arguments, "comfort indices of policies", EVALUATE),
         ("refine", refine.add_arguments, "refine the element for a policy", REFINE),
         (
             "export-reference-fmu",
-            fmu_cli.add_reference_arguments,
+            export_fmu.add_reference_arguments,
             "the reference model as an FMU",
-            fmu_cli.REFERENCE_DESCRIPTION,
+            export_fmu.REFERENCE_DESCRIPTION,
         ),
         (
             "export-policy",
-            fmu_cli.add_policy_arguments,
+            export_fmu.add_policy_arguments,
             "a trained policy as an FMU",
-            fmu_cli.POLICY_DESCRIPTION,
+            export_fmu.POLICY_DESCRIPTION,
         ),
     ):
         add(sub.add_parser(name, parents=[common], help=what, description=description))
     for name, (module, what) in MODULE_COMMANDS.items():
-        sub.add_parser(name, help=f"{what} (python -m {module})", add_help=False)
+        sub.add_parser(
+            name,
+            help=what if module.startswith("agents.commands.") else f"{what} (python -m {module})",
+            add_help=False,
+        )
     return parser
 
 
@@ -390,15 +401,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             module = importlib.import_module(MODULE_COMMANDS[argv[0]][0])
         except MissingExtraError as err:
+            if argv[0] in PARSER_MODULES and {"-h", "--help"} & set(argv[1:]):
+                module_parser(argv[0]).parse_args(["--help"])  # its help needs no extra
             return report_missing(err, f"railgym {argv[0]}", argv[0])
         return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
-    from agents import fmu_cli
-    from agents.evaluation import evaluate, refine
+    from agents.commands import export_fmu, refine
+    from agents.evaluation import evaluate
 
     command = {
-        "export-reference-fmu": fmu_cli.run_reference,
-        "export-policy": fmu_cli.run_policy,
+        "export-reference-fmu": export_fmu.run_reference,
+        "export-policy": export_fmu.run_policy,
         "demo": lambda a: demo(a.out, a.seed, a.overwrite),
         "paper": paper,
         "evaluate": evaluate.run,

@@ -17,7 +17,7 @@ import numpy as np
 from surrogates import io
 from surrogates.builder import build
 from surrogates.checks import MAX_SEED
-from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
+from surrogates.cli_flags import Parser, add_common, add_out
 from surrogates.models.checks import MAX_DEGREE
 from surrogates.tables import to_si
 from surrogates.units import KNOWN_UNITS, check_units
@@ -77,19 +77,33 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="surrogates", description=__doc__)
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     sub = parser.add_subparsers(dest="command", required=True)
-    b = sub.add_parser(
-        "build", help="build a surrogate element from a CSV file", description=BUILD_DESCRIPTION
+    _add_build(
+        sub.add_parser(
+            "build", help="build a surrogate element from a CSV file", description=BUILD_DESCRIPTION
+        )
     )
+    _add_export(
+        sub.add_parser(
+            "export-fmu",
+            help="export a saved Legendre element as an FMI 2.0 FMU",
+            description="Export a saved Legendre element (model JSON) as a standalone FMI 2.0 "
+            "FMU: model exchange, co-simulation or both, with a binary for this platform or "
+            "sources only.",
+        )
+    )
+    return parser
+
+
+def _add_build(b: argparse.ArgumentParser) -> None:
+    """Arguments of ``surrogates build``."""
     b.add_argument("data", help="CSV file with a header row ('du' or 'du [m]' per column)")
     b.add_argument("--inputs", nargs="+", required=True, help="input column names")
-    target = b.add_argument("--target", required=True, help="output (target) column name")
-    add_deprecated(b, target, "--output")
+    b.add_argument("--target", required=True, help="output (target) column name")
     add_out(
         b,
         "where to write the model JSON",
         required=True,
         overwrite="replace existing output files",
-        old=["--model"],
         type=str,
     )
     b.add_argument(
@@ -129,31 +143,26 @@ def build_parser() -> argparse.ArgumentParser:
         debug_default=argparse.SUPPRESS,
         quiet_help="print the summary alone: no candidate table, progress bars or notes",
     )
-    e = sub.add_parser(
-        "export-fmu",
-        help="export a saved Legendre element as an FMI 2.0 FMU",
-        description="Export a saved Legendre element (model JSON) as a standalone FMI 2.0 FMU: "
-        "model exchange, co-simulation or both, with a binary for this platform or sources only.",
-    )
+
+
+def _add_export(e: argparse.ArgumentParser) -> None:
+    """Arguments of ``surrogates export-fmu``."""
     e.add_argument("model", help="model JSON written by 'surrogates build'")
     add_out(
         e,
         "where to write the .fmu",
         required=True,
         overwrite="replace an existing FMU",
-        old=["--fmu"],
         type=str,
     )
-    kind = e.add_argument(
+    e.add_argument(
         "--fmu-kind",
         choices=["me", "cs", "both"],
         default="both",
         help="FMI interfaces: model exchange, co-simulation or both",
     )
-    add_deprecated(e, kind, "--kind")
     e.add_argument("--sources-only", action="store_true", help="do not compile a binary")
     add_common(e, debug_default=argparse.SUPPRESS)
-    return parser
 
 
 def add_degree_arguments(parser: argparse.ArgumentParser, note: str = "") -> None:

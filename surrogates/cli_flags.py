@@ -96,10 +96,12 @@ class Parser(argparse.ArgumentParser):
     deprecated spelling used, after the parse (none with ``--quiet``), requires an
     option with old spellings (:data:`REQUIRED`) given in any of them and refuses an empty
     value. ``elsewhere``: flags this command does not take, each with the command that does;
-    one of them given is an error naming the flag and that command (never another meaning)."""
+    one of them given is an error naming the flag and that command (never another meaning).
+    No abbreviations: ``--fmu`` is not ``--fmu-kind`` where a command has no ``--fmu``."""
 
     def __init__(self, *args: Any, elsewhere: dict[str, str] | None = None, **kwargs: Any) -> None:
         kwargs.setdefault("formatter_class", HelpFormatter)
+        kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)
         self.elsewhere = dict(elsewhere or {})
 

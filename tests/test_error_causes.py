@@ -203,7 +203,7 @@ def test_a_float_seed_of_the_vector_env_is_named():
 
 
 def test_collect_output_is_not_replaced_without_overwrite(tmp_path, capsys):
-    from railgym.vehicles.collect import main
+    from agents.commands.collect import main
 
     existing = tmp_path / "element.json"
     existing.write_text("{}")

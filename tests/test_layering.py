@@ -226,8 +226,8 @@ def _private(name: str) -> bool:
 
 def _private_reaches() -> list[str]:
     """``from X import _name`` and ``X._name`` where ``X`` is another project module: each as
-    ``path:line name``. A module named with an underscore (``railgym._checks``,
-    ``agents._args``) is project-internal, and importing it or its public names is fine; its
+    ``path:line name``. A module named with an underscore (``railgym._checks``)
+    is project-internal, and importing it or its public names is fine; its
     underscore names, like any module's, are its own."""
     files = [p for pkg in ("surrogates", "railgym", "agents") for p in (ROOT / pkg).rglob("*.py")]
     modules = {_module_name(p): p for p in files}

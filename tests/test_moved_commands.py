@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -12,14 +13,15 @@ from pathlib import Path
 import pytest
 
 from agents.cli import MODULE_COMMANDS
-from tests.test_no_old_paths import COMMANDS, MODULES
+from tests.test_no_old_paths import COMMANDS, MODULES, migration_section
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the ``python -m`` spellings of modules that remain (their API), not their command
 MOVED = [c for c in COMMANDS if c not in MODULES]
-#: module → its ``railgym`` subcommand
-SUBCOMMAND = {module: f"railgym {name}" for name, (module, _) in MODULE_COMMANDS.items()}
-SUBCOMMAND["railgym.vehicles.collect"] = "railgym collect"
+#: module → its ``railgym`` subcommand, as the changelog's table names it
+SUBCOMMAND = dict(
+    re.findall(r"^\| `python -m ([\w.]+)` \| `(railgym [\w-]+)`", migration_section(), re.M)
+)
 
 
 def _run(argv: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
@@ -30,16 +32,16 @@ def _run(argv: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
 
 
 def test_every_physics_main_is_listed():
-    """Each ``__main__`` of ``railgym/`` is a moved spelling of the changelog's table, but
-    the maintainer generators (docs tables, the semi-active damper element)."""
-    generators = {"railgym.envs.params", "railgym.vehicles.semi_active_element"}
+    """Each ``__main__`` of ``railgym/`` is a moved spelling of the changelog's table (an
+    error naming its subcommand), and each such subcommand is a ``railgym`` command."""
     mains = {
         ".".join(p.relative_to(ROOT).with_suffix("").parts)
         for p in (ROOT / "railgym").rglob("*.py")
         if 'if __name__ == "__main__":' in p.read_text()
     }
-    assert mains - generators == set(MOVED)
+    assert mains == set(MOVED)
     assert set(MOVED) <= set(SUBCOMMAND)
+    assert {SUBCOMMAND[m].split()[1] for m in MOVED} <= set(MODULE_COMMANDS)
 
 
 def test_old_collect_spelling_exits_2_naming_railgym_collect(tmp_path):
@@ -63,7 +65,7 @@ def test_every_moved_spelling_names_its_subcommand(tmp_path, module):
 
 
 def test_collect_vehicle_fmu_map_points_to_railgym_collect(tmp_path, capsys, monkeypatch):
-    from railgym.vehicles.vehicle.collect import main
+    from agents.commands.collect_vehicle import main
 
     monkeypatch.chdir(tmp_path)
     for argv in (["--fmu-map", "m.yaml", "-o", "y.json"], ["--fmu-map=m.yaml"]):

@@ -44,7 +44,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import yaml
 
-from agents._args import (
+from agents.commands.flags import (
     add_parallel_arguments,
     bounded_int,
     check_parallel,

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import error_status, one_line_warnings, with_policy_kwargs
+from agents.commands.flags import error_status, one_line_warnings, with_policy_kwargs
 from agents.controllers.crash_baselines import FixedActions, rollout, search_constant
 from agents.controllers.registry import BASELINES, CRASH_ID, crash_factories
 from agents.evaluation.crash_matrix import constant_action_cases, matrix_table, random_action_cases

@@ -55,7 +55,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents._args import (
+from agents.commands.flags import (
     MAX_EPISODES,
     VEHICLE_DURATION_S,
     add_env_id,
@@ -374,7 +374,14 @@ def _listed(names: Sequence[str]) -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``railgym evaluate``."""
+    """Arguments of ``railgym evaluate``: what runs, on which cases, how."""
+    _add_models(parser)
+    _add_cases(parser)
+    _add_modes(parser)
+
+
+def _add_models(parser: argparse.ArgumentParser) -> None:
+    """``railgym evaluate``: the policies, the model they run on and its files."""
     parser.add_argument(
         "policy",
         nargs="+",
@@ -411,6 +418,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "are designed for (default: the packaged one; with --backend fmu the mapping's "
         "vehicle:)",
     )
+
+
+def _add_cases(parser: argparse.ArgumentParser) -> None:
+    """``railgym evaluate``: the env, its tracks, speeds and episodes."""
     add_track_classes(parser, [4, 6], "vertical, vehicle: FRA track classes 1..6")
     parser.add_argument(
         "--episodes",
@@ -459,6 +470,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "0, the default: none; at most the front-to-rear wheelset distance, 21.56 m on the "
         "packaged vehicle); every policy runs with it (lq-preview uses it)",
     )
+
+
+def _add_modes(parser: argparse.ArgumentParser) -> None:
+    """``railgym evaluate``: the gap and envelope modes, workers, trust."""
     parser.add_argument(
         "--gap",
         action="store_true",

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import (
+from agents.commands.flags import (
     VEHICLE_DURATION_S,
     backend_kwargs,
     env_id_flag,

@@ -13,7 +13,12 @@ from typing import Any, NamedTuple
 import gymnasium as gym
 import numpy as np
 
-from agents._args import MAX_EPISODES, VEHICLE_DURATION_S, check_speed_kmh, with_policy_kwargs
+from agents.commands.flags import (
+    MAX_EPISODES,
+    VEHICLE_DURATION_S,
+    check_speed_kmh,
+    with_policy_kwargs,
+)
 from agents.controllers.registry import ENV_ID, VEHICLE_ID
 from agents.evaluation.metrics import VERTICAL, Metric
 from agents.policies.loading import load_policy, without_version_warning

@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
-from agents._args import MAX_EPISODES
+from agents.commands.flags import MAX_EPISODES
 from agents.controllers.registry import ENV_ID
 from agents.evaluation.runs import PolicyTask, loaded_policy, run_policy
 from agents.policies.loading import load_policy

@@ -24,7 +24,13 @@ from typing import Any
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import add_track_classes, bounded_real, duration_s, episodes, error_status
+from agents.commands.flags import (
+    add_track_classes,
+    bounded_real,
+    duration_s,
+    episodes,
+    error_status,
+)
 from agents.evaluation.vehicle_validation import ENVS, SEED, record_episodes
 from railgym.progress import quiet
 from railgym.track import class_speed

@@ -25,7 +25,7 @@ import gymnasium as gym
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents._args import add_track_classes, duration_s, episodes, error_status
+from agents.commands.flags import add_track_classes, duration_s, episodes, error_status
 from agents.controllers.registry import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
 from railgym.progress import quiet
 from railgym.vehicles.collect import default_vertical_surrogate

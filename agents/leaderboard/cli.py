@@ -28,7 +28,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from agents._args import error_status, one_line_warnings
+from agents.commands.flags import error_status, one_line_warnings
 from agents.leaderboard.results import FORMATS, RESULTS_DIR, format_table, load_entries, table_rows
 from railgym import _checks as val
 from railgym.progress import quiet

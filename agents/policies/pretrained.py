@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents._args import error_status
+from agents.commands.flags import error_status
 from agents.policies.policy_io import write_manifest
 from railgym.registration import env_family
 from surrogates.cli_flags import Parser, add_common

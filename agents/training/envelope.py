@@ -21,7 +21,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv, VectorWrapper
 
-from agents._args import MAX_SPEED_KMH
+from agents.commands.flags import MAX_SPEED_KMH
 from railgym import _checks as val
 
 __all__ = ["ENVELOPE_ENVS", "Envelope", "EnvelopeVectorEnv", "check_envelope"]

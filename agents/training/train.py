@@ -62,8 +62,8 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from tqdm import tqdm
 
-from agents._args import bounded_int, error_status
 from agents._extras import extra_error, report_missing
+from agents.commands.flags import bounded_int, error_status
 
 try:  # the 'agents' extra
     import stable_baselines3 as sb3

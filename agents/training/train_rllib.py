@@ -58,11 +58,11 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents._args import error_status
 from agents._extras import extra_error, report_missing
 from agents._predict import SB3Predict
+from agents.commands.flags import error_status
+from agents.commands.train_rllib import MAX_ITERATIONS, build_parser
 from agents.policies.policy_io import RLLIB_MODULE_PATH, refuse_untrusted, sha256
-from agents.training.train_rllib_args import MAX_ITERATIONS, build_parser
 from railgym import _checks as val
 from railgym.progress import quiet
 from railgym.report.output import prepare_output_dir, write_text_atomic

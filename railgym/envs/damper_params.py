@@ -78,8 +78,8 @@ class DamperArgs(Params):
         None,
         "",
         'data-driven element of `damper` that backend `"surrogate"` runs: packaged name or '
-        "`.json` path (`python -m railgym.vehicles.semi_active_element`); default: the packaged "
-        "element of a packaged `damper`",
+        "`.json` path (`railgym damper-element`); default: the packaged element of a "
+        "packaged `damper`",
         kind="object",
         optional=True,
     )
@@ -149,8 +149,8 @@ def _damper_element(damper: Any, element: Any) -> DamperElement:
             raise val.FieldError(
                 "damper_element",
                 f"damper {str(damper)!r} has no packaged element: give damper_element= (built "
-                "by python -m railgym.vehicles.semi_active_element --damper DAMPER --out "
-                "ELEMENT.json) or use another backend",
+                "by railgym damper-element --damper DAMPER -o ELEMENT.json) or use another "
+                "backend",
             )
         return _packaged_element(damper)
     if not isinstance(element, str | Path):

@@ -20,7 +20,7 @@ the field, :mod:`railgym._checks`), stores the checked value (canonical Python t
 runs :meth:`Params._derive`. The env's keyword arguments are the declared fields
 (:meth:`Params.from_kwargs`, :func:`keyword_signature`), kernel constants are filled by field
 name (:func:`consts`), the docs table of arguments is generated (:func:`arguments_table`,
-``python -m railgym.envs.params`` rewrites the marked tables of ``docs/envs/*.md``).
+``railgym env-tables`` rewrites the marked tables of ``docs/envs/*.md``).
 """
 
 from __future__ import annotations
@@ -29,7 +29,6 @@ import dataclasses
 import functools
 import inspect
 import re
-import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from importlib import import_module
@@ -632,20 +631,7 @@ class TrackEnvParams(Params):
         return tuple(self.reward_weights.values())
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``python -m railgym.envs.params [--check]``: rewrite (or only list) the stale argument
-    tables of ``docs/envs/*.md``."""
-    args = sys.argv[1:] if argv is None else argv
-    root = Path(__file__).resolve().parents[2] / "docs" / "envs"
-    stale = [
-        f"{p.name}: {c}"
-        for p in sorted(root.glob("*.md"))
-        for c in update_docs(p, write="--check" not in args)
-    ]
-    for line in stale:
-        print(line)
-    return 1 if stale and "--check" in args else 0
-
-
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from surrogates.cli_flags import moved_command
+
+    raise SystemExit(moved_command("railgym.envs.params", "railgym env-tables"))

@@ -262,7 +262,7 @@ def _check_element_units(surrogate: Any, d: int) -> None:
             si = dict(wanted)
             fix = (
                 f"build it with units (`surrogates build DATA.csv --inputs {' '.join(names)} "
-                f"--output {output} --units {' '.join(f'{n}={u}' for n, u in wanted)} ...` or "
+                f"--target {output} --units {' '.join(f'{n}={u}' for n, u in wanted)} ...` or "
                 f"`surrogates.build(U, V, ..., inputs={names!r}, output={output!r}, "
                 f"units={si!r})`), save it with them (`surrogates.io.save(model, path, "
                 f"units={si!r})`) or set model.features_['units'] = {si!r}"

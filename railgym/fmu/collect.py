@@ -14,15 +14,15 @@ description (``vehicle=``, else the mapping's ``vehicle:``; one of them is requi
 own vehicle is never assumed for a user's model).
 
 :func:`refine_fmu` is the policy-aware refinement of :func:`railgym.vehicles.collect.refine`
-with the FMU as the reference, and :func:`main` the ``railgym collect`` command (the parser
-and the build of :mod:`railgym.vehicles.collect`, ``--fmu-map`` collecting here): the
-physics of :mod:`railgym.vehicles` imports nothing of :mod:`railgym.fmu`.
+with the FMU as the reference; :func:`fmu_design_runs` is what ``railgym collect --fmu-map``
+runs (:mod:`agents.commands.collect`): the physics of :mod:`railgym.vehicles` imports nothing
+of :mod:`railgym.fmu`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -31,8 +31,7 @@ import numpy as np
 from railgym.fmu.collect_vehicle import collect_vehicle_fmu
 from railgym.fmu.mapping import fmu_vehicle, load_mapping, mapping_env
 from railgym.fmu.runner import FMURunner
-from railgym.vehicles.collect import OtherReference, build_parser, refine
-from railgym.vehicles.collect import main as build_main
+from railgym.vehicles.collect import OtherReference, refine
 from railgym.vehicles.collect_design import MEMORY_SAMPLE_RATE, CollectionDesign, collect_design
 from railgym.vehicles.memory_element import MEMORY_DESIGN, build_memory_surrogate, design_with
 from railgym.vehicles.vehicle.params import load_whole_vehicle
@@ -43,11 +42,9 @@ from surrogates.tau_search import tau_search
 
 __all__ = [
     "build_fmu_element",
-    "build_parser",
     "collect_fmu",
     "fmu_design_runs",
     "fmu_reference",
-    "main",
     "refine_fmu",
     "run_policy_fmu",
     "simulate_fmu",
@@ -264,12 +261,6 @@ def build_fmu_element(
     return build_memory_surrogate(
         data=data, vehicle=vehicle, tau=search, memory_states=states, **kwargs
     )
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``railgym collect``: :func:`railgym.vehicles.collect.main`, ``--fmu-map`` collecting
-    on the FMU (:func:`fmu_design_runs`)."""
-    return build_main(argv, fmu_runs=fmu_design_runs)
 
 
 if __name__ == "__main__":

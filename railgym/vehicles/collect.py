@@ -30,11 +30,8 @@ refits it (``railgym refine POLICY``; ``docs/refine.md``).
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import itertools
-import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -45,8 +42,6 @@ import numpy as np
 from railgym import _checks as val
 from railgym.track import class_speed, track_time_input
 from railgym.vehicles.collect_design import (
-    DESIGNS,
-    MEMORY_SAMPLE_RATE,
     CollectionDesign,
     collect_design,
     design_named,
@@ -58,11 +53,7 @@ from railgym.vehicles.element_envelope import (
 )
 from railgym.vehicles.element_vehicle import vehicle_document
 from railgym.vehicles.memory_element import (
-    MEMORY_DEGREES,
-    MEMORY_DESIGN,
-    build_memory_surrogate,
     design_with,
-    memory_degrees,
     stage,
 )
 from railgym.vehicles.refinement import RefineOptions, element_pairs, initial_pairs, refine_rounds
@@ -78,14 +69,6 @@ from railgym.vehicles.vertical.params import load_vehicle
 from railgym.vehicles.vertical.simulate import simulate
 from surrogates import io
 from surrogates.builder import BuildReport, build
-from surrogates.cli_flags import (
-    Parser,
-    RawHelpFormatter,
-    add_common,
-    add_out,
-    add_seed,
-    error_status,
-)
 from surrogates.features import vertical_features
 from surrogates.memory import (
     TauSelection,
@@ -463,223 +446,6 @@ def _round_report(r: int, errors: Any, ood: int, n: int) -> tuple[dict[str, Any]
         f"{100 * error:.2f} %, out-of-domain evaluations {ood}, samples {n}"
     )
     return {"round": r, "error": error, "ood": ood, "n_samples": n}, line
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym collect``."""
-    from surrogates.cli import add_degree_arguments, add_memory_arguments
-
-    parser = Parser(prog="railgym collect", description=__doc__, formatter_class=RawHelpFormatter)
-    parser.add_argument(
-        "--features",
-        choices=sorted(PACKAGED),
-        help="the element's form: maxwell (one memory state, k-fold recipe) or static (the "
-        "paper's GA recipe); default: the k-fold recipe with the memory states the data ask "
-        "for (--memory-states), maxwell when regenerating the packaged file (no -o/--out)",
-    )
-    parser.add_argument(
-        "--design",
-        choices=DESIGNS,
-        help=f"data collection (default: maxwell {MEMORY_DESIGN}, static paper)",
-    )
-    add_out(
-        parser,
-        "model JSON (default: regenerate the packaged file of the form); an existing file is "
-        "replaced only with --overwrite",
-        overwrite="replace an existing -o/--out",
-        old=["--output"],
-        type=str,
-    )
-    parser.add_argument("--m", type=int, default=101, help="static: GA training samples")
-    add_seed(
-        parser,
-        "seed of the paper design's track, the sampling and the folds (default: 0, the "
-        "packaged elements'; another needs -o/--out)",
-        default=None,
-    )
-    parser.add_argument(
-        "--fmu-map",
-        help="collect from this FMU mapping file (env: vertical or vehicle; docs/fmi.md)",
-    )
-    parser.add_argument("--fmu", help="the FMU of --fmu-map (default: the map's fmu:)")
-    parser.add_argument(
-        "--vehicle",
-        help="vehicle YAML (name or path) of the model: masses for the force balance, bump "
-        "stops for the element's known physics; with --fmu-map required unless the mapping "
-        "has vehicle:, the whole-vehicle file for env: vehicle (default without --fmu-map: "
-        "manchester)",
-    )
-    add_degree_arguments(
-        parser,
-        "; static default 16 per input; maxwell: the grid of each input (from 12, 12, 14 in "
-        "steps of 2) up to N, default 16 16 20",
-    )
-    add_memory_arguments(parser)
-    add_common(parser)
-    return parser
-
-
-def _candidates(args: argparse.Namespace) -> list[tuple[int, ...]] | None:
-    """Degree candidates of ``--degree`` / ``--max-degree`` (``None``: the form's default);
-    ``UsageError`` or ``ValueError`` for bad values."""
-    from surrogates.cli import check_degrees
-
-    n_inputs = 2 if args.features == "static" else 3
-    degree = check_degrees(args.degree, "--degree", n_inputs)
-    top = check_degrees(args.max_degree, "--max-degree", n_inputs)
-    if args.features == "static":
-        if top is not None:
-            return list(itertools.product(*(range(1, t + 1) for t in top)))
-        return [degree] if degree else None
-    return [degree] if degree else (memory_degrees(top) if top else None)
-
-
-#: ``(fmu_map, fmu, vehicle, design, progress) → (vehicle, runs)``: the vehicle of an FMU's
-#: mapping and the runs of a design on the FMU (:func:`railgym.fmu.collect.fmu_design_runs`)
-FmuRuns = Callable[[str, Any, Any, Any, Any], tuple[Any, dict[str, Any]]]
-
-
-def main(argv: Sequence[str] | None = None, fmu_runs: FmuRuns | None = None) -> int:
-    """Regenerate a packaged element (or write one elsewhere); ``--fmu-map`` collects by
-    ``fmu_runs`` (``railgym collect``: :func:`railgym.fmu.collect.main`)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    try:
-        return _collect(parser, args, fmu_runs)
-    except Exception as err:
-        return error_status(parser.prog, err, args.debug)
-
-
-def _memory_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int | None:
-    """The number of memory states of ``--features`` / ``--memory-states`` (``None``: from the
-    data); ``--features`` set to ``maxwell`` when regenerating the packaged file; a
-    contradiction exits 2 naming the flags."""
-    memory = (args.tau, args.memory_states, args.coupled or None)
-    if args.features == "static" and any(v is not None for v in memory):
-        parser.error(
-            "--tau, --memory-states, --coupled: for the k-fold memory recipe, not --features static"
-        )
-    if args.features == "maxwell" and args.memory_states == 0:
-        parser.error("--memory-states 0 contradicts --features maxwell (one memory state)")
-    if args.features is None and args.out is None:
-        args.features = "maxwell"  # regenerating the packaged memory element
-    return 1 if args.features == "maxwell" else args.memory_states
-
-
-def _collect(
-    parser: argparse.ArgumentParser, args: argparse.Namespace, fmu_runs: FmuRuns | None
-) -> int:
-    """``railgym collect`` after the parse: check, collect, fit, write."""
-    from railgym.progress import quiet, stages
-    from surrogates.cli import UsageError
-
-    states = _memory_flags(parser, args)
-    if args.design is None:
-        args.design = "paper" if args.features == "static" else MEMORY_DESIGN
-    if args.out is not None:  # checked before the minutes of work
-        target = Path(args.out)
-        if target.exists() and not args.overwrite:
-            parser.error(f"--out {target}: exists; pass --overwrite to replace it")
-        if not target.parent.is_dir():
-            parser.error(f"--out {target}: the folder {str(target.parent)!r} does not exist")
-    try:
-        cands = _candidates(args)
-    except (UsageError, ValueError) as err:
-        parser.error(str(err))
-    progress = stages()
-    data = None
-    if args.fmu is not None and args.fmu_map is None:
-        parser.error("--fmu: only with --fmu-map (the FMU of that mapping file)")
-    given = (("--fmu-map", args.fmu_map), ("--vehicle", args.vehicle), ("--seed", args.seed))
-    for flag, value in given:
-        if args.out is None and value is not None:
-            parser.error(f"{flag} needs --output (-o/--out): the packaged element is not replaced")
-    if args.fmu_map is not None and fmu_runs is None:
-        parser.error(
-            "--fmu-map: an FMU is collected by railgym collect (railgym.fmu.collect.main); "
-            "railgym.vehicles.collect.main builds on the built-in reference only"
-        )
-    seed = 0 if args.seed is None else args.seed
-    vehicle = args.vehicle or "manchester"
-    try:
-        if args.fmu_map is not None and fmu_runs is not None:
-            rate = 50.0 if args.features == "static" else MEMORY_SAMPLE_RATE
-            with quiet(args.quiet):
-                vehicle, data = fmu_runs(
-                    args.fmu_map,
-                    args.fmu,
-                    args.vehicle,
-                    design_with(args.design, None, rate),
-                    stage(progress, "FMU runs"),
-                )
-        veh = load_vehicle(vehicle)
-    except (val.FieldError, OSError) as err:
-        parser.exit(2, f"{parser.prog}: error: {err}\n")
-    out = args.out or str(Path(__file__).parents[1] / "data" / PACKAGED[args.features])
-    with quiet(args.quiet):
-        model, report, text, source = _fit(args, cands, seed, progress, data, veh, states)
-    if args.fmu_map is not None:
-        source = f"FMU of {args.fmu_map} (vehicle {veh.name})" + source[source.index(",") :]
-    record = (veh, vehicle)  # metadata.vehicle: the vehicle collected on
-    save_vertical_surrogate(model, report, out, source, envelope=args.design, vehicle=record)
-    print(text)
-    print(f"written to {out}")
-    return 0
-
-
-def _fit(
-    args: argparse.Namespace,
-    cands: Any,
-    seed: int,
-    progress: Any,
-    data: dict[str, Any] | None,
-    veh: Any,
-    states: int | None,
-) -> tuple[SurrogateModel, Any, str, str]:
-    """The element of ``railgym collect`` fitted on ``data`` (``None``: the built-in
-    reference's runs), static or the k-fold memory element (:func:`build_memory_surrogate`):
-    ``(model, report, report text, source line)``."""
-    where = (
-        f"FRA class 5, 144 km/h, 20 s, track seed {seed}"
-        if args.design == "paper"
-        else "envelope design (classes 3-6, 0.7/1.0 of class speed, passive + excited)"
-    )
-    if args.features == "static":
-        model, report, _ = build_vertical_surrogate(
-            m=args.m,
-            seed=seed,
-            track_seed=seed,
-            design=args.design,
-            candidates=cands,
-            progress=progress,
-            data=data,
-            vehicle=veh,
-        )
-        text = report.format("N")
-        source = f"railgym dynamic reference ({veh.name}), {where}, 50 Hz, M = {args.m} (GA)"
-    else:
-        with warnings.catch_warnings():  # the τ search's edge warning: a line of the report
-            warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
-            model, report, _ = build_memory_surrogate(
-                design=args.design,
-                degrees=cands or MEMORY_DEGREES,
-                seed=seed,
-                progress=progress,
-                data=data,
-                vehicle=veh,
-                tau=args.tau,
-                memory_states=states,
-                coupled=None if args.coupled else False,  # --coupled: the coupled map scored
-            )
-        text = report.format()
-        target = "F_s - F_bump" if veh.known_physics else "F_s"
-        memory = model.features_["form"] == "maxwell"
-        state = "the Maxwell state" if memory else "no memory state"
-        source = (
-            f"railgym dynamic reference ({veh.name}), {where}, 200 Hz; passive LPR on "
-            f"{target} with {state}"
-        )
-    return model, report, text, source
 
 
 if __name__ == "__main__":

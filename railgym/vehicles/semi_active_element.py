@@ -28,16 +28,13 @@ laws a vehicle kernel calls inside each RK4 stage with a :class:`DamperElementAr
 :mod:`surrogates.io`. The packaged element ``railgym/data/damper_mr_secondary.json`` is
 rebuilt by::
 
-    python -m railgym.vehicles.semi_active_element \
-        --out railgym/data/damper_mr_secondary.json --overwrite
+    railgym damper-element -o railgym/data/damper_mr_secondary.json --overwrite
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 import re
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -49,13 +46,7 @@ import numpy as np
 from numba import njit
 
 from railgym import _checks as val
-from railgym.progress import quiet, stages
-from railgym.vehicles.semi_active import (
-    DamperParams,
-    checked_history,
-    load_damper,
-    simulate_damper,
-)
+from railgym.vehicles.semi_active import DamperParams, checked_history, simulate_damper
 from surrogates import io
 from surrogates.builder import build
 from surrogates.checks import is_number
@@ -70,6 +61,7 @@ __all__ = [
     "build_damper_element",
     "command_history",
     "damper_runs",
+    "element_cost",
     "element_force",
     "element_rates",
     "filtered_command",
@@ -475,7 +467,7 @@ def heldout_error(
     return math.sqrt(num / den)
 
 
-def _cost(element: DamperElement, damper: DamperParams) -> tuple[float, float]:
+def element_cost(element: DamperElement, damper: DamperParams) -> tuple[float, float]:
     """Mean time of one element force (with its memory) and one reference damper step, ns."""
     r = damper_runs(damper, 0, 1, 20.0, stream=1)[0]
     element.simulate(r["v"], r["command"])  # compiled
@@ -488,46 +480,9 @@ def _cost(element: DamperElement, damper: DamperParams) -> tuple[float, float]:
     return 1e9 * t_el / r["v"].size, 1e9 * t_ref / r["v"].size
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Build the element of a damper and write it to ``--out``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m railgym.vehicles.semi_active_element", description=__doc__.split("\n\n")[0]
-    )
-    parser.add_argument("--out", required=True, help="element JSON")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
-    parser.add_argument("--damper", default="mr_secondary", help="packaged name or .yaml path")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the histories and the GA")
-    parser.add_argument("--quiet", action="store_true", help="no progress bars")
-    args = parser.parse_args(argv)
-    out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        parser.error(f"--out {out}: exists; pass --overwrite to replace it")
-    damper = load_damper(args.damper)
-    name = Path(args.damper).stem if str(args.damper).endswith((".yaml", ".yml")) else args.damper
-    print(
-        f"collecting {RUNS} × {DURATION:g} s of the damper and fitting {len(LENGTHS)} memory "
-        "lengths (GA sampling: a few minutes)",
-        file=sys.stderr,
-    )
-    with quiet(args.quiet):
-        element = build_damper_element(damper, args.seed, name=name, progress=stages())
-    element.report["heldout_rel_rms"] = heldout_error(element, damper, args.seed)
-    element.save(out, overwrite=args.overwrite)
-    ns_el, ns_ref = _cost(element, damper)
-    rep = element.report
-    for row in rep["lengths"]:
-        print(
-            f"l = {1e3 * row['length']:g} mm: degree {row['degree']}, "
-            f"OOB rel. RMS {row['oob_nrms']:.4f}"
-        )
-    print(
-        f"chosen l = {1e3 * element.length:g} mm, degree {rep['chosen']['degree']}; held-out "
-        f"force rel. RMS {rep['heldout_rel_rms']:.4f}; training {rep['training_time_s']:.1f} s; "
-        f"{ns_el:.0f} ns per step (reference damper {ns_ref:.0f} ns)"
-    )
-    print(f"written to {out}")
-    return 0
-
-
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from surrogates.cli_flags import moved_command
+
+    raise SystemExit(
+        moved_command("railgym.vehicles.semi_active_element", "railgym damper-element")
+    )

@@ -174,7 +174,7 @@ def test_bad_command_line_is_one_clear_error(places, capsys, prog, argv, names):
     assert sorted(p.name for p in Path("nonempty").iterdir()) == ["keep.txt"]  # nothing written
 
 
-FE = "--nodout n --rcforc r --units mm-ms-kg-kN --car-nodes 1 --wall-contact 1 -o e.json"
+FE = "--nodout n --rcforc r --unit-system mm-ms-kg-kN --car-nodes 1 --wall-contact 1 -o e.json"
 
 
 @pytest.mark.parametrize(
@@ -184,7 +184,7 @@ FE = "--nodout n --rcforc r --units mm-ms-kg-kN --car-nodes 1 --wall-contact 1 -
         ("agents.evaluation.vehicle_validation", "--duration 601", "--duration"),
         ("agents.evaluation.vehicle_validation", "--track-class 7", "--track-class"),
         ("agents.evaluation.vehicle_validation", "--seeds 0", "--seeds"),
-        ("railgym.vehicles.crash.fe", f"{FE} --interface-contacts 2 --seed -1", "--seed"),
+        ("agents.commands.crash_fe", f"{FE} --interface-contacts 2 --seed -1", "--seed"),
     ],
 )
 def test_module_commands_share_the_bounds_of_the_railgym_flags(module, argv, flag, capsys):

@@ -30,12 +30,15 @@ WRITES = {
     "crash-fe",
     "crash-elements",
     "combine",
+    "damper-element",
     "surrogates build",
     "surrogates export-fmu",
 }
 PRINTS = {"evaluate", "validate", "validity", "crash-report", "crash-limits", "leaderboard"}
 #: writes into the installed package, where its NAME says: --overwrite, no -o
 FIXED_PLACE = {"pretrained"}
+#: rewrites files of the source checkout (the docs' generated tables): no -o, no --overwrite
+CHECKOUT = {"env-tables"}
 #: commands whose result depends on nothing drawn at random
 UNSEEDED = {
     "export-reference-fmu",
@@ -45,6 +48,7 @@ UNSEEDED = {
     "crash-limits",
     "pretrained",
     "leaderboard",
+    "env-tables",
 }
 
 
@@ -103,7 +107,7 @@ def test_no_flag_has_two_meanings(parsers):
         for (a, first), (b, second) in zip(sets, sets[1:], strict=False):
             assert first & second, f"{flag}: {a} {sorted(first)} vs {b} {sorted(second)}"
     # the real numbers behind the check: the common flags are in many commands, one meaning
-    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 15
+    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 16
     assert len(seen["-o"][("out", "_StoreAction", "text", "one")]) == len(WRITES)
 
 
@@ -114,10 +118,40 @@ def test_old_spellings_do_what_the_new_do_and_say_so(parsers, capsys):
     assert old == new and new.speed == [36.0, 40.0]
     err = capsys.readouterr().err
     assert err == "railgym evaluate: warning: option '--speed' is deprecated; use '--speed-kmh'\n"
-    build = parsers["surrogates build"]
-    args = build.parse_args(["d.csv", "--inputs", "a", "--output", "F", "--model", "m.json"])
-    assert (args.target, args.out) == ("F", "m.json")
-    assert capsys.readouterr().err.count("is deprecated") == 2
+    collect = parsers["collect"]
+    assert collect.parse_args(["--output", "m.json"]).out == "m.json"
+    assert capsys.readouterr().err.count("is deprecated") == 1
+
+
+def test_an_old_spelling_is_no_flag_of_another_meaning(parsers):
+    """An old spelling means what the one new flag means wherever it is taken, and no command
+    takes it as a flag of its own: ``--model``, ``--kind``, ``--units``, ``--fmu`` as outputs
+    or other columns are gone (0.5.0)."""
+    old: dict[str, set[str]] = defaultdict(set)
+    current: set[str] = set()
+    for parser in parsers.values():
+        for action in parser._actions:
+            new = getattr(action, DEPRECATED, None)
+            for flag in action.option_strings:
+                if new is None:
+                    current.add(flag)
+                else:
+                    old[flag].add(action.dest)
+    assert {flag: dests for flag, dests in old.items() if len(dests) > 1} == {}
+    assert set(old) & current == set()
+    assert set(old) == {"--output", "--speed", "--first-seed", "--no-progress"}
+
+
+def test_the_removed_spellings_are_refused(parsers, capsys):
+    for command, argv in (
+        ("surrogates build", ["d.csv", "--inputs", "a", "--target", "F", "-o", "m", "--model"]),
+        ("surrogates export-fmu", ["m.json", "-o", "x.fmu", "--fmu", "y.fmu"]),
+        ("refine", ["passive", "--model", "m.json"]),
+    ):
+        with pytest.raises(SystemExit) as exc:
+            parsers[command].parse_args(argv)
+        assert exc.value.code == 2
+        assert "unrecognized arguments" in capsys.readouterr().err.strip().splitlines()[-1]
     train = parsers["train"].parse_args(["ppo_vertical", "--no-progress"])
     assert train.quiet and capsys.readouterr().err == ""  # --quiet: no warning either
 
@@ -132,6 +166,7 @@ def test_old_spellings_do_what_the_new_do_and_say_so(parsers, capsys):
         "export-reference-fmu",
         "export-policy",
         "train",
+        "train-rllib",
         "benchmark",
         "pretrained",
         "collect",
@@ -143,6 +178,8 @@ def test_old_spellings_do_what_the_new_do_and_say_so(parsers, capsys):
         "crash-fe",
         "crash-elements",
         "combine",
+        "damper-element",
+        "env-tables",
         "leaderboard",
         "surrogates build",
         "surrogates export-fmu",
@@ -173,14 +210,14 @@ def test_shared_flags_are_where_the_rule_puts_them(parsers):
     """(d) docs/cli.md, *The vocabulary*: every command --quiet and --debug; a command that
     writes -o/--out and --overwrite; a seeded one --seed; --track-class several values;
     speeds in km/h with the unit in the flag."""
-    assert set(parsers) == WRITES | PRINTS | FIXED_PLACE
+    assert set(parsers) == WRITES | PRINTS | FIXED_PLACE | CHECKOUT
     for command, parser in parsers.items():
         flags = _options(parser)
         assert {"--quiet", "--debug"} <= set(flags), command
         writes = {"-o", "--out", "--overwrite"} <= set(flags)
         assert writes == (command in WRITES), command
-        if command in PRINTS:
-            assert not {"-o", "--out"} & set(flags), command
+        if command in PRINTS | CHECKOUT:
+            assert not {"-o", "--out", "--overwrite"} & set(flags), command
         if command in FIXED_PLACE:
             assert "--overwrite" in flags and "-o" not in flags
         assert ("--seed" in flags) == (command not in UNSEEDED), command

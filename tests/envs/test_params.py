@@ -214,7 +214,7 @@ def test_limits_are_the_declared_bounds():
 
 @pytest.mark.parametrize("page", sorted(DOCS.glob("*.md")), ids=lambda p: p.name)
 def test_the_docs_tables_of_arguments_are_the_declarations(page):
-    """A marked table differs from its declaration: run ``python -m railgym.envs.params``."""
+    """A marked table differs from its declaration: run ``railgym env-tables``."""
     assert update_docs(page) == []
 
 

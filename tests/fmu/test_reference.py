@@ -148,7 +148,7 @@ def test_collect_from_the_fmu_equals_the_built_in_collection(reference_fmu):
 def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, tmp_path):
     """``railgym collect --fmu-map``: the memory element built on the
     reference FMU's paper run is the packaged one (which meets docs/validation.md)."""
-    from railgym.fmu.collect import main as collect_main
+    from agents.commands.collect import main as collect_main
     from railgym.vehicles.collect import default_vertical_surrogate
     from surrogates import io
 
@@ -210,12 +210,13 @@ def test_fmu_vector_env_equals_the_reference_vector_env_through_autoreset(refere
 
 @pytest.mark.parametrize("kind", ["me", "cs"])
 def test_single_kind_fmus_are_valid_and_accepted_as_the_reference(kind, tmp_path):
-    """``--kind me`` / ``--kind cs``: a model-exchange-only and a co-simulation-only FMU,
+    """``--fmu-kind me`` / ``--fmu-kind cs``: a model-exchange-only and a co-simulation-only FMU,
     each the reference without naming ``fmi_type`` (the one the FMU has is used)."""
     from fmpy.validation import validate_fmu
 
     out = tmp_path / f"vehicle_{kind}.fmu"
-    assert main(["export-reference-fmu", "--env", "vertical", "-o", str(out), "--kind", kind]) == 0
+    argv = ["export-reference-fmu", "--env", "vertical", "-o", str(out), "--fmu-kind", kind]
+    assert main(argv) == 0
     assert validate_fmu(str(out)) == []
     md = fmpy.read_model_description(str(out))
     assert (md.modelExchange is not None, md.coSimulation is not None) == (
@@ -306,12 +307,12 @@ def test_model_exchange_with_fmpys_cvode_converges_to_the_reference(reference_fm
 
 
 def test_collect_and_refine_commands_check_their_fmu_arguments(reference_fmu, capsys):
-    from railgym.fmu.collect import main as collect_main
+    from agents.commands.collect import main as collect_main
 
     fmu, mapping = reference_fmu
     with pytest.raises(SystemExit) as info:  # the packaged element is never replaced
         collect_main(["--fmu-map", str(mapping)])
-    assert info.value.code == 2 and "--fmu-map needs --output" in capsys.readouterr().err
+    assert info.value.code == 2 and "--fmu-map needs -o/--out" in capsys.readouterr().err
     assert main(["refine", "passive", "--rounds", "0", "--fmu", str(fmu)]) == 2
     assert "needs its mapping file fmu_map" in capsys.readouterr().err
 

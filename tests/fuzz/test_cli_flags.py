@@ -56,6 +56,7 @@ BASE: dict[str, list[tuple[str, list[str]]]] = {
     "collect": [("--out", ["{out}/out.json"])],
     "collect-vehicle": [("--out", ["{out}/out.json"])],
     "crash-elements": [("--out", ["{out}/out.json"])],
+    "damper-element": [("--out", ["{out}/out.json"])],
     "crash-fe": [
         ("--nodout", ["{tmp}/nodout"]),
         ("--rcforc", ["{tmp}/rcforc"]),
@@ -82,7 +83,11 @@ BASE: dict[str, list[tuple[str, list[str]]]] = {
 }
 #: subcommands whose base cannot run here (their inputs are FE results or the package's own
 #: pretrained folder): fuzzed by their parser (tier 1) only
-PARSE_ONLY = {"crash-fe": "needs LS-DYNA results", "pretrained": "writes into the package"}
+PARSE_ONLY = {
+    "crash-fe": "needs LS-DYNA results",
+    "pretrained": "writes into the package",
+    "env-tables": "rewrites the docs of the checkout",
+}
 #: flags whose value is written (a file or folder) or read as a folder: only an empty value
 #: must be refused there (a folder or a missing path may be correct)
 OUTPUTS = {"out", "report", "benchmark_dir", "fmu_dir", "results"}

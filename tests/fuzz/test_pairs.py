@@ -79,7 +79,7 @@ def test_train_flags_replace_the_config_with_a_note(
 
 
 def test_policy_settings_and_command_flags_must_agree() -> None:
-    from agents._args import with_policy_kwargs
+    from agents.commands.flags import with_policy_kwargs
 
     trained = {"vehicle": "manchester", "backend": "surrogate"}
     with pytest.raises(ValueError, match=r"^policy p\.zip: trained with backend='surrogate'"):

@@ -528,7 +528,7 @@ def test_bad_cli_call(
     if extra == ["--data-missing"]:
         data, extra = tmp_path / "nofile.csv", []
     inputs = ["--inputs", "du", "dv"] if "--inputs" not in extra else []
-    argv = ["build", str(data), *inputs, "--output", "F", "-o", str(tmp_path / target)]
+    argv = ["build", str(data), *inputs, "--target", "F", "-o", str(tmp_path / target)]
     code = main([*argv, "--m", "41", "--quiet", *extra])
     err = capsys.readouterr().err
     assert code == 2
@@ -538,6 +538,6 @@ def test_bad_cli_call(
 
 
 def test_cli_debug_shows_the_traceback(tmp_path: Path) -> None:
-    argv = ["build", str(tmp_path / "none.csv"), "--inputs", "a", "--output", "b"]
+    argv = ["build", str(tmp_path / "none.csv"), "--inputs", "a", "--target", "b"]
     with pytest.raises(OSError):
         main([*argv, "-o", str(tmp_path / "m.json"), "--debug"])

@@ -27,7 +27,7 @@ def _build_args(tmp_path, *extra):
         "--inputs",
         "du",
         "dv",
-        "--output",
+        "--target",
         "F",
         "-o",
         str(tmp_path / "m.json"),
@@ -69,7 +69,7 @@ def test_build_command_reports_a_missing_column(tmp_path, capsys):
             "--inputs",
             "du",
             "x",
-            "--output",
+            "--target",
             "F",
             "-o",
             str(tmp_path / "m.json"),
@@ -212,7 +212,8 @@ def test_build_degree_options_bad_values(tmp_path, capsys, extra, message):
 
 
 def test_collect_command_takes_the_degree_options(tmp_path, capsys):
-    from railgym.vehicles import collect
+    from agents.commands import collect
+    from railgym.vehicles.memory_element import MEMORY_DEGREES, memory_degrees
 
     out = tmp_path / "static.json"
     argv = ["--features", "static", "--m", "51", "--output", str(out), "--quiet"]
@@ -224,8 +225,8 @@ def test_collect_command_takes_the_degree_options(tmp_path, capsys):
         collect.main(["--features", "maxwell", "--max-degree", "10", "14", "20"])
     assert exc.value.code == 2
     assert "max_degree[0] must be at least 12" in capsys.readouterr().err
-    assert collect.memory_degrees((14, 12, 14)) == [(12, 12, 14), (14, 12, 14)]
-    assert collect.memory_degrees((16, 16, 20)) == list(collect.MEMORY_DEGREES)
+    assert memory_degrees((14, 12, 14)) == [(12, 12, 14), (14, 12, 14)]
+    assert memory_degrees((16, 16, 20)) == list(MEMORY_DEGREES)
 
 
 def test_progress_bars_only_on_a_terminal_and_not_when_quiet(monkeypatch):

@@ -244,7 +244,7 @@ def test_export_fmu_command(tmp_path, capsys):
     assert main(["export-fmu", str(path), "-o", str(fmu)]) == 2
     err = capsys.readouterr().err
     assert "pass --overwrite to replace it" in err and "overwrite=True" not in err
-    assert main(["export-fmu", str(path), "-o", str(fmu), "--overwrite", "--kind", "me"]) == 0
+    assert main(["export-fmu", str(path), "-o", str(fmu), "--overwrite", "--fmu-kind", "me"]) == 0
     assert fmpy.read_model_description(str(fmu)).coSimulation is None
 
 

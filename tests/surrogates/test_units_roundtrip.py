@@ -48,7 +48,7 @@ def _argv(data: Path, model: Path, *extra: str) -> list[str]:
         "--inputs",
         "defl",
         "rate",
-        "--output",
+        "--target",
         "force",
         "-o",
         str(model),
@@ -140,7 +140,7 @@ def test_an_element_without_units_is_refused_with_the_fix_then_taken(tmp_path, c
         _steps(model, 1)
     message = str(exc.value)
     for fix in (
-        "surrogates build DATA.csv --inputs defl rate --output force "
+        "surrogates build DATA.csv --inputs defl rate --target force "
         "--units defl=m rate=m/s force=N",
         "surrogates.build(U, V, ..., inputs=['defl', 'rate'], output='force', units=",
         "surrogates.io.save(model, path, units=",

@@ -7,7 +7,7 @@ bad ``--tau`` / ``--memory-states`` values exit 2 naming the flag."""
 import numpy as np
 import pytest
 
-from railgym.fmu.collect import main as collect_main
+from agents.commands.collect import main as collect_main
 from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.memory_element import build_memory_surrogate
 from surrogates import io

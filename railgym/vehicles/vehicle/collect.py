@@ -22,22 +22,17 @@ direction and drops past a blow-off knee, and the linear law cannot follow it in
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from railgym.track import fra_profile_with_slope
-from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.collect_design import band_limited_force
-from railgym.vehicles.element_envelope import design_envelope
 from railgym.vehicles.memory_element import element_runs, select_memory_element
 from railgym.vehicles.vehicle.model import (
     DEFAULT_DT,
@@ -50,7 +45,6 @@ from railgym.vehicles.vehicle.model import (
 )
 from railgym.vehicles.vehicle.params import load_whole_vehicle
 from surrogates import io
-from surrogates.cli_flags import Parser, add_common, add_out, add_seed, error_status
 from surrogates.memory import TauSelection, fit_relaxation, shortest_time_constant
 from surrogates.models import SurrogateModel
 from surrogates.models.lpr import LegendreRegression
@@ -65,7 +59,6 @@ __all__ = [
     "build_vehicle_surrogate",
     "collect_vehicle",
     "default_vehicle_surrogate",
-    "main",
 ]
 
 #: Maxwell time constants tried, s
@@ -245,62 +238,6 @@ def build_vehicle_surrogate(
         data, list(laws), degrees, cls, ("bump_stop",), base, k, seed, laws=laws
     )
     return model, sel, data
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym collect-vehicle``."""
-    fmu = "the element of a whole-vehicle FMU is built by `railgym collect --fmu-map MAP.yaml`"
-    parser = Parser(
-        prog="railgym collect-vehicle",
-        description=__doc__.split("\n\n")[0],
-        elsewhere={"--fmu-map": f"{fmu} (a mapping with env: vehicle)"},
-    )
-    add_out(parser, "model JSON to write", required=True, old=["--output"])
-    add_seed(parser, "seed of the folds")
-    add_common(parser)
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Build the whole-vehicle element of :data:`VEHICLE_DESIGN` and write it to ``-o/--out``."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        parser.error(f"--out {out}: exists; pass --overwrite to replace it")
-    if not out.parent.is_dir():
-        parser.error(f"--out {out}: the folder {str(out.parent)!r} does not exist")
-    try:
-        return _collect(out, args.seed, args.quiet)
-    except Exception as err:
-        return error_status(parser.prog, err, args.debug)
-
-
-def _collect(out: Path, seed: int, quiet: bool) -> int:
-    """``railgym collect-vehicle`` after the parse: collect, fit, write ``out``."""
-    if not quiet:
-        print(
-            "collecting the whole-vehicle design, fitting the relaxation law and the degrees "
-            "(a few minutes)",
-            file=sys.stderr,
-        )
-    model, sel, _ = build_vehicle_surrogate(seed=seed)
-    d = VEHICLE_DESIGN
-    source = (
-        "railgym whole-vehicle dynamic reference (manchester_whole), FRA classes "
-        f"{list(d.track_classes)} at {[round(v * 3.6) for v in d.speeds]} km/h, "
-        f"{d.duration:g} s each, passive and both actuators excited ({d.f_max:g} N peak, "
-        f"{d.band:g} Hz), both bogies, {d.sample_rate:g} Hz; additive LPR on F_s - F_bump "
-        "with the Maxwell state of a fitted two-slope relaxation law"
-    )
-    # the design's classes and speeds, at most each class's maximum speed (where it was
-    # validated: docs/validation.md, *Validity flags*)
-    envelope = design_envelope(d)._replace(speed_factor=(0.0, 1.0))
-    command = f"railgym collect-vehicle -o {out.name}" + (f" --seed {seed}" if seed else "")
-    save_vertical_surrogate(model, sel, out, source, command, envelope=envelope)
-    print(sel.format())
-    print(f"written to {out}")
-    return 0
 
 
 if __name__ == "__main__":

@@ -114,7 +114,7 @@ def test_the_docs_info_table_lists_every_declared_key_with_its_shape():
 
 
 def test_the_docs_arguments_table_is_the_declaration():
-    assert update_docs(DOCS) == [], "run `python -m railgym.envs.params` to regenerate it"
+    assert update_docs(DOCS) == [], "run `railgym env-tables` to regenerate it"
     text = DOCS.read_text(encoding="utf-8")
     for name in specs(CrashParams):
         assert f"| `{name}` |" in text

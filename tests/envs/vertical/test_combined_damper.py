@@ -125,7 +125,7 @@ def test_bump_stops_of_the_vehicle_are_known_physics(tmp_path: Path) -> None:
 
 
 def test_bad_tables_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    from railgym.vehicles.components import main
+    from agents.commands.combine import main
 
     (tmp_path / "car.yaml").write_text(CAR)
     assert load_vehicle(tmp_path / "car.yaml").static_spring is not None

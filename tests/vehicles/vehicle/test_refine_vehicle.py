@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.evaluation.refine import vehicle_observation_map
+from agents.commands.refine import vehicle_observation_map
 from railgym.envs.vehicle.env import VerticalVehicleEnv
 from railgym.vehicles.refinement import RefineOptions
 from railgym.vehicles.vehicle.collect import VehicleDesign, collect_vehicle

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from agents._args import bounded_int
+from agents.commands.flags import bounded_int
 from surrogates.cli_flags import Parser, add_common, add_out, add_seed
 
 __all__ = ["MAX_ITERATIONS", "build_parser"]

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._args import add_track_classes, bounded_int, duration_s
+from agents.commands.flags import add_track_classes, bounded_int, duration_s
 from agents.controllers.registry import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICLE_ID
 from agents.policies.loading import load_policy
 from railgym.envs.vehicle.env import VerticalVehicleEnv
@@ -34,7 +34,7 @@ from railgym.vehicles.refinement import RefineOptions
 from railgym.vehicles.vehicle.collect import default_vehicle_surrogate
 from railgym.vehicles.vehicle.refine import RAW_VEHICLE_OBSERVATION, refine_vehicle
 from surrogates import io
-from surrogates.cli_flags import add_deprecated, add_out, add_seed
+from surrogates.cli_flags import add_out, add_seed
 
 #: env observation channel → entry of the raw observation of ``refine``
 _CHANNELS = {
@@ -112,12 +112,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="vertical",
         help="VerticalSuspension-v1 (one bogie) or VerticalVehicle-v1 (both bogies)",
     )
-    element = parser.add_argument(
+    parser.add_argument(
         "--surrogate",
         type=Path,
         help="the element to refine, model JSON (default: the packaged one)",
     )
-    add_deprecated(parser, element, "--model")
     parser.add_argument("--rounds", type=bounded_int(0, 50), default=3, help="rounds K per class")
     add_track_classes(parser, [5], "FRA track classes 1..6, refined for in turn (K rounds each)")
     parser.add_argument("--duration", type=duration_s, default=10.0, help="s per track")

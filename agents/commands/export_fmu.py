@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from surrogates.cli_flags import add_deprecated, add_out
+from surrogates.cli_flags import add_out
 
 #: description of ``railgym export-reference-fmu --help``
 REFERENCE_DESCRIPTION = (
@@ -28,14 +28,13 @@ POLICY_DESCRIPTION = (
 
 
 def add_fmu_kind(parser: argparse.ArgumentParser) -> None:
-    """``--fmu-kind`` (old spelling ``--kind``): the FMI interfaces an exported FMU has."""
-    kind = parser.add_argument(
+    """``--fmu-kind``: the FMI interfaces an exported FMU has."""
+    parser.add_argument(
         "--fmu-kind",
         choices=("both", "cs", "me"),
         default="both",
         help="FMI interfaces: co-simulation, model exchange or both",
     )
-    add_deprecated(parser, kind, "--kind")
 
 
 def add_reference_arguments(parser: argparse.ArgumentParser) -> None:
