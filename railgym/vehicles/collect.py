@@ -58,7 +58,6 @@ from railgym.vehicles.element_envelope import (
 )
 from railgym.vehicles.element_vehicle import vehicle_document
 from railgym.vehicles.memory_element import (
-    MEMORY_DEGREES,
     MEMORY_DESIGN,
     WARMUP,
     build_memory_surrogate,
@@ -620,7 +619,7 @@ def _build_memory(
         warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
         model, report, _ = build_memory_surrogate(
             design=args.design,
-            degrees=cands or MEMORY_DEGREES,
+            degrees=cands,
             seed=seed,
             progress=progress,
             data=data,
