@@ -311,9 +311,8 @@ def choose_memory_element(
         if search.values is None:
             fits[found.best] = kfold(found.best, lambda deg: cls(degree=deg), degrees, "degrees")
         if widen:
-            fits[found.best] = widen_degrees(
-                fits[found.best], lambda g: kfold(found.best, lambda d: cls(degree=d), g, "wider")
-            )
+            at = found.best
+            fits[at] = widen_degrees(fits[at], lambda g: kfold(at, lambda d: cls(degree=d), g, "wider"))
         for tau, _ in found.scores:
             out.table.append({"tau": tau, **_best(fits[tau])})
             out.results.append(fits[tau])
