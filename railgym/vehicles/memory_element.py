@@ -312,7 +312,9 @@ def choose_memory_element(
             fits[found.best] = kfold(found.best, lambda deg: cls(degree=deg), degrees, "degrees")
         if widen:
             at = found.best
-            fits[at] = widen_degrees(fits[at], lambda g: kfold(at, lambda d: cls(degree=d), g, "wider"))
+            fits[at] = widen_degrees(
+                fits[at], lambda g: kfold(at, lambda d: cls(degree=d), g, "wider")
+            )
         for tau, _ in found.scores:
             out.table.append({"tau": tau, **_best(fits[tau])})
             out.results.append(fits[tau])
