@@ -16,7 +16,6 @@ from railgym.vehicles import collect as vertical_collect
 from railgym.vehicles.collect import PACKAGED, build_vertical_surrogate, save_vertical_surrogate
 from railgym.vehicles.collect_design import DESIGNS, MEMORY_SAMPLE_RATE
 from railgym.vehicles.memory_element import (
-    MEMORY_DEGREES,
     MEMORY_DESIGN,
     build_memory_surrogate,
     design_with,
@@ -152,7 +151,7 @@ def _build_memory(
         warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
         model, report, _ = build_memory_surrogate(
             design=args.design,
-            degrees=cands or MEMORY_DEGREES,
+            degrees=cands,
             seed=seed,
             progress=progress,
             data=data,

@@ -53,6 +53,8 @@ COUPLED_DEGREES = (4, 6, 8)
 #: degree tuples (δ, δ̇, ζ) tried by default for the memory element: ζ needs high degrees
 #: (the controlled runs' error falls with it), capped at 20 for the cost of the recurrences
 MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
+#: largest degree per input that the default grid is widened to when its winner sits at the top
+WIDEN_LIMIT = (24, 40, 32)
 #: data-collection design of the packaged memory element
 MEMORY_DESIGN = "envelope"
 #: start of each run discarded from the memory element's training samples, s (≥ 5 τ)
@@ -146,7 +148,7 @@ def memory_training_data(
 def build_memory_surrogate(
     design: str | CollectionDesign = MEMORY_DESIGN,
     tau: Any = None,
-    degrees: Iterable[Any] = MEMORY_DEGREES,
+    degrees: Iterable[Any] | None = None,
     passive: bool = True,
     known_physics: Sequence[str] | None = None,
     duration: float | None = None,
@@ -168,7 +170,8 @@ def build_memory_surrogate(
         ``CollectionDesign``.
     tau : where ``τ`` is searched (s; :func:`surrogates.tau_search.tau_search`): ``None``
         the default continuous range, one value, a range ``(lo, hi)`` or three or more values.
-    degrees : candidate degree tuples.
+    degrees : candidate degree tuples; ``None`` (default): :data:`MEMORY_DEGREES`, widened
+        (:func:`widen_degrees`) while the winner sits at the top of an input.
     passive : fit :class:`~surrogates.passive.PassiveLegendreRegression` (non-negative
         slopes in every input) instead of the unconstrained LPR.
     known_physics : ``("bump_stop",)`` adds the vehicle's bump-stop law in the kernel;
@@ -202,7 +205,18 @@ def build_memory_surrogate(
         )
     cls = PassiveLegendreRegression if passive else LegendreRegression
     model, selection = choose_memory_element(
-        data, search, states, degrees, cls, known_physics, vehicle, k, seed, progress, coupled
+        data,
+        search,
+        states,
+        MEMORY_DEGREES if degrees is None else degrees,
+        cls,
+        known_physics,
+        vehicle,
+        k,
+        seed,
+        progress,
+        coupled,
+        widen=degrees is None,
     )
     return model, selection, data
 
@@ -217,6 +231,31 @@ def _probe_degree(degrees: Sequence[Any]) -> Any:
     if all(isinstance(d, tuple | list) for d in degrees):
         return tuple(int(v) for v in np.max(np.asarray(degrees), axis=0))
     return max(degrees)
+
+
+def widen_degrees(
+    res: SelectionResult, score: Callable[[list[tuple[int, ...]]], SelectionResult]
+) -> SelectionResult:
+    """``res`` (a degree search) with the search carried past its top while the winner sits
+    there: each round scores (``score(grid)``, the same folds) the winner with the inputs at
+    the top kept or raised by 2 and 4, up to :data:`WIDEN_LIMIT`. A winner still at the top is
+    flagged by :meth:`~surrogates.selection.SelectionResult.at_cap` as before."""
+    while cap := res.at_cap():
+        best = tuple(int(d) for d in res.best)
+        steps = [
+            [b, *(d for d in (b + 2, b + 4) if j in cap and d <= WIDEN_LIMIT[j])]
+            for j, b in enumerate(best)
+        ]
+        tried = {tuple(r["candidate"]) for r in res.table}
+        grid = [g for g in itertools.product(*steps) if g not in tried]
+        if not grid:
+            break
+        more = score(grid)
+        res = SelectionResult(res.method, res.table + more.table)
+        res.best = min((r for r in res.table if np.isfinite(r["rms"])), key=lambda r: r["rms"])[
+            "candidate"
+        ]
+    return res
 
 
 def _best(res: SelectionResult) -> dict[str, Any]:
@@ -236,6 +275,7 @@ def choose_memory_element(
     seed: int,
     progress: Callable[[str, int, int], None] | None = None,
     coupled: bool | None = False,
+    widen: bool = False,
 ) -> tuple[SurrogateModel, TauSelection]:
     """The element of class ``cls`` on ``data``: ``τ`` (a first guess by
     :func:`~surrogates.tau_search.fit_linear_memory`, refined by a bounded minimisation of
@@ -270,6 +310,11 @@ def choose_memory_element(
         found = ts.search_tau(score, search, out.guess.tau)
         if search.values is None:
             fits[found.best] = kfold(found.best, lambda deg: cls(degree=deg), degrees, "degrees")
+        if widen:
+            at = found.best
+            fits[at] = widen_degrees(
+                fits[at], lambda g: kfold(at, lambda d: cls(degree=d), g, "wider")
+            )
         for tau, _ in found.scores:
             out.table.append({"tau": tau, **_best(fits[tau])})
             out.results.append(fits[tau])

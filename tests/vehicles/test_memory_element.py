@@ -9,8 +9,14 @@ import pytest
 
 from agents.commands.collect import main as collect_main
 from railgym.vehicles.collect import save_vertical_surrogate
-from railgym.vehicles.memory_element import build_memory_surrogate
+from railgym.vehicles.memory_element import (
+    MEMORY_DEGREES,
+    WIDEN_LIMIT,
+    build_memory_surrogate,
+    widen_degrees,
+)
 from surrogates import io
+from surrogates.selection import SelectionResult
 from tests.surrogates.test_tau_search import sls_runs
 
 DEGREES = [(3, 3, 3), (3, 3, 5), (5, 5, 5)]
@@ -126,3 +132,35 @@ def test_the_python_api_checks_tau_and_states_before_any_work(kw, match, tmp_pat
         build_fmu_element(tmp_path / "no_such_map.yaml", **kw)
     with pytest.raises(ValueError, match=match):
         build_memory_surrogate(data={"runs": []}, **kw)
+
+
+def _bowl(target):
+    """k-fold-like scores of degree tuples: lowest at ``target``, rising with the distance."""
+
+    def score(grid):
+        table = [
+            {"candidate": g, "rms": 1.0 + float(np.sum((np.subtract(g, target)) ** 2))}
+            for g in grid
+        ]
+        return SelectionResult("kfold", table, min(table, key=lambda r: r["rms"])["candidate"])
+
+    return score
+
+
+@pytest.mark.parametrize("target", [(14, 30, 20), (12, 26, 26), (16, 16, 20), (14, 14, 18)])
+def test_the_default_degree_search_goes_on_past_its_top(target):
+    """A winner at the top of the default grid in an input is not the answer: the search
+    goes on in that input until the score turns up (the best within WIDEN_LIMIT found)."""
+    score = _bowl(target)
+    res = widen_degrees(score(list(MEMORY_DEGREES)), score)
+    assert res.best == target and res.at_cap() == []
+    scored = [r["candidate"] for r in res.table]
+    assert len(scored) == len(set(scored))  # nothing scored twice
+    if target == (14, 14, 18):  # inside the grid: nothing more scored
+        assert len(scored) == len(MEMORY_DEGREES)
+
+
+def test_the_widened_search_stops_at_its_limit_and_still_flags_the_cap():
+    far = (12, WIDEN_LIMIT[1] + 10, 14)
+    res = widen_degrees(_bowl(far)(list(MEMORY_DEGREES)), _bowl(far))
+    assert res.best == (12, WIDEN_LIMIT[1], 14) and res.at_cap() == [1]

@@ -255,12 +255,19 @@ def _fit_lpr(
 
 
 def _unloading_stiffness(
-    u: np.ndarray, f: np.ndarray, rate: np.ndarray, series: np.ndarray, name: str = "element"
+    u: np.ndarray,
+    f: np.ndarray,
+    rate: np.ndarray,
+    series: np.ndarray,
+    name: str = "element",
+    on_force: bool = False,
 ) -> float:
     """Least-squares slope (N/m) of f against u on the elastic unloading lines: each run of
     consecutive intervals of unloading under load (u and f falling) is one line with its own
     intercept (its permanent set), the slope pooled over the lines (:class:`NoUnloadingError`
-    naming the element ``name`` when there are none).
+    naming the element ``name`` when there are none). ``on_force``: ``u`` is fitted on ``f``
+    and the slope is the inverse of that compliance, for a ``u`` with errors of its own (a
+    reconstructed zone crush), which would dilute the slope of ``f`` on ``u``.
 
     Fitting the levels of each line, not the slopes of single intervals, keeps the noise of
     short intervals (a stress wave in a carbody, the digits of an FE file) from biasing it low.
@@ -280,7 +287,8 @@ def _unloading_stiffness(
     for k in np.unique(line):
         pts = np.append(idx[line == k], idx[line == k][-1] + 1)
         uu, ff = u[pts] - u[pts].mean(), f[pts] - f[pts].mean()
-        num, den = num + float(uu @ ff), den + float(uu @ uu)
+        num += float(ff @ ff if on_force else uu @ ff)
+        den += float(uu @ ff if on_force else uu @ uu)
     return num / den
 
 
@@ -291,7 +299,7 @@ def zone_unloading_stiffness(references: list[CrashResult]) -> dict[str, float]:
     out = {}
     for name, ((u, f, rate, _, series), _) in _pooled_training_data(references, "zone").items():
         try:
-            out[name] = _unloading_stiffness(u, f, rate, series, name)
+            out[name] = _unloading_stiffness(u, f, rate, series, name, on_force=True)
         except NoUnloadingError:
             continue
     return out

@@ -109,9 +109,9 @@ def test_zone_crush_from_centre_of_mass_nodes(fe_case):
 
 def test_elements_from_the_fe_run_reproduce_it_in_the_env(fe_case):
     """Measured: crush 0.9 / 0.7 / 1.9 % and peak deceleration −2.6 / −7.3 / +1.3 % off the
-    FE run; the zones' own unloading stiffness −3.0 % (interface) and −13.5 % (wall: the
-    file's carbody of 6 row-sum masses is not the run's 20 equal masses, and the lead car's
-    front end rebounds fastest)."""
+    FE run; the zones' own unloading stiffness −0.04 % (interface) and −2.0 % (wall; −13.5 %
+    with the force fitted on the crush, whose reconstruction error, the file's carbody of 6
+    row-sum masses against the run's 20 equal masses, diluted the slope)."""
     scenario, run, nodout, rcforc, _ = fe_case
     elements = crash_surrogate_from_fe(nodout, rcforc, **_fe_kwargs(fe_case))
     assert elements.source == "my_train"
@@ -119,7 +119,7 @@ def test_elements_from_the_fe_run_reproduce_it_in_the_env(fe_case):
     ku = 1e6 * INTERFACE["unloading_stiffness_kN_per_mm"]
     assert interface.zone_unloading_stiffness == pytest.approx(ku, rel=0.1)
     ku = 1e6 * WALL["unloading_stiffness_kN_per_mm"]
-    assert wall.zone_unloading_stiffness == pytest.approx(ku, rel=0.15)
+    assert wall.zone_unloading_stiffness == pytest.approx(ku, rel=0.1)
     assert abs(wall.zone_unloading_stiffness - ku) < abs(wall.unloading_stiffness - ku)
     env = gym.make(ENV_ID, scenario=str(scenario), surrogate=elements)
     assert env.action_space.shape == (3,)
