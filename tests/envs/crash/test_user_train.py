@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401  (registers the environments)
+from agents.commands.crash_fe import main
 from railgym.vehicles.crash.fe import (
     crash_result_from_fe,
     crash_surrogate_from_fe,
     load_crash_surrogate,
-    main,
 )
 from surrogates import io
 from tests.envs.crash.user_train import (

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from agents.commands.crash_elements import main
 from agents.evaluation.crash_matrix import constant_action_cases, random_action_cases, worst_errors
 from railgym.envs.crash.env import TrainCrashEnv, env_surrogate
 from railgym.vehicles.crash.elements import (
@@ -14,7 +15,6 @@ from railgym.vehicles.crash.elements import (
     FIT_SPEEDS_KMH,
     NODES_PER_CAR,
     envelope_runs,
-    main,
     packaged_path,
     packaged_surrogate,
     train_key,
