@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from agents.commands.damper_element import main
 from railgym.vehicles.semi_active import load_damper, simulate_damper
 from railgym.vehicles.semi_active_element import (
     DT,
@@ -24,7 +25,6 @@ from railgym.vehicles.semi_active_element import (
     filtered_command,
     heldout_error,
     load_damper_element,
-    main,
     travel_memory,
 )
 from surrogates.models.checks import ModelFieldError

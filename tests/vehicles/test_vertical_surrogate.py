@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from railgym.vehicles.collect import (
-    build_memory_surrogate,
     build_vertical_surrogate,
     collect_vertical,
     default_vertical_surrogate,
 )
+from railgym.vehicles.memory_element import build_memory_surrogate
 from surrogates.memory import element_form
 from surrogates.metrics import average_absolute_error, rms_normalised_error
 
