@@ -143,7 +143,7 @@ def test_command_line_writes_loadable_elements(fe_files, capsys):
         str(nodout),
         "--rcforc",
         str(rcforc),
-        "--units",
+        "--unit-system",
         "mm-ms-kg-kN",
         "--car-nodes",
         *map(str, NODES),
