@@ -6,15 +6,15 @@ of one (:class:`BatchEnv`), the native vector env around a batch of ``num_envs``
 (:class:`BatchVectorEnv`); both share the batch, so sub-env ``i`` of ``reset(seed=s)``
 reproduces the single env reset with ``seed=s + i`` step for step.
 
-The batch contract (:class:`Batch`)
------------------------------------
+The batch contract (:class:`~railgym.envs.batch_base.ArrayBatch`)
+-----------------------------------------------------------------
 ``n``
     Number of systems.
 ``reset(i, rng, episode)``
     New episode for system ``i``: draw what is random (a track, a scenario) from ``rng``;
     ``episode`` is what the env's :meth:`BatchEnv._episode` returns (e.g. track class and
     speed).
-``reset_many(idx, rngs, episode)`` (optional)
+``reset_many(idx, rngs, episode)``
     :meth:`reset` of the systems ``idx`` (int array) with their generators ``rngs`` (a list
     in the order of ``idx``): the same result as one reset after another, free to do the
     work of several at once (the track batches synthesise the tracks on threads).
@@ -29,10 +29,10 @@ The batch contract (:class:`Batch`)
     ``info`` layout (declared once by the batch) — both as Python numbers of system ``i`` or,
     for ``i=None``, as (n,) array copies —, ``flags()`` a dict of (n,) bool arrays of events
     (``diverged``; every flag terminates the episode) and ``truncated()`` (n,) bool.
-``outcome(i)`` (optional)
+``outcome(i)``
     ``(reward, terminated, truncated, info)`` of system ``i`` after :meth:`advance`, as the
-    single env's step returns them (``info`` with ``reward_terms`` and the flags set): what the
-    shell otherwise assembles from the five reads above, in one.
+    single env's step returns them (``info`` with ``reward_terms`` and the flags set): the
+    base assembles it from the five reads above; a batch may read it in one.
 ``advance_holding(hold)`` (optional)
     :meth:`advance` of every system but those of the (n,) bool mask ``hold``, which keep the
     state, observation, ``info`` and reward their reset left; without it the shell advances
@@ -91,7 +91,7 @@ from __future__ import annotations
 import math
 import sys
 import warnings
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -103,39 +103,16 @@ from gymnasium.vector.utils import batch_space
 from railgym import _checks as val
 from railgym.envs.vector import reset_options, reset_plan
 
-__all__ = ["Batch", "BatchEnv", "BatchVectorEnv", "ResetNeeded", "check_actions", "step_grid"]
+if TYPE_CHECKING:
+    from railgym.envs.batch_base import ArrayBatch
+
+__all__ = ["BatchEnv", "BatchVectorEnv", "ResetNeeded", "check_actions", "step_grid"]
 
 
 class ResetNeeded(gym.error.ResetNeeded, RuntimeError):
     """A step before the first ``reset()`` or after the episode ended (gymnasium's
     ``ResetNeeded``, also a ``RuntimeError``): the envs enforce the order themselves, so
     ``gym.make`` adds no ``OrderEnforcing`` wrapper."""
-
-
-class Batch(Protocol):
-    """The batch simulator a shell drives (see the module docstring)."""
-
-    n: int
-    reward: np.ndarray
-    actions: np.ndarray
-
-    def reset(self, i: int, rng: np.random.Generator, episode: tuple) -> None: ...
-
-    def reset_state(self, i: int) -> None: ...
-
-    def advance(self) -> None: ...
-
-    def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray: ...
-
-    def info(self, i: int | None = None) -> dict[str, Any]: ...
-
-    def reward_terms(self, i: int | None = None) -> dict[str, Any]: ...
-
-    def flags(self) -> dict[str, np.ndarray]: ...
-
-    def truncated(self) -> np.ndarray: ...
-
-    def render_state(self, i: int) -> dict[str, Any]: ...
 
 
 def step_grid(dt: float, control_dt: float, duration: float) -> tuple[int, int]:
@@ -241,14 +218,14 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
     """Single-env shell around a batch of one (see the module docstring)."""
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 50}
-    sim: Batch
+    sim: ArrayBatch
     #: the attributes that reset options set (the env's case); their values when the shell is
     #: made are the constructor's case, to which ``options={"hold": False}`` returns
     _case_attrs: tuple[str, ...] = ()
 
     def _init_shell(
         self,
-        sim: Batch,
+        sim: ArrayBatch,
         render_mode: str | None,
         observation_space: spaces.Space,
         action_space: spaces.Box,
@@ -262,7 +239,6 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         self._shape = action_space.shape
         self._small = len(self._shape) == 1 and self._shape[0] <= _SMALL
         self._rng1: list[np.random.Generator] = []
-        self._one_read = hasattr(sim, "outcome")
         self._started = False
         self._own_case = tuple(getattr(self, a) for a in self._case_attrs)
         self._own_episode = self._episode()
@@ -279,7 +255,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         if options:
             raise ValueError(f"options: unknown reset option(s) {sorted(options)}")
 
-    def _case(self, sim: Batch, idx: np.ndarray) -> dict[str, np.ndarray]:
+    def _case(self, sim: ArrayBatch, idx: np.ndarray) -> dict[str, np.ndarray]:
         """``info["case"]`` of the systems ``idx`` of ``sim`` (this env's batch or its vector
         env's) after their reset, arrays with a first axis ``len(idx)``; ``from_options`` is
         added by the shell."""
@@ -329,7 +305,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
                 stacklevel=caller_level(),
             )
 
-    def _case_arrays(self, sim: Batch, idx: np.ndarray) -> dict[str, np.ndarray]:
+    def _case_arrays(self, sim: ArrayBatch, idx: np.ndarray) -> dict[str, np.ndarray]:
         """:meth:`_case` of the systems ``idx`` of ``sim`` with ``from_options``."""
         return {**self._case(sim, idx), "from_options": np.full(len(idx), self._case_held)}
 
@@ -344,7 +320,7 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         self.sim.reset(0, self.np_random, self._episode())
         self._rng1 = [self.np_random]
         self._started = True
-        info = self._info()
+        info = self.sim.info(0)
         info["case"] = {
             k: v[0].item() if v.ndim == 1 else v[0].copy()
             for k, v in self._case_arrays(self.sim, _ONE).items()
@@ -359,29 +335,10 @@ class BatchEnv(gym.Env[np.ndarray, np.ndarray]):
         if not (self._small and _check_small(action, self._shape, self._flat_bounds, sim.actions)):
             sim.actions[0] = check_actions(action, self._shape, *self._bounds)
         sim.advance()
-        if self._one_read:
-            reward, terminated, truncated, info = sim.outcome(0)  # type: ignore[attr-defined]
-        else:
-            reward, terminated, truncated, info = self._outcome()
+        reward, terminated, truncated, info = sim.outcome(0)
         if terminated or truncated:
             self._started = False
         return sim.observe(self._rng1, 0), reward, terminated, truncated, info
-
-    def _outcome(self) -> tuple[float, bool, bool, dict[str, Any]]:
-        """``(reward, terminated, truncated, info)`` of the step, assembled from the batch's
-        reads (the batch contract)."""
-        sim = self.sim
-        info = self._info()
-        info["reward_terms"] = sim.reward_terms(0)
-        terminated = False
-        for k, v in sim.flags().items():
-            if v[0]:
-                info[k] = terminated = True
-        truncated = not terminated and bool(sim.truncated()[0])
-        return float(sim.reward[0]), terminated, truncated, info
-
-    def _info(self) -> dict[str, Any]:
-        return self.sim.info(0)
 
     def _rows(self, a: np.ndarray) -> Any:
         """The accessors' value of a per-system array ``a`` (n, …): sub-env 0's entry, a copy
@@ -426,7 +383,7 @@ class BatchVectorEnv(VectorEnv):
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
 
-    def _init_vector(self, single_env: BatchEnv, sim: Batch, num_envs: int) -> None:
+    def _init_vector(self, single_env: BatchEnv, sim: ArrayBatch, num_envs: int) -> None:
         self.single_env = single_env
         self.num_envs = num_envs
         self.render_mode = single_env.render_mode

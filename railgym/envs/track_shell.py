@@ -6,12 +6,9 @@
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-import numba
 import numpy as np
 from gymnasium import spaces
 
@@ -37,9 +34,7 @@ __all__ = [
     "TrackVectorShell",
     "check_element_vehicle",
     "check_speed_limit",
-    "draw_tracks",
     "element_arrays",
-    "noisy_obs",
     "reward_sections",
     "track_window",
 ]
@@ -91,34 +86,6 @@ def track_window(
             f"{TRACK_BYTES / 2**30:g} GiB limit): use fewer sub-envs or a shorter duration",
         )
     return window
-
-
-def draw_tracks(rows: np.ndarray, move: Callable[[int], None]) -> None:
-    """``move(i)`` for each sub-env ``i`` in ``rows`` (draw its track: a reset's, or in
-    chunked mode a window again), on numba's number of threads: a track is two inverse FFTs
-    of the episode, during which numpy releases the GIL, and each call writes only its own
-    rows, so the result does not depend on the threads."""
-    threads = min(numba.get_num_threads(), len(rows))
-    if threads <= 1:
-        for i in rows:
-            move(int(i))
-        return
-    with ThreadPoolExecutor(threads) as pool:
-        for _ in pool.map(move, [int(i) for i in rows]):
-            pass
-
-
-def noisy_obs(
-    obs: np.ndarray, noise: float, rngs: list[np.random.Generator], i: int | None = None
-) -> np.ndarray:
-    """The observations ``obs`` (n, n_obs) as float32 with Gaussian sensor noise of standard
-    deviation ``noise`` (in units of the normalised channels) drawn from the per-env ``rngs``;
-    with ``i`` row ``i`` alone (n_obs,), its noise from ``rngs[0]``."""
-    rows = obs if i is None else obs[i]
-    if noise > 0:
-        draws = [g.standard_normal(obs.shape[1]) for g in rngs]
-        rows = rows + noise * (np.stack(draws) if i is None else draws[0])
-    return rows.astype(np.float32)
 
 
 def reward_sections(acc_weighting: str, control_dt: float) -> np.ndarray:

@@ -108,5 +108,5 @@ def test_outcome_of_each_row_equals_the_reads_it_replaces(env_id):
     base = env.unwrapped
     assert isinstance(base, BatchEnv)
     _, reward, terminated, truncated, info = env.step(np.full(env.action_space.shape, 0.5))
-    assert (reward, terminated, truncated) == base._outcome()[:3]
-    assert info == base._outcome()[3]
+    assert (reward, terminated, truncated) == base.sim.outcome(0)[:3]
+    assert info == base.sim.outcome(0)[3]

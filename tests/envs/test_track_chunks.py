@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+import railgym.envs.batch_base as batch_base
 import railgym.envs.track_shell as track_shell
 import railgym.envs.vehicle.batch as vehicle_batch
 import railgym.envs.vertical.batch as vertical_batch
@@ -285,8 +286,8 @@ def test_draw_tracks_runs_concurrently() -> None:
 
     fake = SimpleNamespace(get_num_threads=lambda: 2)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(track_shell, "numba", fake)
-        track_shell.draw_tracks(np.arange(7), move)
+        mp.setattr(batch_base, "numba", fake)
+        batch_base.draw_tracks(np.arange(7), move)
     assert sorted(moved) == list(range(7))
 
 
@@ -309,7 +310,7 @@ def test_tracks_on_threads_equal_serial(
     runs = []
     for threads in (1, 4):
         monkeypatch.setattr(
-            track_shell, "numba", SimpleNamespace(get_num_threads=lambda t=threads: t)
+            batch_base, "numba", SimpleNamespace(get_num_threads=lambda t=threads: t)
         )
         runs.append(_rollout(env_id, 6, 150, {"duration": 1.0}))
     (serial, comfort, _), (threaded, comfort_t, _) = runs

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from railgym.envs.batch_base import ArrayBatch
 from railgym.envs.compiled import compiled_entry
 from railgym.envs.crash.layout import (
     ENV_FIELDS,
@@ -37,7 +38,7 @@ from railgym.vehicles.crash.outputs import PARALLEL_MIN, CrashOutputs
 __all__ = ["CrashBatch"]
 
 
-class CrashBatch:
+class CrashBatch(ArrayBatch):
     """``n`` trains, stepped by one compiled kernel call of a :class:`CrashModel`.
 
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there). It
@@ -45,6 +46,8 @@ class CrashBatch:
     quantities of :class:`~railgym.envs.crash.env.TrainCrashEnv`. ``reset`` draws the episode's
     initial speed and payload (:meth:`draw`); ``reset_state`` restarts the same episode.
     """
+
+    REWARD_TERMS = REWARD_TERMS
 
     def __init__(self, n: int, cfg: CrashParams, model: CrashModel) -> None:
         self.n, self.cfg, self.model = n, cfg, model
@@ -96,7 +99,7 @@ class CrashBatch:
         self.actions = np.zeros((n, self.n_zones))
         self._all = np.ones(n, np.bool_)
         self._one = np.zeros(n, np.bool_)  # the train of reset_state
-        self._bind()
+        self._link()
         # undeformed front end of each car at first contact (lead car at the wall), m
         self.lengths = lengths
         self.front0 = -np.concatenate(([0.0], np.cumsum(lengths[:-1])))
@@ -120,7 +123,7 @@ class CrashBatch:
         o, r, c = (int(v) for v in self._fields[f])
         return self._buf[o : o + r * max(c, 1)].reshape((r, c) if c else (r,))
 
-    def _bind(self) -> None:
+    def _link(self) -> None:
         """Named views of the buffer and the kernel arguments (again after a copy: a pickled
         view is a detached array)."""
         views = [self._view(f) for f in range(self._fields.shape[0])]
@@ -158,16 +161,12 @@ class CrashBatch:
     payload = property(lambda self: self.episode.payload)
     obs = property(lambda self: self.episode.obs)
     reward = property(lambda self: self.episode.reward)
+    _terms = property(lambda self: self.episode.terms)
+    #: True where the episode reached ``max_duration``
+    _truncated = property(lambda self: self.steps >= self.cfg.n_steps)
     div = property(lambda self: self.episode.div)
     over = property(lambda self: self.episode.over)
     steps = property(lambda self: self.episode.steps)
-
-    def __getstate__(self) -> dict[str, Any]:
-        return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self._bind()
 
     # the batch contract of railgym.envs.base ------------------------------------------
     def draw(self, rng: np.random.Generator, episode: tuple[Any, Any]) -> tuple[float, np.ndarray]:
@@ -193,10 +192,6 @@ class CrashBatch:
         if fixed_payload is not None:
             payload = np.array(fixed_payload, dtype=np.float64)
         return v, payload
-
-    def reset(self, i: int, rng: np.random.Generator, episode: tuple[Any, Any]) -> None:
-        """Train ``i`` at first contact on a new episode (:meth:`draw`)."""
-        self.reset_many(np.array([i]), [rng], episode)
 
     def reset_many(
         self, idx: np.ndarray, rngs: list[np.random.Generator], episode: tuple[Any, Any]
@@ -234,20 +229,6 @@ class CrashBatch:
         left them)."""
         self._kernel(*self._args, self.actions, ~hold, False)
 
-    def flags(self) -> dict[str, np.ndarray]:
-        """Events that end the episode: ``crash_over`` (no zone loaded or closing: every car
-        at rest or rebounding away) and ``diverged``."""
-        return self._flags
-
-    def truncated(self) -> np.ndarray:
-        """True where the episode reached ``max_duration``."""
-        return self.steps >= self.cfg.n_steps
-
-    def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray:
-        """Observations (n, n_obs), float32 (no sensor noise); with ``i`` train ``i``'s
-        (n_obs,)."""
-        return (self.obs if i is None else self.obs[i]).astype(np.float32)
-
     def info(self, i: int | None = None) -> dict[str, Any]:
         """``info`` of train ``i`` (floats, bools and 1-D arrays) or of all (arrays, first axis
         the train), from one fresh copy of the flat rows (``docs/envs/crash.md``)."""
@@ -260,14 +241,6 @@ class CrashBatch:
         bits = row != 0.0
         srcs = (row.tolist(), bits.tolist(), row, bits)
         return {key: srcs[kind][ix] for key, kind, ix in self._info_fields}
-
-    def reward_terms(self, i: int | None = None) -> dict[str, Any]:
-        """Reward terms (:data:`REWARD_TERMS`) of train ``i`` (floats) or of all ((n,)
-        arrays); they sum to the reward (to rounding)."""
-        terms = self.episode.terms
-        if i is not None:
-            return dict(zip(REWARD_TERMS, terms[i].tolist(), strict=True))
-        return {key: terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
 
     def render_state(self, i: int) -> dict[str, Any]:
         """What :func:`railgym.envs.crash.render.render_crash` draws for train ``i``."""

@@ -21,9 +21,10 @@ from scipy import signal
 
 from railgym import _checks as val
 from railgym.comfort import WeightingFilter, sperling_wz, window_rms_p95
+from railgym.envs.batch_base import TrackBatch, draw_tracks
 from railgym.envs.compiled import DIVERGENCE_PENALTY, compiled_entry, settle_reward, weigh
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import draw_tracks, noisy_obs, reward_sections, track_window
+from railgym.envs.track_shell import reward_sections, track_window
 from railgym.profile import profile_time_input
 from railgym.track import fra_profile_window, fra_profile_with_slope
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -329,7 +330,7 @@ def _new_book(
     )
 
 
-class VehicleBatch:
+class VehicleBatch(TrackBatch):
     """``n`` whole vehicles, each on its own track, stepped by one compiled call.
 
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there).
@@ -341,6 +342,12 @@ class VehicleBatch:
     the law of the controllable dampers of ``actuator="semi-active"`` (``None``: the actuator
     forces).
     """
+
+    REWARD_TERMS = REWARD_TERMS
+    _VIEWS = (
+        *("reward", "obs", "_terms", "_truncated", "extrapolated", "_flags", "_info_scalars"),
+        *("dampers", "_args", "_step"),
+    )
 
     def __init__(
         self,
@@ -370,10 +377,7 @@ class VehicleBatch:
         rows = INFO_ROW if damper is None else SEMI_ACTIVE_INFO_ROW
         held, rec_steps, rec_dtype = self._storage(n, sos, rows)
         self.arrays, self.out = new_arrays(n, cfg.variant, held, self.lpr, damper is not None)
-        #: what a track is drawn from: the seed of each FRA episode and the profile of each
-        #: measured one
-        self._seeds = np.zeros(n, np.int64)
-        self._profiles: list[Any] = [None] * n
+        self._episodes(n)
         fs = 1.0 / cfg.control_dt
         self.wk = WeightingFilter(fs, "Wk", lowpass=False)
         self.wb = WeightingFilter(fs, "Wb", lowpass=False)
@@ -389,9 +393,6 @@ class VehicleBatch:
             preview_frac=self._preview_fractions(),
             semi_active=damper is not None,
         )
-        self.speed = np.zeros(n)
-        self.track_class = np.zeros(n, np.int64)
-        self.measured = np.zeros(n, np.bool_)  # the episode runs a measured or user profile
         self.envelope = envelope
         self._envelope_check = EnvelopeCheck(envelope, "VerticalVehicle")
         #: per step: an element evaluation was outside the training box (``outside_element``)
@@ -437,7 +438,8 @@ class VehicleBatch:
 
     def _link(self) -> None:
         """Views and the compiled entry point (re-made after a copy: not picklable)."""
-        self.reward = self.book.rew
+        self.reward, self.obs, self._terms = self.book.rew, self.book.obs, self.book.terms
+        self._truncated = self.book.truncated
         #: float64 (n, 2) the actions of the next step (the batch contract)
         self.actions = self.book.action
         self.extrapolated = self.book.extrapolated
@@ -467,69 +469,27 @@ class VehicleBatch:
         )
         self._step = compiled_entry(control_step, self._args)
 
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        for key in (
-            "reward",
-            "extrapolated",
-            "_flags",
-            "_info_scalars",
-            "dampers",
-            "_args",
-            "_step",
-        ):
-            del state[key]
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self._link()
-
-    def reset(
+    def _start(
         self, i: int, rng: np.random.Generator, episode: tuple[int, tuple[float, float], Any]
     ) -> None:
-        """New track for vehicle ``i``; ``episode`` is ``(track_class, (v_min, v_max),
-        profile)``: speed drawn uniformly in the range (when not a single value), then a
-        seeded FRA profile (``profile=None``) or the given ``(x, z)``; state at rest."""
-        self.reset_many(np.array([i]), [rng], episode)
-
-    def reset_many(
-        self,
-        idx: np.ndarray,
-        rngs: list[np.random.Generator],
-        episode: tuple[int, tuple[float, float], Any],
-    ) -> None:
-        """:meth:`reset` of the vehicles ``idx`` with their ``rngs``: speeds and seeds drawn
-        one after another, the tracks synthesised on numba's threads (each into its own rows,
-        so the values are those of one reset after another)."""
+        """Vehicle ``i``'s episode ``(track_class, (v_min, v_max), profile)``: speed drawn
+        uniformly in the range (when not a single value), then a seeded FRA profile
+        (``profile=None``) or the given ``(x, z)``."""
         cfg = self.cfg
         track_class, (lo, hi), profile = episode
-        for i, rng in zip(idx, rngs, strict=True):
-            v = lo if lo == hi else float(rng.uniform(lo, hi))
-            if v < self.v_min:
-                raise val.FieldError(
-                    "speed", f"{v} m/s is below the {self.v_min} m/s the env was made for"
-                )
-            self.speed[i], self.track_class[i] = v, track_class
-            self.measured[i] = profile is not None
-            self._profiles[i] = profile
-            self._seeds[i] = 0
-            if profile is None:
-                self._seeds[i] = int(rng.integers(2**63 - 1))
-                check_band_speed(cfg.band, v, cfg.dt)
-            self.arrays.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
-            self.arrays.force[i] = 0.0
-        draw_tracks(idx, self._draw_track)
-        for i in idx:
-            self.reset_state(i)
+        v = lo if lo == hi else float(rng.uniform(lo, hi))
+        if v < self.v_min:
+            raise val.FieldError(
+                "speed", f"{v} m/s is below the {self.v_min} m/s the env was made for"
+            )
+        self._set_episode(i, rng, track_class, v, profile)
+        if profile is None:
+            check_band_speed(cfg.band, v, cfg.dt)
+        self.arrays.off[i] = wheelset_offsets(self.vehicle, v, cfg.dt)
+        self.arrays.force[i] = 0.0
 
-    def _draw_track(self, i: int) -> None:
-        """Vehicle ``i``'s track from its episode's seed or profile: the whole track, or in
-        chunked mode its first window."""
-        if self.window is None:
-            self.arrays.z[i], self.arrays.zdot[i] = self._episode_track(i)
-        else:
-            self._fill(i, 0)
+    def _track(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.arrays.z, self.arrays.zdot
 
     def _fill(self, i: int, start: int) -> None:
         """Chunked mode: vehicle ``i``'s window from episode sample ``start`` on (the
@@ -565,13 +525,6 @@ class VehicleBatch:
         late = np.flatnonzero((ahead > held - 1) & (arrays.start < self.n_samples - held))
         draw_tracks(late, lambda i: self._fill(i, min(int(arrays.k[i]), self.n_samples - held)))
 
-    def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        """Vehicle ``i``'s whole episode track ``(z, zdot)`` on the rear wheelset's time grid
-        (m, m/s): copies of the held arrays, or in chunked mode drawn again."""
-        if self.window is None:
-            return self.arrays.z[i].copy(), self.arrays.zdot[i].copy()
-        return self._episode_track(i)
-
     def _episode_track(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s whole episode track ``(z, zdot)`` on the rear wheelset's time grid
         (m, m/s) drawn from its seed or profile."""
@@ -598,30 +551,13 @@ class VehicleBatch:
         self.off_envelope[i] = self._outside_envelope(i)
         _observe(arrays, out, self.params, self.step_consts, book, i)
 
-    def _outside_envelope(self, i: int) -> bool:
-        """Whether vehicle ``i``'s episode is outside :attr:`envelope`; warns the first time."""
-        return self._envelope_check(
-            int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
-        )
-
     def advance(self) -> None:
         """One control step of every vehicle with :attr:`actions` (``action · f_max``, N, or
         with dampers their commands; one compiled call; in
         chunked mode the windows the step would run past are moved first)."""
-        if self.window is not None:
-            self._cover_step()
-        self._step(*self._args)
+        super().advance()
         # the step had an element evaluation (any RK4 stage, either bogie) outside the box
         np.greater(self.out.count[:, 1], 0, out=self.outside)
-
-    def flags(self) -> dict[str, np.ndarray]:
-        """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of
-        its box under the ``"raise"`` extrapolation policy)."""
-        return self._flags
-
-    def truncated(self) -> np.ndarray:
-        """True where the episode reached ``duration``."""
-        return self.book.truncated
 
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_LAYOUT` (with dampers also :data:`SEMI_ACTIVE_INFO_LAYOUT`) of
@@ -643,19 +579,6 @@ class VehicleBatch:
             else (row[INFO_COLUMNS[key]] if shape else kind(scalars[key][i]))
             for key, shape, kind in layout
         }
-
-    def reward_terms(self, i: int | None = None) -> dict[str, Any]:
-        """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to
-        the reward."""
-        if i is not None:  # a dict display: the single env builds this every step
-            acc, defl, force, div = self.book.terms[i].tolist()
-            return {"acceleration": acc, "deflection": defl, "force": force, "divergence": div}
-        return {key: self.book.terms[:, j].copy() for j, key in enumerate(REWARD_TERMS)}
-
-    def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray:
-        """Observations (n, n_obs) float32, plus sensor noise from the per-env ``rngs``; with
-        ``i`` vehicle ``i``'s (n_obs,), its noise from ``rngs[0]``."""
-        return noisy_obs(self.book.obs, self.cfg.sensor_noise, rngs, i)
 
     def comfort(self, i: int) -> dict[str, np.ndarray]:
         """:func:`episode_comfort` of vehicle ``i``'s record so far."""

@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
+from railgym.envs.batch_base import TrackBatch, draw_tracks
 from railgym.envs.compiled import (
     DIVERGENCE_PENALTY,
     OBS_LIMIT,
@@ -26,7 +27,7 @@ from railgym.envs.compiled import (
     weigh,
 )
 from railgym.envs.params import TrackEnvParams, consts
-from railgym.envs.track_shell import draw_tracks, noisy_obs, reward_sections, track_window
+from railgym.envs.track_shell import reward_sections, track_window
 from railgym.profile import profile_time_input
 from railgym.track import track_time_input, track_time_window
 from railgym.vehicles.element_envelope import EnvelopeCheck, OperatingEnvelope
@@ -298,7 +299,7 @@ def _info_dict(values: list[float]) -> dict[str, Any]:
     return info
 
 
-class VerticalBatch:
+class VerticalBatch(TrackBatch):
     """``n`` vertical vehicles, each on its own track, stepped by one compiled kernel call.
 
     Not a Gymnasium object: the batch of :mod:`railgym.envs.base` (its contract is there).
@@ -308,6 +309,8 @@ class VerticalBatch:
     ``info["outside_envelope"]`` and the warning of the first episode outside it. ``damper``:
     the controllable damper of ``actuator="semi-active"`` (``None``: the actuator force).
     """
+
+    REWARD_TERMS = REWARD_TERMS
 
     def __init__(
         self,
@@ -330,10 +333,7 @@ class VerticalBatch:
         #: samples of an episode's track, t_k = k·dt
         self.n_samples = cfg.n_steps * cfg.n_sub + 1
         self._track_storage(n)
-        #: what a track is drawn from: the seed of each FRA episode and the profile of each
-        #: measured one
-        self._seeds = np.zeros(n, np.int64)
-        self._profiles: list[Any] = [None] * n
+        self._episodes(n)
         self.state = initial_state(cfg.variant, n, lpr, semi_active)
         self.work = scalar_work(self.state.shape[1], lpr)
         #: float64 (n, 1) the actions of the next step (the batch contract)
@@ -343,9 +343,6 @@ class VerticalBatch:
         ints = {k: np.zeros(n, np.int64) for k in ("k", "steps", "contacts", "ood")}
         sos = reward_sections(cfg.acc_weighting, cfg.control_dt)
         self.cnt = Counters(**ints, acc_sq=np.zeros(n), zi=np.zeros((n, sos.shape[0], 2)))
-        self.track_class = np.zeros(n, np.int64)
-        self.speed = np.zeros(n)
-        self.measured = np.zeros(n, np.bool_)  # the episode runs a measured or user profile
         self.envelope = envelope
         self._envelope_check = EnvelopeCheck(envelope, "VerticalSuspension")
         self.inv_scale = 1.0 / cfg.obs_scale
@@ -409,7 +406,7 @@ class VerticalBatch:
         self.k, self.steps, self.contacts, self.ood = cnt.k, cnt.steps, cnt.contacts, cnt.ood
         self.acc_sq, self.obs, self.rew, self.terms = cnt.acc_sq, res.obs, res.reward, res.terms
         self.info_rows, self.trunc, self.extrapolated = res.info, res.truncated, res.extrapolated
-        self.reward = self.rew
+        self.reward, self._terms, self._truncated = self.rew, self.terms, self.trunc
         self._flags = {"diverged": self.div, "extrapolated": self.extrapolated}
         self._args = (
             self.state,
@@ -428,44 +425,14 @@ class VerticalBatch:
         )
         self._step = compiled_entry(control_step, self._args)
 
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        del state["_args"], state["_step"]
-        return state
+    def _start(self, i: int, rng: np.random.Generator, episode: tuple[int, float, Any]) -> None:
+        """Vehicle ``i``'s episode ``(track_class, speed, profile)``: a seeded FRA track (seed
+        drawn from ``rng``) for ``profile=None``, else the given ``(x, z)`` (m) from its first
+        point on."""
+        self._set_episode(i, rng, *episode)
 
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self._link()
-
-    def reset(self, i: int, rng: np.random.Generator, episode: tuple[int, float, Any]) -> None:
-        """New track for vehicle ``i``, state at rest; ``episode`` is ``(track_class, speed,
-        profile)``: a seeded FRA track (seed drawn from ``rng``) for ``profile=None``, else
-        the given ``(x, z)`` (m) from its first point on."""
-        self.reset_many(np.array([i]), [rng], episode)
-
-    def reset_many(
-        self, idx: np.ndarray, rngs: list[np.random.Generator], episode: tuple[int, float, Any]
-    ) -> None:
-        """:meth:`reset` of the vehicles ``idx`` with their ``rngs``: the seeds drawn one
-        after another, the tracks synthesised on numba's threads (each into its own rows, so
-        the values are those of one reset after another)."""
-        track_class, speed, profile = episode
-        for i, rng in zip(idx, rngs, strict=True):
-            self.track_class[i], self.speed[i] = track_class, speed
-            self.measured[i] = profile is not None
-            self._seeds[i] = 0 if profile is not None else int(rng.integers(2**63 - 1))
-            self._profiles[i] = profile
-        draw_tracks(idx, self._draw_track)
-        for i in idx:
-            self.reset_state(i)
-
-    def _draw_track(self, i: int) -> None:
-        """Vehicle ``i``'s track from its episode's seed or profile: the whole track, or in
-        chunked mode its first window."""
-        if self.window is None:
-            self.z[i], self.zdot[i] = self._episode_track(i)
-        else:
-            self._fill(i, 0)
+    def _track(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.z, self.zdot
 
     def _fill(self, i: int, start: int) -> None:
         """Chunked mode: vehicle ``i``'s window from episode sample ``start`` on (the
@@ -504,13 +471,6 @@ class VerticalBatch:
             self.k[i] = at - start
 
         draw_tracks(late, move)
-
-    def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        """Vehicle ``i``'s whole episode track ``(z, zdot)`` (m, m/s): copies of the held
-        arrays, or in chunked mode drawn again."""
-        if self.window is None:
-            return self.z[i].copy(), self.zdot[i].copy()
-        return self._episode_track(i)
 
     def _episode_track(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Vehicle ``i``'s whole episode track ``(z, zdot)`` (m, m/s) drawn from its seed or
@@ -554,29 +514,6 @@ class VerticalBatch:
             c.semi_active,
         )
 
-    def _outside_envelope(self, i: int) -> bool:
-        """Whether vehicle ``i``'s episode is outside :attr:`envelope`; warns the first time."""
-        return self._envelope_check(
-            int(self.track_class[i]), float(self.speed[i]), bool(self.measured[i])
-        )
-
-    def advance(self) -> None:
-        """One control step of every vehicle with :attr:`actions` (``action · f_max``, N, or with
-        a damper its command; one compiled call; in
-        chunked mode the windows the step would run past are moved first)."""
-        if self.window is not None:
-            self._cover_step()
-        self._step(*self._args)
-
-    def flags(self) -> dict[str, np.ndarray]:
-        """Events that end the episode: ``diverged``; ``extrapolated`` (surrogate input out of
-        its box under the ``"raise"`` extrapolation policy)."""
-        return self._flags
-
-    def truncated(self) -> np.ndarray:
-        """True where the episode reached ``duration``."""
-        return self.trunc
-
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_KEYS` (with a damper also :data:`SEMI_ACTIVE_INFO_KEYS`) of vehicle
         ``i`` (Python numbers), or of all ((n,) arrays)."""
@@ -609,18 +546,6 @@ class VerticalBatch:
         if extrapolated:
             info["extrapolated"] = terminated = True
         return reward, terminated, not terminated and truncated != 0.0, info
-
-    def reward_terms(self, i: int | None = None) -> dict[str, Any]:
-        """Weighted reward terms of vehicle ``i`` (floats) or of all ((n,) arrays); they sum to
-        the reward."""
-        if i is not None:  # the single env's step reads them with the outcome (outcome(i))
-            return dict(zip(REWARD_TERMS, self.terms[i].tolist(), strict=True))
-        return dict(zip(REWARD_TERMS, self.terms.T.copy(), strict=True))
-
-    def observe(self, rngs: list[np.random.Generator], i: int | None = None) -> np.ndarray:
-        """Observations (n, n_obs) float32, plus sensor noise drawn from the per-env ``rngs``;
-        with ``i`` vehicle ``i``'s (n_obs,), its noise from ``rngs[0]``."""
-        return noisy_obs(self.obs, self.cfg.sensor_noise, rngs, i)
 
     def time(self) -> np.ndarray:
         """Simulated time of each vehicle, s."""

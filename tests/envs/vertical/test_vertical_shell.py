@@ -15,7 +15,7 @@ from scipy import signal
 
 from railgym.comfort import WeightingFilter
 from railgym.envs.base import _check_small, check_actions
-from railgym.envs.track_shell import noisy_obs
+from railgym.envs.batch_base import noisy_obs
 from railgym.envs.vertical.batch import REWARD_TERMS
 from railgym.envs.vertical.env import (
     ACC_REF,
