@@ -103,7 +103,7 @@ def _notice_once() -> None:
     front of gymnasium's; a filter the user adds later still goes first)."""
     if not any(isinstance(f[1], _SeenOutdated) for f in warnings.filters):
         entry = ("ignore", _SeenOutdated(), DeprecationWarning, None, 0)
-        warnings.filters.insert(0, entry)  # type: ignore[arg-type]
+        warnings.filters.insert(0, entry)  # type: ignore[attr-defined]  # a list at run time
 
 
 def register_envs() -> None:
