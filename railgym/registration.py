@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import re
+import warnings
+
 from gymnasium.envs.registration import register, registry
 
 ENVS = {
@@ -62,8 +65,51 @@ def env_family(env_id: str) -> str:
     return env_id.rsplit("-v", 1)[0]
 
 
+def newest(env_id: str) -> str:
+    """The id of the newest registered version of the env of ``env_id`` (an id or a family,
+    ``railgym/VerticalSuspension-v1`` or ``railgym/VerticalSuspension``); ValueError for an
+    env that railgym does not register."""
+    family = env_family(env_id) if re.search(r"-v\d+$", env_id) else env_id
+    versions = [int(e.rsplit("-v", 1)[1]) for e in ENVS if env_family(e) == family]
+    if not versions:
+        raise ValueError(f"{env_id} is no railgym env; railgym registers {', '.join(ENVS)}")
+    return f"{family}-v{max(versions)}"
+
+
+class _SeenOutdated:
+    """The message pattern of a warnings filter that lets gymnasium's notice "The environment
+    railgym/X-vN is out of date" through the first time for each id and matches it (so that
+    the filter's ``ignore`` drops it) every later time. Gymnasium's own ``once`` filter repeats
+    the notice whenever any filter changes between two ``gym.make`` calls (Python then clears
+    its once-registry; a lazy import of scipy does so on the first make)."""
+
+    pattern = re.compile(r".*The environment (railgym/\S+) is out of date")
+
+    def __init__(self) -> None:
+        self.seen: set[str] = set()
+
+    def match(self, text: str) -> bool:
+        m = self.pattern.match(text)
+        if m is None:
+            return False
+        if m.group(1) in self.seen:
+            return True
+        self.seen.add(m.group(1))
+        return False
+
+
+def _notice_once() -> None:
+    """Gymnasium's out-of-date notice of a railgym id at most once per process (a filter in
+    front of gymnasium's; a filter the user adds later still goes first)."""
+    if not any(isinstance(f[1], _SeenOutdated) for f in warnings.filters):
+        entry = ("ignore", _SeenOutdated(), DeprecationWarning, None, 0)
+        warnings.filters.insert(0, entry)  # type: ignore[attr-defined]  # a list at run time
+
+
 def register_envs() -> None:
-    """Register every railgym environment once (idempotent)."""
+    """Register every railgym environment once (idempotent); gymnasium's notice that an id is
+    out of date is shown at most once per id and process."""
+    _notice_once()
     for env_id, (entry, vector_entry) in ENVS.items():
         if env_id not in registry:
             # no OrderEnforcing wrapper: the envs refuse a step before reset themselves

@@ -190,14 +190,15 @@ def canonical_name(name: str) -> str:
 
 
 def baselines_of(env_id: str, env_kwargs: dict[str, Any]) -> tuple[str, ...]:
-    """The baseline names of a config of ``env_id`` with ``env_kwargs``: :data:`BASELINES`,
-    :data:`SEMI_ACTIVE_BASELINES` for ``actuator: semi-active``, :data:`PREVIEW_BASELINES` for
-    a vehicle with ``preview``."""
-    if env_id == ENV_ID and env_kwargs.get("actuator") == "semi-active":
+    """The baseline names of a config of ``env_id`` (any version) with ``env_kwargs``:
+    :data:`BASELINES`, :data:`SEMI_ACTIVE_BASELINES` for ``actuator: semi-active``,
+    :data:`PREVIEW_BASELINES` for a vehicle with ``preview``."""
+    family = env_family(env_id)  # any version of the env
+    if family == env_family(ENV_ID) and env_kwargs.get("actuator") == "semi-active":
         return SEMI_ACTIVE_BASELINES
-    if env_id == VEHICLE_ID and env_kwargs.get("preview"):
+    if family == env_family(VEHICLE_ID) and env_kwargs.get("preview"):
         return PREVIEW_BASELINES
-    return BASELINES[env_id]
+    return next(names for e, names in BASELINES.items() if env_family(e) == family)
 
 
 def crash_factories(names: Iterable[str] | None = None) -> dict[str, Callable[[Any], Any]]:

@@ -68,6 +68,7 @@ from agents.training.train_config import MAX_SEED, load_config
 from railgym import _checks as val
 from railgym.parallel import run_tasks
 from railgym.progress import quiet
+from railgym.registration import env_family
 from railgym.report.output import prepare_output_dir, write_text_atomic
 from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
 
@@ -98,10 +99,18 @@ FLOOR = ("front", "centre", "rear")
 CRASH_KEYS = ("scenario", "control_dt", "absorber_range", "absorber_rate", "n_cars")
 
 
+def _key(env_id: str) -> str:
+    """The key of the env of ``env_id`` (any version of it) in this module's tables."""
+    family = env_family(env_id)
+    return next((e for e in (ENV_ID, VEHICLE_ID, CRASH_ID) if env_family(e) == family), env_id)
+
+
 def _baseline_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
     """The settings of ``env_kwargs`` the baselines share with the agent: :data:`CRASH_KEYS`
     (crash), :data:`ACTUATOR_KEYS` (vertical), :data:`VEHICLE_KEYS` (vehicle)."""
-    keys = {CRASH_ID: CRASH_KEYS, ENV_ID: ACTUATOR_KEYS, VEHICLE_ID: VEHICLE_KEYS}.get(env_id, ())
+    keys = {CRASH_ID: CRASH_KEYS, ENV_ID: ACTUATOR_KEYS, VEHICLE_ID: VEHICLE_KEYS}.get(
+        _key(env_id), ()
+    )
     return {k: v for k, v in env_kwargs.items() if k in keys}
 
 
@@ -170,17 +179,29 @@ def held_out(
     backend; ``label`` renames the zip's rows (``seed``: the training seed, ``None`` for
     baselines); ``env_kwargs``: env settings of the crash and vertical baselines
     (:func:`_baseline_kwargs`; a zip's own come from its config)."""
-    if env_id == ENV_ID:
+    key = _key(env_id)
+    if key == ENV_ID:
         rows = _vertical_rows(
             evaluate_sweep(
-                policies, "reference", HELD_OUT[env_id], episodes, env_kwargs=env_kwargs
+                policies,
+                "reference",
+                HELD_OUT[key],
+                episodes,
+                env_kwargs=env_kwargs,
+                env_id=env_id,
             ),
             seed,
         )
-    elif env_id == VEHICLE_ID:
+    elif key == VEHICLE_ID:
         rows = _vehicle_rows(
             evaluate_vehicle(
-                policies, "reference", HELD_OUT[env_id], (None,), episodes, env_kwargs=env_kwargs
+                policies,
+                "reference",
+                HELD_OUT[key],
+                (None,),
+                episodes,
+                env_kwargs=env_kwargs,
+                env_id=env_id,
             ),
             seed,
         )
@@ -234,7 +255,7 @@ def _baseline_curve_values(cfg: Any) -> dict[str, float]:
     from agents.training.train import evaluate as run_eval
     from agents.training.train import make_vec
 
-    column, how, _ = CURVES[cfg.env_id]
+    column, how, _ = CURVES[_key(cfg.env_id)]
     out = {}
     for name in baselines_of(cfg.env_id, cfg.env_kwargs):
         extra: dict[str, Any] = {}
@@ -262,7 +283,7 @@ def curve_figure(out: Path, cfg: Any, seeds: Sequence[int], baselines: dict[str,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    column, how, label = CURVES[cfg.env_id]
+    column, how, label = CURVES[_key(cfg.env_id)]
     curves = [_curve(out / f"seed_{s}" / "eval.csv", column, how) for s in seeds]
     n = min(len(c[0]) for c in curves)
     steps = curves[0][0][:n] * cfg.action_hold  # eval.csv counts decisions

@@ -11,7 +11,8 @@ over the held-out impact envelope beside the crash baselines.
     railgym evaluate clipped-lqg skyhook-onoff groundhook --actuator semi-active
 
 ``--env-id ID`` (or ``--env-version N``) runs the episodes on that registered version of the
-env of ``--env`` (default ``-v1``; the table's header names the id).
+env of ``--env`` (default: its newest version, ``VerticalSuspension-v3``, ``VerticalVehicle-v3``,
+``TrainCrash-v1``; the table's header names the id).
 
 Without ``--actuator`` the command takes the actuator a trained policy was trained with (its
 run's settings; e.g. ``ppo-semiactive``: the damper), so that its comparison rows run on the
@@ -100,6 +101,7 @@ from agents.policies.loading import load_policy, trained_actuator
 from agents.policies.pretrained import PRETRAINED
 from railgym import _checks as val
 from railgym.progress import bar
+from railgym.registration import newest
 from surrogates.cli_flags import add_deprecated
 
 __all__ = [
@@ -115,8 +117,11 @@ __all__ = [
 ]
 
 
-#: the env id of each ``--env`` without ``--env-id`` / ``--env-version``
-ENV_IDS = {"vertical": ENV_ID, "vehicle": VEHICLE_ID, "crash": CRASH_ID}
+#: the env id of each ``--env`` without ``--env-id`` / ``--env-version``: its newest version
+ENV_IDS = {
+    env: newest(env_id)
+    for env, env_id in {"vertical": ENV_ID, "vehicle": VEHICLE_ID, "crash": CRASH_ID}.items()
+}
 
 
 def _aligned(columns: Sequence[tuple[str, str, int]], cells: list[list[str]]) -> str:

@@ -38,6 +38,7 @@ from agents.controllers.registry import ENV_ID
 from agents.policies.loading import load_policy
 from railgym.comfort import WeightingFilter, weighted_rms
 from railgym.progress import bar
+from railgym.track_stream import stream_samples
 from railgym.vehicles.vertical.kernels import StepOutputs, advance_semi_active, step_outputs
 
 __all__ = [
@@ -68,16 +69,17 @@ def closed_loop(
     seed: int,
     duration: float,
     discard: float = DISCARD_S,
+    env_id: str = ENV_ID,
     **env_kwargs: Any,
 ) -> dict[str, Any]:
     """One closed-loop episode of controller ``policy`` (a ``railgym evaluate`` name) on the
-    track of ``seed``: its commands ``u`` (N,) as the env applied them, carbody acceleration
-    ``acc`` (N,) in m/s², ``a_w`` (m/s², the first ``discard`` s left out) and ``contacts``
-    (bump-stop substeps)."""
-    factory, needs, _ = load_policy(policy, ENV_ID)
+    track of ``seed`` of ``env_id``: its commands ``u`` (N,) as the env applied them, carbody
+    acceleration ``acc`` (N,) in m/s², ``a_w`` (m/s², the first ``discard`` s left out) and
+    ``contacts`` (bump-stop substeps)."""
+    factory, needs, _ = load_policy(policy, env_id)
     kwargs = {**ENV_KWARGS, **needs, **env_kwargs}
     venv = gym.make_vec(
-        ENV_ID,
+        env_id,
         num_envs=1,
         vectorization_mode="vector_entry_point",
         track_class=track_class,
@@ -108,6 +110,24 @@ def closed_loop(
     }
 
 
+def whole_track(sim: Any, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Vehicle 0's track input ``(z, zdot)`` (1, ``n_samples``) in m and m/s from the start of
+    its episode (``sim`` just reset): the whole arrays of the earlier versions, or on a
+    streamed track (``VerticalSuspension-v3``) the held window followed by the samples its
+    stream generates next, as the env's windows would hold them."""
+    win = getattr(sim, "win", None)
+    if win is None:
+        return sim.z, sim.zdot
+    if win.start[0] != 0 or win.shift[0] != 0.0 or win.measured[0]:
+        raise ValueError("the streamed track must be a one-wheelset FRA track at its start")
+    held = int(win.end[0])
+    gen = type(sim.gen)(*(a[:1].copy() for a in sim.gen))
+    z, zdot = np.empty((1, n_samples)), np.empty((1, n_samples))
+    z[0, :held], zdot[0, :held] = sim.z[0, :held], sim.zdot[0, :held]
+    stream_samples(gen, 0, z, zdot, held, n_samples)
+    return z, zdot
+
+
 class CommandProblem:
     """The open-loop command sequence of one track and its ``a_w``.
 
@@ -123,6 +143,8 @@ class CommandProblem:
         Settling time left out of ``a_w``, s.
     fd_step : float
         Forward-difference step of a command.
+    env_id : str
+        The version of ``railgym/VerticalSuspension`` whose track and kernel are used.
     """
 
     def __init__(
@@ -132,8 +154,9 @@ class CommandProblem:
         duration: float,
         discard: float = DISCARD_S,
         fd_step: float = FD_STEP,
+        env_id: str = ENV_ID,
     ) -> None:
-        env = gym.make(ENV_ID, track_class=track_class, duration=duration, **ENV_KWARGS)
+        env = gym.make(env_id, track_class=track_class, duration=duration, **ENV_KWARGS)
         env.reset(seed=seed)
         sim: Any = env.unwrapped.sim  # type: ignore[attr-defined]
         c = sim.step_consts
@@ -148,8 +171,9 @@ class CommandProblem:
             raise ValueError(f"discard must be >= 0 and shorter than duration, got {discard}")
         self.sos = WeightingFilter(self.fs, "Wk", lowpass=False).sos
         # every lane on the same track: lane j of the Jacobian perturbs command j
-        self._z = np.tile(sim.z, (self.n, 1))
-        self._zdot = np.tile(sim.zdot, (self.n, 1))
+        z, zdot = whole_track(sim, self.n * self.n_sub + 1)
+        self._z = np.tile(z, (self.n, 1))
+        self._zdot = np.tile(zdot, (self.n, 1))
         self._out = step_outputs(self.n)
         env.close()
         self._cache: tuple[bytes, dict[str, Any]] | None = None
@@ -298,14 +322,15 @@ def optimise_track(
     starts: Sequence[str | float] = STARTS,
     screen_eval: int = 12,
     max_eval: int = 50,
+    env_id: str = ENV_ID,
 ) -> TrackResult:
-    """Baselines and the best open-loop commands on one track: every start searched for
-    ``screen_eval`` evaluations (:meth:`CommandProblem.optimise`), the best of them continued
-    up to ``max_eval`` in all."""
+    """Baselines and the best open-loop commands on one track of ``env_id``: every start
+    searched for ``screen_eval`` evaluations (:meth:`CommandProblem.optimise`), the best of
+    them continued up to ``max_eval`` in all."""
     t0 = time.perf_counter()
-    prob = CommandProblem(track_class, seed, duration)
+    prob = CommandProblem(track_class, seed, duration, env_id=env_id)
     runs = {
-        name: closed_loop(name, track_class, seed, duration)
+        name: closed_loop(name, track_class, seed, duration, env_id=env_id)
         for name in ("passive", "clipped-lqg", "skyhook")
     }
     for name, run in runs.items():

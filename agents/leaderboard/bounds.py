@@ -162,7 +162,14 @@ def semi_active_bound(task: Task, label: str, screen_eval: int = 4, max_eval: in
     tc, duration = int(case.env_kwargs["track_class"]), float(task.env_kwargs["duration"])
     best = []
     for i in range(task.episodes):
-        r = optimise_track(tc, task.seed + i, duration, screen_eval=screen_eval, max_eval=max_eval)
+        r = optimise_track(
+            tc,
+            task.seed + i,
+            duration,
+            screen_eval=screen_eval,
+            max_eval=max_eval,
+            env_id=task.env_id,
+        )
         best.append(min(r.a_w.values()))
     return float(np.mean(best))
 

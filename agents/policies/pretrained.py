@@ -1,5 +1,5 @@
 """Pretrained policies shipped in the package, loaded by name: ``ppo-vertical``
-(trained on ``railgym/VerticalSuspension-v1``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v1``)
+(trained on ``railgym/VerticalSuspension-v1``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v3``)
 and ``ppo-crash`` (``railgym/TrainCrash-v1``); each runs on any version of its env. The two
 vertical ones are residuals of the LQG (:mod:`agents.controllers.residual`). ``ppo-preview`` (the
 vehicle with ``preview=21.56``, a residual of ``lq-preview``) and ``ppo-semiactive`` (the vertical
@@ -48,17 +48,17 @@ __all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
 #: name → env id of each pretrained policy
 PRETRAINED = {
     "ppo-vertical": "railgym/VerticalSuspension-v1",
-    "ppo-vehicle": "railgym/VerticalVehicle-v1",
+    "ppo-vehicle": "railgym/VerticalVehicle-v3",
     "ppo-crash": "railgym/TrainCrash-v1",
-    "ppo-preview": "railgym/VerticalVehicle-v1",
+    "ppo-preview": "railgym/VerticalVehicle-v3",
     "ppo-semiactive": "railgym/VerticalSuspension-v1",
 }
 #: held-out metrics (``results.csv`` of :mod:`agents.evaluation.benchmark`) whose mean over the
-#: cases ranks the seeds, per env id (lower is better)
+#: cases ranks the seeds, per env (any version; lower is better)
 RANKING = {
-    "railgym/VerticalSuspension-v1": ("a_w",),
-    "railgym/VerticalVehicle-v1": ("a_w_front", "a_w_centre", "a_w_rear"),
-    "railgym/TrainCrash-v1": ("peak_g",),
+    "railgym/VerticalSuspension": ("a_w",),
+    "railgym/VerticalVehicle": ("a_w_front", "a_w_centre", "a_w_rear"),
+    "railgym/TrainCrash": ("peak_g",),
 }
 
 
@@ -81,7 +81,11 @@ def pretrained_zip(name: str, env_id: str) -> Path:
 def best_seed(benchmark_dir: Path, env_id: str) -> int:
     """The seed of ``benchmark_dir/results.csv`` with the lowest mean :data:`RANKING` metric."""
     with (benchmark_dir / "results.csv").open(newline="") as fh:
-        rows = [r for r in csv.DictReader(fh) if r["seed"] and r["metric"] in RANKING[env_id]]
+        rows = [
+            r
+            for r in csv.DictReader(fh)
+            if r["seed"] and r["metric"] in RANKING[env_family(env_id)]
+        ]
     if not rows:
         raise ValueError(f"{benchmark_dir}/results.csv has no trained-seed rows for {env_id}")
     seeds = sorted({int(r["seed"]) for r in rows})

@@ -102,8 +102,8 @@ class Task:
         raise val.FieldError("case", f"{self.name} has no case {label!r}: {self.case_labels}")
 
 
-_VERTICAL = "railgym/VerticalSuspension-v2"
-_VEHICLE = "railgym/VerticalVehicle-v2"
+_VERTICAL = "railgym/VerticalSuspension-v3"
+_VEHICLE = "railgym/VerticalVehicle-v3"
 _CRASH = "railgym/TrainCrash-v1"
 _A_W = "a_w (Wk, first 2 s left out)"
 _A_W_FLOOR = "a_w (Wk), mean of the front, centre and rear floor points"

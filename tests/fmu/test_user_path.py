@@ -99,7 +99,7 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     config = yaml.safe_load(
         (Path(railgym.__file__).parent / "configs/agents/ppo_vertical_lqg.yaml").read_text()
     )
-    block = config["railgym/VerticalSuspension-v1"]
+    block = config["railgym/VerticalSuspension-v3"]
     block.update(n_timesteps=4096, n_envs=8, eval_freq=4096, n_eval_episodes=1, n_steps=256)
     block["env_kwargs"].update(surrogate="element.json", vehicle="my_car.yaml", duration=2.0)
     block["eval_env_kwargs"] = {"backend": "fmu", "fmu_map": "map.yaml", "surrogate": None}

@@ -24,21 +24,10 @@ def _newest(env_id: str) -> str:
     return f"{family}-v{max(versions)}"
 
 
-#: the track envs' streamed versions (-v3) draw other tracks: the stored references and
-#: entries were computed on the harmonic-sum tracks of -v2, so the track tasks stay there
-#: until ``railgym leaderboard references`` and the entries are rerun on -v3
-TRACK_TASK_VERSION = {"railgym/VerticalSuspension": 2, "railgym/VerticalVehicle": 2}
-
-
 @pytest.mark.parametrize("name", list(TASKS))
-def test_task_runs_the_newest_version_its_references_were_computed_on(name):
+def test_task_runs_the_newest_version(name):
     env_id = TASKS[name].env_id
-    family = env_family(env_id)
-    if family in TRACK_TASK_VERSION:
-        assert env_id == f"{family}-v{TRACK_TASK_VERSION[family]}"
-        assert _newest(env_id) == f"{family}-v3"
-    else:
-        assert env_id == _newest(env_id)
+    assert env_id == _newest(env_id)
 
 
 def test_the_required_tasks_exist():

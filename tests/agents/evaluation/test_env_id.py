@@ -62,8 +62,10 @@ def test_env_id_runs_that_version_and_versions_differ(capsys):
         rms, a_w = _single_env(env_id)
         assert _passive_row(out) == (round(rms, 3), round(a_w, 3)), env_id
     assert _passive_row(v2)[1] != _passive_row(v3)[1]  # another track: other numbers
-    # without the flags: today's default, -v1, named in the header
+    # without the flags: the newest version, named in the header, and -v1 on request
     assert main(["evaluate", "passive", *CASE, "--quiet"]) == 0
+    assert capsys.readouterr().out == v3
+    assert main(["evaluate", "passive", *CASE, "--env-version", "1", "--quiet"]) == 0
     v1 = capsys.readouterr().out
     assert v1.startswith("railgym/VerticalSuspension-v1, backend: linear")
     assert _passive_row(v1) == tuple(

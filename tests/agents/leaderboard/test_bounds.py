@@ -9,7 +9,7 @@ import itertools
 import numpy as np
 import pytest
 
-from agents.evaluation.semi_active_bound import closed_loop
+from agents.evaluation.semi_active_bound import CommandProblem, closed_loop
 from agents.leaderboard.bounds import replay, search_commands
 from agents.leaderboard.cases import policy_factory, run_case, run_task
 from agents.leaderboard.results import load_entries
@@ -42,12 +42,25 @@ def test_replayed_baseline_commands_reproduce_the_closed_loop():
 
 
 def test_semi_active_search_runs_on_the_tasks_tracks():
+    """The search's closed loop and open-loop replay run the task's env version (-v3: the
+    streamed track generated whole for the search), to the last bit."""
     task = TASKS["bogie-semi-active"]
     factory, needs = policy_factory(task, "passive")
     mine = run_case(task, "class5", factory, needs)
     duration = task.env_kwargs["duration"]
-    theirs = [closed_loop("passive", 5, task.seed + i, duration)["a_w"] for i in range(2)]
+    runs = [
+        closed_loop("clipped-lqg", 5, task.seed + i, duration, env_id=task.env_id) for i in range(2)
+    ]
+    theirs = [
+        closed_loop("passive", 5, task.seed + i, duration, env_id=task.env_id)["a_w"]
+        for i in range(2)
+    ]
     assert mine == pytest.approx(theirs, rel=1e-12)
+    for i, run in enumerate(runs):
+        prob = CommandProblem(5, task.seed + i, duration, env_id=task.env_id)
+        assert prob.simulate(run["u"])["a_w"] == run["a_w"]
+    other = CommandProblem(5, task.seed, duration, env_id="railgym/VerticalSuspension-v2")
+    assert other.simulate(runs[0]["u"])["a_w"] != runs[0]["a_w"]  # another track
 
 
 @pytest.mark.parametrize("entry", load_entries(), ids=lambda e: f"{e['task']}-{e['name']}")
@@ -65,7 +78,8 @@ def test_linear_clairvoyant_bound_against_brute_force():
 
     from agents.leaderboard.linear_bound import clairvoyant, weighted_response
 
-    env = gym.make("railgym/VerticalSuspension-v2", backend="linear", duration=0.06, f_max=4000.0)
+    env_id = TASKS["bogie-payload"].env_id
+    env = gym.make(env_id, backend="linear", duration=0.06, f_max=4000.0)
     best, u = clairvoyant(env, seed=7, discard=0.0)
 
     def a_w(v):

@@ -12,7 +12,7 @@ pytest.importorskip("rl_zoo3", reason="needs rl_zoo3 (pip install 'railgym[zoo]'
 
 ROOT = Path(__file__).resolve().parents[3]
 CONFIGS = ROOT / "railgym" / "configs" / "agents"
-ENV = "railgym/VerticalSuspension-v1"
+ENV = "railgym/VerticalSuspension-v3"
 
 
 def test_rlzoo_config_has_the_settings_of_the_agents_train_config():
@@ -57,8 +57,8 @@ def test_rlzoo_trains_a_few_hundred_steps_on_the_shipped_config(tmp_path):
     ]
     done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
-    run = tmp_path / "ppo" / "railgym-VerticalSuspension-v1_1"
-    assert (run / "railgym-VerticalSuspension-v1.zip").is_file()
+    run = tmp_path / "ppo" / "railgym-VerticalSuspension-v3_1"
+    assert (run / "railgym-VerticalSuspension-v3.zip").is_file()
     saved = (run / ENV.replace("/", "-") / "config.yml").read_text()  # not plain YAML
     assert "surrogate" in saved and "n_steps" in saved
     evals = np.load(run / "evaluations.npz")
@@ -67,6 +67,6 @@ def test_rlzoo_trains_a_few_hundred_steps_on_the_shipped_config(tmp_path):
     # and railgym evaluate takes rl-zoo3's model as it is (--trust: rl-zoo3 writes no manifest)
     from agents.cli import main
 
-    argv = ["evaluate", str(run / "railgym-VerticalSuspension-v1.zip"), "--trust", "--quiet"]
+    argv = ["evaluate", str(run / "railgym-VerticalSuspension-v3.zip"), "--trust", "--quiet"]
     with pytest.warns(UserWarning, match="--trust"):
         assert main([*argv, "--backend", "linear", "--episodes", "1", "--track-class", "6"]) == 0

@@ -147,6 +147,9 @@ def test_cli_semi_active_baselines_against_command_0_on_class_5(capsys):
     argv = ["evaluate", "skyhook-onoff", "skyhook", "groundhook", "clipped-lqg", "--env"]
     opts = ["vehicle", "--actuator", "semi-active", "--backend", "reference"]
     case = ["--track-class", "5", "--episodes", "1", "--duration", "5", "--seed", "1000"]
+    # the figures below are of -v1's track of seed 1000 (evaluate's default is now -v3, whose
+    # streamed track of that seed is another one: there skyhook-onoff is above passive)
+    case += ["--env-version", "1"]
     assert main([*argv, *opts, *case]) == 0
     a_w = _cli_a_w(capsys)
     assert list(a_w) == ["passive", "skyhook", "skyhook-onoff", "groundhook", "clipped-lqg"]

@@ -1,0 +1,46 @@
+"""Gymnasium's notice "The environment railgym/X-vN is out of date" is shown at most once per
+id and process (railgym.registration), not again after a filter change clears Python's
+once-registry, and never for the newest version; a filter the user adds later still decides."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+SCRIPT = """
+import warnings
+import gymnasium as gym
+import railgym
+for i in range(3):
+    gym.make("railgym/VerticalVehicle-v1", backend="reference")
+    warnings.filterwarnings("ignore", "an unrelated message")  # clears the once-registry
+for i in range(2):
+    gym.make("railgym/VerticalSuspension-v2")
+gym.make("railgym/VerticalSuspension-v3")
+gym.make("railgym/VerticalVehicle-v3")
+gym.make("railgym/TrainCrash-v1")
+warnings.simplefilter("always", DeprecationWarning)
+gym.make("railgym/VerticalVehicle-v1", backend="reference")
+"""
+
+
+def test_the_out_of_date_notice_is_shown_once_per_id_unless_the_user_asks_for_more():
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("PYTHONWARNINGS", None)
+    run = subprocess.run(
+        [sys.executable, "-c", SCRIPT],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+        check=True,
+    )
+    notices = [ln for ln in run.stderr.splitlines() if "is out of date" in ln]
+    assert len(notices) == 3, notices
+    assert "railgym/VerticalVehicle-v1 is out of date" in notices[0]
+    assert "upgrading to version `v3`" in notices[0]
+    assert "railgym/VerticalSuspension-v2 is out of date" in notices[1]
+    # the user's "always" filter goes in front of railgym's
+    assert "railgym/VerticalVehicle-v1 is out of date" in notices[2]
