@@ -1,5 +1,5 @@
 """Pretrained policies shipped in the package, loaded by name: ``ppo-vertical``
-(trained on ``railgym/VerticalSuspension-v1``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v3``)
+(trained on ``railgym/VerticalSuspension-v3``), ``ppo-vehicle`` (``railgym/VerticalVehicle-v3``)
 and ``ppo-crash`` (``railgym/TrainCrash-v1``); each runs on any version of its env. The two
 vertical ones are residuals of the LQG (:mod:`agents.controllers.residual`). ``ppo-preview`` (the
 vehicle with ``preview=21.56``, a residual of ``lq-preview``) and ``ppo-semiactive`` (the vertical
@@ -47,11 +47,11 @@ __all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
 
 #: name → env id of each pretrained policy
 PRETRAINED = {
-    "ppo-vertical": "railgym/VerticalSuspension-v1",
+    "ppo-vertical": "railgym/VerticalSuspension-v3",
     "ppo-vehicle": "railgym/VerticalVehicle-v3",
     "ppo-crash": "railgym/TrainCrash-v1",
     "ppo-preview": "railgym/VerticalVehicle-v3",
-    "ppo-semiactive": "railgym/VerticalSuspension-v1",
+    "ppo-semiactive": "railgym/VerticalSuspension-v3",
 }
 #: held-out metrics (``results.csv`` of :mod:`agents.evaluation.benchmark`) whose mean over the
 #: cases ranks the seeds, per env (any version; lower is better)

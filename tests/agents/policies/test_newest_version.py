@@ -56,21 +56,7 @@ def test_there_are_packaged_configs():
     assert len(CONFIGS) >= 10
 
 
-#: pretrained policies not yet retrained on the newest version (a strict xfail: retraining one
-#: and naming its new env in ``PRETRAINED`` makes the test pass, and this entry must go)
-NOT_RETRAINED = {"ppo-vertical", "ppo-semiactive"}
-
-
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            n,
-            marks=pytest.mark.xfail(n in NOT_RETRAINED, reason="not retrained yet", strict=True),
-        )
-        for n in sorted(PRETRAINED)
-    ],
-)
+@pytest.mark.parametrize("name", sorted(PRETRAINED))
 def test_every_pretrained_policy_was_trained_on_the_newest_version(name):
     assert PRETRAINED[name] == newest(PRETRAINED[name])
     config = yaml.safe_load((PRETRAINED_DIR / name / "config.yaml").read_text())
