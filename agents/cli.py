@@ -279,7 +279,7 @@ MODULE_COMMANDS = {
     "validity": ("agents.evaluation.validity", "the validity flags against the surrogate's error"),
     "crash-report": ("agents.evaluation.crash_report", "crash baseline and surrogate-error tables"),
     "crash-limits": (
-        "agents.evaluation.crash_limits",
+        "agents.commands.crash_limits",
         "ceilings of crash absorber control per range",
     ),
     "crash-fe": ("agents.commands.crash_fe", "crash elements from LS-DYNA nodout/rcforc"),
