@@ -277,7 +277,7 @@ MODULE_COMMANDS = {
         "surrogate against reference or FMU, per class",
     ),
     "validity": ("agents.evaluation.validity", "the validity flags against the surrogate's error"),
-    "crash-report": ("agents.evaluation.crash_report", "crash baseline and surrogate-error tables"),
+    "crash-report": ("agents.commands.crash_report", "crash baseline and surrogate-error tables"),
     "crash-limits": (
         "agents.commands.crash_limits",
         "ceilings of crash absorber control per range",

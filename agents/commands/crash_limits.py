@@ -8,9 +8,7 @@ from collections.abc import Sequence
 
 from agents.evaluation import crash_limits
 from agents.evaluation.crash_limits import ceilings, rule
-from agents.evaluation.crash_report import (
-    train_line,
-)
+from agents.evaluation.crash_report import train_line
 from railgym.progress import quiet
 from surrogates.cli_flags import Parser, add_common, error_status
 
