@@ -276,7 +276,7 @@ MODULE_COMMANDS = {
         "agents.evaluation.vehicle_validation",
         "surrogate against reference or FMU, per class",
     ),
-    "validity": ("agents.evaluation.validity", "the validity flags against the surrogate's error"),
+    "validity": ("agents.commands.validity", "the validity flags against the surrogate's error"),
     "crash-report": ("agents.commands.crash_report", "crash baseline and surrogate-error tables"),
     "crash-limits": (
         "agents.commands.crash_limits",
