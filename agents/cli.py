@@ -273,7 +273,7 @@ MODULE_COMMANDS = {
         "an element of a bench-tested damper with the vehicle file's springs and bump stops",
     ),
     "validate": (
-        "agents.evaluation.vehicle_validation",
+        "agents.commands.validate",
         "surrogate against reference or FMU, per class",
     ),
     "validity": ("agents.commands.validity", "the validity flags against the surrogate's error"),

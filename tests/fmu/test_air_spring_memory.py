@@ -53,7 +53,7 @@ def test_default_element_of_the_air_spring_car(tmp_path):
     fit = report["linear_fit"]
     assert 3.3e5 < fit["k0"] < 3.9e5 and 7.7e5 < fit["k0"] + fit["k1"] < 8.9e5  # N/m
     table = _run(
-        [sys.executable, "-m", "agents.evaluation.vehicle_validation", "--env", "vertical"]
+        [sys.executable, "-m", "agents.cli", "validate", "--env", "vertical"]
         + ["--element", "el.json", "--backend", "fmu", "--fmu-map", "map.yaml", "--seeds", "5"]
         + ["--track-class", "3", "4", "5", "6", "--controller", "passive", "skyhook"],
         tmp_path,

@@ -86,7 +86,7 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     _collect(folder)
     # validate: surrogate env against the FMU env
     table = _run(
-        [sys.executable, "-m", "agents.evaluation.vehicle_validation", "--env", "vertical"]
+        [sys.executable, "-m", "agents.cli", "validate", "--env", "vertical"]
         + ["--element", "element.json", "--backend", "fmu", "--fmu-map", "map.yaml", "--seeds", "2"]
         + ["--track-class", "5", "--duration", "4"],
         folder,
