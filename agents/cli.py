@@ -262,7 +262,7 @@ MODULE_COMMANDS = {
     "train": ("agents.training.train", "train an SB3 agent from a config"),
     "train-rllib": ("agents.training.train_rllib", "train an RLlib PPO agent from a config"),
     "benchmark": (
-        "agents.evaluation.benchmark",
+        "agents.commands.benchmark",
         "seeds, held-out evaluation, curve and table of a config",
     ),
     "pretrained": ("agents.policies.pretrained", "ship a benchmarked policy as a pretrained one"),
