@@ -265,7 +265,7 @@ MODULE_COMMANDS = {
         "agents.commands.benchmark",
         "seeds, held-out evaluation, curve and table of a config",
     ),
-    "pretrained": ("agents.policies.pretrained", "ship a benchmarked policy as a pretrained one"),
+    "pretrained": ("agents.commands.pretrained", "ship a benchmarked policy as a pretrained one"),
     "collect": ("agents.commands.collect", "collect and build a vertical element"),
     "collect-vehicle": ("agents.commands.collect_vehicle", "build the whole-vehicle element"),
     "combine": (
