@@ -17,8 +17,9 @@
   (:mod:`agents.commands.refine`).
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
   (:mod:`agents.commands.export_fmu`).
-- the module commands of :data:`MODULE_COMMANDS` (``railgym train`` = ``python -m
-  agents.training.train``, ...): the module's own parser reads the rest of the command line.
+- the module commands of :data:`MODULE_COMMANDS` (``railgym train``:
+  :mod:`agents.commands.train`, ...): the module's own parser reads the rest of the command
+  line.
 
 One vocabulary (:mod:`surrogates.cli_flags`, ``docs/cli.md``): ``-o/--out`` is what a command
 writes, ``--overwrite`` lets it replace what is there, ``--seed`` seeds what it draws, every
@@ -259,7 +260,7 @@ def _version() -> str:
 #: its line in ``railgym --help``); the module's ``main(argv)`` runs it, its
 #: ``build_parser()`` (or that of :data:`PARSER_MODULES`) has the arguments
 MODULE_COMMANDS = {
-    "train": ("agents.training.train", "train an SB3 agent from a config"),
+    "train": ("agents.commands.train", "train an SB3 agent from a config"),
     "train-rllib": ("agents.training.train_rllib", "train an RLlib PPO agent from a config"),
     "benchmark": (
         "agents.commands.benchmark",

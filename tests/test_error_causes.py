@@ -163,7 +163,7 @@ def test_a_vehicle_yaml_with_a_field_twice_is_refused(tmp_path):
 # --- counts and seeds ----------------------------------------------------------------------
 @pytest.mark.parametrize("steps", ["1" + "0" * 30, "10000000000"])
 def test_train_timesteps_has_an_upper_bound(capsys, steps):
-    from agents.training.train import main
+    from agents.commands.train import main
 
     with pytest.raises(SystemExit) as info:
         main(["ppo_vertical", "--timesteps", steps])

@@ -51,9 +51,9 @@ def run_without(blocked: str, *argv: str, cwd: Path) -> subprocess.CompletedProc
         ),
         (
             "stable_baselines3",
-            ("agents.training.train", "config.yaml"),
-            "python -m agents.training.train: error: training needs the 'agents' extra (no module "
-            "named 'stable_baselines3'): pip install 'railgym[agents]'",
+            ("agents.cli", "train", "config.yaml"),
+            "railgym train: error: training (agents.training.train) needs the 'agents' extra "
+            "(no module named 'stable_baselines3'): pip install 'railgym[agents]'",
         ),
     ],
 )

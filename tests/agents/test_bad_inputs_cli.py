@@ -1,4 +1,4 @@
-"""Bad command lines of ``railgym`` and ``python -m agents.training.train``: each is refused before
+"""Bad command lines of ``railgym`` and ``railgym train``: each is refused before
 any work with exit status 2, no traceback, and an error line that names the flag or file; in a
 fresh process, every line on stderr (warnings too) is one ``railgym CMD: …`` line."""
 
@@ -18,7 +18,7 @@ from agents.cli import main as railgym_main
 
 pytest.importorskip("stable_baselines3")
 
-from agents.training.train import main as train_main  # noqa: E402
+from agents.commands.train import main as train_main  # noqa: E402
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 TINY = {"algo": "ppo", "n_timesteps": 256, "n_envs": 1, "seed": 0}
@@ -91,7 +91,7 @@ ROWS = [
     ("railgym", "evaluate passive --env crash --address auto", "--address: only for"),
     ("railgym", "evaluate skyhook --workers 0", "--workers"),
     ("railgym", "evaluate skyhook --workers two", "--workers"),
-    # python -m agents.training.train
+    # railgym train
     ("train", "", "config"),
     ("train", "{missing}.yaml", "missing.yaml"),
     ("train", "{nonempty}", "nonempty"),

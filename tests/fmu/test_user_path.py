@@ -105,7 +105,7 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     block["eval_env_kwargs"] = {"backend": "fmu", "fmu_map": "map.yaml", "surrogate": None}
     block.pop("checkpoint_freq")
     (folder / "my_ppo.yaml").write_text(yaml.safe_dump(config))
-    _run([sys.executable, "-m", "agents.training.train", "my_ppo.yaml", "--no-progress"], folder)
+    _run([sys.executable, "-m", "agents.cli", "train", "my_ppo.yaml", "--no-progress"], folder)
     zip_path = folder / "runs" / "my_ppo" / "model.zip"
     # evaluate and the transfer gap on the FMU; the LQG is designed for this car
     ev = ["railgym", "evaluate", str(zip_path), "lqg", "--backend", "fmu", "--fmu-map"]

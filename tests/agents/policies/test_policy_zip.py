@@ -194,7 +194,7 @@ def test_agents_train_command_trains_an_rlzoo_file(tmp_path, capsys):
         "policy_kwargs": {"net_arch": [8]},
     }
     config.write_text(yaml.safe_dump({ENV_ID: block}))
-    from agents.training.train import main as train_main
+    from agents.commands.train import main as train_main
 
     argv = [str(config), "--out", str(tmp_path / "run"), "--no-progress", "--seed", "0"]
     assert train_main([*argv, "--algo", "ppo"]) == 0

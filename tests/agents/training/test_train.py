@@ -19,9 +19,10 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 pytest.importorskip("stable_baselines3")
 
 import railgym  # noqa: E402
+from agents.commands.train import main  # noqa: E402
 from agents.controllers.classical import Passive  # noqa: E402
 from agents.policies.loading import load_policy  # noqa: E402
-from agents.training.train import GymVecToSB3, evaluate, load_config, main, make_vec, train  # noqa: E402
+from agents.training.train import GymVecToSB3, evaluate, load_config, make_vec, train  # noqa: E402
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 CONFIGS = Path(railgym.__file__).parent / "configs" / "agents"
