@@ -45,9 +45,10 @@ def run_without(blocked: str, *argv: str, cwd: Path) -> subprocess.CompletedProc
         ),
         (
             "ray",
-            ("agents.training.train_rllib", "config.yaml"),
-            "python -m agents.training.train_rllib: error: RLlib training needs the 'rllib' extra "
-            "(no module named 'ray'): pip install 'railgym[rllib]' in its own virtual environment",
+            ("agents.cli", "train-rllib", "config.yaml"),
+            "railgym train-rllib: error: RLlib training (agents.training.train_rllib) needs the "
+            "'rllib' extra (no module named 'ray'): pip install 'railgym[rllib]' in its own "
+            "virtual environment",
         ),
         (
             "stable_baselines3",

@@ -478,5 +478,5 @@ def test_numpy_integers_are_accepted_and_bools_rejected():
 
 
 def test_rllib_config_is_pointed_to_its_trainer():
-    with pytest.raises(ValueError, match="agents.training.train_rllib"):
+    with pytest.raises(ValueError, match="railgym train-rllib"):
         load_config("ppo_vertical_rllib")
