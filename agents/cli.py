@@ -287,7 +287,7 @@ MODULE_COMMANDS = {
     "damper-element": ("agents.commands.damper_element", "the element of a controllable damper"),
     "env-tables": ("agents.commands.env_tables", "rewrite the argument tables of docs/envs"),
     "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
-    "leaderboard": ("agents.leaderboard.cli", "benchmark tasks: scores, bounds, entries"),
+    "leaderboard": ("agents.commands.leaderboard", "benchmark tasks: scores, bounds, entries"),
 }
 
 
