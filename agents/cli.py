@@ -12,7 +12,7 @@
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies on the
   vertical env and the whole vehicle (``--env vehicle``), crash indices (``--env crash``, the
   held-out impact envelope with ``--envelope``); ``--workers N`` / ``--address ADDR`` run the
-  cases in parallel (:mod:`agents.evaluation.evaluate`).
+  cases in parallel (:mod:`agents.commands.evaluate`).
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
   (:mod:`agents.commands.refine`).
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
@@ -341,8 +341,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures", "one holding only these files")
     add_parallel_arguments(p, "", "the validation matrix", "the report does")
-    from agents.commands import export_fmu, refine
-    from agents.evaluation import evaluate
+    from agents.commands import evaluate, export_fmu, refine
 
     for name, add, what, description in (
         ("evaluate", evaluate.add_arguments, "comfort indices of policies", EVALUATE),
@@ -402,8 +401,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return report_missing(err, f"railgym {argv[0]}", argv[0])
         return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
-    from agents.commands import export_fmu, refine
-    from agents.evaluation import evaluate
+    from agents.commands import evaluate, export_fmu, refine
 
     command = {
         "export-reference-fmu": export_fmu.run_reference,
