@@ -218,7 +218,7 @@ def test_collect_output_is_not_replaced_without_overwrite(tmp_path, capsys):
 
 # --- command lines and wrong envs ----------------------------------------------------------
 def test_refine_out_into_a_missing_folder_fails_before_any_round(tmp_path, capsys):
-    from agents.cli import main
+    from agents.commands.cli import main
 
     out = tmp_path / "no" / "refined.json"
     code = main(["refine", "skyhook", "--rounds", "1", "--out", str(out)])
@@ -228,7 +228,7 @@ def test_refine_out_into_a_missing_folder_fails_before_any_round(tmp_path, capsy
 
 
 def test_evaluate_with_an_empty_address_blames_the_address(capsys):
-    from agents.cli import main
+    from agents.commands.cli import main
 
     with pytest.raises(SystemExit) as exc:  # refused by the parser (issue 44: no empty value)
         main(["evaluate", "passive", "--address", ""])

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from agents.cli import MODULE_COMMANDS
+from agents.commands.cli import MODULE_COMMANDS
 from tests.test_no_old_paths import COMMANDS, MODULES, migration_section
 
 ROOT = Path(__file__).resolve().parents[1]

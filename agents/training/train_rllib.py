@@ -49,6 +49,7 @@ import dataclasses
 import inspect
 import json
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -58,9 +59,11 @@ import numpy as np
 
 from agents._extras import extra_error
 from agents._predict import SB3Predict
-from agents.commands.train_rllib import MAX_ITERATIONS
+from agents.commands.flags import error_status
+from agents.commands.train_rllib import MAX_ITERATIONS, build_parser
 from agents.policies.policy_io import RLLIB_MODULE_PATH, refuse_untrusted, sha256
 from railgym import _checks as val
+from railgym.progress import quiet
 from railgym.report.output import prepare_output_dir, write_text_atomic
 
 try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' extra
@@ -73,7 +76,9 @@ try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' ex
     from ray.tune.registry import register_env
 
     from agents.training.run_files import (
+        read_run,
         run_folder,
+        speed_text,
         versions,
         write_config,
         write_csv,
@@ -347,3 +352,20 @@ def train_rllib(
     run["eval"] = {k: stats[k] for k in ("mean_reward", "std_reward", "mean_length")}
     write_config(out, cfg, run)
     return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``railgym train-rllib``; returns the exit status (2: user error)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        with quiet(args.quiet):
+            out = train_rllib(
+                args.config, args.out, args.iterations, args.seed, args.address, args.overwrite
+            )
+    except Exception as err:
+        return error_status(parser.prog, err, args.debug)
+    run = read_run(out)
+    reward = run["eval"]["mean_reward"]
+    print(f"{speed_text(run)}; evaluation reward {reward:.4g}; checkpoint, logs in {out}/")
+    return 0

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from agents.cli import main as railgym_main
+from agents.commands.cli import main as railgym_main
 
 pytest.importorskip("stable_baselines3")
 
@@ -239,7 +239,7 @@ FRESH_ROWS = [
 def test_command_in_a_fresh_process_writes_only_railgym_lines(tmp_path, argv, want, never):
     args = argv.format(crafted=_crafted(tmp_path)).split()
     proc = subprocess.run(
-        [sys.executable, "-m", "agents.cli", *args],
+        [sys.executable, "-m", "agents.commands.cli", *args],
         capture_output=True,
         text=True,
         cwd=tmp_path,
@@ -263,7 +263,7 @@ def test_railgym_version_names_the_installed_distribution():
     from importlib.metadata import version
 
     done = subprocess.run(
-        [sys.executable, "-m", "agents.cli", "--version"], capture_output=True, text=True
+        [sys.executable, "-m", "agents.commands.cli", "--version"], capture_output=True, text=True
     )
     assert done.returncode == 0 and done.stdout.strip() == f"railgym {version('railgym')}"
 
@@ -276,11 +276,11 @@ def test_module_commands_are_railgym_subcommands(name, monkeypatch):
     import subprocess
     import sys
 
-    from agents.cli import MODULE_COMMANDS
+    from agents.commands.cli import MODULE_COMMANDS
 
     monkeypatch.setenv("COLUMNS", "80")
     via = subprocess.run(
-        [sys.executable, "-m", "agents.cli", name, "--help"],
+        [sys.executable, "-m", "agents.commands.cli", name, "--help"],
         capture_output=True,
         text=True,
         env={**os.environ, "COLUMNS": "80"},

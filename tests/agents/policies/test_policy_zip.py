@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 import railgym  # noqa: F401  (registers the environments)
-from agents.cli import main
+from agents.commands.cli import main
 from agents.controllers.registry import ENV_ID
 from agents.evaluation.runs import evaluate_vehicle
 from agents.policies.loading import load_policy

@@ -257,10 +257,11 @@ def _version() -> str:
 
 
 #: subcommands with a module of their own: name → (module, its line in ``railgym --help``);
-#: the module's ``main(argv)`` runs it, its ``build_parser()`` has the arguments
+#: the module's ``main(argv)`` runs it, its ``build_parser()`` (or that of
+#: :data:`PARSER_MODULES`) has the arguments
 MODULE_COMMANDS = {
     "train": ("agents.commands.train", "train an SB3 agent from a config"),
-    "train-rllib": ("agents.commands.train_rllib", "train an RLlib PPO agent from a config"),
+    "train-rllib": ("agents.training.train_rllib", "train an RLlib PPO agent from a config"),
     "benchmark": (
         "agents.commands.benchmark",
         "seeds, held-out evaluation, curve and table of a config",
@@ -290,13 +291,16 @@ MODULE_COMMANDS = {
     "leaderboard": ("agents.commands.leaderboard", "benchmark tasks: scores, bounds, entries"),
 }
 
+#: the module with the parser of a module command whose own module needs an extra
+PARSER_MODULES = {"train-rllib": "agents.commands.train_rllib"}
+
 
 def module_parser(name: str) -> argparse.ArgumentParser:
     """The full parser of the module command ``name`` (:data:`MODULE_COMMANDS`)."""
     import importlib
 
-    module = importlib.import_module(MODULE_COMMANDS[name][0])
-    parser: argparse.ArgumentParser = module.build_parser()
+    module = PARSER_MODULES.get(name, MODULE_COMMANDS[name][0])
+    parser: argparse.ArgumentParser = importlib.import_module(module).build_parser()
     return parser
 
 
@@ -363,7 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name, (module, what) in MODULE_COMMANDS.items():
         sub.add_parser(
             name,
-            help=what if module.startswith("agents.commands.") else f"{what} (python -m {module})",
+            help=what if module.startswith("agents.") else f"{what} (python -m {module})",
             add_help=False,
         )
     return parser
@@ -398,6 +402,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             module = importlib.import_module(MODULE_COMMANDS[argv[0]][0])
         except MissingExtraError as err:
+            if argv[0] in PARSER_MODULES and {"-h", "--help"} & set(argv[1:]):
+                module_parser(argv[0]).parse_args(["--help"])  # its help needs no extra
             return report_missing(err, f"railgym {argv[0]}", argv[0])
         return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
