@@ -21,7 +21,7 @@ python -m pytest -q -p no:cacheprovider tests/envs/vertical/test_vertical.py tes
 echo "rllib.sh: tests done after ${SECONDS} s"
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
-python -m agents.training.train_rllib railgym/configs/agents/ppo_vertical_rllib.yaml --iterations 2 \
+railgym train-rllib railgym/configs/agents/ppo_vertical_rllib.yaml --iterations 2 \
     --out "$out/run"
 test -s "$out/run/eval.csv" && test -s "$out/run/manifest.json"
 echo "rllib.sh: training done after ${SECONDS} s"

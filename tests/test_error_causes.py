@@ -163,7 +163,7 @@ def test_a_vehicle_yaml_with_a_field_twice_is_refused(tmp_path):
 # --- counts and seeds ----------------------------------------------------------------------
 @pytest.mark.parametrize("steps", ["1" + "0" * 30, "10000000000"])
 def test_train_timesteps_has_an_upper_bound(capsys, steps):
-    from agents.training.train import main
+    from agents.commands.train import main
 
     with pytest.raises(SystemExit) as info:
         main(["ppo_vertical", "--timesteps", steps])
@@ -218,7 +218,7 @@ def test_collect_output_is_not_replaced_without_overwrite(tmp_path, capsys):
 
 # --- command lines and wrong envs ----------------------------------------------------------
 def test_refine_out_into_a_missing_folder_fails_before_any_round(tmp_path, capsys):
-    from agents.cli import main
+    from agents.commands.cli import main
 
     out = tmp_path / "no" / "refined.json"
     code = main(["refine", "skyhook", "--rounds", "1", "--out", str(out)])
@@ -228,7 +228,7 @@ def test_refine_out_into_a_missing_folder_fails_before_any_round(tmp_path, capsy
 
 
 def test_evaluate_with_an_empty_address_blames_the_address(capsys):
-    from agents.cli import main
+    from agents.commands.cli import main
 
     with pytest.raises(SystemExit) as exc:  # refused by the parser (issue 44: no empty value)
         main(["evaluate", "passive", "--address", ""])

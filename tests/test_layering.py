@@ -135,7 +135,7 @@ def _full_imports(path: Path) -> set[str]:
 def test_core_imports_without_torch():
     code = (
         "import sys, surrogates, railgym, railgym.envs.vertical, railgym.envs.crash, "
-        "railgym.wrappers, railgym.report, agents.controllers, agents.cli; "
+        "railgym.wrappers, railgym.report, agents.controllers, agents.commands.cli; "
         "print('torch' in sys.modules or 'stable_baselines3' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

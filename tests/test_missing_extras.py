@@ -39,21 +39,22 @@ def run_without(blocked: str, *argv: str, cwd: Path) -> subprocess.CompletedProc
     [
         (
             "torch",
-            ("agents.cli", "evaluate", "model.zip"),
+            ("agents.commands.cli", "evaluate", "model.zip"),
             "railgym evaluate: error: loading a stable-baselines3 policy needs the 'agents' "
             "extra (no module named 'torch'): pip install 'railgym[agents]'",
         ),
         (
             "ray",
-            ("agents.training.train_rllib", "config.yaml"),
-            "python -m agents.training.train_rllib: error: RLlib training needs the 'rllib' extra "
-            "(no module named 'ray'): pip install 'railgym[rllib]' in its own virtual environment",
+            ("agents.commands.cli", "train-rllib", "config.yaml"),
+            "railgym train-rllib: error: RLlib training (agents.training.train_rllib) needs the "
+            "'rllib' extra (no module named 'ray'): pip install 'railgym[rllib]' in its own "
+            "virtual environment",
         ),
         (
             "stable_baselines3",
-            ("agents.training.train", "config.yaml"),
-            "python -m agents.training.train: error: training needs the 'agents' extra (no module "
-            "named 'stable_baselines3'): pip install 'railgym[agents]'",
+            ("agents.commands.cli", "train", "config.yaml"),
+            "railgym train: error: training (agents.training.train) needs the 'agents' extra "
+            "(no module named 'stable_baselines3'): pip install 'railgym[agents]'",
         ),
     ],
 )

@@ -12,12 +12,15 @@ from pathlib import Path
 
 import pytest
 
-from agents.cli import MODULE_COMMANDS
+from agents.commands.cli import MODULE_COMMANDS
 from tests.test_no_old_paths import COMMANDS, MODULES, migration_section
 
 ROOT = Path(__file__).resolve().parents[1]
-#: the ``python -m`` spellings of modules that remain (their API), not their command
-MOVED = [c for c in COMMANDS if c not in MODULES]
+#: the ``python -m`` spellings of physics modules that remain (their API), not their command:
+#: an error naming the subcommand
+MOVED = [c for c in COMMANDS if c not in MODULES and c.startswith("railgym.")]
+#: the ``python -m`` spellings of agents modules that remain (their logic), without a ``__main__``
+AGENTS = [c for c in COMMANDS if c not in MODULES and c.startswith("agents.")]
 #: module → its ``railgym`` subcommand, as the changelog's table names it
 SUBCOMMAND = dict(
     re.findall(r"^\| `python -m ([\w.]+)` \| `(railgym [\w-]+)`", migration_section(), re.M)
@@ -42,6 +45,15 @@ def test_every_physics_main_is_listed():
     assert mains == set(MOVED)
     assert set(MOVED) <= set(SUBCOMMAND)
     assert {SUBCOMMAND[m].split()[1] for m in MOVED} <= set(MODULE_COMMANDS)
+
+
+def test_agents_modules_hold_no_main_and_name_a_subcommand():
+    """The agents modules whose command moved to :mod:`agents.commands` hold no ``__main__``
+    and no parser; the changelog names the ``railgym`` subcommand of each."""
+    for module in AGENTS:
+        text = (ROOT / Path(*module.split("."))).with_suffix(".py").read_text()
+        assert "__main__" not in text and "argparse" not in text, module
+        assert SUBCOMMAND[module].split()[1] in MODULE_COMMANDS, module
 
 
 def test_old_collect_spelling_exits_2_naming_railgym_collect(tmp_path):

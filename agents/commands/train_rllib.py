@@ -1,6 +1,6 @@
-"""The arguments of ``railgym train-rllib`` (``python -m agents.training.train_rllib``), in a module
-of their own: :mod:`agents.training.train_rllib` needs the ``rllib`` extra to be imported, its help
-and ``docs/cli.md`` do not."""
+"""The arguments of ``railgym train-rllib``, in a module of their own:
+:mod:`agents.training.train_rllib` (its ``main``) needs the ``rllib`` extra to be imported, its
+help and ``docs/cli.md`` do not."""
 
 from __future__ import annotations
 

@@ -33,7 +33,6 @@ and preview settings (:data:`ACTUATOR_KEYS`, :data:`VEHICLE_KEYS`) as the agent 
 
 from __future__ import annotations
 
-import argparse
 import csv
 import math
 import sys
@@ -44,14 +43,6 @@ from typing import Any, NamedTuple
 import numpy as np
 import yaml
 
-from agents.commands.flags import (
-    add_parallel_arguments,
-    bounded_int,
-    check_parallel,
-    episodes,
-    error_status,
-    seed_number,
-)
 from agents.controllers.registry import (
     CRASH_ID,
     ENV_ID,
@@ -67,16 +58,10 @@ from agents.policies.loading import load_policy
 from agents.training.train_config import MAX_SEED, load_config
 from railgym import _checks as val
 from railgym.parallel import run_tasks
-from railgym.progress import quiet
 from railgym.registration import env_family
 from railgym.report.output import prepare_output_dir, write_text_atomic
-from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
 
-__all__ = [
-    "HELD_OUT",
-    "benchmark",
-    "main",
-]
+__all__ = ["HELD_OUT", "benchmark"]
 
 #: held-out cases per env: FRA classes at their maximum speed (vertical, vehicle); the crash
 #: envelope's speeds × payloads (:data:`agents.evaluation.crash_report.EVAL_SPEEDS_KMH`)
@@ -444,56 +429,3 @@ def benchmark(
     )
     write_text_atomic(out / "table.md", text)
     return out
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym benchmark`` (``python -m agents.evaluation.benchmark``)."""
-    parser = Parser(prog="railgym benchmark", description=__doc__.split("\n\n")[0])
-    parser.add_argument("config", help="agents.training.train config: YAML file or packaged name")
-    parser.add_argument("--seeds", type=bounded_int(1, 1000), default=3, help="training seeds")
-    seed = parser.add_argument(
-        "--seed",
-        type=seed_number,
-        default=None,
-        help="first training seed (then +1, +2, ...); default: the config's seed",
-    )
-    add_deprecated(parser, seed, "--first-seed")
-    parser.add_argument("--timesteps", type=bounded_int(1), help="override n_timesteps")
-    parser.add_argument("--episodes", type=episodes, default=10, help="held-out episodes per case")
-    add_out(
-        parser,
-        "output folder (default: runs/benchmark_<config-stem>/)",
-        overwrite="write into a non-empty -o/--out folder",
-    )
-    add_parallel_arguments(parser, "", "the seeds", "the numbers do")
-    add_common(parser)
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``railgym benchmark`` (``python -m agents.evaluation.benchmark``); returns the
-    exit status (2: user error)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    try:
-        check_parallel(args)
-        with quiet(args.quiet):
-            out = benchmark(
-                args.config,
-                args.seeds,
-                args.workers,
-                args.timesteps,
-                args.episodes,
-                args.out,
-                args.overwrite,
-                args.seed,
-                args.address,
-            )
-    except Exception as err:
-        return error_status(parser.prog, err, args.debug)
-    print(f"results.csv, learning_curve.png and table.md in {out}/")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -5,7 +5,7 @@ step and crash end included): constant actions at every speed × the envelope's 
 heaviest payload (:func:`constant_action_cases`), and random action sequences at a few speeds
 with payloads drawn from the envelope (:func:`random_action_cases`). Each case compares each
 car's peak and 10 ms moving-average deceleration and each zone's largest crush
-(:class:`MatrixCase`); ``python -m agents.evaluation.crash_report --matrix`` prints the table.
+(:class:`MatrixCase`); ``railgym crash-report --matrix`` prints the table.
 """
 
 from __future__ import annotations

@@ -27,7 +27,6 @@ itself is exactly zero.
 
 from __future__ import annotations
 
-import argparse
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -37,10 +36,6 @@ import numpy as np
 from agents.commands.flags import (
     VEHICLE_DURATION_S,
     backend_kwargs,
-    env_id_flag,
-    env_kwargs_of,
-    vehicle_cases,
-    vertical_cases,
     with_policy_kwargs,
 )
 from agents.controllers.crash_baselines import rollout
@@ -61,7 +56,7 @@ from agents.policies.loading import load_policy
 from railgym import _checks as val
 from railgym.envs.crash.env import TrainCrashVectorEnv
 
-__all__ = ["format_gap", "gap_crash", "gap_vehicle", "gap_vertical", "relative_gap", "run_gap"]
+__all__ = ["format_gap", "gap_crash", "gap_vehicle", "gap_vertical", "relative_gap"]
 
 #: the side whose numbers are checked against the reference
 SURROGATE = "surrogate"
@@ -329,79 +324,3 @@ def contact_lines(rows: list[dict[str, Any]], against: str = "reference") -> lis
         for s, names in zip(scores, more_contacts(scores, baselines), strict=True)
         if names
     ]
-
-
-def _element_of(models: dict[str, Any]) -> str:
-    """The surrogate side of ``--gap`` in words: the ``--surrogate`` file or the packaged
-    element."""
-    element = models.get("surrogate")
-    return "the packaged element" if element is None else f"element {element}"
-
-
-def _reference_of(args: argparse.Namespace) -> str:
-    """The reference side of ``--gap`` in words: the FMU of ``--fmu-map`` or railgym's model
-    of ``--backend`` (``"reference"``, ``"linear"``)."""
-    if args.backend == "fmu":
-        fmu = f"{args.fmu}, " if args.fmu is not None else ""
-        return f"the FMU {fmu}mapping {args.fmu_map}"
-    return "railgym's linear suspension" if args.backend == "linear" else "railgym's model"
-
-
-def run_gap(
-    args: argparse.Namespace, actuated: dict[str, Any] | None = None, env_id: str | None = None
-) -> int:
-    """``railgym evaluate POLICY... --gap``: gap rows of the given policies between the
-    surrogate and ``--backend`` (default the reference), printed as a table; ``actuated``: the
-    env keyword of ``--actuator`` (:func:`agents.evaluation.evaluate.actuator_kwargs`), to both
-    sides; ``env_id``: the env of ``--env-id`` (default: the one of ``--env``; the crash gap
-    runs ``railgym/TrainCrash-v1`` only)."""
-    if args.envelope:
-        raise ValueError("--gap: runs the held-out envelope itself (--env crash), not --envelope")
-    backends = (SURROGATE, args.backend)
-    # --fmu, --fmu-map, --vehicle, --actuator: checked, passed to both
-    models = {**env_kwargs_of(args), **(actuated or {})}
-    on = "" if args.env == "crash" else f" on vehicle {models.get('vehicle', 'the packaged one')}"
-    against = _element_of(models) if args.backend == SURROGATE else _reference_of(args)
-    what = (
-        f"surrogate ({_element_of(models)}) vs {args.backend} ({against}){on}; "
-        f"gap = (surrogate − {args.backend}) / |{args.backend}|"
-    )
-    counted = f"; contacts: bump-stop substeps, surrogate / {args.backend}"
-    if args.env == "crash":
-        if env_id not in (None, CRASH_ID):
-            raise ValueError(f"{env_id_flag(args)}: --gap on --env crash runs {CRASH_ID} only")
-        if args.backend == "linear":
-            raise ValueError("--backend: the crash env has backends reference and surrogate")
-        for flag, given in {
-            "--workers": args.workers != 1,
-            "--address": args.address is not None,
-            "--duration": args.duration is not None,
-        }.items():
-            if given:
-                raise ValueError(f"{flag}: only for vertical, vehicle, not --env crash")
-        rows = gap_crash(
-            args.policy, args.speed, trust=args.trust, backends=backends, env_kwargs=models
-        )
-        scenario = models.get("scenario", "envelope")
-        print(crash_report.train_line(scenario, f"held-out cases of its envelope; {what}"))
-    elif args.env == "vehicle":
-        cases = vehicle_cases(args)
-        env_id = env_id or VEHICLE_ID
-        rows = gap_vehicle(
-            args.policy, backends=backends, env_kwargs=models, env_id=env_id, **cases
-        )
-        print(f"{env_id}, {args.episodes} episodes per case (seeds {args.seed}+i); {what}{counted}")
-    else:
-        for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
-            if given is not None:
-                raise ValueError(f"{flag}: only for --env vehicle and crash, not --env vertical")
-        env_id = env_id or ENV_ID
-        rows = gap_vertical(
-            args.policy, backends=backends, env_kwargs=models, env_id=env_id, **vertical_cases(args)
-        )
-        print(
-            f"{env_id}, {args.episodes} episodes per track class "
-            f"(seeds {args.seed}+i); {what}{counted}"
-        )
-    print(format_gap(rows, args.backend))
-    return 0

@@ -16,7 +16,6 @@ the largest of its three floor points. The target: every episode whose error exc
 
 from __future__ import annotations
 
-import argparse
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -24,17 +23,8 @@ from typing import Any
 import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
-from agents.commands.flags import (
-    add_track_classes,
-    bounded_real,
-    duration_s,
-    episodes,
-    error_status,
-)
 from agents.evaluation.vehicle_validation import ENVS, SEED, record_episodes
-from railgym.progress import quiet
 from railgym.track import class_speed
-from surrogates.cli_flags import Parser, add_common, add_seed
 
 __all__ = ["ENVS", "THRESHOLD", "case_episodes", "format_rows", "target_holds", "validity_rows"]
 
@@ -149,61 +139,3 @@ def format_rows(rows: Sequence[dict[str, Any]], threshold: float = THRESHOLD) ->
         f"target {verdict}."
     )
     return "\n".join(lines)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym validity`` (``python -m agents.evaluation.validity``)."""
-    parser = Parser(prog="railgym validity", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--env", choices=sorted(ENVS), default=None, help="the env (default: both)")
-    add_track_classes(parser, [3, 4, 5, 6])
-    parser.add_argument(
-        "--factor",
-        type=bounded_real("speed factor", "× the class's maximum speed", 2.0),
-        nargs="+",
-        default=[1.0, 1.5, 2.0],
-        help="speeds as multiples of each class's maximum speed (the envs accept up to 2)",
-    )
-    parser.add_argument(
-        "--controller", nargs="+", default=["passive", "skyhook"], help="closed-loop controllers"
-    )
-    parser.add_argument("--seeds", type=episodes, default=5, help="tracks per case")
-    add_seed(parser, "track seed of the first track (then +1, +2, ...)", default=SEED)
-    parser.add_argument("--duration", type=duration_s, default=20.0, help="s per track")
-    parser.add_argument(
-        "--threshold",
-        type=bounded_real("error", "%", 100.0),
-        default=THRESHOLD,
-        help="relative RMS error, %%, above which an episode must be flagged",
-    )
-    add_common(parser)
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Print the table; exit status 1 when the target does not hold."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    envs = ["vertical", "vehicle"] if args.env is None else [args.env]
-    for env in envs:
-        for c in args.controller:
-            if c not in ENVS[env][1]:
-                parser.error(f"--controller {c!r} is not a controller of --env {env}")
-    try:
-        with quiet(args.quiet):
-            rows = validity_rows(
-                envs,
-                args.track_class,
-                args.factor,
-                args.controller,
-                args.seeds,
-                args.duration,
-                args.seed,
-            )
-    except Exception as err:
-        return error_status(parser.prog, err, args.debug)
-    print(format_rows(rows, args.threshold))
-    return 0 if target_holds(rows, args.threshold) else 1
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

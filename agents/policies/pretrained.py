@@ -27,21 +27,16 @@ The budgets and held-out figures of the shipped policies are in ``docs/results.m
 
 from __future__ import annotations
 
-import argparse
 import csv
 import shutil
-import sys
 import zipfile
-from collections.abc import Sequence
 from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
 
-from agents.commands.flags import error_status
 from agents.policies.policy_io import write_manifest
 from railgym.registration import env_family
-from surrogates.cli_flags import Parser, add_common
 
 __all__ = ["PRETRAINED", "RANKING", "install", "pretrained_zip"]
 
@@ -123,34 +118,3 @@ def _copy_weights(src: Path, dst: Path) -> None:
         for item in zin.infolist():
             if item.filename not in TRAINING_STATE:
                 zout.writestr(item, zin.read(item.filename))
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym pretrained`` (``python -m agents.policies.pretrained``)."""
-    parser = Parser(prog="railgym pretrained", description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "name",
-        choices=sorted(PRETRAINED),
-        metavar="NAME",
-        help=f"the pretrained policy: {', '.join(sorted(PRETRAINED))}",
-    )
-    parser.add_argument("benchmark_dir", type=Path, help="output folder of railgym benchmark")
-    parser.add_argument("--overwrite", action="store_true", help="replace a shipped policy")
-    add_common(parser)
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``railgym pretrained NAME BENCHMARK_DIR [--overwrite]``."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    try:
-        dst = install(args.name, args.benchmark_dir, args.overwrite)
-    except Exception as err:
-        return error_status(parser.prog, err, args.debug)
-    print(f"{args.name}: {dst}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -9,14 +9,14 @@ Usage::
 ``CONFIG`` is a ``.yaml`` / ``.yml`` file or the name of a packaged config
 (``ppo_vertical``, ``sac_vertical``, ``ppo_crash``; :func:`railgym._checks.resolve_yaml`).
 An rl-zoo3 hyperparameter file is read as well, with its algorithm given by ``--algo`` as to
-rl-zoo3 (``python -m agents.training.train railgym/configs/agents/rlzoo_vertical.yml --algo ppo``):
+rl-zoo3 (``railgym train railgym/configs/agents/rlzoo_vertical.yml --algo ppo``):
 one file serves both.
 
 The full training run of the vertical suspension agent (a documented command, not a CI test):
 PPO, 4·10⁶ steps on the surrogate backend, evaluated every 10⁵ steps on the reference model
 (4 tracks, FRA class 5, 20 s); measured run times and results are in ``docs/results.md``::
 
-    python -m agents.training.train configs/agents/ppo_vertical.yaml
+    railgym train configs/agents/ppo_vertical.yaml
 
 ``configs/agents/sac_vertical.yaml`` is the off-policy alternative (3·10⁵ steps),
 ``configs/agents/ppo_crash.yaml`` trains the absorbers of ``railgym/TrainCrash-v1``,
@@ -47,12 +47,10 @@ Gymnasium 1.x vector envs (``NEXT_STEP`` or ``SAME_STEP`` autoreset).
 
 from __future__ import annotations
 
-import argparse
 import csv
 import sys
 import time
 import warnings
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -62,8 +60,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from tqdm import tqdm
 
-from agents._extras import extra_error, report_missing
-from agents.commands.flags import bounded_int, error_status
+from agents._extras import extra_error
 
 try:  # the 'agents' extra
     import stable_baselines3 as sb3
@@ -73,8 +70,6 @@ try:  # the 'agents' extra
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 except ImportError as _err:
-    if __name__ == "__main__":
-        sys.exit(report_missing(_err, "python -m agents.training.train", "training"))
     raise extra_error(_err, "training (agents.training.train)") from _err
 
 from agents.controllers.action_hold import ActionHold
@@ -82,7 +77,7 @@ from agents.controllers.registry import build_controller
 from agents.controllers.residual import ResidualVectorEnv
 from agents.policies.policy_io import write_manifest
 from agents.training.envelope import EnvelopeVectorEnv, check_envelope
-from agents.training.run_files import read_run, run_folder, speed_text, versions, write_config
+from agents.training.run_files import run_folder, versions, write_config
 from agents.training.train_config import (
     ALGOS,
     MAX_SEED,
@@ -94,7 +89,6 @@ from agents.training.train_config import (
 )
 from railgym import _checks as val
 from railgym.report.output import atomic_path, prepare_output_dir
-from surrogates.cli_flags import Parser, add_common, add_out, add_seed
 
 
 def _infos_at(infos: dict[str, Any], idx: np.ndarray) -> list[dict[str, Any]]:
@@ -537,62 +531,3 @@ def _learn(
         "update_steps_per_s": _rate(steps, timing.update_s),
         "eval_s": round(timing.eval_s, 1),
     }
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``railgym train`` (``python -m agents.training.train``)."""
-    parser = Parser(prog="railgym train", description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "config", help="YAML file (agents.training.train format), or the name of a packaged config"
-    )
-    add_out(
-        parser,
-        "output folder (default: runs/<config-stem>/ in the working folder)",
-        overwrite="write into an existing non-empty -o/--out folder",
-    )
-    parser.add_argument(
-        "--timesteps",
-        type=bounded_int(1, MAX_TIMESTEPS),
-        default=None,
-        help="override n_timesteps",
-    )
-    add_seed(parser, "override the config's seed", default=None)
-    parser.add_argument(
-        "--algo",
-        choices=sorted(ALGOS),
-        default=None,
-        help="algorithm of an rl-zoo3 hyperparameter file (rl-zoo3's --algo; the "
-        "agents.training.train format names it in the file)",
-    )
-    add_common(parser, quiet_old=["--no-progress"])
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``railgym train`` (``python -m agents.training.train``); returns the exit
-    status (2: user error)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    try:
-        out = train(
-            args.config,
-            args.out,
-            args.timesteps,
-            not args.quiet,
-            args.seed,
-            args.overwrite,
-            args.algo,
-        )
-    except Exception as err:
-        return error_status(parser.prog, err, args.debug)
-    run = read_run(out)
-    print(
-        f"{speed_text(run)}: rollouts {run['rollout_steps_per_s']} steps/s, updates "
-        f"{run['update_steps_per_s']} steps/s, evaluations {run['eval_s']} s; "
-        f"model, logs and config in {out}/"
-    )
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

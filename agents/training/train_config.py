@@ -320,9 +320,7 @@ def _env_block(config: str | Path | dict[str, Any]) -> tuple[str, dict[str, Any]
             env_id, f"settings of {env_id!r} must be a mapping, got {block!r}", full=True
         )
     if block.get("trainer", "sb3") == "rllib":
-        raise val.FieldError(
-            "trainer", "is 'rllib': train this file with python -m agents.training.train_rllib"
-        )
+        raise val.FieldError("trainer", "is 'rllib': train this file with railgym train-rllib")
     return env_id, block
 
 

@@ -6,7 +6,7 @@ Usage (needs the ``rllib`` extra, its own virtual environment: ``ray[rllib]`` pi
     railgym train-rllib CONFIG.yaml [-o DIR] [--overwrite] [--iterations N] [--seed S]
                                     [--address ADDR] [--quiet] [--debug]
 
-    python -m agents.training.train_rllib railgym/configs/agents/ppo_vertical_rllib.yaml
+    railgym train-rllib railgym/configs/agents/ppo_vertical_rllib.yaml
 
 Config file: one top-level key, the Gymnasium env id, holding
 
@@ -48,7 +48,6 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import json
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
@@ -58,7 +57,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents._extras import extra_error, report_missing
+from agents._extras import extra_error
 from agents._predict import SB3Predict
 from agents.commands.flags import error_status
 from agents.commands.train_rllib import MAX_ITERATIONS, build_parser
@@ -93,8 +92,6 @@ try:  # the 'rllib' extra (ray, torch) and the SB3 evaluation of the 'agents' ex
         checked_env_kwargs,
     )
 except ImportError as _err:
-    if __name__ == "__main__":
-        sys.exit(report_missing(_err, "python -m agents.training.train_rllib", "RLlib training"))
     raise extra_error(_err, "RLlib training (agents.training.train_rllib)") from _err
 
 ALGOS = ("ppo",)
@@ -358,8 +355,7 @@ def train_rllib(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``railgym train-rllib`` (``python -m agents.training.train_rllib``); returns
-    the exit status (2: user error)."""
+    """Entry point of ``railgym train-rllib``; returns the exit status (2: user error)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -373,7 +369,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     reward = run["eval"]["mean_reward"]
     print(f"{speed_text(run)}; evaluation reward {reward:.4g}; checkpoint, logs in {out}/")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -11,8 +11,8 @@ import pytest
 
 pytest.importorskip("stable_baselines3")  # railgym train's parser names SB3's algorithms
 
-from agents.cli import main  # noqa: E402
-from agents.cli_table import DOC, command_parsers, documented, flag_rows, markdown  # noqa: E402
+from agents.commands.cli import main  # noqa: E402
+from agents.commands.cli_table import DOC, command_parsers, documented, flag_rows, markdown  # noqa: E402
 from surrogates.cli_flags import DEPRECATED  # noqa: E402
 
 #: the rule of docs/cli.md, per command: what it does with its results

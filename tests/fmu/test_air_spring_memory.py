@@ -43,7 +43,16 @@ def test_default_element_of_the_air_spring_car(tmp_path):
     (tmp_path / "air_car.yaml").write_text(AIR_CAR_YAML)
     mapping = {**yaml.safe_load(USER_MAPPING_YAML), "fmu": str(fmu), "vehicle": "air_car.yaml"}
     (tmp_path / "map.yaml").write_text(yaml.safe_dump(mapping, sort_keys=False))
-    cmd = [sys.executable, "-m", "agents.cli", "collect", "--fmu-map", "map.yaml", "-o", "el.json"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "agents.commands.cli",
+        "collect",
+        "--fmu-map",
+        "map.yaml",
+        "-o",
+        "el.json",
+    ]
     text = _run(cmd, tmp_path)
     assert "memory states: 1 (from the data" in text and "warning: tau" not in text
     assert "map:" not in text  # the additive passive map; the coupled one only with --coupled
@@ -53,7 +62,7 @@ def test_default_element_of_the_air_spring_car(tmp_path):
     fit = report["linear_fit"]
     assert 3.3e5 < fit["k0"] < 3.9e5 and 7.7e5 < fit["k0"] + fit["k1"] < 8.9e5  # N/m
     table = _run(
-        [sys.executable, "-m", "agents.evaluation.vehicle_validation", "--env", "vertical"]
+        [sys.executable, "-m", "agents.commands.cli", "validate", "--env", "vertical"]
         + ["--element", "el.json", "--backend", "fmu", "--fmu-map", "map.yaml", "--seeds", "5"]
         + ["--track-class", "3", "4", "5", "6", "--controller", "passive", "skyhook"],
         tmp_path,

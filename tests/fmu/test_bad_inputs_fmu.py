@@ -14,7 +14,7 @@ import pytest
 import yaml
 
 import railgym  # noqa: F401  (registers the envs)
-from agents.cli import main
+from agents.commands.cli import main
 from railgym.fmu.mapping import FMUError
 from railgym.fmu.reference import export_reference_fmu
 from surrogates.fmi.export import compile_sources, fmi_platform

@@ -114,7 +114,16 @@ def test_the_vehicle_is_never_assumed(project, tmp_path):
     with pytest.raises(FMUError, match="needs its vehicle description"):
         collect_fmu(path, SMALL)
     res = subprocess.run(
-        [sys.executable, "-m", "agents.cli", "collect", "--fmu-map", str(path), "-o", "x.json"],
+        [
+            sys.executable,
+            "-m",
+            "agents.commands.cli",
+            "collect",
+            "--fmu-map",
+            str(path),
+            "-o",
+            "x.json",
+        ],
         cwd=tmp_path,
         capture_output=True,
         text=True,
@@ -142,7 +151,7 @@ def test_the_command_builds_an_element_that_runs_the_coach(project):
     the user's vehicle file and, passive on class-5 track, its floor accelerations are
     within 3 % RMS of the FMU env's at every floor point."""
     folder = project.parent
-    cmd = [sys.executable, "-m", "agents.cli", "collect", "--fmu-map", project.name]
+    cmd = [sys.executable, "-m", "agents.commands.cli", "collect", "--fmu-map", project.name]
     args = ["--design", "paper", "--degree", "8", "8", "8", "-o", "el.json", "--quiet"]
     res = subprocess.run(
         cmd + args, cwd=folder, capture_output=True, text=True, timeout=900, check=False
@@ -180,7 +189,7 @@ def test_the_coachs_element_meets_the_whole_vehicle_target(project, monkeypatch)
     from agents.evaluation import vehicle_validation as vv
 
     folder = project.parent
-    cmd = [sys.executable, "-m", "agents.cli", "collect", "--fmu-map", project.name]
+    cmd = [sys.executable, "-m", "agents.commands.cli", "collect", "--fmu-map", project.name]
     args = ["-o", "default.json", "--quiet"]
     res = subprocess.run(cmd + args, cwd=folder, capture_output=True, text=True, timeout=3600)
     assert res.returncode == 0, res.stderr

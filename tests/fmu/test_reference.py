@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401  (registers the envs)
-from agents.cli import main
+from agents.commands.cli import main
 from tests.markers import needs_cc
 
 fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not installed")

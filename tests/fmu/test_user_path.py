@@ -54,7 +54,7 @@ def project(tmp_path_factory, request):
 def _collect(folder: Path) -> Path:
     out = folder / "element.json"
     if not out.exists():
-        cmd = [sys.executable, "-m", "agents.cli", "collect", "--features", "static"]
+        cmd = [sys.executable, "-m", "agents.commands.cli", "collect", "--features", "static"]
         _run([*cmd, "--fmu-map", "map.yaml", "--output", "element.json", "--quiet"], folder)
     return out
 
@@ -86,7 +86,7 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     _collect(folder)
     # validate: surrogate env against the FMU env
     table = _run(
-        [sys.executable, "-m", "agents.evaluation.vehicle_validation", "--env", "vertical"]
+        [sys.executable, "-m", "agents.commands.cli", "validate", "--env", "vertical"]
         + ["--element", "element.json", "--backend", "fmu", "--fmu-map", "map.yaml", "--seeds", "2"]
         + ["--track-class", "5", "--duration", "4"],
         folder,
@@ -105,7 +105,10 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     block["eval_env_kwargs"] = {"backend": "fmu", "fmu_map": "map.yaml", "surrogate": None}
     block.pop("checkpoint_freq")
     (folder / "my_ppo.yaml").write_text(yaml.safe_dump(config))
-    _run([sys.executable, "-m", "agents.training.train", "my_ppo.yaml", "--no-progress"], folder)
+    _run(
+        [sys.executable, "-m", "agents.commands.cli", "train", "my_ppo.yaml", "--no-progress"],
+        folder,
+    )
     zip_path = folder / "runs" / "my_ppo" / "model.zip"
     # evaluate and the transfer gap on the FMU; the LQG is designed for this car
     ev = ["railgym", "evaluate", str(zip_path), "lqg", "--backend", "fmu", "--fmu-map"]

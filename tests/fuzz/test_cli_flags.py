@@ -1,6 +1,7 @@
 """The fuzzer of the command lines, generated from the flag table: every flag and positional
-of every ``railgym`` and ``surrogates`` subcommand (:func:`agents.cli_table.flag_rows`) gets
-the texts users get wrong (:func:`tests.fuzz.values.command_line`).
+of every ``railgym`` and ``surrogates`` subcommand
+(:func:`agents.commands.cli_table.flag_rows`) gets the texts users get wrong
+(:func:`tests.fuzz.values.command_line`).
 
 Two tiers, in process (no subprocess per case):
 
@@ -33,9 +34,9 @@ import numpy as np
 import pytest
 
 from agents._extras import MissingExtraError
-from agents.cli import MODULE_COMMANDS, build_parser, module_parser
-from agents.cli import main as railgym_main
-from agents.cli_table import command_parsers, flag_rows
+from agents.commands.cli import MODULE_COMMANDS, build_parser, module_parser
+from agents.commands.cli import main as railgym_main
+from agents.commands.cli_table import command_parsers, flag_rows
 from surrogates.cli_flags import DEPRECATED
 from tests.fuzz.runner import Hang, deadline
 from tests.fuzz.values import MUST_REFUSE, Bad, Files, command_line

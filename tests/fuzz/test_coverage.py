@@ -8,7 +8,7 @@ import inspect
 import re
 from pathlib import Path
 
-from agents.cli_table import BEGIN, END
+from agents.commands.cli_table import BEGIN, END
 from railgym.registration import ENVS
 from tests.fuzz.declarations import entry_class, wrapper_arguments
 from tests.fuzz.test_cli_flags import cases as cli_cases
@@ -49,7 +49,7 @@ def test_every_flag_of_the_table_is_fuzzed(tmp_path: Path) -> None:
     text = DOC.read_text(encoding="utf-8")
     table = text[text.index(BEGIN) : text.index(END)]
     rows = set(re.findall(r"^\| ([\w -]+?) \| `([^`]+)` \|", table, re.M))
-    from agents.cli_table import _flag
+    from agents.commands.cli_table import _flag
 
     fuzzed = {(c.command, _flag(c.action)) for c in cli_cases(Files.make(tmp_path))}
     assert rows == fuzzed

@@ -10,7 +10,7 @@ import gymnasium as gym
 import pytest
 import yaml
 
-from agents.cli import main as railgym_main
+from agents.commands.cli import main as railgym_main
 
 V1 = "railgym/VerticalSuspension-v1"
 WHOLE = "railgym/VerticalVehicle-v1"

@@ -11,7 +11,7 @@ import gymnasium as gym
 import pytest
 import yaml
 
-from agents.evaluation.benchmark import build_parser as benchmark_parser
+from agents.commands.benchmark import build_parser as benchmark_parser
 from agents.training.train import train
 from agents.training.train_config import load_config
 from railgym.wrappers import ReferenceShadow, RideComfort

@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-import agents.cli
+import agents.commands.cli
 import railgym.report
-from agents.cli import main
+from agents.commands.cli import main
 from railgym.report import PAPER_LABEL, REPORT_FILES, make_report
 from railgym.report.output import atomic_path, prepare_output_dir, write_text_atomic
 from railgym.report.tables import markdown, table
@@ -37,7 +37,7 @@ def quick(tmp_path_factory):
 
     with pytest.MonkeyPatch.context() as mp:
         mp.chdir(cwd)
-        mp.setattr(agents.cli, "make_report", recorded)
+        mp.setattr(agents.commands.cli, "make_report", recorded)
         assert main(["paper", "--quick", "--out", "paper"]) == 0
     return cwd / "paper", results[0]
 

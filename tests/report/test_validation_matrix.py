@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.cli import main
+from agents.commands.cli import main
 from agents.controllers.classical import LQR, Skyhook
 from railgym.envs.vertical.env import VerticalSuspensionEnv
 from railgym.parallel import ray_available

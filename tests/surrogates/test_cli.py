@@ -80,7 +80,7 @@ def test_build_command_reports_a_missing_column(tmp_path, capsys):
 
 
 def test_railgym_command_has_demo_paper_evaluate():
-    from agents.cli import main as railgym_main
+    from agents.commands.cli import main as railgym_main
 
     with pytest.raises(SystemExit) as exc:
         railgym_main(["--help"])
@@ -94,7 +94,7 @@ def test_demo_passes_the_surrogate_only_to_its_backend_and_warns_nothing(
     weighted carbody acceleration on both models, and the plots are written."""
     import warnings
 
-    from agents import cli
+    from agents.commands import cli
     from railgym.vehicles.collect import build_vertical_surrogate
 
     def quick_build(m, **kwargs):  # a smaller, faster build of the same element
@@ -142,7 +142,7 @@ def test_demo_passes_the_surrogate_only_to_its_backend_and_warns_nothing(
 def test_demo_runs_twice_as_written_and_keeps_foreign_folders(tmp_path, monkeypatch, capsys):
     """README command 1 (``railgym demo``, default folder) run a second time replaces its own
     plots; a folder holding another file is still refused (exit 2) and left alone."""
-    from agents import cli
+    from agents.commands import cli
     from railgym.envs.vertical.env import VerticalSuspensionEnv
     from railgym.vehicles.collect import build_vertical_surrogate
 
@@ -169,7 +169,7 @@ def test_demo_runs_twice_as_written_and_keeps_foreign_folders(tmp_path, monkeypa
 
 
 def test_demo_help_lists_the_files_it_writes(capsys):
-    from agents import cli
+    from agents.commands import cli
 
     with pytest.raises(SystemExit):
         cli.main(["demo", "--help"])

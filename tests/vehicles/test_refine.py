@@ -61,7 +61,7 @@ def test_refine_bad_arguments(toy):
 
 
 def test_refine_command_writes_a_loadable_element_and_refuses_to_overwrite(tmp_path, capsys):
-    from agents.cli import main
+    from agents.commands.cli import main
     from railgym.envs.vertical.env import VerticalSuspensionEnv
     from surrogates import io
     from surrogates.memory import element_form

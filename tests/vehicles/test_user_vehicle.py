@@ -132,7 +132,7 @@ def test_default_gains_follow_the_vehicles_modes(user_file):
 @pytest.fixture(scope="module")
 def reference_fmu(tmp_path_factory):
     """The exported reference FMU and its mapping with the ``vehicle:`` line removed."""
-    from agents.cli import main
+    from agents.commands.cli import main
 
     out = tmp_path_factory.mktemp("ref") / "vehicle.fmu"
     assert main(["export-reference-fmu", "--env", "vertical", "-o", str(out)]) == 0
@@ -167,7 +167,7 @@ def test_an_fmu_env_needs_the_vehicle_of_its_model(reference_fmu):
 
 def test_collect_from_an_fmu_without_a_vehicle_names_the_flag(reference_fmu, tmp_path):
     fmu, bare = reference_fmu
-    cmd = [sys.executable, "-m", "agents.cli", "collect", "--features", "static"]
+    cmd = [sys.executable, "-m", "agents.commands.cli", "collect", "--features", "static"]
     cmd += ["--fmu-map", str(bare), "--fmu", str(fmu), "--output", str(tmp_path / "e.json")]
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert res.returncode == 2

@@ -9,7 +9,7 @@ import pytest
 import yaml
 from scipy.linalg import expm, solve_discrete_are
 
-from agents.cli import main
+from agents.commands.cli import main
 from agents.controllers.classical import VehicleLQR
 from agents.controllers.control_base import vehicle_lqr_gain, vehicle_lqr_weights
 from agents.controllers.lqg import VehicleLQG

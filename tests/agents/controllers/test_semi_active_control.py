@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401  (registers the envs)
-from agents.cli import main
+from agents.commands.cli import main
 from agents.controllers.classical import Skyhook
 from agents.controllers.control_base import default_c_sky
 from agents.controllers.lqg import LQG

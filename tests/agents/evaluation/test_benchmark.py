@@ -6,13 +6,9 @@ import numpy as np
 import pytest
 import yaml
 
+from agents.commands.benchmark import main
 from agents.controllers.registry import PREVIEW_BASELINES, VEHICLE_ID, baselines_of
-from agents.evaluation.benchmark import (
-    _baseline_kwargs,
-    curve_figure,
-    main,
-    summary_table,
-)
+from agents.evaluation.benchmark import _baseline_kwargs, curve_figure, summary_table
 
 TINY = """\
 railgym/VerticalSuspension-v1:

@@ -2,7 +2,8 @@
 
 import pytest
 
-from agents.evaluation.crash_limits import ceilings, main
+from agents.commands.crash_limits import main
+from agents.evaluation.crash_limits import ceilings
 
 
 def test_ceilings_are_nested_and_knowing_the_speed_pays():

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from agents.cli import main
+from agents.commands.cli import main
 from tests.envs.crash.user_train import write_train
 
 TRAIN = "scenario my_train (3 cars, 42 / 38 / 38 t, speed_kmh 36)"

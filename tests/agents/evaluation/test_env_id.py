@@ -12,7 +12,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.cli import main
+from agents.commands.cli import main
 from agents.controllers.classical import Passive
 from railgym.comfort import weighted_rms
 

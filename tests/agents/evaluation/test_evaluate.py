@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.cli import main
+from agents.commands.cli import main
 from agents.controllers.classical import BogieSkyhook
 from agents.controllers.registry import VEHICLE_ID
 from agents.evaluation.crash_report import envelope_table
@@ -270,7 +270,7 @@ def test_rllib_checkpoint_without_the_extra_is_a_clear_error(tmp_path, monkeypat
 def _railgym(*args: str) -> subprocess.CompletedProcess:
     """``railgym ARGS`` in a fresh process."""
     return subprocess.run(
-        [sys.executable, "-m", "agents.cli", *args],
+        [sys.executable, "-m", "agents.commands.cli", *args],
         capture_output=True,
         text=True,
         timeout=300,

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from agents.cli import main
+from agents.commands.cli import main
 from agents.evaluation.gap import format_gap, gap_crash, gap_vehicle, gap_vertical, relative_gap
 from agents.evaluation.runs import run_policy
 from agents.policies.loading import load_policy

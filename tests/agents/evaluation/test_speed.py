@@ -50,7 +50,15 @@ def _table(out: str) -> dict[tuple[str, str], tuple[int, int, float, float]]:
 
 def test_demo_in_a_fresh_process_prints_the_speed_table(tmp_path):
     proc = subprocess.run(
-        [sys.executable, "-m", "agents.cli", "demo", "--out", str(tmp_path / "d"), "--quiet"],
+        [
+            sys.executable,
+            "-m",
+            "agents.commands.cli",
+            "demo",
+            "--out",
+            str(tmp_path / "d"),
+            "--quiet",
+        ],
         capture_output=True,
         text=True,
         cwd=tmp_path,
@@ -255,7 +263,7 @@ def test_single_steps_longer_than_an_episode_are_refused():
 def test_demo_without_fmpy_leads_with_how_to_get_it(tmp_path, monkeypatch, capsys):
     """Without FMPy the demo's first comparison is the line saying how to get it, and the
     internal reference rows follow with the ratios of the printed table's rates."""
-    from agents import cli
+    from agents.commands import cli
     from railgym.vehicles.collect import build_vertical_surrogate
 
     def quick_build(m, **kwargs):  # a smaller, faster build of the same element

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.cli import main
+from agents.commands.cli import main
 from agents.evaluation.evaluate import evaluate_crash
 from railgym._checks import resolve_yaml
 

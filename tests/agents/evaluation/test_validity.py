@@ -8,9 +8,10 @@ import warnings
 import numpy as np
 import pytest
 
+from agents.commands.validity import main
 from agents.evaluation.evaluate import format_rows, format_vehicle_rows
 from agents.evaluation.runs import run_policy, run_vehicle_policy
-from agents.evaluation.validity import case_episodes, main, target_holds
+from agents.evaluation.validity import case_episodes, target_holds
 from agents.evaluation.validity import format_rows as validity_table
 
 

@@ -3,7 +3,8 @@ tracks per row and a legend of the columns, never ``inf / nan / inf``."""
 
 import numpy as np
 
-from agents.evaluation.vehicle_validation import LEGEND, main
+from agents.commands.validate import main
+from agents.evaluation.vehicle_validation import LEGEND
 from railgym.vehicles.collect import save_vertical_surrogate
 from surrogates.models.lpr import LegendreRegression
 

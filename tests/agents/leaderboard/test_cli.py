@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from agents.cli import main
+from agents.commands.cli import main
 from agents.leaderboard.results import load_entries, table_rows
 from railgym.tasks import TASKS
 

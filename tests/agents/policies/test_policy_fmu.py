@@ -12,7 +12,7 @@ import shutil
 import numpy as np
 import pytest
 
-from agents.cli import main
+from agents.commands.cli import main
 from tests.markers import needs_cc
 
 pytest.importorskip("stable_baselines3")

@@ -20,7 +20,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.cli import main
+from agents.commands.cli import main
 from tests.markers import needs_cc
 
 pytest.importorskip("stable_baselines3")
@@ -224,7 +224,15 @@ def test_shipped_residual_fmu_reproduces_predict_with_its_lqg(shipped):
 
 def test_cli_exports_a_pretrained_name_in_a_fresh_process(tmp_path):
     out = tmp_path / "c.fmu"
-    cmd = [sys.executable, "-m", "agents.cli", "export-policy", "ppo-vertical", "-o", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "agents.commands.cli",
+        "export-policy",
+        "ppo-vertical",
+        "-o",
+        str(out),
+    ]
     done = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, timeout=600)
     assert done.returncode == 0, done.stderr
     assert out.is_file() and f"wrote {out}" in done.stdout
@@ -235,7 +243,15 @@ def test_cli_refuses_the_crash_policy_saying_why(tmp_path):
     """``ppo-crash`` sets absorber force scales (and holds its action 10 steps): one line
     naming the env and why, exit status 2, nothing written."""
     out = tmp_path / "c.fmu"
-    cmd = [sys.executable, "-m", "agents.cli", "export-policy", "ppo-crash", "-o", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "agents.commands.cli",
+        "export-policy",
+        "ppo-crash",
+        "-o",
+        str(out),
+    ]
     done = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, timeout=600)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()

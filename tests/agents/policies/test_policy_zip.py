@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 import railgym  # noqa: F401  (registers the environments)
-from agents.cli import main
+from agents.commands.cli import main
 from agents.controllers.registry import ENV_ID
 from agents.evaluation.runs import evaluate_vehicle
 from agents.policies.loading import load_policy
@@ -194,7 +194,7 @@ def test_agents_train_command_trains_an_rlzoo_file(tmp_path, capsys):
         "policy_kwargs": {"net_arch": [8]},
     }
     config.write_text(yaml.safe_dump({ENV_ID: block}))
-    from agents.training.train import main as train_main
+    from agents.commands.train import main as train_main
 
     argv = [str(config), "--out", str(tmp_path / "run"), "--no-progress", "--seed", "0"]
     assert train_main([*argv, "--algo", "ppo"]) == 0

@@ -83,7 +83,7 @@ def _table(out: str) -> dict[str, str]:
 def test_cli_evaluate_of_a_semi_active_policy_compares_on_its_damper(capsys):
     """Without --actuator the command takes the policy's actuator: passive is damper command 0
     and skyhook the semi-active one, the same rows as with --actuator semi-active."""
-    from agents.cli import main
+    from agents.commands.cli import main
 
     case = ["--backend", "linear", "--track-class", "4", "--episodes", "1"]
     assert main(["evaluate", "ppo-semiactive", *case]) == 0
@@ -112,7 +112,7 @@ def test_cli_evaluate_of_a_semi_active_policy_compares_on_its_damper(capsys):
     ],
 )
 def test_cli_refuses_an_actuator_the_policy_was_not_trained_with(argv, words, capsys):
-    from agents.cli import main
+    from agents.commands.cli import main
 
     assert main(["evaluate", *argv, "--episodes", "1"]) == 2
     err = capsys.readouterr().err

@@ -65,7 +65,7 @@ def test_rlzoo_trains_a_few_hundred_steps_on_the_shipped_config(tmp_path):
     assert evals["timesteps"].tolist() == [128, 256]
     assert np.all(evals["ep_lengths"] == 50)  # the evaluation env's 0.5 s at control_dt 0.01 s
     # and railgym evaluate takes rl-zoo3's model as it is (--trust: rl-zoo3 writes no manifest)
-    from agents.cli import main
+    from agents.commands.cli import main
 
     argv = ["evaluate", str(run / "railgym-VerticalSuspension-v3.zip"), "--trust", "--quiet"]
     with pytest.warns(UserWarning, match="--trust"):

@@ -19,9 +19,10 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 pytest.importorskip("stable_baselines3")
 
 import railgym  # noqa: E402
+from agents.commands.train import main  # noqa: E402
 from agents.controllers.classical import Passive  # noqa: E402
 from agents.policies.loading import load_policy  # noqa: E402
-from agents.training.train import GymVecToSB3, evaluate, load_config, main, make_vec, train  # noqa: E402
+from agents.training.train import GymVecToSB3, evaluate, load_config, make_vec, train  # noqa: E402
 
 ENV_ID = "railgym/VerticalSuspension-v1"
 CONFIGS = Path(railgym.__file__).parent / "configs" / "agents"
@@ -477,5 +478,5 @@ def test_numpy_integers_are_accepted_and_bools_rejected():
 
 
 def test_rllib_config_is_pointed_to_its_trainer():
-    with pytest.raises(ValueError, match="agents.training.train_rllib"):
+    with pytest.raises(ValueError, match="railgym train-rllib"):
         load_config("ppo_vertical_rllib")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import railgym  # noqa: F401  (registers the environments)
-from agents.cli import main
+from agents.commands.cli import main
 from railgym._checks import FieldError
 
 ENV_ID = "railgym/VerticalVehicle-v1"

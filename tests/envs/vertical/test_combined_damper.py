@@ -57,7 +57,15 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("bench")
     _bench(folder / "bench.csv")
     (folder / "car.yaml").write_text(CAR)
-    cmd = [sys.executable, "-m", "agents.cli", "combine", "bench.csv", "--vehicle", "car.yaml"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "agents.commands.cli",
+        "combine",
+        "bench.csv",
+        "--vehicle",
+        "car.yaml",
+    ]
     done = subprocess.run(
         [*cmd, "--dampers", "2", "-o", "el.json", "--quiet"],
         cwd=folder,

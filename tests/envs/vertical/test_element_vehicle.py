@@ -146,7 +146,7 @@ def test_reference_shadow_compares_with_the_users_fmu(folder: Path, user_c_fmu: 
 
 def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "agents.cli", *args],
+        [sys.executable, "-m", "agents.commands.cli", *args],
         cwd=cwd,
         capture_output=True,
         text=True,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.cli import main
+from agents.commands.cli import main
 from agents.commands.refine import vehicle_observation_map
 from railgym.envs.vehicle.env import VerticalVehicleEnv
 from railgym.vehicles.refinement import RefineOptions

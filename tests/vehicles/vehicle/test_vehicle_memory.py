@@ -320,7 +320,8 @@ def test_whole_vehicle_collection_records_each_bogie_of_the_reference(vehicle):
 
 
 def test_vehicle_validation_cli_prints_small_errors_for_the_memory_element(capsys):
-    from agents.evaluation.vehicle_validation import LEGEND, main
+    from agents.commands.validate import main
+    from agents.evaluation.vehicle_validation import LEGEND
 
     assert main(["--seeds", "2", "--track-class", "5", "--duration", "2"]) == 0
     out = capsys.readouterr().out

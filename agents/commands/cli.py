@@ -12,13 +12,14 @@
 - ``railgym evaluate POLICY ...``: comfort indices of controllers or saved policies on the
   vertical env and the whole vehicle (``--env vehicle``), crash indices (``--env crash``, the
   held-out impact envelope with ``--envelope``); ``--workers N`` / ``--address ADDR`` run the
-  cases in parallel (:mod:`agents.evaluation.evaluate`).
+  cases in parallel (:mod:`agents.commands.evaluate`).
 - ``railgym refine POLICY ...``: refine the surrogate element for a policy
   (:mod:`agents.commands.refine`).
 - ``railgym export-reference-fmu`` / ``export-policy``: FMUs for FMI tools
   (:mod:`agents.commands.export_fmu`).
-- the module commands of :data:`MODULE_COMMANDS` (``railgym train`` = ``python -m
-  agents.training.train``, ...): the module's own parser reads the rest of the command line.
+- the module commands of :data:`MODULE_COMMANDS` (``railgym train``:
+  :mod:`agents.commands.train`, ...): the module's own parser reads the rest of the command
+  line.
 
 One vocabulary (:mod:`surrogates.cli_flags`, ``docs/cli.md``): ``-o/--out`` is what a command
 writes, ``--overwrite`` lets it replace what is there, ``--seed`` seeds what it draws, every
@@ -255,17 +256,17 @@ def _version() -> str:
         return "unknown"
 
 
-#: subcommands that are the ``python -m`` entry points of their modules: name → (module,
-#: its line in ``railgym --help``); the module's ``main(argv)`` runs it, its
-#: ``build_parser()`` (or that of :data:`PARSER_MODULES`) has the arguments
+#: subcommands with a module of their own: name → (module, its line in ``railgym --help``);
+#: the module's ``main(argv)`` runs it, its ``build_parser()`` (or that of
+#: :data:`PARSER_MODULES`) has the arguments
 MODULE_COMMANDS = {
-    "train": ("agents.training.train", "train an SB3 agent from a config"),
+    "train": ("agents.commands.train", "train an SB3 agent from a config"),
     "train-rllib": ("agents.training.train_rllib", "train an RLlib PPO agent from a config"),
     "benchmark": (
-        "agents.evaluation.benchmark",
+        "agents.commands.benchmark",
         "seeds, held-out evaluation, curve and table of a config",
     ),
-    "pretrained": ("agents.policies.pretrained", "ship a benchmarked policy as a pretrained one"),
+    "pretrained": ("agents.commands.pretrained", "ship a benchmarked policy as a pretrained one"),
     "collect": ("agents.commands.collect", "collect and build a vertical element"),
     "collect-vehicle": ("agents.commands.collect_vehicle", "build the whole-vehicle element"),
     "combine": (
@@ -273,13 +274,13 @@ MODULE_COMMANDS = {
         "an element of a bench-tested damper with the vehicle file's springs and bump stops",
     ),
     "validate": (
-        "agents.evaluation.vehicle_validation",
+        "agents.commands.validate",
         "surrogate against reference or FMU, per class",
     ),
-    "validity": ("agents.evaluation.validity", "the validity flags against the surrogate's error"),
-    "crash-report": ("agents.evaluation.crash_report", "crash baseline and surrogate-error tables"),
+    "validity": ("agents.commands.validity", "the validity flags against the surrogate's error"),
+    "crash-report": ("agents.commands.crash_report", "crash baseline and surrogate-error tables"),
     "crash-limits": (
-        "agents.evaluation.crash_limits",
+        "agents.commands.crash_limits",
         "ceilings of crash absorber control per range",
     ),
     "crash-fe": ("agents.commands.crash_fe", "crash elements from LS-DYNA nodout/rcforc"),
@@ -287,8 +288,9 @@ MODULE_COMMANDS = {
     "damper-element": ("agents.commands.damper_element", "the element of a controllable damper"),
     "env-tables": ("agents.commands.env_tables", "rewrite the argument tables of docs/envs"),
     "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
-    "leaderboard": ("agents.leaderboard.cli", "benchmark tasks: scores, bounds, entries"),
+    "leaderboard": ("agents.commands.leaderboard", "benchmark tasks: scores, bounds, entries"),
 }
+
 #: the module with the parser of a module command whose own module needs an extra
 PARSER_MODULES = {"train-rllib": "agents.commands.train_rllib"}
 
@@ -343,8 +345,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _out_arguments(p, "railgym-paper", "report.md and the figures", "one holding only these files")
     add_parallel_arguments(p, "", "the validation matrix", "the report does")
-    from agents.commands import export_fmu, refine
-    from agents.evaluation import evaluate
+    from agents.commands import evaluate, export_fmu, refine
 
     for name, add, what, description in (
         ("evaluate", evaluate.add_arguments, "comfort indices of policies", EVALUATE),
@@ -366,7 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name, (module, what) in MODULE_COMMANDS.items():
         sub.add_parser(
             name,
-            help=what if module.startswith("agents.commands.") else f"{what} (python -m {module})",
+            help=what if module.startswith("agents.") else f"{what} (python -m {module})",
             add_help=False,
         )
     return parser
@@ -406,8 +407,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return report_missing(err, f"railgym {argv[0]}", argv[0])
         return int(module.main(argv[1:]))
     args = build_parser().parse_args(argv)
-    from agents.commands import export_fmu, refine
-    from agents.evaluation import evaluate
+    from agents.commands import evaluate, export_fmu, refine
 
     command = {
         "export-reference-fmu": export_fmu.run_reference,
