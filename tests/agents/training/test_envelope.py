@@ -75,7 +75,9 @@ def test_vehicle_envelope_and_sb3_adapter():
 def test_config_envelope_is_checked_and_trains(tmp_path):
     path = Path(__file__).parents[3] / "railgym" / "configs" / "agents" / "ppo_vertical.yaml"
     cfg = yaml.safe_load(path.read_text())
-    block = cfg["railgym/VerticalSuspension-v1"]
+    (env_id,) = cfg  # the packaged config's env: the newest version
+    assert env_id == "railgym/VerticalSuspension-v3"
+    block = cfg[env_id]
     assert check_envelope(block["envelope"]).track_class == (4, 5, 6)
     for bad, field in (
         ({"track_class": [7]}, "envelope.track_class"),
@@ -83,7 +85,7 @@ def test_config_envelope_is_checked_and_trains(tmp_path):
         ({"track_class": [5], "speed": [1, 2]}, "envelope"),
     ):
         with pytest.raises(val.FieldError, match=field):
-            load_config({"railgym/VerticalSuspension-v1": {**block, "envelope": bad}})
+            load_config({env_id: {**block, "envelope": bad}})
     with pytest.raises(val.FieldError, match="envelope"):
         load_config(
             {
