@@ -47,7 +47,7 @@ class UsageError(ValueError):
     """A bad command-line argument or path (exit code 2, one line on stderr)."""
 
 
-def _check_output(path: str, flag: str, overwrite: bool) -> None:
+def check_output(path: str, flag: str, overwrite: bool) -> None:
     """Fail before the build when ``path`` cannot be written or would be overwritten."""
     p = Path(path)
     if p.is_dir():
@@ -310,11 +310,11 @@ def _build(args: argparse.Namespace) -> int:
     if not 0 <= args.seed <= MAX_SEED:  # the bound of every command's --seed
         raise UsageError(f"--seed must be an integer in 0..{MAX_SEED}, got {args.seed}")
     candidates = _candidates(args, len(args.inputs))
-    _check_output(args.out, "-o", args.overwrite)
+    check_output(args.out, "-o", args.overwrite)
     if args.report:
         if Path(args.report).resolve() == Path(args.out).resolve():
             raise UsageError("--report and -o name the same file")
-        _check_output(args.report, "--report", args.overwrite)
+        check_output(args.report, "--report", args.overwrite)
     cols, header_units = io.read_csv_units(args.data, columns=names)
     given = _units(args, units, header_units)
     cols, units, factors = to_si(cols, given, str(args.data))
@@ -390,7 +390,7 @@ def _export_fmu(args: argparse.Namespace) -> int:
     from surrogates.fmi import FMUExportError, export_fmu
 
     try:
-        _check_output(args.out, "-o", args.overwrite)
+        check_output(args.out, "-o", args.overwrite)
         path = export_fmu(
             args.model,
             args.out,

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from agents.commands.flags import check_out
 from railgym import _checks as val
 from railgym.vehicles import collect as vertical_collect
 from railgym.vehicles.collect import PACKAGED, build_vertical_surrogate, save_vertical_surrogate
@@ -169,11 +170,7 @@ def _checked(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Any:
     from surrogates.cli import UsageError
 
     if args.out is not None:
-        target = Path(args.out)
-        if target.exists() and not args.overwrite:
-            parser.error(f"--out {target}: exists; pass --overwrite to replace it")
-        if not target.parent.is_dir():
-            parser.error(f"--out {target}: the folder {str(target.parent)!r} does not exist")
+        check_out(parser, args.out, args.overwrite)
     try:
         cands = _candidates(args)
     except (UsageError, ValueError) as err:

@@ -8,6 +8,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from agents.commands.flags import check_out
 from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.element_envelope import design_envelope
 from railgym.vehicles.vehicle import collect as vehicle_collect
@@ -33,11 +34,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Build the whole-vehicle element of :data:`VEHICLE_DESIGN` and write it to ``-o/--out``."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    check_out(parser, args.out, args.overwrite)
     out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        parser.error(f"--out {out}: exists; pass --overwrite to replace it")
-    if not out.parent.is_dir():
-        parser.error(f"--out {out}: the folder {str(out.parent)!r} does not exist")
     try:
         return _collect(out, args.seed, args.quiet)
     except Exception as err:

@@ -7,6 +7,7 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
+from agents.commands.flags import check_out
 from railgym.vehicles import components
 from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.components import combine_damper, read_bench_table
@@ -46,9 +47,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """``railgym combine``: fit and write the combined element; exit status 2 on bad input."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    check_out(parser, args.out, args.overwrite)
     out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        parser.error(f"--out {out}: exists; pass --overwrite to replace it")
     try:
         u, force = read_bench_table(args.data, args.columns, unit_pairs(args.units))
         cands = degree_candidates(args.degree, args.max_degree, 2)

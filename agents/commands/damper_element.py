@@ -10,6 +10,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from agents.commands.flags import check_out
 from railgym.progress import quiet, stages
 from railgym.vehicles.semi_active import load_damper
 from railgym.vehicles.semi_active_element import (
@@ -45,11 +46,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     input."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    check_out(parser, args.out, args.overwrite)
     out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        parser.error(f"--out {out}: exists; pass --overwrite to replace it")
-    if not out.parent.is_dir():
-        parser.error(f"--out {out}: the folder {str(out.parent)!r} does not exist")
     try:
         return _build(args, out)
     except Exception as err:

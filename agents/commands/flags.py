@@ -15,6 +15,7 @@ from railgym import _checks as val
 from railgym.envs.vertical.env import LIMITS
 from railgym.registration import ENVS, env_family
 from surrogates.checks import bounded_int, seed_number
+from surrogates.cli import UsageError, check_output
 from surrogates.cli_flags import error_status
 
 __all__ = [
@@ -276,3 +277,12 @@ def env_id_flag(args: argparse.Namespace) -> str:
     if args.env_version is not None:
         return f"--env-version {args.env_version}"
     return f"--env-id {args.env_id}"
+
+
+def check_out(parser: argparse.ArgumentParser, path: str, overwrite: bool) -> None:
+    """``-o/--out`` checked before the work (:func:`surrogates.cli.check_output`): a folder, a
+    missing or read-only folder, or an existing file without ``--overwrite`` exits 2 naming it."""
+    try:
+        check_output(path, "--out", overwrite)
+    except UsageError as err:
+        parser.error(str(err))
