@@ -154,13 +154,12 @@ def _quick(results: Path | None) -> None:
 def _run(args: argparse.Namespace) -> int:
     from agents.leaderboard.run import learned_entry, policy_entry
 
+    results = args.results or RESULTS_DIR
     if args.policy is not None:
-        entry = policy_entry(
-            args.task, args.policy, args.name, results=args.results, trust=args.trust
-        )
+        entry = policy_entry(args.task, args.policy, args.name, results=results, trust=args.trust)
     else:
         entry = learned_entry(
-            args.task, args.algo, args.seeds, args.steps, args.runs, args.name, args.results
+            args.task, args.algo, args.seeds, args.steps, args.runs, args.name, results
         )
     print(format_table(table_rows([entry])))
     return 0

@@ -52,6 +52,17 @@ def test_controller_as_policy_scores_as_its_baseline_row(tmp_path, capsys):
     assert mine["kind"] == "policy" and mine["seeds"] == [0]
 
 
+def test_run_without_results_writes_the_default_folder(tmp_path, monkeypatch, capsys):
+    """No ``--results``: the entry goes to the default folder (the shipped results)."""
+    import agents.commands.leaderboard as command
+
+    monkeypatch.setattr(command, "RESULTS_DIR", tmp_path)
+    argv = ["leaderboard", "run", "--task", "crash-adaptive", "--policy", "passive"]
+    assert main([*argv, "--name", "default-folder"]) == 0
+    (entry,) = load_entries(tmp_path, ["crash-adaptive"])
+    assert entry["name"] == "default-folder" and entry["kind"] == "policy"
+
+
 @pytest.mark.parametrize("fmt", ["md", "csv", "json"])
 def test_table_formats(fmt, capsys):
     assert main(["leaderboard", "--task", "crash-adaptive", "--format", fmt]) == 0
