@@ -96,9 +96,11 @@ static void start_values(QuarterCar *q) {
 #define MODEL_T QuarterCar
 #define MODEL_LABEL "the quarter car"
 #include "user_fmi2_glue.h"
+#include "user_held_inputs.h"
 
 /* ------------------------------------------------------------------ FMI 2.0 functions
- * (the rest, the same in every model of the user's: user_fmi2_glue.h) */
+ * (the rest, the same in every model of the user's: user_fmi2_glue.h; fmi2SetReal,
+ * fmi2SetRealInputDerivatives and fmi2DoStep with held inputs: user_held_inputs.h) */
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
     QuarterCar *q = (QuarterCar *)c;
@@ -116,40 +118,5 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
             return fmi2Error;
         }
     }
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       const fmi2Real value[]) {
-    QuarterCar *q = (QuarterCar *)c;
-    size_t i;
-    for (i = 0; i < nvr; i++) {
-        if (vr[i] > VR_FACT) {
-            model_log(q, fmi2Error, "fmi2SetReal: value reference %u is not an input",
-                      (unsigned)vr[i]);
-            return fmi2Error;
-        }
-        q->u[vr[i]] = value[i];
-    }
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                       size_t nvr, const fmi2Integer order[],
-                                       const fmi2Real value[]) {
-    (void)vr; (void)nvr; (void)order; (void)value;
-    return not_supported(c, "fmi2SetRealInputDerivatives");
-}
-
-fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
-                      fmi2Real communicationStepSize,
-                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
-    QuarterCar *q = (QuarterCar *)c;
-    double h = communicationStepSize / N_SUBSTEPS;
-    int k;
-    (void)noSetFMUStatePriorToCurrentPoint;
-    if (!step_size_ok(q, communicationStepSize)) return fmi2Error;
-    for (k = 0; k < N_SUBSTEPS; k++) rk4(q->x, q->u, h);
-    q->time = currentCommunicationPoint + communicationStepSize;
     return fmi2OK;
 }
