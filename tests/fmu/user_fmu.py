@@ -3,7 +3,7 @@
 Two FMI 2.0 co-simulation FMUs of the same car, built at test time into a temporary folder:
 
 * ``user_c_fmu``: hand-written C (``user_models/quarter_car.c``, the FMI glue the user's
-  models share, ``user_fmi2_glue.h`` and ``user_held_inputs.h``, and the
+  models share, ``user_fmi2_glue.h`` and ``user_quarter_car.h``, and the
   ``quarter_car.modelDescription.xml`` template), compiled with the system C compiler
   (``$CC``, ``cc`` or ``gcc``) against the FMI 2.0 standard headers of
   ``surrogates/fmi/c/third_party``;

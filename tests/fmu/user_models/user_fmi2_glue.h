@@ -3,7 +3,7 @@
  * (quarter_car.c, air_spring_car.c, coach.c): still no railgym code, only the FMI 2.0
  * standard headers. The FMI functions that do the same in every model live here; each
  * model writes its own fmi2GetReal, and fmi2SetReal, fmi2SetRealInputDerivatives and
- * fmi2DoStep (those of a model with held inputs: user_held_inputs.h).
+ * fmi2DoStep (those of the quarter cars: user_quarter_car.h).
  *
  * Before including it a model defines
  *   MODEL_T      its instance struct, whose first fields are
