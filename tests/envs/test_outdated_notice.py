@@ -3,11 +3,8 @@ id and process (railgym.registration), not again after a filter change clears Py
 once-registry, and never for the newest version; a filter the user adds later still decides."""
 
 import os
-import subprocess
-import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.fresh_process import ROOT, run_python
 
 SCRIPT = """
 import warnings
@@ -29,14 +26,8 @@ gym.make("railgym/VerticalVehicle-v1", backend="reference")
 def test_the_out_of_date_notice_is_shown_once_per_id_unless_the_user_asks_for_more():
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     env.pop("PYTHONWARNINGS", None)
-    run = subprocess.run(
-        [sys.executable, "-c", SCRIPT],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=600,
-        check=True,
-    )
+    run = run_python("-c", SCRIPT, env=env)
+    assert run.returncode == 0, run.stderr
     notices = [ln for ln in run.stderr.splitlines() if "is out of date" in ln]
     assert len(notices) == 3, notices
     assert "railgym/VerticalVehicle-v1 is out of date" in notices[0]

@@ -5,18 +5,15 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 from collections.abc import Callable
-from pathlib import Path
 
 import pytest
 
 from tests.fmu.user_coach import user_coach_fmu
 from tests.fmu.user_fmu import user_c_fmu, user_py_fmu
+from tests.fresh_process import ROOT, run_python
 
 __all__ = ["fresh_python", "user_c_fmu", "user_coach_fmu", "user_py_fmu"]
-
-ROOT = Path(__file__).parents[2]
 
 
 def _fresh_python(
@@ -24,15 +21,8 @@ def _fresh_python(
 ) -> subprocess.CompletedProcess[str]:
     """``python -c script args…`` in a fresh process from the repository root (faulthandler
     on, ``timeout`` s at most); its exit status and output, whatever the status."""
-    return subprocess.run(
-        [sys.executable, "-c", script, *args],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env={**os.environ, "PYTHONFAULTHANDLER": "1"},
-        timeout=timeout,
-        check=False,
-    )
+    env = {**os.environ, "PYTHONFAULTHANDLER": "1"}
+    return run_python("-c", script, *args, cwd=ROOT, timeout=timeout, env=env)
 
 
 @pytest.fixture

@@ -6,8 +6,6 @@ Maxwell damper, only body outputs, no bump stops)."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import warnings
 
 import gymnasium as gym
@@ -21,6 +19,7 @@ from railgym.fmu.mapping import FMUError
 from railgym.vehicles.collect_design import CollectionDesign
 from surrogates import io
 from tests.fmu.user_coach import coach_secondary_force, write_coach_project
+from tests.fresh_process import run_cli
 
 VEHICLE_V2 = "railgym/VerticalVehicle-v2"
 #: the coach's Maxwell time constant (coach.c: CS / KS), s
@@ -113,22 +112,7 @@ def test_the_vehicle_is_never_assumed(project, tmp_path):
     path.write_text(yaml.safe_dump(doc))
     with pytest.raises(FMUError, match="needs its vehicle description"):
         collect_fmu(path, SMALL)
-    res = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "agents.commands.cli",
-            "collect",
-            "--fmu-map",
-            str(path),
-            "-o",
-            "x.json",
-        ],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    res = run_cli("collect", "--fmu-map", str(path), "-o", "x.json", cwd=tmp_path, timeout=300)
     assert res.returncode == 2 and "--vehicle your_vehicle.yaml" in res.stderr
     assert not (tmp_path / "x.json").exists()
 
@@ -151,11 +135,8 @@ def test_the_command_builds_an_element_that_runs_the_coach(project):
     the user's vehicle file and, passive on class-5 track, its floor accelerations are
     within 3 % RMS of the FMU env's at every floor point."""
     folder = project.parent
-    cmd = [sys.executable, "-m", "agents.commands.cli", "collect", "--fmu-map", project.name]
     args = ["--design", "paper", "--degree", "8", "8", "8", "-o", "el.json", "--quiet"]
-    res = subprocess.run(
-        cmd + args, cwd=folder, capture_output=True, text=True, timeout=900, check=False
-    )
+    res = run_cli("collect", "--fmu-map", project.name, *args, cwd=folder, timeout=900)
     assert res.returncode == 0, res.stderr
     doc = json.loads((folder / "el.json").read_text())
     assert doc["metadata"]["source"].startswith(f"FMU of {project.name} (vehicle ")
@@ -189,9 +170,8 @@ def test_the_coachs_element_meets_the_whole_vehicle_target(project, monkeypatch)
     from agents.evaluation import vehicle_validation as vv
 
     folder = project.parent
-    cmd = [sys.executable, "-m", "agents.commands.cli", "collect", "--fmu-map", project.name]
-    args = ["-o", "default.json", "--quiet"]
-    res = subprocess.run(cmd + args, cwd=folder, capture_output=True, text=True, timeout=3600)
+    args = ["--fmu-map", project.name, "-o", "default.json", "--quiet"]
+    res = run_cli("collect", *args, cwd=folder, timeout=3600)
     assert res.returncode == 0, res.stderr
     monkeypatch.setitem(vv.ENVS, "vehicle", (VEHICLE_V2, VEHICLE_CONTROLLERS, vv.FLOOR))
     reference = {"backend": "fmu", "fmu_map": str(project), "vehicle": str(folder / "coach.yaml")}

@@ -3,8 +3,8 @@
 Two FMI 2.0 co-simulation FMUs of the same car, built at test time into a temporary folder:
 
 * ``user_c_fmu``: hand-written C (``user_models/quarter_car.c``, the FMI glue the user's
-  models share, ``user_fmi2_glue.h``, and the ``quarter_car.modelDescription.xml``
-  template), compiled with the system C compiler
+  models share, ``user_fmi2_glue.h`` and ``user_quarter_car.h``, and the
+  ``quarter_car.modelDescription.xml`` template), compiled with the system C compiler
   (``$CC``, ``cc`` or ``gcc``) against the FMI 2.0 standard headers of
   ``surrogates/fmi/c/third_party``;
 * ``user_py_fmu``: a pythonfmu 0.7.0 slave (``user_models/quarter_car_py.py``), built with
@@ -234,7 +234,8 @@ def build_c_fmu(dest: Path, stem: str, guid_macro: str) -> Path:
         pytest.skip(f"no C compiler ($CC, cc or gcc) to build the user's C FMU {stem}")
     source = MODELS / f"{stem}.c"
     template = (MODELS / f"{stem}.modelDescription.xml").read_text(encoding="utf-8")
-    glue = (MODELS / "user_fmi2_glue.h").read_bytes()  # the user's FMI glue, #included
+    headers = sorted(MODELS.glob("*.h"))  # the user's FMI glue, #included
+    glue = b"".join(h.read_bytes() for h in headers)
     digest = hashlib.sha256(source.read_bytes() + glue + template.encode()).hexdigest()
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"{stem}:" + digest)) + "}"
     build = dest / f"{stem}_build"
@@ -262,7 +263,8 @@ def build_c_fmu(dest: Path, stem: str, guid_macro: str) -> Path:
         zf.writestr("modelDescription.xml", template.replace("@GUID@", guid))
         zf.write(lib, f"binaries/{fmpy.platform}/{lib.name}")
         zf.write(source, f"sources/{stem}.c")
-        zf.write(MODELS / "user_fmi2_glue.h", "sources/user_fmi2_glue.h")
+        for h in headers:
+            zf.write(h, f"sources/{h.name}")
     return fmu
 
 

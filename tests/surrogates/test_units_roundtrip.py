@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -20,6 +19,7 @@ import surrogates
 from surrogates import io
 from surrogates.cli import main
 from surrogates.units import KNOWN_UNITS
+from tests.fresh_process import run_python
 
 SI = {"defl": "m", "rate": "m/s", "force": "N"}
 N_ROWS = 300
@@ -64,14 +64,7 @@ def _argv(data: Path, model: Path, *extra: str) -> list[str]:
 
 def _run(argv: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
     """``python -m surrogates`` in a fresh process."""
-    return subprocess.run(
-        [sys.executable, "-m", "surrogates", *argv],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-        check=False,
-        timeout=300,
-    )
+    return run_python("-m", "surrogates", *argv, cwd=cwd, timeout=300)
 
 
 def _steps(model: object, n: int = 20) -> np.ndarray:

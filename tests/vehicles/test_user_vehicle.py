@@ -9,8 +9,6 @@ FMU without a vehicle description is an error.
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 
 import gymnasium as gym
 import numpy as np
@@ -24,6 +22,7 @@ from railgym._checks import resolve_yaml
 from railgym.vehicles.memory_element import memory_training_data
 from railgym.vehicles.vertical.params import linear_model, load_vehicle, vehicle_from_dict
 from railgym.vehicles.vertical.simulate import simulate
+from tests.fresh_process import run_cli
 
 #: a user's quarter car (not railgym's Manchester coach)
 USER = {"m1": 1800.0, "m2": 8000.0, "k1": 2.4e6, "c1": 3.0e4, "k2": 4.3e5, "c2": 1.7e4}
@@ -167,9 +166,8 @@ def test_an_fmu_env_needs_the_vehicle_of_its_model(reference_fmu):
 
 def test_collect_from_an_fmu_without_a_vehicle_names_the_flag(reference_fmu, tmp_path):
     fmu, bare = reference_fmu
-    cmd = [sys.executable, "-m", "agents.commands.cli", "collect", "--features", "static"]
-    cmd += ["--fmu-map", str(bare), "--fmu", str(fmu), "--output", str(tmp_path / "e.json")]
-    res = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    args = ["--fmu-map", str(bare), "--fmu", str(fmu), "--output", str(tmp_path / "e.json")]
+    res = run_cli("collect", "--features", "static", *args, timeout=300)
     assert res.returncode == 2
     assert "--vehicle" in res.stderr and "never assumed" in res.stderr
     assert not (tmp_path / "e.json").exists()

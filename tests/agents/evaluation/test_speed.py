@@ -6,7 +6,6 @@ compared with a speed target (speed belongs in ``benchmarks/``)."""
 from __future__ import annotations
 
 import re
-import subprocess
 import sys
 from types import SimpleNamespace
 
@@ -16,6 +15,7 @@ from agents.evaluation import speed
 from agents.evaluation.speed import SpeedRow, backend_speeds, format_speeds
 from railgym.envs.vertical.env import VerticalSuspensionEnv, VerticalSuspensionVectorEnv
 from railgym.vehicles.collect import default_vertical_surrogate
+from tests.fresh_process import run_cli
 
 #: a table row: mode, label, sub-envs, steps, env-steps/s, × reference
 ROW = re.compile(
@@ -49,22 +49,7 @@ def _table(out: str) -> dict[tuple[str, str], tuple[int, int, float, float]]:
 
 
 def test_demo_in_a_fresh_process_prints_the_speed_table(tmp_path):
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "agents.commands.cli",
-            "demo",
-            "--out",
-            str(tmp_path / "d"),
-            "--quiet",
-        ],
-        capture_output=True,
-        text=True,
-        cwd=tmp_path,
-        timeout=600,
-        check=False,
-    )
+    proc = run_cli("demo", "--out", str(tmp_path / "d"), "--quiet", cwd=tmp_path)
     out = proc.stdout
     assert proc.returncode == 0, proc.stderr
     assert "5. speed: the surrogate element against the high-fidelity model it replaces" in out

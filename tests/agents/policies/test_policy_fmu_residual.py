@@ -12,8 +12,6 @@ names resolve as in ``railgym evaluate``; what cannot be exported is one line an
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -21,6 +19,7 @@ import numpy as np
 import pytest
 
 from agents.commands.cli import main
+from tests.fresh_process import run_cli
 from tests.markers import needs_cc
 
 pytest.importorskip("stable_baselines3")
@@ -28,7 +27,6 @@ fmpy = pytest.importorskip("fmpy", reason="the 'fmi' extra (fmpy) is not install
 pytestmark = needs_cc
 ID = "railgym/VerticalSuspension-v1"
 VID = "railgym/VerticalVehicle-v1"
-ROOT = Path(__file__).resolve().parents[3]
 #: |FMU − predict·f_max| / f_max allowed at every step
 TOL = 1e-5
 
@@ -226,16 +224,7 @@ def test_shipped_residual_fmu_reproduces_predict_with_its_lqg(shipped):
 
 def test_cli_exports_a_pretrained_name_in_a_fresh_process(tmp_path):
     out = tmp_path / "c.fmu"
-    cmd = [
-        sys.executable,
-        "-m",
-        "agents.commands.cli",
-        "export-policy",
-        "ppo-vertical",
-        "-o",
-        str(out),
-    ]
-    done = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    done = run_cli("export-policy", "ppo-vertical", "-o", str(out), cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert out.is_file() and f"wrote {out}" in done.stdout
     assert fmpy.read_model_description(str(out)).coSimulation is not None
@@ -245,16 +234,7 @@ def test_cli_refuses_the_crash_policy_saying_why(tmp_path):
     """``ppo-crash`` sets absorber force scales (and holds its action 10 steps): one line
     naming the env and why, exit status 2, nothing written."""
     out = tmp_path / "c.fmu"
-    cmd = [
-        sys.executable,
-        "-m",
-        "agents.commands.cli",
-        "export-policy",
-        "ppo-crash",
-        "-o",
-        str(out),
-    ]
-    done = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    done = run_cli("export-policy", "ppo-crash", "-o", str(out), cwd=tmp_path)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in done.stderr

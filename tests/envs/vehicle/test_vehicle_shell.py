@@ -4,9 +4,6 @@ fresh single-env info arrays, and the cached compiled step in a new process."""
 from __future__ import annotations
 
 import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,6 +16,7 @@ from railgym.envs.vehicle.env import (
     VerticalVehicleVectorEnv,
 )
 from railgym.envs.vertical.env import VerticalSuspensionEnv
+from tests.fresh_process import ROOT, run_python
 
 
 @pytest.mark.parametrize("mid", [0, 17])
@@ -172,14 +170,8 @@ def test_a_fresh_process_loads_the_cached_steps_reproduces_them_and_frees_their_
         for _ in range(10):
             obs = env.step(np.full(m, 0.5, np.float32))[0]
         expected.append(obs.tobytes().hex())
-    root = Path(__file__).resolve().parents[3]
-    run = subprocess.run(
-        [sys.executable, "-c", _FRESH],
-        capture_output=True,
-        text=True,
-        cwd=root,
-        env={**os.environ, "PYTHONPATH": str(root), "NUMBA_NRT_STATS": "1"},
-    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NRT_STATS": "1"}
+    run = run_python("-c", _FRESH, cwd=ROOT, env=env)
     assert run.returncode == 0, run.stderr
     lines = run.stdout.strip().split("\n")
     assert len(lines) == len(expected)

@@ -5,8 +5,6 @@ of ``VerticalSuspension``; the element on the user's vehicle rides as the user's
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -18,9 +16,9 @@ from railgym.vehicles.components import combine_damper, spring_force
 from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import io
 from tests.fmu.user_fmu import USER_CAR, USER_MAPPING_YAML, USER_VEHICLE_YAML, user_secondary_force
+from tests.fresh_process import BARE_ENV, run_cli
 
 ID = "railgym/VerticalSuspension-v2"
-ROOT = Path(__file__).parents[3]
 #: the user's car with its spring's progression: the vehicle file gives the spring
 CAR = USER_VEHICLE_YAML + f"static_spring:\n  progression: {USER_CAR.progression}\n"
 BUMP = """\
@@ -57,24 +55,8 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("bench")
     _bench(folder / "bench.csv")
     (folder / "car.yaml").write_text(CAR)
-    cmd = [
-        sys.executable,
-        "-m",
-        "agents.commands.cli",
-        "combine",
-        "bench.csv",
-        "--vehicle",
-        "car.yaml",
-    ]
-    done = subprocess.run(
-        [*cmd, "--dampers", "2", "-o", "el.json", "--quiet"],
-        cwd=folder,
-        capture_output=True,
-        text=True,
-        timeout=600,
-        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"},
-        check=False,
-    )
+    args = ["combine", "bench.csv", "--vehicle", "car.yaml", "--dampers", "2", "-o", "el.json"]
+    done = run_cli(*args, "--quiet", cwd=folder, env=BARE_ENV)
     assert done.returncode == 0, done.stderr
     return folder
 

@@ -4,8 +4,6 @@ through ``gym.make``, ``ReferenceShadow`` and ``railgym evaluate --gap``."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -17,9 +15,9 @@ from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.vertical.params import load_vehicle
 from surrogates import build, io
 from tests.fmu.user_fmu import USER_MAPPING_YAML, USER_VEHICLE_YAML, user_secondary_force
+from tests.fresh_process import BARE_ENV, run_cli
 
 ID = "railgym/VerticalSuspension-v2"
-ROOT = Path(__file__).parents[3]
 UNITS = {"delta": "m", "delta_dot": "m/s", "F_s": "N"}
 
 
@@ -144,30 +142,18 @@ def test_reference_shadow_compares_with_the_users_fmu(folder: Path, user_c_fmu: 
         ReferenceShadow(env)
 
 
-def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "agents.commands.cli", *args],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=False,
-        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"},
-    )
-
-
 def test_gap_with_the_users_element_needs_its_vehicle_and_names_both_sides(
     folder: Path, user_c_fmu: Path
 ) -> None:
     gap = ["evaluate", "passive", "--gap", "--surrogate", "el.json", "--episodes", "1"]
     gap += ["--track-class", "4"]
-    done = _cli(*gap, cwd=folder)
+    done = run_cli(*gap, cwd=folder, env=BARE_ENV)
     assert done.returncode == 2, done.stderr
     assert "vehicle is not given" in done.stderr and "user_quarter_car" in done.stderr
     (folder / "map.yaml").write_text(
         USER_MAPPING_YAML + f"fmu: {user_c_fmu}\nvehicle: my_car.yaml\n"
     )
-    done = _cli(*gap, "--backend", "fmu", "--fmu-map", "map.yaml", cwd=folder)
+    done = run_cli(*gap, "--backend", "fmu", "--fmu-map", "map.yaml", cwd=folder, env=BARE_ENV)
     assert done.returncode == 0, done.stderr
     head = "surrogate (element el.json) vs fmu (the FMU mapping map.yaml) on vehicle my_car.yaml"
     assert head in done.stdout

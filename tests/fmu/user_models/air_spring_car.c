@@ -1,7 +1,8 @@
 /*
  * air_spring_car.c - a quarter car with an air spring, surge pipe and reservoir, as a user
  * would bring it: an FMI 2.0 co-simulation FMU written by hand without any railgym code
- * (its FMI glue shared with the user's other models: user_fmi2_glue.h).
+ * (its FMI glue shared with the user's other models: user_fmi2_glue.h, and with the
+ * other quarter car: user_quarter_car.h).
  *
  * Bodies (displacements from the loaded static equilibrium, m, positive upwards):
  *   x1, v1  bogie share,   m1 = 2 100 kg
@@ -63,10 +64,6 @@ static double pressure(double mass, double volume) {
     return P0 * pow(mass / (volume * RHO0), N_POLY);
 }
 
-static double secondary_force(const double *x) {
-    return (pressure(x[4], VB0 - AREA * (x[0] - x[2])) - P0) * AREA;
-}
-
 static void rates(const double *x, const double *u, double *dx) {
     double vb = VB0 - AREA * (x[0] - x[2]);
     double pb = pressure(x[4], vb), pr = pressure(x[5], VR);
@@ -83,19 +80,6 @@ static void rates(const double *x, const double *u, double *dx) {
     dx[5] = mdot;
 }
 
-static void rk4(double *x, const double *u, double h) {
-    double k1[NX], k2[NX], k3[NX], k4[NX], y[NX];
-    int i;
-    rates(x, u, k1);
-    for (i = 0; i < NX; i++) y[i] = x[i] + 0.5 * h * k1[i];
-    rates(y, u, k2);
-    for (i = 0; i < NX; i++) y[i] = x[i] + 0.5 * h * k2[i];
-    rates(y, u, k3);
-    for (i = 0; i < NX; i++) y[i] = x[i] + h * k3[i];
-    rates(y, u, k4);
-    for (i = 0; i < NX; i++) x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-}
-
 static void start_values(QuarterCar *q) {
     memset(q->x, 0, sizeof q->x);
     q->x[4] = RHO0 * VB0;
@@ -109,60 +93,4 @@ static void start_values(QuarterCar *q) {
 #define MODEL_T QuarterCar
 #define MODEL_LABEL "the air-spring car"
 #include "user_fmi2_glue.h"
-
-/* ------------------------------------------------------------------ FMI 2.0 functions
- * (the rest, the same in every model of the user's: user_fmi2_glue.h) */
-fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       fmi2Real value[]) {
-    QuarterCar *q = (QuarterCar *)c;
-    size_t i;
-    for (i = 0; i < nvr; i++) {
-        switch (vr[i]) {
-        case VR_ZR: case VR_ZR_DOT: case VR_FACT: value[i] = q->u[vr[i] - VR_ZR]; break;
-        case VR_X1: case VR_V1: case VR_X2: case VR_V2: value[i] = q->x[vr[i] - VR_X1]; break;
-        case VR_A2:
-            value[i] = (secondary_force(q->x) + q->u[2]) / M2;
-            break;
-        default:
-            model_log(q, fmi2Error, "fmi2GetReal: no Real variable with value reference %u",
-                      (unsigned)vr[i]);
-            return fmi2Error;
-        }
-    }
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       const fmi2Real value[]) {
-    QuarterCar *q = (QuarterCar *)c;
-    size_t i;
-    for (i = 0; i < nvr; i++) {
-        if (vr[i] > VR_FACT) {
-            model_log(q, fmi2Error, "fmi2SetReal: value reference %u is not an input",
-                      (unsigned)vr[i]);
-            return fmi2Error;
-        }
-        q->u[vr[i]] = value[i];
-    }
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                       size_t nvr, const fmi2Integer order[],
-                                       const fmi2Real value[]) {
-    (void)vr; (void)nvr; (void)order; (void)value;
-    return not_supported(c, "fmi2SetRealInputDerivatives");
-}
-
-fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
-                      fmi2Real communicationStepSize,
-                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
-    QuarterCar *q = (QuarterCar *)c;
-    double h = communicationStepSize / N_SUBSTEPS;
-    int k;
-    (void)noSetFMUStatePriorToCurrentPoint;
-    if (!step_size_ok(q, communicationStepSize)) return fmi2Error;
-    for (k = 0; k < N_SUBSTEPS; k++) rk4(q->x, q->u, h);
-    q->time = currentCommunicationPoint + communicationStepSize;
-    return fmi2OK;
-}
+#include "user_quarter_car.h"

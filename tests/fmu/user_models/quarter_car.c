@@ -1,7 +1,7 @@
 /*
  * quarter_car.c - a quarter car as a user would bring it: an FMI 2.0 co-simulation FMU,
  * written by hand without any railgym code (only the FMI 2.0 standard headers and the
- * user's own glue, user_fmi2_glue.h).
+ * user's own glue, user_fmi2_glue.h, and user_quarter_car.h).
  *
  * Bodies (displacements from the loaded static equilibrium, m, positive upwards; gravity
  * is balanced by the static preload of the secondary spring and does not appear):
@@ -44,6 +44,7 @@
 #define C_REB 1.4e4
 #define V_BLEND 0.01       /* m/s */
 #define N_SUBSTEPS 4
+#define NX 4
 
 /* value references */
 enum { VR_ZR, VR_ZR_DOT, VR_FACT, VR_X1, VR_V1, VR_X2, VR_V2, VR_A2, N_VR };
@@ -53,7 +54,7 @@ typedef struct {
     char *name;
     fmi2Boolean logging;
     double time;
-    double x[4]; /* x1, v1, x2, v2 */
+    double x[NX]; /* x1, v1, x2, v2 */
     double u[3]; /* zr, zr_dot, Fact */
 } QuarterCar;
 
@@ -72,19 +73,6 @@ static void rates(const double *x, const double *u, double *dx) {
     dx[3] = (fs + u[2]) / M2;
 }
 
-static void rk4(double *x, const double *u, double h) {
-    double k1[4], k2[4], k3[4], k4[4], y[4];
-    int i;
-    rates(x, u, k1);
-    for (i = 0; i < 4; i++) y[i] = x[i] + 0.5 * h * k1[i];
-    rates(y, u, k2);
-    for (i = 0; i < 4; i++) y[i] = x[i] + 0.5 * h * k2[i];
-    rates(y, u, k3);
-    for (i = 0; i < 4; i++) y[i] = x[i] + h * k3[i];
-    rates(y, u, k4);
-    for (i = 0; i < 4; i++) x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-}
-
 static void start_values(QuarterCar *q) {
     memset(q->x, 0, sizeof q->x);
     memset(q->u, 0, sizeof q->u);
@@ -96,60 +84,4 @@ static void start_values(QuarterCar *q) {
 #define MODEL_T QuarterCar
 #define MODEL_LABEL "the quarter car"
 #include "user_fmi2_glue.h"
-
-/* ------------------------------------------------------------------ FMI 2.0 functions
- * (the rest, the same in every model of the user's: user_fmi2_glue.h) */
-fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       fmi2Real value[]) {
-    QuarterCar *q = (QuarterCar *)c;
-    size_t i;
-    for (i = 0; i < nvr; i++) {
-        switch (vr[i]) {
-        case VR_ZR: case VR_ZR_DOT: case VR_FACT: value[i] = q->u[vr[i] - VR_ZR]; break;
-        case VR_X1: case VR_V1: case VR_X2: case VR_V2: value[i] = q->x[vr[i] - VR_X1]; break;
-        case VR_A2:
-            value[i] = (secondary_force(q->x[0] - q->x[2], q->x[1] - q->x[3]) + q->u[2]) / M2;
-            break;
-        default:
-            model_log(q, fmi2Error, "fmi2GetReal: no Real variable with value reference %u",
-                      (unsigned)vr[i]);
-            return fmi2Error;
-        }
-    }
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       const fmi2Real value[]) {
-    QuarterCar *q = (QuarterCar *)c;
-    size_t i;
-    for (i = 0; i < nvr; i++) {
-        if (vr[i] > VR_FACT) {
-            model_log(q, fmi2Error, "fmi2SetReal: value reference %u is not an input",
-                      (unsigned)vr[i]);
-            return fmi2Error;
-        }
-        q->u[vr[i]] = value[i];
-    }
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
-                                       size_t nvr, const fmi2Integer order[],
-                                       const fmi2Real value[]) {
-    (void)vr; (void)nvr; (void)order; (void)value;
-    return not_supported(c, "fmi2SetRealInputDerivatives");
-}
-
-fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
-                      fmi2Real communicationStepSize,
-                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
-    QuarterCar *q = (QuarterCar *)c;
-    double h = communicationStepSize / N_SUBSTEPS;
-    int k;
-    (void)noSetFMUStatePriorToCurrentPoint;
-    if (!step_size_ok(q, communicationStepSize)) return fmi2Error;
-    for (k = 0; k < N_SUBSTEPS; k++) rk4(q->x, q->u, h);
-    q->time = currentCommunicationPoint + communicationStepSize;
-    return fmi2OK;
-}
+#include "user_quarter_car.h"

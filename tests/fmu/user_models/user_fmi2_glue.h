@@ -2,8 +2,8 @@
  * user_fmi2_glue.h - the user's own FMI 2.0 glue shared by their hand-written models
  * (quarter_car.c, air_spring_car.c, coach.c): still no railgym code, only the FMI 2.0
  * standard headers. The FMI functions that do the same in every model live here; each
- * model writes its own fmi2GetReal, fmi2SetReal, fmi2SetRealInputDerivatives and
- * fmi2DoStep.
+ * model writes its own fmi2GetReal, and fmi2SetReal, fmi2SetRealInputDerivatives and
+ * fmi2DoStep (those of the quarter cars: user_quarter_car.h).
  *
  * Before including it a model defines
  *   MODEL_T      its instance struct, whose first fields are
