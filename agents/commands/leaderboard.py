@@ -166,11 +166,11 @@ def _quick(results: Path | None) -> None:
     if results is None:
         raise ValueError("--quick writes its entries into --results: give a folder of your own")
     t0 = time.perf_counter()
-    for task in TASKS.values():
-        for name in task.baselines:
-            baseline_entry(task.name, name, Path(results))
-    task, algo, seeds, steps = QUICK
-    learned_entry(task, algo, seeds, steps, Path(results) / "runs", results=Path(results))
+    for name, task in TASKS.items():
+        for baseline in task.baselines:
+            baseline_entry(name, baseline, Path(results))
+    quick, algo, seeds, steps = QUICK
+    learned_entry(quick, algo, seeds, steps, Path(results) / "runs", results=Path(results))
     print(f"quick set: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
 
 
