@@ -259,7 +259,8 @@ def learned_section(entries: Sequence[dict[str, Any]]) -> list[str]:
         "",
         "SB3 with one hyperparameter set per algorithm, the same on every task "
         "(`agents.leaderboard.run.HYPERPARAMETERS`; the rest SB3's defaults), trained on one "
-        "core on the task's training case. `ALGO-residual-CONTROLLER`: the agent's action "
+        "core on the task's training case (`railgym leaderboard run --task T --algo A --seeds N "
+        "--steps S`). `A-residual-CONTROLLER` (`… --residual CONTROLLER`): the agent's action "
         "is added to the controller's (`agents.controllers.residual`, scale 1), the "
         "controller designed once for the training case and kept on every evaluation case, "
         "as wherever the saved policy is loaded (the controller's baseline row is designed "
