@@ -4,14 +4,16 @@
     railgym leaderboard --list
     railgym leaderboard --quick [--results DIR]
     railgym leaderboard run --task T --algo {ppo,sac,td3} --seeds N [--steps S]
+                            [--residual CONTROLLER]
     railgym leaderboard run --task T --policy PATH_OR_CONTROLLER [--name NAME]
     railgym leaderboard references [--task T ...] [--quick]
     railgym leaderboard docs [--results DIR]
 
 The table is read from the stored entries (``--results``, default the shipped ones in
-``agents/leaderboard/results``); ``run`` adds an entry (a training run over seeds, or an
-existing policy: an SB3 ``.zip`` with its manifest, or a classical controller's name, i.e.
-the controller wrapped as a policy) with its provenance; ``references`` computes the passive
+``agents/leaderboard/results``); ``run`` adds an entry (a training run over seeds, plain or
+residual on one of the task's classical controllers, or an existing policy: an SB3 ``.zip``
+with its manifest, or a classical controller's name, i.e. the controller wrapped as a policy)
+with its provenance; ``references`` computes the passive
 and bound values of the score (:mod:`agents.leaderboard.bounds`) into
 ``railgym/data/task_references.json``; ``docs`` writes ``docs/tasks.md`` and
 ``docs/leaderboard.md``. ``--quick`` (a smoke test, minutes on one core) stores every task's
@@ -64,6 +66,13 @@ def _results(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _residuals() -> dict[str, tuple[str, ...]]:
+    """Task → the classical controllers a residual agent of it can correct."""
+    from agents.leaderboard.run import residual_controllers
+
+    return {name: residual_controllers(task) for name, task in TASKS.items()}
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The table's parser; :func:`subcommand_parser` has those of ``run``, ``references`` and
     ``docs`` (``railgym leaderboard SUB --help``)."""
@@ -86,7 +95,9 @@ def subcommand_parser(name: str) -> argparse.ArgumentParser:
     """The parser of ``railgym leaderboard name`` (one of :data:`SUBCOMMANDS`)."""
     p = Parser(prog=f"{PROG} {name}")
     if name == "run":
-        p.description = "Add an entry: a training run over seeds or an existing policy."
+        p.description = (
+            "Add an entry: a training run over seeds (plain or residual) or an existing policy."
+        )
         _tasks(p, False)
         what = p.add_mutually_exclusive_group(required=True)
         what.add_argument("--algo", choices=("ppo", "sac", "td3"), help="train this algorithm")
@@ -95,9 +106,21 @@ def subcommand_parser(name: str) -> argparse.ArgumentParser:
             help="an SB3 .zip (with its manifest.json) or a classical controller's name of the "
             "task's env, evaluated as it is",
         )
+        p.add_argument(
+            "--residual",
+            metavar="CONTROLLER",
+            help="with --algo: train the agent as a residual on this classical controller of "
+            "the task (its action added to the controller's); the entry is "
+            "ALGO-residual-CONTROLLER. Controllers: "
+            + "; ".join(f"{t}: {', '.join(c) or 'none'}" for t, c in _residuals().items()),
+        )
         p.add_argument("--seeds", type=int, default=5, help="training seeds 0 … N−1")
         p.add_argument("--steps", type=int, default=200_000, help="env steps per seed")
-        p.add_argument("--name", help="entry name (default: the algorithm or policy name)")
+        p.add_argument(
+            "--name",
+            help="entry name (default: the algorithm, ALGO-residual-CONTROLLER, or the policy "
+            "name)",
+        )
         p.add_argument("--runs", type=Path, default=Path("runs/leaderboard"), help="run folders")
         p.add_argument("--trust", action="store_true", help="as for railgym evaluate")
         _results(p)
@@ -143,23 +166,34 @@ def _quick(results: Path | None) -> None:
     if results is None:
         raise ValueError("--quick writes its entries into --results: give a folder of your own")
     t0 = time.perf_counter()
-    for task in TASKS.values():
-        for name in task.baselines:
-            baseline_entry(task.name, name, Path(results))
-    task, algo, seeds, steps = QUICK
-    learned_entry(task, algo, seeds, steps, Path(results) / "runs", results=Path(results))
+    for name, task in TASKS.items():
+        for baseline in task.baselines:
+            baseline_entry(name, baseline, Path(results))
+    quick, algo, seeds, steps = QUICK
+    learned_entry(quick, algo, seeds, steps, Path(results) / "runs", results=Path(results))
     print(f"quick set: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
 
 
 def _run(args: argparse.Namespace) -> int:
-    from agents.leaderboard.run import learned_entry, policy_entry
+    from agents.leaderboard.run import check_residual, learned_entry, policy_entry
 
+    if args.residual is not None:
+        if args.policy is not None:
+            raise val.FieldError("--residual", "goes with --algo (it trains), not --policy")
+        check_residual(TASKS[args.task], args.residual, "--residual")
     results = args.results or RESULTS_DIR
     if args.policy is not None:
         entry = policy_entry(args.task, args.policy, args.name, results=results, trust=args.trust)
     else:
         entry = learned_entry(
-            args.task, args.algo, args.seeds, args.steps, args.runs, args.name, results
+            args.task,
+            args.algo,
+            args.seeds,
+            args.steps,
+            args.runs,
+            args.name,
+            results,
+            args.residual,
         )
     print(format_table(table_rows([entry])))
     return 0

@@ -34,6 +34,7 @@ __all__ = [
     "DISCARD_S",
     "NOMINAL_CASE",
     "Factory",
+    "checked_needs",
     "crash_cost",
     "make_case_env",
     "policy_factory",
@@ -91,7 +92,7 @@ def policy_factory(task: Task, policy: str, trust: bool = False) -> tuple[Factor
     return (lambda venv, label: factory(venv)), dict(needs)
 
 
-def _checked_needs(task: Task, needs: dict[str, Any]) -> dict[str, Any]:
+def checked_needs(task: Task, needs: dict[str, Any]) -> dict[str, Any]:
     """The env arguments a policy needs that the task leaves free; one the task fixes to
     another value is refused (the policy does not fit the task)."""
     extra = {}
@@ -134,7 +135,7 @@ def run_case(
 ) -> np.ndarray:
     """The metric of each episode of case ``label`` of ``task`` under the policy of
     ``factory`` (``needs``: env arguments it needs, :func:`policy_factory`)."""
-    venv = make_case_env(task, label, _checked_needs(task, needs or {}))
+    venv = make_case_env(task, label, checked_needs(task, needs or {}))
     try:
         ctrl = factory(venv, label)
         case = task.case(label)

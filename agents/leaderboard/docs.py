@@ -1,7 +1,9 @@
 """The generated pages ``docs/tasks.md`` (per task: observations, actions, reward terms,
 episode end, evaluation protocol, score; read from the env each task makes) and
-``docs/leaderboard.md`` (the table of the stored entries, the reference values per case and
-the learning curves, ``docs/leaderboard_curves.png`` where matplotlib is installed)."""
+``docs/leaderboard.md`` (the table of the stored entries, each learned entry's hyperparameters
+and budget, the compute budget of the whole leaderboard (:mod:`agents.leaderboard.budget`),
+the reference values per case and the learning curves, ``docs/leaderboard_curves.png`` where
+matplotlib is installed)."""
 
 from __future__ import annotations
 
@@ -10,10 +12,27 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from agents.leaderboard.budget import (
+    FEW_SEEDS,
+    MANY_SEEDS,
+    SEED_RULE_S,
+    projection,
+    stored_time,
+)
 from agents.leaderboard.results import format_table, table_rows
+from agents.leaderboard.run import RESIDUAL_BASES
 from railgym import tasks as rt
 
-__all__ = ["CURVES_PNG", "UNITS", "leaderboard_page", "plot_curves", "tasks_page", "write_docs"]
+__all__ = [
+    "CURVES_PNG",
+    "UNITS",
+    "budget_section",
+    "learned_section",
+    "leaderboard_page",
+    "plot_curves",
+    "tasks_page",
+    "write_docs",
+]
 
 #: unit of an observation channel by the start of its name (physical value = obs × scale)
 UNITS = (
@@ -201,9 +220,119 @@ feasible command sequence), tested against every stored entry.
 """
 
 
+#: the keys of a learned entry's training config that are its run's, not hyperparameters
+_RUN_KEYS = frozenset(
+    {"algo", "n_timesteps", "policy", "seed", "env_kwargs", "eval_freq", "n_eval_episodes"}
+    | {"checkpoint_freq", "residual"}
+)
+
+
+def _hours(seconds: float) -> str:
+    return f"{seconds:,.0f} s ({seconds / 3600:.2f} h)"
+
+
+def _block(entry: dict[str, Any]) -> dict[str, Any]:
+    """The training config block of a learned entry (its provenance's one env id)."""
+    ((_, block),) = entry["provenance"]["config"].items()
+    return dict(block)
+
+
+def _hyper(block: dict[str, Any]) -> str:
+    """``key value, …`` of the hyperparameters in ``block`` (``policy_kwargs`` of the network
+    alone: ``net_arch``)."""
+    parts = []
+    for key, value in sorted(block.items()):
+        if key in _RUN_KEYS:
+            continue
+        if key == "policy_kwargs" and set(value) == {"net_arch"}:
+            key, value = "net_arch", value["net_arch"]
+        parts.append(f"{key} {value}")
+    return ", ".join(parts)
+
+
+def learned_section(entries: Sequence[dict[str, Any]]) -> list[str]:
+    """Per learned entry: algorithm, the controller a residual corrects, seeds, steps, wall
+    time of training and evaluation, and its hyperparameters (its stored training config)."""
+    bases = ", ".join(f"{t} {c}" for t, c in RESIDUAL_BASES.items())
+    lines = [
+        "## Learned entries: hyperparameters and budget",
+        "",
+        "SB3 with one hyperparameter set per algorithm, the same on every task "
+        "(`agents.leaderboard.run.HYPERPARAMETERS`; the rest SB3's defaults), trained on one "
+        "core on the task's training case (`railgym leaderboard run --task T --algo A --seeds N "
+        "--steps S`). `A-residual-CONTROLLER` (`… --residual CONTROLLER`): the agent's action "
+        "is added to the controller's (`agents.controllers.residual`, scale 1), the "
+        "controller designed once for the training case and kept on every evaluation case, "
+        "as wherever the saved policy is loaded (the controller's baseline row is designed "
+        "for each case; on bogie-payload the `lqg` row is the nominal design, the "
+        f"residual's); the full set's controllers: {bases}. Seeds: {MANY_SEEDS} where one "
+        f"seed trains in ≤ {SEED_RULE_S / 60:g} min on one core, else {FEW_SEEDS}. Times "
+        "in s on one core (the machine in each entry's provenance); evaluation: the held-out "
+        "cases of every seed, where recorded.",
+        "",
+        "| task | entry | algorithm | residual on | seeds | steps per seed | training s | "
+        "evaluation s | hyperparameters |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for e in entries:
+        if e["kind"] != "learned":
+            continue
+        block = _block(e)
+        evaluation = e.get("eval_wall_s")
+        lines.append(
+            f"| {e['task']} | {e['name']} | {block['algo']} | {block.get('residual') or '—'} | "
+            f"{len(e['seeds'])} | {e['steps']:,} | {e['provenance']['wall_s']:,.0f} | "
+            f"{'—' if evaluation is None else f'{evaluation:,.0f}'} | {_hyper(block)} |"
+        )
+    return lines
+
+
+def budget_section(entries: Sequence[dict[str, Any]]) -> list[str]:
+    """The wall time stored with ``entries`` and the projected time of the full set."""
+    stored = stored_time(entries)
+    plan = projection(entries)
+    projected = [p for p in plan if p.total_s is not None]
+    missing = [f"{p.task} {p.name}" for p in plan if p.total_s is None]
+    total = sum(p.total_s or 0.0 for p in plan) + stored.others
+    lines = [
+        "## Compute budget",
+        "",
+        f"Stored: {_hours(stored.total)} on one core: the entries' provenance wall time "
+        f"{_hours(stored.provenance)} (training of the {stored.learned} learned entries "
+        f"{stored.training:,.0f} s, the baseline and policy entries {stored.others:,.0f} s), "
+        f"and the held-out evaluation of the learned entries {stored.evaluation:,.0f} s "
+        f"(recorded for {stored.evaluated} of {stored.learned}). The reference values "
+        "(`railgym leaderboard references`: passive, baselines and bound searches) record no "
+        "wall time and are not included.",
+        "",
+        f"Full set ({len(plan)} learned entries: every task × PPO, SAC, TD3, plain and "
+        "residual on the controller above, seeds by the rule, at the stored runs' steps; "
+        "`agents.leaderboard.budget`): projected "
+        f"{_hours(total)} on one core with the baselines, about "
+        f"{total / 7200:.2f} h with two runs at once on a 2-core machine (not measured; "
+        "target ≤ 8 h).",
+    ]
+    if missing:
+        lines[-1] += (
+            f" Not projected ({len(missing)} of {len(plan)}: no stored run of their "
+            f"algorithm on their task), so the figure is a lower bound: {', '.join(missing)}."
+        )
+    lines += [
+        "",
+        "| task | entry | time from | steps per seed | training s per seed | evaluation s per "
+        "seed | seeds | projected s |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for p in projected:
+        lines.append(
+            f"| {p.task} | {p.name} | {p.source} | {p.steps or 0:,} | {p.train_s:,.0f} | "
+            f"{p.eval_s:,.0f} | {p.seeds} | {p.total_s:,.0f} |"
+        )
+    return lines
+
+
 def leaderboard_page(entries: Sequence[dict[str, Any]], curves: bool) -> str:
     """The markdown of ``docs/leaderboard.md`` from the stored ``entries``."""
-    seeds = sorted({len(e["seeds"]) for e in entries if e["kind"] == "learned"})
     lines = [
         "# Leaderboard",
         "",
@@ -215,8 +344,12 @@ def leaderboard_page(entries: Sequence[dict[str, Any]], curves: bool) -> str:
         "",
         format_table(table_rows(entries)),
         "",
-        f"Learned entries: seeds per entry {seeds or 'none'}; steps and wall time per entry "
-        "in the table (one core). Hyperparameters: `agents.leaderboard.run.HYPERPARAMETERS`.",
+        "*wall s*: the entry's provenance wall time on one core (a learned entry: the "
+        "training of all its seeds; a baseline or policy: its evaluation).",
+        "",
+        *learned_section(entries),
+        "",
+        *budget_section(entries),
         "",
         "## Reference values per case",
         "",
