@@ -289,6 +289,10 @@ MODULE_COMMANDS = {
     "env-tables": ("agents.commands.env_tables", "rewrite the argument tables of docs/envs"),
     "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
     "leaderboard": ("agents.commands.leaderboard", "benchmark tasks: scores, bounds, entries"),
+    "semi-active-bound": (
+        "agents.commands.semi_active_bound",
+        "best open-loop damper commands per track against the semi-active baselines",
+    ),
 }
 
 #: the module with the parser of a module command whose own module needs an extra

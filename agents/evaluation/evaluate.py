@@ -5,8 +5,8 @@ over the held-out impact envelope beside the crash baselines.
 
     railgym evaluate skyhook --backend reference --track-class 4 6 --episodes 10
     railgym evaluate runs/ppo_vertical/model.zip --backend reference --track-class 4 6
-    railgym evaluate modal-skyhook lqr --env vehicle --track-class 5 --speed 60 100 144 200
-    railgym evaluate runs/ppo_crash/model.zip --env crash --speed 36 40 44
+    railgym evaluate modal-skyhook lqr --env vehicle --track-class 5 --speed-kmh 60 100 144 200
+    railgym evaluate runs/ppo_crash/model.zip --env crash --speed-kmh 36 40 44
     railgym evaluate runs/ppo_crash/model.zip --env crash --envelope
     railgym evaluate clipped-lqg skyhook-onoff groundhook --actuator semi-active
 

@@ -155,7 +155,7 @@ def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, t
     _, mapping = reference_fmu
     out = tmp_path / "element.json"
     assert (
-        collect_main(["--features", "maxwell", "--fmu-map", str(mapping), "--output", str(out)])
+        collect_main(["--features", "maxwell", "--fmu-map", str(mapping), "--out", str(out)])
         == 0
     )
     model, packaged = io.load(out), default_vertical_surrogate()

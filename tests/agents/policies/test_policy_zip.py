@@ -196,7 +196,7 @@ def test_agents_train_command_trains_an_rlzoo_file(tmp_path, capsys):
     config.write_text(yaml.safe_dump({ENV_ID: block}))
     from agents.commands.train import main as train_main
 
-    argv = [str(config), "--out", str(tmp_path / "run"), "--no-progress", "--seed", "0"]
+    argv = [str(config), "--out", str(tmp_path / "run"), "--quiet", "--seed", "0"]
     assert train_main([*argv, "--algo", "ppo"]) == 0
     saved = yaml.safe_load((tmp_path / "run" / "config.yaml").read_text())[ENV_ID]
     assert saved["algo"] == "ppo"  # the resolved config names it: loadable on its own
