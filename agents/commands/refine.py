@@ -73,7 +73,7 @@ def observation_map(env: VerticalSuspensionEnv) -> Any:
 
 
 def vehicle_observation_map(env: VerticalVehicleEnv) -> Any:
-    """``raw (27,) → VerticalVehicle-v1 observation`` (float32, normalised like the env, no
+    """``raw (27,) → VerticalVehicle observation`` (float32, normalised like the env, no
     sensor noise); ``raw`` is :data:`~railgym.vehicles.vehicle.refine.RAW_VEHICLE_OBSERVATION`."""
     index = {name: i for i, name in enumerate(RAW_VEHICLE_OBSERVATION)}
     inv = 1.0 / np.asarray(env.obs_scale, dtype=np.float64)

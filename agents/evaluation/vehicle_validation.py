@@ -1,6 +1,6 @@
 """Surrogate against the high-fidelity model: relative RMS error of the carbody acceleration
-over unseen tracks, on ``railgym/VerticalVehicle-v1`` (per floor point: front, centre, rear)
-or on ``railgym/VerticalSuspension-v1`` (``--env vertical``, one bogie), against the reference
+over unseen tracks, on the newest ``railgym/VerticalVehicle`` (per floor point: front, centre,
+rear) or ``railgym/VerticalSuspension`` (``--env vertical``, one bogie), against the reference
 backend or the user's FMU (``--backend fmu --fmu-map MAP [--vehicle FILE]``).
 
     railgym validate --seeds 20 --track-class 3 4 5 6
