@@ -166,7 +166,7 @@ def test_vehicle_policy_zip_is_loaded_with_the_manifest(tmp_path, capsys, tiny_p
     block = tiny_ppo_block()
     out = train({VEHICLE_ID: block}, tmp_path / "ppo_vehicle", progress=False)
     zip_path = str(out / "model.zip")
-    with pytest.raises(ValueError, match="trained on railgym/VerticalVehicle-v1"):
+    with pytest.raises(ValueError, match=f"trained on {VEHICLE_ID}"):
         load_policy(zip_path)  # not a vertical-env policy
     (row,) = evaluate_vehicle(
         [zip_path], backend="linear", track_classes=(6,), episodes=1, duration=5.0
