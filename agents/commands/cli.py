@@ -29,8 +29,7 @@ output folder is reused when it holds only the command's own files (``demo``, ``
 one holding other files needs ``--overwrite``. A user error (bad value, such a folder
 without ``--overwrite``, unreadable file) is one line on stderr and exit status 2, another
 failure one line and status 1; ``--debug`` shows the traceback instead. A warning (e.g. of
-``--trust``, or of a deprecated flag spelling) is one line ``railgym CMD: warning: …`` on
-stderr, without Python source.
+``--trust``) is one line ``railgym CMD: warning: …`` on stderr, without Python source.
 """
 
 from __future__ import annotations
