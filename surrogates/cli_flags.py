@@ -8,11 +8,9 @@ one spelling and one meaning per flag (``docs/cli.md``).
 - ``--seed``: the seed of what the command draws (tracks, samples, weights) (:func:`add_seed`).
 
 Every parser is a :class:`Parser` with :class:`HelpFormatter`: each option's help shows its
-default. An old spelling (:func:`add_deprecated`) still works, hidden from the help; after the
-parse it is one line ``PROG: warning: option '--old' is deprecated; use '--new'`` on stderr
-(none with ``--quiet``). :func:`error_status` is the exit status and one-line error of a
-failed command, :func:`moved_command` that of a ``python -m`` spelling removed for a
-``railgym`` subcommand.
+default; the old spellings of 0.4 are gone (an unrecognized argument). :func:`error_status` is
+the exit status and one-line error of a failed command, :func:`moved_command` that of a
+``python -m`` spelling removed for a ``railgym`` subcommand.
 """
 
 from __future__ import annotations
@@ -20,35 +18,23 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from surrogates.checks import seed_number
 
 __all__ = [
-    "DEPRECATED",
-    "REQUIRED",
     "HelpFormatter",
     "Parser",
     "RawHelpFormatter",
     "add_common",
-    "add_deprecated",
     "add_out",
     "add_seed",
     "error_status",
     "moved_command",
     "shown_default",
 ]
-
-#: namespace attribute collecting the old spellings used in one parse
-_USED = "_deprecated_spellings"
-#: attribute of an action that is an old spelling: the option it stands for
-DEPRECATED = "replaced_by"
-#: attribute of a required option with old spellings: :class:`Parser` checks it after the
-#: parse (argparse's own check would not count an old spelling)
-REQUIRED = "required_in_any_spelling"
 
 
 def shown_default(value: Any) -> str:
@@ -92,10 +78,8 @@ class RawHelpFormatter(_DefaultsMixin, argparse.RawDescriptionHelpFormatter):
 
 
 class Parser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` with :class:`HelpFormatter` that prints one warning line per
-    deprecated spelling used, after the parse (none with ``--quiet``), requires an
-    option with old spellings (:data:`REQUIRED`) given in any of them and refuses an empty
-    value. ``elsewhere``: flags this command does not take, each with the command that does;
+    """An ``ArgumentParser`` with :class:`HelpFormatter` that refuses an empty value.
+    ``elsewhere``: flags this command does not take, each with the command that does;
     one of them given is an error naming the flag and that command (never another meaning).
     No abbreviations: ``--fmu`` is not ``--fmu-kind`` where a command has no ``--fmu``."""
 
@@ -116,116 +100,24 @@ class Parser(argparse.ArgumentParser):
     def parse_known_args(  # type: ignore[override]
         self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
     ) -> tuple[argparse.Namespace, list[str]]:
-        """``ArgumentParser.parse_known_args`` (a flag of :attr:`elsewhere` refused first),
-        then the deprecation lines."""
+        """``ArgumentParser.parse_known_args``, a flag of :attr:`elsewhere` refused first."""
         for arg in sys.argv[1:] if args is None else args:
             if arg == "--":
                 break
             flag = str(arg).split("=", 1)[0]
             if flag in self.elsewhere:
                 self.error(f"{flag} is not an option of {self.prog}: {self.elsewhere[flag]}")
-        ns, rest = super().parse_known_args(args, namespace)
-        missing = [
-            "/".join(a.option_strings)
-            for a in self._actions
-            if getattr(a, REQUIRED, False) and getattr(ns, a.dest, None) is None
-        ]
-        if missing:
-            self.error(f"the following arguments are required: {', '.join(missing)}")
-        used = vars(ns).pop(_USED, [])
-        if not getattr(ns, "quiet", False):
-            for old, new in used:
-                print(
-                    f"{self.prog}: warning: option {old!r} is deprecated; use {new!r}",
-                    file=sys.stderr,
-                )
-        return ns, rest
-
-    @contextmanager
-    def _all_required_shown(self) -> Iterator[None]:
-        """Within the block the options of :data:`REQUIRED` are required (for the usage)."""
-        marked = [a for a in self._actions if getattr(a, REQUIRED, False)]
-        for action in marked:
-            action.required = True
-        try:
-            yield
-        finally:
-            for action in marked:
-                action.required = False
-
-    def format_usage(self) -> str:
-        """The usage line, required options of :data:`REQUIRED` without brackets."""
-        with self._all_required_shown():
-            return super().format_usage()
-
-    def format_help(self) -> str:
-        """The help, required options of :data:`REQUIRED` without brackets."""
-        with self._all_required_shown():
-            return super().format_help()
-
-
-class _Deprecated(argparse.Action):
-    """An old spelling of ``target``: does what ``target`` does and records its use."""
-
-    def __init__(
-        self, option_strings: list[str], dest: str, target: argparse.Action, **kwargs: Any
-    ) -> None:
-        super().__init__(option_strings, dest, **kwargs)
-        setattr(self, DEPRECATED, target)
-
-    def __call__(
-        self,
-        parser: argparse.ArgumentParser,
-        namespace: argparse.Namespace,
-        values: Any,
-        option_string: str | None = None,
-    ) -> None:
-        target: argparse.Action = getattr(self, DEPRECATED)
-        target(parser, namespace, values, option_string)
-        new = max(target.option_strings, key=len)
-        used = getattr(namespace, _USED, [])
-        setattr(namespace, _USED, [*used, (option_string, new)])
-
-
-def add_deprecated(parser: argparse.ArgumentParser, target: argparse.Action, *old: str) -> None:
-    """The old spellings ``old`` of the option ``target`` (added to ``parser``): the same
-    value and effect, hidden from the help, one warning line when used."""
-    if not old:
-        return
-    if target.required:  # argparse would not count the old spelling as giving it
-        if not isinstance(parser, Parser):
-            raise TypeError("a required option's old spellings need a surrogates Parser")
-        target.required = False
-        setattr(target, REQUIRED, True)
-    kwargs: dict[str, Any] = {
-        "nargs": target.nargs,
-        "const": target.const,
-        "type": target.type,
-        "choices": target.choices,
-        "metavar": target.metavar,
-    }
-    parser.add_argument(
-        *old,
-        action=_Deprecated,
-        target=target,
-        dest=target.dest,
-        default=argparse.SUPPRESS,
-        help=argparse.SUPPRESS,
-        **kwargs,
-    )
+        return super().parse_known_args(args, namespace)
 
 
 def add_common(
     parser: argparse.ArgumentParser,
     debug_default: Any = False,
-    quiet_old: Sequence[str] = (),
     quiet_help: str = "no progress bars or notes on stderr",
 ) -> None:
-    """``--quiet`` (``quiet_old``: its deprecated spellings; ``quiet_help``: its help) and
-    ``--debug`` (``debug_default=argparse.SUPPRESS``: a subcommand whose parent parser has
-    ``--debug`` too)."""
-    quiet = parser.add_argument("--quiet", action="store_true", help=quiet_help)
-    add_deprecated(parser, quiet, *quiet_old)
+    """``--quiet`` (``quiet_help``: its help) and ``--debug`` (``debug_default=
+    argparse.SUPPRESS``: a subcommand whose parent parser has ``--debug`` too)."""
+    parser.add_argument("--quiet", action="store_true", help=quiet_help)
     parser.add_argument(
         "--debug",
         action="store_true",
@@ -241,17 +133,12 @@ def add_out(
     default: Any = None,
     required: bool = False,
     overwrite: str = "replace an existing -o/--out",
-    old: Sequence[str] = (),
     type: Callable[[str], Any] = Path,
-) -> argparse.Action:
+) -> None:
     """``-o/--out`` (``what``: its help, the file or folder written) and ``--overwrite``
-    (``overwrite``: its help); ``old``: deprecated spellings of ``-o/--out``."""
-    action = parser.add_argument(
-        "-o", "--out", type=type, default=default, required=required, help=what
-    )
-    add_deprecated(parser, action, *old)
+    (``overwrite``: its help)."""
+    parser.add_argument("-o", "--out", type=type, default=default, required=required, help=what)
     parser.add_argument("--overwrite", action="store_true", help=overwrite)
-    return action
 
 
 def add_seed(parser: argparse.ArgumentParser, what: str, default: int | None = 0) -> None:

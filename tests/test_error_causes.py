@@ -208,11 +208,11 @@ def test_collect_output_is_not_replaced_without_overwrite(tmp_path, capsys):
     existing = tmp_path / "element.json"
     existing.write_text("{}")
     with pytest.raises(SystemExit) as info:
-        main(["--features", "static", "--output", str(existing)])
+        main(["--features", "static", "--out", str(existing)])
     assert info.value.code == 2 and existing.read_text() == "{}"
     assert "exists; pass --overwrite to replace it" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        main(["--output", str(tmp_path / "no" / "element.json")])
+        main(["--out", str(tmp_path / "no" / "element.json")])
     assert "does not exist" in capsys.readouterr().err
 
 

@@ -16,7 +16,7 @@ from agents.commands.flags import (
 )
 from agents.evaluation import benchmark as benchmark_module
 from railgym.progress import quiet
-from surrogates.cli_flags import Parser, add_common, add_deprecated, add_out
+from surrogates.cli_flags import Parser, add_common, add_out
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -24,13 +24,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="railgym benchmark", description=benchmark_module.__doc__.split("\n\n")[0])
     parser.add_argument("config", help="agents.training.train config: YAML file or packaged name")
     parser.add_argument("--seeds", type=bounded_int(1, 1000), default=3, help="training seeds")
-    seed = parser.add_argument(
+    parser.add_argument(
         "--seed",
         type=seed_number,
         default=None,
         help="first training seed (then +1, +2, ...); default: the config's seed",
     )
-    add_deprecated(parser, seed, "--first-seed")
     parser.add_argument("--timesteps", type=bounded_int(1), help="override n_timesteps")
     parser.add_argument("--episodes", type=episodes, default=10, help="held-out episodes per case")
     add_out(

@@ -29,8 +29,7 @@ output folder is reused when it holds only the command's own files (``demo``, ``
 one holding other files needs ``--overwrite``. A user error (bad value, such a folder
 without ``--overwrite``, unreadable file) is one line on stderr and exit status 2, another
 failure one line and status 1; ``--debug`` shows the traceback instead. A warning (e.g. of
-``--trust``, or of a deprecated flag spelling) is one line ``railgym CMD: warning: …`` on
-stderr, without Python source.
+``--trust``) is one line ``railgym CMD: warning: …`` on stderr, without Python source.
 """
 
 from __future__ import annotations
@@ -289,6 +288,10 @@ MODULE_COMMANDS = {
     "env-tables": ("agents.commands.env_tables", "rewrite the argument tables of docs/envs"),
     "surrogates": ("surrogates.cli", "the surrogates command: build, export-fmu"),
     "leaderboard": ("agents.commands.leaderboard", "benchmark tasks: scores, bounds, entries"),
+    "semi-active-bound": (
+        "agents.commands.semi_active_bound",
+        "best open-loop damper commands per track against the semi-active baselines",
+    ),
 }
 
 #: the module with the parser of a module command whose own module needs an extra

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from agents.commands.cli import MODULE_COMMANDS, build_parser, module_parser
-from surrogates.cli_flags import DEPRECATED, REQUIRED, shown_default
+from surrogates.cli_flags import shown_default
 
 __all__ = ["BEGIN", "END", "Row", "command_parsers", "flag_rows", "main", "markdown"]
 
@@ -80,8 +80,7 @@ def _help(parser: argparse.ArgumentParser, action: argparse.Action) -> str:
 
 
 def _default(action: argparse.Action) -> str:
-    required = action.required or getattr(action, REQUIRED, False)
-    if required and action.nargs not in ("*", "?"):
+    if action.required and action.nargs not in ("*", "?"):
         return "required"
     default = action.default
     empty = default is None or default is argparse.SUPPRESS or default == []
@@ -91,17 +90,11 @@ def _default(action: argparse.Action) -> str:
 
 
 def flag_rows(parsers: dict[str, argparse.ArgumentParser]) -> list[Row]:
-    """The rows of every option and positional (``-h`` left out) of ``parsers``; an old
-    spelling's meaning names the option it stands for."""
+    """The rows of every option and positional (``-h`` left out) of ``parsers``."""
     rows = []
     for command, parser in parsers.items():
         for action in parser._actions:
             if isinstance(action, argparse._HelpAction | argparse._SubParsersAction):
-                continue
-            new = getattr(action, DEPRECATED, None)
-            if new is not None:
-                meaning = f"deprecated spelling of `{max(new.option_strings, key=len)}`"
-                rows.append(Row(command, _flag(action), meaning, "—", action))
                 continue
             rows.append(
                 Row(command, _flag(action), _help(parser, action), _default(action), action)

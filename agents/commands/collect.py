@@ -62,7 +62,6 @@ def build_parser() -> argparse.ArgumentParser:
         "model JSON (default: regenerate the packaged file of the form); an existing file is "
         "replaced only with --overwrite",
         overwrite="replace an existing -o/--out",
-        old=["--output"],
         type=str,
     )
     parser.add_argument("--m", type=int, default=101, help="static: GA training samples")

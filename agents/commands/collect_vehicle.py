@@ -24,7 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=vehicle_collect.__doc__.split("\n\n")[0],
         elsewhere={"--fmu-map": f"{fmu} (a mapping with env: vehicle)"},
     )
-    add_out(parser, "model JSON to write", required=True, old=["--output"])
+    add_out(parser, "model JSON to write", required=True)
     add_seed(parser, "seed of the folds")
     add_common(parser)
     return parser

@@ -69,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--start-time", type=float, default=None, help="first contact, s")
     add_seed(p, "seed of the fit's sampling")
-    add_out(p, "the elements JSON to write", required=True, old=["--output"], type=str)
+    add_out(p, "the elements JSON to write", required=True, type=str)
     p.add_argument("--fmu-dir", help="also export each element as <name>.fmu (co-simulation)")
     add_common(p)
     return p

@@ -60,7 +60,6 @@ from agents.evaluation.runs import (
 from agents.evaluation.sweeps import evaluate_sweep
 from agents.policies.loading import trained_actuator
 from agents.policies.pretrained import PRETRAINED
-from surrogates.cli_flags import add_deprecated
 
 
 def _listed(names: Sequence[str]) -> str:
@@ -142,7 +141,7 @@ def _add_cases(parser: argparse.ArgumentParser) -> None:
         f"controllers: {', '.join(SEMI_ACTIVE_CONTROLLERS)}; passive is "
         "command 0; vehicle: one damper per bogie)",
     )
-    speed = parser.add_argument(
+    parser.add_argument(
         "--speed-kmh",
         dest="speed",
         type=speed_kmh,
@@ -151,7 +150,6 @@ def _add_cases(parser: argparse.ArgumentParser) -> None:
         "crash: impact speeds, km/h (default: the scenario's speed_kmh; --envelope: six speeds "
         "over its envelope); given, they override the scenario's and the table's header says so",
     )
-    add_deprecated(parser, speed, "--speed")
     parser.add_argument(
         "--duration",
         type=duration_s,
@@ -304,7 +302,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     _only_for(
         args,
-        {"--speed": args.speed is not None, "--duration": args.duration is not None},
+        {"--speed-kmh": args.speed is not None, "--duration": args.duration is not None},
         "--env vehicle and crash",
     )
     env_kwargs = {**fmu, **actuated}
@@ -381,7 +379,7 @@ def run_gap(
         )
         print(f"{env_id}, {args.episodes} episodes per case (seeds {args.seed}+i); {what}{counted}")
     else:
-        for flag, given in {"--speed": args.speed, "--duration": args.duration}.items():
+        for flag, given in {"--speed-kmh": args.speed, "--duration": args.duration}.items():
             if given is not None:
                 raise ValueError(f"{flag}: only for --env vehicle and crash, not --env vertical")
         env_id = env_id or ENV_ID

@@ -47,7 +47,6 @@ def add_reference_arguments(parser: argparse.ArgumentParser) -> None:
         "the .fmu to write (its mapping file beside it)",
         required=True,
         overwrite="replace existing files",
-        old=["--output"],
     )
     add_fmu_kind(parser)
     parser.add_argument("--vehicle", default="manchester", help="vehicle name or YAML path")
@@ -78,7 +77,6 @@ def add_policy_arguments(parser: argparse.ArgumentParser) -> None:
         "the .fmu to write",
         required=True,
         overwrite="replace existing files",
-        old=["--output"],
     )
     parser.add_argument("--onnx", type=Path, help="also write the policy as this .onnx")
     parser.add_argument(

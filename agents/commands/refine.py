@@ -15,10 +15,11 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from agents.commands.flags import add_track_classes, bounded_int, duration_s
-from agents.controllers.registry import CONTROLLERS, VEHICLE_CONTROLLERS, VEHICLE_ID
+from agents.controllers.registry import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
 from agents.policies.loading import load_policy
 from railgym.envs.vehicle.env import VerticalVehicleEnv
 from railgym.envs.vertical.env import VerticalSuspensionEnv
@@ -72,7 +73,7 @@ def observation_map(env: VerticalSuspensionEnv) -> Any:
 
 
 def vehicle_observation_map(env: VerticalVehicleEnv) -> Any:
-    """``raw (27,) → VerticalVehicle-v1 observation`` (float32, normalised like the env, no
+    """``raw (27,) → VerticalVehicle observation`` (float32, normalised like the env, no
     sensor noise); ``raw`` is :data:`~railgym.vehicles.vehicle.refine.RAW_VEHICLE_OBSERVATION`."""
     index = {name: i for i, name in enumerate(RAW_VEHICLE_OBSERVATION)}
     inv = 1.0 / np.asarray(env.obs_scale, dtype=np.float64)
@@ -110,7 +111,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--env",
         choices=("vertical", "vehicle"),
         default="vertical",
-        help="VerticalSuspension-v1 (one bogie) or VerticalVehicle-v1 (both bogies)",
+        help=f"{ENV_ID} (one bogie) or {VEHICLE_ID} (both bogies)",
     )
     parser.add_argument(
         "--surrogate",
@@ -156,10 +157,10 @@ def run(args: argparse.Namespace) -> int:
                 "--fmu-map/--fmu/--vehicle: an FMU reference is one bogie; use --env vertical"
             )
         factory, env_kwargs, label = load_policy(args.policy, VEHICLE_ID, trust=args.trust)
-        env: Any = VerticalVehicleEnv(backend="reference", **env_kwargs)
+        env: Any = gym.make(VEHICLE_ID, backend="reference", **env_kwargs).unwrapped
         loop, observe, extra = refine_vehicle, vehicle_observation_map(env), {}
     else:
-        factory, env_kwargs, label = load_policy(args.policy, trust=args.trust)
+        factory, env_kwargs, label = load_policy(args.policy, ENV_ID, trust=args.trust)
         veh = args.vehicle
         if args.fmu_map is not None:
             veh = fmu_vehicle(args.fmu_map, args.vehicle, "--vehicle ")
@@ -168,7 +169,7 @@ def run(args: argparse.Namespace) -> int:
         # the env only designs the policy's controller and scales its observation: an FMU's
         # vehicle needs no nonlinear elements of railgym's, so its linear backend serves
         backend = "reference" if args.fmu_map is None else "linear"
-        env = VerticalSuspensionEnv(backend=backend, **env_kwargs)
+        env = gym.make(ENV_ID, backend=backend, **env_kwargs).unwrapped
         observe, extra = observation_map(env), {"vehicle": env.cfg.vehicle}
         loop = refine
         if args.fmu_map is not None or args.fmu is not None:

@@ -38,7 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="algorithm of an rl-zoo3 hyperparameter file (rl-zoo3's --algo; the "
         "agents.training.train format names it in the file)",
     )
-    add_common(parser, quiet_old=["--no-progress"])
+    add_common(parser)
     return parser
 
 

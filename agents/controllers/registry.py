@@ -3,7 +3,7 @@ command compares a policy against: one table per env, one spelling per name (hyp
 
 * :data:`CONTROLLERS_OF` — env id → name → :data:`Entry` of the vertical env and the whole
   vehicle, either actuator (:func:`build_controller`); :data:`CRASH_CONTROLLERS` — those of
-  ``railgym/TrainCrash-v1`` (:func:`crash_factories`);
+  ``railgym/TrainCrash`` (:func:`crash_factories`);
 * :data:`BASELINES` — env id → the baselines of ``railgym benchmark`` and of the crash report
   (the crash envelope of ``railgym evaluate --envelope``), :func:`baselines_of` for a config
   (the damper's, the preview's); :data:`COMPARISON` — env id → the rows ``railgym evaluate``
@@ -39,7 +39,7 @@ from agents.controllers.lqg import LQG, VehicleLQG
 from agents.controllers.preview import LQGPreview, LQRPreview
 from agents.controllers.semi_active_control import SEMI_ACTIVE_CONTROLLERS
 from railgym import _checks as val
-from railgym.registration import env_family
+from railgym.registration import env_family, newest
 
 __all__ = [
     "BASELINES",
@@ -64,12 +64,15 @@ __all__ = [
     "crash_factories",
 ]
 
-ENV_ID = "railgym/VerticalSuspension-v1"
-VEHICLE_ID = "railgym/VerticalVehicle-v1"
-CRASH_ID = "railgym/TrainCrash-v1"
+#: the newest registered version of each env (:func:`railgym.registration.newest`): the
+#: default of every command and function that takes an env id; the tables below hold for
+#: every version of an env (looked up by its family, :func:`controllers_of`, :func:`baselines_of`)
+ENV_ID = newest("railgym/VerticalSuspension")
+VEHICLE_ID = newest("railgym/VerticalVehicle")
+CRASH_ID = newest("railgym/TrainCrash")
 #: an entry of the controller tables: (class, its arguments, the env arguments it needs)
 Entry = tuple[Any, dict[str, Any], dict[str, Any]]
-#: force-actuator controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name
+#: force-actuator controllers of ``railgym/VerticalSuspension`` by ``railgym evaluate`` name
 FORCE_CONTROLLERS: dict[str, Entry] = {
     "passive": (Passive, {}, {}),
     "skyhook": (Skyhook, {"mode": "active"}, {}),
@@ -108,11 +111,11 @@ def _both_actuators(force_controllers: dict[str, Entry]) -> dict[str, Entry]:
     return table
 
 
-#: controllers of ``railgym/VerticalSuspension-v1`` by ``railgym evaluate`` name, of either
+#: controllers of ``railgym/VerticalSuspension`` by ``railgym evaluate`` name, of either
 #: actuator: each refuses an env of the other (the env argument ``actuator``); a name of both
 #: builds the one of the env's actuator
 CONTROLLERS = _both_actuators(FORCE_CONTROLLERS)
-#: force-actuator controllers of ``railgym/VerticalVehicle-v1`` (two actuators)
+#: force-actuator controllers of ``railgym/VerticalVehicle`` (two actuators)
 VEHICLE_FORCE_CONTROLLERS: dict[str, Entry] = {
     "passive": (Passive, {}, {}),
     "skyhook": (BogieSkyhook, {}, {}),
@@ -122,7 +125,7 @@ VEHICLE_FORCE_CONTROLLERS: dict[str, Entry] = {
     "lqr-preview": (LQRPreview, {}, {"observation": "full"}),
     "lq-preview": (LQGPreview, {}, {"observation": "sensors"}),
 }
-#: controllers of ``railgym/VerticalVehicle-v1`` of either actuator, as :data:`CONTROLLERS`
+#: controllers of ``railgym/VerticalVehicle`` of either actuator, as :data:`CONTROLLERS`
 #: (the semi-active ones per bogie)
 VEHICLE_CONTROLLERS = _both_actuators(VEHICLE_FORCE_CONTROLLERS)
 #: controllers of each env id that ``railgym evaluate`` loads by name (the crash env's:
@@ -149,7 +152,7 @@ def build_controller(env_id: str, name: str, env: Any) -> Any:
         raise val.FieldError("residual", f"{name}: {err}") from None
 
 
-#: controllers of ``railgym/TrainCrash-v1`` (one absorber action per crush zone)
+#: controllers of ``railgym/TrainCrash`` (one absorber action per crush zone)
 CRASH_CONTROLLERS: dict[str, Entry] = {
     "passive": (CrashPassive, {}, {}),
     "best-constant": (ConstantAbsorber, {"action": BEST_CONSTANT_ACTION}, {}),

@@ -5,8 +5,8 @@ over the held-out impact envelope beside the crash baselines.
 
     railgym evaluate skyhook --backend reference --track-class 4 6 --episodes 10
     railgym evaluate runs/ppo_vertical/model.zip --backend reference --track-class 4 6
-    railgym evaluate modal-skyhook lqr --env vehicle --track-class 5 --speed 60 100 144 200
-    railgym evaluate runs/ppo_crash/model.zip --env crash --speed 36 40 44
+    railgym evaluate modal-skyhook lqr --env vehicle --track-class 5 --speed-kmh 60 100 144 200
+    railgym evaluate runs/ppo_crash/model.zip --env crash --speed-kmh 36 40 44
     railgym evaluate runs/ppo_crash/model.zip --env crash --envelope
     railgym evaluate clipped-lqg skyhook-onoff groundhook --actuator semi-active
 
@@ -74,7 +74,6 @@ from agents.evaluation.metrics import VEHICLE, VERTICAL, Metric
 from agents.policies.loading import load_policy
 from railgym import _checks as val
 from railgym.progress import bar
-from railgym.registration import newest
 
 __all__ = [
     "ENV_IDS",
@@ -87,10 +86,7 @@ __all__ = [
 
 
 #: the env id of each ``--env`` without ``--env-id`` / ``--env-version``: its newest version
-ENV_IDS = {
-    env: newest(env_id)
-    for env, env_id in {"vertical": ENV_ID, "vehicle": VEHICLE_ID, "crash": CRASH_ID}.items()
-}
+ENV_IDS = {"vertical": ENV_ID, "vehicle": VEHICLE_ID, "crash": CRASH_ID}
 
 
 def _aligned(columns: Sequence[tuple[str, str, int]], cells: list[list[str]]) -> str:

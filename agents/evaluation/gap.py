@@ -6,11 +6,12 @@ takes) runs on the ``surrogate`` backend and on the reference backend over the s
 cases, and every task metric is reported on both with its relative gap
 ``(surrogate − reference) / |reference|``:
 
-* ``vertical`` (``VerticalSuspension-v1``): per track class, the ISO 2631 Wk-weighted RMS
-  carbody acceleration ``a_w`` (m/s², mean over the episodes on the tracks of seeds
-  ``seed + i``; :func:`agents.evaluation.sweeps.evaluate_sweep`);
-* ``vehicle`` (``VerticalVehicle-v1``): per track class and speed, ``a_w`` at the front,
-  centre and rear floor points (:func:`agents.evaluation.runs.evaluate_vehicle`);
+* ``vertical`` (``VerticalSuspension``, default its newest version): per track class, the
+  ISO 2631 Wk-weighted RMS carbody acceleration ``a_w`` (m/s², mean over the episodes on the
+  tracks of seeds ``seed + i``; :func:`agents.evaluation.sweeps.evaluate_sweep`);
+* ``vehicle`` (``VerticalVehicle``, default its newest version): per track class and speed,
+  ``a_w`` at the front, centre and rear floor points
+  (:func:`agents.evaluation.runs.evaluate_vehicle`);
 * beside ``a_w`` (vertical, vehicle) the bump-stop contacts (substeps) on both sides, and a
   line under the table for each policy whose ``a_w`` beats a classical controller's of its
   case on the reference side with more contacts there (:mod:`agents.evaluation.contacts`);

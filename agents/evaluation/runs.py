@@ -1,7 +1,7 @@
 """Policies run over episodes: the metrics (:mod:`agents.evaluation.metrics`) of one policy
 over ``episodes`` episodes in one native vector env (sub-env ``i`` on the track of
-``seed + i``): :func:`run_policy` (a version of ``railgym/VerticalSuspension``, default -v1),
-:func:`run_vehicle_policy` (of ``railgym/VerticalVehicle``, default -v1), and
+``seed + i``): :func:`run_policy` (a version of ``railgym/VerticalSuspension``, default the
+newest), :func:`run_vehicle_policy` (of ``railgym/VerticalVehicle``, default the newest), and
 :func:`evaluate_vehicle`, the rows of ``railgym evaluate --env vehicle``.
 """
 

@@ -1,6 +1,7 @@
 """Clairvoyant bound of the semi-active damper: the best open-loop command sequence found.
 
-On one track of ``railgym/VerticalSuspension-v1`` with ``actuator="semi-active"`` (reference
+On one track of a version of ``railgym/VerticalSuspension`` (default: the newest,
+:data:`~agents.controllers.registry.ENV_ID`) with ``actuator="semi-active"`` (reference
 backend) a causal controller, whatever it is, produces one command sequence
 ``u_0 … u_{N−1}`` in [0, 1]; the sequence that minimises the episode's ``a_w`` (Wk-weighted
 RMS carbody acceleration, m/s², as :func:`agents.evaluation.runs.run_policy` computes it)
@@ -15,15 +16,12 @@ kernel (lane ``j`` perturbs command ``j`` and starts from the unperturbed state 
 best found, a local optimum: an upper estimate of the clairvoyant optimum, which itself is a
 lower bound of every causal controller's ``a_w``.
 
-Run as ``python -m agents.evaluation.semi_active_bound --track-class 4 5 6 --seeds 1000 1001
-1002 --duration 5``: a table per track and the median margins per class on stdout, progress
-on stderr. Results: docs/results.md, *Semi-active*.
+The command: ``railgym semi-active-bound`` (:mod:`agents.commands.semi_active_bound`).
+Results: docs/results.md, *Semi-active*.
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -37,7 +35,6 @@ import railgym  # noqa: F401  (registers the envs)
 from agents.controllers.registry import ENV_ID
 from agents.policies.loading import load_policy
 from railgym.comfort import WeightingFilter, weighted_rms
-from railgym.progress import bar
 from railgym.track_stream import stream_samples
 from railgym.vehicles.vertical.kernels import StepOutputs, advance_semi_active, step_outputs
 
@@ -48,7 +45,7 @@ __all__ = [
     "CommandProblem",
     "TrackResult",
     "closed_loop",
-    "main",
+    "format_results",
     "optimise_track",
 ]
 
@@ -378,54 +375,3 @@ def format_results(results: Sequence[TrackResult]) -> str:
         m = [r.margin for r in results if r.track_class == tc]
         lines.append(f"| {tc} | {np.median(m):+.1f} % | {min(m):+.1f} … {max(m):+.1f} % |")
     return "\n".join(lines)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Arguments of ``python -m agents.evaluation.semi_active_bound``."""
-    p = argparse.ArgumentParser(
-        prog="python -m agents.evaluation.semi_active_bound",
-        description="Best open-loop (clairvoyant) damper commands per track against the "
-        "semi-active baselines (reference backend, each class at its maximum speed).",
-    )
-    p.add_argument("--track-class", type=int, nargs="+", default=[4, 5, 6], choices=range(1, 7))
-    p.add_argument("--seeds", type=int, nargs="+", default=[1000, 1001, 1002])
-    p.add_argument("--duration", type=float, default=5.0, help="episode length, s")
-    p.add_argument(
-        "--screen-eval", type=int, default=12, help="gradient evaluations of every start"
-    )
-    p.add_argument(
-        "--max-eval", type=int, default=50, help="gradient evaluations of the best start in all"
-    )
-    return p
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the bound on every (class, seed) and print the tables."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not args.duration > DISCARD_S:
-        parser.error(f"--duration must exceed the settling time {DISCARD_S:g} s")
-    for flag, value in (("--screen-eval", args.screen_eval), ("--max-eval", args.max_eval)):
-        if value < 1:
-            parser.error(f"{flag} must be at least 1, got {value}")
-    t0 = time.perf_counter()
-    cases = [(tc, s) for tc in args.track_class for s in args.seeds]
-    results = []
-    for tc, s in bar(cases, desc="tracks"):
-        r = optimise_track(tc, s, args.duration, STARTS, args.screen_eval, args.max_eval)
-        print(
-            f"class {tc} seed {s}: best {r.a_w['best']:.4f} vs clipped-lqg "
-            f"{r.a_w['clipped-lqg']:.4f} ({r.margin:+.1f} %), {r.wall_s:.0f} s",
-            file=sys.stderr,
-        )
-        results.append(r)
-    print(
-        f"reference backend, actuator semi-active, {args.duration:g} s per track, a_w Wk "
-        f"(m/s², first {DISCARD_S:g} s left out); {time.perf_counter() - t0:.0f} s wall"
-    )
-    print(format_results(results))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

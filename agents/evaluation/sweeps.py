@@ -51,7 +51,7 @@ def controller_sweep(
     address: str | None = None,
 ) -> list[dict[str, float]]:
     """Comfort indices of ``factory``'s controller for each env setting of ``cases`` (keyword
-    arguments of ``railgym/VerticalSuspension-v1``, e.g. ``{"backend": "reference",
+    arguments of the newest ``railgym/VerticalSuspension``, e.g. ``{"backend": "reference",
     "track_class": 4}``), in the order of ``cases``."""
     episodes = val.integer(episodes, "episodes", min=1, max=MAX_EPISODES)
     seed = val.integer(seed, "seed", min=0)

@@ -1,6 +1,6 @@
 """Surrogate against the high-fidelity model: relative RMS error of the carbody acceleration
-over unseen tracks, on ``railgym/VerticalVehicle-v1`` (per floor point: front, centre, rear)
-or on ``railgym/VerticalSuspension-v1`` (``--env vertical``, one bogie), against the reference
+over unseen tracks, on the newest ``railgym/VerticalVehicle`` (per floor point: front, centre,
+rear) or ``railgym/VerticalSuspension`` (``--env vertical``, one bogie), against the reference
 backend or the user's FMU (``--backend fmu --fmu-map MAP [--vehicle FILE]``).
 
     railgym validate --seeds 20 --track-class 3 4 5 6
@@ -25,8 +25,16 @@ import numpy as np
 
 import railgym  # noqa: F401  (registers the environments)
 from agents.controllers.registry import CONTROLLERS, ENV_ID, VEHICLE_CONTROLLERS, VEHICLE_ID
+from railgym import registration
 
-__all__ = ["ENVS", "FLOOR", "floor_errors", "record_episodes", "validation_rows"]
+__all__ = [
+    "ENVS",
+    "FLOOR",
+    "floor_errors",
+    "record_episodes",
+    "whole_track_version",
+    "validation_rows",
+]
 
 #: floor points of the env's ``carbody_acc`` (front, centre, rear)
 FLOOR = ("front", "centre", "rear")
@@ -39,15 +47,37 @@ ENVS: dict[str, tuple[str, dict[str, Any], tuple[str, ...]]] = {
 SEED = 2000
 
 
+def whole_track_version(env_id: str) -> str:
+    """The newest registered version of the env of ``env_id`` that draws its tracks whole
+    (not streamed, ``stream_track``): the FMU backend draws them whole on every version, so a
+    comparison against an FMU runs there, both sides on the same tracks of a seed."""
+    family = registration.env_family(env_id)
+    load = gym.envs.registration.load_env_creator
+    whole = [
+        e
+        for e in registration.ENVS
+        if registration.env_family(e) == family
+        and not getattr(load(str(gym.spec(e).entry_point)), "stream_track", False)
+    ]
+    return max(whole, key=lambda e: int(e.rsplit("-v", 1)[1]))
+
+
 def record_episodes(
-    env_name: str, controller: str, kwargs: Mapping[str, Any], n: int, seed: int
+    env_name: str,
+    controller: str,
+    kwargs: Mapping[str, Any],
+    n: int,
+    seed: int,
+    env_id: str | None = None,
 ) -> dict[str, np.ndarray]:
-    """One episode of a native vector env of ``n`` sub-envs of ``env_name`` (keywords
-    ``kwargs``; sub-env ``i`` on seed ``seed + i``) in closed loop with ``controller`` on its
-    own observation: ``acc`` the carbody accelerations (steps, n, points) m/s², ``outside``
-    the steps with ``info["outside_element"]`` (n,), ``envelope`` the episodes'
-    ``info["outside_envelope"]`` (n,) and ``div`` the diverged flags (n,)."""
-    env_id, table, points = ENVS[env_name]
+    """One episode of a native vector env of ``n`` sub-envs of ``env_name`` (``env_id``:
+    its version, default the newest; keywords ``kwargs``; sub-env ``i`` on seed ``seed + i``)
+    in closed loop with ``controller`` on its own observation: ``acc`` the carbody
+    accelerations (steps, n, points) m/s², ``outside`` the steps with
+    ``info["outside_element"]`` (n,), ``envelope`` the episodes' ``info["outside_envelope"]``
+    (n,) and ``div`` the diverged flags (n,)."""
+    default, table, points = ENVS[env_name]
+    env_id = env_id or default
     cls, ctl_kwargs, obs_kwargs = table[controller]
     env = gym.make_vec(
         env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs, **obs_kwargs
@@ -86,8 +116,11 @@ def floor_errors(
     ref = dict(reference or {"backend": "reference"})
     common = {"vehicle": ref["vehicle"]} if "vehicle" in ref else {}
     case = {"track_class": track_class, "duration": duration}
+    env_id = ENVS[env_name][0]
+    if ref["backend"] == "fmu":
+        env_id = whole_track_version(env_id)
     runs = [
-        record_episodes(env_name, controller, {**case, **kw}, n_seeds, seed)
+        record_episodes(env_name, controller, {**case, **kw}, n_seeds, seed, env_id)
         for kw in ({"backend": "surrogate", "surrogate": element, **common}, ref)
     ]
     (a, div_a), (b, div_b) = ((r["acc"], r["div"]) for r in runs)

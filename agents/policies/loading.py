@@ -250,7 +250,8 @@ def _sb3_policy(
     )
     probe.close()
     run = (source.config.parent if source.kind == "agents.training.train" else path.parent).name
-    final = path.parent.name == run and path.stem in ("model", env_id.replace("/", "-"))
+    # rl-zoo3 names a run's final model after the env it trained on (whatever runs it now)
+    final = path.parent.name == run and path.stem in ("model", trained_on.replace("/", "-"))
     label = run if final else f"{run}/{path.stem}"
     if network.hold > 1:  # trained to decide every `hold` steps: one held phase per factory call
         return (lambda env: HeldPolicy(net, network.hold)), env_kwargs, label

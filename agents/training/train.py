@@ -297,7 +297,7 @@ class _ProgressBar(BaseCallback):
 
     def _on_training_start(self) -> None:
         total = self.locals["total_timesteps"] - self.model.num_timesteps
-        # on stderr, off when it is not a terminal (and with --no-progress)
+        # on stderr, off when it is not a terminal (and with --quiet)
         self.bar = tqdm(total=total, unit="step", dynamic_ncols=True, disable=None)
 
     def _on_step(self) -> bool:

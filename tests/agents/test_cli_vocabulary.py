@@ -13,7 +13,6 @@ pytest.importorskip("stable_baselines3")  # railgym train's parser names SB3's a
 
 from agents.commands.cli import main  # noqa: E402
 from agents.commands.cli_table import DOC, command_parsers, documented, flag_rows, markdown  # noqa: E402
-from surrogates.cli_flags import DEPRECATED  # noqa: E402
 
 #: the rule of docs/cli.md, per command: what it does with its results
 WRITES = {
@@ -34,7 +33,15 @@ WRITES = {
     "surrogates build",
     "surrogates export-fmu",
 }
-PRINTS = {"evaluate", "validate", "validity", "crash-report", "crash-limits", "leaderboard"}
+PRINTS = {
+    "evaluate",
+    "validate",
+    "validity",
+    "crash-report",
+    "crash-limits",
+    "leaderboard",
+    "semi-active-bound",
+}
 #: writes into the installed package, where its NAME says: --overwrite, no -o
 FIXED_PLACE = {"pretrained"}
 #: rewrites files of the source checkout (the docs' generated tables): no -o, no --overwrite
@@ -58,12 +65,12 @@ def parsers() -> dict[str, argparse.ArgumentParser]:
 
 
 def _options(parser: argparse.ArgumentParser) -> dict[str, argparse.Action]:
-    """Option string → action, old spellings left out."""
+    """Option string → action, ``-h/--help`` left out."""
     return {
         flag: action
         for action in parser._actions
         for flag in action.option_strings
-        if getattr(action, DEPRECATED, None) is None and flag not in ("-h", "--help")
+        if flag not in ("-h", "--help")
     }
 
 
@@ -107,42 +114,23 @@ def test_no_flag_has_two_meanings(parsers):
         for (a, first), (b, second) in zip(sets, sets[1:], strict=False):
             assert first & second, f"{flag}: {a} {sorted(first)} vs {b} {sorted(second)}"
     # the real numbers behind the check: the common flags are in many commands, one meaning
-    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 16
+    assert len(seen["--seed"][("seed", "_StoreAction", "integer", "one")]) == 17
     assert len(seen["-o"][("out", "_StoreAction", "text", "one")]) == len(WRITES)
 
 
-def test_old_spellings_do_what_the_new_do_and_say_so(parsers, capsys):
-    evaluate = parsers["evaluate"]
-    old = evaluate.parse_args(["passive", "--env", "crash", "--speed", "36", "40"])
-    new = evaluate.parse_args(["passive", "--env", "crash", "--speed-kmh", "36", "40"])
-    assert old == new and new.speed == [36.0, 40.0]
-    err = capsys.readouterr().err
-    assert err == "railgym evaluate: warning: option '--speed' is deprecated; use '--speed-kmh'\n"
-    collect = parsers["collect"]
-    assert collect.parse_args(["--output", "m.json"]).out == "m.json"
-    assert capsys.readouterr().err.count("is deprecated") == 1
-
-
-def test_an_old_spelling_is_no_flag_of_another_meaning(parsers):
-    """An old spelling means what the one new flag means wherever it is taken, and no command
-    takes it as a flag of its own: ``--model``, ``--kind``, ``--units``, ``--fmu`` as outputs
-    or other columns are gone (0.5.0)."""
-    old: dict[str, set[str]] = defaultdict(set)
-    current: set[str] = set()
-    for parser in parsers.values():
-        for action in parser._actions:
-            new = getattr(action, DEPRECATED, None)
-            for flag in action.option_strings:
-                if new is None:
-                    current.add(flag)
-                else:
-                    old[flag].add(action.dest)
-    assert {flag: dests for flag, dests in old.items() if len(dests) > 1} == {}
-    assert set(old) & current == set()
-    assert set(old) == {"--output", "--speed", "--first-seed", "--no-progress"}
+#: the crash-fe arguments it requires, -o/--out aside
+CRASH_FE = [
+    *("--nodout", "n", "--rcforc", "r", "--unit-system", "mm-ms-kg-kN", "--car-nodes", "1"),
+    *("--wall-contact", "1", "--interface-contacts", "2", "--scenario", "paper"),
+]
+#: the deprecated spellings removed in 0.5.0 → their one spelling (CHANGELOG.md, migration
+#: table)
+REMOVED = {"--output": "-o", "--speed": "--speed-kmh", "--first-seed": "--seed"}
+REMOVED["--no-progress"] = "--quiet"
 
 
 def test_the_removed_spellings_are_refused(parsers, capsys):
+    """Removed as they had another meaning elsewhere: an unrecognized argument."""
     for command, argv in (
         ("surrogates build", ["d.csv", "--inputs", "a", "--target", "F", "-o", "m", "--model"]),
         ("surrogates export-fmu", ["m.json", "-o", "x.fmu", "--fmu", "y.fmu"]),
@@ -152,8 +140,37 @@ def test_the_removed_spellings_are_refused(parsers, capsys):
             parsers[command].parse_args(argv)
         assert exc.value.code == 2
         assert "unrecognized arguments" in capsys.readouterr().err.strip().splitlines()[-1]
-    train = parsers["train"].parse_args(["ppo_vertical", "--no-progress"])
-    assert train.quiet and capsys.readouterr().err == ""  # --quiet: no warning either
+
+
+@pytest.mark.parametrize(
+    ("command", "base", "old", "value"),
+    [
+        ("collect", [], "--output", ["m.json"]),
+        ("collect-vehicle", [], "--output", ["m.json"]),
+        ("crash-fe", CRASH_FE, "--output", ["e.json"]),
+        ("export-reference-fmu", [], "--output", ["v.fmu"]),
+        ("export-policy", ["passive"], "--output", ["p.fmu"]),
+        ("evaluate", ["passive", "--env", "crash"], "--speed", ["36", "40"]),
+        ("benchmark", ["ppo_vertical"], "--first-seed", ["3"]),
+        ("train", ["ppo_vertical"], "--no-progress", []),
+    ],
+)
+def test_the_deprecated_spellings_are_removed(parsers, capsys, command, base, old, value):
+    """A deprecated spelling of 0.4 is refused (exit status 2, naming it, or naming its one
+    spelling where that is required), no command takes it as a flag, and the one spelling
+    with the same value parses without a word on stderr."""
+    parser = parsers[command]
+    with pytest.raises(SystemExit) as exc:
+        parser.parse_args([*base, old, *value])
+    assert exc.value.code == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    named = f"unrecognized arguments: {old}" in last or f"required: {REMOVED[old]}" in last
+    assert named, last
+    assert old not in _options(parser)
+    new = parser.parse_args([*base, REMOVED[old], *value])
+    assert capsys.readouterr().err == ""
+    assert vars(new)[_options(parser)[REMOVED[old]].dest] is not None
+    assert not any(old in _options(p) for p in parsers.values())
 
 
 @pytest.mark.parametrize(
@@ -181,6 +198,7 @@ def test_the_removed_spellings_are_refused(parsers, capsys):
         "damper-element",
         "env-tables",
         "leaderboard",
+        "semi-active-bound",
         "surrogates build",
         "surrogates export-fmu",
     ],

@@ -155,8 +155,7 @@ def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, t
     _, mapping = reference_fmu
     out = tmp_path / "element.json"
     assert (
-        collect_main(["--features", "maxwell", "--fmu-map", str(mapping), "--output", str(out)])
-        == 0
+        collect_main(["--features", "maxwell", "--fmu-map", str(mapping), "--out", str(out)]) == 0
     )
     model, packaged = io.load(out), default_vertical_surrogate()
     assert model.degree == packaged.degree and model.features_["tau"] == packaged.features_["tau"]

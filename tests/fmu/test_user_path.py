@@ -55,7 +55,7 @@ def _collect(folder: Path) -> Path:
     out = folder / "element.json"
     if not out.exists():
         cmd = [sys.executable, "-m", "agents.commands.cli", "collect", "--features", "static"]
-        _run([*cmd, "--fmu-map", "map.yaml", "--output", "element.json", "--quiet"], folder)
+        _run([*cmd, "--fmu-map", "map.yaml", "--out", "element.json", "--quiet"], folder)
     return out
 
 
@@ -106,7 +106,7 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     block.pop("checkpoint_freq")
     (folder / "my_ppo.yaml").write_text(yaml.safe_dump(config))
     _run(
-        [sys.executable, "-m", "agents.commands.cli", "train", "my_ppo.yaml", "--no-progress"],
+        [sys.executable, "-m", "agents.commands.cli", "train", "my_ppo.yaml", "--quiet"],
         folder,
     )
     zip_path = folder / "runs" / "my_ppo" / "model.zip"

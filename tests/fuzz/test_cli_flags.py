@@ -37,7 +37,6 @@ from agents._extras import MissingExtraError
 from agents.commands.cli import MODULE_COMMANDS, build_parser, module_parser
 from agents.commands.cli import main as railgym_main
 from agents.commands.cli_table import command_parsers, flag_rows
-from surrogates.cli_flags import DEPRECATED
 from tests.fuzz.runner import Hang, deadline
 from tests.fuzz.values import MUST_REFUSE, Bad, Files, command_line
 
@@ -129,12 +128,10 @@ def key_of(action: argparse.Action) -> str:
 
 
 def names_of(action: argparse.Action) -> list[str]:
-    """How an error may name the flag: its spellings (an old spelling's new one too), or a
-    positional's dest and metavar."""
+    """How an error may name the flag: its spellings, or a positional's dest and metavar."""
     if not action.option_strings:
         return [action.dest, str(action.metavar or action.dest)]
-    new = getattr(action, DEPRECATED, None)
-    return [*action.option_strings, *(new.option_strings if new is not None else []), action.dest]
+    return [*action.option_strings, action.dest]
 
 
 def must_refuse(action: argparse.Action, kind: str) -> bool:
@@ -176,9 +173,6 @@ def cases(files: Files) -> list[Case]:
 def argv_of(case: Case, places: dict[str, str]) -> list[str]:
     """The subcommand's base command line with the case's flag given the case's value."""
     items = {k: [v.format(**places) for v in vs] for k, vs in BASE.get(case.command, [])}
-    deprecated = getattr(case.action, DEPRECATED, None)
-    if deprecated is not None:  # the old spelling replaces the new one of the base
-        items.pop(key_of(deprecated), None)
     value = str(case.bad.value)
     positional = not case.action.option_strings
     if case.action.nargs == 0:

@@ -216,7 +216,7 @@ def test_collect_command_takes_the_degree_options(tmp_path, capsys):
     from railgym.vehicles.memory_element import MEMORY_DEGREES, memory_degrees
 
     out = tmp_path / "static.json"
-    argv = ["--features", "static", "--m", "51", "--output", str(out), "--quiet"]
+    argv = ["--features", "static", "--m", "51", "--out", str(out), "--quiet"]
     assert collect.main([*argv, "--degree", "3", "4"]) == 0
     assert io.load(out).degree == (3, 4)
     assert collect.main([*argv, "--max-degree", "2", "--overwrite"]) == 0

@@ -166,7 +166,7 @@ def test_an_fmu_env_needs_the_vehicle_of_its_model(reference_fmu):
 
 def test_collect_from_an_fmu_without_a_vehicle_names_the_flag(reference_fmu, tmp_path):
     fmu, bare = reference_fmu
-    args = ["--fmu-map", str(bare), "--fmu", str(fmu), "--output", str(tmp_path / "e.json")]
+    args = ["--fmu-map", str(bare), "--fmu", str(fmu), "--out", str(tmp_path / "e.json")]
     res = run_cli("collect", "--features", "static", *args, timeout=300)
     assert res.returncode == 2
     assert "--vehicle" in res.stderr and "never assumed" in res.stderr

@@ -103,10 +103,11 @@ def test_evaluate_vehicle_same_rows_on_one_and_two_workers():
 
 def test_cli_evaluate_same_table_on_one_and_two_workers(capsys):
     argv = ["evaluate", "passive", "--backend", "linear", "--track-class", "6", "--episodes", "1"]
-    assert main([*argv, "--env", "vehicle", "--duration", "5", "--speed", "90"]) == 0
+    assert main([*argv, "--env", "vehicle", "--duration", "5", "--speed-kmh", "90"]) == 0
     one = capsys.readouterr().out
     assert (
-        main([*argv, "--env", "vehicle", "--duration", "5", "--speed", "90", "--workers", "2"]) == 0
+        main([*argv, "--env", "vehicle", "--duration", "5", "--speed-kmh", "90", "--workers", "2"])
+        == 0
     )
     assert capsys.readouterr().out == one
     assert "   90 skyhook" in one and "   90 passive" in one  # passive and skyhook always run
@@ -134,7 +135,7 @@ def test_envelope_evaluation_of_the_baselines_at_one_speed(capsys):
     empty, loaded = (r["criteria"] for r in rows if r["controller"] == "passive")
     assert not np.array_equal(loaded.peak_decel_g, empty.peak_decel_g)  # the payload is applied
     assert empty.all_passed  # the EN 15227 design case passes on the passive train
-    assert main(["evaluate", "passive", "--env", "crash", "--envelope", "--speed", "40"]) == 0
+    assert main(["evaluate", "passive", "--env", "crash", "--envelope", "--speed-kmh", "40"]) == 0
     out = capsys.readouterr().out
     assert envelope_table(rows) in out and out.count("| 40 |") == 6
 
@@ -165,7 +166,7 @@ def test_vehicle_policy_zip_is_loaded_with_the_manifest(tmp_path, capsys, tiny_p
     block = tiny_ppo_block()
     out = train({VEHICLE_ID: block}, tmp_path / "ppo_vehicle", progress=False)
     zip_path = str(out / "model.zip")
-    with pytest.raises(ValueError, match="trained on railgym/VerticalVehicle-v1"):
+    with pytest.raises(ValueError, match=f"trained on {VEHICLE_ID}"):
         load_policy(zip_path)  # not a vertical-env policy
     (row,) = evaluate_vehicle(
         [zip_path], backend="linear", track_classes=(6,), episodes=1, duration=5.0
@@ -281,7 +282,7 @@ def _railgym(*args: str) -> subprocess.CompletedProcess:
 def test_crash_table_marks_a_run_the_env_cut_as_diverged():
     """At 400 km/h the lead zone crushes through the car (27.6 m on a 27.6 m car): the env ends
     the run as diverged (info["diverged"]); the table marks the row and says so under it."""
-    proc = _railgym("evaluate", "passive", "--env", "crash", "--speed", "400", "40", "--quiet")
+    proc = _railgym("evaluate", "passive", "--env", "crash", "--speed-kmh", "400", "40", "--quiet")
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     assert lines[1].split()[-1] == "diverged"

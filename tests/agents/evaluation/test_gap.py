@@ -110,7 +110,7 @@ def test_cli_gap_prints_both_values_and_a_zero_gap_against_the_same_backend(caps
         (["--envelope", "--env", "crash"], "--envelope"),
         (["--env", "crash", "--workers", "2"], "--workers"),
         (["--env", "crash", "--backend", "linear"], "--backend"),
-        (["--speed", "90"], "--speed"),
+        (["--speed-kmh", "90"], "--speed-kmh"),
     ],
 )
 def test_cli_gap_bad_flag_combinations_are_one_error_naming_the_flag(extra, flag, capsys):

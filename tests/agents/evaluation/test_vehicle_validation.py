@@ -26,3 +26,15 @@ def test_a_diverging_element_is_counted_not_printed_as_inf(tmp_path, capsys):
     assert unstable[4].strip() == "—" and unstable[5].strip() == "3 of 3"
     assert packaged[5].strip() == "0 of 3" and float(packaged[4].split("/")[0]) < 10.0
     assert out.strip().endswith(LEGEND)
+
+
+def test_a_comparison_against_an_fmu_runs_a_version_that_draws_its_tracks_whole():
+    """The FMU backend draws the track whole on every version; the newest versions stream it
+    (another track of the same seed), so ``floor_errors`` against an FMU runs the newest
+    version that draws it whole, and against the reference the newest."""
+    from agents.controllers.registry import ENV_ID, VEHICLE_ID
+    from agents.evaluation.vehicle_validation import whole_track_version
+
+    assert whole_track_version(ENV_ID) == "railgym/VerticalSuspension-v2" != ENV_ID
+    assert whole_track_version(VEHICLE_ID) == "railgym/VerticalVehicle-v2" != VEHICLE_ID
+    assert whole_track_version("railgym/VerticalSuspension-v1") == whole_track_version(ENV_ID)

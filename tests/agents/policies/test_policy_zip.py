@@ -26,7 +26,7 @@ from agents.training.train_config import load_config  # noqa: E402
 
 RLZOO_FILE = Path(__file__).parents[3] / "railgym" / "configs" / "agents" / "rlzoo_vertical.yml"
 #: rl-zoo3's layout of ``python -m rl_zoo3.train --algo ppo --env ENV -f LOG``
-ZOO_DIR = "railgym-VerticalSuspension-v1"
+ZOO_DIR = ENV_ID.replace("/", "-")
 
 
 def _observations(env_kwargs, n=40, seed=0):
@@ -117,8 +117,14 @@ def test_rlzoo_run_folder_gives_the_env_settings(tmp_path, capsys):
     out = capsys.readouterr().out
     assert f"{ZOO_DIR}_1/rl_model_64_steps" in out
     # the same zip on the vehicle env: its args.yml says it is a VerticalSuspension policy
-    with pytest.raises(ValueError, match="trained on railgym/VerticalSuspension-v1"):
+    with pytest.raises(ValueError, match=f"trained on {ENV_ID}"):
         load_policy(str(run / f"{ZOO_DIR}.zip"), "railgym/VerticalVehicle-v1", trust=True)
+    # on another version of its env it is still the run's final model, named by its run
+    with pytest.warns(UserWarning, match="runs on railgym/VerticalSuspension-v1"):
+        _, _, label = load_policy(
+            str(run / f"{ZOO_DIR}.zip"), "railgym/VerticalSuspension-v1", trust=True
+        )
+    assert label == f"{ZOO_DIR}_1"
 
 
 def test_rlzoo_yaml_with_other_python_tags_is_refused_and_runs_nothing(tmp_path):
@@ -196,7 +202,7 @@ def test_agents_train_command_trains_an_rlzoo_file(tmp_path, capsys):
     config.write_text(yaml.safe_dump({ENV_ID: block}))
     from agents.commands.train import main as train_main
 
-    argv = [str(config), "--out", str(tmp_path / "run"), "--no-progress", "--seed", "0"]
+    argv = [str(config), "--out", str(tmp_path / "run"), "--quiet", "--seed", "0"]
     assert train_main([*argv, "--algo", "ppo"]) == 0
     saved = yaml.safe_load((tmp_path / "run" / "config.yaml").read_text())[ENV_ID]
     assert saved["algo"] == "ppo"  # the resolved config names it: loadable on its own

@@ -225,7 +225,7 @@ def test_short_ppo_run_saves_reloadable_reproducible_policy(tmp_path, monkeypatc
     path.parent.mkdir()
     path.write_text(yaml.safe_dump(_tiny_config()))
     monkeypatch.chdir(tmp_path)
-    assert main([str(path), "--no-progress"]) == 0
+    assert main([str(path), "--quiet"]) == 0
     out = tmp_path / "runs" / "ppo_tiny"  # default: runs/<stem>/ in the working directory
     assert sorted(p.name for p in path.parent.iterdir()) == ["ppo_tiny.yaml"]
     for name in ("model.zip", "best_model.zip", "progress.csv", "eval.csv", "config.yaml"):
@@ -237,7 +237,7 @@ def test_short_ppo_run_saves_reloadable_reproducible_policy(tmp_path, monkeypatc
     }
     # a second run into the same folder is refused before any work, unless --overwrite
     before = (out / "model.zip").read_bytes()
-    assert main([str(path), "--no-progress"]) == 2
+    assert main([str(path), "--quiet"]) == 2
     assert "--overwrite" in capsys.readouterr().err
     assert (out / "model.zip").read_bytes() == before
     saved = yaml.safe_load((out / "config.yaml").read_text())
