@@ -411,8 +411,9 @@ class TauSelection:
     first guess ``guess`` (:class:`~surrogates.tau_search.LinearMemory`), the memoryless
     score ``static`` (``{"degree", "rms", "nrms"}``) with its degree scores
     ``static_result``, the coupled map's score ``coupled`` (``{"tau", "degree", "rms",
-    "nrms"}``, a total degree) with its degree scores ``coupled_result``, the number of
-    memory ``states`` chosen, the ``decision`` in words and the ``warnings`` (a choice at the
+    "nrms"}``, a total degree) with its degree scores ``coupled_result``, the same of the map
+    with the product input ``δ·ζ`` (``product``, ``product_result``), the number of memory
+    ``states`` chosen, the ``decision`` in words and the ``warnings`` (a choice at the
     edge of a search range)."""
 
     table: list[dict[str, Any]] = field(default_factory=list)
@@ -424,6 +425,8 @@ class TauSelection:
     static_result: SelectionResult | None = None
     coupled: dict[str, Any] | None = None
     coupled_result: SelectionResult | None = None
+    product: dict[str, Any] | None = None
+    product_result: SelectionResult | None = None
     states: int = 1
     decision: str = ""
     warnings: list[str] = field(default_factory=list)
@@ -433,9 +436,25 @@ class TauSelection:
         if self.states == 0 and self.static_result is not None:
             return self.static_result
         taus = [r["tau"] for r in self.table]
+        p = self.product
+        if p is not None and self.best == (p["tau"], p["degree"]):
+            assert self.product_result is not None
+            return self.product_result  # the map with the product input, at its own τ
         if self.best[0] not in taus and self.coupled_result is not None:
             return self.coupled_result  # the coupled map, at its own τ
         return self.results[taus.index(self.best[0])]
+
+    def at_cap(self) -> list[int]:
+        """Inputs whose chosen degree is the largest the search tried (``--max-degree``
+        widens it): of the chosen additive map; with the product input, of the additive map
+        it extends (inputs δ, δ̇, ζ; the product's degrees are fixed); none for a total
+        degree."""
+        if not isinstance(self.best[1], tuple):  # --max-degree does not set a total degree
+            return []
+        p = self.product
+        if p is not None and self.best == (p["tau"], p["degree"]):
+            return min(self.results, key=_best_rms).at_cap()
+        return self.best_result().at_cap()
 
     def format(self) -> str:
         """The score table as aligned text, then the linear guess, the decision and the
@@ -460,6 +479,13 @@ class TauSelection:
                 f"{1e3 * c['tau']:9.3g} {'coupled ' + str(c['degree']):>10} {c['rms']:12.4g} "
                 f"{c['nrms']:10.3g}{mark}"
             )
+        if self.product is not None:
+            p = self.product
+            mark = "  <- best" if self.best == (p["tau"], p["degree"]) else ""
+            lines.append(
+                f"{1e3 * p['tau']:9.3g} {'product ' + str(p['degree']):>10} {p['rms']:12.4g} "
+                f"{p['nrms']:10.3g}{mark}"
+            )
         if self.guess is not None:
             g = self.guess
             f_peak, phi = g.loss_peak()
@@ -471,14 +497,18 @@ class TauSelection:
         if self.decision:
             lines.append(self.decision)
         lines.extend(self.warnings)
-        additive = isinstance(self.best[1], tuple)  # --max-degree does not set a total degree
-        cap = self.best_result().at_cap() if additive else []
+        cap = self.at_cap()
         if cap:
             lines.append(
                 f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "
                 "widen the search range (--max-degree on the command line, degrees= in Python)"
             )
         return "\n".join(lines)
+
+
+def _best_rms(res: SelectionResult) -> float:
+    """k-fold RMS of the winner of a degree search, N."""
+    return float(next(r["rms"] for r in res.table if r["candidate"] == res.best))
 
 
 def select_tau(

@@ -238,7 +238,7 @@ def _collect(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             model, report = _build_memory(args, cands, seed, progress, data, veh, states)
             text = report.format()
             target = "F_s - F_bump" if veh.known_physics else "F_s"
-            memory = model.features_["form"] == "maxwell"
+            memory = model.features_["form"] != "static"
             state = "the Maxwell state" if memory else "no memory state"
             source = (
                 f"railgym dynamic reference ({veh.name}), {where}, 200 Hz; passive LPR on "

@@ -319,11 +319,11 @@ def surrogate_arrays(
     ``kernel_arrays()`` tuple). ``None`` gives placeholder arrays for the variants that ignore
     them. ``dt`` (s), when given, must not exceed ``2τ`` (RK4 stability of the Maxwell
     state). A model whose input count does not match its form (2 static, 3 maxwell, 4
-    maxwell_product; the whole vehicle's kernels refuse the last, :func:`railgym.vehicles.vehicle.model.element_lpr`) is
-    rejected, and so is a Kriging unless ``kriging`` is set (the vertical kernels of this
-    package evaluate it; kernels that read the LPR fields only do not), and a memory element
-    with a nonlinear relaxation law unless ``relaxation`` is set (the whole vehicle's kernels
-    integrate it, the one-bogie kernels do not). ``grid``: an additive LPR is evaluated
+    maxwell_product, which the whole vehicle's ``element_lpr`` refuses) is rejected, and so
+    is a Kriging unless ``kriging`` is set (the vertical kernels of this package evaluate it;
+    kernels that read the LPR fields only do not), and a memory element with a nonlinear
+    relaxation law unless ``relaxation`` is set (the whole vehicle's kernels integrate it,
+    the one-bogie kernels do not). ``grid``: an additive LPR is evaluated
     inside its box by Hermite tables (:func:`~surrogates.models.lpr_grid.lpr_grid`, within
     ``GRID_RTOL`` of its output range) instead of the Legendre recurrence.
     """
