@@ -35,6 +35,7 @@ __all__ = [
     "COUPLED_DEGREES",
     "MEMORY_GAIN",
     "PRODUCT_DEGREES",
+    "PRODUCT_FLOOR",
     "WARMUP",
     "build_memory_surrogate",
     "choose_memory_element",
@@ -55,6 +56,9 @@ COUPLED_DEGREES = (4, 6, 8)
 #: degrees of the product input δ·ζ (form ``"maxwell_product"``) scored with the additive
 #: winner's degrees of (δ, δ̇, ζ)
 PRODUCT_DEGREES = (1, 2, 4)
+#: relative k-fold RMS of the additive memory map below which the product input is not scored
+#: (a map within 1 % of the force needs no coupling)
+PRODUCT_FLOOR = 0.01
 #: degree tuples (δ, δ̇, ζ) tried by default for the memory element: ζ needs high degrees
 #: (the controlled runs' error falls with it), capped at 20 for the cost of the recurrences
 MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
@@ -168,7 +172,7 @@ def build_memory_surrogate(
     data: dict[str, Any] | None = None,
     memory_states: int | None = None,
     coupled: bool | None = False,
-    product: bool | None = None,
+    product: bool = True,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
     """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ``, the degrees and the number of memory
     states chosen from the data (:func:`choose_memory_element`).
@@ -197,10 +201,11 @@ def build_memory_surrogate(
         to a total degree among :data:`COUPLED_DEGREES`, unconstrained: it can diverge where
         the passive additive map does not) when it lowers the k-fold RMS by
         :data:`MEMORY_GAIN` against the additive one; ``False`` (default): additive only.
-    product : ``None`` (default): a memory element with an additive map gets the product
+    product : ``True`` (default): a memory element with an additive map gets the product
         input ``δ·ζ`` (form ``"maxwell_product"``, its own ``τ`` search, the degrees of
-        :data:`PRODUCT_DEGREES`) when that lowers the k-fold RMS by :data:`MEMORY_GAIN`;
-        ``False``: never.
+        :data:`PRODUCT_DEGREES`) when that lowers the k-fold RMS by :data:`MEMORY_GAIN`
+        (scored only where the additive map's relative k-fold RMS exceeds
+        :data:`PRODUCT_FLOOR`); ``False``: never.
 
     Returns
     -------
@@ -290,7 +295,7 @@ def choose_memory_element(
     progress: Callable[[str, int, int], None] | None = None,
     coupled: bool | None = False,
     widen: bool = False,
-    product: bool | None = None,
+    product: bool = True,
 ) -> tuple[SurrogateModel, TauSelection]:
     """The element of class ``cls`` on ``data``: ``τ`` (a first guess by
     :func:`~surrogates.tau_search.fit_linear_memory`, refined by a bounded minimisation of
@@ -349,7 +354,8 @@ def choose_memory_element(
     if out.states and coupled is None:
         found, take = _coupled_map(out, found, kfold, search)
         make = partial(LegendreRegression, interactions=True) if take else cls
-    if out.states and not take and product is not False:
+    floor = bool(out.table) and min(r["nrms"] for r in out.table) > PRODUCT_FLOOR
+    if out.states and not take and product and floor:
         found, take_product = _product_map(out, found, kfold, search, cls)
         make = _product_class(cls) if take_product else make
     best = out.guess.tau if found is None else found.best
