@@ -349,15 +349,7 @@ def choose_memory_element(
         )
         out.static_result, out.static = sres, _best(sres)
     _decide(out, states)
-    make: Callable[..., SurrogateModel] = cls
-    take = take_product = False
-    if out.states and coupled is None:
-        found, take = _coupled_map(out, found, kfold, search)
-        make = partial(LegendreRegression, interactions=True) if take else cls
-    floor = bool(out.table) and min(r["nrms"] for r in out.table) > PRODUCT_FLOOR
-    if out.states and not take and product and floor:
-        found, take_product = _product_map(out, found, kfold, search, cls)
-        make = _product_class(cls) if take_product else make
+    found, make, take_product = _map(out, found, kfold, search, cls, coupled, product)
     best = out.guess.tau if found is None else found.best
     U, V = memory_training_data(data, best, runs=runs, product=take_product)
     if out.states == 0:
@@ -377,6 +369,32 @@ def choose_memory_element(
     model.features_ = {**form, "known_physics": list(known)}
     data["U_memory"], data["V_memory"] = U, V
     return model, out
+
+
+def _map(
+    out: TauSelection,
+    found: Any,
+    kfold: Callable[..., Any],
+    search: Any,
+    cls: Callable[..., SurrogateModel],
+    coupled: bool | None,
+    product: bool,
+) -> tuple[Any, Callable[..., SurrogateModel], bool]:
+    """The map of a memory element after the additive one (``found`` its τ search): the
+    coupled LPR (``coupled`` ``None``, :func:`_coupled_map`), else the product input
+    (``product``, an additive map above :data:`PRODUCT_FLOOR`, :func:`_product_map`).
+    Returns the τ search of the map taken, its class and whether it has the product input."""
+    if not out.states:
+        return found, cls, False
+    if coupled is None:
+        found, take = _coupled_map(out, found, kfold, search)
+        if take:
+            return found, partial(LegendreRegression, interactions=True), False
+    if product and min(r["nrms"] for r in out.table) > PRODUCT_FLOOR:
+        found, take = _product_map(out, found, kfold, search, cls)
+        if take:
+            return found, _product_class(cls), True
+    return found, cls, False
 
 
 def _coupled_map(
