@@ -150,3 +150,28 @@ def test_the_features_of_the_form_drive_the_same_law_offline():
     zeta_kernel = d - x[:, 4]
     # the first-order hold of δ between the samples against RK4 of the kernel: close
     assert np.abs(U[:, 2] - zeta_kernel).max() < 2e-3 * np.abs(zeta_kernel).max()
+
+
+def test_refinement_pairs_and_refit_keep_the_form():
+    """``railgym refine`` on such an element: its pairs from a run are the form's four
+    inputs (the product from the same Maxwell state) and the refit keeps the class, the
+    free product slope and the form."""
+    from railgym.vehicles.refinement import element_pairs, refit_worst
+    from surrogates.passive import PassiveLegendreRegression
+
+    t = np.arange(0.0, 2.0, 5e-3)
+    d = 0.02 * np.sin(2 * np.pi * 1.3 * t) + 0.005 * np.sin(2 * np.pi * 7.0 * t)
+    dd = np.gradient(d, t)
+    zeta = memory_features(d, dd, t, TAU)[:, 2]
+    run = {"t": t, "delta": d, "delta_dot": dd}
+    run["force"] = K0 * d + C * dd + K1 * zeta + KAPPA * d * zeta
+    model = PassiveLegendreRegression(degree=(1, 1, 1, 1), monotone=(True, True, True, False))
+    U, V = element_pairs(_law_element(), run, 2, "manchester")
+    assert U.shape[1] == 4 and U.shape[0] == V.size
+    np.testing.assert_array_equal(U[:, 3], U[:, 0] * U[:, 2])
+    model = model.fit(U, V)
+    model.features_ = {"form": "maxwell_product", "tau": TAU, "known_physics": []}
+    refit, U2, _ = refit_worst(model, (U, V), [element_pairs(model, run, 3, "manchester")], 10)
+    assert refit.get_params()["monotone"] == (True, True, True, False)
+    assert refit.features_["form"] == "maxwell_product" and U2.shape == (U.shape[0] + 10, 4)
+    np.testing.assert_allclose(refit.predict(U), V, rtol=0, atol=1e-6 * np.abs(V).max())
