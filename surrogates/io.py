@@ -5,7 +5,8 @@ File layout (``schema_version`` 2)::
     {"schema_version": 2, "format": "surrogates-model",
      "model": {"kind", "params", "domain", "state"},
      "features": {"inputs": [...], "output": "...", "units": {...},
-                  "form": "static" | "maxwell", "tau": null | s, "known_physics": [...]},
+                  "form": "static" | "maxwell" | "maxwell_product", "tau": null | s,
+                  "known_physics": [...]},
      "metadata": {...}}
 
 ``form``, ``tau`` and ``known_physics`` are the element's feature form

@@ -20,6 +20,18 @@ knee: :func:`two_slope_relaxation`); the linear law ``g(ζ) = ζ/τ`` is the pla
 The law is fitted with the element (:func:`fit_relaxation`); its ``tau`` is the shortest
 time constant of the law (its steepest segment), which bounds the integration step.
 
+The ``"maxwell_product"`` form has the same state and a fourth input, the product
+``δ·ζ``::
+
+    inputs u = (δ, δ̇, ζ, δ·ζ),        F ≈ F̂(u)
+
+An additive polynomial in ``(δ, δ̇, ζ)`` gives the memory branch a stiffness ``∂F/∂ζ`` that
+does not depend on ``δ``. In an air spring it does: the gas in the bellows (volume
+``V_b = V_b0 − A·δ``, area ``A``, polytropic index ``n``, pressure ``p0``) pushes with
+``F ≈ n·p0·A²·ζ/V_b``, stiffer in compression. The product input carries the first term of
+that coupling while the map stays additive (one polynomial per input, the slopes of
+``δ, δ̇, ζ`` constrained as before, the product's not).
+
 Training features are built from sampled time histories by :func:`maxwell_state`, the exact
 solution of the ζ equation for a deflection linear between samples (first-order hold);
 inside a vehicle kernel ``s`` is integrated with the other states (``ṡ = (δ − s)/τ``,
@@ -43,7 +55,13 @@ from surrogates.models.checks import ModelFieldError
 from surrogates.selection import SelectionResult, select_kfold
 
 #: documented feature forms: name → input names
-FEATURE_FORMS = {"static": ("delta", "delta_dot"), "maxwell": ("delta", "delta_dot", "zeta")}
+FEATURE_FORMS = {
+    "static": ("delta", "delta_dot"),
+    "maxwell": ("delta", "delta_dot", "zeta"),
+    "maxwell_product": ("delta", "delta_dot", "zeta", "delta_zeta"),
+}
+#: the feature forms with the Maxwell state ``s`` (a time constant ``tau``)
+MEMORY_FORMS = ("maxwell", "maxwell_product")
 #: known physics a vehicle kernel may add to the fitted element (``"bump_stop"``: the
 #: vehicle's bump-stop law beyond the free travel, the element fitted on ``F − F_bump``)
 KNOWN_PHYSICS = ("bump_stop",)
@@ -68,8 +86,8 @@ def element_form(
 
     Raises :class:`~surrogates.models.checks.ModelFieldError` naming ``features.form``,
     ``features.tau`` or ``features.known_physics`` (prefixed by ``source``); ``n_inputs``,
-    when given, must be 3 for ``"maxwell"`` (``"static"`` is any memoryless map; the vertical
-    kernels take it with the 2 inputs δ, δ̇).
+    when given, must be 3 for ``"maxwell"`` and 4 for ``"maxwell_product"`` (``"static"`` is
+    any memoryless map; the vertical kernels take it with the 2 inputs δ, δ̇).
     """
     features = features or {}
     form = features.get("form", "static")
@@ -78,7 +96,7 @@ def element_form(
             f"{source}: field 'features.form' must be one of {sorted(FEATURE_FORMS)}, got {form!r}"
         )
     tau = features.get("tau")
-    if form == "maxwell":
+    if form in MEMORY_FORMS:
         try:
             tau = _tau(tau)
         except ValueError as exc:
@@ -101,7 +119,7 @@ def element_form(
             relaxation = relaxation_law(features["relaxation"])
         except ValueError as exc:
             raise ModelFieldError(f"{source}: field 'features.relaxation': {exc}") from None
-    if form == "maxwell" and n_inputs is not None and n_inputs != len(FEATURE_FORMS[form]):
+    if form in MEMORY_FORMS and n_inputs is not None and n_inputs != len(FEATURE_FORMS[form]):
         raise ModelFieldError(
             f"{source}: feature form {form!r} has {len(FEATURE_FORMS[form])} inputs "
             f"{FEATURE_FORMS[form]}, the model has {n_inputs}"
@@ -351,16 +369,17 @@ def memory_features(
     ----------
     delta, delta_dot : deflection (m) and deflection rate (m/s), (n,).
     t : sample times (n,), s.
-    tau : Maxwell time constant, s (required for ``"maxwell"``, ignored for ``"static"``).
+    tau : Maxwell time constant, s (required for the :data:`MEMORY_FORMS`, ignored for
+        ``"static"``).
     form : a key of :data:`FEATURE_FORMS`.
     relaxation : nonlinear relaxation law of the ``"maxwell"`` state (:func:`relaxation_law`;
         ``tau`` is then not used).
 
     Returns
     -------
-    U : (n, 2) ``(δ, δ̇)`` or (n, 3) ``(δ, δ̇, ζ)`` with ζ from :func:`maxwell_state` or
-    :func:`relaxed_state` (relaxed start); discard the first few ``τ`` of a record that does
-    not start at rest.
+    U : (n, 2) ``(δ, δ̇)``, (n, 3) ``(δ, δ̇, ζ)`` with ζ from :func:`maxwell_state` or
+    :func:`relaxed_state` (relaxed start), or (n, 4) ``(δ, δ̇, ζ, δ·ζ)``; discard the first
+    few ``τ`` of a record that does not start at rest.
     """
     if form not in FEATURE_FORMS:
         raise ValueError(f"form must be one of {sorted(FEATURE_FORMS)}, got {form!r}")
@@ -370,10 +389,15 @@ def memory_features(
     if form == "static":
         return np.column_stack([delta, delta_dot])
     if relaxation is not None:
+        if form != "maxwell":
+            raise ValueError(f"a relaxation law needs the 'maxwell' form, got {form!r}")
         return np.column_stack([delta, delta_dot, relaxed_state(delta, t, relaxation)])
     if tau is None:
-        raise ValueError("tau is required for the 'maxwell' feature form")
-    return np.column_stack([delta, delta_dot, maxwell_state(delta, t, tau)])
+        raise ValueError(f"tau is required for the {form!r} feature form")
+    zeta = maxwell_state(delta, t, tau)
+    if form == "maxwell_product":
+        return np.column_stack([delta, delta_dot, zeta, delta * zeta])
+    return np.column_stack([delta, delta_dot, zeta])
 
 
 @dataclass
@@ -387,8 +411,9 @@ class TauSelection:
     first guess ``guess`` (:class:`~surrogates.tau_search.LinearMemory`), the memoryless
     score ``static`` (``{"degree", "rms", "nrms"}``) with its degree scores
     ``static_result``, the coupled map's score ``coupled`` (``{"tau", "degree", "rms",
-    "nrms"}``, a total degree) with its degree scores ``coupled_result``, the number of
-    memory ``states`` chosen, the ``decision`` in words and the ``warnings`` (a choice at the
+    "nrms"}``, a total degree) with its degree scores ``coupled_result``, the same of the map
+    with the product input ``δ·ζ`` (``product``, ``product_result``), the number of memory
+    ``states`` chosen, the ``decision`` in words and the ``warnings`` (a choice at the
     edge of a search range)."""
 
     table: list[dict[str, Any]] = field(default_factory=list)
@@ -400,6 +425,8 @@ class TauSelection:
     static_result: SelectionResult | None = None
     coupled: dict[str, Any] | None = None
     coupled_result: SelectionResult | None = None
+    product: dict[str, Any] | None = None
+    product_result: SelectionResult | None = None
     states: int = 1
     decision: str = ""
     warnings: list[str] = field(default_factory=list)
@@ -409,9 +436,25 @@ class TauSelection:
         if self.states == 0 and self.static_result is not None:
             return self.static_result
         taus = [r["tau"] for r in self.table]
+        p = self.product
+        if p is not None and self.best == (p["tau"], p["degree"]):
+            assert self.product_result is not None
+            return self.product_result  # the map with the product input, at its own τ
         if self.best[0] not in taus and self.coupled_result is not None:
             return self.coupled_result  # the coupled map, at its own τ
         return self.results[taus.index(self.best[0])]
+
+    def at_cap(self) -> list[int]:
+        """Inputs whose chosen degree is the largest the search tried (``--max-degree``
+        widens it): of the chosen additive map; with the product input, of the additive map
+        it extends (inputs δ, δ̇, ζ; the product's degrees are fixed); none for a total
+        degree."""
+        if not isinstance(self.best[1], tuple):  # --max-degree does not set a total degree
+            return []
+        p = self.product
+        if p is not None and self.best == (p["tau"], p["degree"]):
+            return min(self.results, key=_best_rms).at_cap()
+        return self.best_result().at_cap()
 
     def format(self) -> str:
         """The score table as aligned text, then the linear guess, the decision and the
@@ -436,6 +479,13 @@ class TauSelection:
                 f"{1e3 * c['tau']:9.3g} {'coupled ' + str(c['degree']):>10} {c['rms']:12.4g} "
                 f"{c['nrms']:10.3g}{mark}"
             )
+        if self.product is not None:
+            p = self.product
+            mark = "  <- best" if self.best == (p["tau"], p["degree"]) else ""
+            lines.append(
+                f"{1e3 * p['tau']:9.3g} {'product ' + str(p['degree']):>10} {p['rms']:12.4g} "
+                f"{p['nrms']:10.3g}{mark}"
+            )
         if self.guess is not None:
             g = self.guess
             f_peak, phi = g.loss_peak()
@@ -447,14 +497,18 @@ class TauSelection:
         if self.decision:
             lines.append(self.decision)
         lines.extend(self.warnings)
-        additive = isinstance(self.best[1], tuple)  # --max-degree does not set a total degree
-        cap = self.best_result().at_cap() if additive else []
+        cap = self.at_cap()
         if cap:
             lines.append(
                 f"warning: the winner sits at the largest candidate degree of input(s) {cap}; "
                 "widen the search range (--max-degree on the command line, degrees= in Python)"
             )
         return "\n".join(lines)
+
+
+def _best_rms(res: SelectionResult) -> float:
+    """k-fold RMS of the winner of a degree search, N."""
+    return float(next(r["rms"] for r in res.table if r["candidate"] == res.best))
 
 
 def select_tau(

@@ -145,8 +145,13 @@ def _build_memory(
     states: int | None,
 ) -> tuple[SurrogateModel, TauSelection]:
     """The k-fold memory element of ``railgym collect`` (:func:`build_memory_surrogate`;
-    the coupled map scored with ``--coupled``);
-    the edge warning of the τ search is a line of the printed report, not a Python warning."""
+    the coupled map scored with ``--coupled``; the product input δ·ζ without ``--features``,
+    not for ``--features maxwell`` nor a whole vehicle's mapping, whose kernels take the
+    ``"maxwell"`` form); the edge warning of the τ search is a line of the printed report,
+    not a Python warning."""
+    from railgym.fmu.mapping import mapping_env
+
+    whole = args.fmu_map is not None and mapping_env(args.fmu_map) == "vehicle"
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", "tau = .* end of the search", UserWarning)
         model, report, _ = build_memory_surrogate(
@@ -159,6 +164,7 @@ def _build_memory(
             tau=args.tau,
             memory_states=states,
             coupled=None if args.coupled else False,
+            product=args.features is None and not whole,
         )
     return model, report
 
@@ -237,7 +243,7 @@ def _collect(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             model, report = _build_memory(args, cands, seed, progress, data, veh, states)
             text = report.format()
             target = "F_s - F_bump" if veh.known_physics else "F_s"
-            memory = model.features_["form"] == "maxwell"
+            memory = model.features_["form"] != "static"
             state = "the Maxwell state" if memory else "no memory state"
             source = (
                 f"railgym dynamic reference ({veh.name}), {where}, 200 Hz; passive LPR on "

@@ -192,7 +192,7 @@ def _check_element_plausibility(model: Any, vehicle: Any, given: Any) -> None:
 
 
 #: units of the suspension element's inputs (deflection, its rate, Maxwell state) and output
-ELEMENT_UNITS = ("m", "m/s", "m")
+ELEMENT_UNITS = ("m", "m/s", "m", "m^2")
 ELEMENT_OUTPUT_UNIT = "N"
 
 
@@ -205,7 +205,8 @@ def unnamed(inputs: list[str], output: Any, units: dict[str, Any]) -> bool:
 def _check_element_units(surrogate: Any, d: int) -> None:
     """A model with named inputs (``features_``: read from a file, or from
     ``surrogates.build(..., inputs=, units=)``) must give the units the kernel assumes:
-    deflection m, velocity m/s (and the Maxwell state m) in, force N out; an element fitted on
+    deflection m, velocity m/s (and the Maxwell state m, the product input δ·ζ m^2) in,
+    force N out; an element fitted on
     another problem, or in mm or kN, is refused (the error names the fix). A model without
     names (fitted by ``surrogates.build(U, V)``) carries no units and is taken as SI, in
     memory and after ``surrogates.io.save`` → ``load`` alike (the file holds the placeholder

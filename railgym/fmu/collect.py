@@ -253,9 +253,11 @@ def build_fmu_element(
     ``--tau`` values: ``None``, one value, ``(lo, hi)`` or three or more values, s) and
     ``memory_states`` (0, 1, ``None``: from the data) checked as the flags are; ``kwargs``
     go to ``build_memory_surrogate`` (``degrees``, ``seed``, ``progress``, ``coupled``,
-    ...). Returns
-    ``(model, selection, data)``."""
+    ``product``, ...; ``product`` defaults to ``False`` for an ``env: vehicle`` mapping,
+    whose kernels take the ``"maxwell"`` form). Returns ``(model, selection, data)``."""
     search, states = tau_search(tau, "tau"), check_states(memory_states, "memory_states")
+    if mapping_env(fmu_map) == "vehicle":
+        kwargs.setdefault("product", False)
     vehicle = fmu_vehicle(fmu_map, vehicle)
     data = collect_fmu(fmu_map, design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE), fmu, vehicle)
     return build_memory_surrogate(

@@ -176,6 +176,10 @@ _FEATURES = {
         ["x1-x2", "v1-v2", "zeta"],
         {"x1-x2": "m", "v1-v2": "m/s", "zeta": "m", "F_s": "N"},
     ),
+    "maxwell_product": (
+        ["x1-x2", "v1-v2", "zeta", "(x1-x2)*zeta"],
+        {"x1-x2": "m", "v1-v2": "m/s", "zeta": "m", "(x1-x2)*zeta": "m^2", "F_s": "N"},
+    ),
 }
 
 
@@ -211,7 +215,7 @@ def save_vertical_surrogate(
             "selection": "kfold",
             "tau_scores": [{**r, "degree": candidate_label(r["degree"])} for r in report.table],
             "chosen": {"tau": report.best[0], "degree": candidate_label(report.best[1])},
-            "at_cap": report.best_result().at_cap(),
+            "at_cap": report.at_cap(),
             **_search_summary(report),
         }
     return io.save(
@@ -254,7 +258,7 @@ def _search_summary(report: TauSelection) -> dict[str, Any]:
         out["tau_search"] = report.search.describe()
     if report.guess is not None:
         out["linear_fit"] = {k: float(v) for k, v in report.guess._asdict().items()}
-    for name in ("static", "coupled"):
+    for name in ("static", "coupled", "product"):
         if (score := getattr(report, name)) is not None:
             out[name] = {**score, "degree": candidate_label(score["degree"])}
     if report.warnings:

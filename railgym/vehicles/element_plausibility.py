@@ -34,7 +34,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from railgym.vehicles.vertical.params import DEFLECTION_SCALE
-from surrogates.memory import element_form
+from surrogates.memory import MEMORY_FORMS, element_form
 
 __all__ = [
     "MAX_RATE",
@@ -128,7 +128,7 @@ def element_plausibility(model: Any, vehicle: Any) -> Plausibility:
     grad = _slopes(model, at, lo, up)
     stiffness = float(grad[0])
     damping = float(grad[1])
-    if form.form == "maxwell":
+    if form.form in MEMORY_FORMS:
         damping += float(grad[2]) / _rate_slope(form)
     low, high = PLAUSIBLE_RATIO
     findings = []

@@ -1,6 +1,7 @@
 """The memory element of the vertical suspension (:mod:`surrogates.memory`): its training
-pairs ``(δ, δ̇, ζ) → F_s`` from collected runs, and ``τ`` and the degrees chosen by k-fold CV
-(:func:`build_memory_surrogate`, which ``railgym.vehicles.collect`` calls)."""
+pairs ``(δ, δ̇, ζ) → F_s`` (or ``(δ, δ̇, ζ, δ·ζ)``, form ``"maxwell_product"``) from collected
+runs, and ``τ``, the degrees and the form chosen by k-fold CV (:func:`build_memory_surrogate`,
+which ``railgym.vehicles.collect`` calls)."""
 
 from __future__ import annotations
 
@@ -33,6 +34,8 @@ __all__ = [
     "MEMORY_DESIGN",
     "COUPLED_DEGREES",
     "MEMORY_GAIN",
+    "PRODUCT_DEGREES",
+    "PRODUCT_FLOOR",
     "WARMUP",
     "build_memory_surrogate",
     "choose_memory_element",
@@ -50,6 +53,12 @@ __all__ = [
 MEMORY_GAIN = 0.05
 #: total degrees of the coupled map (LPR with interactions) scored at the chosen τ
 COUPLED_DEGREES = (4, 6, 8)
+#: degrees of the product input δ·ζ (form ``"maxwell_product"``) scored with the additive
+#: winner's degrees of (δ, δ̇, ζ)
+PRODUCT_DEGREES = (1, 2, 4)
+#: relative k-fold RMS of the additive memory map below which the product input is not scored
+#: (a map within 1 % of the force needs no coupling)
+PRODUCT_FLOOR = 0.01
 #: degree tuples (δ, δ̇, ζ) tried by default for the memory element: ζ needs high degrees
 #: (the controlled runs' error falls with it), capped at 20 for the cost of the recurrences
 MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
@@ -122,6 +131,7 @@ def memory_training_data(
     vehicle: Any = "manchester",
     relaxation: Any = None,
     runs: list[dict[str, Any]] | None = None,
+    product: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Training pairs of the memory element from a :func:`collect_design` result.
 
@@ -129,7 +139,8 @@ def memory_training_data(
     :func:`~surrogates.memory.relaxed_state` with a nonlinear ``relaxation`` law; relaxed
     start) and taken at the rows of :func:`element_runs` (``runs``: those already built).
 
-    Returns ``U`` (n, 3) = (δ, δ̇, ζ) in m, m/s, m and ``V`` (n,) in N.
+    Returns ``U`` (n, 3) = (δ, δ̇, ζ) in m, m/s, m (``product``: (n, 4) with ``δ·ζ`` in m²,
+    the form ``"maxwell_product"``) and ``V`` (n,) in N.
     """
     if runs is None:
         runs = element_runs(data, known_physics, vehicle)
@@ -140,7 +151,8 @@ def memory_training_data(
             zeta = maxwell_state(d, r["t"], tau)
         else:
             zeta = relaxed_state(d, r["t"], relaxation)
-        Us.append(np.column_stack([d, r["delta_dot"], zeta])[r["rows"]])
+        cols = [d, r["delta_dot"], zeta, d * zeta] if product else [d, r["delta_dot"], zeta]
+        Us.append(np.column_stack(cols)[r["rows"]])
         Vs.append(r["force"])
     return np.concatenate(Us), np.concatenate(Vs)
 
@@ -160,6 +172,7 @@ def build_memory_surrogate(
     data: dict[str, Any] | None = None,
     memory_states: int | None = None,
     coupled: bool | None = False,
+    product: bool = True,
 ) -> tuple[SurrogateModel, TauSelection, dict[str, Any]]:
     """The memory element: ``F̂(δ, δ̇, ζ)`` with ``τ``, the degrees and the number of memory
     states chosen from the data (:func:`choose_memory_element`).
@@ -188,6 +201,11 @@ def build_memory_surrogate(
         to a total degree among :data:`COUPLED_DEGREES`, unconstrained: it can diverge where
         the passive additive map does not) when it lowers the k-fold RMS by
         :data:`MEMORY_GAIN` against the additive one; ``False`` (default): additive only.
+    product : ``True`` (default): a memory element with an additive map gets the product
+        input ``δ·ζ`` (form ``"maxwell_product"``, its own ``τ`` search, the degrees of
+        :data:`PRODUCT_DEGREES`) when that lowers the k-fold RMS by :data:`MEMORY_GAIN`
+        (scored only where the additive map's relative k-fold RMS exceeds
+        :data:`PRODUCT_FLOOR`); ``False``: never.
 
     Returns
     -------
@@ -217,6 +235,7 @@ def build_memory_surrogate(
         progress,
         coupled,
         widen=degrees is None,
+        product=product,
     )
     return model, selection, data
 
@@ -276,13 +295,15 @@ def choose_memory_element(
     progress: Callable[[str, int, int], None] | None = None,
     coupled: bool | None = False,
     widen: bool = False,
+    product: bool = True,
 ) -> tuple[SurrogateModel, TauSelection]:
     """The element of class ``cls`` on ``data``: ``τ`` (a first guess by
     :func:`~surrogates.tau_search.fit_linear_memory`, refined by a bounded minimisation of
     the ``k``-fold CV error in ``log τ`` over the :class:`~surrogates.tau_search.TauSearch`
     ``search`` at the largest degree, then the degrees; candidate values each with every
     degree), the number of memory ``states`` (``None``: 1 when it lowers the CV error by
-    :data:`MEMORY_GAIN`) and ``coupled`` (:func:`_coupled_map`). A ``τ`` at the edge of
+    :data:`MEMORY_GAIN`), ``coupled`` (:func:`_coupled_map`) and ``product``
+    (:func:`_product_map`, for an additive map). A ``τ`` at the edge of
     ``search`` is a ``UserWarning`` naming ``--tau``. Pairs go to ``data["U_memory"],
     data["V_memory"]``. Arguments as :func:`build_memory_surrogate`."""
     degrees = list(degrees)
@@ -291,8 +312,10 @@ def choose_memory_element(
     out = TauSelection(search=search, states=1 if states is None else states)
     out.guess = ts.fit_linear_memory(runs, search.lo, search.hi)
 
-    def kfold(tau: float, make: Callable[..., Any], grid: Sequence[Any], what: str) -> Any:
-        U, V = memory_training_data(data, tau, runs=runs)
+    def kfold(
+        tau: float, make: Callable[..., Any], grid: Sequence[Any], what: str, prod: bool = False
+    ) -> Any:
+        U, V = memory_training_data(data, tau, runs=runs, product=prod)
         where = stage(progress, f"{what} at tau {1e3 * tau:.4g} ms")
         return select_kfold(make, grid, U, V, k=k, seed=seed, progress=where)
 
@@ -326,12 +349,9 @@ def choose_memory_element(
         )
         out.static_result, out.static = sres, _best(sres)
     _decide(out, states)
-    make: Callable[..., SurrogateModel] = cls
-    if out.states and coupled is None:
-        found, take = _coupled_map(out, found, kfold, search)
-        make = partial(LegendreRegression, interactions=True) if take else cls
+    found, make, take_product = _map(out, found, kfold, search, cls, coupled, product)
     best = out.guess.tau if found is None else found.best
-    U, V = memory_training_data(data, best, runs=runs)
+    U, V = memory_training_data(data, best, runs=runs, product=take_product)
     if out.states == 0:
         assert out.static is not None
         U, out.best = U[:, :2], (None, out.static["degree"])
@@ -344,10 +364,37 @@ def choose_memory_element(
     for text in out.warnings:
         warnings.warn(text.removeprefix("warning: "), UserWarning, stacklevel=3)
     model = make(degree=out.best[1]).fit(U, V)
-    form = {"form": "maxwell", "tau": best} if out.states else {"form": "static", "tau": None}
+    name = "maxwell_product" if take_product else "maxwell"
+    form = {"form": name, "tau": best} if out.states else {"form": "static", "tau": None}
     model.features_ = {**form, "known_physics": list(known)}
     data["U_memory"], data["V_memory"] = U, V
     return model, out
+
+
+def _map(
+    out: TauSelection,
+    found: Any,
+    kfold: Callable[..., Any],
+    search: Any,
+    cls: Callable[..., SurrogateModel],
+    coupled: bool | None,
+    product: bool,
+) -> tuple[Any, Callable[..., SurrogateModel], bool]:
+    """The map of a memory element after the additive one (``found`` its τ search): the
+    coupled LPR (``coupled`` ``None``, :func:`_coupled_map`), else the product input
+    (``product``, an additive map above :data:`PRODUCT_FLOOR`, :func:`_product_map`).
+    Returns the τ search of the map taken, its class and whether it has the product input."""
+    if not out.states:
+        return found, cls, False
+    if coupled is None:
+        found, take = _coupled_map(out, found, kfold, search)
+        if take:
+            return found, partial(LegendreRegression, interactions=True), False
+    if product and min(r["nrms"] for r in out.table) > PRODUCT_FLOOR:
+        found, take = _product_map(out, found, kfold, search, cls)
+        if take:
+            return found, _product_class(cls), True
+    return found, cls, False
 
 
 def _coupled_map(
@@ -381,6 +428,57 @@ def _coupled_map(
     if take:
         out.best = (cfound.best, out.coupled["degree"])
     return (cfound if take else found), take
+
+
+def _product_class(cls: Callable[..., SurrogateModel]) -> Callable[..., SurrogateModel]:
+    """``cls`` for the inputs (δ, δ̇, ζ, δ·ζ): a passive map constrains the slopes of the
+    first three only (the product's slope changes sign with ``δ``)."""
+    if cls is PassiveLegendreRegression:
+        return partial(PassiveLegendreRegression, monotone=(True, True, True, False))
+    return cls
+
+
+def _product_map(
+    out: TauSelection,
+    found: Any,
+    kfold: Callable[..., Any],
+    search: Any,
+    cls: Callable[..., SurrogateModel],
+) -> tuple[Any, bool]:
+    """The additive map with the product input ``δ·ζ`` (form ``"maxwell_product"``): its own
+    ``τ`` search from the additive map's ``found`` (the additive winner's degrees with the
+    middle of :data:`PRODUCT_DEGREES`), then the product's degree among them; its score goes
+    to ``out.product``; taken (``out.best`` its ``τ`` and degrees) when its k-fold RMS is
+    :data:`MEMORY_GAIN` below the additive map's. Returns the search result of the map
+    taken and whether it is the product one."""
+    make = _product_class(cls)
+    base = tuple(int(d) for d in out.best[1])
+    fits: dict[float, Any] = {}
+
+    def grid(degrees: Sequence[int]) -> list[tuple[int, ...]]:
+        return [(*base, w) for w in degrees]
+
+    def score(tau: float) -> float:
+        middle = [PRODUCT_DEGREES[len(PRODUCT_DEGREES) // 2]]
+        fits[tau] = kfold(tau, lambda deg: make(degree=deg), grid(middle), "product", True)
+        return float(_best(fits[tau])["rms"])
+
+    pfound = ts.search_tau(score, search, found.best)
+    fits[pfound.best] = kfold(
+        pfound.best, lambda deg: make(degree=deg), grid(PRODUCT_DEGREES), "product degrees", True
+    )
+    out.product = {"tau": pfound.best, **_best(fits[pfound.best])}
+    out.product_result = fits[pfound.best]
+    gain = 1.0 - out.product["rms"] / min(r["rms"] for r in out.table)
+    take = gain > MEMORY_GAIN
+    out.decision += (
+        f"; map: {'with' if take else 'without'} the product input delta*zeta (form "
+        f"'maxwell_product', degrees {out.product['degree']} at tau {1e3 * pfound.best:.4g} ms, "
+        f"changes the k-fold RMS by {-100 * gain:+.1f} %, threshold -{100 * MEMORY_GAIN:g} %)"
+    )
+    if take:
+        out.best = (pfound.best, out.product["degree"])
+    return (pfound if take else found), take
 
 
 def _decide(out: TauSelection, states: int | None) -> None:

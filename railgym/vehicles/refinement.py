@@ -21,7 +21,7 @@ from railgym.vehicles.memory_element import (
     design_with,
     memory_training_data,
 )
-from surrogates.memory import element_form
+from surrogates.memory import MEMORY_FORMS, element_form
 from surrogates.models import SurrogateModel
 
 __all__ = [
@@ -99,9 +99,10 @@ def initial_pairs(
         return collect_design(design, vehicle=vehicle)
 
     run = builtin if collect is None else collect
-    if form.form == "maxwell":
+    if form.form in MEMORY_FORMS:
         data = run(design_with(MEMORY_DESIGN, None, MEMORY_SAMPLE_RATE))
-        return memory_training_data(data, form.tau, form.known_physics, vehicle)
+        product = form.form == "maxwell_product"
+        return memory_training_data(data, form.tau, form.known_physics, vehicle, product=product)
     data = run("paper")
     return data["U"], data["V"]
 
@@ -115,8 +116,11 @@ def element_pairs(
     rows = np.arange(0, run["t"].size, every)
     rows = rows[np.isfinite(run["force"][rows])]
     data = {"runs": [{**run, "rows": rows}]}
-    if form.form == "maxwell":
-        return memory_training_data(data, form.tau, form.known_physics, vehicle, form.relaxation)
+    if form.form in MEMORY_FORMS:
+        product = form.form == "maxwell_product"
+        return memory_training_data(
+            data, form.tau, form.known_physics, vehicle, form.relaxation, product=product
+        )
     keep = rows[run["t"][rows] >= WARMUP]
     return np.column_stack([run["delta"], run["delta_dot"]])[keep], run["force"][keep]
 

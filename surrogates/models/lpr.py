@@ -547,19 +547,25 @@ def lpr_additive_inside(
             s2 += table[2, k + 1] * n2
             a2, b2 = b2, n2
         return s0 + s1 + s2
+    # one partial sum per input (the constants in the first), added in input order: the
+    # arithmetic of the vertical lane kernel's blocks
+    c0 = table[0, 0]
+    for j in range(1, d):
+        c0 = c0 + table[j, 0]
     value = 0.0
     for j in range(d):
         t = (u[j] - lower[j]) * work[d + 3, j] - 1.0
         a = 1.0
         b = t
-        value += table[j, 0]
+        s = c0 if j == 0 else 0.0
         if n > 1:
-            value += table[j, 1] * t
+            s += table[j, 1] * t
         for k in range(1, additive_terms(table, j) - 1):
             nb = work[d + 1, k] * t * b - work[d + 2, k] * a
-            value += table[j, k + 1] * nb
+            s += table[j, k + 1] * nb
             a = b
             b = nb
+        value = s if j == 0 else value + s
     return value
 
 

@@ -11,6 +11,7 @@ from agents.commands.collect import main as collect_main
 from railgym.vehicles.collect import save_vertical_surrogate
 from railgym.vehicles.memory_element import (
     MEMORY_DEGREES,
+    PRODUCT_FLOOR,
     WIDEN_LIMIT,
     build_memory_surrogate,
     widen_degrees,
@@ -97,8 +98,36 @@ def test_the_coupled_map_is_taken_where_the_data_couple_deflection_and_state():
     assert sel.best_result() is sel.coupled_result and "coupled" in sel.format()
     model, sel, _ = build(nonlinear_data(64e-3, noise=200.0), coupled=None)
     assert "map: additive" in sel.decision and not model.interactions
-    _, sel, _ = build(nonlinear_data(64e-3, coupling=1.0e7))  # default: additive only
-    assert sel.coupled is None and "map:" not in sel.decision
+    _, sel, _ = build(nonlinear_data(64e-3, coupling=1.0e7), product=False)  # additive only
+    assert sel.coupled is None and sel.product is None and "map:" not in sel.decision
+
+
+def test_the_product_input_is_taken_by_default_where_the_data_couple_deflection_and_state(
+    tmp_path,
+):
+    """The same δ·ζ term is exactly what the product input of the form "maxwell_product"
+    carries: by default it is scored (its own τ search) and taken, with the law's τ, the
+    k-fold error a fraction of the additive map's; saved, the report holds its score; on an
+    additive law (already within PRODUCT_FLOOR) it is not scored."""
+    model, sel, data = build(nonlinear_data(64e-3, coupling=1.0e7))
+    assert model.features_["form"] == "maxwell_product" and model.n_features_in_ == 4
+    assert "with the product input" in sel.decision and sel.coupled is None
+    assert sel.best == (sel.product["tau"], sel.product["degree"])
+    assert sel.best[0] == pytest.approx(64e-3, rel=0.2) == model.features_["tau"]
+    assert sel.product["rms"] < 0.2 * min(r["rms"] for r in sel.table)
+    assert sel.best_result() is sel.product_result and "product (5, 5, 5," in sel.format()
+    assert data["U_memory"].shape[1] == 4
+    np.testing.assert_array_equal(
+        data["U_memory"][:, 3], data["U_memory"][:, 0] * data["U_memory"][:, 2]
+    )
+    path = save_vertical_surrogate(model, sel, tmp_path / "el.json", "synthetic")
+    back = io.load(path)
+    assert back.features_["form"] == "maxwell_product" and back.features_["tau"] == sel.best[0]
+    assert back.metadata_["report"]["product"]["rms"] == pytest.approx(sel.product["rms"])
+    assert back.features_["units"]["(x1-x2)*zeta"] == "m^2"
+    model, sel, _ = build(nonlinear_data(64e-3))
+    assert min(r["nrms"] for r in sel.table) < PRODUCT_FLOOR and sel.product is None
+    assert model.features_["form"] == "maxwell"
 
 
 @pytest.mark.parametrize(

@@ -35,12 +35,15 @@ def test_rebuilding_the_packaged_static_element_gives_the_same_model(static):
 
 
 def test_rebuilding_the_packaged_memory_element_gives_the_same_model(packaged):
-    """The recipe at its chosen τ and degrees (the full search is the regeneration command)."""
+    """The recipe at its chosen τ, degrees and form (the full search is the regeneration
+    command; the packaged element has the form "maxwell", without the product input)."""
     form = element_form(packaged.features_)
     chosen = packaged.metadata_["report"]["chosen"]
     assert form == ("maxwell", chosen["tau"], ("bump_stop",), None)
     degree = tuple(packaged.degree)
-    model, sel, data = build_memory_surrogate(tau=form.tau, degrees=[degree], memory_states=1)
+    model, sel, data = build_memory_surrogate(
+        tau=form.tau, degrees=[degree], memory_states=1, product=False
+    )
     assert sel.best == (form.tau, degree)
     U = data["U_memory"]
     # the envelope design: 16 runs of 20 s at 200 Hz, each from the 0.1 s warm-up on

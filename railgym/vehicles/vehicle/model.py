@@ -190,7 +190,14 @@ def lpr_arrays(surrogate: Any = None, dt: float | None = None, grid: bool = Fals
 
 def element_lpr(arrays: Any) -> Lpr:
     """The :class:`Lpr` fields of an element's
-    :class:`~railgym.vehicles.vertical.elements.LprArrays`."""
+    :class:`~railgym.vehicles.vertical.elements.LprArrays`; an element of form
+    ``"maxwell_product"`` (one-bogie kernels only) is a ``ValueError``."""
+    if getattr(arrays, "product", False):
+        raise ValueError(
+            "surrogate has the feature form 'maxwell_product' (features.form), which the "
+            "one-bogie kernels integrate (VerticalSuspension); the whole vehicle's kernels "
+            "take the forms 'static' and 'maxwell'"
+        )
     return Lpr(*(getattr(arrays, name) for name in Lpr._fields))
 
 

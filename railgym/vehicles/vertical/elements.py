@@ -45,8 +45,8 @@ _NO_GRID = np.zeros((1, 1, 4))
 
 class LprArrays(NamedTuple):
     """A fitted surrogate element as plain arrays with its feature form: ``d = 2`` inputs
-    (δ, δ̇) for ``"static"``, ``d = 3`` (δ, δ̇, δ − s) for ``"maxwell"``
-    (``surrogates.memory``).
+    (δ, δ̇) for ``"static"``, ``d = 3`` (δ, δ̇, δ − s) for ``"maxwell"``, ``d = 4``
+    (δ, δ̇, δ − s, δ·(δ − s)) for ``"maxwell_product"`` (``surrogates.memory``).
 
     An LPR fills the LPR fields (:meth:`LegendreRegression.kernel_arrays`). A Kriging sets
     ``kriging`` and the fields of :class:`~surrogates.models.kriging.KrigingArrays`
@@ -71,6 +71,8 @@ class LprArrays(NamedTuple):
     #: (:mod:`surrogates.memory`; empty: the linear law ``(δ − s)/τ``); whole vehicle only
     relax_z: np.ndarray = _NONE1
     relax_r: np.ndarray = _NONE1  #: its rates ``g`` at the knots, m/s
+    #: form ``"maxwell_product"``: the fourth input is ``δ·(δ − s)``; one-bogie kernels only
+    product: bool = False
     kriging: bool = False  #: the element is a Kriging (the fields below), not an LPR
     xs: np.ndarray = _NONE2  #: Kriging: float64 (n, d) training inputs in the unit box
     xs_ell: np.ndarray = _NONE2  #: Kriging: float64 (n, d) ``xs / ℓ``
@@ -216,7 +218,8 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
     outside its box). ``zc, zdc``: track input (m, m/s); ``fa``: actuator force, N.
 
     The surrogate's state ``x[4]`` is the Maxwell state ``s`` (``ṡ = (δ − s)/τ``) of a memory
-    element; a static element integrates 4 states (a fifth one is held still). The element is
+    element (with ``lpr.product`` the fourth input ``δ·(δ − s)``); a static element
+    integrates 4 states (a fifth one is held still). The element is
     an LPR or a Kriging (``lpr.kriging``). ``u`` (d,) and ``lw``
     (:func:`~surrogates.models.lpr.lpr_scratch`) are work arrays.
     """
@@ -236,6 +239,8 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
         if lpr.tau > 0.0:
             u[2] = d - x[4]
             dx[4] = (d - x[4]) / lpr.tau
+            if lpr.product:
+                u[3] = d * u[2]
         elif dx.shape[0] > 4:
             dx[4] = 0.0
         if lpr_is_outside(u, lpr.lo, lpr.up):

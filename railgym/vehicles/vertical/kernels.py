@@ -35,7 +35,7 @@ from railgym.vehicles.vertical.lanes import (
     advance_lanes,
     advance_lanes_parallel,
 )
-from surrogates.memory import FEATURE_FORMS, element_form, shortest_time_constant
+from surrogates.memory import FEATURE_FORMS, MEMORY_FORMS, element_form, shortest_time_constant
 from surrogates.models.kriging import KrigingArrays
 from surrogates.models.lpr import EXTRAPOLATION_MODES, additive_table, lpr_scratch
 from surrogates.models.lpr_grid import lpr_grid
@@ -318,11 +318,12 @@ def surrogate_arrays(
     (set by :func:`surrogates.io.load`; absent: the static form, as for a bare
     ``kernel_arrays()`` tuple). ``None`` gives placeholder arrays for the variants that ignore
     them. ``dt`` (s), when given, must not exceed ``2τ`` (RK4 stability of the Maxwell
-    state). A model whose input count does not match its form (2 static, 3 maxwell) is
-    rejected, and so is a Kriging unless ``kriging`` is set (the vertical kernels of this
-    package evaluate it; kernels that read the LPR fields only do not), and a memory element
-    with a nonlinear relaxation law unless ``relaxation`` is set (the whole vehicle's kernels
-    integrate it, the one-bogie kernels do not). ``grid``: an additive LPR is evaluated
+    state). A model whose input count does not match its form (2 static, 3 maxwell, 4
+    maxwell_product, which the whole vehicle's ``element_lpr`` refuses) is rejected, and so
+    is a Kriging unless ``kriging`` is set (the vertical kernels of this package evaluate it;
+    kernels that read the LPR fields only do not), and a memory element with a nonlinear
+    relaxation law unless ``relaxation`` is set (the whole vehicle's kernels integrate it,
+    the one-bogie kernels do not). ``grid``: an additive LPR is evaluated
     inside its box by Hermite tables (:func:`~surrogates.models.lpr_grid.lpr_grid`, within
     ``GRID_RTOL`` of its output range) instead of the Legendre recurrence.
     """
@@ -370,6 +371,8 @@ def surrogate_arrays(
     tau, bump = _form_physics(form, dt)
     table = additive_table(exps, coef)
     arrays = LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
+    if form.form == "maxwell_product":
+        arrays = arrays._replace(product=True)
     if table is not None:
         arrays = arrays._replace(table=table, additive=True)
         if grid:
@@ -389,7 +392,7 @@ def surrogate_arrays(
 def _form_physics(form: Any, dt: float | None) -> tuple[float, bool]:
     """``(τ, bump)`` of an element's feature form: its Maxwell time constant (s; 0 for the
     static form), checked against ``dt`` (s), and whether the bump-stop law is added."""
-    tau = form.tau if form.form == "maxwell" else 0.0
+    tau = form.tau if form.form in MEMORY_FORMS else 0.0
     if dt is not None and tau > 0.0 and dt > 2.0 * tau:
         raise ValueError(
             f"surrogate features.tau = {tau} s is below half the integration step dt = {dt} s"
@@ -434,6 +437,7 @@ def _kriging_arrays(k: KrigingArrays, form: Any, dt: float | None) -> LprArrays:
         y_mean=k.y_mean,
         y_std=k.y_std,
         kernel=k.kernel,
+        product=form.form == "maxwell_product",
     )
 
 

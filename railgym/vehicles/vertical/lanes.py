@@ -43,15 +43,15 @@ _XT = 5  # stage state (5 rows)
 _K = 10  # stage derivatives k1..k4 (4 × 5 rows)
 _ZA, _ZDA, _ZB, _ZDB, _ZM, _ZDM = 30, 31, 32, 33, 34, 35  # track input (m, m/s)
 _FA = 36  # actuator force, N
-_U = 37  # element inputs (3 rows)
-_T = 40  # inputs mapped to [-1, 1] (3 rows)
-_A, _B, _S = 43, 46, 49  # recurrence P_{k-1}, P_k and partial sums (3 rows each)
-_FS = 52  # element force, N
-_OUT = 53  # 1.0 where an input is outside the box
-_OSUM = 54  # outside stages of this substep
-_ALIVE = 55  # 1.0 while not diverged
-_CONTACT, _OOD = 56, 57  # counters of the control step
-_ROWS = 58
+_U = 37  # element inputs (4 rows: δ, δ̇, ζ and the product input δ·ζ)
+_T = 41  # inputs mapped to [-1, 1] (4 rows)
+_A, _B, _S = 45, 49, 53  # recurrence P_{k-1}, P_k and partial sums (4 rows each)
+_FS = 57  # element force, N
+_OUT = 58  # 1.0 where an input is outside the box
+_OSUM = 59  # outside stages of this substep
+_ALIVE = 60  # 1.0 while not diverged
+_CONTACT, _OOD = 61, 62  # counters of the control step
+_ROWS = 63
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -152,6 +152,9 @@ def _rhs(block, state_row, rate_row, track_row, suspension, lpr, lpr_work, u, n_
         for l in range(n_lanes):
             block[_U + 2, l] = block[_U, l] - block[state_row + 4, l]
             block[rate_row + 4, l] = (block[_U, l] - block[state_row + 4, l]) / tau
+        if lpr.product:
+            for l in range(n_lanes):
+                block[_U + 3, l] = block[_U, l] * block[_U + 2, l]
     else:
         for l in range(n_lanes):
             block[rate_row + 4, l] = 0.0

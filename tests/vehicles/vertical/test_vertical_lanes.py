@@ -31,12 +31,30 @@ from railgym.vehicles.vertical.lanes import (
     advance_lanes_parallel,
 )
 from railgym.vehicles.vertical.params import load_vehicle
+from surrogates.models.lpr import LegendreRegression
 
 P = load_vehicle("manchester").kernel_params().record()
 N_SUB, DT = 10, 1e-3
+
+
+def _product_element() -> LegendreRegression:
+    """An additive element of form ``"maxwell_product"`` on the packaged memory element's
+    box: its law plus a term in the product input δ·ζ."""
+    base = default_vertical_surrogate("maxwell")
+    lo, up = base.domain_
+    U3 = lo + (up - lo) * np.random.default_rng(5).uniform(0.0, 1.0, (3000, 3))
+    U = np.column_stack([U3, U3[:, 0] * U3[:, 2]])
+    model = LegendreRegression(degree=(8, 8, 8, 2)).fit(U, base.predict(U3) + 4e7 * U[:, 3])
+    model.features_ = {**base.features_, "form": "maxwell_product"}
+    return model
+
+
 ELEMENTS = {
-    f"{form}{'-grid' * grid}": surrogate_arrays(default_vertical_surrogate(form), grid=grid)
-    for form in ("maxwell", "static")
+    f"{form}{'-grid' * grid}": surrogate_arrays(
+        _product_element() if form == "maxwell_product" else default_vertical_surrogate(form),
+        grid=grid,
+    )
+    for form in ("maxwell", "static", "maxwell_product")
     for grid in (False, True)
 }
 
@@ -91,7 +109,7 @@ def test_lanes_equal_the_scalar_kernel_through_contact_extrapolation_and_diverge
     assert np.isfinite(lanes[-5]).all()
 
 
-@pytest.mark.parametrize("name", ["maxwell", "maxwell-grid"])
+@pytest.mark.parametrize("name", ["maxwell", "maxwell-grid", "maxwell_product"])
 def test_parallel_lanes_equal_serial_lanes(name):
     lpr = ELEMENTS[name]
     z, zdot, fa = _batch(PARALLEL_MIN + 3, seed=4, severity=10.0)
