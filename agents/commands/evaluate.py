@@ -58,6 +58,7 @@ from agents.evaluation.runs import (
     evaluate_vehicle,
 )
 from agents.evaluation.sweeps import evaluate_sweep
+from agents.evaluation.vehicle_validation import whole_track_version
 from agents.policies.loading import trained_actuator
 from agents.policies.pretrained import PRETRAINED
 
@@ -334,6 +335,20 @@ def _reference_of(args: argparse.Namespace) -> str:
     return "railgym's linear suspension" if args.backend == "linear" else "railgym's model"
 
 
+def _whole_tracks(args: argparse.Namespace, env_id: str) -> str:
+    """The env id of a gap against an FMU: the FMU backend draws its tracks whole, so both
+    sides run the newest version that does (:func:`whole_track_version`); a streaming version
+    named by ``--env-id`` / ``--env-version`` is refused, naming the flag."""
+    whole = whole_track_version(env_id)
+    given = args.env_id is not None or args.env_version is not None
+    if given and whole != env_id:
+        raise ValueError(
+            f"{env_id_flag(args)}: streams its tracks, and the FMU backend draws them whole, so "
+            f"--gap --backend fmu would compare other tracks; use {whole} (the default)"
+        )
+    return whole
+
+
 def run_gap(
     args: argparse.Namespace, actuated: dict[str, Any] | None = None, env_id: str | None = None
 ) -> int:
@@ -344,6 +359,8 @@ def run_gap(
     runs ``railgym/TrainCrash-v1`` only)."""
     if args.envelope:
         raise ValueError("--gap: runs the held-out envelope itself (--env crash), not --envelope")
+    if args.backend == "fmu" and args.env != "crash":
+        env_id = _whole_tracks(args, env_id or ENV_IDS[args.env])
     backends = (SURROGATE, args.backend)
     # --fmu, --fmu-map, --vehicle, --actuator: checked, passed to both
     models = {**env_kwargs_of(args), **(actuated or {})}

@@ -118,6 +118,7 @@ def test_the_users_path_from_fmu_to_controller(project, load_example):
     assert float(rows["lqg"][4]) > 30.0  # Δa_w % against passive on the user's car
     gap = _run([*ev, "--gap", "--surrogate", "element.json"], folder)
     assert "largest |gap| of my_ppo" in gap
+    assert gap.startswith("railgym/VerticalSuspension-v2,")  # the FMU's whole tracks, both sides
     # export the residual controller and co-simulate it with the user's FMU
     _run(["railgym", "export-policy", str(zip_path), "-o", "controller.fmu"], folder)
     from agents.policies.loading import load_policy

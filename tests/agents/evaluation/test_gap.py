@@ -104,6 +104,9 @@ def test_cli_gap_prints_both_values_and_a_zero_gap_against_the_same_backend(caps
     assert gap == pytest.approx(100 * (s - r) / r, abs=0.01 + 1e-3 * abs(gap)) and gap != 0.0
 
 
+VEHICLE_V3 = "railgym/VerticalVehicle-v3"
+
+
 @pytest.mark.parametrize(
     ("extra", "flag"),
     [
@@ -111,6 +114,9 @@ def test_cli_gap_prints_both_values_and_a_zero_gap_against_the_same_backend(caps
         (["--env", "crash", "--workers", "2"], "--workers"),
         (["--env", "crash", "--backend", "linear"], "--backend"),
         (["--speed-kmh", "90"], "--speed-kmh"),
+        # the FMU draws its tracks whole: a streaming version would compare other tracks
+        (["--backend", "fmu", "--fmu-map", "m.yaml", "--env-version", "3"], "--env-version 3"),
+        (["--env", "vehicle", "--backend", "fmu", "--env-id", VEHICLE_V3], "--env-id"),
     ],
 )
 def test_cli_gap_bad_flag_combinations_are_one_error_naming_the_flag(extra, flag, capsys):
