@@ -18,6 +18,7 @@ from railgym.vehicles.collect import PACKAGED, build_vertical_surrogate, save_ve
 from railgym.vehicles.collect_design import DESIGNS, MEMORY_SAMPLE_RATE
 from railgym.vehicles.memory_element import (
     MEMORY_DESIGN,
+    PACKAGED_GRID,
     build_memory_surrogate,
     design_with,
     memory_degrees,
@@ -105,6 +106,8 @@ def _candidates(args: argparse.Namespace) -> list[tuple[int, ...]] | None:
         if top is not None:
             return list(itertools.product(*(range(1, t + 1) for t in top)))
         return [degree] if degree else None
+    if not (degree or top) and args.out is None:
+        top = PACKAGED_GRID  # regenerating the packaged element: its own grid, not widened
     return [degree] if degree else (memory_degrees(top) if top else None)
 
 

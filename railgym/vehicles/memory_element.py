@@ -62,6 +62,9 @@ PRODUCT_FLOOR = 0.01
 #: degree tuples (δ, δ̇, ζ) tried by default for the memory element: ζ needs high degrees
 #: (the controlled runs' error falls with it), capped at 20 for the cost of the recurrences
 MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18, 20)))
+#: top of the packaged element's degree grid (δ, δ̇, ζ): ``memory_degrees(PACKAGED_GRID)``
+#: is :data:`MEMORY_DEGREES`, searched without widening when the packaged file is regenerated
+PACKAGED_GRID = (16, 16, 20)
 #: largest degree per input that the default grid is widened to when its winner sits at the top
 WIDEN_LIMIT = (24, 40, 32)
 #: data-collection design of the packaged memory element
