@@ -149,6 +149,8 @@ I_OOD, I_CONTACTS, I_OUTSIDE, I_ENVELOPE = (
     for k in ("out_of_domain", "bump_stop_contacts", "outside_element", "outside_envelope")
 )
 I_DAMPER_FORCE, I_DAMPER_COMMAND = (INFO_COLUMN[k] for k in ("damper_force", "damper_command"))
+#: width of a row of :attr:`StepResult.info` without the damper's columns
+_N_ROW = N_OUTCOME + len(INFO_KEYS)
 #: (column, type) of the single env's int and bool values; the vector env's array dtypes
 _CAST_INFO = tuple((j, kind) for j, (_, kind) in enumerate(INFO_KEYS) if kind is not float)
 _DTYPES = {int: np.int64, bool: np.bool_}
@@ -518,6 +520,11 @@ class VerticalBatch(TrackBatch):
 
         The row is unpacked and ``info`` built as one literal: the single env's step does this
         once per step."""
+        row = self.info_rows[i].tolist()
+        damper = None
+        if len(row) > _N_ROW:  # the damper's columns last
+            damper = row[_N_ROW:]
+            del row[_N_ROW:]
         (
             reward,
             acc,
@@ -535,8 +542,7 @@ class VerticalBatch(TrackBatch):
             envelope,
             rms,
             actuator_force,
-            *damper,
-        ) = self.info_rows[i].tolist()
+        ) = row
         info = {
             "time": t,
             "carbody_acc": carbody_acc,
