@@ -131,10 +131,10 @@ class ArrayBatch:
         info["reward_terms"] = self.reward_terms(i)
         terminated = False
         for k, v in self.flags().items():
-            if v[i]:
+            if v.item(i):  # a Python bool: no NumPy scalar made
                 info[k] = terminated = True
-        truncated = not terminated and bool(self.truncated()[i])
-        return float(self.reward[i]), terminated, truncated, info
+        truncated = not terminated and bool(self.truncated().item(i))
+        return float(self.reward.item(i)), terminated, truncated, info
 
 
 class TrackBatch(ArrayBatch):
