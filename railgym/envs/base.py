@@ -165,13 +165,14 @@ def _check_small(
     if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.char not in "efd":
         return False
     low, high = bounds
-    for j, v in enumerate(actions.tolist()):
-        lo, hi = low[j], high[j]
-        if not lo <= v <= hi:  # NaN and ±Inf fail this too
+    j = 0  # a counter, not enumerate(): one step's action is one or two elements
+    for v in actions.tolist():
+        if not low[j] <= v <= high[j]:  # NaN and ±Inf fail this too
             if not math.isfinite(v):
                 raise val.FieldError("action", "must be finite; got NaN or Inf")
-            v = min(max(v, lo), hi)
+            v = min(max(v, low[j]), high[j])
         out[0, j] = v
+        j += 1
     return True
 
 

@@ -115,7 +115,10 @@ class ArrayBatch:
         """Observations (n, n_obs) float32, plus the sensor noise of ``cfg.sensor_noise`` (none
         without one) drawn from the per-env ``rngs``; with ``i`` system ``i``'s (n_obs,), its
         noise from ``rngs[0]``."""
-        return noisy_obs(self.obs, getattr(self.cfg, "sensor_noise", 0.0), rngs, i)
+        noise = getattr(self.cfg, "sensor_noise", 0.0)
+        if i is not None and noise == 0.0:  # the single env's step: one row, no draws
+            return self.obs[i].astype(np.float32)
+        return noisy_obs(self.obs, noise, rngs, i)
 
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The ``info`` of system ``i`` (Python numbers, arrays) or of all (arrays)."""
@@ -128,10 +131,10 @@ class ArrayBatch:
         info["reward_terms"] = self.reward_terms(i)
         terminated = False
         for k, v in self.flags().items():
-            if v[i]:
+            if v.item(i):  # a Python bool: no NumPy scalar made
                 info[k] = terminated = True
-        truncated = not terminated and bool(self.truncated()[i])
-        return float(self.reward[i]), terminated, truncated, info
+        truncated = not terminated and bool(self.truncated().item(i))
+        return float(self.reward.item(i)), terminated, truncated, info
 
 
 class TrackBatch(ArrayBatch):

@@ -77,15 +77,29 @@ def _assembled(sim, i: int):
     return float(sim.reward[i]), terminated, truncated, info
 
 
-@pytest.mark.parametrize(
-    "env_id", ["railgym/VerticalSuspension-v1", "railgym/VerticalSuspension-v2"]
-)
-def test_outcome_of_each_row_equals_the_reads_it_replaces(env_id):
+def _equal(a, b) -> bool:
+    """Equal ``info`` values: arrays element by element, anything else by ``==``."""
+    return bool(np.array_equal(a, b)) if isinstance(a, np.ndarray) else a == b
+
+
+#: the batches with an ``outcome`` of their own (one row read directly), with and without a
+#: damper
+OUTCOME_CASES = [
+    ("railgym/VerticalSuspension-v1", {}),
+    ("railgym/VerticalSuspension-v2", {}),
+    ("railgym/VerticalSuspension-v3", {"duration": 0.05, "actuator": "semi-active"}),
+    ("railgym/VerticalVehicle-v3", {"duration": 0.05}),
+    ("railgym/VerticalVehicle-v3", {"duration": 0.05, "actuator": "semi-active"}),
+]
+
+
+@pytest.mark.parametrize(("env_id", "extra"), OUTCOME_CASES)
+def test_outcome_of_each_row_equals_the_reads_it_replaces(env_id, extra):
     """Every row of a vector batch over a whole episode (its truncation included), with large
-    random actions; the single env's step returns the same."""
-    envs = gym.make_vec(
-        env_id, num_envs=3, vectorization_mode="vector_entry_point", **KWARGS[env_id]
-    )
+    random actions; the single env's step returns the same; each row's ``info`` is that row of
+    the vector env's arrays."""
+    kwargs = {**KWARGS.get(env_id, {}), **extra}
+    envs = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", **kwargs)
     envs.reset(seed=3)
     sim = envs.unwrapped.sim
     assert hasattr(sim, "outcome")
@@ -98,15 +112,21 @@ def test_outcome_of_each_row_equals_the_reads_it_replaces(env_id):
             assert got[:3] == want[:3]
             assert got[3].keys() == want[3].keys()
             for k, v in want[3].items():
-                assert got[3][k] == v, k
+                assert _equal(got[3][k], v), k
             assert all(type(got[3][k]) is type(v) for k, v in want[3].items())
+            every = sim.info()
+            assert list(every) == list(got[3])[: len(every)]
+            for k, v in every.items():
+                assert np.array_equal(v[i], got[3][k]), k
     assert sim.truncated().all()
     envs.close()
 
-    env = gym.make(env_id, **KWARGS[env_id])
+    env = gym.make(env_id, **kwargs)
     env.reset(seed=4)
     base = env.unwrapped
     assert isinstance(base, BatchEnv)
     _, reward, terminated, truncated, info = env.step(np.full(env.action_space.shape, 0.5))
-    assert (reward, terminated, truncated) == base.sim.outcome(0)[:3]
-    assert info == base.sim.outcome(0)[3]
+    again = base.sim.outcome(0)
+    assert (reward, terminated, truncated) == again[:3]
+    assert info.keys() == again[3].keys()
+    assert all(_equal(v, again[3][k]) for k, v in info.items())

@@ -97,8 +97,9 @@ for _key, _shape, _ in INFO_LAYOUT + SEMI_ACTIVE_INFO_LAYOUT:
 #: width of a row of ``Book.info`` without and with the dampers
 INFO_ROW = INFO_COLUMNS["actuator_force"].stop
 SEMI_ACTIVE_INFO_ROW = INFO_COLUMNS["damper_command"].stop
-_C_ACC, _C_BOGIE, _C_RMS, _C_FORCE, _C_DAMPER_FORCE, _C_DAMPER_COMMAND = (
-    INFO_COLUMNS[k].start
+#: the columns of the array-valued keys (the single env's ``info`` takes views of them)
+_S_ACC, _S_BOGIE, _S_RMS, _S_FORCE, _S_DAMPER_FORCE, _S_DAMPER_COMMAND = (
+    INFO_COLUMNS[k]
     for k in (
         "carbody_acc",
         "bogie_acc",
@@ -107,6 +108,9 @@ _C_ACC, _C_BOGIE, _C_RMS, _C_FORCE, _C_DAMPER_FORCE, _C_DAMPER_COMMAND = (
         "damper_force",
         "damper_command",
     )
+)
+_C_ACC, _C_BOGIE, _C_RMS, _C_FORCE, _C_DAMPER_FORCE, _C_DAMPER_COMMAND = (
+    c.start for c in (_S_ACC, _S_BOGIE, _S_RMS, _S_FORCE, _S_DAMPER_FORCE, _S_DAMPER_COMMAND)
 )
 #: columns of ``Book.terms``, the keys of ``info["reward_terms"]``
 REWARD_TERMS = ("acceleration", "deflection", "force", "divergence")
@@ -346,7 +350,7 @@ class VehicleBatch(TrackBatch):
     REWARD_TERMS = REWARD_TERMS
     _VIEWS = (
         *("reward", "obs", "_terms", "_truncated", "extrapolated", "_flags", "_info_scalars"),
-        *("dampers", "_args", "_step"),
+        *("dampers", "_args", "_step", "_outside_count"),
     )
 
     def __init__(
@@ -452,6 +456,8 @@ class VehicleBatch(TrackBatch):
             "outside_envelope": self.off_envelope,
         }
         self._flags = {"diverged": self.out.div, "extrapolated": self.extrapolated}
+        #: per vehicle the step's element evaluations outside the box (read after each step)
+        self._outside_count = self.out.count[:, 1]
         #: the dampers read their commands from the stored actions
         self.dampers = (
             None if self.damper is None else VehicleDampers(self.damper, self.book.action)
@@ -557,28 +563,60 @@ class VehicleBatch(TrackBatch):
         chunked mode the windows the step would run past are moved first)."""
         super().advance()
         # the step had an element evaluation (any RK4 stage, either bogie) outside the box
-        np.greater(self.out.count[:, 1], 0, out=self.outside)
+        np.greater(self._outside_count, 0, out=self.outside)
 
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_LAYOUT` (with dampers also :data:`SEMI_ACTIVE_INFO_LAYOUT`) of
         vehicle ``i`` (Python numbers and views of one fresh copy of its info row) or of all
         (arrays with a leading axis n); copies."""
-        book, scalars, dt = self.book, self._info_scalars, self.cfg.control_dt
-        layout = self.info_layout
+        book, dt = self.book, self.cfg.control_dt
         if i is None:
+            scalars = self._info_scalars
             return {
                 key: book.steps * dt
                 if key == "time"
                 else (book.info[:, INFO_COLUMNS[key]] if shape else scalars[key]).copy()
-                for key, shape, _ in layout
+                for key, shape, _ in self.info_layout
             }
         row = book.info[i].copy()
-        return {
-            key: int(book.steps[i]) * dt
-            if key == "time"
-            else (row[INFO_COLUMNS[key]] if shape else kind(scalars[key][i]))
-            for key, shape, kind in layout
+        info = {
+            "time": book.steps.item(i) * dt,
+            "speed": self.speed.item(i),
+            "carbody_acc": row[_S_ACC],
+            "bogie_acc": row[_S_BOGIE],
+            "rms_carbody_acc": row[_S_RMS],
+            "bump_stop_contacts": book.contacts.item(i),
+            "out_of_domain": book.ood.item(i),
+            "outside_element": self.outside.item(i),
+            "outside_envelope": self.off_envelope.item(i),
+            "actuator_force": row[_S_FORCE],
         }
+        if self.damper is not None:
+            info["damper_force"], info["damper_command"] = (
+                row[_S_DAMPER_FORCE],
+                row[_S_DAMPER_COMMAND],
+            )
+        return info
+
+    def outcome(self, i: int) -> tuple[float, bool, bool, dict[str, Any]]:
+        """``(reward, terminated, truncated, info)`` of vehicle ``i`` as the single env's step
+        returns them (the batch contract): :meth:`info` with ``reward_terms`` and each flag set
+        this step (``diverged``, ``extrapolated``), read directly from the arrays."""
+        book = self.book
+        info = self.info(i)
+        acc, defl, force, div = book.terms[i].tolist()
+        info["reward_terms"] = {
+            "acceleration": acc,
+            "deflection": defl,
+            "force": force,
+            "divergence": div,
+        }
+        terminated = False
+        if self.out.div.item(i):
+            info["diverged"] = terminated = True
+        if book.extrapolated.item(i):
+            info["extrapolated"] = terminated = True
+        return book.rew.item(i), terminated, not terminated and book.truncated.item(i), info
 
     def comfort(self, i: int) -> dict[str, np.ndarray]:
         """:func:`episode_comfort` of vehicle ``i``'s record so far."""
@@ -618,6 +656,6 @@ class VehicleBatch(TrackBatch):
             "f_max": self.cfg.f_max,
             "time": float(self.book.steps[i] * self.cfg.control_dt),
             "duration": self.cfg.duration,
-            "speed": float(self.speed[i]),
+            "speed": self.speed.item(i),
             "carbody_acc": float(self.out.acc[i, 1]),  # centre floor point, m/s²
         }

@@ -165,10 +165,11 @@ class VehicleStreamBatch(VehicleBatch):
     def advance(self) -> None:
         """One control step of every vehicle (one compiled call: the windows filled, the
         kernel, the comfort figures); windows on measured profiles copied first."""
-        for i in self._measured_tracks:
-            self._copy_measured(i)
+        if self._measured_tracks:
+            for i in self._measured_tracks:
+                self._copy_measured(i)
         self._step(*self._args)
-        np.greater(self.out.count[:, 1], 0, out=self.outside)
+        np.greater(self._outside_count, 0, out=self.outside)
 
     def comfort(self, i: int) -> dict[str, np.ndarray]:
         """The online comfort figures of vehicle ``i`` so far (zeros below

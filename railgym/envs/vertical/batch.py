@@ -149,6 +149,8 @@ I_OOD, I_CONTACTS, I_OUTSIDE, I_ENVELOPE = (
     for k in ("out_of_domain", "bump_stop_contacts", "outside_element", "outside_envelope")
 )
 I_DAMPER_FORCE, I_DAMPER_COMMAND = (INFO_COLUMN[k] for k in ("damper_force", "damper_command"))
+#: width of a row of :attr:`StepResult.info` without the damper's columns
+_N_ROW = N_OUTCOME + len(INFO_KEYS)
 #: (column, type) of the single env's int and bool values; the vector env's array dtypes
 _CAST_INFO = tuple((j, kind) for j, (_, kind) in enumerate(INFO_KEYS) if kind is not float)
 _DTYPES = {int: np.int64, bool: np.bool_}
@@ -278,25 +280,6 @@ def control_step(
     else:
         advance_kind(_SURROGATE, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
     post_step(state, z, zdot, out, force, counters, result, consts)
-
-
-def _info_dict(values: list[float]) -> dict[str, Any]:
-    """The single env's ``info`` from the values of its :data:`INFO_COLUMN` columns (a
-    literal: the fastest to build, once per step)."""
-    t, acc, ood, contacts, outside, envelope, rms, force, *damper = values
-    info = {
-        "time": t,
-        "carbody_acc": acc,
-        "out_of_domain": int(ood),
-        "bump_stop_contacts": int(contacts),
-        "outside_element": outside != 0.0,
-        "outside_envelope": envelope != 0.0,
-        "rms_carbody_acc": rms,
-        "actuator_force": force,
-    }
-    if damper:
-        info["damper_force"], info["damper_command"] = damper
-    return info
 
 
 class VerticalBatch(TrackBatch):
@@ -517,8 +500,11 @@ class VerticalBatch(TrackBatch):
     def info(self, i: int | None = None) -> dict[str, Any]:
         """The :data:`INFO_KEYS` (with a damper also :data:`SEMI_ACTIVE_INFO_KEYS`) of vehicle
         ``i`` (Python numbers), or of all ((n,) arrays)."""
-        if i is not None:
-            return _info_dict(self.info_rows[i, N_OUTCOME:].tolist())
+        if i is not None:  # the outcome's, less the step's reward terms and flags
+            info = self.outcome(i)[3]
+            for key in ("reward_terms", "diverged", "extrapolated"):
+                info.pop(key, None)
+            return info
         names = self._info_names
         cols = self.info_rows[:, N_OUTCOME:].T.copy()  # one copy; each key a contiguous row
         out = dict(zip(names, cols, strict=True))
@@ -528,12 +514,47 @@ class VerticalBatch(TrackBatch):
 
     def outcome(self, i: int) -> tuple[float, bool, bool, dict[str, Any]]:
         """``(reward, terminated, truncated, info)`` of vehicle ``i`` as the single env's step
-        returns them (the batch contract), from one read of its row: ``info`` with
-        ``reward_terms`` and each flag set this step (``diverged``, ``extrapolated``)."""
-        reward, acc, defl, force, div, diverged, extrapolated, truncated, *values = self.info_rows[
-            i
-        ].tolist()
-        info = _info_dict(values)
+        returns them (the batch contract), from one read of its row: ``info`` with the
+        :data:`INFO_KEYS` (Python numbers; with a damper also :data:`SEMI_ACTIVE_INFO_KEYS`),
+        ``reward_terms`` and each flag set this step (``diverged``, ``extrapolated``).
+
+        The row is unpacked and ``info`` built as one literal: the single env's step does this
+        once per step."""
+        row = self.info_rows[i].tolist()
+        damper = None
+        if len(row) > _N_ROW:  # the damper's columns last
+            damper = row[_N_ROW:]
+            del row[_N_ROW:]
+        (
+            reward,
+            acc,
+            defl,
+            force,
+            div,
+            diverged,
+            extrapolated,
+            truncated,
+            t,
+            carbody_acc,
+            ood,
+            contacts,
+            outside,
+            envelope,
+            rms,
+            actuator_force,
+        ) = row
+        info = {
+            "time": t,
+            "carbody_acc": carbody_acc,
+            "out_of_domain": int(ood),
+            "bump_stop_contacts": int(contacts),
+            "outside_element": outside != 0.0,
+            "outside_envelope": envelope != 0.0,
+            "rms_carbody_acc": rms,
+            "actuator_force": actuator_force,
+        }
+        if damper:
+            info["damper_force"], info["damper_command"] = damper
         info["reward_terms"] = {
             "acceleration": acc,
             "deflection": defl,

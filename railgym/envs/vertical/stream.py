@@ -223,8 +223,9 @@ class VerticalStreamBatch(VerticalBatch):
     def advance(self) -> None:
         """One control step of every vehicle (one compiled call: the windows filled, then the
         kernel); windows on measured profiles copied first."""
-        for i in self._measured_tracks:
-            self._copy_measured(i)
+        if self._measured_tracks:
+            for i in self._measured_tracks:
+                self._copy_measured(i)
         self._step(*self._args)
 
     def track_arrays(self, i: int) -> tuple[np.ndarray, np.ndarray]:
