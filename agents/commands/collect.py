@@ -19,6 +19,7 @@ from railgym.vehicles.collect_design import DESIGNS, MEMORY_SAMPLE_RATE
 from railgym.vehicles.memory_element import (
     MEMORY_DESIGN,
     PACKAGED_GRID,
+    PACKAGED_TAUS,
     build_memory_surrogate,
     design_with,
     memory_degrees,
@@ -51,7 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
         choices=sorted(PACKAGED),
         help="the element's form: maxwell (one memory state, k-fold recipe) or static (the "
         "paper's GA recipe); default: the k-fold recipe with the memory states the data ask "
-        "for (--memory-states), maxwell when regenerating the packaged file (no -o/--out)",
+        "for (--memory-states), maxwell when regenerating the packaged file (no -o/--out: "
+        "with that file's own tau values and degree grid unless --tau / --degree / "
+        "--max-degree are given)",
     )
     parser.add_argument(
         "--design",
@@ -135,6 +138,8 @@ def _memory_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
         parser.error("--memory-states 0 contradicts --features maxwell (one memory state)")
     if args.features is None and args.out is None:
         args.features = "maxwell"  # regenerating the packaged memory element
+    if args.features == "maxwell" and args.out is None and args.tau is None:
+        args.tau = list(PACKAGED_TAUS)  # the packaged element's own τ values
     return 1 if args.features == "maxwell" else args.memory_states
 
 

@@ -65,6 +65,8 @@ MEMORY_DEGREES = tuple(itertools.product((12, 14, 16), (12, 14, 16), (14, 16, 18
 #: top of the packaged element's degree grid (δ, δ̇, ζ): ``memory_degrees(PACKAGED_GRID)``
 #: is :data:`MEMORY_DEGREES`, searched without widening when the packaged file is regenerated
 PACKAGED_GRID = (16, 16, 20)
+#: the packaged element's candidate Maxwell time constants, s (its regeneration scores these)
+PACKAGED_TAUS = (0.004, 0.008, 0.016)
 #: largest degree per input that the default grid is widened to when its winner sits at the top
 WIDEN_LIMIT = (24, 40, 32)
 #: data-collection design of the packaged memory element

@@ -146,17 +146,18 @@ def test_collect_from_the_fmu_equals_the_built_in_collection(reference_fmu):
 
 @pytest.mark.slow
 def test_element_collected_from_the_fmu_is_the_packaged_element(reference_fmu, tmp_path):
-    """``railgym collect --fmu-map`` on the packaged element's degree grid (its regeneration
-    searches that grid, not widened): the memory element built on the reference FMU's paper
-    run is the packaged one (which meets docs/validation.md)."""
+    """``railgym collect --fmu-map`` with the packaged element's recipe (its regeneration
+    scores its degree grid, not widened, and its τ values): the memory element built on the
+    reference FMU's paper run is the packaged one (which meets docs/validation.md)."""
     from agents.commands.collect import main as collect_main
     from railgym.vehicles.collect import default_vertical_surrogate
-    from railgym.vehicles.memory_element import PACKAGED_GRID
+    from railgym.vehicles.memory_element import PACKAGED_GRID, PACKAGED_TAUS
     from surrogates import io
 
     _, mapping = reference_fmu
     out = tmp_path / "element.json"
     flags = ["--features", "maxwell", "--max-degree", *map(str, PACKAGED_GRID)]
+    flags += ["--tau", *map(str, PACKAGED_TAUS)]
     assert collect_main([*flags, "--fmu-map", str(mapping), "--out", str(out)]) == 0
     model, packaged = io.load(out), default_vertical_surrogate()
     assert model.degree == packaged.degree and model.features_["tau"] == packaged.features_["tau"]
