@@ -491,10 +491,7 @@ def _advance(step, state, params, args):
     return True
 
 
-# The entry points run without NRT: numba then passes the buffer's arrays in without a
-# reference-counted MemInfo each (made and freed on every call) and counts no references of
-# the views inside; nothing here allocates.
-@njit(cache=True, _nrt=False)
+@njit(cache=True)
 def advance_reference(buf, fields, flags, params, stepping, consts, actions, active, init):
     """:func:`_advance` with :func:`reference_batch_step`. ``params``, ``consts``:
     :func:`plain` tuples of :class:`ReferenceParams` and :class:`EnvConsts`; ``stepping`` =
@@ -504,7 +501,7 @@ def advance_reference(buf, fields, flags, params, stepping, consts, actions, act
     return _advance(reference_batch_step, state, named, args)
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True)
 def advance_surrogate(buf, fields, flags, params, stepping, consts, actions, active, init):
     """:func:`advance_reference` with :func:`surrogate_batch_step`."""
     state, named = _surrogate_state(buf, fields), _named_surrogate(params)
@@ -513,7 +510,7 @@ def advance_surrogate(buf, fields, flags, params, stepping, consts, actions, act
 
 
 # Not cached: it calls the uncached parallel kernel.
-@njit(_nrt=False)
+@njit
 def advance_surrogate_parallel(buf, fields, flags, params, stepping, consts, actions, active, init):
     """:func:`advance_surrogate` with :func:`surrogate_batch_step_parallel` (all threads)."""
     state, named = _surrogate_state(buf, fields), _named_surrogate(params)
