@@ -263,20 +263,25 @@ def control_step(
     k, n_sub, dt, kind = counters.k, consts.n_sub, consts.dt, consts.kind
     if damper is not None:
         command = action[:, 0]
-        advance_semi_active(
-            kind, state, z, zdot, k, n_sub, dt, command, params, lpr, damper, out, force, work
-        )
+        if kind == _SURROGATE:
+            advance_semi_active(
+                kind, state, z, zdot, k, n_sub, dt, command, params, lpr, damper, out, force, work
+            )
+        else:
+            advance_semi_active(
+                kind, state, z, zdot, k, n_sub, dt, command, params, None, damper, out, force, work
+            )
         post_step(state, z, zdot, out, force, counters, result, consts)
         return
     for i in range(state.shape[0]):
         force[i] = action[i, 0] * consts.f_max
     # each variant's number as a constant, so that its kernel is compiled for it alone
     if kind == _LINEAR:
-        advance_kind(_LINEAR, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
+        advance_kind(_LINEAR, state, z, zdot, k, n_sub, dt, force, params, None, out, work)
     elif kind == _STATIC:
-        advance_kind(_STATIC, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
+        advance_kind(_STATIC, state, z, zdot, k, n_sub, dt, force, params, None, out, work)
     elif kind == _DYNAMIC:
-        advance_kind(_DYNAMIC, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
+        advance_kind(_DYNAMIC, state, z, zdot, k, n_sub, dt, force, params, None, out, work)
     else:
         advance_kind(_SURROGATE, state, z, zdot, k, n_sub, dt, force, params, lpr, out, work)
     post_step(state, z, zdot, out, force, counters, result, consts)

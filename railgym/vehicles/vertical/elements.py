@@ -220,7 +220,8 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
     The surrogate's state ``x[4]`` is the Maxwell state ``s`` (``ṡ = (δ − s)/τ``) of a memory
     element (with ``lpr.product`` the fourth input ``δ·(δ − s)``); a static element
     integrates 4 states (a fifth one is held still). The element is
-    an LPR or a Kriging (``lpr.kriging``). ``u`` (d,) and ``lw``
+    an LPR or a Kriging (``lpr.kriging``); ``None`` for the physical variants, whose
+    calls then carry no element (the surrogate variant refuses it). ``u`` (d,) and ``lw``
     (:func:`~surrogates.models.lpr.lpr_scratch`) are work arrays.
     """
     d = x[0] - x[2]
@@ -233,6 +234,8 @@ def rhs(kind, x, zc, zdc, fa, p, lpr, u, lw, dx):
     elif kind == 2:
         f_air, f_d = dynamic_element(d, dd, x[4], x[5], x[6], p, dx[4:])
         fs = f_air + f_d + bump_stop_force(d, p)
+    elif lpr is None:
+        raise ValueError("the surrogate variant needs its element lpr")
     else:
         u[0] = d
         u[1] = dd

@@ -116,7 +116,11 @@ def advance_kind(kind, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out, work
     the lane kernel (:mod:`~railgym.vehicles.vertical.lanes`) for an additive LPR surrogate
     element and at least ``LANES_MIN`` vehicles (on all threads from ``PARALLEL_MIN``), else
     :func:`_advance_scalar` (the same results; the only path of a Kriging element), in the
-    :class:`ScalarWork` ``work`` when given."""
+    :class:`ScalarWork` ``work`` when given. ``lpr``: ``None`` for the physical variants
+    (``kind`` 0 to 2), whose right-hand sides then carry no element."""
+    if lpr is None:
+        _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, force_a, p, None, out, work=work)
+        return
     d = lpr.lo.shape[0]
     n = state.shape[0]
     lanes = kind == 3 and lpr.additive and (d == 2 or d == 3)
@@ -145,19 +149,28 @@ def _advance_scalar(
 ):
     """RK4 of one vehicle after another (see :func:`advance_linear`); with a damper ``dmp``
     as :func:`advance_semi_active` (``force_a`` the commands, damper forces into ``f_d``);
-    ``work``: a :class:`ScalarWork` of ``state``'s columns and ``lpr`` (else allocated)."""
+    ``lpr``: the surrogate element, ``None`` for the physical variants (their right-hand sides
+    then carry no element); ``work``: a :class:`ScalarWork` of ``state``'s columns and the
+    element (else allocated)."""
     q = p[0]
     n, s = state.shape
-    if kind == 3 and lpr.tau > 0.0 and s < 5:
+    memory = False
+    if lpr is not None:
+        memory = kind == 3 and lpr.tau > 0.0
+    if memory and s < 5:
         raise ValueError("a memory surrogate element needs 5 states [x1, v1, x2, v2, s]")
     if dmp is not None:
-        own = 7 if kind == 2 else (5 if kind == 3 and lpr.tau > 0.0 else 4)
+        own = 7 if kind == 2 else (5 if memory else 4)
         if s != own + DAMPER_STATES:
             raise ValueError("a controllable damper needs its 2 states (u, w) after the variant's")
     if work is None:
         buf = np.empty((6, s))  # one allocation: state, stage state, the four stage rates
-        u = np.empty(lpr.lo.shape[0])
-        lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
+        if lpr is None:
+            u = np.empty(0)
+            lw = np.empty((0, 0))
+        else:
+            u = np.empty(lpr.lo.shape[0])
+            lw = lpr_scratch(lpr.exps, lpr.lo, lpr.up)
     else:
         buf, u, lw = work
     x, xt, r1, r2, r3, r4 = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
@@ -258,19 +271,19 @@ def advance_linear(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     out : StepOutputs
         Accelerations, force, counters and the diverged flags of this step.
     """
-    advance_kind(0, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    advance_kind(0, state, z, zdot, k0, n_sub, dt, force_a, p, None, out)
 
 
 @njit(cache=True, error_model="numpy")
 def advance_static(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_linear` with the static nonlinear reference suspension."""
-    advance_kind(1, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    advance_kind(1, state, z, zdot, k0, n_sub, dt, force_a, p, None, out)
 
 
 @njit(cache=True, error_model="numpy")
 def advance_dynamic(state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out):
     """:func:`advance_linear` with the dynamic reference (air spring + Maxwell damper)."""
-    advance_kind(2, state, z, zdot, k0, n_sub, dt, force_a, p, lpr, out)
+    advance_kind(2, state, z, zdot, k0, n_sub, dt, force_a, p, None, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -292,6 +305,8 @@ def advance_semi_active(
     ``state[:, -2:]`` (:func:`state_size` with ``damper=True``) and its force (N, on the carbody,
     bogie −F) at the end of the step goes into ``f_d`` (n,), 0 where the step diverged.
     ``work``: :class:`ScalarWork` (:func:`scalar_work`), else allocated on each call.
+    ``lpr``: ``None`` for the physical variants (``kind`` 0 to 2), whose right-hand sides then
+    carry no element.
     """
     _advance_scalar(kind, state, z, zdot, k0, n_sub, dt, command, p, lpr, out, damper, f_d, work)
 
