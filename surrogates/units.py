@@ -16,8 +16,11 @@ from typing import Any
 from surrogates.tables import UNITS as _TABLE_UNITS
 
 #: unit strings an element's inputs and output may carry: the units the data readers know
-#: (:data:`surrogates.tables.UNITS`) and the element units the FMU export declares
-KNOWN_UNITS: frozenset[str] = frozenset({u for u in _TABLE_UNITS if u} | {"N/m", "N.s/m", "J"})
+#: (:data:`surrogates.tables.UNITS`), the element units the FMU export declares and ``m^2``
+#: (the product input ``δ·ζ`` of a ``"maxwell_product"`` element)
+KNOWN_UNITS: frozenset[str] = frozenset(
+    {u for u in _TABLE_UNITS if u} | {"N/m", "N.s/m", "J", "m^2"}
+)
 
 
 def default_names(n_inputs: int) -> tuple[list[str], str]:

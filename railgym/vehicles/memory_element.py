@@ -202,14 +202,11 @@ def build_memory_surrogate(
     data : training data already collected (a :func:`collect_design` result, e.g. from an
         FMU by :func:`railgym.fmu.collect.collect_fmu`) instead of running ``design``.
     memory_states : 0 (memoryless), 1 (one Maxwell state) or ``None``: decided from the data.
-    coupled : ``None``: the map of a memory element is the coupled LPR (every tensor term up
-        to a total degree among :data:`COUPLED_DEGREES`, unconstrained: it can diverge where
-        the passive additive map does not) when it lowers the k-fold RMS by
-        :data:`MEMORY_GAIN` against the additive one; ``False`` (default): additive only.
-    product : ``True`` (default): a memory element with an additive map gets the product
-        input ``δ·ζ`` (form ``"maxwell_product"``, its own ``τ`` search, the degrees of
-        :data:`PRODUCT_DEGREES`) when that lowers the k-fold RMS by :data:`MEMORY_GAIN`
-        (scored only where the additive map's relative k-fold RMS exceeds
+    coupled : ``None``: the coupled LPR map (:data:`COUPLED_DEGREES`, unconstrained) where
+        it lowers the k-fold RMS by :data:`MEMORY_GAIN`; ``False`` (default): additive only.
+    product : ``True`` (default): an additive memory map gets the product input ``δ·ζ``
+        (form ``"maxwell_product"``, its own ``τ`` search, :data:`PRODUCT_DEGREES`) where
+        that lowers the k-fold RMS by :data:`MEMORY_GAIN` (scored above
         :data:`PRODUCT_FLOOR`); ``False``: never.
 
     Returns
@@ -348,11 +345,8 @@ def choose_memory_element(
             out.results.append(fits[tau])
         out.best = (found.best, _best(fits[found.best])["degree"])
     if states != 1:
-        U, V = memory_training_data(data, out.guess.tau, runs=runs)
-        sres = select_kfold(
-            lambda deg: cls(degree=deg), _static_degrees(degrees), U[:, :2], V, k=k, seed=seed
-        )
-        out.static_result, out.static = sres, _best(sres)
+        out.static_result = _static_fit(data, out.guess.tau, runs, cls, degrees, k, seed)
+        out.static = _best(out.static_result)
     _decide(out, states)
     found, make, take_product = _map(out, found, kfold, search, cls, coupled, product)
     best = out.guess.tau if found is None else found.best
@@ -360,12 +354,8 @@ def choose_memory_element(
     if out.states == 0:
         assert out.static is not None
         U, out.best = U[:, :2], (None, out.static["degree"])
-    elif found is not None and found.edge is not None:
-        out.warnings.append(
-            f"warning: tau = {1e3 * best:.4g} ms is at the {found.edge} end of the search "
-            f"({search.describe()}); widen it (--tau LO HI on the command line, "
-            "tau=(lo, hi) in Python)"
-        )
+    else:
+        out.warnings += _edge_warning(found, best, search)
     for text in out.warnings:
         warnings.warn(text.removeprefix("warning: "), UserWarning, stacklevel=3)
     model = make(degree=out.best[1]).fit(U, V)
@@ -374,6 +364,34 @@ def choose_memory_element(
     model.features_ = {**form, "known_physics": list(known)}
     data["U_memory"], data["V_memory"] = U, V
     return model, out
+
+
+def _static_fit(
+    data: dict[str, Any],
+    tau: float,
+    runs: list[dict[str, Any]],
+    cls: Callable[..., SurrogateModel],
+    degrees: list[Any],
+    k: int,
+    seed: int,
+) -> SelectionResult:
+    """The k-fold selection of the memoryless map ``(δ, δ̇)`` over the static degrees of
+    ``degrees`` (the pairs of ``τ`` with the memory input dropped)."""
+    U, V = memory_training_data(data, tau, runs=runs)
+    grid = _static_degrees(degrees)
+    return select_kfold(lambda deg: cls(degree=deg), grid, U[:, :2], V, k=k, seed=seed)
+
+
+def _edge_warning(found: Any, best: float, search: Any) -> list[str]:
+    """The warning of a chosen ``τ`` (s) at an end of ``search`` (none inside it or
+    without a search)."""
+    if found is None or found.edge is None:
+        return []
+    return [
+        f"warning: tau = {1e3 * best:.4g} ms is at the {found.edge} end of the search "
+        f"({search.describe()}); widen it (--tau LO HI on the command line, "
+        "tau=(lo, hi) in Python)"
+    ]
 
 
 def _map(

@@ -343,17 +343,7 @@ def surrogate_arrays(
     ``GRID_RTOL`` of its output range) instead of the Legendre recurrence.
     """
     if surrogate is None:
-        return LprArrays(
-            np.zeros((1, 2), np.int64),
-            np.zeros(1),
-            np.zeros(2),
-            np.ones(2),
-            0,
-            0.0,
-            False,
-            np.zeros((2, 1)),
-            False,
-        )
+        return _placeholder_arrays()
     arrays = surrogate.kernel_arrays() if hasattr(surrogate, "kernel_arrays") else surrogate
     form = element_form(getattr(surrogate, "features_", None))
     if isinstance(arrays, KrigingArrays):
@@ -364,25 +354,8 @@ def surrogate_arrays(
                 "element here"
             )
         return _kriging_arrays(arrays, form, dt)
-    if not isinstance(arrays, tuple | list) or len(arrays) != 5:
-        raise ValueError(
-            "surrogate must be a fitted LPR or Kriging model or an LPR's kernel_arrays() tuple"
-        )
-    exps, coef, lo, up, mode = arrays
-    exps = np.ascontiguousarray(exps, dtype=np.int64)
-    coef = np.ascontiguousarray(coef, dtype=np.float64)
-    lo = np.ascontiguousarray(lo, dtype=np.float64)
-    up = np.ascontiguousarray(up, dtype=np.float64)
-    d = len(FEATURE_FORMS[form.form])
-    if exps.ndim != 2 or exps.shape[1] != d or lo.shape != (d,) or up.shape != (d,):
-        raise ValueError(
-            f"surrogate of feature form {form.form!r} must have {d} inputs "
-            f"{FEATURE_FORMS[form.form]}; got exponents of shape {exps.shape}"
-        )
-    if coef.shape != (exps.shape[0],):
-        raise ValueError(f"surrogate coef has shape {coef.shape}, expected ({exps.shape[0]},)")
-    if int(mode) not in EXTRAPOLATION_MODES.values():
-        raise ValueError(f"surrogate extrapolation mode must be one of {EXTRAPOLATION_MODES}")
+    exps, coef, lo, up, mode = _checked_lpr(arrays, form.form)
+    d = len(lo)
     tau, bump = _form_physics(form, dt)
     table = additive_table(exps, coef)
     arrays = LprArrays(exps, coef, lo, up, int(mode), tau, bump, np.zeros((d, 1)), False)
@@ -402,6 +375,48 @@ def surrogate_arrays(
             )
         arrays = arrays._replace(relax_z=form.relaxation[0], relax_r=form.relaxation[1])
     return arrays
+
+
+def _placeholder_arrays() -> LprArrays:
+    """One-term placeholder :class:`LprArrays` for the variants that read no element."""
+    return LprArrays(
+        np.zeros((1, 2), np.int64),
+        np.zeros(1),
+        np.zeros(2),
+        np.ones(2),
+        0,
+        0.0,
+        False,
+        np.zeros((2, 1)),
+        False,
+    )
+
+
+def _checked_lpr(
+    arrays: Any, form: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """The contiguous ``(exps, coef, lo, up)`` and the extrapolation mode of an LPR's
+    ``kernel_arrays()`` tuple, checked against the input count of feature form ``form``."""
+    if not isinstance(arrays, tuple | list) or len(arrays) != 5:
+        raise ValueError(
+            "surrogate must be a fitted LPR or Kriging model or an LPR's kernel_arrays() tuple"
+        )
+    exps, coef, lo, up, mode = arrays
+    exps = np.ascontiguousarray(exps, dtype=np.int64)
+    coef = np.ascontiguousarray(coef, dtype=np.float64)
+    lo = np.ascontiguousarray(lo, dtype=np.float64)
+    up = np.ascontiguousarray(up, dtype=np.float64)
+    d = len(FEATURE_FORMS[form])
+    if exps.ndim != 2 or exps.shape[1] != d or lo.shape != (d,) or up.shape != (d,):
+        raise ValueError(
+            f"surrogate of feature form {form!r} must have {d} inputs "
+            f"{FEATURE_FORMS[form]}; got exponents of shape {exps.shape}"
+        )
+    if coef.shape != (exps.shape[0],):
+        raise ValueError(f"surrogate coef has shape {coef.shape}, expected ({exps.shape[0]},)")
+    if int(mode) not in EXTRAPOLATION_MODES.values():
+        raise ValueError(f"surrogate extrapolation mode must be one of {EXTRAPOLATION_MODES}")
+    return exps, coef, lo, up, int(mode)
 
 
 def _form_physics(form: Any, dt: float | None) -> tuple[float, bool]:

@@ -384,10 +384,10 @@ def _base_actions(base, obs: np.ndarray) -> np.ndarray:
 def test_every_linear_base_is_its_controller(env_id, name):
     """Each exportable controller of both vertical envs: the exported matrices reproduce its
     ``predict`` (the LQG's estimate carried over 60 steps) on random observations."""
-    from agents.controllers.registry import CONTROLLERS_OF, build_controller
+    from agents.controllers.registry import build_controller, controllers_of
     from agents.policies.residual_export import linear_base
 
-    env = gym.make(env_id, **CONTROLLERS_OF[env_id][name][2])
+    env = gym.make(env_id, **controllers_of(env_id)[name][2])
     ctrl = build_controller(env_id, name, env)
     base = linear_base(ctrl, name, 0.5)
     assert (base.n_x > 0) == (name == "lqg") and base.scale == 0.5
