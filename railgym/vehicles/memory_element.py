@@ -420,6 +420,31 @@ def _map(
     return found, cls, False
 
 
+def _rival_search(
+    out: TauSelection,
+    found: Any,
+    search: Any,
+    fit: Callable[..., Any],
+    grid: Sequence[Any],
+    what: str,
+) -> tuple[Any, dict[str, Any], Any, float]:
+    """A map scored against the additive one: its own τ search from the additive map's
+    ``found`` at the middle degree of ``grid`` (``fit(tau, degrees, what)`` scores), then
+    every degree of ``grid`` at the best τ. Returns that search, the best row (``tau`` and
+    :func:`_best`), its selection result and the gain, ``1 −`` its k-fold RMS over the
+    additive map's."""
+    fits: dict[float, Any] = {}
+
+    def score(tau: float) -> float:
+        fits[tau] = fit(tau, [grid[len(grid) // 2]], what)
+        return float(_best(fits[tau])["rms"])
+
+    rfound = ts.search_tau(score, search, found.best)
+    fits[rfound.best] = fit(rfound.best, list(grid), f"{what} degrees")
+    row = {"tau": rfound.best, **_best(fits[rfound.best])}
+    return rfound, row, fits[rfound.best], 1.0 - row["rms"] / min(r["rms"] for r in out.table)
+
+
 def _coupled_map(
     out: TauSelection, found: Any, kfold: Callable[..., Any], search: Any
 ) -> tuple[Any, bool]:
@@ -428,20 +453,16 @@ def _coupled_map(
     grid, what)`` scores): its score goes to ``out.coupled``; taken (``out.best`` its ``τ``
     and total degree) when its k-fold RMS is :data:`MEMORY_GAIN` below the additive map's.
     Returns the search result of the map taken and whether it is the coupled one."""
-    fits: dict[float, Any] = {}
 
     def make(degree: int) -> SurrogateModel:
         return LegendreRegression(degree=degree, interactions=True)
 
-    def score(tau: float) -> float:
-        fits[tau] = kfold(tau, make, [COUPLED_DEGREES[len(COUPLED_DEGREES) // 2]], "coupled")
-        return float(_best(fits[tau])["rms"])
+    def fit(tau: float, degrees: Sequence[Any], what: str) -> Any:
+        return kfold(tau, make, degrees, what)
 
-    cfound = ts.search_tau(score, search, found.best)
-    fits[cfound.best] = kfold(cfound.best, make, COUPLED_DEGREES, "coupled degrees")
-    out.coupled = {"tau": cfound.best, **_best(fits[cfound.best])}
-    out.coupled_result = fits[cfound.best]
-    gain = 1.0 - out.coupled["rms"] / min(r["rms"] for r in out.table)
+    cfound, out.coupled, out.coupled_result, gain = _rival_search(
+        out, found, search, fit, COUPLED_DEGREES, "coupled"
+    )
     take = gain > MEMORY_GAIN
     out.decision += (
         f"; map: {'coupled' if take else 'additive'} (the coupled LPR, total degree "
@@ -476,23 +497,14 @@ def _product_map(
     taken and whether it is the product one."""
     make = _product_class(cls)
     base = tuple(int(d) for d in out.best[1])
-    fits: dict[float, Any] = {}
 
-    def grid(degrees: Sequence[int]) -> list[tuple[int, ...]]:
-        return [(*base, w) for w in degrees]
+    def fit(tau: float, degrees: Sequence[int], what: str) -> Any:
+        grid = [(*base, w) for w in degrees]
+        return kfold(tau, lambda deg: make(degree=deg), grid, what, True)
 
-    def score(tau: float) -> float:
-        middle = [PRODUCT_DEGREES[len(PRODUCT_DEGREES) // 2]]
-        fits[tau] = kfold(tau, lambda deg: make(degree=deg), grid(middle), "product", True)
-        return float(_best(fits[tau])["rms"])
-
-    pfound = ts.search_tau(score, search, found.best)
-    fits[pfound.best] = kfold(
-        pfound.best, lambda deg: make(degree=deg), grid(PRODUCT_DEGREES), "product degrees", True
+    pfound, out.product, out.product_result, gain = _rival_search(
+        out, found, search, fit, PRODUCT_DEGREES, "product"
     )
-    out.product = {"tau": pfound.best, **_best(fits[pfound.best])}
-    out.product_result = fits[pfound.best]
-    gain = 1.0 - out.product["rms"] / min(r["rms"] for r in out.table)
     take = gain > MEMORY_GAIN
     out.decision += (
         f"; map: {'with' if take else 'without'} the product input delta*zeta (form "
